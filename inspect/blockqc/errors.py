@@ -1,0 +1,53 @@
+"""One small hierarchy of user-facing errors: each names the file and the row, line or column."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One problem found in an input: where it is and what was expected."""
+
+    file: str
+    message: str
+    row: int | None = None  # 1-based data row (CSV: the header is line 1, data row 1 is line 2)
+    line: int | None = None  # 1-based line in a text file (YAML, CSV)
+    column: str | None = None
+
+    def __str__(self) -> str:
+        where = [self.file]
+        if self.row is not None:
+            where.append(f"row {self.row}")
+        if self.line is not None:
+            where.append(f"line {self.line}")
+        if self.column is not None:
+            where.append(f"column '{self.column}'")
+        return f"{', '.join(where)}: {self.message}"
+
+
+class BlockqcError(Exception):
+    """Base of every error blockqc reports to a user as a message (exit status 2)."""
+
+    exit_code = 2
+
+    def __init__(self, problems: list[Problem] | Problem | str, file: str | Path | None = None):
+        if isinstance(problems, str):
+            problems = [Problem(str(file) if file else "", problems)]
+        elif isinstance(problems, Problem):
+            problems = [problems]
+        self.problems: list[Problem] = list(problems)
+        super().__init__("\n".join(str(p) for p in self.problems))
+
+
+class InputError(BlockqcError):
+    """A delivery, an inspector's file or another input could not be read as its contract says."""
+
+
+class RuleError(BlockqcError):
+    """A rule pack could not be read, validated or evaluated."""
+
+
+class UsageError(BlockqcError):
+    """The command line asks for something that cannot be done (e.g. writing into a delivery)."""
