@@ -2,18 +2,260 @@
 
 from __future__ import annotations
 
+import os
 import sys
+from pathlib import Path
 
 import click
 
 from blockqc import __version__
 from blockqc.errors import BlockqcError
 
+STATUS_STYLE = {"pass": "green", "fail": "red", "error": "red", "warn": "yellow"}
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
 @click.version_option(__version__, prog_name="blockqc")
 def cli() -> None:
     """Inspect satellite image blocks adjusted without ground control points."""
+
+
+# ------------------------------------------------------------------------------- inspect
+@cli.command("inspect")
+@click.argument("paths", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.option("--rules", "rules_ref", default="global-project", show_default=True,
+              help="Stock rule pack name or a rule pack file.")
+@click.option("--verdicts", type=click.Path(path_type=Path),
+              help="Inspector's file: verdicts for manual items and waivers.")
+@click.option("--out", required=True, type=click.Path(path_type=Path),
+              help="Output folder (never inside a delivery).")
+@click.option("--templates", type=click.Path(path_type=Path, file_okay=False),
+              help="Folder of templates that take precedence over the stock ones.")
+@click.option("--progress/--no-progress", default=None,
+              help="Progress bar for batches (default: when stderr is a terminal).")
+def inspect_cmd(paths: tuple[Path, ...], rules_ref: str, verdicts: Path | None, out: Path,
+                templates: Path | None, progress: bool | None) -> int:
+    """Inspect one delivery or a batch (a folder of deliveries) with a rule pack."""
+    from blockqc import batch
+    from blockqc.inspector import load_inspector_input
+    from blockqc.outputs import check_out_dir
+    from blockqc.rules import load_pack
+
+    out = check_out_dir(out, paths)
+    pack = load_pack(rules_ref)
+    inspector = load_inspector_input(verdicts) if verdicts else None
+    deliveries, _ = batch.collect(paths)
+    show = sys.stderr.isatty() if progress is None else progress
+
+    def line(o: batch.Outcome) -> str:
+        if o.results is None:
+            return click.style(f"{o.path}  UNREADABLE  ({len(o.problems)} problem(s))", fg="red")
+        r = o.results
+        failed = sorted({x["rule"] for x in r["results"] if x["status"] in ("fail", "error")})
+        warned = sorted({x["rule"] for x in r["results"] if x["status"] == "warn"})
+        notes = [f"failed: {', '.join(failed)}"] if failed else []
+        notes += [f"warnings: {', '.join(warned)}"] if warned else []
+        notes += [f"awaiting the inspector: {', '.join(r['pending_manual'])}"] \
+            if r["pending_manual"] else []
+        verdict = click.style(f"{r['verdict'].upper():5}", fg=STATUS_STYLE.get(r["verdict"]),
+                              bold=True)
+        return f"{r['block_id']:12} {verdict}  " + "; ".join(notes)
+
+    if show and len(deliveries) > 1:
+        from rich.console import Console
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
+
+        with Progress("[progress.description]{task.description}", BarColumn(),
+                      MofNCompleteColumn(), TimeElapsedColumn(),
+                      console=Console(stderr=True), transient=True) as bar:
+            task = bar.add_task("inspecting", total=len(deliveries))
+
+            def tick(o: batch.Outcome) -> None:
+                bar.console.print(line(o), markup=False, highlight=False)
+                bar.advance(task)
+
+            outcomes, summary = batch.run(list(paths), pack, out, inspector, templates, tick)
+    else:
+        outcomes, summary = batch.run(list(paths), pack, out, inspector, templates,
+                                      lambda o: click.echo(line(o)))
+    for o in outcomes:
+        for p in o.problems:
+            click.echo(f"error: {p}", err=True)
+    if summary is not None:
+        c = summary["counts"]
+        click.echo(f"{c['blocks']} blocks: {c['pass']} pass, {c['fail']} fail, "
+                   f"{c['unreadable']} unreadable — {out / 'summary.html'}")
+    else:
+        click.echo(f"results in {out}")
+    return batch.exit_status(outcomes)
+
+
+# --------------------------------------------------------------------------------- rules
+@cli.group("rules")
+def rules_group() -> None:
+    """List, explain and lint rule packs."""
+
+
+def _pack_option(f):
+    return click.option("--rules", "rules_ref", default="global-project", show_default=True,
+                        help="Stock rule pack name or a rule pack file.")(f)
+
+
+def _threshold_text(rule, constants) -> str:
+    """Thresholds evaluated over the pack's constants; those naming delivery values as written."""
+    from blockqc.engine import bounds
+    from blockqc.rules.loader import DELIVERY_NAMES
+
+    parts = []
+    for group, th in rule.all_thresholds().items():
+        exprs = [e for e in (th.min, th.max) if isinstance(e, str)]
+        if any(e.split(".")[0] in DELIVERY_NAMES or f" {n}." in f" {e}" for e in exprs
+               for n in DELIVERY_NAMES):
+            text = th.describe(th.min, th.max)
+        else:
+            text = th.describe(*bounds(th, constants))
+        parts.append(f"{group}: {text}" if group else text)
+    return "; ".join(parts) or "inspector's verdict"
+
+
+@rules_group.command("list")
+@_pack_option
+@click.option("--markdown", is_flag=True, help="Print a Markdown table (for the docs).")
+def rules_list(rules_ref: str, markdown: bool) -> None:
+    """List the rules of a pack with their thresholds."""
+    from blockqc.rules import load_pack
+
+    pack = load_pack(rules_ref)
+    if markdown:
+        click.echo(f"# Rule pack `{pack.name}` {pack.version}\n\n{pack.description.strip()}\n")
+        click.echo("| id | clause | title | measured | threshold | severity |")
+        click.echo("| --- | --- | --- | --- | --- | --- |")
+    for r in pack.rules:
+        what = f"{r.metric}.{r.scope}.{r.statistic}" if not r.manual else "manual"
+        th = _threshold_text(r, pack.constants)
+        if markdown:
+            click.echo(f"| {r.id} | {r.clause} | {r.title} | `{what}` | {th} | {r.severity} |")
+        else:
+            click.echo(f"{r.id:7} {r.clause:8} {r.severity:5} {th:28} {r.title}")
+    if pack.disabled and not markdown:
+        click.echo(f"disabled: {', '.join(pack.disabled)}")
+
+
+@rules_group.command("explain")
+@click.argument("rule_id")
+@_pack_option
+def rules_explain(rule_id: str, rules_ref: str) -> None:
+    """Explain one rule: what it measures, how it judges, where it comes from."""
+    from blockqc.errors import RuleError
+    from blockqc.metrics import REGISTRY
+    from blockqc.rules import load_pack
+
+    pack = load_pack(rules_ref)
+    try:
+        r = pack.rule(rule_id)
+    except KeyError:
+        raise RuleError(f"no rule {rule_id} in pack {pack.name} (rules: "
+                        f"{', '.join(x.id for x in pack.rules)})", file=rules_ref) from None
+    file, line = pack.origin.get(r.id, ("", None))
+    click.echo(f"{r.id} — {r.title}  ({r.clause})")
+    click.echo(f"  pack:      {pack.name} {pack.version}; defined in {file}, line {line}")
+    click.echo(f"  severity:  {r.severity}{'; waivable' if r.waivable else ''}")
+    if r.manual:
+        click.echo("  judged by: the inspector's verdict (--verdicts file)")
+    else:
+        spec = REGISTRY[r.metric]
+        click.echo(f"  measures:  {r.metric} — {spec.description}")
+        click.echo(f"  scope:     {r.scope}; statistic {r.statistic}"
+                   + (f"; where {r.where}" if r.where else ""))
+        if r.params:
+            click.echo(f"  params:    {r.params}")
+        click.echo(f"  threshold: {_threshold_text(r, pack.constants)}")
+        for group, th in r.all_thresholds().items():
+            exprs = [f"{k}: {getattr(th, k)}" for k in ("min", "max")
+                     if isinstance(getattr(th, k), str)]
+            if exprs:
+                click.echo(f"             {(group + ' ') if group else ''}{', '.join(exprs)}")
+        click.echo(f"  unit:      {r.unit or '-'}")
+    if r.description:
+        click.echo("\n" + click.wrap_text(r.description.strip(), 96, "  ", "  "))
+
+
+@rules_group.command("lint")
+@click.argument("packs", nargs=-1)
+def rules_lint(packs: tuple[str, ...]) -> int:
+    """Check rule packs (default: every stock pack); exit 2 listing every problem."""
+    from blockqc.errors import RuleError
+    from blockqc.rules import available_packs, load_pack
+
+    problems = []
+    for ref in packs or available_packs():
+        try:
+            pack = load_pack(ref)
+        except RuleError as exc:
+            problems.extend(exc.problems)
+            continue
+        ids = [r.id for r in pack.rules]
+        click.echo(f"{ref}: {len(ids)} rules, ok")
+    if problems:
+        raise RuleError(problems)
+    return 0
+
+
+# ------------------------------------------------------------------------------ simulate
+@cli.command("simulate")
+@click.argument("out", type=click.Path(path_type=Path))
+@click.option("--seed", default=20231, show_default=True, help="Random seed.")
+@click.option("--fields", default="1,2,3,4", show_default=True,
+              help="Published test fields to mirror (comma separated).")
+@click.option("--blocks-per-field", default=2, show_default=True, type=click.IntRange(1, 50))
+@click.option("--grid", default="4x4", show_default=True,
+              help="Footprints per block, ROWSxCOLS (3 scenes each: F and B PAN, B MS).")
+@click.option("--obs-per-scene", default=300, show_default=True, type=click.IntRange(10),
+              help="Tie-point observations per PAN scene (about).")
+@click.option("--fault", "faults", multiple=True, help="Switch a fault on (repeatable); "
+              "--list-faults shows them.")
+@click.option("--list-faults", is_flag=True, help="List the faults and exit.")
+@click.option("--dem-dir", type=click.Path(path_type=Path, file_okay=False),
+              help="Folder of the DEM tiles (default: samples/dem of the checkout).")
+def simulate_cmd(out: Path, seed: int, fields: str, blocks_per_field: int, grid: str,
+                 obs_per_scene: int, faults: tuple[str, ...], list_faults: bool,
+                 dem_dir: Path | None) -> None:
+    """Write sample deliveries that mirror the four published test fields."""
+    from blockqc.errors import UsageError
+    from blockqc.simulate import FAULTS, Layout, Options, simulate
+
+    if list_faults:
+        for name, what in FAULTS.items():
+            click.echo(f"{name:18} {what}")
+        return
+    try:
+        rows, cols = (int(v) for v in grid.lower().split("x"))
+        chosen = tuple(int(f) for f in fields.split(","))
+    except ValueError:
+        raise UsageError("--grid is ROWSxCOLS (e.g. 4x4) and --fields a list like 1,2,3,4")\
+            from None
+    opts = Options(seed=seed, fields=chosen, blocks_per_field=blocks_per_field,
+                   layout=Layout(rows=rows, cols=cols, obs_per_scene=obs_per_scene),
+                   faults=frozenset(faults))
+    ids = simulate(out, opts, dem_dir)
+    click.echo(f"wrote {len(ids)} deliveries to {out}: {', '.join(ids)}")
+
+
+def _register_optional() -> None:
+    """Commands of the numerical methods, each in its own package."""
+    import importlib
+
+    for module in ("blockqc.rfm.command", "blockqc.analysis.command", "blockqc.report.command"):
+        try:
+            mod = importlib.import_module(module)
+        except ModuleNotFoundError as exc:
+            if exc.name != module:
+                raise
+            continue
+        cli.add_command(mod.command)
+
+
+_register_optional()
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -30,4 +272,13 @@ def main(argv: list[str] | None = None) -> None:
     except click.ClickException as exc:
         exc.show()
         sys.exit(2)
-    sys.exit(rc or 0)
+    except KeyboardInterrupt:
+        click.echo("interrupted", err=True)
+        sys.exit(130)
+    except Exception as exc:  # a defect of blockqc, not of the input: say so, briefly
+        if os.environ.get("BLOCKQC_DEBUG"):
+            raise
+        click.echo(f"internal error: {type(exc).__name__}: {exc} (set BLOCKQC_DEBUG=1 for the "
+                   "traceback; please report it)", err=True)
+        sys.exit(2)
+    sys.exit(rc if isinstance(rc, int) else 0)

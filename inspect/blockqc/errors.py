@@ -17,14 +17,16 @@ class Problem:
     column: str | None = None
 
     def __str__(self) -> str:
-        where = [self.file]
-        if self.row is not None:
+        where = [self.file] if self.file else []
+        if self.row is not None and self.line is not None:
+            where.append(f"row {self.row} (line {self.line})")
+        elif self.row is not None:
             where.append(f"row {self.row}")
-        if self.line is not None:
+        elif self.line is not None:
             where.append(f"line {self.line}")
         if self.column is not None:
             where.append(f"column '{self.column}'")
-        return f"{', '.join(where)}: {self.message}"
+        return f"{', '.join(where)}: {self.message}" if where else self.message
 
 
 class BlockqcError(Exception):

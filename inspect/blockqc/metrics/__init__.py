@@ -1,0 +1,89 @@
+"""The registry of measurements: pure, vectorized functions of a delivery (they know no rules).
+
+A metric returns a Measurement: named tables ("block", "scene", "pair", "point", ...) whose
+columns are statistics a rule can judge. `group` columns split a table into separately judged
+results (e.g. component, method); `keys` identify the units inside a group (scene, pair, point).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import pandas as pd
+from pydantic import BaseModel
+
+from blockqc.delivery import Delivery
+
+
+@dataclass
+class Table:
+    """One table of a measurement: units (rows) with statistics (columns)."""
+
+    df: pd.DataFrame
+    group: list[str] = field(default_factory=list)
+    keys: list[str] = field(default_factory=list)
+    sort: str | None = None  # default order of evidence rows (descending), e.g. "error_px"
+    groups: list[dict[str, Any]] | None = None  # groups to report even when they hold no rows
+
+
+@dataclass
+class Measurement:
+    """What a metric measured: tables by scope name, plus block-level detail for the report."""
+
+    tables: dict[str, Table]
+    not_applicable: str | None = None  # why nothing could be measured (input absent)
+    detail: dict[str, Any] = field(default_factory=dict)
+
+
+class NoParams(BaseModel):
+    model_config = {"extra": "forbid"}
+
+
+Measure = Callable[[str, Mapping[str, Any]], Measurement]
+MetricFunc = Callable[[Delivery, Any, Measure], Measurement]
+
+
+@dataclass(frozen=True)
+class MetricSpec:
+    name: str
+    func: MetricFunc
+    params: type[BaseModel]
+    scopes: Mapping[str, tuple[str, ...]]  # scope -> statistics it offers
+    description: str
+
+
+REGISTRY: dict[str, MetricSpec] = {}
+
+
+def metric(
+    name: str, *, params: type[BaseModel] = NoParams, scopes: Mapping[str, tuple[str, ...]]
+) -> Callable[[MetricFunc], MetricFunc]:
+    """Register a measurement under `name`, declaring its parameters and what it offers."""
+
+    def register(func: MetricFunc) -> MetricFunc:
+        doc = (func.__doc__ or "").strip().splitlines()
+        REGISTRY[name] = MetricSpec(name, func, params, dict(scopes), doc[0] if doc else "")
+        return func
+
+    return register
+
+
+def not_applicable(reason: str) -> Measurement:
+    return Measurement(tables={}, not_applicable=reason)
+
+
+def _load_all() -> None:
+    # importing the families registers their metrics
+    from blockqc.metrics import (  # noqa: F401
+        checkpoints,
+        discrepancies,
+        documents,
+        reported,
+        spatial_ref,
+        tiepoints,
+    )
+
+
+_load_all()

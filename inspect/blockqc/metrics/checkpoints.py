@@ -1,0 +1,181 @@
+"""Checkpoint (absolute) accuracy per component and method, exactly per §CP-2..8."""
+
+from __future__ import annotations
+
+import math
+from typing import Literal
+
+import numpy as np
+import pandas as pd
+from pydantic import BaseModel, ConfigDict, Field
+
+from blockqc.delivery import Delivery
+from blockqc.metrics import Measure, Measurement, Table, metric, not_applicable
+from blockqc.schema import METHODS
+
+Method = Literal["high_precision", "same_accuracy", "recalculation"]
+
+
+class AccuracyParams(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    plane_norm_m: float = Field(default=10.0, gt=0)  # §CP-N
+    height_norm_m: float = Field(default=6.0, gt=0)
+    # gross-error bound = factor·norm, inclusive (§CP-4)
+    tolerance_factor: dict[Method, float] = Field(default_factory=lambda: {
+        "high_precision": 2.0, "same_accuracy": 2 * math.sqrt(2), "recalculation": 2 * math.sqrt(2)})
+    # M = ±√(ΣΔ² / (divisor·n)): M1 with 1, M2 with 2 (§CP-5)
+    divisor: dict[Method, float] = Field(default_factory=lambda: {
+        "high_precision": 1.0, "same_accuracy": 2.0, "recalculation": 2.0})
+    # below this many checkpoints the mean error replaces the medium error (§CP-7)
+    min_points_for_medium_error: int = Field(default=20, ge=1)
+    # Reading of §CP-7's "fewer than 20 checkpoints": all of the method's points (N), gross included
+    count_for_mean: Literal["all", "retained"] = "all"
+    # |Δ| ≤ bound + this counts as on the bound: far below any real difference, above rounding
+    bound_tolerance_m: float = Field(default=1e-9, ge=0, le=1e-4)
+
+
+class CoverageParams(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    method: Method = "high_precision"
+    min_reference_images: int = 8  # "more than 7 reference images" (§CP-2)
+    points_per_reference: int = 3
+
+
+def checkpoint_errors(cp: pd.DataFrame) -> pd.DataFrame:
+    """Per checkpoint and component: plane Δ = √(dx² + dy²), height Δ = dz (§CP-3)."""
+    dx = (cp["x_m"] - cp["ref_x_m"]).to_numpy(dtype=float)
+    dy = (cp["y_m"] - cp["ref_y_m"]).to_numpy(dtype=float)
+    dz = (cp["z_m"] - cp["ref_z_m"]).to_numpy(dtype=float)
+    base = cp[["point_id", "method", "reference_id"]].reset_index(drop=True)
+    plane = base.assign(component="plane", dx_m=dx, dy_m=dy, dz_m=np.nan, error_m=np.hypot(dx, dy))
+    height = base.assign(component="height", dx_m=np.nan, dy_m=np.nan, dz_m=dz, error_m=dz)
+    out = pd.concat([plane, height], ignore_index=True)
+    out = out[np.isfinite(out["error_m"].to_numpy())].reset_index(drop=True)
+    out["abs_error_m"] = out["error_m"].abs()
+    return out[["component", "method", "point_id", "reference_id", "dx_m", "dy_m", "dz_m",
+                "error_m", "abs_error_m"]]
+
+
+def accuracy_by_group(points: pd.DataFrame, p: AccuracyParams) -> tuple[pd.DataFrame,
+                                                                          pd.DataFrame]:
+    """Gross errors (§CP-4), medium or mean error (§CP-5, §CP-7), max error, gross rate (§CP-6)."""
+    norm = np.where(points["component"] == "plane", p.plane_norm_m, p.height_norm_m)
+    factor = points["method"].map(p.tolerance_factor).to_numpy(dtype=float)
+    divisor = points["method"].map(p.divisor).to_numpy(dtype=float)
+    bound = factor * norm
+    gross = points["abs_error_m"].to_numpy() > bound + p.bound_tolerance_m
+    points = points.assign(bound_m=bound, gross=gross)
+
+    kept = points.assign(sq=np.where(gross, 0.0, points["abs_error_m"] ** 2),
+                         ab=np.where(gross, 0.0, points["abs_error_m"]),
+                         mx=np.where(gross, np.nan, points["abs_error_m"]),
+                         keep=~gross, divisor=divisor, norm_m=norm)
+    g = kept.groupby(["component", "method"], sort=False)
+    out = pd.DataFrame({
+        "n_total": g.size(),
+        "n": g["keep"].sum(),
+        "sum_sq": g["sq"].sum(),
+        "sum_abs": g["ab"].sum(),
+        "max_error": g["mx"].max(),
+        "divisor": g["divisor"].first(),
+        "norm_m": g["norm_m"].first(),
+        "bound_m": g["bound_m"].first(),
+    }).reset_index()
+    out["n_gross"] = out["n_total"] - out["n"]
+    out["gross_rate"] = 100.0 * out["n_gross"] / out["n_total"]
+    counted = out["n_total"] if p.count_for_mean == "all" else out["n"]
+    out["used_mean"] = counted < p.min_points_for_medium_error
+    n = out["n"].where(out["n"] > 0)
+    medium = np.sqrt(out["sum_sq"] / (out["divisor"] * n))
+    mean = out["sum_abs"] / n / np.sqrt(out["divisor"])
+    out["medium_error"] = np.where(out["used_mean"], mean, medium)
+    label = np.where(out["divisor"] == 1.0, "M1", np.where(out["divisor"] == 2.0, "M2", "M"))
+    out["statistic"] = np.where(out["used_mean"], "mean", label)
+    order = {m: i for i, m in enumerate(METHODS)}
+    out = out.sort_values(["component", "method"], key=lambda s: s.map(
+        {"plane": 0, "height": 1} | order)).reset_index(drop=True)
+    cols = ["component", "method", "n_total", "n", "n_gross", "gross_rate", "medium_error",
+            "statistic", "used_mean", "max_error", "norm_m", "bound_m"]
+    return out[cols], points
+
+
+def method_agreement(groups: pd.DataFrame) -> list[dict]:
+    """Where two methods check the same component, whether their medium errors agree (§CP-8)."""
+    out = []
+    for component, g in groups.groupby("component", sort=False):
+        if len(g) < 2:
+            continue
+        within = (g["medium_error"] <= g["norm_m"]).tolist()
+        out.append({
+            "component": component,
+            "methods": g["method"].tolist(),
+            "medium_error": [round(float(v), 3) for v in g["medium_error"]],
+            "spread_m": round(float(g["medium_error"].max() - g["medium_error"].min()), 3),
+            "agree": len(set(within)) == 1,
+        })
+    return out
+
+
+@metric(
+    "checkpoint_accuracy",
+    params=AccuracyParams,
+    scopes={
+        "block": ("n_points", "n_rows"),
+        "component_method": ("medium_error", "max_error", "gross_rate", "n_gross", "n", "n_total"),
+        "point": ("abs_error_m", "error_m"),
+    },
+)
+def checkpoint_accuracy(d: Delivery, p: AccuracyParams, measure: Measure) -> Measurement:
+    """Checkpoint accuracy per component and method: M1/M2 or mean, max, gross errors (§CP-3..8)."""
+    if d.checkpoints is None or d.checkpoints.empty:
+        return not_applicable("no checkpoints: the block was not sampled for detailed inspection")
+    points = checkpoint_errors(d.checkpoints)
+    groups, points = accuracy_by_group(points, p)
+    block = pd.DataFrame({"n_points": [d.checkpoints["point_id"].nunique()],
+                          "n_rows": [len(d.checkpoints)]})
+    present = groups[["component", "method"]].to_dict("records")
+    return Measurement(
+        tables={
+            "block": Table(block),
+            "component_method": Table(groups, group=["component", "method"]),
+            "point": Table(points, group=["component", "method"], keys=["point_id"],
+                           sort="abs_error_m", groups=present),
+        },
+        detail={"agreement": method_agreement(groups)},
+    )
+
+
+@metric(
+    "reference_coverage",
+    params=CoverageParams,
+    scopes={"block": ("conforms", "n_reference_images", "min_points_per_reference"),
+            "reference": ("conforms", "n_points")},
+)
+def reference_coverage(d: Delivery, p: CoverageParams, measure: Measure) -> Measurement:
+    """High-precision references: > 7 images with 3 checkpoints each, else supplemented (§CP-2)."""
+    cp = d.checkpoints
+    if cp is None or not (cp["method"] == p.method).any():
+        return not_applicable(f"no {p.method} checkpoints")
+    hp = cp[cp["method"] == p.method]
+    per_ref = hp.groupby("reference_id", sort=True)["point_id"].nunique().rename("n_points")
+    per_ref = per_ref.reset_index()
+    per_ref["conforms"] = per_ref["n_points"] >= p.points_per_reference
+    errors = checkpoint_errors(cp)
+    checked = errors.groupby("method")["component"].unique()
+    own = set(checked.get(p.method, []))
+    others = set().union(*[set(v) for m, v in checked.items() if m != p.method]) if len(
+        checked) > 1 else set()
+    enough_images = len(per_ref) >= p.min_reference_images
+    supplemented = own <= others
+    conforms = bool(per_ref["conforms"].all() and (enough_images or supplemented))
+    block = pd.DataFrame({
+        "n_reference_images": [len(per_ref)],
+        "min_points_per_reference": [int(per_ref["n_points"].min())],
+        "enough_images": [enough_images],
+        "supplemented": [supplemented],
+        "conforms": [conforms],
+    })
+    return Measurement(tables={
+        "block": Table(block),
+        "reference": Table(per_ref, keys=["reference_id"], sort="n_points"),
+    })

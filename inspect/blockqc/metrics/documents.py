@@ -1,0 +1,68 @@
+"""Documents and reports: present, inside the delivery and readable (§DOC-1)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+from pydantic import BaseModel, ConfigDict, Field
+
+from blockqc.delivery import Delivery
+from blockqc.metrics import Measure, Measurement, Table, metric
+
+REQUIRED = ["technical_design", "inspection_report", "technical_summary",
+            "relative_orientation_report", "absolute_orientation_report"]
+
+# the first bytes a readable file of each kind starts with
+_MAGIC = {".pdf": b"%PDF-", ".docx": b"PK", ".xlsx": b"PK", ".odt": b"PK", ".zip": b"PK",
+          ".doc": b"\xd0\xcf\x11\xe0", ".xls": b"\xd0\xcf\x11\xe0"}
+
+
+class DocumentParams(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    required: list[str] = Field(default_factory=lambda: list(REQUIRED))
+
+
+def check_document(root: Path, rel: str | None) -> tuple[bool, bool, int, str]:
+    """(present, readable, size, problem) of one declared document path inside the delivery."""
+    if not rel:
+        return False, False, 0, "not declared in block.yaml documents"
+    path = (root / rel).resolve()
+    if root.resolve() not in path.parents:
+        return False, False, 0, f"{rel} points outside the delivery"
+    if not path.is_file():
+        return False, False, 0, f"{rel} does not exist"
+    size = path.stat().st_size
+    if size == 0:
+        return True, False, 0, f"{rel} is empty"
+    try:
+        with path.open("rb") as fh:
+            head = fh.read(8)
+    except OSError as exc:
+        return True, False, size, f"{rel} cannot be read: {exc.strerror}"
+    magic = _MAGIC.get(path.suffix.lower())
+    if magic and not head.startswith(magic):
+        return True, False, size, f"{rel} is not a valid {path.suffix.lower()[1:].upper()} file"
+    if path.suffix.lower() in {".txt", ".md"}:
+        try:
+            path.read_text(encoding="utf-8")
+        except UnicodeDecodeError:
+            return True, False, size, f"{rel} is not UTF-8 text"
+    return True, True, size, ""
+
+
+@metric("documents", params=DocumentParams,
+        scopes={"document": ("ok", "present", "readable"), "block": ("n_missing",)})
+def documents(d: Delivery, p: DocumentParams, measure: Measure) -> Measurement:
+    """Each required document: declared in block.yaml, inside the delivery, readable (§DOC-1)."""
+    declared = d.manifest.documents
+    kinds = list(dict.fromkeys(p.required + list(declared)))
+    rows = []
+    for kind in kinds:  # a handful of documents, not a hot path
+        present, readable, size, problem = check_document(d.path, declared.get(kind))
+        rows.append({"kind": kind, "path": declared.get(kind), "required": kind in p.required,
+                     "present": present, "readable": readable, "size_bytes": size,
+                     "ok": readable or kind not in p.required, "problem": problem})
+    table = pd.DataFrame(rows)
+    block = pd.DataFrame({"n_missing": [int((~table["ok"]).sum())]})
+    return Measurement(tables={"document": Table(table, keys=["kind"]), "block": Table(block)})

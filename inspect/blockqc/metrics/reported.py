@@ -1,0 +1,74 @@
+"""The figures the producer's reports state against the same figures recomputed (§DOC-2)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from pydantic import BaseModel, ConfigDict, Field
+
+from blockqc.delivery import Delivery
+from blockqc.metrics import Measure, Measurement, Table, metric, not_applicable
+
+
+class Figure(BaseModel):
+    """Where a reported figure is recomputed: a metric, its parameters, a scope and statistic."""
+
+    model_config = ConfigDict(extra="forbid")
+    metric: str
+    params: dict[str, Any] = Field(default_factory=dict)
+    scope: str = "block"
+    statistic: str
+    where: dict[str, str | float | bool] = Field(default_factory=dict)
+    # when several rows remain, take the first by this preference, e.g. {method: [high_precision]}
+    prefer: dict[str, list[str]] = Field(default_factory=dict)
+
+
+class ReportedParams(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    figures: dict[str, Figure] = Field(default_factory=dict)
+    rel_tol: float = Field(default=0.05, ge=0)  # agreement: |Δ| ≤ max(abs_tol, rel_tol·|value|)
+    abs_tol: float = Field(default=0.005, ge=0)  # half a unit of the second decimal
+
+
+def recompute(fig: Figure, measure: Measure) -> tuple[float, str]:
+    """The recomputed value of one figure, or NaN and why it could not be recomputed."""
+    m = measure(fig.metric, fig.params)
+    if m.not_applicable:
+        return float("nan"), m.not_applicable
+    df = m.tables[fig.scope].df
+    for col, val in fig.where.items():
+        df = df[df[col] == val]
+    for col, order in fig.prefer.items():
+        rank = df[col].map({v: i for i, v in enumerate(order)}).fillna(len(order))
+        df = df.assign(_rank=rank.to_numpy()).sort_values("_rank", kind="stable")
+    if df.empty:
+        return float("nan"), "nothing to recompute it from"
+    return float(df[fig.statistic].iloc[0]), ""
+
+
+@metric("reported_figures", params=ReportedParams,
+        scopes={"figure": ("agrees", "difference")})
+def reported_figures(d: Delivery, p: ReportedParams, measure: Measure) -> Measurement:
+    """Each figure in block.yaml `reported` against its recomputation (§DOC-2)."""
+    reported = d.manifest.reported
+    if not reported:
+        return not_applicable("block.yaml states no reported figures")
+    rows = []
+    for name, value in reported.items():
+        fig = p.figures.get(name)
+        if fig is None:
+            rows.append({"figure": name, "reported": value, "recomputed": np.nan,
+                         "difference": np.nan, "agrees": True, "exempt": True,
+                         "exempt_reason": "no recomputation is defined for this figure"})
+            continue
+        value_r, why = recompute(fig, measure)
+        diff = value - value_r
+        agrees = bool(abs(diff) <= max(p.abs_tol, p.rel_tol * abs(value_r))) if not why else True
+        rows.append({"figure": name, "reported": value, "recomputed": value_r,
+                     "difference": diff, "agrees": agrees, "exempt": bool(why),
+                     "exempt_reason": f"cannot be recomputed: {why}" if why else ""})
+    table = pd.DataFrame(rows)
+    return Measurement(tables={"figure": Table(table, keys=["figure"], sort="difference")},
+                       detail={"rel_tol": p.rel_tol, "abs_tol": p.abs_tol})

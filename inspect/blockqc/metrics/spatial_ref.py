@@ -1,0 +1,128 @@
+"""Mathematical basis: geodetic datum, height datum, projection and UTM zone (§MB-1..3)."""
+
+from __future__ import annotations
+
+import math
+import re
+
+import pandas as pd
+import shapely
+from pydantic import BaseModel, ConfigDict
+
+from blockqc.delivery import Delivery
+from blockqc.metrics import Measure, Measurement, Table, metric
+
+_WGS84 = {"WGS84", "WGS1984", "EPSG4326", "WORLDGEODETICSYSTEM1984", "G1762", "ITRF-WGS84"}
+_ELLIPSOIDAL = {"ELLIPSOIDAL", "ELLIPSOID", "WGS84ELLIPSOID", "WGS84ELLIPSOIDAL", "GEODETIC",
+                "ELLIPSOIDALHEIGHT", "ELLIPSOIDALHEIGHTS", "EPSG4979"}
+
+
+class SpatialParams(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    ups_north_lat: float = 84.0  # UPS north of this latitude (§MB-3)
+    ups_south_lat: float = -80.0  # UPS south of this latitude
+
+
+def _key(text: str | None) -> str:
+    return re.sub(r"[\s_\-:.]", "", (text or "").upper())
+
+
+def normalize_datum(text: str | None) -> str | None:
+    """'WGS 84', 'WGS-84', 'EPSG:4326', 'WGS_1984' … → 'WGS84'; other names upper-cased."""
+    if not text:
+        return None
+    return "WGS84" if _key(text) in {_key(x) for x in _WGS84} else text.strip().upper()
+
+
+def normalize_height_datum(text: str | None) -> str | None:
+    """'ellipsoid', 'WGS84 ellipsoidal', 'geodetic' … → 'ellipsoidal'; geoid models upper-cased."""
+    if not text:
+        return None
+    return "ellipsoidal" if _key(text) in _ELLIPSOIDAL else text.strip().upper()
+
+
+def utm_zone(lon: float) -> int:
+    """UTM zone number of a longitude (1..60); the Norway/Svalbard exceptions are not applied."""
+    return int(min(60, max(1, math.floor((lon + 180.0) / 6.0) + 1)))
+
+
+def expected_epsg(lon_min: float, lon_max: float, lat: float, p: SpatialParams) -> list[int]:
+    """EPSG codes a block may use: UTM of its extent's centre longitude, either neighbour when
+    the extent straddles a zone edge (Reading of §MB-3), UPS in polar regions."""
+    if lat > p.ups_north_lat:
+        return [32661]
+    if lat < p.ups_south_lat:
+        return [32761]
+    base = 32600 if lat >= 0 else 32700
+    zones = sorted({utm_zone((lon_min + lon_max) / 2), utm_zone(lon_min), utm_zone(lon_max)})
+    return [base + z for z in zones]
+
+
+def delivered_epsg(sr) -> int | None:
+    """The EPSG code stated in block.yaml, or one derived from `projection: UTM` + `zone: 50N`."""
+    if sr is None:
+        return None
+    if sr.epsg is not None:
+        return int(sr.epsg)
+    zone = str(getattr(sr, "zone", "") or "")
+    m = re.fullmatch(r"\s*(\d{1,2})\s*([NSns])\s*", zone)
+    if _key(sr.projection) == "UTM" and m:
+        return (32600 if m.group(2).upper() == "N" else 32700) + int(m.group(1))
+    if _key(sr.projection) == "UPS" and zone.upper() in {"N", "S", "NORTH", "SOUTH"}:
+        return 32661 if zone.upper().startswith("N") else 32761
+    return None
+
+
+def describe_epsg(code: int | None) -> str:
+    if code is None:
+        return "not stated"
+    if 32601 <= code <= 32660 or 32701 <= code <= 32760:
+        return f"EPSG:{code} (UTM zone {code % 100}{'N' if code < 32700 else 'S'})"
+    if code in (32661, 32761):
+        return f"EPSG:{code} (UPS {'north' if code == 32661 else 'south'})"
+    return f"EPSG:{code}"
+
+
+@metric(
+    "spatial_reference",
+    params=SpatialParams,
+    scopes={"block": ("geodetic_datum", "height_datum", "projection_ok", "epsg")},
+)
+def spatial_reference(d: Delivery, p: SpatialParams, measure: Measure) -> Measurement:
+    """The block's stated datum, height datum and projection against its extent (§MB-1..3)."""
+    sr = d.manifest.spatial_reference
+    geoms = shapely.from_wkt(d.scenes["footprint_wkt"].to_numpy(dtype=object))
+    lon_min, lat_min, lon_max, lat_max = shapely.total_bounds(geoms)
+    lat_c = (lat_min + lat_max) / 2
+    allowed = expected_epsg(lon_min, lon_max, lat_c, p)
+    code = delivered_epsg(sr)
+    ok = code in allowed
+    straddles = len(allowed) > 1
+    if code is None:
+        note = "block.yaml states no EPSG code (nor projection UTM with a zone such as 50N)"
+    elif ok and straddles:
+        note = (f"the block straddles a zone edge (lon {lon_min:.3f}…{lon_max:.3f}); "
+                f"{describe_epsg(code)} is one of the neighbours allowed")
+    elif ok:
+        note = f"{describe_epsg(code)} is the block's zone"
+    else:
+        note = (f"{describe_epsg(code)} delivered, expected "
+                + " or ".join(describe_epsg(c) for c in allowed))
+    block = pd.DataFrame({
+        "geodetic_datum": [normalize_datum(sr.geodetic_datum if sr else None)],
+        "height_datum": [normalize_height_datum(sr.height_datum if sr else None)],
+        "projection": [(sr.projection if sr else None)],
+        "epsg": [code],
+        "projection_ok": [ok],
+    })
+    return Measurement(
+        tables={"block": Table(block)},
+        detail={"centre_lon": round(float((lon_min + lon_max) / 2), 6),
+                "centre_lat": round(float(lat_c), 6),
+                "extent_lonlat": [round(float(v), 6) for v in (lon_min, lat_min, lon_max, lat_max)],
+                "expected_epsg": allowed, "straddles_zone_edge": straddles, "note": note,
+                "stated": {"geodetic_datum": sr.geodetic_datum if sr else None,
+                           "height_datum": sr.height_datum if sr else None}},
+    )
+
+

@@ -1,0 +1,164 @@
+"""A small whitelisted evaluator for threshold expressions such as `2*sqrt(2)*norm.plane_m`.
+
+Only numbers, names of the pack's constants (dotted), + - * / ** and the functions listed in
+FUNCTIONS are allowed; anything else is refused with a message. Python's `eval` is never used.
+"""
+
+from __future__ import annotations
+
+import ast
+import math
+import operator
+from collections.abc import Callable, Mapping
+from typing import Any
+
+FUNCTIONS: dict[str, Callable[..., float]] = {
+    "sqrt": math.sqrt,
+    "abs": abs,
+    "min": min,
+    "max": max,
+    "round": round,
+}
+_BINARY: dict[type, Callable[[Any, Any], Any]] = {
+    ast.Add: operator.add,
+    ast.Sub: operator.sub,
+    ast.Mult: operator.mul,
+    ast.Div: operator.truediv,
+    ast.Pow: operator.pow,
+}
+_UNARY: dict[type, Callable[[Any], Any]] = {ast.USub: operator.neg, ast.UAdd: operator.pos}
+
+
+class ExpressionError(ValueError):
+    """An expression that is malformed, refers to an unknown name or uses what is not allowed."""
+
+
+def _dotted(node: ast.AST) -> str | None:
+    if isinstance(node, ast.Name):
+        return node.id
+    if isinstance(node, ast.Attribute):
+        base = _dotted(node.value)
+        return f"{base}.{node.attr}" if base else None
+    return None
+
+
+def lookup(name: str, constants: Mapping[str, Any]) -> Any:
+    """Resolve a dotted name (`norm.plane_m`) in nested constants."""
+    node: Any = constants
+    for part in name.split("."):
+        if not isinstance(node, Mapping) or part not in node:
+            known = ", ".join(sorted(flatten(constants))) or "none"
+            raise ExpressionError(f"unknown constant '{name}' (known: {known})")
+        node = node[part]
+    return node
+
+
+def flatten(constants: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    """Nested constants as dotted names."""
+    out: dict[str, Any] = {}
+    for k, v in constants.items():
+        key = f"{prefix}{k}"
+        if isinstance(v, Mapping):
+            out.update(flatten(v, key + "."))
+        else:
+            out[key] = v
+    return out
+
+
+def evaluate(expression: Any, constants: Mapping[str, Any]) -> Any:
+    """Evaluate a number, a boolean, a string, a list, or an arithmetic expression in a string."""
+    if isinstance(expression, bool) or expression is None:
+        return expression
+    if isinstance(expression, (int, float)):
+        return float(expression)
+    if isinstance(expression, list):
+        return [evaluate(e, constants) for e in expression]
+    if not isinstance(expression, str):
+        raise ExpressionError(f"cannot evaluate a {type(expression).__name__}")
+    try:
+        tree = ast.parse(expression.strip(), mode="eval")
+    except SyntaxError as exc:
+        raise ExpressionError(f"malformed expression {expression!r}: {exc.msg}") from None
+    name = _dotted(tree.body)
+    if name is not None:  # a bare constant may also stand for a list of numbers
+        value = lookup(name, constants)
+        if isinstance(value, list) and all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) for v in value
+        ):
+            return [float(v) for v in value]
+    return _eval(tree.body, constants, expression)
+
+
+def _eval(node: ast.AST, constants: Mapping[str, Any], text: str) -> Any:
+    if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)) and not isinstance(
+        node.value, bool
+    ):
+        return float(node.value)
+    if isinstance(node, ast.BinOp) and type(node.op) in _BINARY:
+        left, right = _eval(node.left, constants, text), _eval(node.right, constants, text)
+        try:
+            return float(_BINARY[type(node.op)](left, right))
+        except (ZeroDivisionError, OverflowError, TypeError) as exc:
+            raise ExpressionError(f"cannot evaluate {text!r}: {exc}") from None
+    if isinstance(node, ast.UnaryOp) and type(node.op) in _UNARY:
+        return _UNARY[type(node.op)](_eval(node.operand, constants, text))
+    if isinstance(node, ast.Call):
+        name = _dotted(node.func)
+        if name not in FUNCTIONS or node.keywords:
+            allowed = ", ".join(sorted(FUNCTIONS))
+            raise ExpressionError(
+                f"function '{name or ast.unparse(node.func)}' is not allowed in {text!r} "
+                f"(allowed: {allowed})"
+            )
+        args = [_eval(a, constants, text) for a in node.args]
+        try:
+            return float(FUNCTIONS[name](*args))
+        except (ValueError, TypeError) as exc:
+            raise ExpressionError(f"cannot evaluate {text!r}: {exc}") from None
+    name = _dotted(node)
+    if name is not None:
+        value = lookup(name, constants)
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ExpressionError(f"constant '{name}' in {text!r} is not a number")
+        return float(value)
+    raise ExpressionError(
+        f"'{ast.unparse(node)}' is not allowed in {text!r}: use numbers, constants, + - * / ** "
+        f"and {', '.join(sorted(FUNCTIONS))}()"
+    )
+
+
+def _wants_number(annotation: Any) -> bool:
+    """Whether a pydantic field annotation takes numbers (so strings in it are expressions)."""
+    import types
+    import typing
+
+    if annotation in (float, int):
+        return True
+    origin, args = typing.get_origin(annotation), typing.get_args(annotation)
+    if origin in (typing.Union, types.UnionType):
+        return str not in args and any(_wants_number(a) for a in args if a is not type(None))
+    if origin in (dict, Mapping) or (origin is not None and str(origin).endswith("Mapping'>")):
+        return len(args) == 2 and _wants_number(args[1])
+    if origin in (list, tuple):
+        return any(_wants_number(a) for a in args if a is not Ellipsis)
+    return False
+
+
+def _numbers(value: Any, constants: Mapping[str, Any]) -> Any:
+    if isinstance(value, str):
+        return evaluate(value, constants)
+    if isinstance(value, Mapping):
+        return {k: _numbers(v, constants) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_numbers(v, constants) for v in value]
+    return value
+
+
+def resolve_params(model: Any, raw: Mapping[str, Any], constants: Mapping[str, Any]) -> Any:
+    """Validate a metric's parameters, evaluating expressions in the fields that take numbers."""
+    data = {}
+    for key, value in raw.items():
+        field = model.model_fields.get(key)
+        data[key] = _numbers(value, constants) if field and _wants_number(field.annotation) \
+            else value
+    return model.model_validate(data)

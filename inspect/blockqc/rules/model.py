@@ -1,0 +1,141 @@
+"""The rule language: what a rule pack file may say, validated by pydantic (unknown keys refused)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+
+#: a number, or an arithmetic expression over the pack's constants, e.g. "2*sqrt(2)*norm.plane_m"
+Expr = float | int | str
+
+SCOPES = ("block", "scene", "pair", "point", "observation", "component", "component_method",
+          "reference", "document", "figure")
+
+
+class Threshold(BaseModel):
+    """What passes: a lower and/or upper bound (inclusive or not), or allowed values."""
+
+    model_config = ConfigDict(extra="forbid", populate_by_name=True)
+    min: Expr | None = None
+    max: Expr | None = None
+    inclusive: bool = True
+    equals: bool | str | float | None = None
+    in_: list[str | float] | None = Field(default=None, alias="in")
+
+    @model_validator(mode="after")
+    def _one_kind(self) -> Threshold:
+        bounds = self.min is not None or self.max is not None
+        kinds = sum([bounds, self.equals is not None, self.in_ is not None])
+        if kinds != 1:
+            raise ValueError("give exactly one of: min and/or max; equals; in")
+        return self
+
+    def describe(self, lo: float | str | None = None, hi: float | str | None = None) -> str:
+        """Human form, e.g. '≤ 0.5', '< 28.28', '20 … 50', '= true'; bounds as numbers or text."""
+        if self.equals is not None:
+            return f"= {str(self.equals).lower() if isinstance(self.equals, bool) else self.equals}"
+        if self.in_ is not None:
+            return "one of " + ", ".join(map(str, self.in_))
+        le, ge = ("≤", "≥") if self.inclusive else ("<", ">")
+
+        def num(v: float | str) -> str:
+            return f"{v:g}" if isinstance(v, (int, float)) else str(v)
+
+        if lo is not None and hi is not None:
+            return f"{num(lo)} {'…' if self.inclusive else '<…<'} {num(hi)}"
+        if hi is not None:
+            return f"{le} {num(hi)}"
+        return f"{ge} {num(lo)}"
+
+
+class Rule(BaseModel):
+    """One rule: a registered metric measured at a scope, a statistic, a threshold, a severity."""
+
+    model_config = ConfigDict(extra="forbid")
+    id: str = Field(pattern=r"^[A-Z][A-Z0-9]*(-[A-Za-z0-9]+)+$")
+    title: str = Field(min_length=1)
+    clause: str = Field(min_length=1)
+    description: str = ""
+    quality_element: str = ""
+    content: str = ""
+    metric: str | None = None
+    params: dict[str, Any] = Field(default_factory=dict)
+    scope: Literal[SCOPES] = "block"  # type: ignore[valid-type]
+    where: dict[str, str | float | bool] = Field(default_factory=dict)
+    statistic: str | None = None
+    threshold: Threshold | None = None
+    # one threshold per group value instead, e.g. {plane: {max: ...}, height: {max: ...}}
+    thresholds: dict[str, Threshold] | None = None
+    unit: str = ""
+    severity: Literal["fail", "warn"] = "fail"
+    waivable: bool = False
+    manual: bool = False
+    evidence_from: str | None = None  # another scope of the metric listing the offending units
+    evidence_where: dict[str, str | float | bool] = Field(default_factory=dict)
+    evidence_limit: int = Field(default=50, ge=0)
+
+    @field_validator("clause")
+    @classmethod
+    def _clause(cls, v: str) -> str:
+        if not v.startswith("§"):
+            raise ValueError("a clause cites DOMAIN.md, e.g. '§CP-5'")
+        return v
+
+    @model_validator(mode="after")
+    def _complete(self) -> Rule:
+        if self.manual:
+            if self.metric or self.threshold or self.thresholds:
+                raise ValueError("a manual rule takes the inspector's verdict: no metric/threshold")
+            return self
+        missing = [k for k in ("metric", "statistic") if getattr(self, k) is None]
+        if self.threshold is None and not self.thresholds:
+            missing.append("threshold")
+        if missing:
+            raise ValueError(f"an automatic rule needs {', '.join(missing)} (or manual: true)")
+        if self.threshold is not None and self.thresholds:
+            raise ValueError("give either threshold or thresholds (one per group), not both")
+        return self
+
+    def all_thresholds(self) -> dict[str, Threshold]:
+        """Every threshold of the rule by group value ('' for a single threshold)."""
+        if self.thresholds:
+            return dict(self.thresholds)
+        return {"": self.threshold} if self.threshold is not None else {}
+
+
+class PackFile(BaseModel):
+    """The top level of a rule pack file."""
+
+    model_config = ConfigDict(extra="forbid")
+    pack: str = Field(min_length=1, pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
+    version: str = "1"
+    title: str = ""
+    description: str = ""
+    extends: str | None = None
+    constants: dict[str, Any] = Field(default_factory=dict)
+    rules: list[dict[str, Any]] = Field(default_factory=list)
+    overrides: dict[str, dict[str, Any]] = Field(default_factory=dict)
+    disable: list[str] = Field(default_factory=list)
+
+
+@dataclass
+class Pack:
+    """A resolved rule pack: its own name and version, the chain it extends, constants, rules."""
+
+    name: str
+    version: str
+    title: str
+    description: str
+    constants: dict[str, Any]
+    rules: list[Rule]
+    chain: list[str] = field(default_factory=list)  # files, the pack's own first
+    disabled: list[str] = field(default_factory=list)
+    origin: dict[str, tuple[str, int | None]] = field(default_factory=dict)  # id -> (file, line)
+
+    def rule(self, rule_id: str) -> Rule:
+        for r in self.rules:
+            if r.id == rule_id:
+                return r
+        raise KeyError(rule_id)
