@@ -44,8 +44,10 @@ def inspect_one(path: Path, pack: Pack, inspector: InspectorInput | None) -> Out
     except InputError as exc:
         return Outcome(path, problems=exc.problems)
     block_input = inspector.for_block(delivery.block_id) if inspector else None
-    return Outcome(path, inspect_delivery(delivery, pack, block_input,
-                                          inspector.inspector if inspector else None))
+    return Outcome(
+        path,
+        inspect_delivery(delivery, pack, block_input, inspector.inspector if inspector else None),
+    )
 
 
 def write_block(out: Path, results: dict[str, Any], templates: Path | None = None) -> Path:
@@ -64,9 +66,13 @@ def check_unique(outcomes: list[Outcome]) -> None:
             continue
         bid = o.results["block_id"]
         if bid in seen:
-            problems.append(Problem(str(o.path / "block.yaml"),
-                                    f"block_id {bid} is also the id of {seen[bid]}: block ids "
-                                    "must be unique in a batch"))
+            problems.append(
+                Problem(
+                    str(o.path / "block.yaml"),
+                    f"block_id {bid} is also the id of {seen[bid]}: block ids "
+                    "must be unique in a batch",
+                )
+            )
         seen[bid] = o.path
     if problems:
         raise InputError(problems)
@@ -82,26 +88,39 @@ def summarize(outcomes: list[Outcome], pack: Pack, inspector: InspectorInput | N
         r = o.results
         for res in r["results"]:
             rules.setdefault(res["rule"], dict.fromkeys(STATUSES, 0))[res["status"]] += 1
-        blocks.append({
-            "block_id": r["block_id"], "verdict": r["verdict"], "path": str(o.path),
-            "results": f"{r['block_id']}/results.json", "report": f"{r['block_id']}/report.html",
-            "sampled": r["summary"]["checkpoints"] > 0,
-            "failed_rules": sorted({x["rule"] for x in r["results"] if x["status"] == "fail"}),
-            "warned_rules": sorted({x["rule"] for x in r["results"] if x["status"] == "warn"}),
-            "pending_manual": r["pending_manual"], "counts": r["counts"],
-        })
+        blocks.append(
+            {
+                "block_id": r["block_id"],
+                "verdict": r["verdict"],
+                "path": str(o.path),
+                "results": f"{r['block_id']}/results.json",
+                "report": f"{r['block_id']}/report.html",
+                "sampled": r["summary"]["checkpoints"] > 0,
+                "failed_rules": sorted({x["rule"] for x in r["results"] if x["status"] == "fail"}),
+                "warned_rules": sorted({x["rule"] for x in r["results"] if x["status"] == "warn"}),
+                "pending_manual": r["pending_manual"],
+                "counts": r["counts"],
+            }
+        )
     n_fail = sum(b["verdict"] != "pass" for b in blocks)
     verdict = "error" if unreadable else "fail" if n_fail else "pass"
     return {
-        "rule_pack": pack.name, "rule_pack_version": pack.version,
+        "rule_pack": pack.name,
+        "rule_pack_version": pack.version,
         "blockqc_version": __version__,
         "generated_at": dt.datetime.now(dt.UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
         "inspector": inspector.inspector if inspector else None,
         "verdict": verdict,
         "complete": not unreadable and not any(b["pending_manual"] for b in blocks),
-        "counts": {"blocks": len(outcomes), "pass": len(blocks) - n_fail, "fail": n_fail,
-                   "unreadable": len(unreadable)},
-        "blocks": blocks, "rules": rules, "unreadable": unreadable,
+        "counts": {
+            "blocks": len(outcomes),
+            "pass": len(blocks) - n_fail,
+            "fail": n_fail,
+            "unreadable": len(unreadable),
+        },
+        "blocks": blocks,
+        "rules": rules,
+        "unreadable": unreadable,
     }
 
 
@@ -110,9 +129,14 @@ def write_summary(out: Path, summary: dict[str, Any], templates: Path | None = N
     write_text_atomic(out / "summary.html", render_summary(summary, environment(templates)))
 
 
-def run(paths: list[Path], pack: Pack, out: Path, inspector: InspectorInput | None = None,
-        templates: Path | None = None,
-        progress: Callable[[Outcome], None] | None = None) -> tuple[list[Outcome], dict | None]:
+def run(
+    paths: list[Path],
+    pack: Pack,
+    out: Path,
+    inspector: InspectorInput | None = None,
+    templates: Path | None = None,
+    progress: Callable[[Outcome], None] | None = None,
+) -> tuple[list[Outcome], dict | None]:
     """Inspect every delivery named; write per-block outputs and, for a batch, the summary."""
     deliveries, batch = collect(paths)
     outcomes: list[Outcome] = []

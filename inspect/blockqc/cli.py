@@ -14,7 +14,35 @@ from blockqc.errors import BlockqcError
 STATUS_STYLE = {"pass": "green", "fail": "red", "error": "red", "warn": "yellow"}
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
+class LazyGroup(click.Group):
+    """Commands of the numerical methods load their (heavy) modules only when invoked."""
+
+    lazy = {
+        "rfm-accuracy": "blockqc.rfm.command",
+        "factors": "blockqc.analysis.command",
+        "report": "blockqc.report.command",
+    }
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted(set(super().list_commands(ctx)) | set(self.lazy))
+
+    def get_command(self, ctx: click.Context, name: str) -> click.Command | None:
+        if name in self.lazy and name not in self.commands:
+            import importlib
+
+            try:
+                return importlib.import_module(self.lazy[name]).command
+            except ModuleNotFoundError as exc:
+                if exc.name != self.lazy[name]:
+                    raise
+                return None
+        return super().get_command(ctx, name)
+
+
+@click.group(
+    cls=LazyGroup,
+    context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100},
+)
 @click.version_option(__version__, prog_name="blockqc")
 def cli() -> None:
     """Inspect satellite image blocks adjusted without ground control points."""
@@ -23,18 +51,42 @@ def cli() -> None:
 # ------------------------------------------------------------------------------- inspect
 @cli.command("inspect")
 @click.argument("paths", nargs=-1, required=True, type=click.Path(path_type=Path))
-@click.option("--rules", "rules_ref", default="global-project", show_default=True,
-              help="Stock rule pack name or a rule pack file.")
-@click.option("--verdicts", type=click.Path(path_type=Path),
-              help="Inspector's file: verdicts for manual items and waivers.")
-@click.option("--out", required=True, type=click.Path(path_type=Path),
-              help="Output folder (never inside a delivery).")
-@click.option("--templates", type=click.Path(path_type=Path, file_okay=False),
-              help="Folder of templates that take precedence over the stock ones.")
-@click.option("--progress/--no-progress", default=None,
-              help="Progress bar for batches (default: when stderr is a terminal).")
-def inspect_cmd(paths: tuple[Path, ...], rules_ref: str, verdicts: Path | None, out: Path,
-                templates: Path | None, progress: bool | None) -> int:
+@click.option(
+    "--rules",
+    "rules_ref",
+    default="global-project",
+    show_default=True,
+    help="Stock rule pack name or a rule pack file.",
+)
+@click.option(
+    "--verdicts",
+    type=click.Path(path_type=Path),
+    help="Inspector's file: verdicts for manual items and waivers.",
+)
+@click.option(
+    "--out",
+    required=True,
+    type=click.Path(path_type=Path),
+    help="Output folder (never inside a delivery).",
+)
+@click.option(
+    "--templates",
+    type=click.Path(path_type=Path, file_okay=False),
+    help="Folder of templates that take precedence over the stock ones.",
+)
+@click.option(
+    "--progress/--no-progress",
+    default=None,
+    help="Progress bar for batches (default: when stderr is a terminal).",
+)
+def inspect_cmd(
+    paths: tuple[Path, ...],
+    rules_ref: str,
+    verdicts: Path | None,
+    out: Path,
+    templates: Path | None,
+    progress: bool | None,
+) -> int:
     """Inspect one delivery or a batch (a folder of deliveries) with a rule pack."""
     from blockqc import batch
     from blockqc.inspector import load_inspector_input
@@ -55,19 +107,28 @@ def inspect_cmd(paths: tuple[Path, ...], rules_ref: str, verdicts: Path | None, 
         warned = sorted({x["rule"] for x in r["results"] if x["status"] == "warn"})
         notes = [f"failed: {', '.join(failed)}"] if failed else []
         notes += [f"warnings: {', '.join(warned)}"] if warned else []
-        notes += [f"awaiting the inspector: {', '.join(r['pending_manual'])}"] \
-            if r["pending_manual"] else []
-        verdict = click.style(f"{r['verdict'].upper():5}", fg=STATUS_STYLE.get(r["verdict"]),
-                              bold=True)
+        notes += (
+            [f"awaiting the inspector: {', '.join(r['pending_manual'])}"]
+            if r["pending_manual"]
+            else []
+        )
+        verdict = click.style(
+            f"{r['verdict'].upper():5}", fg=STATUS_STYLE.get(r["verdict"]), bold=True
+        )
         return f"{r['block_id']:12} {verdict}  " + "; ".join(notes)
 
     if show and len(deliveries) > 1:
         from rich.console import Console
         from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
 
-        with Progress("[progress.description]{task.description}", BarColumn(),
-                      MofNCompleteColumn(), TimeElapsedColumn(),
-                      console=Console(stderr=True), transient=True) as bar:
+        with Progress(
+            "[progress.description]{task.description}",
+            BarColumn(),
+            MofNCompleteColumn(),
+            TimeElapsedColumn(),
+            console=Console(stderr=True),
+            transient=True,
+        ) as bar:
             task = bar.add_task("inspecting", total=len(deliveries))
 
             def tick(o: batch.Outcome) -> None:
@@ -76,15 +137,18 @@ def inspect_cmd(paths: tuple[Path, ...], rules_ref: str, verdicts: Path | None, 
 
             outcomes, summary = batch.run(list(paths), pack, out, inspector, templates, tick)
     else:
-        outcomes, summary = batch.run(list(paths), pack, out, inspector, templates,
-                                      lambda o: click.echo(line(o)))
+        outcomes, summary = batch.run(
+            list(paths), pack, out, inspector, templates, lambda o: click.echo(line(o))
+        )
     for o in outcomes:
         for p in o.problems:
             click.echo(f"error: {p}", err=True)
     if summary is not None:
         c = summary["counts"]
-        click.echo(f"{c['blocks']} blocks: {c['pass']} pass, {c['fail']} fail, "
-                   f"{c['unreadable']} unreadable — {out / 'summary.html'}")
+        click.echo(
+            f"{c['blocks']} blocks: {c['pass']} pass, {c['fail']} fail, "
+            f"{c['unreadable']} unreadable — {out / 'summary.html'}"
+        )
     else:
         click.echo(f"results in {out}")
     return batch.exit_status(outcomes)
@@ -97,8 +161,13 @@ def rules_group() -> None:
 
 
 def _pack_option(f):
-    return click.option("--rules", "rules_ref", default="global-project", show_default=True,
-                        help="Stock rule pack name or a rule pack file.")(f)
+    return click.option(
+        "--rules",
+        "rules_ref",
+        default="global-project",
+        show_default=True,
+        help="Stock rule pack name or a rule pack file.",
+    )(f)
 
 
 def _threshold_text(rule, constants) -> str:
@@ -109,8 +178,11 @@ def _threshold_text(rule, constants) -> str:
     parts = []
     for group, th in rule.all_thresholds().items():
         exprs = [e for e in (th.min, th.max) if isinstance(e, str)]
-        if any(e.split(".")[0] in DELIVERY_NAMES or f" {n}." in f" {e}" for e in exprs
-               for n in DELIVERY_NAMES):
+        if any(
+            e.split(".")[0] in DELIVERY_NAMES or f" {n}." in f" {e}"
+            for e in exprs
+            for n in DELIVERY_NAMES
+        ):
             text = th.describe(th.min, th.max)
         else:
             text = th.describe(*bounds(th, constants))
@@ -154,8 +226,10 @@ def rules_explain(rule_id: str, rules_ref: str) -> None:
     try:
         r = pack.rule(rule_id)
     except KeyError:
-        raise RuleError(f"no rule {rule_id} in pack {pack.name} (rules: "
-                        f"{', '.join(x.id for x in pack.rules)})", file=rules_ref) from None
+        raise RuleError(
+            f"no rule {rule_id} in pack {pack.name} (rules: {', '.join(x.id for x in pack.rules)})",
+            file=rules_ref,
+        ) from None
     file, line = pack.origin.get(r.id, ("", None))
     click.echo(f"{r.id} — {r.title}  ({r.clause})")
     click.echo(f"  pack:      {pack.name} {pack.version}; defined in {file}, line {line}")
@@ -165,14 +239,17 @@ def rules_explain(rule_id: str, rules_ref: str) -> None:
     else:
         spec = REGISTRY[r.metric]
         click.echo(f"  measures:  {r.metric} — {spec.description}")
-        click.echo(f"  scope:     {r.scope}; statistic {r.statistic}"
-                   + (f"; where {r.where}" if r.where else ""))
+        click.echo(
+            f"  scope:     {r.scope}; statistic {r.statistic}"
+            + (f"; where {r.where}" if r.where else "")
+        )
         if r.params:
             click.echo(f"  params:    {r.params}")
         click.echo(f"  threshold: {_threshold_text(r, pack.constants)}")
         for group, th in r.all_thresholds().items():
-            exprs = [f"{k}: {getattr(th, k)}" for k in ("min", "max")
-                     if isinstance(getattr(th, k), str)]
+            exprs = [
+                f"{k}: {getattr(th, k)}" for k in ("min", "max") if isinstance(getattr(th, k), str)
+            ]
             if exprs:
                 click.echo(f"             {(group + ' ') if group else ''}{', '.join(exprs)}")
         click.echo(f"  unit:      {r.unit or '-'}")
@@ -205,21 +282,49 @@ def rules_lint(packs: tuple[str, ...]) -> int:
 @cli.command("simulate")
 @click.argument("out", type=click.Path(path_type=Path))
 @click.option("--seed", default=20231, show_default=True, help="Random seed.")
-@click.option("--fields", default="1,2,3,4", show_default=True,
-              help="Published test fields to mirror (comma separated).")
+@click.option(
+    "--fields",
+    default="1,2,3,4",
+    show_default=True,
+    help="Published test fields to mirror (comma separated).",
+)
 @click.option("--blocks-per-field", default=2, show_default=True, type=click.IntRange(1, 50))
-@click.option("--grid", default="4x4", show_default=True,
-              help="Footprints per block, ROWSxCOLS (3 scenes each: F and B PAN, B MS).")
-@click.option("--obs-per-scene", default=300, show_default=True, type=click.IntRange(10),
-              help="Tie-point observations per PAN scene (about).")
-@click.option("--fault", "faults", multiple=True, help="Switch a fault on (repeatable); "
-              "--list-faults shows them.")
+@click.option(
+    "--grid",
+    default="4x4",
+    show_default=True,
+    help="Footprints per block, ROWSxCOLS (3 scenes each: F and B PAN, B MS).",
+)
+@click.option(
+    "--obs-per-scene",
+    default=300,
+    show_default=True,
+    type=click.IntRange(10),
+    help="Tie-point observations per PAN scene (about).",
+)
+@click.option(
+    "--fault",
+    "faults",
+    multiple=True,
+    help="Switch a fault on (repeatable); --list-faults shows them.",
+)
 @click.option("--list-faults", is_flag=True, help="List the faults and exit.")
-@click.option("--dem-dir", type=click.Path(path_type=Path, file_okay=False),
-              help="Folder of the DEM tiles (default: samples/dem of the checkout).")
-def simulate_cmd(out: Path, seed: int, fields: str, blocks_per_field: int, grid: str,
-                 obs_per_scene: int, faults: tuple[str, ...], list_faults: bool,
-                 dem_dir: Path | None) -> None:
+@click.option(
+    "--dem-dir",
+    type=click.Path(path_type=Path, file_okay=False),
+    help="Folder of the DEM tiles (default: samples/dem of the checkout).",
+)
+def simulate_cmd(
+    out: Path,
+    seed: int,
+    fields: str,
+    blocks_per_field: int,
+    grid: str,
+    obs_per_scene: int,
+    faults: tuple[str, ...],
+    list_faults: bool,
+    dem_dir: Path | None,
+) -> None:
     """Write sample deliveries that mirror the four published test fields."""
     from blockqc.errors import UsageError
     from blockqc.simulate import FAULTS, Layout, Options, simulate
@@ -232,30 +337,18 @@ def simulate_cmd(out: Path, seed: int, fields: str, blocks_per_field: int, grid:
         rows, cols = (int(v) for v in grid.lower().split("x"))
         chosen = tuple(int(f) for f in fields.split(","))
     except ValueError:
-        raise UsageError("--grid is ROWSxCOLS (e.g. 4x4) and --fields a list like 1,2,3,4")\
-            from None
-    opts = Options(seed=seed, fields=chosen, blocks_per_field=blocks_per_field,
-                   layout=Layout(rows=rows, cols=cols, obs_per_scene=obs_per_scene),
-                   faults=frozenset(faults))
+        raise UsageError(
+            "--grid is ROWSxCOLS (e.g. 4x4) and --fields a list like 1,2,3,4"
+        ) from None
+    opts = Options(
+        seed=seed,
+        fields=chosen,
+        blocks_per_field=blocks_per_field,
+        layout=Layout(rows=rows, cols=cols, obs_per_scene=obs_per_scene),
+        faults=frozenset(faults),
+    )
     ids = simulate(out, opts, dem_dir)
     click.echo(f"wrote {len(ids)} deliveries to {out}: {', '.join(ids)}")
-
-
-def _register_optional() -> None:
-    """Commands of the numerical methods, each in its own package."""
-    import importlib
-
-    for module in ("blockqc.rfm.command", "blockqc.analysis.command", "blockqc.report.command"):
-        try:
-            mod = importlib.import_module(module)
-        except ModuleNotFoundError as exc:
-            if exc.name != module:
-                raise
-            continue
-        cli.add_command(mod.command)
-
-
-_register_optional()
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -278,7 +371,10 @@ def main(argv: list[str] | None = None) -> None:
     except Exception as exc:  # a defect of blockqc, not of the input: say so, briefly
         if os.environ.get("BLOCKQC_DEBUG"):
             raise
-        click.echo(f"internal error: {type(exc).__name__}: {exc} (set BLOCKQC_DEBUG=1 for the "
-                   "traceback; please report it)", err=True)
+        click.echo(
+            f"internal error: {type(exc).__name__}: {exc} (set BLOCKQC_DEBUG=1 for the "
+            "traceback; please report it)",
+            err=True,
+        )
         sys.exit(2)
     sys.exit(rc if isinstance(rc, int) else 0)

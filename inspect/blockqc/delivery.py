@@ -83,35 +83,49 @@ def find_deliveries(path: Path) -> list[Path]:
     if not path.exists():
         raise InputError(Problem(str(path), "no such file or folder"))
     if not path.is_dir():
-        raise InputError(Problem(str(path), "expected a delivery folder (with block.yaml) or a "
-                                            "batch folder of deliveries"))
+        raise InputError(
+            Problem(
+                str(path),
+                "expected a delivery folder (with block.yaml) or a batch folder of deliveries",
+            )
+        )
     if is_delivery(path):
         return [path]
     found = sorted(p for p in path.iterdir() if p.is_dir() and is_delivery(p))
     if not found:
-        raise InputError(Problem(str(path), f"neither a delivery (no {MANIFEST}) nor a batch "
-                                            f"(no sub-folder holds a {MANIFEST})"))
+        raise InputError(
+            Problem(
+                str(path),
+                f"neither a delivery (no {MANIFEST}) nor a batch "
+                f"(no sub-folder holds a {MANIFEST})",
+            )
+        )
     return found
 
 
 def _table_file(folder: Path, name: str) -> Path | None:
     csv, parquet = folder / f"{name}.csv", folder / f"{name}.parquet"
     if csv.is_file() and parquet.is_file():
-        raise InputError(Problem(str(folder), f"both {csv.name} and {parquet.name} are present; "
-                                              "give the table once"))
+        raise InputError(
+            Problem(
+                str(folder), f"both {csv.name} and {parquet.name} are present; give the table once"
+            )
+        )
     return csv if csv.is_file() else parquet if parquet.is_file() else None
 
 
 def _read_csv(path: Path, schema: TableSchema) -> pd.DataFrame:
     """Read a CSV fast with pyarrow; text-like columns stay text (ids keep leading zeros)."""
-    text_cols = {c.name: pa.string() for c in schema.columns if c.kind in ("str", "enum", "date",
-                                                                           "wkt")}
+    text_cols = {
+        c.name: pa.string() for c in schema.columns if c.kind in ("str", "enum", "date", "wkt")
+    }
     try:
         table = pacsv.read_csv(
             path,
             read_options=pacsv.ReadOptions(use_threads=True),
             convert_options=pacsv.ConvertOptions(
-                column_types=text_cols, strings_can_be_null=False,
+                column_types=text_cols,
+                strings_can_be_null=False,
                 null_values=["", "NA", "NaN", "nan", "null"],
             ),
         )
@@ -125,8 +139,9 @@ def _read_csv(path: Path, schema: TableSchema) -> pd.DataFrame:
 def _read_csv_slow(path: Path, reason: str) -> pd.DataFrame:
     """Fallback reader whose errors carry the line number of a malformed row."""
     try:
-        return pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=True,
-                           encoding="utf-8-sig")
+        return pd.read_csv(
+            path, dtype=str, keep_default_na=False, skipinitialspace=True, encoding="utf-8-sig"
+        )
     except pd.errors.EmptyDataError:
         raise InputError(Problem(str(path), "the file is empty: expected a header row")) from None
     except (pd.errors.ParserError, UnicodeDecodeError, ValueError) as exc:
@@ -152,8 +167,9 @@ def read_table(path: Path, schema: TableSchema) -> tuple[pd.DataFrame, list[Prob
 def load_manifest(path: Path) -> Manifest:
     data = load_yaml(path)
     if not isinstance(data, dict):
-        raise InputError(Problem(str(path), "expected a mapping of keys (block_id, gsd_m, ...)",
-                                 line=1))
+        raise InputError(
+            Problem(str(path), "expected a mapping of keys (block_id, gsd_m, ...)", line=1)
+        )
     try:
         return Manifest.model_validate(data)
     except ValidationError as exc:
@@ -177,9 +193,13 @@ def load_delivery(path: Path) -> Delivery:
             f = _table_file(path, name)
             if f is None:
                 if schema.required:
-                    problems.append(Problem(str(path / f"{name}.csv"),
-                                            f"required table {name} is missing (expected "
-                                            f"{name}.csv or {name}.parquet)"))
+                    problems.append(
+                        Problem(
+                            str(path / f"{name}.csv"),
+                            f"required table {name} is missing (expected "
+                            f"{name}.csv or {name}.parquet)",
+                        )
+                    )
                 continue
             files[name] = f
             df, found = read_table(f, schema)
@@ -206,9 +226,15 @@ def _check_references(tables: dict[str, pd.DataFrame], files: dict[str, Path]) -
                 continue
             missing = ~df[ref.column].isin(target[ref.key]).to_numpy(dtype=bool)
             f = files[name]
-            report_rows(problems, str(f), ref.column, missing,
-                    f"unknown {ref.key} (not in {files[ref.table].name})", df[ref.column],
-                    f.suffix == ".csv")
+            report_rows(
+                problems,
+                str(f),
+                ref.column,
+                missing,
+                f"unknown {ref.key} (not in {files[ref.table].name})",
+                df[ref.column],
+                f.suffix == ".csv",
+            )
     return problems
 
 

@@ -67,8 +67,10 @@ class Context:
 def names_for(delivery: Delivery, pack: Pack) -> dict[str, Any]:
     """What threshold expressions may name: the pack's constants and the delivery's GSDs."""
     gsd = delivery.manifest.gsd_m
-    return {**pack.constants, "gsd": {k: v for k, v in (("pan", gsd.pan), ("ms", gsd.ms))
-                                      if v is not None}}
+    return {
+        **pack.constants,
+        "gsd": {k: v for k, v in (("pan", gsd.pan), ("ms", gsd.ms)) if v is not None},
+    }
 
 
 def bounds(th: Threshold, names: Mapping[str, Any]) -> tuple[float | None, float | None]:
@@ -129,8 +131,10 @@ def _threshold_fields(th: Threshold | None, lo: float | None, hi: float | None) 
 def _filter(df: pd.DataFrame, where: Mapping[str, Any]) -> pd.DataFrame:
     for col, val in where.items():
         if col not in df.columns:
-            raise KeyError(f"'where' names column '{col}' which the metric does not give "
-                           f"(it gives: {', '.join(map(str, df.columns))})")
+            raise KeyError(
+                f"'where' names column '{col}' which the metric does not give "
+                f"(it gives: {', '.join(map(str, df.columns))})"
+            )
         df = df[df[col] == val]
     return df
 
@@ -141,8 +145,11 @@ def _order(df: pd.DataFrame, stat: str | None, sort: str | None, hi: float | Non
         return df
     key = df[col].abs() if stat is None or col != stat else df[col]
     asc = stat == col and hi is None
-    return df.assign(_k=key.to_numpy()).sort_values("_k", ascending=asc, kind="stable").drop(
-        columns="_k")
+    return (
+        df.assign(_k=key.to_numpy())
+        .sort_values("_k", ascending=asc, kind="stable")
+        .drop(columns="_k")
+    )
 
 
 class Judge:
@@ -161,19 +168,36 @@ class Judge:
         if r.thresholds and group:
             key = next((str(v) for v in group.values() if str(v) in r.thresholds), None)
             if key is None:
-                raise ValueError(f"rule {r.id} gives no threshold for {group} "
-                                 f"(thresholds for: {', '.join(r.thresholds)})")
+                raise ValueError(
+                    f"rule {r.id} gives no threshold for {group} "
+                    f"(thresholds for: {', '.join(r.thresholds)})"
+                )
             self.th = r.thresholds[key]
         self.lo, self.hi = bounds(self.th, self.ctx.constants) if self.th else (None, None)
 
-    def result(self, group: dict[str, Any], status: str, value: Any, detail: dict[str, Any],
-               evidence: list[dict[str, Any]] | None = None) -> dict[str, Any]:
+    def result(
+        self,
+        group: dict[str, Any],
+        status: str,
+        value: Any,
+        detail: dict[str, Any],
+        evidence: list[dict[str, Any]] | None = None,
+    ) -> dict[str, Any]:
         r = self.rule
-        return {"rule": r.id, "title": r.title, "clause": r.clause, "group": group,
-                "status": status, "value": jsonable(value),
-                **jsonable(_threshold_fields(self.th, self.lo, self.hi)),
-                "unit": r.unit, "severity": r.severity, "detail": jsonable(detail),
-                "evidence": jsonable(evidence or [])}
+        return {
+            "rule": r.id,
+            "title": r.title,
+            "clause": r.clause,
+            "group": group,
+            "status": status,
+            "statistic": r.statistic,
+            "value": jsonable(value),
+            **jsonable(_threshold_fields(self.th, self.lo, self.hi)),
+            "unit": r.unit,
+            "severity": r.severity,
+            "detail": jsonable(detail),
+            "evidence": jsonable(evidence or []),
+        }
 
     def run(self) -> list[dict[str, Any]]:
         r = self.rule
@@ -191,8 +215,11 @@ class Judge:
             group = {**fixed, **group}
             self.bind(group)
             if sub.empty:
-                out.append(self.result(group, "not_applicable", None,
-                                       {"reason": "nothing measured for this group"}))
+                out.append(
+                    self.result(
+                        group, "not_applicable", None, {"reason": "nothing measured for this group"}
+                    )
+                )
             elif table.keys:
                 out.append(self._units(group, sub, table))
             else:
@@ -235,8 +262,9 @@ class Judge:
         detail: dict[str, Any] = {"n_units": int(len(sub)), "n_offending": int((~ok).sum())}
         if exempt.any():
             ex = sub[exempt]
-            detail["exempt"] = records(ex[table.keys + (["exempt_reason"] if "exempt_reason" in ex
-                                                        else [])])
+            detail["exempt"] = records(
+                ex[table.keys + (["exempt_reason"] if "exempt_reason" in ex else [])]
+            )
         if waived.any():
             detail["waived"] = labels[waived].tolist()
             detail["waiver_reason"] = self.waiver.reason
@@ -244,15 +272,17 @@ class Judge:
         if judged.empty:
             detail["reason"] = "every unit is exempt"
             return self.result(group, "not_applicable", None, detail)
-        status = (_severity_status(r) if failing.any() else
-                  "waived" if waived.any() else "pass")
+        status = _severity_status(r) if failing.any() else "waived" if waived.any() else "pass"
         value = worst(judged[r.statistic], ok, self.th, self.hi)
         evidence = []
         if status != "pass":
             bad = _order(judged[~ok], r.statistic, table.sort, self.hi)
             bad = _filter(bad, r.evidence_where)
-            evidence = records(bad.head(r.evidence_limit).drop(
-                columns=[c for c in ("exempt", "exempt_reason") if c in bad], errors="ignore"))
+            evidence = records(
+                bad.head(r.evidence_limit).drop(
+                    columns=[c for c in ("exempt", "exempt_reason") if c in bad], errors="ignore"
+                )
+            )
             if len(bad) > r.evidence_limit:
                 detail["evidence_truncated"] = int(len(bad) - r.evidence_limit)
         return self.result(group, status, value, detail, evidence)
@@ -283,8 +313,9 @@ class Judge:
         for col, val in group.items():
             if col in df.columns:
                 df = df[df[col] == val]
-        df = _filter(df, {**{k: v for k, v in r.where.items() if k in df.columns},
-                          **r.evidence_where})
+        df = _filter(
+            df, {**{k: v for k, v in r.where.items() if k in df.columns}, **r.evidence_where}
+        )
         if "exempt" in df.columns:
             df = df[~df["exempt"].to_numpy(dtype=bool)]
         if r.statistic in df.columns:
@@ -302,12 +333,17 @@ class Judge:
         if self.verdict is None:
             return self.result({}, "manual", None, {"reason": "awaiting the inspector's verdict"})
         status = "pass" if self.verdict.status == "pass" else _severity_status(self.rule)
-        return self.result({}, status, self.verdict.status, {"note": self.verdict.note,
-                                                             "decided_by": "inspector"})
+        return self.result(
+            {}, status, self.verdict.status, {"note": self.verdict.note, "decided_by": "inspector"}
+        )
 
 
-def inspect_delivery(delivery: Delivery, pack: Pack, block_input: BlockInput | None = None,
-                     inspector: str | None = None) -> dict[str, Any]:
+def inspect_delivery(
+    delivery: Delivery,
+    pack: Pack,
+    block_input: BlockInput | None = None,
+    inspector: str | None = None,
+) -> dict[str, Any]:
     """Judge every rule of the pack on one delivery; the results document of contract v1."""
     block_input = block_input or BlockInput()
     ctx = Context(delivery, names_for(delivery, pack))
@@ -348,9 +384,23 @@ def _measurements(ctx: Context) -> dict[str, Any]:
     """Small tables and details of every metric measured, for reports and plots."""
     d = ctx.delivery
     out: dict[str, Any] = {
-        "scenes": records(d.scenes[[c for c in ("scene_id", "band", "acquired", "lines",
-                                                "samples", "footprint_wkt", "water_fraction")
-                                    if c in d.scenes]]),
+        "scenes": records(
+            d.scenes[
+                [
+                    c
+                    for c in (
+                        "scene_id",
+                        "band",
+                        "acquired",
+                        "lines",
+                        "samples",
+                        "footprint_wkt",
+                        "water_fraction",
+                    )
+                    if c in d.scenes
+                ]
+            ]
+        ),
     }
     for (name, _), m in ctx.cache.items():
         if m.not_applicable or name in out:

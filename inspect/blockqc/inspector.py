@@ -57,8 +57,9 @@ class InspectorInput(BaseModel):
 
     def for_block(self, block_id: str) -> BlockInput:
         own = self.blocks.get(block_id, BlockInput())
-        return BlockInput(verdicts={**self.verdicts, **own.verdicts},
-                          waivers={**self.waivers, **own.waivers})
+        return BlockInput(
+            verdicts={**self.verdicts, **own.verdicts}, waivers={**self.waivers, **own.waivers}
+        )
 
 
 def load_inspector_input(path: Path) -> InspectorInput:
@@ -66,8 +67,9 @@ def load_inspector_input(path: Path) -> InspectorInput:
     if data is None:
         return InspectorInput()
     if not isinstance(data, dict):
-        raise InputError(Problem(str(path), "expected a mapping (inspector, verdicts, waivers)",
-                                 line=1))
+        raise InputError(
+            Problem(str(path), "expected a mapping (inspector, verdicts, waivers)", line=1)
+        )
     try:
         return InspectorInput.model_validate(data)
     except ValidationError as exc:

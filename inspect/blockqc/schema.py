@@ -171,13 +171,19 @@ def report_rows(
     for i in rows[:MAX_ROWS_LISTED]:
         got = f", got {_show(values.iloc[i])}" if values is not None else ""
         problems.append(
-            Problem(file, f"{message}{got}", row=int(i) + 1, line=int(i) + 2 if csv else None,
-                    column=column)
+            Problem(
+                file,
+                f"{message}{got}",
+                row=int(i) + 1,
+                line=int(i) + 2 if csv else None,
+                column=column,
+            )
         )
     if len(rows) > MAX_ROWS_LISTED:
         problems.append(
-            Problem(file, f"{message}: {len(rows) - MAX_ROWS_LISTED} more rows like this",
-                    column=column)
+            Problem(
+                file, f"{message}: {len(rows) - MAX_ROWS_LISTED} more rows like this", column=column
+            )
         )
 
 
@@ -205,15 +211,19 @@ def validate_table(
         if col.name not in df.columns:
             if col.required:
                 problems.append(
-                    Problem(file, f"missing column '{col.name}' (expected a {col.kind} column; "
-                                  f"columns found: {', '.join(map(str, df.columns))})")
+                    Problem(
+                        file,
+                        f"missing column '{col.name}' (expected a {col.kind} column; "
+                        f"columns found: {', '.join(map(str, df.columns))})",
+                    )
                 )
             continue
         raw = df[col.name]
         blank = _blank(raw)
         if not col.nullable:
-            report_rows(problems, file, col.name, blank, "empty value where one is required",
-                    None, csv)
+            report_rows(
+                problems, file, col.name, blank, "empty value where one is required", None, csv
+            )
         conv, bad = _convert(raw, col, blank)
         if bad is not None:
             report_rows(problems, file, col.name, bad, _expected(col), raw, csv)
@@ -221,14 +231,35 @@ def validate_table(
         if col.kind in ("float", "int"):
             vals = conv.to_numpy(dtype=float, na_value=np.nan)
             if col.min is not None:
-                report_rows(problems, file, col.name, ok & (vals < col.min),
-                        f"value below the allowed minimum {col.min:g}", raw, csv)
+                report_rows(
+                    problems,
+                    file,
+                    col.name,
+                    ok & (vals < col.min),
+                    f"value below the allowed minimum {col.min:g}",
+                    raw,
+                    csv,
+                )
             if col.max is not None:
-                report_rows(problems, file, col.name, ok & (vals > col.max),
-                        f"value above the allowed maximum {col.max:g}", raw, csv)
+                report_rows(
+                    problems,
+                    file,
+                    col.name,
+                    ok & (vals > col.max),
+                    f"value above the allowed maximum {col.max:g}",
+                    raw,
+                    csv,
+                )
             if col.kind == "float":
-                report_rows(problems, file, col.name, ok & ~np.isfinite(np.nan_to_num(vals, nan=0.0)),
-                        "value is not finite", raw, csv)
+                report_rows(
+                    problems,
+                    file,
+                    col.name,
+                    ok & ~np.isfinite(np.nan_to_num(vals, nan=0.0)),
+                    "value is not finite",
+                    raw,
+                    csv,
+                )
         out[col.name] = conv
     extra = [c for c in df.columns if c not in out and c not in {x.name for x in schema.columns}]
     for c in extra:  # extra columns are kept, untouched
@@ -239,9 +270,15 @@ def validate_table(
         dup = table.duplicated(list(schema.unique), keep=False).to_numpy()
         if dup.any():
             key = ", ".join(schema.unique)
-            report_rows(problems, file, schema.unique[0] if len(schema.unique) == 1 else None, dup,
-                    f"duplicated key ({key})",
-                    table[list(schema.unique)].astype(str).agg("/".join, axis=1), csv)
+            report_rows(
+                problems,
+                file,
+                schema.unique[0] if len(schema.unique) == 1 else None,
+                dup,
+                f"duplicated key ({key})",
+                table[list(schema.unique)].astype(str).agg("/".join, axis=1),
+                csv,
+            )
     return table, problems
 
 
@@ -289,7 +326,9 @@ def _convert(raw: pd.Series, col: Column, blank: np.ndarray) -> tuple[pd.Series,
         bad = ~blank & ~poly
         bounds = shapely.bounds(geoms)
         inside = (
-            (bounds[:, 0] >= -180) & (bounds[:, 2] <= 180) & (bounds[:, 1] >= -90)
+            (bounds[:, 0] >= -180)
+            & (bounds[:, 2] <= 180)
+            & (bounds[:, 1] >= -90)
             & (bounds[:, 3] <= 90)
         )
         bad = bad | (~blank & poly & ~np.nan_to_num(inside, nan=0).astype(bool))

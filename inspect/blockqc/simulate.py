@@ -74,30 +74,70 @@ class FieldSpec:
 
 # Published results (DOMAIN.md §CP, four test fields).
 FIELDS = {
-    1: FieldSpec(1, 40.04, 39.62, 29.64, "srtm_40E39N_demcompare.tif", (
-        CheckSet("high_precision", "plane", 36, 3.33, 8.94, 0),
-        CheckSet("high_precision", "height", 36, 2.69, 7.39, 0),
-    ), (3,) * 12, True),
-    2: FieldSpec(2, 5.10, 44.55, 51.73, "srtm_N44E005.tif", (
-        CheckSet("high_precision", "plane", 30, 6.22, 17.67, 1),
-        CheckSet("same_accuracy", "height", 30, 1.92, 6.78, 0),
-        CheckSet("recalculation", "plane", 30, 5.28, 14.44, 1),
-        CheckSet("recalculation", "height", 30, 2.84, 9.36, 0),
-    ), (3,) * 10, False),
-    3: FieldSpec(3, 40.04, 39.22, 29.64, "srtm_40E39N_demcompare.tif", (
-        CheckSet("high_precision", "plane", 8, 15.7, 18.25, 3),
-        CheckSet("same_accuracy", "plane", 23, 7.14, 16.85, 2),
-        CheckSet("same_accuracy", "height", 24, 2.94, 11.21, 2),
-    ), (3, 3, 2), False, frozenset({"overlap-shift"})),
-    4: FieldSpec(4, 5.10, 44.10, 51.73, "srtm_N44E005.tif", (
-        CheckSet("same_accuracy", "plane", 25, 2.26, 5.57, 0),
-        CheckSet("same_accuracy", "height", 25, 3.09, 11.96, 0),
-    ), (), False),
+    1: FieldSpec(
+        1,
+        40.04,
+        39.62,
+        29.64,
+        "srtm_40E39N_demcompare.tif",
+        (
+            CheckSet("high_precision", "plane", 36, 3.33, 8.94, 0),
+            CheckSet("high_precision", "height", 36, 2.69, 7.39, 0),
+        ),
+        (3,) * 12,
+        True,
+    ),
+    2: FieldSpec(
+        2,
+        5.10,
+        44.55,
+        51.73,
+        "srtm_N44E005.tif",
+        (
+            CheckSet("high_precision", "plane", 30, 6.22, 17.67, 1),
+            CheckSet("same_accuracy", "height", 30, 1.92, 6.78, 0),
+            CheckSet("recalculation", "plane", 30, 5.28, 14.44, 1),
+            CheckSet("recalculation", "height", 30, 2.84, 9.36, 0),
+        ),
+        (3,) * 10,
+        False,
+    ),
+    3: FieldSpec(
+        3,
+        40.04,
+        39.22,
+        29.64,
+        "srtm_40E39N_demcompare.tif",
+        (
+            CheckSet("high_precision", "plane", 8, 15.7, 18.25, 3),
+            CheckSet("same_accuracy", "plane", 23, 7.14, 16.85, 2),
+            CheckSet("same_accuracy", "height", 24, 2.94, 11.21, 2),
+        ),
+        (3, 3, 2),
+        False,
+        frozenset({"overlap-shift"}),
+    ),
+    4: FieldSpec(
+        4,
+        5.10,
+        44.10,
+        51.73,
+        "srtm_N44E005.tif",
+        (
+            CheckSet("same_accuracy", "plane", 25, 2.26, 5.57, 0),
+            CheckSet("same_accuracy", "height", 25, 3.09, 11.96, 0),
+        ),
+        (),
+        False,
+    ),
 }
 
 NORM = {"plane": 10.0, "height": 6.0}
-FACTOR = {"high_precision": 2.0, "same_accuracy": 2 * math.sqrt(2),
-          "recalculation": 2 * math.sqrt(2)}
+FACTOR = {
+    "high_precision": 2.0,
+    "same_accuracy": 2 * math.sqrt(2),
+    "recalculation": 2 * math.sqrt(2),
+}
 DIVISOR = {"high_precision": 1.0, "same_accuracy": 2.0, "recalculation": 2.0}
 
 
@@ -143,8 +183,9 @@ def _wkt(corners: np.ndarray) -> str:
     return "POLYGON((" + ", ".join(f"{x:.6f} {y:.6f}" for x, y in ring) + "))"
 
 
-def _image_coords(corners: np.ndarray, lon: np.ndarray, lat: np.ndarray, lines: int,
-                  samples: int) -> tuple[np.ndarray, np.ndarray]:
+def _image_coords(
+    corners: np.ndarray, lon: np.ndarray, lat: np.ndarray, lines: int, samples: int
+) -> tuple[np.ndarray, np.ndarray]:
     """Invert the parallelogram footprint: lon/lat → (line, sample)."""
     o = corners[0]
     e_s = (corners[1] - o) / samples
@@ -179,22 +220,29 @@ def _errors_with_stats(rng: np.random.Generator, cs: CheckSet) -> np.ndarray:
 class _Block:
     """Builds one block's tables."""
 
-    def __init__(self, spec: FieldSpec, index: int, opts: Options, rng: np.random.Generator,
-                 faults: frozenset[str]):
+    def __init__(
+        self,
+        spec: FieldSpec,
+        index: int,
+        opts: Options,
+        rng: np.random.Generator,
+        faults: frozenset[str],
+    ):
         self.spec, self.index, self.opts, self.rng, self.faults = spec, index, opts, rng, faults
         self.lay = opts.layout
         w, _ = self.lay.extent_deg
         self.block_id = f"F{spec.number}-B{index + 1:02d}"
         self.lon0 = spec.lon0 + index * (w - self.lay.size_deg * self.lay.overlap) / math.cos(
-            math.radians(spec.lat0))
+            math.radians(spec.lat0)
+        )
         self.lat0 = spec.lat0
 
     def scenes(self) -> pd.DataFrame:
-        lay, rng = self.lay, self.rng
+        lay = self.lay
         step = lay.size_deg * (1 - lay.overlap)
         k = 1.0 / math.cos(math.radians(self.lat0))
         size_m = lay.size_deg * 111_320.0
-        lines = samples = int(round(size_m / lay.gsd_pan))
+        lines = int(round(size_m / lay.gsd_pan))
         rows = []
         base = np.datetime64("2021-03-02") + np.int64(self.spec.number * 40)
         for c in range(lay.cols):  # one orbit per column
@@ -202,15 +250,29 @@ class _Block:
             for r in range(lay.rows):
                 lon_c = self.lon0 + (lay.size_deg / 2 + c * step) * k
                 lat_c = self.lat0 + lay.size_deg / 2 + r * step
-                corners = _affine_corners(lon_c, lat_c, lay.size_deg, lay.size_deg,
-                                          lay.rotation_deg)
+                corners = _affine_corners(
+                    lon_c, lat_c, lay.size_deg, lay.size_deg, lay.rotation_deg
+                )
                 fp = f"{self.spec.number}{self.index + 1:02d}{c:02d}{r:02d}"
-                for view, band, n in (("F", "pan", lines), ("B", "pan", lines),
-                                      ("M", "ms", int(round(lines * lay.gsd_pan / lay.gsd_ms)))):
-                    rows.append({"scene_id": f"GF7-{fp}-{view}", "band": band,
-                                 "acquired": str(date), "lines": n, "samples": n,
-                                 "footprint_wkt": _wkt(corners), "water_fraction": 0.0,
-                                 "_corners": corners, "_col": c, "_row": r})
+                for view, band, n in (
+                    ("F", "pan", lines),
+                    ("B", "pan", lines),
+                    ("M", "ms", int(round(lines * lay.gsd_pan / lay.gsd_ms))),
+                ):
+                    rows.append(
+                        {
+                            "scene_id": f"GF7-{fp}-{view}",
+                            "band": band,
+                            "acquired": str(date),
+                            "lines": n,
+                            "samples": n,
+                            "footprint_wkt": _wkt(corners),
+                            "water_fraction": 0.0,
+                            "_corners": corners,
+                            "_col": c,
+                            "_row": r,
+                        }
+                    )
         df = pd.DataFrame(rows)
         if "sea-scene" in self.faults:
             df.loc[df.index[3], "water_fraction"] = 0.82
@@ -231,8 +293,17 @@ class _Block:
             line, sample = _image_coords(sc["_corners"], lon, lat, sc["lines"], sc["samples"])
             inside = (line >= 0) & (line < sc["lines"]) & (sample >= 0) & (sample < sc["samples"])
             idx = np.flatnonzero(inside)
-            parts.append(pd.DataFrame({"gp": idx, "scene_id": sc["scene_id"], "scene_no": i,
-                                       "line": line[idx], "sample": sample[idx]}))
+            parts.append(
+                pd.DataFrame(
+                    {
+                        "gp": idx,
+                        "scene_id": sc["scene_id"],
+                        "scene_no": i,
+                        "line": line[idx],
+                        "sample": sample[idx],
+                    }
+                )
+            )
         obs = pd.concat(parts, ignore_index=True)
         seen = obs.groupby("gp")["scene_id"].transform("size")
         obs = obs[seen >= 2].reset_index(drop=True)
@@ -246,8 +317,9 @@ class _Block:
             bad = rng.choice(len(obs), 4, replace=False)
             v[bad] = rng.uniform(1.3, 1.6, (4, 2))
         obs["v_line"], obs["v_sample"] = v[:, 0].round(4), v[:, 1].round(4)
-        obs["point_id"] = (f"T{self.spec.number}{self.index + 1:02d}-"
-                           + obs["gp"].astype(str).str.zfill(6))
+        obs["point_id"] = f"T{self.spec.number}{self.index + 1:02d}-" + obs["gp"].astype(
+            str
+        ).str.zfill(6)
         obs["lon"], obs["lat"] = lon[obs["gp"]].round(7), lat[obs["gp"]].round(7)
         obs["line"], obs["sample"] = obs["line"].round(2), obs["sample"].round(2)
         return obs[["point_id", "scene_id", "line", "sample", "v_line", "v_sample", "lon", "lat"]]
@@ -280,16 +352,26 @@ class _Block:
         d = rng.normal(0.3, 0.8, (len(pan_id), 2))
         if "pan-ms-shift" in self.faults:
             d[:n] += 1.5 * self.lay.gsd_ms
-        return pd.DataFrame({"pan_scene_id": pan_id, "ms_scene_id": ms_id,
-                             "point_id": [f"R{i:05d}" for i in range(len(pan_id))],
-                             "dx_m": d[:, 0].round(3), "dy_m": d[:, 1].round(3)})
+        return pd.DataFrame(
+            {
+                "pan_scene_id": pan_id,
+                "ms_scene_id": ms_id,
+                "point_id": [f"R{i:05d}" for i in range(len(pan_id))],
+                "dx_m": d[:, 0].round(3),
+                "dy_m": d[:, 1].round(3),
+            }
+        )
 
     def overlaps(self, scenes: pd.DataFrame) -> pd.DataFrame:
         """Adjacent footprints (grid neighbours), backward PAN views, 20 points a pair."""
         rng = self.rng
         b = scenes[scenes["scene_id"].str.endswith("-B")].set_index(["_col", "_row"])["scene_id"]
-        pairs = [(b[(c, r)], b[(c + dc, r + dr)]) for (c, r) in b.index
-                 for dc, dr in ((1, 0), (0, 1)) if (c + dc, r + dr) in b.index]
+        pairs = [
+            (b[(c, r)], b[(c + dc, r + dr)])
+            for (c, r) in b.index
+            for dc, dr in ((1, 0), (0, 1))
+            if (c + dc, r + dr) in b.index
+        ]
         n = 20
         a, bb = np.repeat([p[0] for p in pairs], n), np.repeat([p[1] for p in pairs], n)
         d = rng.normal(0.0, 4.0, (len(a), 3))
@@ -300,10 +382,16 @@ class _Block:
                 sl = slice(p * n, p * n + 8)
                 d[sl, 0] += rng.uniform(24, 30, 8)
                 d[sl, 1] += rng.uniform(8, 14, 8)
-        return pd.DataFrame({"scene_a": a, "scene_b": bb,
-                             "point_id": [f"O{i:05d}" for i in range(len(a))],
-                             "dx_m": d[:, 0].round(3), "dy_m": d[:, 1].round(3),
-                             "dz_m": d[:, 2].round(3)})
+        return pd.DataFrame(
+            {
+                "scene_a": a,
+                "scene_b": bb,
+                "point_id": [f"O{i:05d}" for i in range(len(a))],
+                "dx_m": d[:, 0].round(3),
+                "dy_m": d[:, 1].round(3),
+                "dz_m": d[:, 2].round(3),
+            }
+        )
 
     def edges(self, neighbours: list[str]) -> pd.DataFrame | None:
         if not neighbours:
@@ -315,10 +403,17 @@ class _Block:
             d[:, 2] = np.clip(d[:, 2], -9, 9)
             if "edge-shift" in self.faults:
                 d[:3, 0] += 22
-            rows.append(pd.DataFrame({"neighbour_block": nb,
-                                      "point_id": [f"E{nb}-{i:03d}" for i in range(25)],
-                                      "dx_m": d[:, 0].round(3), "dy_m": d[:, 1].round(3),
-                                      "dz_m": d[:, 2].round(3)}))
+            rows.append(
+                pd.DataFrame(
+                    {
+                        "neighbour_block": nb,
+                        "point_id": [f"E{nb}-{i:03d}" for i in range(25)],
+                        "dx_m": d[:, 0].round(3),
+                        "dy_m": d[:, 1].round(3),
+                        "dz_m": d[:, 2].round(3),
+                    }
+                )
+            )
         return pd.concat(rows, ignore_index=True)
 
     def checkpoints(self, epsg: int, dem: Path) -> pd.DataFrame:
@@ -332,19 +427,34 @@ class _Block:
         x, y = Transformer.from_crs(4326, epsg, always_xy=True).transform(lon, lat)
         z = _sample_dem(dem, lon, lat) + spec.geoid_n
         ids = np.array([f"C{spec.number}{self.index + 1:02d}-{i:02d}" for i in range(n_points)])
-        refs = np.repeat([f"WV-{spec.number}-{i + 1:02d}" for i in range(len(spec.hp_references))],
-                         spec.hp_references)
+        refs = np.repeat(
+            [f"WV-{spec.number}-{i + 1:02d}" for i in range(len(spec.hp_references))],
+            spec.hp_references,
+        )
         frames: dict[str, pd.DataFrame] = {}
         for cs in spec.checks:
             err = rng.permutation(_errors_with_stats(rng, cs))
-            f = frames.setdefault(cs.method, pd.DataFrame({
-                "point_id": ids, "method": cs.method,
-                "reference_id": np.resize(refs, n_points) if cs.method == "high_precision"
-                and len(refs)
-                else {"same_accuracy": "GoogleEarth", "recalculation": "independent-BA"
-                      }.get(cs.method, "WV"),
-                "x_m": x.round(3), "y_m": y.round(3), "z_m": z.round(3),
-                "ref_x_m": np.nan, "ref_y_m": np.nan, "ref_z_m": np.nan}))
+            f = frames.setdefault(
+                cs.method,
+                pd.DataFrame(
+                    {
+                        "point_id": ids,
+                        "method": cs.method,
+                        "reference_id": np.resize(refs, n_points)
+                        if cs.method == "high_precision" and len(refs)
+                        else {
+                            "same_accuracy": "GoogleEarth",
+                            "recalculation": "independent-BA",
+                        }.get(cs.method, "WV"),
+                        "x_m": x.round(3),
+                        "y_m": y.round(3),
+                        "z_m": z.round(3),
+                        "ref_x_m": np.nan,
+                        "ref_y_m": np.nan,
+                        "ref_z_m": np.nan,
+                    }
+                ),
+            )
             sel = np.arange(cs.n)
             if cs.component == "plane":
                 theta = rng.uniform(0, 2 * np.pi, cs.n)
@@ -376,15 +486,21 @@ def _sample_dem(dem: Path, lon: np.ndarray, lat: np.ndarray) -> np.ndarray:
 
 def minimal_pdf(lines: Iterable[str]) -> bytes:
     """A small valid one-page PDF with the given lines of text (Helvetica)."""
-    text = "BT /F1 11 Tf 56 780 Td 14 TL " + " ".join(
-        "(" + s.replace("\\", "\\\\").replace("(", "\\(").replace(")", "\\)") + ") '"
-        for s in lines) + " ET"
+    text = (
+        "BT /F1 11 Tf 56 780 Td 14 TL "
+        + " ".join(
+            "(" + s.replace("\\", "\\\\").replace("(", "\\(").replace(")", "\\)") + ") '"
+            for s in lines
+        )
+        + " ET"
+    )
     objs = [
         b"<< /Type /Catalog /Pages 2 0 R >>",
         b"<< /Type /Pages /Kids [3 0 R] /Count 1 >>",
         b"<< /Type /Page /Parent 2 0 R /MediaBox [0 0 595 842] /Contents 4 0 R "
         b"/Resources << /Font << /F1 5 0 R >> >> >>",
-        b"<< /Length %d >>\nstream\n" % len(text) + text.encode("latin-1", "replace")
+        b"<< /Length %d >>\nstream\n" % len(text)
+        + text.encode("latin-1", "replace")
         + b"\nendstream",
         b"<< /Type /Font /Subtype /Type1 /BaseFont /Helvetica >>",
     ]
@@ -396,8 +512,7 @@ def minimal_pdf(lines: Iterable[str]) -> bytes:
     xref = len(out)
     out += b"xref\n0 %d\n0000000000 65535 f \n" % (len(objs) + 1)
     out += b"".join(b"%010d 00000 n \n" % o for o in offsets)
-    out += b"trailer\n<< /Size %d /Root 1 0 R >>\nstartxref\n%d\n%%%%EOF\n" % (len(objs) + 1,
-                                                                            xref)
+    out += b"trailer\n<< /Size %d /Root 1 0 R >>\nstartxref\n%d\n%%%%EOF\n" % (len(objs) + 1, xref)
     return bytes(out)
 
 
@@ -416,11 +531,16 @@ def write_block(out: Path, spec: FieldSpec, index: int, opts: Options, dem_dir: 
     zone = int((b.lon0 + b.lay.extent_deg[0] / 2 / math.cos(math.radians(b.lat0)) + 180) // 6) + 1
     epsg = 32600 + zone + (1 if "wrong-zone" in faults else 0)
     sampled = index == 0
-    neighbours = [f"F{spec.number}-B{j + 1:02d}" for j in (index - 1, index + 1)
-                  if 0 <= j < opts.blocks_per_field]
+    neighbours = [
+        f"F{spec.number}-B{j + 1:02d}"
+        for j in (index - 1, index + 1)
+        if 0 <= j < opts.blocks_per_field
+    ]
     err = np.hypot(tp["v_line"], tp["v_sample"])
-    reported = {"tie_point_error_px": round(float(err.median()), 2),
-                "tie_point_max_error_px": round(float(err.max()), 2)}
+    reported = {
+        "tie_point_error_px": round(float(err.median()), 2),
+        "tie_point_max_error_px": round(float(err.max()), 2),
+    }
     if "misreported" in faults:
         reported["tie_point_error_px"] = round(float(err.median()) * 0.7, 2)
     docs = dict(DOCUMENTS)
@@ -428,10 +548,12 @@ def write_block(out: Path, spec: FieldSpec, index: int, opts: Options, dem_dir: 
         "block_id": b.block_id,
         "sensor": "GF-7",
         "gsd_m": {"pan": b.lay.gsd_pan, "ms": b.lay.gsd_ms},
-        "spatial_reference": {"geodetic_datum": "WGS84",
-                              "height_datum": "EGM96" if "geoid-heights" in faults
-                              else "ellipsoidal",
-                              "projection": "UTM", "epsg": epsg},
+        "spatial_reference": {
+            "geodetic_datum": "WGS84",
+            "height_datum": "EGM96" if "geoid-heights" in faults else "ellipsoidal",
+            "projection": "UTM",
+            "epsg": epsg,
+        },
         "documents": docs,
         "reported": reported,
         "test_field": spec.number,
@@ -446,8 +568,9 @@ def write_block(out: Path, spec: FieldSpec, index: int, opts: Options, dem_dir: 
             reported["checkpoint_plane_medium_error_m"] = plane[0].medium
         if height:
             reported["checkpoint_height_medium_error_m"] = height[0].medium
-    write_text_atomic(folder / "block.yaml", yaml.safe_dump(manifest, sort_keys=False,
-                                                            allow_unicode=True))
+    write_text_atomic(
+        folder / "block.yaml", yaml.safe_dump(manifest, sort_keys=False, allow_unicode=True)
+    )
     _write_csv(folder / "scenes.csv", scenes[[c for c in scenes if not c.startswith("_")]])
     _write_csv(folder / "tie_points.csv", tp)
     _write_csv(folder / "pan_ms.csv", b.pan_ms(scenes))
@@ -458,11 +581,16 @@ def write_block(out: Path, spec: FieldSpec, index: int, opts: Options, dem_dir: 
     for kind, rel in docs.items():
         if kind == "absolute_orientation_report" and "missing-document" in faults:
             continue
-        write_bytes_atomic(folder / rel, minimal_pdf([
-            f"{kind.replace('_', ' ').title()} - block {b.block_id}",
-            "GF-7 regional block adjustment without ground control points",
-            f"Test field {spec.number}, sample delivery generated by blockqc simulate",
-        ]))
+        write_bytes_atomic(
+            folder / rel,
+            minimal_pdf(
+                [
+                    f"{kind.replace('_', ' ').title()} - block {b.block_id}",
+                    "GF-7 regional block adjustment without ground control points",
+                    f"Test field {spec.number}, sample delivery generated by blockqc simulate",
+                ]
+            ),
+        )
     return b.block_id
 
 
@@ -481,8 +609,11 @@ def simulate(out: Path, opts: Options, dem_dir: Path | None = None) -> list[str]
     dem_dir = dem_dir or default_dem_dir()
     if not dem_dir.is_dir():
         raise UsageError(f"DEM folder {dem_dir} not found (give --dem-dir)")
-    return [write_block(out, FIELDS[f], i, opts, dem_dir)
-            for f in opts.fields for i in range(opts.blocks_per_field)]
+    return [
+        write_block(out, FIELDS[f], i, opts, dem_dir)
+        for f in opts.fields
+        for i in range(opts.blocks_per_field)
+    ]
 
 
 __all__ = ["FAULTS", "FIELDS", "Layout", "Options", "simulate", "replace"]

@@ -38,12 +38,16 @@ def _mapping(loader: _Loader, node: yaml.MappingNode) -> LineDict:
         key = loader.construct_object(key_node, deep=True)
         if not isinstance(key, (str, int, float, bool)) and key is not None:
             raise yaml.constructor.ConstructorError(
-                None, None, f"a mapping key must be a plain value, got {type(key).__name__}",
+                None,
+                None,
+                f"a mapping key must be a plain value, got {type(key).__name__}",
                 key_node.start_mark,
             )
         if key in out:
             raise yaml.constructor.ConstructorError(
-                None, None, f"duplicate key '{key}' (first on line {out.key_lines[key]})",
+                None,
+                None,
+                f"duplicate key '{key}' (first on line {out.key_lines[key]})",
                 key_node.start_mark,
             )
         out[key] = loader.construct_object(value_node, deep=True)

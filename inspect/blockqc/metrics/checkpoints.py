@@ -21,11 +21,17 @@ class AccuracyParams(BaseModel):
     plane_norm_m: float = Field(default=10.0, gt=0)  # §CP-N
     height_norm_m: float = Field(default=6.0, gt=0)
     # gross-error bound = factor·norm, inclusive (§CP-4)
-    tolerance_factor: dict[Method, float] = Field(default_factory=lambda: {
-        "high_precision": 2.0, "same_accuracy": 2 * math.sqrt(2), "recalculation": 2 * math.sqrt(2)})
+    tolerance_factor: dict[Method, float] = Field(
+        default_factory=lambda: {
+            "high_precision": 2.0,
+            "same_accuracy": 2 * math.sqrt(2),
+            "recalculation": 2 * math.sqrt(2),
+        }
+    )
     # M = ±√(ΣΔ² / (divisor·n)): M1 with 1, M2 with 2 (§CP-5)
-    divisor: dict[Method, float] = Field(default_factory=lambda: {
-        "high_precision": 1.0, "same_accuracy": 2.0, "recalculation": 2.0})
+    divisor: dict[Method, float] = Field(
+        default_factory=lambda: {"high_precision": 1.0, "same_accuracy": 2.0, "recalculation": 2.0}
+    )
     # below this many checkpoints the mean error replaces the medium error (§CP-7)
     min_points_for_medium_error: int = Field(default=20, ge=1)
     # Reading of §CP-7's "fewer than 20 checkpoints": all of the method's points (N), gross included
@@ -52,12 +58,22 @@ def checkpoint_errors(cp: pd.DataFrame) -> pd.DataFrame:
     out = pd.concat([plane, height], ignore_index=True)
     out = out[np.isfinite(out["error_m"].to_numpy())].reset_index(drop=True)
     out["abs_error_m"] = out["error_m"].abs()
-    return out[["component", "method", "point_id", "reference_id", "dx_m", "dy_m", "dz_m",
-                "error_m", "abs_error_m"]]
+    return out[
+        [
+            "component",
+            "method",
+            "point_id",
+            "reference_id",
+            "dx_m",
+            "dy_m",
+            "dz_m",
+            "error_m",
+            "abs_error_m",
+        ]
+    ]
 
 
-def accuracy_by_group(points: pd.DataFrame, p: AccuracyParams) -> tuple[pd.DataFrame,
-                                                                          pd.DataFrame]:
+def accuracy_by_group(points: pd.DataFrame, p: AccuracyParams) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Gross errors (§CP-4), medium or mean error (§CP-5, §CP-7), max error, gross rate (§CP-6)."""
     norm = np.where(points["component"] == "plane", p.plane_norm_m, p.height_norm_m)
     factor = points["method"].map(p.tolerance_factor).to_numpy(dtype=float)
@@ -66,21 +82,27 @@ def accuracy_by_group(points: pd.DataFrame, p: AccuracyParams) -> tuple[pd.DataF
     gross = points["abs_error_m"].to_numpy() > bound + p.bound_tolerance_m
     points = points.assign(bound_m=bound, gross=gross)
 
-    kept = points.assign(sq=np.where(gross, 0.0, points["abs_error_m"] ** 2),
-                         ab=np.where(gross, 0.0, points["abs_error_m"]),
-                         mx=np.where(gross, np.nan, points["abs_error_m"]),
-                         keep=~gross, divisor=divisor, norm_m=norm)
+    kept = points.assign(
+        sq=np.where(gross, 0.0, points["abs_error_m"] ** 2),
+        ab=np.where(gross, 0.0, points["abs_error_m"]),
+        mx=np.where(gross, np.nan, points["abs_error_m"]),
+        keep=~gross,
+        divisor=divisor,
+        norm_m=norm,
+    )
     g = kept.groupby(["component", "method"], sort=False)
-    out = pd.DataFrame({
-        "n_total": g.size(),
-        "n": g["keep"].sum(),
-        "sum_sq": g["sq"].sum(),
-        "sum_abs": g["ab"].sum(),
-        "max_error": g["mx"].max(),
-        "divisor": g["divisor"].first(),
-        "norm_m": g["norm_m"].first(),
-        "bound_m": g["bound_m"].first(),
-    }).reset_index()
+    out = pd.DataFrame(
+        {
+            "n_total": g.size(),
+            "n": g["keep"].sum(),
+            "sum_sq": g["sq"].sum(),
+            "sum_abs": g["ab"].sum(),
+            "max_error": g["mx"].max(),
+            "divisor": g["divisor"].first(),
+            "norm_m": g["norm_m"].first(),
+            "bound_m": g["bound_m"].first(),
+        }
+    ).reset_index()
     out["n_gross"] = out["n_total"] - out["n"]
     out["gross_rate"] = 100.0 * out["n_gross"] / out["n_total"]
     counted = out["n_total"] if p.count_for_mean == "all" else out["n"]
@@ -92,10 +114,23 @@ def accuracy_by_group(points: pd.DataFrame, p: AccuracyParams) -> tuple[pd.DataF
     label = np.where(out["divisor"] == 1.0, "M1", np.where(out["divisor"] == 2.0, "M2", "M"))
     out["statistic"] = np.where(out["used_mean"], "mean", label)
     order = {m: i for i, m in enumerate(METHODS)}
-    out = out.sort_values(["component", "method"], key=lambda s: s.map(
-        {"plane": 0, "height": 1} | order)).reset_index(drop=True)
-    cols = ["component", "method", "n_total", "n", "n_gross", "gross_rate", "medium_error",
-            "statistic", "used_mean", "max_error", "norm_m", "bound_m"]
+    out = out.sort_values(
+        ["component", "method"], key=lambda s: s.map({"plane": 0, "height": 1} | order)
+    ).reset_index(drop=True)
+    cols = [
+        "component",
+        "method",
+        "n_total",
+        "n",
+        "n_gross",
+        "gross_rate",
+        "medium_error",
+        "statistic",
+        "used_mean",
+        "max_error",
+        "norm_m",
+        "bound_m",
+    ]
     return out[cols], points
 
 
@@ -106,13 +141,15 @@ def method_agreement(groups: pd.DataFrame) -> list[dict]:
         if len(g) < 2:
             continue
         within = (g["medium_error"] <= g["norm_m"]).tolist()
-        out.append({
-            "component": component,
-            "methods": g["method"].tolist(),
-            "medium_error": [round(float(v), 3) for v in g["medium_error"]],
-            "spread_m": round(float(g["medium_error"].max() - g["medium_error"].min()), 3),
-            "agree": len(set(within)) == 1,
-        })
+        out.append(
+            {
+                "component": component,
+                "methods": g["method"].tolist(),
+                "medium_error": [round(float(v), 3) for v in g["medium_error"]],
+                "spread_m": round(float(g["medium_error"].max() - g["medium_error"].min()), 3),
+                "agree": len(set(within)) == 1,
+            }
+        )
     return out
 
 
@@ -131,15 +168,21 @@ def checkpoint_accuracy(d: Delivery, p: AccuracyParams, measure: Measure) -> Mea
         return not_applicable("no checkpoints: the block was not sampled for detailed inspection")
     points = checkpoint_errors(d.checkpoints)
     groups, points = accuracy_by_group(points, p)
-    block = pd.DataFrame({"n_points": [d.checkpoints["point_id"].nunique()],
-                          "n_rows": [len(d.checkpoints)]})
+    block = pd.DataFrame(
+        {"n_points": [d.checkpoints["point_id"].nunique()], "n_rows": [len(d.checkpoints)]}
+    )
     present = groups[["component", "method"]].to_dict("records")
     return Measurement(
         tables={
             "block": Table(block),
             "component_method": Table(groups, group=["component", "method"]),
-            "point": Table(points, group=["component", "method"], keys=["point_id"],
-                           sort="abs_error_m", groups=present),
+            "point": Table(
+                points,
+                group=["component", "method"],
+                keys=["point_id"],
+                sort="abs_error_m",
+                groups=present,
+            ),
         },
         detail={"agreement": method_agreement(groups)},
     )
@@ -148,8 +191,10 @@ def checkpoint_accuracy(d: Delivery, p: AccuracyParams, measure: Measure) -> Mea
 @metric(
     "reference_coverage",
     params=CoverageParams,
-    scopes={"block": ("conforms", "n_reference_images", "min_points_per_reference"),
-            "reference": ("conforms", "n_points")},
+    scopes={
+        "block": ("conforms", "n_reference_images", "min_points_per_reference"),
+        "reference": ("conforms", "n_points"),
+    },
 )
 def reference_coverage(d: Delivery, p: CoverageParams, measure: Measure) -> Measurement:
     """High-precision references: > 7 images with 3 checkpoints each, else supplemented (§CP-2)."""
@@ -163,19 +208,26 @@ def reference_coverage(d: Delivery, p: CoverageParams, measure: Measure) -> Meas
     errors = checkpoint_errors(cp)
     checked = errors.groupby("method")["component"].unique()
     own = set(checked.get(p.method, []))
-    others = set().union(*[set(v) for m, v in checked.items() if m != p.method]) if len(
-        checked) > 1 else set()
+    others = (
+        set().union(*[set(v) for m, v in checked.items() if m != p.method])
+        if len(checked) > 1
+        else set()
+    )
     enough_images = len(per_ref) >= p.min_reference_images
     supplemented = own <= others
     conforms = bool(per_ref["conforms"].all() and (enough_images or supplemented))
-    block = pd.DataFrame({
-        "n_reference_images": [len(per_ref)],
-        "min_points_per_reference": [int(per_ref["n_points"].min())],
-        "enough_images": [enough_images],
-        "supplemented": [supplemented],
-        "conforms": [conforms],
-    })
-    return Measurement(tables={
-        "block": Table(block),
-        "reference": Table(per_ref, keys=["reference_id"], sort="n_points"),
-    })
+    block = pd.DataFrame(
+        {
+            "n_reference_images": [len(per_ref)],
+            "min_points_per_reference": [int(per_ref["n_points"].min())],
+            "enough_images": [enough_images],
+            "supplemented": [supplemented],
+            "conforms": [conforms],
+        }
+    )
+    return Measurement(
+        tables={
+            "block": Table(block),
+            "reference": Table(per_ref, keys=["reference_id"], sort="n_points"),
+        }
+    )

@@ -19,27 +19,34 @@ def plane_discrepancy(dx: np.ndarray, dy: np.ndarray) -> np.ndarray:
 
 def _long(df: pd.DataFrame, keys: list[str]) -> pd.DataFrame:
     """One row per point and component: plane √(dx²+dy²), height |dz| where dz is given."""
-    plane = df[keys].assign(component="plane",
-                            value_m=plane_discrepancy(df["dx_m"].to_numpy(), df["dy_m"].to_numpy()),
-                            dx_m=df["dx_m"].to_numpy(), dy_m=df["dy_m"].to_numpy())
+    plane = df[keys].assign(
+        component="plane",
+        value_m=plane_discrepancy(df["dx_m"].to_numpy(), df["dy_m"].to_numpy()),
+        dx_m=df["dx_m"].to_numpy(),
+        dy_m=df["dy_m"].to_numpy(),
+    )
     parts = [plane]
     if "dz_m" in df.columns:
         has = df["dz_m"].notna().to_numpy()
-        height = df.loc[has, keys].assign(component="height",
-                                          value_m=np.abs(df.loc[has, "dz_m"].to_numpy()),
-                                          dz_m=df.loc[has, "dz_m"].to_numpy())
+        height = df.loc[has, keys].assign(
+            component="height",
+            value_m=np.abs(df.loc[has, "dz_m"].to_numpy()),
+            dz_m=df.loc[has, "dz_m"].to_numpy(),
+        )
         parts.append(height)
     return pd.concat(parts, ignore_index=True)
 
 
 def _agg(long: pd.DataFrame, by: list[str]) -> pd.DataFrame:
     g = long.assign(v2=long["value_m"] ** 2).groupby(by, sort=False)
-    return pd.DataFrame({
-        "n": g["value_m"].size(),
-        "rms_m": np.sqrt(g["v2"].mean()),
-        "max_m": g["value_m"].max(),
-        "mean_m": g["value_m"].mean(),
-    }).reset_index()
+    return pd.DataFrame(
+        {
+            "n": g["value_m"].size(),
+            "rms_m": np.sqrt(g["v2"].mean()),
+            "max_m": g["value_m"].max(),
+            "mean_m": g["value_m"].mean(),
+        }
+    ).reset_index()
 
 
 def _measure(df: pd.DataFrame | None, unit: list[str], what: str) -> Measurement:
@@ -47,13 +54,21 @@ def _measure(df: pd.DataFrame | None, unit: list[str], what: str) -> Measurement
         return not_applicable(f"no {what} in the delivery")
     long = _long(df, unit + ["point_id"])
     groups = [{"component": c} for c in COMPONENTS]
-    return Measurement(tables={
-        "point": Table(long, group=["component"], keys=unit + ["point_id"], sort="value_m",
-                       groups=groups),
-        "pair": Table(_agg(long, ["component"] + unit), group=["component"], keys=unit,
-                      sort="rms_m", groups=groups),
-        "component": Table(_agg(long, ["component"]), group=["component"], groups=groups),
-    })
+    return Measurement(
+        tables={
+            "point": Table(
+                long, group=["component"], keys=unit + ["point_id"], sort="value_m", groups=groups
+            ),
+            "pair": Table(
+                _agg(long, ["component"] + unit),
+                group=["component"],
+                keys=unit,
+                sort="rms_m",
+                groups=groups,
+            ),
+            "component": Table(_agg(long, ["component"]), group=["component"], groups=groups),
+        }
+    )
 
 
 _SCOPES = {"point": ("value_m",), "pair": _STATS, "component": _STATS}
@@ -61,7 +76,7 @@ _SCOPES = {"point": ("value_m",), "pair": _STATS, "component": _STATS}
 
 @metric("overlap_discrepancy", scopes=_SCOPES)
 def overlap_discrepancy(d: Delivery, p: NoParams, measure: Measure) -> Measurement:
-    """Discrepancies between adjacent overlapping images of the block, per point and pair (§RO-3)."""
+    """Discrepancies between adjacent overlapping images, per point and pair (§RO-3)."""
     return _measure(d.overlaps, ["scene_a", "scene_b"], "overlaps table (overlaps.csv)")
 
 
@@ -71,16 +86,17 @@ def edge_discrepancy(d: Delivery, p: NoParams, measure: Measure) -> Measurement:
     return _measure(d.edges, ["neighbour_block"], "edges table (edges.csv)")
 
 
-@metric("pan_ms_discrepancy",
-        scopes={"point": ("value_m",), "pair": _STATS, "block": _STATS})
+@metric("pan_ms_discrepancy", scopes={"point": ("value_m",), "pair": _STATS, "block": _STATS})
 def pan_ms_discrepancy(d: Delivery, p: NoParams, measure: Measure) -> Measurement:
     """PAN–MS registration discrepancies, plane, per point, per scene pair and block (§RO-1)."""
     if d.pan_ms is None or d.pan_ms.empty:
         return not_applicable("no PAN–MS registration table (pan_ms.csv) in the delivery")
     unit = ["pan_scene_id", "ms_scene_id"]
     long = _long(d.pan_ms, unit + ["point_id"])
-    return Measurement(tables={
-        "point": Table(long, keys=unit + ["point_id"], sort="value_m"),
-        "pair": Table(_agg(long, unit), keys=unit, sort="rms_m"),
-        "block": Table(_agg(long.assign(all=0), ["all"]).drop(columns="all")),
-    })
+    return Measurement(
+        tables={
+            "point": Table(long, keys=unit + ["point_id"], sort="value_m"),
+            "pair": Table(_agg(long, unit), keys=unit, sort="rms_m"),
+            "block": Table(_agg(long.assign(all=0), ["all"]).drop(columns="all")),
+        }
+    )

@@ -10,12 +10,24 @@ from pydantic import BaseModel, ConfigDict, Field
 from blockqc.delivery import Delivery
 from blockqc.metrics import Measure, Measurement, Table, metric
 
-REQUIRED = ["technical_design", "inspection_report", "technical_summary",
-            "relative_orientation_report", "absolute_orientation_report"]
+REQUIRED = [
+    "technical_design",
+    "inspection_report",
+    "technical_summary",
+    "relative_orientation_report",
+    "absolute_orientation_report",
+]
 
 # the first bytes a readable file of each kind starts with
-_MAGIC = {".pdf": b"%PDF-", ".docx": b"PK", ".xlsx": b"PK", ".odt": b"PK", ".zip": b"PK",
-          ".doc": b"\xd0\xcf\x11\xe0", ".xls": b"\xd0\xcf\x11\xe0"}
+_MAGIC = {
+    ".pdf": b"%PDF-",
+    ".docx": b"PK",
+    ".xlsx": b"PK",
+    ".odt": b"PK",
+    ".zip": b"PK",
+    ".doc": b"\xd0\xcf\x11\xe0",
+    ".xls": b"\xd0\xcf\x11\xe0",
+}
 
 
 class DocumentParams(BaseModel):
@@ -51,8 +63,11 @@ def check_document(root: Path, rel: str | None) -> tuple[bool, bool, int, str]:
     return True, True, size, ""
 
 
-@metric("documents", params=DocumentParams,
-        scopes={"document": ("ok", "present", "readable"), "block": ("n_missing",)})
+@metric(
+    "documents",
+    params=DocumentParams,
+    scopes={"document": ("ok", "present", "readable"), "block": ("n_missing",)},
+)
 def documents(d: Delivery, p: DocumentParams, measure: Measure) -> Measurement:
     """Each required document: declared in block.yaml, inside the delivery, readable (§DOC-1)."""
     declared = d.manifest.documents
@@ -60,9 +75,18 @@ def documents(d: Delivery, p: DocumentParams, measure: Measure) -> Measurement:
     rows = []
     for kind in kinds:  # a handful of documents, not a hot path
         present, readable, size, problem = check_document(d.path, declared.get(kind))
-        rows.append({"kind": kind, "path": declared.get(kind), "required": kind in p.required,
-                     "present": present, "readable": readable, "size_bytes": size,
-                     "ok": readable or kind not in p.required, "problem": problem})
+        rows.append(
+            {
+                "kind": kind,
+                "path": declared.get(kind),
+                "required": kind in p.required,
+                "present": present,
+                "readable": readable,
+                "size_bytes": size,
+                "ok": readable or kind not in p.required,
+                "problem": problem,
+            }
+        )
     table = pd.DataFrame(rows)
     block = pd.DataFrame({"n_missing": [int((~table["ok"]).sum())]})
     return Measurement(tables={"document": Table(table, keys=["kind"]), "block": Table(block)})

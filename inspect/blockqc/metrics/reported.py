@@ -48,8 +48,7 @@ def recompute(fig: Figure, measure: Measure) -> tuple[float, str]:
     return float(df[fig.statistic].iloc[0]), ""
 
 
-@metric("reported_figures", params=ReportedParams,
-        scopes={"figure": ("agrees", "difference")})
+@metric("reported_figures", params=ReportedParams, scopes={"figure": ("agrees", "difference")})
 def reported_figures(d: Delivery, p: ReportedParams, measure: Measure) -> Measurement:
     """Each figure in block.yaml `reported` against its recomputation (§DOC-2)."""
     reported = d.manifest.reported
@@ -59,16 +58,34 @@ def reported_figures(d: Delivery, p: ReportedParams, measure: Measure) -> Measur
     for name, value in reported.items():
         fig = p.figures.get(name)
         if fig is None:
-            rows.append({"figure": name, "reported": value, "recomputed": np.nan,
-                         "difference": np.nan, "agrees": True, "exempt": True,
-                         "exempt_reason": "no recomputation is defined for this figure"})
+            rows.append(
+                {
+                    "figure": name,
+                    "reported": value,
+                    "recomputed": np.nan,
+                    "difference": np.nan,
+                    "agrees": True,
+                    "exempt": True,
+                    "exempt_reason": "no recomputation is defined for this figure",
+                }
+            )
             continue
         value_r, why = recompute(fig, measure)
         diff = value - value_r
         agrees = bool(abs(diff) <= max(p.abs_tol, p.rel_tol * abs(value_r))) if not why else True
-        rows.append({"figure": name, "reported": value, "recomputed": value_r,
-                     "difference": diff, "agrees": agrees, "exempt": bool(why),
-                     "exempt_reason": f"cannot be recomputed: {why}" if why else ""})
+        rows.append(
+            {
+                "figure": name,
+                "reported": value,
+                "recomputed": value_r,
+                "difference": diff,
+                "agrees": agrees,
+                "exempt": bool(why),
+                "exempt_reason": f"cannot be recomputed: {why}" if why else "",
+            }
+        )
     table = pd.DataFrame(rows)
-    return Measurement(tables={"figure": Table(table, keys=["figure"], sort="difference")},
-                       detail={"rel_tol": p.rel_tol, "abs_tol": p.abs_tol})
+    return Measurement(
+        tables={"figure": Table(table, keys=["figure"], sort="difference")},
+        detail={"rel_tol": p.rel_tol, "abs_tol": p.abs_tol},
+    )

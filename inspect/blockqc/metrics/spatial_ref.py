@@ -13,8 +13,16 @@ from blockqc.delivery import Delivery
 from blockqc.metrics import Measure, Measurement, Table, metric
 
 _WGS84 = {"WGS84", "WGS1984", "EPSG4326", "WORLDGEODETICSYSTEM1984", "G1762", "ITRF-WGS84"}
-_ELLIPSOIDAL = {"ELLIPSOIDAL", "ELLIPSOID", "WGS84ELLIPSOID", "WGS84ELLIPSOIDAL", "GEODETIC",
-                "ELLIPSOIDALHEIGHT", "ELLIPSOIDALHEIGHTS", "EPSG4979"}
+_ELLIPSOIDAL = {
+    "ELLIPSOIDAL",
+    "ELLIPSOID",
+    "WGS84ELLIPSOID",
+    "WGS84ELLIPSOIDAL",
+    "GEODETIC",
+    "ELLIPSOIDALHEIGHT",
+    "ELLIPSOIDALHEIGHTS",
+    "EPSG4979",
+}
 
 
 class SpatialParams(BaseModel):
@@ -101,28 +109,37 @@ def spatial_reference(d: Delivery, p: SpatialParams, measure: Measure) -> Measur
     if code is None:
         note = "block.yaml states no EPSG code (nor projection UTM with a zone such as 50N)"
     elif ok and straddles:
-        note = (f"the block straddles a zone edge (lon {lon_min:.3f}…{lon_max:.3f}); "
-                f"{describe_epsg(code)} is one of the neighbours allowed")
+        note = (
+            f"the block straddles a zone edge (lon {lon_min:.3f}…{lon_max:.3f}); "
+            f"{describe_epsg(code)} is one of the neighbours allowed"
+        )
     elif ok:
         note = f"{describe_epsg(code)} is the block's zone"
     else:
-        note = (f"{describe_epsg(code)} delivered, expected "
-                + " or ".join(describe_epsg(c) for c in allowed))
-    block = pd.DataFrame({
-        "geodetic_datum": [normalize_datum(sr.geodetic_datum if sr else None)],
-        "height_datum": [normalize_height_datum(sr.height_datum if sr else None)],
-        "projection": [(sr.projection if sr else None)],
-        "epsg": [code],
-        "projection_ok": [ok],
-    })
+        note = f"{describe_epsg(code)} delivered, expected " + " or ".join(
+            describe_epsg(c) for c in allowed
+        )
+    block = pd.DataFrame(
+        {
+            "geodetic_datum": [normalize_datum(sr.geodetic_datum if sr else None)],
+            "height_datum": [normalize_height_datum(sr.height_datum if sr else None)],
+            "projection": [(sr.projection if sr else None)],
+            "epsg": [code],
+            "projection_ok": [ok],
+        }
+    )
     return Measurement(
         tables={"block": Table(block)},
-        detail={"centre_lon": round(float((lon_min + lon_max) / 2), 6),
-                "centre_lat": round(float(lat_c), 6),
-                "extent_lonlat": [round(float(v), 6) for v in (lon_min, lat_min, lon_max, lat_max)],
-                "expected_epsg": allowed, "straddles_zone_edge": straddles, "note": note,
-                "stated": {"geodetic_datum": sr.geodetic_datum if sr else None,
-                           "height_datum": sr.height_datum if sr else None}},
+        detail={
+            "centre_lon": round(float((lon_min + lon_max) / 2), 6),
+            "centre_lat": round(float(lat_c), 6),
+            "extent_lonlat": [round(float(v), 6) for v in (lon_min, lat_min, lon_max, lat_max)],
+            "expected_epsg": allowed,
+            "straddles_zone_edge": straddles,
+            "note": note,
+            "stated": {
+                "geodetic_datum": sr.geodetic_datum if sr else None,
+                "height_datum": sr.height_datum if sr else None,
+            },
+        },
     )
-
-

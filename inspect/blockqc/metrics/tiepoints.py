@@ -48,21 +48,25 @@ def _select(d: Delivery, bands: list[str] | None) -> tuple[pd.DataFrame, pd.Data
 
 def _stats(err: pd.Series, by: pd.Series | None, lo: float, hi: float) -> pd.DataFrame:
     """n, median, RMS, mean, max and share (%) in (lo, hi], overall or per group."""
-    frame = pd.DataFrame({
-        "e": err.to_numpy(),
-        "e2": err.to_numpy() ** 2,
-        "inside": ((err > lo) & (err <= hi)).to_numpy(),
-        "g": by.to_numpy() if by is not None else 0,
-    })
+    frame = pd.DataFrame(
+        {
+            "e": err.to_numpy(),
+            "e2": err.to_numpy() ** 2,
+            "inside": ((err > lo) & (err <= hi)).to_numpy(),
+            "g": by.to_numpy() if by is not None else 0,
+        }
+    )
     g = frame.groupby("g", sort=False)
-    out = pd.DataFrame({
-        "n": g["e"].size(),
-        "median": g["e"].median(),
-        "rms": np.sqrt(g["e2"].mean()),
-        "mean": g["e"].mean(),
-        "max": g["e"].max(),
-        "n_in_interval": g["inside"].sum(),
-    })
+    out = pd.DataFrame(
+        {
+            "n": g["e"].size(),
+            "median": g["e"].median(),
+            "rms": np.sqrt(g["e2"].mean()),
+            "mean": g["e"].mean(),
+            "max": g["e"].max(),
+            "n_in_interval": g["inside"].sum(),
+        }
+    )
     out["share_in_interval"] = 100.0 * out["n_in_interval"] / out["n"]
     return out
 
@@ -82,8 +86,9 @@ def tie_point_errors(d: Delivery, p: ErrorParams, measure: Measure) -> Measureme
     if tp.empty:
         return not_applicable("no tie-point observations on the scenes checked")
     lo, hi = p.interval_px
-    err = pd.Series(tie_point_error_px(tp["v_line"].to_numpy(), tp["v_sample"].to_numpy()),
-                    index=tp.index)
+    err = pd.Series(
+        tie_point_error_px(tp["v_line"].to_numpy(), tp["v_sample"].to_numpy()), index=tp.index
+    )
     block = _stats(err, None, lo, hi).reset_index(drop=True)
     block.insert(0, "n_points", tp["point_id"].nunique())
     per_scene = _stats(err, tp["scene_id"], lo, hi).rename_axis("scene_id").reset_index()
@@ -100,9 +105,10 @@ def tie_point_errors(d: Delivery, p: ErrorParams, measure: Measure) -> Measureme
             "scene": Table(per_scene, keys=["scene_id"], sort="median"),
             "observation": Table(obs, keys=["point_id", "scene_id"], sort="error_px"),
         },
-        detail={"histogram": {"edges_px": hist_edges.round(4).tolist(),
-                              "counts": counts.tolist()},
-                "interval_px": [lo, hi]},
+        detail={
+            "histogram": {"edges_px": hist_edges.round(4).tolist(), "counts": counts.tolist()},
+            "interval_px": [lo, hi],
+        },
     )
 
 
@@ -128,8 +134,11 @@ def tie_point_distribution(d: Delivery, p: DistributionParams, measure: Measure)
     n_points = tp.groupby("scene_id", sort=False)["point_id"].nunique()
 
     out = scenes[["scene_id", "band", "lines", "samples"]].copy()
-    water = (scenes["water_fraction"] if "water_fraction" in scenes else
-             pd.Series(np.nan, index=scenes.index)).astype(float)
+    water = (
+        scenes["water_fraction"]
+        if "water_fraction" in scenes
+        else pd.Series(np.nan, index=scenes.index)
+    ).astype(float)
     out["water_fraction"] = water.to_numpy()
     out["n_points"] = n_points.reindex(out["scene_id"]).fillna(0).astype(int).to_numpy()
     out["cells_covered"] = covered.reindex(out["scene_id"]).fillna(0).astype(int).to_numpy()
@@ -141,8 +150,13 @@ def tie_point_distribution(d: Delivery, p: DistributionParams, measure: Measure)
     exempt = np.nan_to_num(out["water_fraction"].to_numpy(), nan=0.0) >= p.exempt_water_fraction
     out["exempt"] = exempt
     out["exempt_reason"] = np.where(
-        exempt, [f"water_fraction {w:.2f} ≥ {p.exempt_water_fraction:g} (mostly sea)"
-                 for w in np.nan_to_num(out["water_fraction"].to_numpy())], "")
+        exempt,
+        [
+            f"water_fraction {w:.2f} ≥ {p.exempt_water_fraction:g} (mostly sea)"
+            for w in np.nan_to_num(out["water_fraction"].to_numpy())
+        ],
+        "",
+    )
     out = out.drop(columns=["lines", "samples"])
     return Measurement(
         tables={"scene": Table(out, keys=["scene_id"], sort="n_points")},
@@ -155,6 +169,10 @@ def _clark_evans_per_scene(tp: pd.DataFrame, geo: pd.DataFrame) -> pd.Series:
     values = {}
     for scene_id, grp in tp.groupby("scene_id", sort=False):
         lines, samples = geo.loc[scene_id, "lines"], geo.loc[scene_id, "samples"]
-        values[scene_id] = clark_evans(grp["sample"].to_numpy(), grp["line"].to_numpy(),
-                                       area=lines * samples, perimeter=2 * (lines + samples))
+        values[scene_id] = clark_evans(
+            grp["sample"].to_numpy(),
+            grp["line"].to_numpy(),
+            area=lines * samples,
+            perimeter=2 * (lines + samples),
+        )
     return pd.Series(values, dtype=float)

@@ -90,8 +90,10 @@ def evaluate(expression: Any, constants: Mapping[str, Any]) -> Any:
 
 
 def _eval(node: ast.AST, constants: Mapping[str, Any], text: str) -> Any:
-    if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)) and not isinstance(
-        node.value, bool
+    if (
+        isinstance(node, ast.Constant)
+        and isinstance(node.value, (int, float))
+        and not isinstance(node.value, bool)
     ):
         return float(node.value)
     if isinstance(node, ast.BinOp) and type(node.op) in _BINARY:
@@ -159,6 +161,7 @@ def resolve_params(model: Any, raw: Mapping[str, Any], constants: Mapping[str, A
     data = {}
     for key, value in raw.items():
         field = model.model_fields.get(key)
-        data[key] = _numbers(value, constants) if field and _wants_number(field.annotation) \
-            else value
+        data[key] = (
+            _numbers(value, constants) if field and _wants_number(field.annotation) else value
+        )
     return model.model_validate(data)

@@ -39,8 +39,13 @@ def resolve_pack_path(ref: str | Path, base: Path | None = None) -> Path:
     for c in candidates:
         if c.is_file():
             return c
-    raise RuleError(Problem(ref_s, "no such rule pack: give a file path or one of the stock "
-                                   f"packs ({', '.join(available_packs()) or 'none'})"))
+    raise RuleError(
+        Problem(
+            ref_s,
+            "no such rule pack: give a file path or one of the stock "
+            f"packs ({', '.join(available_packs()) or 'none'})",
+        )
+    )
 
 
 def _deep_merge(base: dict[str, Any], extra: dict[str, Any]) -> dict[str, Any]:
@@ -71,17 +76,19 @@ class _Raw:
         self.data, self.file, self.line, self.src = data, file, line, src
 
 
-def _load_raw(path: Path, seen: tuple[Path, ...]) -> tuple[PackFile, dict[str, Any],
-                                                          dict[str, _Raw], list[str], list[str]]:
-    """Read one pack file and what it extends: (file model, constants, raw rules, chain, disabled)."""
+def _load_raw(
+    path: Path, seen: tuple[Path, ...]
+) -> tuple[PackFile, dict[str, Any], dict[str, _Raw], list[str], list[str]]:
+    """Read one pack file and what it extends: file model, constants, raw rules, chain, disabled."""
     resolved = path.resolve()
     if resolved in seen:
         chain = " -> ".join(str(p) for p in seen + (resolved,))
         raise RuleError(Problem(str(path), f"circular extends: {chain}"))
     data = load_yaml(path, RuleError)
     if not isinstance(data, dict):
-        raise RuleError(Problem(str(path), "a rule pack is a mapping with pack, rules, ...",
-                                line=1))
+        raise RuleError(
+            Problem(str(path), "a rule pack is a mapping with pack, rules, ...", line=1)
+        )
     try:
         pf = PackFile.model_validate(data)
     except ValidationError as exc:
@@ -106,26 +113,41 @@ def _load_raw(path: Path, seen: tuple[Path, ...]) -> tuple[PackFile, dict[str, A
             continue
         if rid in rules:
             where = "earlier in this file" if rules[rid].file == str(path) else rules[rid].file
-            problems.append(Problem(str(path), f"rules.{i}: rule {rid} is already defined "
-                                               f"({where}); change it under overrides:", line=line))
+            problems.append(
+                Problem(
+                    str(path),
+                    f"rules.{i}: rule {rid} is already defined "
+                    f"({where}); change it under overrides:",
+                    line=line,
+                )
+            )
             continue
         rules[rid] = _Raw(dict(raw), str(path), line, data["rules"][i])
     for rid, override in pf.overrides.items():
         line = line_of(data, ("overrides", rid))
         if rid not in rules:
-            problems.append(Problem(str(path), f"overrides.{rid}: no rule {rid} to override "
-                                               f"(known: {', '.join(rules)})", line=line))
+            problems.append(
+                Problem(
+                    str(path),
+                    f"overrides.{rid}: no rule {rid} to override (known: {', '.join(rules)})",
+                    line=line,
+                )
+            )
             continue
         if "id" in override and override["id"] != rid:
             problems.append(Problem(str(path), f"overrides.{rid}: the id cannot change", line=line))
             continue
         prev = rules[rid]
-        rules[rid] = _Raw(_merge_rule(prev.data, override), str(path), line,
-                          data["overrides"][rid])
+        rules[rid] = _Raw(_merge_rule(prev.data, override), str(path), line, data["overrides"][rid])
     for i, rid in enumerate(pf.disable):
         if rid not in rules:
-            problems.append(Problem(str(path), f"disable: no rule {rid} to disable",
-                                    line=line_of(data, ("disable", i))))
+            problems.append(
+                Problem(
+                    str(path),
+                    f"disable: no rule {rid} to disable",
+                    line=line_of(data, ("disable", i)),
+                )
+            )
             continue
         del rules[rid]
         disabled.append(rid)
@@ -146,16 +168,25 @@ def load_pack(ref: str | Path) -> Pack:
             rule = Rule.model_validate(raw.data)
         except ValidationError as exc:
             for p in pydantic_problems(exc, Path(raw.file), raw.src):
-                problems.append(Problem(p.file, f"rule {rid}: {p.message}",
-                                        line=p.line or raw.line))
+                problems.append(
+                    Problem(p.file, f"rule {rid}: {p.message}", line=p.line or raw.line)
+                )
             continue
         problems.extend(_check_rule(rule, names, raw))
         rules.append(rule)
     if problems:
         raise RuleError(problems)
-    return Pack(name=pf.pack, version=pf.version, title=pf.title, description=pf.description,
-                constants=constants, rules=rules, chain=chain, disabled=disabled,
-                origin={rid: (r.file, r.line) for rid, r in raw_rules.items()})
+    return Pack(
+        name=pf.pack,
+        version=pf.version,
+        title=pf.title,
+        description=pf.description,
+        constants=constants,
+        rules=rules,
+        chain=chain,
+        disabled=disabled,
+        origin={rid: (r.file, r.line) for rid, r in raw_rules.items()},
+    )
 
 
 def _line(raw: _Raw, *loc: Any) -> int | None:
@@ -187,14 +218,22 @@ def _check_rule(rule: Rule, names: dict[str, Any], raw: _Raw) -> list[Problem]:
         bad(f"unknown metric '{rule.metric}' (known: {', '.join(sorted(REGISTRY))})", "metric")
         return out
     if rule.scope not in spec.scopes:
-        bad(f"metric {spec.name} offers no scope '{rule.scope}' "
-            f"(it offers: {', '.join(spec.scopes)})", "scope")
+        bad(
+            f"metric {spec.name} offers no scope '{rule.scope}' "
+            f"(it offers: {', '.join(spec.scopes)})",
+            "scope",
+        )
     elif rule.statistic not in spec.scopes[rule.scope]:
-        bad(f"metric {spec.name} at scope {rule.scope} offers no statistic '{rule.statistic}' "
-            f"(it offers: {', '.join(spec.scopes[rule.scope])})", "statistic")
+        bad(
+            f"metric {spec.name} at scope {rule.scope} offers no statistic '{rule.statistic}' "
+            f"(it offers: {', '.join(spec.scopes[rule.scope])})",
+            "statistic",
+        )
     if rule.evidence_from is not None and rule.evidence_from not in spec.scopes:
-        bad(f"evidence_from: metric {spec.name} offers no scope '{rule.evidence_from}'",
-            "evidence_from")
+        bad(
+            f"evidence_from: metric {spec.name} offers no scope '{rule.evidence_from}'",
+            "evidence_from",
+        )
     try:
         resolve_params(spec.params, rule.params, names)
     except ExpressionError as exc:

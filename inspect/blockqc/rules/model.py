@@ -1,4 +1,4 @@
-"""The rule language: what a rule pack file may say, validated by pydantic (unknown keys refused)."""
+"""The rule language: what a pack file may say, validated by pydantic (unknown keys refused)."""
 
 from __future__ import annotations
 
@@ -10,8 +10,18 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator, model_valida
 #: a number, or an arithmetic expression over the pack's constants, e.g. "2*sqrt(2)*norm.plane_m"
 Expr = float | int | str
 
-SCOPES = ("block", "scene", "pair", "point", "observation", "component", "component_method",
-          "reference", "document", "figure")
+SCOPES = (
+    "block",
+    "scene",
+    "pair",
+    "point",
+    "observation",
+    "component",
+    "component_method",
+    "reference",
+    "document",
+    "figure",
+)
 
 
 class Threshold(BaseModel):

@@ -1,0 +1,5 @@
+"""`python -m blockqc` runs the command line."""
+
+from blockqc.cli import main
+
+main()

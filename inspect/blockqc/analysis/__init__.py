@@ -1,0 +1,1 @@
+"""§AF analysis: accuracy indicators, adjustment factors, correlation and CCA."""

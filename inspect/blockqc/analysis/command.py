@@ -1,0 +1,219 @@
+"""`blockqc factors`: build the §AF experiments table from deliveries, or analyse a given table."""
+
+from __future__ import annotations
+
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+import click
+import pandas as pd
+
+from blockqc.analysis.analyse import analyse
+from blockqc.analysis.factors import FactorOptions, experiments_table
+from blockqc.analysis.render import correlation_heatmap, render_html, structure_plot
+from blockqc.analysis.table import FACTOR_COLUMNS, INDICATOR_COLUMNS, read_table, write_table_csv
+from blockqc.analysis.terrain import DemSet
+from blockqc.delivery import find_deliveries, load_delivery
+from blockqc.errors import UsageError
+from blockqc.outputs import check_out_dir, write_bytes_atomic, write_json_atomic, write_text_atomic
+
+
+def build_table(batch: Path, dem_paths: list[Path], options: FactorOptions) -> pd.DataFrame:
+    """Read every delivery under `batch` and compute its row of the experiments table."""
+    paths = find_deliveries(batch)
+    dems = DemSet(dem_paths)
+    return experiments_table([load_delivery(p) for p in paths], dems, options)
+
+
+def write_outputs(
+    out: Path, table: pd.DataFrame, results: dict[str, Any], user_templates: Path | None = None
+) -> list[Path]:
+    """Write the table, the analysis (CSV, JSON), the figures and the page; return the files."""
+    written: list[Path] = []
+
+    def text(name: str, content: str) -> None:
+        write_text_atomic(out / name, content)
+        written.append(out / name)
+
+    text("experiments.csv", write_table_csv(table))
+    write_json_atomic(out / "factors.json", results)
+    written.append(out / "factors.json")
+    corr = results["correlation"]
+    if corr:
+        for key, name in (("r", "correlation.csv"), ("p_value", "correlation_p_values.csv")):
+            frame = pd.DataFrame(corr[key]).T.loc[results["factors"], results["indicators"]]
+            text(name, frame.rename_axis("factor").to_csv(lineterminator="\n"))
+    res = results["cca"]
+    if res:
+        text("cca_tests.csv", pd.DataFrame(res["tests"]).to_csv(index=False, lineterminator="\n"))
+        coef = pd.concat(
+            [
+                _coef_frame(res["coefficients_factors"], "factor", "U"),
+                _coef_frame(res["coefficients_indicators"], "indicator", "V"),
+            ]
+        )
+        text("cca_coefficients.csv", coef.to_csv(index=False, lineterminator="\n"))
+        struct = pd.concat(
+            [
+                _struct_frame(res["structure_factors"], "factor", "U1", "V1"),
+                _struct_frame(res["structure_indicators"], "indicator", "V1", "U1"),
+            ]
+        )
+        text("cca_structure.csv", struct.to_csv(index=False, lineterminator="\n"))
+    figures: dict[str, bytes] = {}
+    for name, made in (
+        ("correlation", correlation_heatmap(results)),
+        ("structure", structure_plot(results)),
+    ):
+        if made is None:
+            continue
+        svg, png = made
+        figures[name] = svg
+        for suffix, data in ((".svg", svg), (".png", png)):
+            write_bytes_atomic(out / f"{name}{suffix}", data)
+            written.append(out / f"{name}{suffix}")
+    text("factors.html", render_html(results, figures, user_templates))
+    return written
+
+
+def _coef_frame(coef: dict[str, dict[str, float]], group: str, prefix: str) -> pd.DataFrame:
+    frame = pd.DataFrame(coef).T
+    frame.columns = [f"pair_{c.removeprefix(prefix)}" for c in frame.columns]
+    frame.insert(0, "variable", frame.index)
+    frame.insert(0, "group", group)
+    return frame.reset_index(drop=True)
+
+
+def _struct_frame(
+    struct: dict[str, dict[str, float]], group: str, own: str, other: str
+) -> pd.DataFrame:
+    frame = pd.DataFrame(struct).T
+    return pd.DataFrame(
+        {
+            "group": group,
+            "variable": list(frame.index),
+            "on_own_first_variate": frame[own].to_numpy(),
+            "on_other_first_variate": frame[other].to_numpy(),
+        }
+    )
+
+
+@click.command("factors")
+@click.argument("batch", required=False, type=click.Path(exists=True, path_type=Path))
+@click.option(
+    "--dem",
+    "dems",
+    multiple=True,
+    type=click.Path(exists=True, path_type=Path),
+    help="DEM GeoTIFF (or other raster) or a folder of tiles; may be repeated.",
+)
+@click.option(
+    "--table",
+    "table_path",
+    type=click.Path(exists=True, dir_okay=False, path_type=Path),
+    help="Analyse this experiments table (CSV, columns as the appendix table).",
+)
+@click.option(
+    "--out",
+    required=True,
+    type=click.Path(file_okay=False, path_type=Path),
+    help="Output folder (never inside an input).",
+)
+@click.option(
+    "--images-band",
+    type=click.Choice(["pan", "ms", "all"]),
+    default="pan",
+    show_default=True,
+    help="Which scenes count as images (§AF-5).",
+)
+@click.option(
+    "--period-gap-days",
+    type=click.FloatRange(min=0),
+    default=0.0,
+    show_default=True,
+    help="Acquisition dates at most this many days apart form one period (§AF-6).",
+)
+@click.option(
+    "--overlap",
+    type=click.Choice(["union", "pairwise_sum"]),
+    default="union",
+    show_default=True,
+    help="Overlap degree reading (§AF-7), see docs/factors.md.",
+)
+@click.option(
+    "--stereo-iou",
+    type=click.FloatRange(min=0.0, max=1.0, min_open=True),
+    default=0.8,
+    show_default=True,
+    help="Same-day scenes whose footprints overlap this much (intersection over union) are one "
+    "stereo unit for the overlap degree (§AF-7).",
+)
+@click.option(
+    "--edge-correction/--no-edge-correction",
+    default=False,
+    show_default=True,
+    help="Donnelly's edge correction in the Clark–Evans coefficient (§AF-10).",
+)
+@click.option(
+    "--templates",
+    "user_templates",
+    type=click.Path(exists=True, file_okay=False, path_type=Path),
+    help="A folder whose factors.html.j2 overrides the stock page.",
+)
+def command(
+    batch: Path | None,
+    dems: tuple[Path, ...],
+    table_path: Path | None,
+    out: Path,
+    images_band: str,
+    period_gap_days: float,
+    overlap: str,
+    stereo_iou: float,
+    edge_correction: bool,
+    user_templates: Path | None,
+) -> int:
+    """Adjustment factors, accuracy indicators, their correlation and CCA (DOMAIN.md §5).
+
+    Either BATCH (a batch or one delivery) with --dem, to build the experiments table from the
+    deliveries and analyse it, or --table CSV to analyse a table of experiments.
+    """
+    if (batch is None) == (table_path is None):
+        raise UsageError("give either BATCH (with --dem) or --table CSV, not both or neither")
+    options = FactorOptions(
+        images_band=images_band,
+        period_gap_days=period_gap_days,
+        overlap=overlap,
+        stereo_iou=stereo_iou,
+        edge_correction=edge_correction,
+    )
+    if batch is not None:
+        if not dems:
+            raise UsageError("BATCH needs --dem: a DEM file or folder of tiles covering the blocks")
+        out = check_out_dir(out, [batch])
+        table = build_table(batch, list(dems), options)
+        source = str(batch)
+    else:
+        assert table_path is not None
+        out = check_out_dir(out, [])
+        table = read_table(table_path)
+        source = str(table_path)
+    results = analyse(table, source)
+    if batch is not None:
+        results["options"] = asdict(options) | {"dem": [str(d) for d in dems]}
+    written = write_outputs(out, table, results, user_templates)
+    n_f, n_i = len(FACTOR_COLUMNS), len(INDICATOR_COLUMNS)
+    if results["cca"]:
+        r1 = results["cca"]["tests"][0]
+        cca_line = (
+            f"first canonical correlation {r1['canonical_correlation']:.4f}, "
+            f"Bartlett chi2 {r1['chi2']:.2f} on {r1['df']} df, p = {r1['p_value']:.3g}"
+        )
+    else:
+        cca_line = "CCA not computed: " + "; ".join(results["cca_not_computed"])
+    click.echo(
+        f"{results['n_used']} of {results['n_rows']} experiments analysed "
+        f"({n_f} factors x {n_i} indicators); {cca_line}"
+    )
+    click.echo(f"wrote {len(written)} files to {out} (page: {out / 'factors.html'})")
+    return 0

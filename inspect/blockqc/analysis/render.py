@@ -1,0 +1,165 @@
+"""Plots (matplotlib, SVG and PNG) and the HTML page of a §AF analysis, made from its results."""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+from typing import Any
+
+import jinja2
+import matplotlib
+import numpy as np
+from markupsafe import Markup
+from matplotlib.figure import Figure
+
+from blockqc.resources import templates_dir
+
+TEMPLATE = "factors.html.j2"
+
+
+def _save(fig: Figure) -> tuple[bytes, bytes]:
+    """The figure as (SVG, PNG) bytes, the SVG free of dates and random ids."""
+    svg, png = io.BytesIO(), io.BytesIO()
+    with matplotlib.rc_context({"svg.hashsalt": "blockqc", "svg.fonttype": "none"}):
+        fig.savefig(svg, format="svg", metadata={"Date": None}, bbox_inches="tight")
+    fig.savefig(png, format="png", dpi=120, metadata={"Software": None}, bbox_inches="tight")
+    return svg.getvalue(), png.getvalue()
+
+
+def correlation_heatmap(results: dict[str, Any]) -> tuple[bytes, bytes] | None:
+    """Heatmap of the factors × indicators Pearson matrix, r in each cell (* for p < 0.05)."""
+    corr = results.get("correlation")
+    if not corr:
+        return None
+    factors, indicators, labels = results["factors"], results["indicators"], results["labels"]
+    r = np.array(
+        [
+            [np.nan if corr["r"][f][i] is None else corr["r"][f][i] for i in indicators]
+            for f in factors
+        ]
+    )
+    p = np.array(
+        [
+            [np.nan if corr["p_value"][f][i] is None else corr["p_value"][f][i] for i in indicators]
+            for f in factors
+        ]
+    )
+    fig = Figure(figsize=(1.1 * len(indicators) + 3.2, 0.45 * len(factors) + 1.4))
+    ax = fig.subplots()
+    im = ax.imshow(np.ma.masked_invalid(r), cmap="RdBu_r", vmin=-1, vmax=1, aspect="auto")
+    ax.set_xticks(range(len(indicators)), [labels[i] for i in indicators])
+    ax.set_yticks(range(len(factors)), [labels[f] for f in factors])
+    ax.xaxis.tick_top()
+    for (a, b), v in np.ndenumerate(r):
+        text = "–" if not np.isfinite(v) else f"{v:.2f}" + ("*" if p[a, b] < 0.05 else "")
+        ax.text(
+            b,
+            a,
+            text,
+            ha="center",
+            va="center",
+            fontsize=8,
+            color="white" if np.isfinite(v) and abs(v) > 0.6 else "black",
+        )
+    fig.colorbar(im, ax=ax, fraction=0.05, pad=0.02, label="Pearson r")
+    ax.set_title(f"{_n_text(corr)}; * p < 0.05", fontsize=9, pad=28)
+    return _save(fig)
+
+
+def _n_text(corr: dict[str, Any]) -> str:
+    lo, hi = corr["n_min"], corr["n_max"]
+    return f"n = {lo}" if lo == hi else f"n = {lo}–{hi} per cell"
+
+
+def structure_plot(results: dict[str, Any]) -> tuple[bytes, bytes] | None:
+    """Structure coefficients of factors and indicators on the first canonical variates U1, V1."""
+    res = results.get("cca")
+    if not res:
+        return None
+    labels = results["labels"]
+    fig = Figure(figsize=(9.5, 0.42 * max(len(results["factors"]), 5) + 1.3))
+    axes = fig.subplots(1, 2)
+    panels = (
+        ("factors", res["structure_factors"], "U1", "V1", "factors on U1 (bars), on V1 (dots)"),
+        (
+            "indicators",
+            res["structure_indicators"],
+            "V1",
+            "U1",
+            "indicators on V1 (bars), on U1 (dots)",
+        ),
+    )
+    for ax, (_, struct, own, other, title) in zip(axes, panels, strict=True):
+        names = list(struct)
+        own_v = np.array([struct[n][own] for n in names], dtype=float)
+        other_v = np.array([struct[n][other] for n in names], dtype=float)
+        ypos = np.arange(len(names))[::-1]
+        ax.barh(ypos, own_v, color=np.where(own_v >= 0, "#b2182b", "#2166ac"), alpha=0.8)
+        ax.plot(other_v, ypos, "o", color="black", markersize=4)
+        ax.axvline(0, color="grey", lw=0.8)
+        for lim in (-0.5, 0.5):
+            ax.axvline(lim, color="grey", lw=0.5, ls=":")
+        ax.set_yticks(ypos, [labels[n] for n in names])
+        ax.set_xlim(-1, 1)
+        ax.set_title(title, fontsize=9)
+        ax.set_xlabel("structure coefficient")
+    r1 = res["tests"][0]["canonical_correlation"]
+    fig.suptitle(f"First canonical pair, r₁ = {r1:.3f}", fontsize=10)
+    fig.tight_layout()
+    return _save(fig)
+
+
+def environment(user_templates: Path | None = None) -> jinja2.Environment:
+    """Jinja2 with autoescape and StrictUndefined; a user's folder overrides the stock templates."""
+    loaders: list[jinja2.BaseLoader] = []
+    if user_templates is not None:
+        loaders.append(jinja2.FileSystemLoader(str(user_templates)))
+    loaders.append(jinja2.FileSystemLoader(str(templates_dir())))
+    env = jinja2.Environment(
+        loader=jinja2.ChoiceLoader(loaders),
+        autoescape=True,
+        undefined=jinja2.StrictUndefined,
+        trim_blocks=True,
+        lstrip_blocks=True,
+    )
+    env.filters["num"] = _fmt
+    env.filters["cell"] = _cell
+    env.globals["n_text"] = _n_text
+    return env
+
+
+def _fmt(v: Any, digits: int = 3) -> str:
+    """A number for a table cell: fixed decimals, thousands kept readable, '–' when missing."""
+    if v is None:
+        return "–"
+    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+        return str(v)
+    if isinstance(v, (int, np.integer)):
+        return f"{v:d}"
+    if not np.isfinite(v):
+        return "–"
+    if abs(v) >= 1000:
+        return f"{v:.1f}"
+    if v != 0 and abs(v) < 10 ** (-digits):
+        return f"{v:.2e}"
+    return f"{v:.{digits}f}"
+
+
+def _cell(v: Any) -> str:
+    """A table cell: whole numbers without decimals, others as `_fmt`."""
+    if isinstance(v, (float, np.floating)) and np.isfinite(v) and float(v).is_integer():
+        return f"{int(v):d}"
+    return _fmt(v, 3)
+
+
+def render_html(
+    results: dict[str, Any], figures: dict[str, bytes], user_templates: Path | None = None
+) -> str:
+    """The page, from the results dictionary and the SVG figures (inlined, so it stands alone)."""
+    svgs = {name: Markup(_strip_xml_header(data.decode("utf-8"))) for name, data in figures.items()}
+    return environment(user_templates).get_template(TEMPLATE).render(r=results, figures=svgs)
+
+
+def _strip_xml_header(svg: str) -> str:
+    start = svg.find("<svg")
+    return svg[start:] if start >= 0 else svg

@@ -1,0 +1,117 @@
+"""The §AF experiments table: one row per block or adjustment run, columns as the appendix CSV."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from blockqc.errors import InputError, Problem
+
+#: Columns that identify an experiment (text, kept but not analysed).
+ID_COLUMNS: tuple[str, ...] = ("experiment", "region", "periods", "image_pairs")
+
+#: The ten adjustment factors, §AF-1..10, in the appendix order.
+FACTOR_COLUMNS: tuple[str, ...] = (
+    "mean_elevation_m",
+    "mean_slope_deg",
+    "mean_roughness_m",
+    "images_area_km2",
+    "images_number",
+    "images_periods",
+    "overlap_degree",
+    "tp_number",
+    "tp_density_per_km2",
+    "tp_nn_coefficient",
+)
+
+#: The five accuracy indicators of §AF, in the appendix order.
+INDICATOR_COLUMNS: tuple[str, ...] = (
+    "l_rmse_px",
+    "s_rmse_px",
+    "x_rmse_m",
+    "y_rmse_m",
+    "h_rmse_m",
+)
+
+TABLE_COLUMNS: tuple[str, ...] = ID_COLUMNS + FACTOR_COLUMNS + INDICATOR_COLUMNS
+
+#: Short labels with units, for plots and pages.
+LABELS: dict[str, str] = {
+    "mean_elevation_m": "mean elevation (m)",
+    "mean_slope_deg": "mean slope (°)",
+    "mean_roughness_m": "mean roughness (m)",
+    "images_area_km2": "covered area (km²)",
+    "images_number": "number of images",
+    "images_periods": "acquisition periods",
+    "overlap_degree": "overlap degree",
+    "tp_number": "tie-point number",
+    "tp_density_per_km2": "tie-point density (/km²)",
+    "tp_nn_coefficient": "Clark–Evans R",
+    "l_rmse_px": "δ_l (px)",
+    "s_rmse_px": "δ_s (px)",
+    "x_rmse_m": "δ_X (m)",
+    "y_rmse_m": "δ_Y (m)",
+    "h_rmse_m": "δ_H (m)",
+}
+
+
+def read_table(path: Path) -> pd.DataFrame:
+    """Read and validate an experiments table (CSV); every problem named with row and column."""
+    path = Path(path)
+    name = str(path)
+    try:
+        raw = pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=True)
+    except FileNotFoundError:
+        raise InputError(Problem(file=name, message="file not found")) from None
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
+        raise InputError(Problem(file=name, message=f"not a readable CSV table: {exc}")) from None
+    raw.columns = [str(c).strip() for c in raw.columns]
+    return validate_table(raw, name)
+
+
+def validate_table(raw: pd.DataFrame, file: str) -> pd.DataFrame:
+    """Check the columns and parse the factors and indicators as finite numbers."""
+    problems: list[Problem] = []
+    missing = [c for c in FACTOR_COLUMNS + INDICATOR_COLUMNS if c not in raw.columns]
+    for col in missing:
+        problems.append(
+            Problem(
+                file=file,
+                column=col,
+                message="required column missing (the header must name the ten factors and "
+                "five indicators as in samples/factors/gf7_adjustment_experiments.csv)",
+            )
+        )
+    if problems:
+        raise InputError(problems)
+    if len(raw) == 0:
+        raise InputError(Problem(file=file, message="the table has a header but no data rows"))
+    dup = raw.columns[raw.columns.duplicated()].tolist()
+    if dup:
+        raise InputError(
+            [Problem(file=file, column=c, message="column named more than once") for c in dup]
+        )
+    table = raw.copy()
+    if "experiment" not in table.columns:
+        table.insert(0, "experiment", [str(i + 1) for i in range(len(table))])
+    for col in FACTOR_COLUMNS + INDICATOR_COLUMNS:
+        text = raw[col].astype(str).str.strip()
+        values = pd.to_numeric(text, errors="coerce").to_numpy(dtype=float)
+        bad = ~np.isfinite(values)
+        for i in np.flatnonzero(bad):
+            shown = text.iloc[i]
+            what = "empty" if shown == "" else f"'{shown}' is not a finite number"
+            problems.append(Problem(file=file, row=int(i) + 1, column=col, message=what))
+        table[col] = values
+    if problems:
+        raise InputError(problems)
+    return table
+
+
+def write_table_csv(table: pd.DataFrame) -> str:
+    """The table as CSV text: the appendix columns first, then any extra columns."""
+    cols = [c for c in TABLE_COLUMNS if c in table.columns]
+    cols += [c for c in table.columns if c not in cols]
+    return table[cols].to_csv(index=False, lineterminator="\n")

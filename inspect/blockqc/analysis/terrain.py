@@ -1,0 +1,242 @@
+"""Terrain factors of §AF-1..3 from DEM tiles: mean elevation, slope and roughness over a block."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from contextlib import ExitStack
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+import rasterio
+import rasterio.features
+import rasterio.merge
+import rasterio.warp
+import shapely
+from affine import Affine
+from pyproj import CRS, Transformer
+from rasterio.enums import Resampling
+
+from blockqc.errors import InputError, Problem
+
+WGS84_A = 6378137.0
+WGS84_F = 1.0 / 298.257223563
+WGS84_E2 = WGS84_F * (2.0 - WGS84_F)
+
+DEM_SUFFIXES = (".tif", ".tiff", ".hgt", ".vrt", ".img", ".dem")
+
+#: Above this many pixels over a block's extent, the DEM is read at a coarser, averaged grid.
+DEFAULT_MAX_PIXELS = 16_000_000
+
+
+def radii_of_curvature(lat_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """WGS-84 meridional (M) and prime-vertical (N) radii of curvature at latitude φ, metres."""
+    s2 = np.sin(np.radians(lat_deg)) ** 2
+    w = np.sqrt(1.0 - WGS84_E2 * s2)
+    return WGS84_A * (1.0 - WGS84_E2) / w**3, WGS84_A / w
+
+
+def pixel_sizes_m(transform: Affine, crs: CRS, height: int) -> tuple[np.ndarray, np.ndarray]:
+    """Pixel width and height in metres for each row (geographic: M·Δφ and N·cos φ·Δλ)."""
+    if transform.b != 0 or transform.d != 0:
+        raise ValueError("rotated DEM grids are not supported")
+    rows = np.arange(height) + 0.5
+    if crs.is_geographic:
+        lat = transform.f + transform.e * rows
+        m, n = radii_of_curvature(lat)
+        dx = n * np.cos(np.radians(lat)) * math.radians(abs(transform.a))
+        dy = m * math.radians(abs(transform.e))
+        return dx, dy
+    unit = crs.axis_info[0].unit_conversion_factor if crs.axis_info else 1.0
+    return (np.full(height, abs(transform.a) * unit), np.full(height, abs(transform.e) * unit))
+
+
+def _neighbours(z: np.ndarray) -> list[np.ndarray]:
+    """The nine 3×3 neighbours of every interior cell, a..i row by row, each (H − 2, W − 2)."""
+    h, w = z.shape
+    return [z[r : h - 2 + r, c : w - 2 + c] for r in range(3) for c in range(3)]
+
+
+def horn_slope(z: np.ndarray, dx: np.ndarray | float, dy: np.ndarray | float) -> np.ndarray:
+    """Slope in degrees (§AF-2) by Horn's 3×3 stencil; NaN on the border and next to voids.
+
+    ∂h/∂x = ((c + 2f + i) − (a + 2d + g)) / (8·dx), ∂h/∂y = ((g + 2h + i) − (a + 2b + c)) / (8·dy)
+    with a..i the window row by row and dx, dy the centre row's pixel sizes in metres.
+    """
+    z = np.asarray(z, dtype=float)
+    out = np.full(z.shape, np.nan)
+    if z.shape[0] < 3 or z.shape[1] < 3:
+        return out
+    dxr = np.broadcast_to(np.asarray(dx, dtype=float), (z.shape[0],))[1:-1, None]
+    dyr = np.broadcast_to(np.asarray(dy, dtype=float), (z.shape[0],))[1:-1, None]
+    a, b, c, d, e, f, g, h, i = _neighbours(z)
+    gx = ((c + 2 * f + i) - (a + 2 * d + g)) / (8.0 * dxr)
+    gy = ((g + 2 * h + i) - (a + 2 * b + c)) / (8.0 * dyr)
+    # the stencil skips the centre cell; a void there leaves the slope undefined too
+    out[1:-1, 1:-1] = np.where(np.isnan(e), np.nan, np.degrees(np.arctan(np.hypot(gx, gy))))
+    return out
+
+
+def roughness(z: np.ndarray) -> np.ndarray:
+    """Max − min elevation in the 3×3 window (§AF-3); NaN on the border and next to voids."""
+    z = np.asarray(z, dtype=float)
+    out = np.full(z.shape, np.nan)
+    if z.shape[0] < 3 or z.shape[1] < 3:
+        return out
+    stack = np.stack(_neighbours(z))
+    out[1:-1, 1:-1] = stack.max(axis=0) - stack.min(axis=0)  # NaN propagates from voids
+    return out
+
+
+@dataclass(frozen=True)
+class TerrainFactors:
+    """§AF-1..3 over one block, with how much of the block the DEM covered."""
+
+    mean_elevation_m: float
+    mean_slope_deg: float
+    mean_roughness_m: float
+    dem_coverage: float  # share of the block's area with a valid DEM height
+    n_pixels: int  # DEM cells inside the block with a valid height
+    resolution_factor: int  # 1 when read at the DEM's own grid, k when averaged over k×k cells
+    dem_files: list[str] = field(default_factory=list)
+
+    def as_dict(self) -> dict[str, object]:
+        return asdict(self)
+
+
+def find_dem_files(paths: Sequence[Path]) -> list[Path]:
+    """DEM files given directly or found (non-recursively) in given folders, sorted."""
+    found: list[Path] = []
+    for p in paths:
+        p = Path(p)
+        if p.is_dir():
+            found += sorted(q for q in p.iterdir() if q.suffix.lower() in DEM_SUFFIXES)
+        elif p.is_file():
+            found.append(p)
+        else:
+            raise InputError(Problem(file=str(p), message="DEM file or folder not found"))
+    if not found:
+        raise InputError(
+            Problem(
+                file=", ".join(str(p) for p in paths),
+                message=f"no DEM file ({', '.join(DEM_SUFFIXES)}) found",
+            )
+        )
+    return found
+
+
+@dataclass(frozen=True)
+class _Tile:
+    path: Path
+    crs: CRS
+    bounds_lonlat: shapely.Polygon
+
+
+def _open_tiles(paths: Sequence[Path]) -> list[_Tile]:
+    tiles = []
+    for p in paths:
+        try:
+            with rasterio.open(p) as src:
+                if src.crs is None:
+                    raise InputError(Problem(file=str(p), message="DEM has no coordinate system"))
+                if src.transform.b != 0 or src.transform.d != 0:
+                    raise InputError(
+                        Problem(file=str(p), message="rotated DEM grids are not supported")
+                    )
+                crs = CRS.from_user_input(src.crs.to_wkt())
+                w, s, e, n = rasterio.warp.transform_bounds(src.crs, "EPSG:4326", *src.bounds)
+        except rasterio.errors.RasterioIOError as exc:
+            raise InputError(
+                Problem(file=str(p), message=f"not a readable raster: {exc}")
+            ) from None
+        tiles.append(_Tile(Path(p), crs, shapely.box(w, s, e, n)))
+    return tiles
+
+
+class DemSet:
+    """A set of DEM tiles (one CRS per block); picks the tiles that cover each block."""
+
+    def __init__(self, paths: Sequence[Path], max_pixels: int = DEFAULT_MAX_PIXELS):
+        self.files = find_dem_files(paths)
+        self.tiles = _open_tiles(self.files)
+        self.max_pixels = max_pixels
+
+    def factors(self, polygon_lonlat: shapely.Geometry) -> TerrainFactors:
+        """§AF-1..3 over a lon/lat polygon (the block's covered area)."""
+        used = [t for t in self.tiles if t.bounds_lonlat.intersects(polygon_lonlat)]
+        if not used:
+            nan = float("nan")
+            return TerrainFactors(nan, nan, nan, 0.0, 0, 1, [])
+        crss = {t.crs.to_wkt() for t in used}
+        if len(crss) > 1:
+            raise InputError(
+                Problem(
+                    file=", ".join(str(t.path) for t in used),
+                    message="the DEM tiles covering this block are in different coordinate "
+                    "systems; give tiles in one CRS",
+                )
+            )
+        return _terrain_over(polygon_lonlat, [t.path for t in used], used[0].crs, self.max_pixels)
+
+
+def _terrain_over(
+    polygon_lonlat: shapely.Geometry, paths: list[Path], crs: CRS, max_pixels: int
+) -> TerrainFactors:
+    if crs.is_geographic:
+        poly = polygon_lonlat
+    else:
+        tr = Transformer.from_crs(CRS.from_epsg(4326), crs, always_xy=True)
+        poly = shapely.transform(
+            shapely.segmentize(polygon_lonlat, 0.01),
+            lambda xy: np.column_stack(tr.transform(xy[:, 0], xy[:, 1])),
+        )
+    with ExitStack() as stack:
+        srcs = [stack.enter_context(rasterio.open(p)) for p in paths]
+        t0 = srcs[0].transform
+        res_x, res_y = abs(t0.a), abs(t0.e)
+        minx, miny, maxx, maxy = poly.bounds
+        # snap to the first tile's grid, two cells of margin for the 3×3 windows at the edge
+        left = t0.c + (math.floor((minx - t0.c) / res_x) - 2) * res_x
+        right = t0.c + (math.ceil((maxx - t0.c) / res_x) + 2) * res_x
+        top = t0.f - (math.floor((t0.f - maxy) / res_y) - 2) * res_y
+        bottom = t0.f - (math.ceil((t0.f - miny) / res_y) + 2) * res_y
+        npix = (right - left) / res_x * (top - bottom) / res_y
+        k = max(1, math.ceil(math.sqrt(npix / max_pixels)))
+        z, transform = rasterio.merge.merge(
+            srcs,
+            bounds=(left, bottom, right, top),
+            res=(res_x * k, res_y * k),
+            nodata=np.nan,
+            dtype="float64",
+            resampling=Resampling.average if k > 1 else Resampling.nearest,
+            masked=True,
+        )
+    zf = np.ma.filled(z[0].astype(float), np.nan)
+    inside = rasterio.features.geometry_mask(
+        [poly], out_shape=zf.shape, transform=transform, invert=True
+    )
+    dx, dy = pixel_sizes_m(transform, crs, zf.shape[0])
+    weight = np.broadcast_to((dx * dy)[:, None], zf.shape)
+    slope = horn_slope(zf, dx, dy)
+    rough = roughness(zf)
+    valid = inside & np.isfinite(zf)
+    w_in = weight[inside].sum()
+    names = [str(p) for p in paths]
+    if not valid.any() or w_in <= 0:
+        nan = float("nan")
+        return TerrainFactors(nan, nan, nan, 0.0, 0, k, names)
+    vs = inside & np.isfinite(slope)
+
+    def wmean(values: np.ndarray, sel: np.ndarray) -> float:
+        return float(np.average(values[sel], weights=weight[sel])) if sel.any() else float("nan")
+
+    return TerrainFactors(
+        mean_elevation_m=wmean(zf, valid),
+        mean_slope_deg=wmean(slope, vs),
+        mean_roughness_m=wmean(rough, vs),
+        dem_coverage=float(weight[valid].sum() / w_in),
+        n_pixels=int(valid.sum()),
+        resolution_factor=k,
+        dem_files=names,
+    )

@@ -1,0 +1,144 @@
+"""`blockqc factors`: from deliveries and DEM tiles, and from a table, to CSV, JSON, plots, page."""
+
+from __future__ import annotations
+
+import json
+from html.parser import HTMLParser
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+
+from blockqc.analysis.command import command
+from blockqc.errors import InputError, UsageError
+
+SAMPLES = Path(__file__).resolve().parents[2] / "samples"
+
+
+class _Tags(HTMLParser):
+    def __init__(self):
+        super().__init__()
+        self.tags: list[str] = []
+
+    def handle_starttag(self, tag, attrs):
+        self.tags.append(tag)
+
+
+@pytest.fixture(scope="module")
+def batch(tmp_path_factory, make_block):
+    root = tmp_path_factory.mktemp("batch")
+    make_block(root, "F1-B01", 40.27, 39.60, 3, 300, 1, ["2023-03-01", "2023-03-02"])
+    make_block(root, "F1-B02", 40.30, 39.62, 4, 500, 2, ["2023-04-01"])
+    make_block(root, "F2-B01", 40.40, 39.60, 3, 200, 3, ["2023-05-01", "2023-06-01"])
+    return root
+
+
+def test_batch_with_dem_folder(batch, data_dir, tmp_path):
+    out = tmp_path / "out"
+    res = CliRunner().invoke(command, [str(batch), "--dem", str(data_dir), "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    assert "CCA not computed" in res.output
+    table = pd.read_csv(out / "experiments.csv")
+    assert list(table["experiment"]) == ["F1-B01", "F1-B02", "F2-B01"]
+    assert list(table["images_number"]) == [3, 4, 3]
+    assert list(table["images_periods"]) == [2, 1, 2]
+    assert list(table["tp_number"]) == [300, 500, 200]
+    # 4 scenes 0.06° wide every 0.04°: union 0.18°, seen twice 3 × 0.02°
+    assert table.loc[1, "overlap_degree"] == pytest.approx(0.06 / 0.18, rel=1e-3)
+    # F2-B01 spans lon 40.40–40.54; the DEM crop ends at 40.45
+    assert table.loc[2, "dem_coverage"] == pytest.approx(0.05 / 0.14, abs=0.01)
+    assert table.loc[0, "dem_coverage"] == pytest.approx(1.0)
+    assert (table["mean_slope_deg"] > 1).all() and (table["l_rmse_px"] < 1).all()
+    results = json.loads((out / "factors.json").read_text(encoding="utf-8"))
+    assert results["cca"] is None
+    assert any("n = 3" in r and "17" in r for r in results["cca_not_computed"])
+    corr = pd.read_csv(out / "correlation.csv", index_col=0)
+    assert corr.shape == (10, 5)
+    page = (out / "factors.html").read_text(encoding="utf-8")
+    assert "CCA not computed" in page and "at least 17 rows" in page
+    assert "<svg" in page and "Pearson" in page and "F2-B01" in page
+    assert (out / "correlation.svg").stat().st_size > 0
+    assert not (out / "structure.svg").exists()
+
+
+def test_table_mode_full_analysis(appendix, appendix_path, tmp_path):
+    out = tmp_path / "out"
+    res = CliRunner().invoke(command, ["--table", str(appendix_path), "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    results = json.loads((out / "factors.json").read_text(encoding="utf-8"))
+    x = appendix.iloc[:, 4:14].to_numpy(float)
+    y = appendix.iloc[:, 14:19].to_numpy(float)
+    r = np.corrcoef(np.hstack([x, y]), rowvar=False)
+    m = np.linalg.solve(r[:10, :10], r[:10, 10:]) @ np.linalg.solve(r[10:, 10:], r[10:, :10])
+    r1 = np.sqrt(np.max(np.linalg.eigvals(m).real))
+    assert results["cca"]["tests"][0]["canonical_correlation"] == pytest.approx(r1, abs=1e-8)
+    tests = pd.read_csv(out / "cca_tests.csv")
+    assert list(tests["df"]) == [50, 36, 24, 14, 6]
+    struct = pd.read_csv(out / "cca_structure.csv")
+    assert len(struct) == 15 and set(struct["group"]) == {"factor", "indicator"}
+    coef = pd.read_csv(out / "cca_coefficients.csv")
+    assert list(coef.columns) == ["group", "variable"] + [f"pair_{k}" for k in range(1, 6)]
+    page = (out / "factors.html").read_text(encoding="utf-8")
+    parser = _Tags()
+    parser.feed(page)
+    assert parser.tags.count("svg") == 2 and "table" in parser.tags
+    assert "Bartlett" in page and "CCA not computed" not in page
+    for name in ("correlation.png", "structure.png", "structure.svg", "experiments.csv"):
+        assert (out / name).stat().st_size > 0
+
+
+def test_page_escapes_text(appendix, tmp_path):
+    t = appendix.copy()
+    t["region"] = t["region"].astype(str)
+    t.loc[0, "region"] = "<script>alert(1)</script>"
+    src = tmp_path / "t.csv"
+    t.to_csv(src, index=False)
+    out = tmp_path / "out"
+    assert CliRunner().invoke(command, ["--table", str(src), "--out", str(out)]).exit_code == 0
+    page = (out / "factors.html").read_text(encoding="utf-8")
+    assert "<script>" not in page and "&lt;script&gt;" in page
+
+
+def test_errors(appendix_path, batch, tmp_path):
+    with pytest.raises(UsageError, match="either BATCH"):
+        command.main(["--out", str(tmp_path / "o")], standalone_mode=False)
+    with pytest.raises(UsageError, match="needs --dem"):
+        command.main([str(batch), "--out", str(tmp_path / "o")], standalone_mode=False)
+    with pytest.raises(UsageError, match="never writes into a delivery"):
+        command.main(
+            [str(batch), "--dem", str(tmp_path), "--out", str(batch / "x")], standalone_mode=False
+        )
+    bad = tmp_path / "bad.csv"
+    bad.write_text(
+        appendix_path.read_text(encoding="utf-8").replace("0.4761", "x"), encoding="utf-8"
+    )
+    with pytest.raises(InputError) as err:
+        command.main(["--table", str(bad), "--out", str(tmp_path / "o")], standalone_mode=False)
+    assert [(p.row, p.column) for p in err.value.problems] == [(1, "overlap_degree")]
+
+
+@pytest.mark.skipif(
+    not (SAMPLES / "batch").is_dir(), reason="samples/batch is made by the sample generator"
+)
+def test_sample_batch_page(tmp_path):
+    """The shipped sample batch on the shipped DEM tiles: factors for every block, a readable
+    page with the correlation matrix and the reason the CCA is not computed."""
+    out = tmp_path / "out"
+    args = [str(SAMPLES / "batch"), "--dem", str(SAMPLES / "dem"), "--out", str(out)]
+    res = CliRunner().invoke(command, args)
+    assert res.exit_code == 0, res.output
+    table = pd.read_csv(out / "experiments.csv")
+    assert len(table) >= 8
+    assert (table["dem_coverage"] > 0.5).all()
+    assert table["mean_slope_deg"].between(1, 45).all()
+    assert table["tp_nn_coefficient"].between(0.2, 2.2).all()
+    results = json.loads((out / "factors.json").read_text(encoding="utf-8"))
+    assert results["correlation"] is not None
+    page = (out / "factors.html").read_text(encoding="utf-8")
+    parser = _Tags()
+    parser.feed(page)
+    assert "svg" in parser.tags
+    if results["cca"] is None:
+        assert "CCA not computed" in page and "at least 17 rows" in page

@@ -1,0 +1,155 @@
+"""Malformed deliveries, packs and inspector files: exit 2, a message naming file and row/line."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from casekit import write_delivery
+
+
+def _no_traceback(proc) -> None:
+    assert "Traceback" not in proc.stderr and "Traceback" not in proc.stdout
+
+
+def _replace(path: Path, old: str, new: str) -> None:
+    text = path.read_text()
+    assert old in text
+    path.write_text(text.replace(old, new, 1))
+
+
+@pytest.fixture
+def delivery(tmp_path: Path) -> Path:
+    return write_delivery(tmp_path / "block")
+
+
+def test_missing_column(blockqc, delivery: Path, tmp_path: Path) -> None:
+    _replace(delivery / "tie_points.csv", "v_sample", "vs")
+    p = blockqc("inspect", delivery, "--out", tmp_path / "out")
+    assert p.returncode == 2
+    _no_traceback(p)
+    assert "tie_points.csv" in p.stderr and "missing column 'v_sample'" in p.stderr
+
+
+def test_text_in_numeric_column(blockqc, delivery: Path, tmp_path: Path) -> None:
+    lines = (delivery / "tie_points.csv").read_text().splitlines()
+    cells = lines[17].split(",")
+    cells[4] = "abc"  # v_line of data row 17, line 18
+    lines[17] = ",".join(cells)
+    (delivery / "tie_points.csv").write_text("\n".join(lines) + "\n")
+    p = blockqc("inspect", delivery, "--out", tmp_path / "out")
+    assert p.returncode == 2
+    _no_traceback(p)
+    assert (
+        "tie_points.csv, row 17 (line 18), column 'v_line': expected a number, got 'abc'"
+        in p.stderr
+    )
+
+
+def test_duplicated_scene_id(blockqc, delivery: Path, tmp_path: Path) -> None:
+    _replace(delivery / "scenes.csv", "\nS2,", "\nS1,")
+    p = blockqc("inspect", delivery, "--out", tmp_path / "out")
+    assert p.returncode == 2
+    _no_traceback(p)
+    assert "scenes.csv, row 1 (line 2), column 'scene_id': duplicated key" in p.stderr
+    assert "scenes.csv, row 2 (line 3), column 'scene_id': duplicated key" in p.stderr
+    assert not (tmp_path / "out" / "CASE" / "results.json").exists()
+
+
+def test_unknown_scene_reference_and_several_problems_at_once(blockqc, delivery, tmp_path):
+    _replace(delivery / "tie_points.csv", ",S4,", ",S9,")
+    _replace(delivery / "checkpoints.csv", "high_precision", "best_guess")
+    p = blockqc("inspect", delivery, "--out", tmp_path / "out")
+    assert p.returncode == 2
+    assert "unknown scene_id (not in scenes.csv), got 'S9'" in p.stderr
+    assert "checkpoints.csv, row 1 (line 2), column 'method': expected one of" in p.stderr
+
+
+def test_bad_manifest_names_its_line(blockqc, delivery: Path, tmp_path: Path) -> None:
+    _replace(delivery / "block.yaml", "  pan: 1.0", "  pan: -1.0")
+    p = blockqc("inspect", delivery, "--out", tmp_path / "out")
+    assert p.returncode == 2
+    assert "block.yaml, line 4: gsd_m.pan: Input should be greater than 0" in p.stderr
+
+
+def _pack(tmp_path: Path, body: str) -> Path:
+    path = tmp_path / "pack.yaml"
+    path.write_text("pack: broken\nextends: global-project\n" + body)
+    return path
+
+
+def test_unknown_rule_key(blockqc, delivery: Path, tmp_path: Path) -> None:
+    pack = _pack(
+        tmp_path,
+        "rules:\n  - id: X-1\n    title: t\n    clause: §TP-1\n"
+        "    metric: tie_point_errors\n    statistic: median\n"
+        "    threshold: {max: 1}\n    treshold_note: typo\n",
+    )
+    p = blockqc("inspect", delivery, "--rules", pack, "--out", tmp_path / "out")
+    assert p.returncode == 2
+    _no_traceback(p)
+    assert f"{pack}, line 10: rule X-1: treshold_note: unknown key" in p.stderr
+
+
+def test_python_object_tag_is_refused(blockqc, delivery: Path, tmp_path: Path) -> None:
+    pack = _pack(tmp_path, "constants:\n  x: !!python/object/apply:os.system ['echo hi']\n")
+    p = blockqc("inspect", delivery, "--rules", pack, "--out", tmp_path / "out")
+    assert p.returncode == 2
+    _no_traceback(p)
+    assert f"{pack}, line 4: not valid YAML" in p.stderr and "python/object" in p.stderr
+    assert "hi" not in p.stdout
+
+
+def test_expression_with_a_function_not_whitelisted(blockqc, delivery, tmp_path) -> None:
+    pack = _pack(tmp_path, 'overrides:\n  TP-1:\n    threshold: {max: "exp(norm.plane_m)"}\n')
+    p = blockqc("inspect", delivery, "--rules", pack, "--out", tmp_path / "out")
+    assert p.returncode == 2
+    _no_traceback(p)
+    assert f"{pack}, line 5: rule TP-1: threshold.max: function 'exp' is not allowed" in p.stderr
+
+
+def test_unknown_metric_and_statistic_listed_together(blockqc, tmp_path: Path) -> None:
+    pack = _pack(
+        tmp_path, "overrides:\n  TP-1: {metric: tie_point_magic}\n  TP-2: {statistic: biggest}\n"
+    )
+    p = blockqc("rules", "lint", pack)
+    assert p.returncode == 2
+    assert "line 4: rule TP-1: unknown metric 'tie_point_magic'" in p.stderr
+    assert (
+        "line 5: rule TP-2: metric tie_point_errors at scope observation offers no "
+        "statistic 'biggest'" in p.stderr
+    )
+
+
+def test_bad_verdicts_file(blockqc, delivery: Path, tmp_path: Path) -> None:
+    v = tmp_path / "verdicts.yaml"
+    v.write_text("inspector: A\nverdicts:\n  DOC-3: {status: maybe}\n")
+    p = blockqc("inspect", delivery, "--verdicts", v, "--out", tmp_path / "out")
+    assert p.returncode == 2
+    assert f"{v}, line 3: verdicts.DOC-3.status: Input should be 'pass' or 'fail'" in p.stderr
+
+
+def test_output_inside_the_delivery_is_refused(blockqc, delivery: Path) -> None:
+    before = sorted(p.name for p in delivery.rglob("*"))
+    p = blockqc("inspect", delivery, "--out", delivery / "out")
+    assert p.returncode == 2
+    assert "never writes into a delivery" in p.stderr
+    assert sorted(p.name for p in delivery.rglob("*")) == before
+
+
+def test_not_a_delivery(blockqc, tmp_path: Path) -> None:
+    p = blockqc("inspect", tmp_path, "--out", tmp_path.parent / "o")
+    assert p.returncode == 2
+    assert "neither a delivery" in p.stderr
+
+
+def test_empty_and_ragged_csv(blockqc, delivery: Path, tmp_path: Path) -> None:
+    (delivery / "edges.csv").write_text("")
+    with (delivery / "overlaps.csv").open("a") as fh:
+        fh.write("S1,S2,O9,1,2,3,4,5\n")
+    p = blockqc("inspect", delivery, "--out", tmp_path / "out")
+    assert p.returncode == 2
+    _no_traceback(p)
+    assert "edges.csv: the file is empty" in p.stderr
+    assert "overlaps.csv: not a readable CSV table" in p.stderr and "line 7" in p.stderr
