@@ -595,7 +595,9 @@ def write_block(out: Path, spec: FieldSpec, index: int, opts: Options, dem_dir: 
 
 
 def default_dem_dir() -> Path:
-    return _CHECKOUT / "samples" / "dem"
+    """samples/dem of the checkout (editable install), else of the working folder."""
+    checkout = _CHECKOUT / "samples" / "dem"
+    return checkout if checkout.is_dir() else Path("samples") / "dem"
 
 
 def simulate(out: Path, opts: Options, dem_dir: Path | None = None) -> list[str]:

@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from blockqc.analysis.spatial import clark_evans
+from blockqc.analysis.spatial import clark_evans_grouped
 from blockqc.delivery import Delivery
 from blockqc.metrics import Measure, Measurement, Table, metric, not_applicable
 
@@ -166,13 +166,9 @@ def tie_point_distribution(d: Delivery, p: DistributionParams, measure: Measure)
 
 def _clark_evans_per_scene(tp: pd.DataFrame, geo: pd.DataFrame) -> pd.Series:
     """Clark–Evans R of each scene's observations in pixel space, Donnelly edge-corrected."""
-    values = {}
-    for scene_id, grp in tp.groupby("scene_id", sort=False):
-        lines, samples = geo.loc[scene_id, "lines"], geo.loc[scene_id, "samples"]
-        values[scene_id] = clark_evans(
-            grp["sample"].to_numpy(),
-            grp["line"].to_numpy(),
-            area=lines * samples,
-            perimeter=2 * (lines + samples),
-        )
-    return pd.Series(values, dtype=float)
+    codes, scene_ids = pd.factorize(tp["scene_id"])
+    g = geo.reindex(scene_ids)
+    lines, samples = g["lines"].to_numpy(), g["samples"].to_numpy()
+    r = clark_evans_grouped(tp["sample"].to_numpy(), tp["line"].to_numpy(), codes,
+                            area=lines * samples, perimeter=2 * (lines + samples))
+    return pd.Series(r, index=scene_ids, dtype=float)
