@@ -26,7 +26,7 @@ from blockqc.resources import _CHECKOUT
 FAULTS = {
     "sparse-scene": "one PAN scene keeps only 60 tie points (TP-4)",
     "clustered-scene": "one PAN scene's tie points crowd into one corner (TP-5)",
-    "tp-noise": "tie-point residuals twice as large (TP-1, TP-3)",
+    "tp-noise": "tie-point residuals twice as large (TP-1, TP-2, TP-3)",
     "tp-outlier": "a few tie-point observations beyond 1.5 px (TP-2)",
     "sea-scene": "one PAN scene mostly sea, with few tie points (TP-4 exemption, shown)",
     "pan-ms-shift": "one PAN/MS pair misregistered by 1.5 MS pixels (RO-1)",
@@ -331,11 +331,10 @@ class _Block:
             mine = np.flatnonzero(obs["scene_id"].to_numpy() == sid)
             drop = rng.choice(mine, max(0, len(mine) - 60), replace=False)
             obs = obs.drop(index=drop)
-        if "clustered-scene" in self.faults:
+        if "clustered-scene" in self.faults:  # same points, squeezed into one corner
             sc = pan.iloc[6]
-            mine = obs["scene_id"].to_numpy() == sc["scene_id"]
-            corner = (obs["line"] < sc["lines"] / 3) & (obs["sample"] < sc["samples"] / 3)
-            obs = obs[~mine | corner.to_numpy()]
+            mine = (obs["scene_id"] == sc["scene_id"]).to_numpy()
+            obs.loc[mine, ["line", "sample"]] = obs.loc[mine, ["line", "sample"]] / 3.0
         if "sea-scene" in self.faults:
             sid = pan["scene_id"].iloc[2]  # row 3 of scenes.csv: the F view of footprint 1
             mine = np.flatnonzero(obs["scene_id"].to_numpy() == sid)

@@ -75,7 +75,11 @@ def load_yaml(path: Path, error: type[BlockqcError] = InputError) -> Any:
     except (OSError, UnicodeDecodeError) as exc:
         raise error(Problem(str(path), f"cannot be read as UTF-8 text: {exc}")) from None
     try:
-        return yaml.load(text, Loader=_Loader)  # noqa: S506 - _Loader is a SafeLoader
+        loader = _Loader(text)  # a SafeLoader: no tag can build a Python object
+        try:
+            return loader.get_single_data()
+        finally:
+            loader.dispose()
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         line = mark.line + 1 if mark else None

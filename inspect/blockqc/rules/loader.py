@@ -19,7 +19,7 @@ from blockqc.rules.expr import ExpressionError, evaluate, resolve_params
 from blockqc.rules.model import Pack, PackFile, Rule
 from blockqc.yamlio import LineDict, line_of, load_yaml, pydantic_problems
 
-#: values the delivery supplies to expressions; checked here with placeholders
+#: values the delivery supplies to expressions; pack checks evaluate them with these stand-ins
 DELIVERY_NAMES = {"gsd": {"pan": 1.0, "ms": 1.0}}
 
 
