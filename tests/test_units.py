@@ -1,0 +1,97 @@
+"""Unit tests: UTM/UPS zone expectations, the expression evaluator, tie-point statistics."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from blockqc.metrics.spatial_ref import (
+    SpatialParams,
+    expected_epsg,
+    normalize_datum,
+    normalize_height_datum,
+    utm_zone,
+)
+from blockqc.metrics.tiepoints import _stats, tie_point_error_px
+from blockqc.rules.expr import ExpressionError, evaluate
+
+P = SpatialParams()
+
+
+@pytest.mark.parametrize(("lon", "zone"), [(-180.0, 1), (-177.0, 1), (-174.0, 2), (0.0, 31),
+                                           (116.3, 50), (179.99, 60), (180.0, 60)])
+def test_utm_zone(lon: float, zone: int) -> None:
+    assert utm_zone(lon) == zone
+
+
+def test_expected_epsg_north_south_straddle_and_polar() -> None:
+    assert expected_epsg(116.2, 116.4, 39.9, P) == [32650]
+    assert expected_epsg(-47.1, -46.9, -23.5, P) == [32723]  # São Paulo, zone 23S
+    assert expected_epsg(119.5, 120.5, 30.0, P) == [32650, 32651]  # straddles 120° E
+    assert expected_epsg(10.0, 20.0, 85.0, P) == [32661]  # UPS north
+    assert expected_epsg(10.0, 20.0, -81.0, P) == [32761]  # UPS south
+    assert expected_epsg(10.0, 20.0, 83.9, P) == [32632, 32633, 32634]
+
+
+def test_datum_names() -> None:
+    for name in ("WGS84", "WGS 84", "wgs-84", "EPSG:4326", "WGS_1984"):
+        assert normalize_datum(name) == "WGS84"
+    assert normalize_datum("CGCS2000") == "CGCS2000"
+    assert normalize_height_datum("WGS84 ellipsoid") == "ellipsoidal"
+    assert normalize_height_datum("egm2008") == "EGM2008"
+
+
+def test_expressions() -> None:
+    c = {"norm": {"plane_m": 10, "height_m": 6}, "k": [1, 2]}
+    assert evaluate("2*sqrt(2)*norm.plane_m", c) == pytest.approx(20 * math.sqrt(2))
+    assert evaluate("max(norm.plane_m, 12) - -1", c) == 13.0
+    assert evaluate("k", c) == [1.0, 2.0]
+    for bad, msg in [("open('x')", "not allowed"), ("norm.missing", "unknown constant"),
+                     ("norm.__class__", "unknown constant"), ("(1).real", "not allowed"),
+                     ("1 if 1 else 0", "not allowed"), ("1/0", "cannot evaluate"),
+                     ("10.0**1000", "cannot evaluate"), ("2 +", "malformed")]:
+        with pytest.raises(ExpressionError, match=msg):
+            evaluate(bad, c)
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.floats(-1e6, 1e6), st.floats(-1e6, 1e6), st.floats(0.001, 1e3))
+def test_expression_arithmetic_matches_python(a: float, b: float, c: float) -> None:
+    consts = {"a": a, "b": b, "c": c}
+    assert evaluate("a + b * c - a / c", consts) == pytest.approx(a + b * c - a / c, rel=1e-12,
+                                                                   abs=1e-9)
+    assert evaluate("sqrt(abs(a)) + min(a, b)", consts) == pytest.approx(
+        math.sqrt(abs(a)) + min(a, b), rel=1e-12, abs=1e-12)
+
+
+def test_tie_point_statistics_by_hand() -> None:
+    err = pd.Series(tie_point_error_px(np.array([0.3, 0.6, 0.0, 1.2, 0.9]),
+                                       np.array([0.4, 0.8, 1.0, 0.9, 1.2])))
+    # errors 0.5, 1.0, 1.0, 1.5, 1.5: median 1.0, RMS √(6.75/5), in (1.0, 1.5]: two of five
+    s = _stats(err, None, 1.0, 1.5).iloc[0]
+    assert s["median"] == pytest.approx(1.0)
+    assert s["rms"] == pytest.approx(math.sqrt((0.25 + 1 + 1 + 2.25 + 2.25) / 5))
+    assert s["max"] == pytest.approx(1.5)
+    assert s["share_in_interval"] == pytest.approx(40.0)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(st.floats(-2, 2), st.floats(-2, 2)), min_size=1, max_size=200),
+       st.randoms(use_true_random=False), st.floats(0.1, 10))
+def test_tie_point_statistics_properties(v, rnd, k) -> None:
+    vl, vs = (np.array(x) for x in zip(*v, strict=True))
+    base = _stats(pd.Series(tie_point_error_px(vl, vs)), None, 1.0, 1.5).iloc[0]
+    order = np.arange(len(vl))
+    rnd.shuffle(order)
+    shuffled = _stats(pd.Series(tie_point_error_px(vl[order], vs[order])), None, 1.0, 1.5).iloc[0]
+    scaled = _stats(pd.Series(tie_point_error_px(k * vl, k * vs)), None, 1.0, 1.5).iloc[0]
+    for col in ("median", "rms", "max", "share_in_interval"):
+        assert shuffled[col] == pytest.approx(base[col], rel=1e-12, abs=1e-12)
+    for col in ("median", "rms", "max", "mean"):
+        assert scaled[col] == pytest.approx(k * base[col], rel=1e-9, abs=1e-12)
+    assert base["median"] <= base["max"] and base["rms"] <= base["max"] + 1e-12
