@@ -188,6 +188,8 @@ class Judge:
             "rule": r.id,
             "title": r.title,
             "clause": r.clause,
+            "quality_element": r.quality_element,
+            "content": r.content,
             "group": group,
             "status": status,
             "statistic": r.statistic,
@@ -376,11 +378,27 @@ def inspect_delivery(
         "counts": counts,
         "summary": summary(delivery),
         "results": results,
-        "measurements": _measurements(ctx),
+        "measurements": _measurements(ctx, pack, results),
     }
 
 
-def _measurements(ctx: Context) -> dict[str, Any]:
+def _offending_points(ctx: Context, pack: Pack, results: list[dict]) -> dict[str, dict]:
+    """For failing per-scene rules, the positions behind the offending scenes (for maps)."""
+    out: dict[str, dict] = {}
+    for res in results:
+        if res["status"] not in ("fail", "warn", "waived") or not res["evidence"]:
+            continue
+        rule = pack.rule(res["rule"])
+        if rule.manual:
+            continue
+        m = ctx.measure(rule.metric, rule.params)
+        ids = [e["scene_id"] for e in res["evidence"] if "scene_id" in e]
+        if m.unit_points is not None and ids:
+            out.setdefault(rule.metric, {}).update(m.unit_points(ids))
+    return out
+
+
+def _measurements(ctx: Context, pack: Pack, results: list[dict]) -> dict[str, Any]:
     """Small tables and details of every metric measured, for reports and plots."""
     d = ctx.delivery
     out: dict[str, Any] = {
@@ -410,4 +428,6 @@ def _measurements(ctx: Context) -> dict[str, Any]:
             if len(table.df) <= MEASUREMENT_ROWS_KEPT:
                 entry[scope] = records(table.df)
         out[name] = entry
+    for name, points in _offending_points(ctx, pack, results).items():
+        out.setdefault(name, {})["scene_points"] = jsonable(points)
     return out

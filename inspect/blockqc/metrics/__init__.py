@@ -35,6 +35,8 @@ class Measurement:
     tables: dict[str, Table]
     not_applicable: str | None = None  # why nothing could be measured (input absent)
     detail: dict[str, Any] = field(default_factory=dict)
+    # the raw positions behind offending units (e.g. a failing scene's tie points), on demand
+    unit_points: Callable[[list[str]], dict[str, Any]] | None = None
 
 
 class NoParams(BaseModel):

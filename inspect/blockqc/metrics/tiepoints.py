@@ -158,9 +158,25 @@ def tie_point_distribution(d: Delivery, p: DistributionParams, measure: Measure)
         "",
     )
     out = out.drop(columns=["lines", "samples"])
+
+    def scene_points(scene_ids: list[str], cap: int = 2000) -> dict:
+        """Tie-point positions of the scenes named (at most `cap` each), for maps."""
+        sub = tp[tp["scene_id"].isin(scene_ids)]
+        sub = sub.groupby("scene_id", sort=False).head(cap)
+        return {
+            sid: {
+                "lines": int(geo.loc[sid, "lines"]),
+                "samples": int(geo.loc[sid, "samples"]),
+                "line": g["line"].round(1).tolist(),
+                "sample": g["sample"].round(1).tolist(),
+            }
+            for sid, g in sub.groupby("scene_id", sort=False)
+        }
+
     return Measurement(
         tables={"scene": Table(out, keys=["scene_id"], sort="n_points")},
         detail={"grid": k, "exempt_water_fraction": p.exempt_water_fraction},
+        unit_points=scene_points,
     )
 
 
@@ -169,6 +185,11 @@ def _clark_evans_per_scene(tp: pd.DataFrame, geo: pd.DataFrame) -> pd.Series:
     codes, scene_ids = pd.factorize(tp["scene_id"])
     g = geo.reindex(scene_ids)
     lines, samples = g["lines"].to_numpy(), g["samples"].to_numpy()
-    r = clark_evans_grouped(tp["sample"].to_numpy(), tp["line"].to_numpy(), codes,
-                            area=lines * samples, perimeter=2 * (lines + samples))
+    r = clark_evans_grouped(
+        tp["sample"].to_numpy(),
+        tp["line"].to_numpy(),
+        codes,
+        area=lines * samples,
+        perimeter=2 * (lines + samples),
+    )
     return pd.Series(r, index=scene_ids, dtype=float)
