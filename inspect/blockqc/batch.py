@@ -11,10 +11,10 @@ from typing import Any
 from blockqc import __version__
 from blockqc.delivery import find_deliveries, load_delivery
 from blockqc.engine import STATUSES, inspect_delivery
-from blockqc.errors import InputError, Problem, UsageError
+from blockqc.errors import InputError, Problem
 from blockqc.inspector import InspectorInput
-from blockqc.outputs import write_json_atomic, write_text_atomic
-from blockqc.report.html import environment, render_block, render_summary
+from blockqc.outputs import write_json_atomic
+from blockqc.report import write_block_report, write_summary_report
 from blockqc.rules.model import Pack
 
 
@@ -50,32 +50,39 @@ def inspect_one(path: Path, pack: Pack, inspector: InspectorInput | None) -> Out
     )
 
 
-def write_block(out: Path, results: dict[str, Any], templates: Path | None = None) -> Path:
-    """results.json first; the page is rendered from it (never beside it)."""
+def write_block(
+    out: Path,
+    results: dict[str, Any],
+    *,
+    templates: Path | None = None,
+    lang: str = "en",
+    pdf: bool = True,
+) -> Path:
+    """results.json first; the report is rendered from it (never beside it)."""
     folder = out / results["block_id"]
     write_json_atomic(folder / "results.json", results)
-    write_text_atomic(folder / "report.html", render_block(results, environment(templates)))
+    write_block_report(folder, results, lang=lang, templates=templates, pdf=pdf)
     return folder
 
 
-def check_unique(outcomes: list[Outcome]) -> None:
-    seen: dict[str, Path] = {}
-    problems = []
-    for o in outcomes:
-        if o.results is None:
-            continue
-        bid = o.results["block_id"]
-        if bid in seen:
-            problems.append(
+def _duplicate(o: Outcome, seen: dict[str, Path]) -> Outcome:
+    """A second delivery with a block id already seen is refused (block ids are unique)."""
+    bid = o.results["block_id"] if o.results else None
+    if bid is None:
+        return o
+    if bid in seen:
+        return Outcome(
+            o.path,
+            problems=[
                 Problem(
                     str(o.path / "block.yaml"),
-                    f"block_id {bid} is also the id of {seen[bid]}: block ids "
-                    "must be unique in a batch",
+                    f"block_id {bid} is also the id of {seen[bid]}: "
+                    "block ids must be unique in a batch",
                 )
-            )
-        seen[bid] = o.path
-    if problems:
-        raise InputError(problems)
+            ],
+        )
+    seen[bid] = o.path
+    return o
 
 
 def summarize(outcomes: list[Outcome], pack: Pack, inspector: InspectorInput | None) -> dict:
@@ -124,9 +131,17 @@ def summarize(outcomes: list[Outcome], pack: Pack, inspector: InspectorInput | N
     }
 
 
-def write_summary(out: Path, summary: dict[str, Any], templates: Path | None = None) -> None:
+def write_summary(
+    out: Path,
+    summary: dict[str, Any],
+    block_results: list[dict[str, Any]],
+    *,
+    templates: Path | None = None,
+    lang: str = "en",
+    pdf: bool = True,
+) -> None:
     write_json_atomic(out / "summary.json", summary)
-    write_text_atomic(out / "summary.html", render_summary(summary, environment(templates)))
+    write_summary_report(out, summary, block_results, lang=lang, templates=templates, pdf=pdf)
 
 
 def run(
@@ -134,25 +149,34 @@ def run(
     pack: Pack,
     out: Path,
     inspector: InspectorInput | None = None,
+    *,
     templates: Path | None = None,
+    lang: str = "en",
+    pdf: bool = True,
     progress: Callable[[Outcome], None] | None = None,
 ) -> tuple[list[Outcome], dict | None]:
-    """Inspect every delivery named; write per-block outputs and, for a batch, the summary."""
+    """Inspect every delivery named, writing its outputs as it goes; for a batch, the summary."""
     deliveries, batch = collect(paths)
     outcomes: list[Outcome] = []
+    seen: dict[str, Path] = {}
     for path in deliveries:
-        o = inspect_one(path, pack, inspector)
+        o = _duplicate(inspect_one(path, pack, inspector), seen)
+        if o.results is not None:
+            write_block(out, o.results, templates=templates, lang=lang, pdf=pdf)
         outcomes.append(o)
         if progress:
             progress(o)
-    check_unique(outcomes)
-    for o in outcomes:
-        if o.results is not None:
-            write_block(out, o.results, templates)
     summary = None
     if batch:
         summary = summarize(outcomes, pack, inspector)
-        write_summary(out, summary, templates)
+        write_summary(
+            out,
+            summary,
+            [o.results for o in outcomes if o.results],
+            templates=templates,
+            lang=lang,
+            pdf=pdf,
+        )
     return outcomes, summary
 
 
@@ -163,4 +187,4 @@ def exit_status(outcomes: list[Outcome]) -> int:
     return 1 if any(o.results["verdict"] == "fail" for o in outcomes) else 0
 
 
-__all__ = ["Outcome", "UsageError", "exit_status", "run", "summarize"]
+__all__ = ["Outcome", "exit_status", "run", "summarize"]

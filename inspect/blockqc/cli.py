@@ -75,6 +75,19 @@ def cli() -> None:
     help="Folder of templates that take precedence over the stock ones.",
 )
 @click.option(
+    "--lang",
+    type=click.Choice(["en", "zh"]),
+    default="en",
+    show_default=True,
+    help="Language of the reports.",
+)
+@click.option(
+    "--pdf/--no-pdf",
+    default=True,
+    show_default=True,
+    help="Write report.pdf beside report.html (and summary.pdf for a batch).",
+)
+@click.option(
     "--progress/--no-progress",
     default=None,
     help="Progress bar for batches (default: when stderr is a terminal).",
@@ -85,6 +98,8 @@ def inspect_cmd(
     verdicts: Path | None,
     out: Path,
     templates: Path | None,
+    lang: str,
+    pdf: bool,
     progress: bool | None,
 ) -> int:
     """Inspect one delivery or a batch (a folder of deliveries) with a rule pack."""
@@ -135,10 +150,26 @@ def inspect_cmd(
                 bar.console.print(line(o), markup=False, highlight=False)
                 bar.advance(task)
 
-            outcomes, summary = batch.run(list(paths), pack, out, inspector, templates, tick)
+            outcomes, summary = batch.run(
+                list(paths),
+                pack,
+                out,
+                inspector,
+                templates=templates,
+                lang=lang,
+                pdf=pdf,
+                progress=tick,
+            )
     else:
         outcomes, summary = batch.run(
-            list(paths), pack, out, inspector, templates, lambda o: click.echo(line(o))
+            list(paths),
+            pack,
+            out,
+            inspector,
+            templates=templates,
+            lang=lang,
+            pdf=pdf,
+            progress=lambda o: click.echo(line(o)),
         )
     for o in outcomes:
         for p in o.problems:

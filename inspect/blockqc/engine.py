@@ -190,6 +190,7 @@ class Judge:
             "clause": r.clause,
             "quality_element": r.quality_element,
             "content": r.content,
+            "inspection_content": r.inspection_content,
             "group": group,
             "status": status,
             "statistic": r.statistic,
@@ -429,5 +430,5 @@ def _measurements(ctx: Context, pack: Pack, results: list[dict]) -> dict[str, An
                 entry[scope] = records(table.df)
         out[name] = entry
     for name, points in _offending_points(ctx, pack, results).items():
-        out.setdefault(name, {})["scene_points"] = jsonable(points)
+        out.setdefault(name, {})["failing_scene_points"] = jsonable(points)
     return out

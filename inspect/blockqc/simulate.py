@@ -377,7 +377,7 @@ class _Block:
         d[:, 2] *= 0.7
         d = np.clip(d, -14, 14)
         if "overlap-shift" in self.faults:  # two pairs offset beyond 2√2·m = 28.3 m
-            for p in (1, 4):
+            for p in sorted({1, 4} & set(range(len(pairs)))) or [0]:
                 sl = slice(p * n, p * n + 8)
                 d[sl, 0] += rng.uniform(24, 30, 8)
                 d[sl, 1] += rng.uniform(8, 14, 8)

@@ -52,7 +52,7 @@ def checkpoint_errors(cp: pd.DataFrame) -> pd.DataFrame:
     dx = (cp["x_m"] - cp["ref_x_m"]).to_numpy(dtype=float)
     dy = (cp["y_m"] - cp["ref_y_m"]).to_numpy(dtype=float)
     dz = (cp["z_m"] - cp["ref_z_m"]).to_numpy(dtype=float)
-    base = cp[["point_id", "method", "reference_id"]].reset_index(drop=True)
+    base = cp[["point_id", "method", "reference_id", "x_m", "y_m"]].reset_index(drop=True)
     plane = base.assign(component="plane", dx_m=dx, dy_m=dy, dz_m=np.nan, error_m=np.hypot(dx, dy))
     height = base.assign(component="height", dx_m=np.nan, dy_m=np.nan, dz_m=dz, error_m=dz)
     out = pd.concat([plane, height], ignore_index=True)
@@ -64,6 +64,8 @@ def checkpoint_errors(cp: pd.DataFrame) -> pd.DataFrame:
             "method",
             "point_id",
             "reference_id",
+            "x_m",
+            "y_m",
             "dx_m",
             "dy_m",
             "dz_m",

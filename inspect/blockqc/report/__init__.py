@@ -1,1 +1,61 @@
-"""Rendering results.json into pages people read (HTML now; PDF from the same HTML)."""
+"""Rendering results.json into the acceptance report: HTML, PDF from the same HTML, CSV exports."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from blockqc.outputs import write_bytes_atomic, write_text_atomic
+from blockqc.report.build import block_context, summary_context
+from blockqc.report.exports import checkpoints_csv, evidence_csv
+from blockqc.report.html import environment, render_page
+from blockqc.report.messages import LANGUAGES
+
+
+def write_block_report(folder: Path, results: dict[str, Any], *, lang: str = "en",
+                       templates: Path | None = None, pdf: bool = True) -> list[Path]:
+    """report.html, report.pdf, checkpoints.csv and evidence.csv of one block, from its results."""
+    if lang not in LANGUAGES:
+        raise ValueError(f"language {lang!r}: choose one of {', '.join(LANGUAGES)}")
+    folder = Path(folder)
+    env = environment(templates)
+    ctx = block_context(results, lang)
+    written = []
+    html = render_page("block.html.j2", ctx, env)
+    write_text_atomic(folder / "report.html", html)
+    written.append(folder / "report.html")
+    if pdf:
+        from blockqc.report.pdf import html_to_pdf
+
+        data = html_to_pdf(render_page("block.html.j2", ctx, env, for_pdf=True), folder)
+        write_bytes_atomic(folder / "report.pdf", data)
+        written.append(folder / "report.pdf")
+    for name, text in (("checkpoints.csv", checkpoints_csv(results)),
+                       ("evidence.csv", evidence_csv(results))):
+        write_text_atomic(folder / name, text)
+        written.append(folder / name)
+    return written
+
+
+def write_summary_report(out: Path, summary: dict[str, Any],
+                         block_results: Sequence[dict[str, Any]], *, lang: str = "en",
+                         templates: Path | None = None, pdf: bool = True) -> list[Path]:
+    """summary.html and summary.pdf of a batch, linking each block's report."""
+    if lang not in LANGUAGES:
+        raise ValueError(f"language {lang!r}: choose one of {', '.join(LANGUAGES)}")
+    out = Path(out)
+    env = environment(templates)
+    ctx = summary_context(summary, list(block_results), lang, pdf=pdf)
+    write_text_atomic(out / "summary.html", render_page("summary.html.j2", ctx, env))
+    written = [out / "summary.html"]
+    if pdf:
+        from blockqc.report.pdf import html_to_pdf
+
+        data = html_to_pdf(render_page("summary.html.j2", ctx, env, for_pdf=True), out)
+        write_bytes_atomic(out / "summary.pdf", data)
+        written.append(out / "summary.pdf")
+    return written
+
+
+__all__ = ["LANGUAGES", "write_block_report", "write_summary_report"]

@@ -2,26 +2,23 @@
 
 from __future__ import annotations
 
+import base64
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import jinja2
+from markupsafe import Markup
 
+from blockqc.report.build import Formatter, block_context, summary_context
 from blockqc.resources import templates_dir
+
+FONT_FILE = Path(__file__).resolve().parent / "fonts" / "BlockqcSansSC-Regular.otf"
 
 
 def _fmt(value: Any, digits: int = 2) -> str:
     """Numbers for people: fixed decimals, booleans as yes/no, missing as an en dash."""
-    if value is None:
-        return "–"
-    if isinstance(value, bool):
-        return "yes" if value else "no"
-    if isinstance(value, float):
-        return f"{value:.{digits}f}"
-    if isinstance(value, list):
-        return ", ".join(_fmt(v, digits) for v in value)
-    return str(value)
+    return Formatter("en").num(value, digits if isinstance(value, float) else None)
 
 
 def _group(group: dict[str, Any]) -> str:
@@ -46,14 +43,38 @@ def environment(user_templates: Path | None = None) -> jinja2.Environment:
     return env
 
 
-def render_block(results: dict[str, Any], env: jinja2.Environment | None = None) -> str:
+def render_page(template: str, ctx: dict[str, Any], env: jinja2.Environment | None = None, *,
+                for_pdf: bool = False) -> str:
+    """One page from a prepared context; `for_pdf` adds the packaged CJK font for WeasyPrint."""
     env = env or environment()
-    return env.get_template("block.html.j2").render(r=results)
+    return env.get_template(template).render(
+        **ctx, font_url=FONT_FILE.as_uri() if for_pdf else "",
+        figure=_figure_as_image if for_pdf else _figure_inline)
 
 
-def render_summary(summary: dict[str, Any], env: jinja2.Environment | None = None) -> str:
-    env = env or environment()
-    return env.get_template("summary.html.j2").render(s=summary)
+def _figure_inline(svg: str) -> Markup:
+    """A figure made by blockqc.report.plots (never from input text), inline in the page."""
+    return Markup(svg)
 
 
-__all__: Sequence[str] = ["environment", "render_block", "render_summary"]
+def _figure_as_image(svg: str) -> Markup:
+    """The same figure as an SVG image: WeasyPrint lays it out without styling every node."""
+    data = base64.b64encode(svg.encode("utf-8")).decode("ascii")
+    return Markup(f'<img class="figure" alt="" src="data:image/svg+xml;base64,{data}">')
+
+
+def render_block(results: dict[str, Any], env: jinja2.Environment | None = None, *,
+                 lang: str = "en", for_pdf: bool = False) -> str:
+    """The block report's HTML."""
+    return render_page("block.html.j2", block_context(results, lang), env, for_pdf=for_pdf)
+
+
+def render_summary(summary: dict[str, Any], env: jinja2.Environment | None = None, *,
+                   block_results: Sequence[dict[str, Any]] = (), lang: str = "en",
+                   for_pdf: bool = False, pdf_links: bool = False) -> str:
+    """The batch summary's HTML (sortable, filterable, self-contained)."""
+    ctx = summary_context(summary, list(block_results), lang, pdf=pdf_links)
+    return render_page("summary.html.j2", ctx, env, for_pdf=for_pdf)
+
+
+__all__: Sequence[str] = ["environment", "render_block", "render_page", "render_summary"]

@@ -68,8 +68,9 @@ class Rule(BaseModel):
     title: str = Field(min_length=1)
     clause: str = Field(min_length=1)
     description: str = ""
-    quality_element: str = ""
-    content: str = ""
+    quality_element: str = ""  # DOMAIN §2: data quality, layout quality, attachment quality
+    content: str = ""  # the §2 item, e.g. "plane accuracy"
+    inspection_content: str = ""  # for a project's own rule: one of §2's inspection contents
     metric: str | None = None
     params: dict[str, Any] = Field(default_factory=dict)
     scope: Literal[SCOPES] = "block"  # type: ignore[valid-type]

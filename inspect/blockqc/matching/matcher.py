@@ -1,0 +1,291 @@
+"""The §RA-3 matcher: Harris + 512-bit BRIEF, NCC for the corners left, RANSAC, one CP per cell.
+
+The image and the reference are on the same CRS and resolution (§RA-2), so the geometry is
+already close: matches are only sought within a small search window around the position the
+geotransforms predict. The image is processed in chunks of B×B pixels; the reference chunk is the
+one around the same geographic centre, enlarged by the search radius and the patch margins.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pandas as pd
+
+from blockqc.errors import InputError, Problem
+from blockqc.matching.brief import brief_descriptors, brief_pattern, match_brief, smooth_for_brief
+from blockqc.matching.grid import COLUMNS, homogenize
+from blockqc.matching.harris import harris_corners
+from blockqc.matching.ncc import ncc_search
+from blockqc.matching.ransac import ransac_inliers
+from blockqc.matching.settings import MatchSettings, make_settings
+
+CANDIDATE_COLUMNS = ["row", "col", "ref_row", "ref_col", "kind", "score"]
+
+
+def match_images(
+    image: np.ndarray,
+    reference: np.ndarray,
+    *,
+    image_valid: np.ndarray | None = None,
+    reference_valid: np.ndarray | None = None,
+    offset: tuple[float, float] = (0.0, 0.0),
+    chunk: int = 5000,
+    grid: int = 400,
+    **settings: object,
+) -> pd.DataFrame:
+    """Match `image` against `reference` per §RA-3 and keep one CP per `grid`×`grid` cell.
+
+    image, reference: 2-D floating arrays of one dtype on the same CRS and resolution; the
+    reference may be larger and shifted, `offset` being the expected (ref_row − row,
+    ref_col − col) from the two geotransforms. *_valid: optional boolean masks (False = no
+    data); non-finite pixels are treated as no data too. Further keyword arguments are the
+    fields of `MatchSettings` (search_radius, template, harris_*, brief_*, max_hamming,
+    min_ncc, ransac_* …) with the defaults documented there.
+
+    Returns a DataFrame with one row per kept CP: row, col (image pixels, centre of pixel (0, 0)
+    at (0.0, 0.0)), ref_row, ref_col (reference pixels, sub-pixel), kind ('brief' | 'ncc'),
+    score (Hamming distance for BRIEF, NCC coefficient for NCC), cell_row, cell_col.
+    """
+    _check_grid(grid)
+    candidates = match_candidates(
+        image,
+        reference,
+        image_valid=image_valid,
+        reference_valid=reference_valid,
+        offset=offset,
+        chunk=chunk,
+        grid=grid,
+        **settings,
+    )
+    return homogenize(candidates, grid)
+
+
+def match_candidates(
+    image: np.ndarray,
+    reference: np.ndarray,
+    *,
+    image_valid: np.ndarray | None = None,
+    reference_valid: np.ndarray | None = None,
+    offset: tuple[float, float] = (0.0, 0.0),
+    chunk: int = 5000,
+    grid: int = 400,
+    **settings: object,
+) -> pd.DataFrame:
+    """Every match that survives RANSAC, before homogenization (same columns minus the cells).
+
+    `grid` only spreads the Harris corners (`corners_per_cell` per cell); see `match_images`.
+    """
+    s = make_settings(**settings)
+    _check_grid(grid)
+    if isinstance(image, np.ndarray) and isinstance(reference, np.ndarray):
+        if image.dtype != reference.dtype:
+            raise _input_error(
+                f"image and reference must have the same dtype, got {image.dtype} and "
+                f"{reference.dtype}"
+            )
+    image, image_valid = _checked_image(image, image_valid, "image")
+    reference, reference_valid = _checked_image(reference, reference_valid, "reference")
+    offset = _checked_offset(offset)
+    if not isinstance(chunk, (int, np.integer)) or isinstance(chunk, bool):
+        raise _input_error(f"chunk must be an integer number of pixels, got {chunk!r}")
+    if chunk < s.template or chunk < s.brief_patch:
+        raise _input_error(
+            f"chunk ({chunk} px) must be at least the template ({s.template} px) and the BRIEF "
+            f"patch ({s.brief_patch} px)"
+        )
+    frames = [
+        _match_chunk(image, image_valid, reference, reference_valid, offset, window, grid, s)
+        for window in _chunks(image.shape, int(chunk))
+    ]
+    frames = [f for f in frames if not f.empty]
+    if not frames:
+        return _empty(CANDIDATE_COLUMNS)
+    return pd.concat(frames, ignore_index=True)
+
+
+def _chunks(shape: tuple[int, ...], size: int) -> list[tuple[int, int, int, int]]:
+    rows, cols = shape
+    return [
+        (r0, min(r0 + size, rows), c0, min(c0 + size, cols))
+        for r0 in range(0, rows, size)
+        for c0 in range(0, cols, size)
+    ]
+
+
+def _erode(mask: np.ndarray, radius: int) -> np.ndarray:
+    """True where the whole (2·radius+1)² square around the pixel is True and inside the array."""
+    kernel = np.ones((2 * radius + 1, 2 * radius + 1), np.uint8)
+    eroded = cv2.erode(mask.astype(np.uint8), kernel, borderType=cv2.BORDER_CONSTANT, borderValue=0)
+    return eroded.astype(bool)
+
+
+def _match_chunk(
+    image: np.ndarray,
+    image_valid: np.ndarray,
+    reference: np.ndarray,
+    reference_valid: np.ndarray,
+    offset: tuple[float, float],
+    window: tuple[int, int, int, int],
+    grid: int,
+    s: MatchSettings,
+) -> pd.DataFrame:
+    r0, r1, c0, c1 = window
+    rows, cols = image.shape
+    ref_rows, ref_cols = reference.shape
+    off = np.rint(np.asarray(offset)).astype(np.int64)
+    half = s.template_half
+    radius = s.search_radius
+
+    # Image chunk with the margin its patches need; corners only in the chunk proper.
+    m = s.margin
+    ir0, ir1, ic0, ic1 = max(r0 - m, 0), min(r1 + m, rows), max(c0 - m, 0), min(c1 + m, cols)
+    img = image[ir0:ir1, ic0:ic1]
+    usable = _erode(image_valid[ir0:ir1, ic0:ic1], m)
+    core = np.zeros_like(usable)
+    core[r0 - ir0 : r1 - ir0, c0 - ic0 : c1 - ic0] = True
+    usable &= core
+
+    # Reference chunk around the same centre, enlarged by the search radius and the margins.
+    mr = m + radius + s.refine_radius + 1
+    rr0 = max(r0 + off[0] - mr, 0)
+    rr1 = min(r1 + off[0] + mr, ref_rows)
+    rc0 = max(c0 + off[1] - mr, 0)
+    rc1 = min(c1 + off[1] + mr, ref_cols)
+    if rr1 - rr0 < s.template or rc1 - rc0 < s.template or not usable.any():
+        return _empty(CANDIDATE_COLUMNS)
+    ref = reference[rr0:rr1, rc0:rc1]
+    ref_valid = reference_valid[rr0:rr1, rc0:rc1]
+    ref_usable = _erode(ref_valid, max(s.brief_half, half + s.refine_radius))
+    search_usable = _erode(ref_valid, half + radius)
+
+    harris = dict(
+        block=s.harris_block,
+        ksize=s.harris_ksize,
+        k=s.harris_k,
+        quality=s.harris_quality,
+        min_distance=s.harris_min_distance,
+        per_cell=s.corners_per_cell,
+    )
+    pts = harris_corners(img, usable, cell_of=(ir0, ic0, grid), **harris)
+    if len(pts) == 0:
+        return _empty(CANDIDATE_COLUMNS)
+    ref_pts = harris_corners(ref, ref_usable, cell_of=(rr0 - off[0], rc0 - off[1], grid), **harris)
+
+    # 512-bit BRIEF + Hamming matching within the search window.
+    pattern = brief_pattern(s.brief_patch, s.brief_seed)
+    desc = brief_descriptors(smooth_for_brief(img, s.brief_sigma), pts, pattern)
+    ref_desc = brief_descriptors(smooth_for_brief(ref, s.brief_sigma), ref_pts, pattern)
+    pts_global = pts + np.array([ir0, ic0])
+    ref_in_image = ref_pts + np.array([rr0, rc0]) - off
+    bi, bj, bd = match_brief(
+        desc,
+        pts_global,
+        ref_desc,
+        ref_in_image,
+        radius=radius,
+        max_distance=s.max_hamming,
+        ratio=s.hamming_ratio,
+    )
+    # Sub-pixel refinement of each BRIEF match by NCC in a small window around its corner.
+    if s.ncc_sigma > 0:
+        img = cv2.GaussianBlur(img, (0, 0), s.ncc_sigma)
+        ref = cv2.GaussianBlur(ref, (0, 0), s.ncc_sigma)
+    b_ref, b_peak, b_inside = ncc_search(
+        img, pts[bi], ref, ref_pts[bj], half=half, radius=s.refine_radius
+    )
+    b_ok = b_inside & (b_peak >= s.min_ncc)
+    bi, bd, b_ref = bi[b_ok], bd[b_ok], b_ref[b_ok]
+
+    # NCC search for every corner left unmatched, at the expected position in the reference.
+    left = np.ones(len(pts), dtype=bool)
+    left[bi] = False
+    centres = pts_global + off - np.array([rr0, rc0])
+    inside_ref = (
+        (centres[:, 0] >= 0)
+        & (centres[:, 0] < ref.shape[0])
+        & (centres[:, 1] >= 0)
+        & (centres[:, 1] < ref.shape[1])
+    )
+    left &= inside_ref
+    left[left] = search_usable[centres[left, 0], centres[left, 1]]
+    ni = np.flatnonzero(left)
+    n_ref, n_peak, n_inside = ncc_search(img, pts[ni], ref, centres[ni], half=half, radius=radius)
+    n_ok = n_inside & (n_peak >= s.min_ncc)
+    ni, n_ref, n_peak = ni[n_ok], n_ref[n_ok], n_peak[n_ok]
+
+    src = np.concatenate([pts_global[bi], pts_global[ni]]).astype(np.float64)
+    dst = np.concatenate([b_ref, n_ref]) + np.array([rr0, rc0])
+    kind = np.array(["brief"] * len(bi) + ["ncc"] * len(ni), dtype=object)
+    score = np.concatenate([bd.astype(np.float64), n_peak])
+
+    # RANSAC per chunk drops the matches that disagree with the chunk's common geometry.
+    keep = ransac_inliers(
+        src,
+        dst,
+        model=s.ransac_model,
+        threshold=s.ransac_threshold,
+        iterations=s.ransac_iterations,
+        seed=s.ransac_seed,
+    )
+    return pd.DataFrame(
+        {
+            "row": src[keep, 0],
+            "col": src[keep, 1],
+            "ref_row": dst[keep, 0],
+            "ref_col": dst[keep, 1],
+            "kind": kind[keep],
+            "score": score[keep],
+        }
+    )
+
+
+def _empty(columns: list[str]) -> pd.DataFrame:
+    dtypes = {"kind": "object", "cell_row": "int64", "cell_col": "int64"}
+    return pd.DataFrame({c: pd.Series(dtype=dtypes.get(c, "float64")) for c in columns})
+
+
+def _input_error(message: str) -> InputError:
+    return InputError(Problem(file="<arguments>", message=message))
+
+
+def _check_grid(grid: object) -> None:
+    if not isinstance(grid, (int, np.integer)) or isinstance(grid, bool) or grid < 1:
+        raise _input_error(f"grid must be a positive integer number of pixels, got {grid!r}")
+
+
+def _checked_image(array: object, valid: object, name: str) -> tuple[np.ndarray, np.ndarray]:
+    if not isinstance(array, np.ndarray):
+        raise _input_error(f"{name} must be a numpy array, got {type(array).__name__}")
+    if array.ndim != 2:
+        raise _input_error(f"{name} must be 2-D (rows, cols), got {array.ndim} dimension(s)")
+    if not np.issubdtype(array.dtype, np.floating):
+        raise _input_error(f"{name} must be a floating array (float32), got {array.dtype}")
+    if min(array.shape) == 0:
+        raise _input_error(f"{name} is empty (shape {array.shape})")
+    finite = np.isfinite(array)
+    if valid is None:
+        mask = finite
+    else:
+        if not isinstance(valid, np.ndarray) or valid.dtype != bool:
+            raise _input_error(f"{name}_valid must be a boolean numpy array")
+        if valid.shape != array.shape:
+            raise _input_error(
+                f"{name}_valid has shape {valid.shape}, {name} has shape {array.shape}"
+            )
+        mask = valid & finite
+    clean = np.where(mask, array, 0).astype(np.float32) if not finite.all() else array
+    return np.ascontiguousarray(clean, dtype=np.float32), mask
+
+
+def _checked_offset(offset: object) -> tuple[float, float]:
+    try:
+        values = np.asarray(offset, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError) as exc:
+        raise _input_error(f"offset must be two numbers (rows, cols), got {offset!r}") from exc
+    if values.size != 2 or not np.isfinite(values).all():
+        raise _input_error(f"offset must be two finite numbers (rows, cols), got {offset!r}")
+    return float(values[0]), float(values[1])
+
+
+__all__ = ["COLUMNS", "MatchSettings", "match_candidates", "match_images"]

@@ -1,0 +1,89 @@
+"""RANSAC per chunk (§RA-3): keep the matches that agree with one translation or affine map.
+
+Own vectorized implementation: all hypotheses are solved and scored at once, with a seeded
+generator so a run repeats exactly. The best hypothesis is refitted by least squares on its
+inliers, and inliers are recounted against the refit.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+_MIN_SAMPLES = {"translation": 1, "affine": 3}
+_SCORED = 2000
+
+
+def _design(points: np.ndarray) -> np.ndarray:
+    return np.column_stack([points, np.ones(len(points))])
+
+
+def fit_model(src: np.ndarray, dst: np.ndarray, model: str) -> np.ndarray:
+    """Least-squares fit of dst ≈ A·[src, 1]; returns the 3×2 matrix A (translation: A[:2]=I)."""
+    if model == "translation":
+        coef = np.zeros((3, 2))
+        coef[:2] = np.eye(2)
+        coef[2] = (dst - src).mean(axis=0)
+        return coef
+    coef, *_ = np.linalg.lstsq(_design(src), dst, rcond=None)
+    return coef
+
+
+def ransac_inliers(
+    src: np.ndarray,
+    dst: np.ndarray,
+    *,
+    model: str,
+    threshold: float,
+    iterations: int,
+    seed: int,
+) -> np.ndarray:
+    """Return a boolean inlier mask of the correspondences src → dst, (n, 2) each.
+
+    With fewer correspondences than the model needs plus one (a check needs redundancy),
+    nothing can be verified and all are rejected.
+    """
+    src = np.asarray(src, dtype=np.float64).reshape(-1, 2)
+    dst = np.asarray(dst, dtype=np.float64).reshape(-1, 2)
+    n = len(src)
+    need = _MIN_SAMPLES[model]
+    if n < need + 1:
+        return np.zeros(n, dtype=bool)
+    # Centre the coordinates so the affine solves are well conditioned.
+    centre = src.mean(axis=0)
+    s = src - centre
+    d = dst - centre
+    rng = np.random.default_rng(seed)
+    # Hypotheses are scored on at most _SCORED correspondences; the winner is then checked on all.
+    scored = np.sort(rng.choice(n, _SCORED, replace=False)) if n > _SCORED else np.arange(n)
+    if model == "translation":
+        picks = rng.integers(0, n, size=iterations) if n > iterations else np.arange(n)
+        shifts = d[picks] - s[picks]  # (h, 2)
+        ss, ds = s[scored], d[scored]
+        resid = np.hypot(*np.moveaxis(ss[None] + shifts[:, None] - ds[None], 2, 0))
+        coefs = np.zeros((len(picks), 3, 2))
+        coefs[:, :2] = np.eye(2)
+        coefs[:, 2] = shifts
+    else:
+        samples = rng.integers(0, n, size=(iterations, 3))  # repeated picks are degenerate
+        a = np.concatenate([s[samples], np.ones((iterations, 3, 1))], axis=2)  # (h, 3, 3)
+        b = d[samples]  # (h, 3, 2)
+        ok = np.abs(np.linalg.det(a)) > 1e-6
+        if not ok.any():
+            return np.zeros(n, dtype=bool)
+        coefs = np.linalg.solve(a[ok], b[ok])  # (h', 3, 2)
+        pred = np.einsum("nk,hkj->hnj", _design(s[scored]), coefs)
+        resid = np.hypot(*np.moveaxis(pred - d[scored][None], 2, 0))
+    counts = (resid <= threshold).sum(axis=1)
+    winner = coefs[np.argmax(counts)]
+    best = np.hypot(*(_design(s) @ winner - d).T) <= threshold
+    if best.sum() < need:
+        return np.zeros(n, dtype=bool)
+    for _ in range(2):  # refit on the inliers, recount
+        coef = fit_model(s[best], d[best], model)
+        refined = np.hypot(*(_design(s) @ coef - d).T) <= threshold
+        if refined.sum() < need:
+            break
+        best = refined
+    if best.sum() < need + 1:
+        return np.zeros(n, dtype=bool)
+    return best

@@ -1,0 +1,159 @@
+"""`blockqc report`: re-render acceptance reports from results.json, without recomputing."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import click
+
+from blockqc.errors import InputError, Problem
+from blockqc.report.messages import LANGUAGES
+
+RESULT_KEYS = ("block_id", "verdict", "results")
+
+
+def _read_json(path: Path) -> tuple[Any, bytes]:
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise InputError(Problem(str(path), f"cannot be read: {exc.strerror or exc}")) from None
+    try:
+        return json.loads(raw.decode("utf-8")), raw
+    except UnicodeDecodeError as exc:
+        raise InputError(Problem(str(path), f"is not UTF-8 text (byte {exc.start})")) from None
+    except json.JSONDecodeError as exc:
+        raise InputError(Problem(str(path), f"is not valid JSON: {exc.msg} (column {exc.colno})",
+                                 line=exc.lineno)) from None
+
+
+def _check_results(path: Path, doc: Any) -> dict[str, Any]:
+    if not isinstance(doc, dict):
+        raise InputError(Problem(str(path), "not a results document: expected a JSON object with "
+                                 "block_id, verdict and results", line=1))
+    missing = [k for k in RESULT_KEYS if k not in doc]
+    if missing:
+        raise InputError(Problem(str(path), f"not a results document: missing key(s) "
+                                 f"{', '.join(missing)} (contract v1 results.json)", line=1))
+    if not isinstance(doc["results"], list) or not all(
+            isinstance(r, dict) and "rule" in r and "status" in r for r in doc["results"]):
+        raise InputError(Problem(str(path), "not a results document: 'results' must be a list "
+                                 "of objects each with 'rule' and 'status'"))
+    return doc
+
+
+def _check_summary(path: Path, doc: Any) -> dict[str, Any]:
+    if not isinstance(doc, dict) or not isinstance(doc.get("blocks"), list):
+        raise InputError(Problem(str(path), "not a batch summary: expected a JSON object with a "
+                                 "'blocks' list (summary.json)", line=1))
+    return doc
+
+
+def gather(paths: list[Path]) -> tuple[list[tuple[Path, dict, bytes]],
+                                         tuple[Path, dict, bytes] | None]:
+    """The results documents named (files or folders holding them) and a summary, if any."""
+    results: list[tuple[Path, dict, bytes]] = []
+    summary: tuple[Path, dict, bytes] | None = None
+    problems: list[Problem] = []
+    files: list[Path] = []
+    for p in paths:
+        if p.is_dir():
+            if (p / "results.json").is_file():
+                files.append(p / "results.json")
+            else:
+                found = sorted(p.glob("*/results.json"))
+                if (p / "summary.json").is_file():
+                    files.append(p / "summary.json")
+                if not found and not (p / "summary.json").is_file():
+                    problems.append(Problem(str(p), "holds no results.json (nor */results.json "
+                                            "or summary.json)"))
+                files.extend(found)
+        elif p.is_file():
+            files.append(p)
+        else:
+            problems.append(Problem(str(p), "does not exist"))
+    if problems:
+        raise InputError(problems)
+    loaded: list[tuple[Path, Any, bytes]] = []
+    queue = list(dict.fromkeys(files))
+    while queue:
+        f = queue.pop(0)
+        try:
+            doc, raw = _read_json(f)
+        except InputError as exc:
+            problems.extend(exc.problems)
+            continue
+        if isinstance(doc, dict) and "blocks" in doc and "results" not in doc:
+            try:
+                summary = (f, _check_summary(f, doc), raw)
+            except InputError as exc:
+                problems.extend(exc.problems)
+                continue
+            for b in doc["blocks"]:  # the summary's own blocks, when not named already
+                rel = b.get("results") if isinstance(b, dict) else None
+                cand = f.parent / rel if isinstance(rel, str) else None
+                if cand is not None and cand.is_file() and cand not in files:
+                    files.append(cand)
+                    queue.append(cand)
+            continue
+        loaded.append((f, doc, raw))
+    seen: dict[str, Path] = {}
+    for f, doc, raw in loaded:
+        try:
+            doc = _check_results(f, doc)
+        except InputError as exc:
+            problems.extend(exc.problems)
+            continue
+        bid = str(doc["block_id"])
+        if bid in seen:
+            if seen[bid].resolve() != f.resolve():
+                problems.append(Problem(str(f), f"block_id {bid} is also the block of "
+                                        f"{seen[bid]}"))
+            continue
+        seen[bid] = f
+        results.append((f, doc, raw))
+    if problems:
+        raise InputError(problems)
+    return results, summary
+
+
+@click.command("report")
+@click.argument("results", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.option("--out", required=True, type=click.Path(path_type=Path, file_okay=False),
+              help="Output folder: <out>/<block_id>/report.html, report.pdf, CSV exports; "
+                   "<out>/summary.html for a batch.")
+@click.option("--lang", type=click.Choice(LANGUAGES), default="en", show_default=True,
+              help="Language of the report.")
+@click.option("--templates", type=click.Path(path_type=Path, file_okay=False, exists=True),
+              help="Folder of templates that take precedence over the stock ones.")
+@click.option("--pdf/--no-pdf", default=True, show_default=True, help="Also write the PDFs.")
+def command(results: tuple[Path, ...], out: Path, lang: str, templates: Path | None,
+            pdf: bool) -> int:
+    """Re-render reports from results.json files (or folders holding them), not recomputing.
+
+    A batch folder (or its summary.json) re-renders the batch summary as well.
+    """
+    from blockqc.outputs import write_bytes_atomic
+    from blockqc.report import write_block_report, write_summary_report
+
+    docs, summary = gather(list(results))
+    written: list[Path] = []
+    for path, doc, raw in docs:
+        folder = out / str(doc["block_id"])
+        if (folder / "results.json").resolve() != path.resolve():
+            write_bytes_atomic(folder / "results.json", raw)
+        written += write_block_report(folder, doc, lang=lang, templates=templates, pdf=pdf)
+        click.echo(f"{doc['block_id']:12} {str(doc['verdict']).upper():5}  {folder}")
+    if summary is not None:
+        path, doc, raw = summary
+        if (out / "summary.json").resolve() != path.resolve():
+            write_bytes_atomic(out / "summary.json", raw)
+        written += write_summary_report(out, doc, [d for _, d, _ in docs], lang=lang,
+                                        templates=templates, pdf=pdf)
+        click.echo(f"summary      {out / 'summary.html'}")
+    click.echo(f"{len(written)} files written in {out}")
+    return 0
+
+
+__all__ = ["command", "gather"]

@@ -1,0 +1,69 @@
+"""Machine-readable exports beside the report: the checkpoint table and the failing evidence."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+from typing import Any
+
+CHECKPOINT_COLUMNS = ["component", "method", "point_id", "reference_id", "dx_m", "dy_m", "dz_m",
+                      "error_m", "abs_error_m", "bound_m", "gross"]
+EVIDENCE_COLUMNS = ["block_id", "rule", "group", "status", "clause", "value", "threshold",
+                    "unit", "row"]
+
+
+def _cell(v: Any) -> Any:
+    if v is None:
+        return ""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, dict | list):
+        return json.dumps(v, ensure_ascii=False)
+    return v
+
+
+def _csv(header: list[str], rows: list[dict[str, Any]]) -> str:
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=header, lineterminator="\r\n", extrasaction="ignore")
+    writer.writeheader()
+    for r in rows:
+        writer.writerow({k: _cell(r.get(k)) for k in header})
+    return "\ufeff" + buf.getvalue()  # a BOM, so that spreadsheets read UTF-8
+
+
+def _union(first: list[str], rows: list[dict[str, Any]]) -> list[str]:
+    keys = list(first)
+    for r in rows:
+        keys += [k for k in r if k not in keys]
+    return keys
+
+
+def checkpoints_csv(results: dict[str, Any]) -> str:
+    """Every checkpoint of every component and method (measurements.checkpoint_accuracy.point)."""
+    points = ((results.get("measurements") or {}).get("checkpoint_accuracy") or {}).get(
+        "point") or []
+    rows = [{"block_id": results.get("block_id"), **p} for p in points]
+    return _csv(_union(["block_id", *CHECKPOINT_COLUMNS], rows), rows)
+
+
+def evidence_csv(results: dict[str, Any]) -> str:
+    """One row per evidence row of every result that is not a pass (fail, error, warn, waived)."""
+    rows = []
+    for res in results.get("results", []):
+        if res.get("status") not in ("fail", "error", "warn", "waived"):
+            continue
+        group = ";".join(f"{k}={v}" for k, v in (res.get("group") or {}).items())
+        base = {"block_id": results.get("block_id"), "rule": res["rule"], "group": group,
+                "status": res["status"], "clause": res.get("clause"), "value": res.get("value"),
+                "threshold": res.get("threshold"), "unit": res.get("unit")}
+        evidence = res.get("evidence") or []
+        if not evidence:
+            rows.append({**base, "row": ""})
+        for i, e in enumerate(evidence, start=1):
+            rows.append({**{f"evidence_{k}" if k in base else k: v for k, v in e.items()},
+                         **base, "row": i})
+    return _csv(_union(EVIDENCE_COLUMNS, rows), rows)
+
+
+__all__ = ["checkpoints_csv", "evidence_csv"]

@@ -1,0 +1,313 @@
+"""RFM geometric accuracy from control points: §RA-4 RMSE and GEV, §RA-5 local distortion,
+§RA-6 refined RFM from k CPs evaluated on the CPs not used for fitting.
+
+A control point (CP) here is one feature seen at (x, y) on the corrected image and at (x′, y′)
+on the reference orthoimage, both in the same projected CRS (metres); d_s is the image GSD.
+"""
+
+from __future__ import annotations
+
+import io
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from numpy.typing import ArrayLike, NDArray
+from pyproj import CRS, Transformer
+
+from blockqc.rfm.dem import DEM
+from blockqc.rfm.model import RPCModel, fit_affine
+
+FloatArray = NDArray[np.float64]
+
+REQUIREMENT_PX = 1.0
+"""§RA-6 practical requirement: RMSE < 1.0 pixel."""
+DISTORTION_THRESHOLD_PX = 0.5
+"""**Reading** of §RA-5 (no number in the source): local distortion is significant when the RMS
+of the error vectors about their mean exceeds this many pixels, i.e. when sizes or directions
+vary across the image by more than half a pixel. Configurable."""
+
+
+def gev(dx: ArrayLike, dy: ArrayLike, gsd: float) -> FloatArray:
+    """§RA-4 geometric error value of each CP: √(dx² + dy²) / d_s, in pixels."""
+    return np.hypot(np.asarray(dx, np.float64), np.asarray(dy, np.float64)) / float(gsd)
+
+
+def rmse_px(dx: ArrayLike, dy: ArrayLike, gsd: float) -> float:
+    """§RA-4 RMSE = √((1/n)·Σ[(x−x′)² + (y−y′)²]) / d_s, in pixels (NaN when n = 0)."""
+    dx = np.asarray(dx, np.float64)
+    dy = np.asarray(dy, np.float64)
+    if dx.size == 0:
+        return float("nan")
+    return float(np.sqrt(np.mean(dx * dx + dy * dy)) / float(gsd))
+
+
+def verdict(rmse: float, requirement: float = REQUIREMENT_PX) -> str:
+    """'pass' when RMSE < requirement (§RA-6), 'fail' otherwise, 'error' without CPs."""
+    if not np.isfinite(rmse):
+        return "error"
+    return "pass" if rmse < requirement else "fail"
+
+
+def distortion_summary(
+    col: ArrayLike,
+    row: ArrayLike,
+    dx: ArrayLike,
+    dy: ArrayLike,
+    gsd: float,
+    threshold_px: float = DISTORTION_THRESHOLD_PX,
+) -> dict[str, float | int | bool | str]:
+    """§RA-5: how error vectors vary across the image.
+
+    Splits each CP's error (in pixels) into the mean vector (systematic shift) and the remainder;
+    reports the RMS of the remainder (local distortion), the mean resultant length of the error
+    directions (1: all point the same way, 0: no common direction), the share of the error
+    variance an affine function of position explains, and the GEV percentiles.
+    """
+    col = np.asarray(col, np.float64)
+    row = np.asarray(row, np.float64)
+    ex = np.asarray(dx, np.float64) / gsd
+    ey = np.asarray(dy, np.float64) / gsd
+    n = ex.size
+    if n == 0:
+        return {"n": 0, "significant": False, "reading": _READING}
+    g = np.hypot(ex, ey)
+    mx, my = float(ex.mean()), float(ey.mean())
+    local = float(np.sqrt(np.mean((ex - mx) ** 2 + (ey - my) ** 2)))
+    nz = g > 0
+    if nz.any():
+        resultant = float(np.hypot(np.mean(ex[nz] / g[nz]), np.mean(ey[nz] / g[nz])))
+    else:
+        resultant = 1.0
+    explained = float("nan")
+    if n >= 4:
+        design = np.column_stack([np.ones(n), col, row])
+        fit, *_ = np.linalg.lstsq(design, np.column_stack([ex, ey]), rcond=None)
+        res = np.column_stack([ex, ey]) - design @ fit
+        total = np.sum((ex - mx) ** 2 + (ey - my) ** 2)
+        explained = float(1.0 - np.sum(res**2) / total) if total > 0 else 1.0
+    p50, p90, p_max = np.percentile(g, [50, 90, 100])
+    return {
+        "n": int(n),
+        "mean_dx_px": mx,
+        "mean_dy_px": my,
+        "systematic_px": float(np.hypot(mx, my)),
+        "local_rms_px": local,
+        "std_dx_px": float(ex.std(ddof=1)) if n > 1 else 0.0,
+        "std_dy_px": float(ey.std(ddof=1)) if n > 1 else 0.0,
+        "direction_consistency": resultant,
+        "affine_explained_share": explained,
+        "gev_median_px": float(p50),
+        "gev_p90_px": float(p90),
+        "gev_max_px": float(p_max),
+        "threshold_px": float(threshold_px),
+        "significant": bool(local > threshold_px),
+        "reading": _READING,
+    }
+
+
+_READING = (
+    "distortion is significant when the RMS of the error vectors about their mean exceeds "
+    "the threshold (§RA-5 gives no number)"
+)
+
+
+# -- plots (§RA-5) ---------------------------------------------------------------------------
+def _figure_png(fig: object) -> bytes:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")  # type: ignore[attr-defined]
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)  # type: ignore[arg-type]
+    return buf.getvalue()
+
+
+def plot_error_vectors(
+    col: ArrayLike,
+    row: ArrayLike,
+    dx: ArrayLike,
+    dy: ArrayLike,
+    gsd: float,
+    shape: tuple[int, int],
+    title: str = "CP error vectors",
+    background: NDArray[np.floating] | None = None,
+) -> bytes:
+    """PNG of every CP's error vector drawn at its position on the image (§RA-5).
+
+    `background` (optional) is the image, possibly decimated, drawn in grey under the vectors.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    col = np.asarray(col, np.float64)
+    row = np.asarray(row, np.float64)
+    ex = np.asarray(dx, np.float64) / gsd
+    ey = np.asarray(dy, np.float64) / gsd
+    g = np.hypot(ex, ey)
+    fig, ax = plt.subplots(figsize=(6.4, 6.4 * shape[0] / max(shape[1], 1) + 0.8))
+    span = max(shape)
+    if background is not None and np.isfinite(background).any():
+        lo, hi = np.nanpercentile(background, [2, 98])
+        ax.imshow(
+            background,
+            cmap="gray",
+            vmin=lo,
+            vmax=hi,
+            alpha=0.6,
+            interpolation="nearest",
+            extent=(-0.5, shape[1] - 0.5, shape[0] - 0.5, -0.5),
+        )
+    biggest = float(g.max()) if g.size else 1.0
+    # arrows scaled so the largest is ~1/8 of the image; the key gives the scale
+    scale = biggest / (span / 8.0) if biggest > 0 else 1.0
+    if g.size:
+        # map y points north, image rows point south: an error dy > 0 is drawn upward
+        q = ax.quiver(
+            col,
+            row,
+            ex,
+            -ey,
+            g,
+            angles="xy",
+            scale_units="xy",
+            scale=scale,
+            cmap="viridis",
+            width=0.004,
+        )
+        key = max(round(biggest, 1), 0.1)
+        ax.quiverkey(q, 0.8, -0.12, key, f"{key:g} px", labelpos="E", coordinates="axes")
+        fig.colorbar(q, ax=ax, shrink=0.7, label="GEV (px)")
+    ax.set_xlim(0, shape[1])
+    ax.set_ylim(shape[0], 0)
+    ax.set_aspect("equal")
+    ax.set_xlabel("column (px)")
+    ax.set_ylabel("row (px)")
+    ax.set_title(title, loc="left")
+    return _figure_png(fig)
+
+
+def plot_gev_histogram(g: ArrayLike, requirement: float = REQUIREMENT_PX) -> bytes:
+    """PNG histogram of the GEVs with the requirement line (§RA-5)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    g = np.asarray(g, np.float64)
+    fig, ax = plt.subplots(figsize=(6.4, 3.6))
+    if g.size:
+        ax.hist(g, bins=min(40, max(5, g.size // 3)), color="#4477aa", edgecolor="white")
+    ax.axvline(requirement, color="#cc3311", linestyle="--", label=f"{requirement:g} px")
+    ax.set_xlabel("GEV (px)")
+    ax.set_ylabel("CPs")
+    ax.legend()
+    ax.set_title("Geometric error value per CP", loc="left")
+    return _figure_png(fig)
+
+
+# -- §RA-6 refined RFM from k CPs, held-out evaluation -------------------------------------
+@dataclass(frozen=True)
+class ControlPoints:
+    """CPs for refinement: observed full-image (row, col) and reference ground (lon, lat, h)."""
+
+    row: FloatArray
+    col: FloatArray
+    lon: FloatArray
+    lat: FloatArray
+    h: FloatArray
+    ref_x: FloatArray
+    ref_y: FloatArray
+
+
+def held_out_rmse(
+    rpc: RPCModel,
+    cps: ControlPoints,
+    fit_idx: NDArray[np.intp],
+    check_idx: NDArray[np.intp],
+    dem: DEM,
+    crs: CRS,
+    gsd: float,
+) -> float:
+    """RMSE (§RA-4, px) on the check CPs of the RFM refined with the fit CPs (§3 affine).
+
+    Each check CP's observed image position goes to the ground on the DEM with the refined RFM,
+    and is compared with its reference position.
+    """
+    refined, _ = fit_affine(
+        rpc, cps.lon[fit_idx], cps.lat[fit_idx], cps.h[fit_idx], cps.row[fit_idx], cps.col[fit_idx]
+    )
+    lon, lat, _ = refined.image_to_ground(cps.row[check_idx], cps.col[check_idx], dem)
+    x, y = Transformer.from_crs(CRS.from_epsg(4326), crs, always_xy=True).transform(lon, lat)
+    dx = np.asarray(x) - cps.ref_x[check_idx]
+    dy = np.asarray(y) - cps.ref_y[check_idx]
+    ok = np.isfinite(dx) & np.isfinite(dy)
+    return rmse_px(dx[ok], dy[ok], gsd)
+
+
+def refined_rfm_table(
+    rpc: RPCModel,
+    cps: ControlPoints,
+    dem: DEM,
+    crs: CRS,
+    gsd: float,
+    ks: tuple[int, ...] = (6, 12, 16, 20),
+    repeats: int = 100,
+    seed: int = 0,
+) -> pd.DataFrame:
+    """§RA-6: for each k, refine the RFM from k CPs drawn at random and measure the RMSE on the
+    CPs *not* drawn; `repeats` draws per k (fixed seed) give the mean and spread.
+
+    The first row (k = 0) is the original RFM evaluated the same way on all CPs.
+    """
+    n = cps.row.size
+    rng = np.random.default_rng(seed)
+    everyone = np.arange(n)
+    lon0, lat0, _ = rpc.image_to_ground(cps.row, cps.col, dem)
+    x0, y0 = Transformer.from_crs(CRS.from_epsg(4326), crs, always_xy=True).transform(lon0, lat0)
+    ok0 = np.isfinite(np.asarray(x0))
+    rows = [
+        {
+            "k": 0,
+            "n_check": int(n),
+            "repeats": 1,
+            "rmse_px_mean": rmse_px(
+                (np.asarray(x0) - cps.ref_x)[ok0], (np.asarray(y0) - cps.ref_y)[ok0], gsd
+            ),
+            "rmse_px_min": float("nan"),
+            "rmse_px_max": float("nan"),
+            "note": "original RFM",
+        }
+    ]
+    for k in ks:
+        if k < 3 or k >= n:
+            rows.append(
+                {
+                    "k": int(k),
+                    "n_check": max(n - k, 0),
+                    "repeats": 0,
+                    "rmse_px_mean": float("nan"),
+                    "rmse_px_min": float("nan"),
+                    "rmse_px_max": float("nan"),
+                    "note": f"needs 3 ≤ k < n CPs (n = {n})",
+                }
+            )
+            continue
+        values = []
+        for _ in range(repeats):
+            perm = rng.permutation(everyone)
+            values.append(held_out_rmse(rpc, cps, perm[:k], perm[k:], dem, crs, gsd))
+        v = np.asarray(values)
+        rows.append(
+            {
+                "k": int(k),
+                "n_check": int(n - k),
+                "repeats": int(repeats),
+                "rmse_px_mean": float(np.nanmean(v)),
+                "rmse_px_min": float(np.nanmin(v)),
+                "rmse_px_max": float(np.nanmax(v)),
+                "note": "refined RFM (image-space affine), held-out CPs",
+            }
+        )
+    return pd.DataFrame(rows)

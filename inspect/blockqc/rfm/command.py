@@ -1,0 +1,239 @@
+"""`blockqc rfm-accuracy`: is an image's RFM good to better than one pixel? (§RA)"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+from pyproj import CRS
+from pyproj.exceptions import CRSError
+
+from blockqc.errors import UsageError
+from blockqc.outputs import check_out_dir
+from blockqc.rfm.pipeline import METHODS, RfmAccuracyConfig, run_rfm_accuracy
+
+
+def _offset(value: str | None) -> tuple[float, float] | None:
+    if value is None or value == "auto":
+        return None
+    try:
+        row, col = (float(v) for v in value.split(","))
+    except ValueError:
+        raise UsageError(f"a crop offset is 'auto' or ROW,COL in pixels, got {value!r}") from None
+    return row, col
+
+
+def _ks(value: str) -> tuple[int, ...]:
+    try:
+        ks = tuple(int(v) for v in value.split(",") if v.strip())
+    except ValueError:
+        raise UsageError(f"--k is a comma-separated list of integers, got {value!r}") from None
+    if not ks or min(ks) < 3:
+        raise UsageError(
+            f"--k values must be at least 3 (the affine has 6 parameters), got {value!r}"
+        )
+    return ks
+
+
+_path = click.Path(exists=True, dir_okay=False, path_type=Path)
+
+
+@click.command("rfm-accuracy")
+@click.argument("image", type=_path)
+@click.option(
+    "--rpc",
+    type=_path,
+    help="RPC file of IMAGE (any supported format); default: the RPCs GDAL finds for IMAGE.",
+)
+@click.option(
+    "--dem", required=True, type=_path, help="DEM (any GDAL raster: SRTM .hgt, GeoTIFF …)."
+)
+@click.option(
+    "--geoid",
+    type=_path,
+    help="Geoid undulation grid (e.g. egm96_15.gtx) to turn geoid heights into ellipsoidal ones.",
+)
+@click.option(
+    "--dem-vertical",
+    type=click.Choice(["geoid", "ellipsoid"]),
+    default="geoid",
+    show_default=True,
+    help="What the DEM heights are measured from; 'geoid' (SRTM) needs --geoid.",
+)
+@click.option(
+    "--reference",
+    required=True,
+    type=_path,
+    help="Reference orthoimage (georeferenced), or a same-accuracy image in sensor geometry "
+    "with RPCs.",
+)
+@click.option(
+    "--reference-rpc",
+    type=_path,
+    help="RPC file of a sensor-geometry reference (it is then orthorectified on the image grid).",
+)
+@click.option(
+    "--out",
+    "out",
+    required=True,
+    type=click.Path(file_okay=False, path_type=Path),
+    help="Output folder.",
+)
+@click.option(
+    "--crs",
+    "crs_text",
+    help="Output CRS (e.g. EPSG:32631, the block's); default: UTM zone of the scene centre.",
+)
+@click.option(
+    "--gsd", type=float, help="Output GSD in metres; default: the image GSD at its centre."
+)
+@click.option(
+    "--crop-offset",
+    default="auto",
+    show_default=True,
+    help="ROW,COL of IMAGE's first pixel in the full image of the RPCs; 'auto' reads a crop's "
+    "pixel geotransform.",
+)
+@click.option(
+    "--reference-crop-offset",
+    default="auto",
+    show_default=True,
+    help="The same for a sensor-geometry reference.",
+)
+@click.option(
+    "--grid",
+    "match_grid",
+    type=int,
+    default=400,
+    show_default=True,
+    help="Homogenization cell (px): one CP per cell (§RA-3).",
+)
+@click.option(
+    "--chunk",
+    "match_chunk",
+    type=int,
+    default=5000,
+    show_default=True,
+    help="Matching chunk B (px) (§RA-3).",
+)
+@click.option(
+    "--margin",
+    type=int,
+    default=32,
+    show_default=True,
+    help="Reference margin around the image grid (px).",
+)
+@click.option(
+    "--k",
+    "k_text",
+    default="6,12,16,20",
+    show_default=True,
+    help="Numbers of CPs used to refine the RFM (§RA-6).",
+)
+@click.option("--repeats", type=int, default=100, show_default=True, help="Random draws per k.")
+@click.option("--seed", type=int, default=0, show_default=True)
+@click.option(
+    "--requirement", type=float, default=1.0, show_default=True, help="RMSE requirement in pixels."
+)
+@click.option(
+    "--method",
+    type=click.Choice(METHODS),
+    default="same_accuracy",
+    show_default=True,
+    help="Checkpoint method of the reference (contract v1).",
+)
+@click.option(
+    "--export-checkpoints",
+    is_flag=True,
+    help="Also write checkpoints.csv (contract v1) for `blockqc inspect`.",
+)
+@click.option(
+    "--dem-fill-voids",
+    "dem_fill",
+    type=int,
+    default=0,
+    show_default=True,
+    help="Close DEM voids up to ~2·N cells across (holes of a photogrammetric DSM); 0: none.",
+)
+@click.option(
+    "--refined-ortho",
+    is_flag=True,
+    help="Also orthorectify IMAGE with the RFM refined from every CP (ortho_refined.tif).",
+)
+def command(
+    image: Path,
+    rpc: Path | None,
+    dem: Path,
+    geoid: Path | None,
+    dem_vertical: str,
+    reference: Path,
+    reference_rpc: Path | None,
+    out: Path,
+    crs_text: str | None,
+    gsd: float | None,
+    crop_offset: str,
+    reference_crop_offset: str,
+    match_grid: int,
+    match_chunk: int,
+    margin: int,
+    k_text: str,
+    repeats: int,
+    seed: int,
+    requirement: float,
+    method: str,
+    export_checkpoints: bool,
+    refined_ortho: bool,
+    dem_fill: int,
+) -> None:
+    """Measure the geometric accuracy of IMAGE's RFM against a reference orthoimage (§RA).
+
+    Orthorectifies IMAGE with its RPCs and the DEM, brings the reference onto the same grid,
+    matches them automatically, and writes the CP table (cps.csv), results.json, the error-vector
+    plot, the GEV histogram, the refined-RFM table and report.html into --out.
+    Exit status 0 when the RMSE meets the requirement, 1 when it does not.
+    """
+    crs = None
+    if crs_text:
+        try:
+            crs = CRS.from_user_input(crs_text)
+        except CRSError:
+            raise UsageError(f"--crs {crs_text!r} is not a CRS pyproj knows") from None
+        if not crs.is_projected:
+            raise UsageError(f"--crs {crs_text!r} must be a projected CRS (metres)")
+    inputs = [p for p in (image, rpc, dem, geoid, reference, reference_rpc) if p is not None]
+    out_dir = check_out_dir(out, inputs)
+    cfg = RfmAccuracyConfig(
+        image=image,
+        dem=dem,
+        reference=reference,
+        out=out_dir,
+        rpc=rpc,
+        geoid=geoid,
+        dem_vertical=dem_vertical,
+        reference_rpc=reference_rpc,
+        crs=crs,
+        gsd=gsd,
+        crop_offset=_offset(crop_offset),
+        reference_crop_offset=_offset(reference_crop_offset),
+        margin=margin,
+        match_chunk=match_chunk,
+        match_grid=match_grid,
+        ks=_ks(k_text),
+        repeats=repeats,
+        seed=seed,
+        requirement_px=requirement,
+        method=method,
+        export_checkpoints=export_checkpoints,
+        refined_ortho=refined_ortho,
+        dem_fill=dem_fill,
+    )
+    results = run_rfm_accuracy(cfg)
+    acc = results["accuracy"]
+    rmse = acc["rmse_px"]  # type: ignore[index]
+    click.echo(
+        f"{image.name}: {acc['n']} CPs, RMSE "  # type: ignore[index]
+        + (f"{rmse:.3f} px" if rmse is not None else "n/a")
+        + f" → {acc['verdict']} (requirement < {requirement:g} px); results in {out_dir}"  # type: ignore[index]
+    )
+    if acc["verdict"] != "pass":  # type: ignore[index]
+        click.get_current_context().exit(1)

@@ -1,0 +1,255 @@
+"""Digital elevation models as ellipsoidal heights for the RFM (§MB-2, §RA-1).
+
+RPC heights are ellipsoidal (WGS-84). SRTM and most national DEMs give heights above a geoid
+(SRTM: EGM96), so h_ellipsoid = h_DEM + N, with N the geoid undulation sampled from a geoid grid
+(e.g. EGM96 15' `egm96_15.gtx`). `load_dem` makes that conversion when a geoid is given and
+records it in `DEM.vertical`, so reports can say which heights were used.
+
+Sampling is bilinear between pixel centres, vectorized; points outside the DEM (or on voids) give
+NaN. A DEM in a projected CRS (e.g. a UTM DSM) is sampled after converting lon/lat to its CRS.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from pyproj import CRS, Transformer
+from rasterio.transform import Affine
+
+from blockqc.errors import InputError, Problem
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True, eq=False)
+class Grid:
+    """A north-up raster of values with its GDAL geotransform (pixel corner) and CRS."""
+
+    values: FloatArray
+    transform: Affine
+    crs: CRS
+    source: str = ""
+
+    def sample(self, x: ArrayLike, y: ArrayLike) -> FloatArray:
+        """Bilinear value at (x, y) in the grid's CRS; NaN outside the outermost pixel centres
+        (a half-pixel border is sampled from the edge pixels)."""
+        x = np.asarray(x, np.float64)
+        y = np.asarray(y, np.float64)
+        t = self.transform  # north-up (checked at load): pixel-centre indices
+        col = (x - t.c) / t.a - 0.5
+        row = (y - t.f) / t.e - 0.5
+        nr, nc = self.values.shape
+        inside = (row >= -0.5) & (row <= nr - 0.5) & (col >= -0.5) & (col <= nc - 0.5)
+        row = np.clip(np.where(np.isfinite(row), row, 0.0), 0.0, nr - 1.0)
+        col = np.clip(np.where(np.isfinite(col), col, 0.0), 0.0, nc - 1.0)
+        r0 = np.floor(row).astype(np.intp)
+        c0 = np.floor(col).astype(np.intp)
+        r1 = np.minimum(r0 + 1, nr - 1)
+        c1 = np.minimum(c0 + 1, nc - 1)
+        fr = row - r0
+        fc = col - c0
+        v = self.values
+        out = np.zeros(row.shape)
+        # a neighbour of weight 0 (a point on a node or an edge) must not bring its NaN in
+        for rr, cc, w in (
+            (r0, c0, (1 - fr) * (1 - fc)),
+            (r0, c1, (1 - fr) * fc),
+            (r1, c0, fr * (1 - fc)),
+            (r1, c1, fr * fc),
+        ):
+            out += np.where(w > 0, v[rr, cc] * w, 0.0)
+        return np.where(inside, out, np.nan)
+
+
+@dataclass(frozen=True, eq=False)
+class DEM:
+    """Ellipsoidal heights (WGS-84) sampled at lon/lat; `vertical` says how they were obtained."""
+
+    grid: Grid
+    vertical: str
+    """e.g. 'ellipsoidal (WGS-84)' or 'SRTM geoid heights + EGM96 undulation (egm96_15.gtx)'."""
+    mean_height: float = field(init=False)
+    """Mean of the heights read (m): where image→ground iterations on this DEM start."""
+    height_range: tuple[float, float] = field(init=False)
+    """Lowest and highest height read (m): the span searched along a line of sight."""
+
+    def __post_init__(self) -> None:
+        finite = self.grid.values[np.isfinite(self.grid.values)]
+        object.__setattr__(self, "mean_height", float(finite.mean()) if finite.size else np.nan)
+        object.__setattr__(
+            self,
+            "height_range",
+            (float(finite.min()), float(finite.max())) if finite.size else (np.nan, np.nan),
+        )
+        crs = self.grid.crs
+        object.__setattr__(
+            self,
+            "_to_grid",
+            None
+            if crs.is_geographic
+            else Transformer.from_crs(CRS.from_epsg(4326), crs, always_xy=True),
+        )
+
+    def height(self, lon: ArrayLike, lat: ArrayLike) -> FloatArray:
+        """Ellipsoidal height (m) at lon/lat (degrees), bilinear; NaN off the DEM."""
+        lon = np.asarray(lon, np.float64)
+        lat = np.asarray(lat, np.float64)
+        to_grid = self._to_grid  # type: ignore[attr-defined]
+        if to_grid is None:
+            return self.grid.sample(lon, lat)
+        x, y = to_grid.transform(lon, lat)
+        return self.grid.sample(x, y)
+
+    __call__ = height
+
+
+def _read_grid(path: Path, bounds: tuple[float, float, float, float] | None, what: str) -> Grid:
+    """Read a raster (or the window of it covering lon/lat `bounds`) as float64 with NaN voids."""
+    import rasterio
+    from rasterio.errors import RasterioIOError
+    from rasterio.windows import Window, from_bounds
+
+    try:
+        ds = rasterio.open(path)
+    except RasterioIOError as exc:
+        raise InputError(Problem(file=str(path), message=f"cannot open {what}: {exc}")) from None
+    with ds:
+        if ds.crs is None:
+            raise InputError(Problem(file=str(path), message=f"the {what} has no CRS"))
+        t = ds.transform
+        if t.b != 0 or t.d != 0 or t.a <= 0 or t.e >= 0:
+            raise InputError(
+                Problem(file=str(path), message=f"the {what} must be a north-up grid, got {t}")
+            )
+        crs = CRS.from_wkt(ds.crs.to_wkt())
+        window = Window(0, 0, ds.width, ds.height)
+        if bounds is not None:
+            west, south, east, north = bounds
+            if not crs.is_geographic:
+                tr = Transformer.from_crs(CRS.from_epsg(4326), crs, always_xy=True)
+                west, south, east, north = tr.transform_bounds(west, south, east, north)
+            if crs.is_geographic and t.c + ds.width * t.a > 180.0 and west < t.c:
+                west, east = west + 360.0, east + 360.0  # a 0..360° grid
+            w = from_bounds(west, south, east, north, transform=t)
+            col0 = max(int(np.floor(w.col_off)) - 2, 0)
+            row0 = max(int(np.floor(w.row_off)) - 2, 0)
+            col1 = min(int(np.ceil(w.col_off + w.width)) + 2, ds.width)
+            row1 = min(int(np.ceil(w.row_off + w.height)) + 2, ds.height)
+            if col1 <= col0 or row1 <= row0:
+                raise InputError(
+                    Problem(
+                        file=str(path),
+                        message=f"the {what} does not cover lon {bounds[0]:.4f}..{bounds[2]:.4f}, "
+                        f"lat {bounds[1]:.4f}..{bounds[3]:.4f}",
+                    )
+                )
+            window = Window(col0, row0, col1 - col0, row1 - row0)
+        values = ds.read(1, window=window, masked=True).astype(np.float64).filled(np.nan)
+        return Grid(values, ds.window_transform(window), crs, str(path))
+
+
+def fill_voids(values: FloatArray, max_steps: int) -> FloatArray:
+    """Fill NaN cells from their valid 8-neighbours (mean), growing inwards `max_steps` times:
+    holes up to ~2·max_steps cells across are closed, larger voids and the outside stay NaN."""
+    from scipy.ndimage import convolve
+
+    out = values.copy()
+    kernel = np.ones((3, 3))
+    kernel[1, 1] = 0.0
+    for _ in range(max_steps):
+        void = np.isnan(out)
+        if not void.any():
+            break
+        valid = (~void).astype(np.float64)
+        total = convolve(np.where(void, 0.0, out), kernel, mode="constant")
+        count = convolve(valid, kernel, mode="constant")
+        # a void cell is filled only when most of its neighbours are known (holes, not edges)
+        fill = void & (count >= 5)
+        if not fill.any():
+            break
+        out[fill] = total[fill] / count[fill]
+    return out
+
+
+def load_dem(
+    path: str | Path,
+    *,
+    geoid: str | Path | None = None,
+    vertical: str = "geoid",
+    bounds: tuple[float, float, float, float] | None = None,
+    fill: int = 0,
+) -> DEM:
+    """Load a DEM as ellipsoidal heights.
+
+    `vertical` is 'geoid' (heights above a geoid, as SRTM: a `geoid` grid of undulations N is
+    then required and h = H + N) or 'ellipsoid' (already WGS-84 ellipsoidal). `bounds`
+    (west, south, east, north in degrees) restricts reading to the window needed. `fill` > 0
+    closes small voids (`fill_voids`), e.g. the holes of a photogrammetric DSM.
+    """
+    path = Path(path)
+    if vertical not in ("geoid", "ellipsoid"):
+        raise InputError(
+            Problem(
+                file=str(path), message=f"vertical must be 'geoid' or 'ellipsoid', got {vertical!r}"
+            )
+        )
+    grid = _read_grid(path, bounds, "DEM")
+    if fill > 0:
+        grid = Grid(fill_voids(grid.values, fill), grid.transform, grid.crs, grid.source)
+    if vertical == "ellipsoid":
+        return DEM(grid, f"ellipsoidal (WGS-84) heights from {path.name}")
+    if geoid is None:
+        raise InputError(
+            Problem(
+                file=str(path),
+                message="the DEM holds geoid heights (e.g. SRTM/EGM96) but no geoid grid was "
+                "given: RPC heights are ellipsoidal; pass a geoid grid or declare the DEM "
+                "ellipsoidal",
+            )
+        )
+    geoid = Path(geoid)
+    # undulation at every DEM node (lon/lat of the node centres)
+    nr, nc = grid.values.shape
+    cols, rows = np.meshgrid(np.arange(nc) + 0.5, np.arange(nr) + 0.5)
+    xs = grid.transform.c + cols * grid.transform.a
+    ys = grid.transform.f + rows * grid.transform.e
+    if grid.crs.is_geographic:
+        lon, lat = np.asarray(xs), np.asarray(ys)
+    else:
+        tr = Transformer.from_crs(grid.crs, CRS.from_epsg(4326), always_xy=True)
+        lon, lat = tr.transform(xs, ys)
+    margin = 0.5
+    g = _read_grid(
+        geoid,
+        (
+            float(np.min(lon)) - margin,
+            float(np.min(lat)) - margin,
+            float(np.max(lon)) + margin,
+            float(np.max(lat)) + margin,
+        ),
+        "geoid grid",
+    )
+    if not g.crs.is_geographic:
+        raise InputError(Problem(file=str(geoid), message="the geoid grid must be in lon/lat"))
+    glon = np.where(lon < g.transform.c, lon + 360.0, lon)
+    n = g.sample(glon, lat)
+    if np.any(np.isnan(n) & np.isfinite(grid.values)):
+        raise InputError(
+            Problem(file=str(geoid), message=f"the geoid grid does not cover {path.name}")
+        )
+    ellipsoidal = Grid(grid.values + n, grid.transform, grid.crs, str(path))
+    return DEM(
+        ellipsoidal,
+        f"geoid heights from {path.name} + geoid undulation from {geoid.name} "
+        f"(N {np.nanmin(n):.2f}..{np.nanmax(n):.2f} m) = ellipsoidal (WGS-84)",
+    )
+
+
+def constant_height(h: float) -> DEM:
+    """A flat 'DEM' at ellipsoidal height h over the whole globe (for tests and flat terrain)."""
+    values = np.full((2, 2), float(h))
+    grid = Grid(values, Affine(180.0, 0.0, -180.0, 0.0, -90.0, 90.0), CRS.from_epsg(4326), "")
+    return DEM(grid, f"constant ellipsoidal height {h} m")

@@ -1,0 +1,449 @@
+"""The rational function model (RPC00B) and its image-space affine refinement (§3).
+
+Conventions, used everywhere in `blockqc.rfm`:
+
+* Image coordinates are (row, col) = (line, sample) in pixels with the **pixel-centre** convention:
+  the centre of the first pixel of the image the RPCs describe is (0, 0). This is the convention of
+  the RPC00B numbers themselves (NITF STDI-0002, OSSIM, rpcm, shareloc).
+* GDAL's RPC transformer (rasterio's `RPCTransformer`) uses the pixel-**corner** convention: its
+  (col, row) = (0.5, 0.5) is the centre of the first pixel, so GDAL = ours + 0.5.
+* DIMAP (Pléiades, SPOT 6/7) RPC files count the first pixel as 1; the reader subtracts 1 from
+  LINE_OFF and SAMP_OFF (see `blockqc.rfm.readers`).
+* Ground coordinates are WGS-84 longitude and latitude in degrees and **ellipsoidal** height in
+  metres (§MB-2); a geoid-referenced DEM must be converted first (`blockqc.rfm.dem`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from blockqc.errors import InputError, Problem
+
+FloatArray = NDArray[np.float64]
+HeightSource = float | ArrayLike | Callable[[FloatArray, FloatArray], FloatArray]
+
+# Exponents of (L = longitude, P = latitude, H = height) of the 20 RPC00B terms, in order:
+# 1, L, P, H, LP, LH, PH, L², P², H², PLH, L³, LP², LH², L²P, P³, PH², L²H, P²H, H³.
+RPC00B_EXPONENTS: tuple[tuple[int, int, int], ...] = (
+    (0, 0, 0),
+    (1, 0, 0),
+    (0, 1, 0),
+    (0, 0, 1),
+    (1, 1, 0),
+    (1, 0, 1),
+    (0, 1, 1),
+    (2, 0, 0),
+    (0, 2, 0),
+    (0, 0, 2),
+    (1, 1, 1),
+    (3, 0, 0),
+    (1, 2, 0),
+    (1, 0, 2),
+    (2, 1, 0),
+    (0, 3, 0),
+    (0, 1, 2),
+    (2, 0, 1),
+    (0, 2, 1),
+    (0, 0, 3),
+)
+
+NEWTON_MAX_ITER = 30
+"""Newton steps allowed for image→ground at a fixed height."""
+NEWTON_TOL_PX = 1e-9
+"""Newton stops when every point's image residual is below this (pixels)."""
+DEM_MAX_ITER = 30
+"""Height updates allowed for image→ground on a DEM."""
+DEM_TOL_M = 1e-5
+"""DEM iteration stops when no point's height changes by more than this (metres)."""
+DEM_LEVELS = 64
+"""Heights scanned along a line of sight when the DEM iteration does not converge."""
+DEM_BISECTIONS = 48
+"""Halvings of the bracketing interval after the scan (2630 m / 2⁴⁸ ≈ 1e-11 m)."""
+
+
+def _powers(x: FloatArray) -> list[FloatArray | float]:
+    return [1.0, x, x * x, x * x * x]
+
+
+def _evaluate(
+    lon_n: FloatArray,
+    lat_n: FloatArray,
+    h_n: FloatArray,
+    coeffs: FloatArray,
+    derivatives: bool = False,
+) -> tuple[FloatArray, FloatArray | None, FloatArray | None]:
+    """Evaluate k polynomials (coeffs: k×20) at normalized points, term by term.
+
+    Returns values (k×n) and, if asked, their derivatives with respect to L and P (k×n each).
+    Memory stays at a few arrays of n points, whatever k.
+    """
+    pl, pp, ph = _powers(lon_n), _powers(lat_n), _powers(h_n)
+    n = lon_n.shape
+    k = coeffs.shape[0]
+    val = np.zeros((k, *n))
+    d_l = np.zeros((k, *n)) if derivatives else None
+    d_p = np.zeros((k, *n)) if derivatives else None
+    for j, (el, ep, eh) in enumerate(RPC00B_EXPONENTS):
+        c = coeffs[:, j].reshape((k,) + (1,) * len(n))
+        term = pl[el] * pp[ep] * ph[eh]
+        val += c * term
+        if derivatives:
+            if el:
+                d_l += c * (el * pl[el - 1] * pp[ep] * ph[eh])
+            if ep:
+                d_p += c * (ep * pl[el] * pp[ep - 1] * ph[eh])
+    return val, d_l, d_p
+
+
+#: the ten normalisation constants of an RPC00B model
+OFFSET_SCALE_KEYS = (
+    "line_off",
+    "samp_off",
+    "lat_off",
+    "lon_off",
+    "height_off",
+    "line_scale",
+    "samp_scale",
+    "lat_scale",
+    "lon_scale",
+    "height_scale",
+)
+
+@dataclass(frozen=True, eq=False)
+class RPCModel:
+    """One scene's RPC00B model: ten offsets/scales and the 4×20 coefficients (§3).
+
+    `ground_to_image` is direct; `image_to_ground` iterates (Newton at a height, then on a DEM).
+    Pixel-centre convention, first pixel centre (0, 0); ellipsoidal heights (module docstring).
+    """
+
+    line_off: float
+    samp_off: float
+    lat_off: float
+    lon_off: float
+    height_off: float
+    line_scale: float
+    samp_scale: float
+    lat_scale: float
+    lon_scale: float
+    height_scale: float
+    line_num: FloatArray
+    line_den: FloatArray
+    samp_num: FloatArray
+    samp_den: FloatArray
+    source: str = ""
+    """File the model was read from (for messages)."""
+    err_bias: float | None = None
+    err_rand: float | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("line_num", "line_den", "samp_num", "samp_den"):
+            arr = np.asarray(getattr(self, name), dtype=np.float64)
+            if arr.shape != (20,) or not np.all(np.isfinite(arr)):
+                raise InputError(
+                    Problem(
+                        file=self.source or "<rpc>",
+                        message=f"{name} must hold 20 finite numbers, got shape {arr.shape}",
+                    )
+                )
+            object.__setattr__(self, name, arr)
+        for name in OFFSET_SCALE_KEYS:
+            value = float(getattr(self, name))
+            if not np.isfinite(value) or (name.endswith("_scale") and value == 0.0):
+                raise InputError(
+                    Problem(
+                        file=self.source or "<rpc>",
+                        message=f"{name.upper()} must be a finite number"
+                        + (" different from 0" if name.endswith("_scale") else "")
+                        + f", got {value!r}",
+                    )
+                )
+            object.__setattr__(self, name, value)
+
+    # -- helpers -------------------------------------------------------------------------------
+    @property
+    def _coeffs(self) -> FloatArray:
+        return np.stack([self.line_num, self.line_den, self.samp_num, self.samp_den])
+
+    def normalize_ground(
+        self, lon: ArrayLike, lat: ArrayLike, h: ArrayLike
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        lon, lat, h = np.broadcast_arrays(
+            np.asarray(lon, np.float64), np.asarray(lat, np.float64), np.asarray(h, np.float64)
+        )
+        return (
+            (lon - self.lon_off) / self.lon_scale,
+            (lat - self.lat_off) / self.lat_scale,
+            (h - self.height_off) / self.height_scale,
+        )
+
+    # -- ground → image ------------------------------------------------------------------------
+    def ground_to_image(
+        self, lon: ArrayLike, lat: ArrayLike, h: ArrayLike
+    ) -> tuple[FloatArray, FloatArray]:
+        """(lon°, lat°, ellipsoidal h m) → (row, col) px, pixel-centre convention; vectorized."""
+        ln, pn, hn = self.normalize_ground(lon, lat, h)
+        v, _, _ = _evaluate(ln, pn, hn, self._coeffs)
+        row = v[0] / v[1] * self.line_scale + self.line_off
+        col = v[2] / v[3] * self.samp_scale + self.samp_off
+        return row, col
+
+    # -- image → ground ------------------------------------------------------------------------
+    def _solve_at_height(
+        self, row: FloatArray, col: FloatArray, h: FloatArray
+    ) -> tuple[FloatArray, FloatArray]:
+        """Newton iteration on (lon, lat) so that ground_to_image(lon, lat, h) = (row, col)."""
+        rn = (row - self.line_off) / self.line_scale
+        cn = (col - self.samp_off) / self.samp_scale
+        hn = (h - self.height_off) / self.height_scale
+        ln = np.zeros_like(rn)
+        pn = np.zeros_like(rn)
+        coeffs = self._coeffs
+        tol_r = NEWTON_TOL_PX / abs(self.line_scale)
+        tol_c = NEWTON_TOL_PX / abs(self.samp_scale)
+        active = np.isfinite(rn) & np.isfinite(cn) & np.isfinite(hn)
+        ln[~active] = np.nan
+        pn[~active] = np.nan
+        idx = np.flatnonzero(active.ravel())
+        lf, pf = ln.ravel(), pn.ravel()
+        rf, cf, hf = rn.ravel(), cn.ravel(), hn.ravel()
+        for _ in range(NEWTON_MAX_ITER):
+            if idx.size == 0:
+                break
+            L, P, H = lf[idx], pf[idx], hf[idx]
+            v, dl, dp = _evaluate(L, P, H, coeffs, derivatives=True)
+            f_r = v[0] / v[1]
+            f_c = v[2] / v[3]
+            # derivatives of the ratios: (N'D − ND')/D²
+            r_l = (dl[0] * v[1] - v[0] * dl[1]) / v[1] ** 2
+            r_p = (dp[0] * v[1] - v[0] * dp[1]) / v[1] ** 2
+            c_l = (dl[2] * v[3] - v[2] * dl[3]) / v[3] ** 2
+            c_p = (dp[2] * v[3] - v[2] * dp[3]) / v[3] ** 2
+            e_r = rf[idx] - f_r
+            e_c = cf[idx] - f_c
+            det = r_l * c_p - r_p * c_l
+            step_l = (e_r * c_p - r_p * e_c) / det
+            step_p = (r_l * e_c - e_r * c_l) / det
+            bad = ~(np.isfinite(step_l) & np.isfinite(step_p))
+            lf[idx] = np.where(bad, np.nan, L + step_l)
+            pf[idx] = np.where(bad, np.nan, P + step_p)
+            done = ((np.abs(e_r) < tol_r) & (np.abs(e_c) < tol_c)) | bad
+            idx = idx[~done]
+        if idx.size:
+            # did not converge (outside the model's domain): no position rather than a wrong one
+            lf[idx] = np.nan
+            pf[idx] = np.nan
+        lon = lf.reshape(rn.shape) * self.lon_scale + self.lon_off
+        lat = pf.reshape(rn.shape) * self.lat_scale + self.lat_off
+        return lon, lat
+
+    def image_to_ground(
+        self, row: ArrayLike, col: ArrayLike, height: HeightSource
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """(row, col) px → (lon°, lat°, h m) at a given height, or on a DEM by iteration.
+
+        `height` is a number or array of ellipsoidal heights, or a callable h(lon, lat) such as
+        a `blockqc.rfm.dem.DEM`; with a callable the height is updated from the DEM until it
+        changes by less than DEM_TOL_M, starting from the callable's `mean_height` when it has
+        one (else HEIGHT_OFF); rays where that does not converge are searched for their first
+        crossing of the surface. Points whose ray meets no DEM value get NaN.
+        """
+        row, col = np.broadcast_arrays(np.asarray(row, np.float64), np.asarray(col, np.float64))
+        if not callable(height):
+            h = np.broadcast_to(np.asarray(height, np.float64), row.shape).astype(np.float64)
+            lon, lat = self._solve_at_height(row, col, h)
+            return lon, lat, h
+        start = getattr(height, "mean_height", None)
+        if start is None or not np.isfinite(start):
+            start = self.height_off
+        h = np.full(row.shape, float(start), dtype=np.float64)
+        lon, lat = self._solve_at_height(row, col, h)
+        change = np.full(row.shape, np.inf)
+        for _ in range(DEM_MAX_ITER):
+            h_new = np.broadcast_to(np.asarray(height(lon, lat), np.float64), row.shape).copy()
+            change = np.abs(h_new - h)
+            h = h_new
+            lon, lat = self._solve_at_height(row, col, h)
+            if not np.any(change > DEM_TOL_M):
+                break
+        # fixed-point iteration fails where tan(slope)·tan(incidence) ≥ 1 or where the start
+        # falls off a small DEM: search those rays for their first crossing of the surface
+        bad = ~(change <= DEM_TOL_M)
+        if bad.any():
+            lon_b, lat_b, h_b = self._first_crossing(row[bad], col[bad], height)
+            lon[bad], lat[bad], h[bad] = lon_b, lat_b, h_b
+        return lon, lat, h
+
+    def _first_crossing(
+        self,
+        row: FloatArray,
+        col: FloatArray,
+        height: Callable[[FloatArray, FloatArray], FloatArray],
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Highest intersection of each pixel's line of sight with the surface h(lon, lat):
+        scan DEM_LEVELS heights from the top of the height range down to the first level where
+        the ray is at or below the surface, then bisect (DEM_BISECTIONS halvings)."""
+        lo = self.height_off - abs(self.height_scale)
+        hi = self.height_off + abs(self.height_scale)
+        span = getattr(height, "height_range", None)
+        if span is not None and np.all(np.isfinite(span)):
+            lo, hi = min(lo, span[0] - 1.0), max(hi, span[1] + 1.0)
+        n = row.size
+        above = np.full(n, np.nan)  # a height where the ray is above the surface
+        below = np.full(n, np.nan)  # the next level down, where it is at or below
+        f_prev = np.full(n, np.nan)
+        level_prev = hi
+        for level in np.linspace(hi, lo, DEM_LEVELS):
+            hh = np.full(n, level)
+            lon, lat = self._solve_at_height(row, col, hh)
+            f = np.asarray(height(lon, lat), dtype=np.float64) - level
+            cross = np.isnan(below) & (f_prev < 0) & (f >= 0)
+            above[cross] = level_prev
+            below[cross] = level
+            f_prev, level_prev = f, level
+        found = np.isfinite(below)
+        a, b = above[found], below[found]
+        r, c = row[found], col[found]
+        for _ in range(DEM_BISECTIONS):
+            mid = 0.5 * (a + b)
+            lon, lat = self._solve_at_height(r, c, mid)
+            f = np.asarray(height(lon, lat), dtype=np.float64) - mid
+            up = f < 0
+            a = np.where(up, mid, a)
+            b = np.where(up, b, mid)
+        h = np.full(n, np.nan)
+        h[found] = 0.5 * (a + b)
+        lon, lat = self._solve_at_height(row, col, h)
+        return lon, lat, h
+
+
+@dataclass(frozen=True)
+class ImageAffine:
+    """Image-space affine correction of §3: Δl = a0 + a1·s + a2·l, Δs = b0 + b1·s + b2·l.
+
+    With (l, s) the observed image position, the RFM position of the ground point is
+    (l + Δl, s + Δs): F_l = P1/P2 − l − Δl = 0 and F_s = P3/P4 − s − Δs = 0.
+    """
+
+    a0: float = 0.0
+    a1: float = 0.0
+    a2: float = 0.0
+    b0: float = 0.0
+    b1: float = 0.0
+    b2: float = 0.0
+
+    def delta(self, row: ArrayLike, col: ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """(Δl, Δs) at observed image positions."""
+        row = np.asarray(row, np.float64)
+        col = np.asarray(col, np.float64)
+        return (
+            self.a0 + self.a1 * col + self.a2 * row,
+            self.b0 + self.b1 * col + self.b2 * row,
+        )
+
+    def to_rfm_space(self, row: ArrayLike, col: ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """Observed (l, s) → the RFM's (l + Δl, s + Δs)."""
+        dl, ds = self.delta(row, col)
+        return np.asarray(row, np.float64) + dl, np.asarray(col, np.float64) + ds
+
+    def from_rfm_space(self, row_r: ArrayLike, col_r: ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """The RFM's (l_r, s_r) → observed (l, s): solves the 2×2 linear system exactly.
+
+        (1 + a2)·l + a1·s = l_r − a0 and b2·l + (1 + b1)·s = s_r − b0.
+        """
+        rr = np.asarray(row_r, np.float64) - self.a0
+        cc = np.asarray(col_r, np.float64) - self.b0
+        m11, m12, m21, m22 = 1.0 + self.a2, self.a1, self.b2, 1.0 + self.b1
+        det = m11 * m22 - m12 * m21
+        return (m22 * rr - m12 * cc) / det, (m11 * cc - m21 * rr) / det
+
+    def as_dict(self) -> dict[str, float]:
+        return {k: float(getattr(self, k)) for k in ("a0", "a1", "a2", "b0", "b1", "b2")}
+
+
+@dataclass(frozen=True, eq=False)
+class RefinedRFM:
+    """An RPC model with its image-space affine refinement (§3); same interface as RPCModel."""
+
+    rpc: RPCModel
+    affine: ImageAffine = field(default_factory=ImageAffine)
+
+    @property
+    def source(self) -> str:
+        return self.rpc.source
+
+    def ground_to_image(
+        self, lon: ArrayLike, lat: ArrayLike, h: ArrayLike
+    ) -> tuple[FloatArray, FloatArray]:
+        """(lon°, lat°, h m) → observed (row, col) px, pixel-centre convention."""
+        row_r, col_r = self.rpc.ground_to_image(lon, lat, h)
+        return self.affine.from_rfm_space(row_r, col_r)
+
+    def image_to_ground(
+        self, row: ArrayLike, col: ArrayLike, height: HeightSource
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Observed (row, col) px → (lon°, lat°, h m); see RPCModel.image_to_ground."""
+        row_r, col_r = self.affine.to_rfm_space(row, col)
+        return self.rpc.image_to_ground(row_r, col_r, height)
+
+
+def fit_affine(
+    rpc: RPCModel,
+    lon: ArrayLike,
+    lat: ArrayLike,
+    h: ArrayLike,
+    row: ArrayLike,
+    col: ArrayLike,
+) -> tuple[RefinedRFM, FloatArray]:
+    """Least-squares fit of the six §3 affine parameters from ≥ 3 control points.
+
+    Control point i: ground (lon, lat, h) and observed image position (row, col). Since the
+    observations enter the design matrix directly, the problem is linear and solved in one step:
+    l_rfm − l = a0 + a1·s + a2·l, s_rfm − s = b0 + b1·s + b2·l. Returns the refined model and the
+    image residuals (n×2: row, col, px) of the fitted points.
+    """
+    row = np.asarray(row, np.float64).ravel()
+    col = np.asarray(col, np.float64).ravel()
+    n = row.size
+    if n < 3:
+        raise InputError(
+            Problem(
+                file=rpc.source or "<rpc>", message=f"the affine refinement needs ≥ 3 CPs, got {n}"
+            )
+        )
+    row_r, col_r = rpc.ground_to_image(
+        np.asarray(lon, np.float64).ravel(),
+        np.asarray(lat, np.float64).ravel(),
+        np.asarray(h, np.float64).ravel(),
+    )
+    # centre and scale the design matrix for conditioning, then map the solution back
+    r0, c0 = row.mean(), col.mean()
+    sr = max(float(np.abs(row - r0).max()), 1.0)
+    sc = max(float(np.abs(col - c0).max()), 1.0)
+    design = np.column_stack([np.ones(n), (col - c0) / sc, (row - r0) / sr])
+    rhs = np.column_stack([row_r - row, col_r - col])
+    sol, *_ = np.linalg.lstsq(design, rhs, rcond=None)
+    if np.linalg.matrix_rank(design) < 3:
+        raise InputError(
+            Problem(
+                file=rpc.source or "<rpc>",
+                message="the control points are collinear: the affine refinement is undetermined",
+            )
+        )
+    k_a, k_b = sol[:, 0], sol[:, 1]
+    a1, a2 = k_a[1] / sc, k_a[2] / sr
+    b1, b2 = k_b[1] / sc, k_b[2] / sr
+    affine = ImageAffine(
+        a0=float(k_a[0] - a1 * c0 - a2 * r0),
+        a1=float(a1),
+        a2=float(a2),
+        b0=float(k_b[0] - b1 * c0 - b2 * r0),
+        b1=float(b1),
+        b2=float(b2),
+    )
+    residuals = rhs - design @ sol
+    return RefinedRFM(rpc, affine), residuals

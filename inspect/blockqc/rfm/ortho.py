@@ -1,0 +1,345 @@
+"""RPC correction (§RA-1): orthorectify an image with its (refined) RFM and a DEM, chunk by chunk.
+
+The output is a north-up grid in a projected CRS (by default the UTM zone of the scene centre,
+§MB-3) at the image's GSD. Each output chunk is filled by the inverse mapping: pixel centre
+(x, y) → (lon, lat) → h from the DEM → (row, col) with the model's ground→image → bilinear
+sampling of the source window that chunk needs. Memory stays bounded by the chunk size whatever
+the image size (a 30000×30000 image is processed as ~900 chunks of 1024×1024).
+
+Image coordinates: pixel centre, first pixel (0, 0), of the *full* image the RPCs describe. A file
+that holds a crop of it stores its pixels (r, c) at full-image (r + crop_row, c + crop_col); see
+`crop_offset_from_file`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from pyproj import CRS, Transformer
+from rasterio.transform import Affine
+from scipy.ndimage import map_coordinates
+
+from blockqc.errors import InputError, Problem
+from blockqc.rfm.dem import DEM
+from blockqc.rfm.readers import open_raster
+
+FloatArray = NDArray[np.float64]
+
+
+class GroundToImage(Protocol):
+    """What orthorectification needs of a model: RPCModel and RefinedRFM both qualify."""
+
+    def ground_to_image(
+        self, lon: ArrayLike, lat: ArrayLike, h: ArrayLike
+    ) -> tuple[FloatArray, FloatArray]: ...
+
+    def image_to_ground(
+        self, row: ArrayLike, col: ArrayLike, height: object
+    ) -> tuple[FloatArray, FloatArray, FloatArray]: ...
+
+
+@dataclass(frozen=True)
+class OrthoGrid:
+    """A north-up output grid: `transform` is GDAL's (pixel corner), pixels are square."""
+
+    crs: CRS
+    transform: Affine
+    width: int
+    height: int
+
+    @property
+    def gsd(self) -> float:
+        return float(self.transform.a)
+
+    def xy(self, row: ArrayLike, col: ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """Map coordinates of pixel (row, col), pixel-centre convention (first centre (0, 0))."""
+        row = np.asarray(row, np.float64)
+        col = np.asarray(col, np.float64)
+        t = self.transform
+        return t.c + (col + 0.5) * t.a, t.f + (row + 0.5) * t.e
+
+    def rowcol(self, x: ArrayLike, y: ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """Fractional (row, col) of map point (x, y), pixel-centre convention."""
+        t = self.transform
+        return (np.asarray(y, np.float64) - t.f) / t.e - 0.5, (
+            np.asarray(x, np.float64) - t.c
+        ) / t.a - 0.5
+
+    def expanded(self, margin: int) -> OrthoGrid:
+        """The same lattice with `margin` more pixels on every side."""
+        t = self.transform
+        return OrthoGrid(
+            self.crs,
+            Affine(t.a, 0.0, t.c - margin * t.a, 0.0, t.e, t.f - margin * t.e),
+            self.width + 2 * margin,
+            self.height + 2 * margin,
+        )
+
+    def chunks(self, size: int) -> Iterator[tuple[int, int, int, int]]:
+        """(row0, col0, rows, cols) of the output chunks, row by row."""
+        for r0 in range(0, self.height, size):
+            for c0 in range(0, self.width, size):
+                yield r0, c0, min(size, self.height - r0), min(size, self.width - c0)
+
+
+def utm_crs(lon: float, lat: float) -> CRS:
+    """WGS-84 / UTM zone containing (lon, lat) (§MB-3); UPS beyond ±84° is not handled here."""
+    if not -80.0 <= lat <= 84.0:
+        raise InputError(
+            Problem(file="<scene>", message=f"latitude {lat:.3f}° is outside UTM; give a CRS")
+        )
+    zone = int(np.floor((lon + 180.0) / 6.0)) % 60 + 1
+    return CRS.from_epsg((32600 if lat >= 0 else 32700) + zone)
+
+
+def crop_offset_from_file(path: str | Path) -> tuple[float, float]:
+    """(row, col) of a crop's first pixel in the full image, from a crop's pixel geotransform.
+
+    Crops cut from a sensor-geometry image (CNES shareloc/cars test data) carry no CRS and store
+    the crop position as geotransform (1, 0, col0, 0, 1, row0): full = crop + (row0, col0).
+    Any other file (no geotransform, or a real georeferenced one) gives (0, 0).
+    """
+    with open_raster(path) as ds:
+        t = ds.transform
+        if ds.crs is None and t.a == 1 and t.e == 1 and t.b == 0 and t.d == 0:
+            return float(t.f), float(t.c)
+    return 0.0, 0.0
+
+
+def image_border(rows: int, cols: int, per_edge: int = 32) -> tuple[FloatArray, FloatArray]:
+    """Pixel-centre positions along the border of a rows×cols image (corners included)."""
+    r = np.linspace(-0.5, rows - 0.5, per_edge)
+    c = np.linspace(-0.5, cols - 0.5, per_edge)
+    top = (np.full_like(c, -0.5), c)
+    bottom = (np.full_like(c, rows - 0.5), c)
+    left = (r, np.full_like(r, -0.5))
+    right = (r, np.full_like(r, cols - 0.5))
+    return (
+        np.concatenate([top[0], bottom[0], left[0], right[0]]),
+        np.concatenate([top[1], bottom[1], left[1], right[1]]),
+    )
+
+
+def image_gsd(
+    model: GroundToImage,
+    row: float,
+    col: float,
+    dem: DEM,
+    crs: CRS,
+    fallback_height: float | None = None,
+) -> float:
+    """Ground sampling distance (m) at image position (row, col): the geometric mean of the
+    ground lengths of one-pixel steps along rows and columns, measured on the DEM (or at
+    `fallback_height` where the DEM has no value)."""
+    rows = np.array([row, row + 1.0, row])
+    cols = np.array([col, col, col + 1.0])
+    lon, lat, _ = model.image_to_ground(rows, cols, dem)
+    if not np.all(np.isfinite(lon)) and fallback_height is not None:
+        lon, lat, _ = model.image_to_ground(rows, cols, fallback_height)
+    if not np.all(np.isfinite(lon)):
+        raise InputError(
+            Problem(file=dem.grid.source, message="the DEM does not cover the image centre")
+        )
+    x, y = Transformer.from_crs(CRS.from_epsg(4326), crs, always_xy=True).transform(lon, lat)
+    d_row = np.hypot(x[1] - x[0], y[1] - y[0])
+    d_col = np.hypot(x[2] - x[0], y[2] - y[0])
+    return float(np.sqrt(d_row * d_col))
+
+
+def ortho_grid(
+    model: GroundToImage,
+    shape: tuple[int, int],
+    dem: DEM,
+    *,
+    crop_offset: tuple[float, float] = (0.0, 0.0),
+    crs: CRS | None = None,
+    gsd: float | None = None,
+) -> OrthoGrid:
+    """The output grid covering the image footprint on the DEM, at the image GSD.
+
+    `shape` is the (rows, cols) of the file; `crop_offset` its position in the full image.
+    Where the DEM does not reach the image border, the footprint is taken at the mean DEM height
+    found over the image; a DEM with no value over the image is refused.
+    The CRS defaults to the UTM zone of the footprint centre; the GSD to `image_gsd` at the
+    image centre, rounded to the millimetre. Grid edges are multiples of the GSD.
+    """
+    rows, cols = shape
+    r0, c0 = crop_offset
+    br, bc = image_border(rows, cols)
+    lon, lat, h = model.image_to_ground(br + r0, bc + c0, dem)
+    missing = ~np.isfinite(lon)
+    centre = (r0 + (rows - 1) / 2, c0 + (cols - 1) / 2)
+    _, _, h_centre = model.image_to_ground(np.array([centre[0]]), np.array([centre[1]]), dem)
+    heights = np.concatenate([h[~missing], h_centre[np.isfinite(h_centre)]])
+    if heights.size == 0:
+        # say where the image is: its footprint at the DEM's mean height
+        finite = dem.grid.values[np.isfinite(dem.grid.values)]
+        lon_f, lat_f, _ = model.image_to_ground(
+            br + r0, bc + c0, float(finite.mean()) if finite.size else 0.0
+        )
+        raise InputError(
+            Problem(
+                file=dem.grid.source,
+                message="the DEM does not cover the image footprint "
+                f"(lon {np.nanmin(lon_f):.4f}..{np.nanmax(lon_f):.4f}, "
+                f"lat {np.nanmin(lat_f):.4f}..{np.nanmax(lat_f):.4f})",
+            )
+        )
+    mean_height = float(heights.mean())
+    if missing.any():
+        # the grid still spans the whole footprint (at the mean height where the DEM has no
+        # value); output pixels without a DEM height stay empty (NaN)
+        lon[missing], lat[missing], _ = model.image_to_ground(
+            br[missing] + r0, bc[missing] + c0, mean_height
+        )
+    if crs is None:
+        crs = utm_crs(float(np.mean(lon)), float(np.mean(lat)))
+    if gsd is None:
+        gsd = round(image_gsd(model, centre[0], centre[1], dem, crs, mean_height), 3)
+    if not gsd > 0:
+        raise InputError(Problem(file="<arguments>", message=f"GSD must be positive, got {gsd}"))
+    x, y = Transformer.from_crs(CRS.from_epsg(4326), crs, always_xy=True).transform(lon, lat)
+    x0 = np.floor(np.min(x) / gsd) * gsd
+    x1 = np.ceil(np.max(x) / gsd) * gsd
+    y0 = np.floor(np.min(y) / gsd) * gsd
+    y1 = np.ceil(np.max(y) / gsd) * gsd
+    width = int(round((x1 - x0) / gsd))
+    height = int(round((y1 - y0) / gsd))
+    return OrthoGrid(crs, Affine(gsd, 0.0, x0, 0.0, -gsd, y1), width, height)
+
+
+def sensor_positions(
+    model: GroundToImage,
+    grid: OrthoGrid,
+    dem: DEM,
+    window: tuple[int, int, int, int],
+) -> tuple[FloatArray, FloatArray]:
+    """Full-image (row, col) seen at every output pixel centre of a window (row0, col0, h, w)."""
+    r0, c0, nr, nc = window
+    rr, cc = np.meshgrid(
+        np.arange(r0, r0 + nr, dtype=np.float64),
+        np.arange(c0, c0 + nc, dtype=np.float64),
+        indexing="ij",
+    )
+    x, y = grid.xy(rr, cc)
+    to_geo = Transformer.from_crs(grid.crs, CRS.from_epsg(4326), always_xy=True)
+    lon, lat = to_geo.transform(x, y)
+    h = dem.height(lon, lat)
+    return model.ground_to_image(lon, lat, h)
+
+
+def _resample(
+    ds: object,
+    band: int,
+    row: FloatArray,
+    col: FloatArray,
+    order: int,
+) -> NDArray[np.float32]:
+    """Sample band `band` of the open dataset at file positions (row, col), NaN outside."""
+    from rasterio.windows import Window
+
+    out = np.full(row.shape, np.nan, dtype=np.float32)
+    nrows, ncols = ds.height, ds.width  # type: ignore[attr-defined]
+    ok = (
+        np.isfinite(row)
+        & np.isfinite(col)
+        & (row >= -0.5)
+        & (row <= nrows - 0.5)
+        & (col >= -0.5)
+        & (col <= ncols - 0.5)
+    )
+    if not ok.any():
+        return out
+    pad = 2 + order
+    wr0 = max(int(np.floor(row[ok].min())) - pad, 0)
+    wc0 = max(int(np.floor(col[ok].min())) - pad, 0)
+    wr1 = min(int(np.ceil(row[ok].max())) + pad + 1, nrows)
+    wc1 = min(int(np.ceil(col[ok].max())) + pad + 1, ncols)
+    src = ds.read(  # type: ignore[attr-defined]
+        band, window=Window(wc0, wr0, wc1 - wc0, wr1 - wr0), masked=True
+    )
+    src = src.astype(np.float32).filled(np.nan)
+    coords = np.stack([row[ok] - wr0, col[ok] - wc0])
+    out[ok] = map_coordinates(src, coords, order=order, mode="nearest", prefilter=order > 1)
+    return out
+
+
+def orthorectify(
+    image: str | Path,
+    model: GroundToImage,
+    dem: DEM,
+    out_path: str | Path,
+    *,
+    grid: OrthoGrid | None = None,
+    crop_offset: tuple[float, float] | None = None,
+    band: int = 1,
+    chunk: int = 1024,
+    order: int = 1,
+) -> OrthoGrid:
+    """Orthorectify band `band` of `image` onto `grid` (default: `ortho_grid`), chunk by chunk,
+    into a float32 GeoTIFF at `out_path` with NaN where the image gives nothing (§RA-1).
+
+    `crop_offset` is the file's position in the full image (default: `crop_offset_from_file`);
+    `order` is the spline order of the resampling (1 bilinear, 3 cubic).
+    """
+    import rasterio
+
+    image = Path(image)
+    if crop_offset is None:
+        crop_offset = crop_offset_from_file(image)
+    with open_raster(image) as src:
+        if not 1 <= band <= src.count:
+            raise InputError(
+                Problem(file=str(image), message=f"band {band} asked, the image has {src.count}")
+            )
+        if grid is None:
+            grid = ortho_grid(model, (src.height, src.width), dem, crop_offset=crop_offset)
+        profile = {
+            "driver": "GTiff",
+            "dtype": "float32",
+            "count": 1,
+            "width": grid.width,
+            "height": grid.height,
+            "crs": rasterio.crs.CRS.from_wkt(grid.crs.to_wkt()),
+            "transform": grid.transform,
+            "nodata": float("nan"),
+            "tiled": True,
+            "blockxsize": 256,
+            "blockysize": 256,
+            "compress": "deflate",
+            "BIGTIFF": "IF_SAFER",
+        }
+        out_path = Path(out_path)
+        tmp = out_path.with_name(f".{out_path.name}.partial.tif")
+        out_path.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            with rasterio.open(tmp, "w", **profile) as dst:
+                for window in grid.chunks(chunk):
+                    row, col = sensor_positions(model, grid, dem, window)
+                    values = _resample(src, band, row - crop_offset[0], col - crop_offset[1], order)
+                    r0, c0, nr, nc = window
+                    dst.write(values, 1, window=rasterio.windows.Window(c0, r0, nc, nr))
+            tmp.replace(out_path)  # atomic rename: readers never see a half-written ortho
+        finally:
+            tmp.unlink(missing_ok=True)
+    return grid
+
+
+def read_ortho(path: str | Path) -> tuple[NDArray[np.float32], OrthoGrid]:
+    """Read an orthoimage written by `orthorectify` (or any north-up GeoTIFF) with its grid."""
+    import rasterio
+
+    with rasterio.open(path) as ds:
+        t = ds.transform
+        if ds.crs is None or t.b != 0 or t.d != 0:
+            raise InputError(
+                Problem(file=str(path), message="expected a north-up georeferenced raster")
+            )
+        arr = ds.read(1, masked=True).astype(np.float32).filled(np.nan)
+        grid = OrthoGrid(CRS.from_wkt(ds.crs.to_wkt()), t, ds.width, ds.height)
+    return arr, grid

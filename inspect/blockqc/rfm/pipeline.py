@@ -1,0 +1,482 @@
+"""§RA end to end: correct the image (§RA-1), bring the reference onto its grid (§RA-2), match
+(§RA-3, one call), measure (§RA-4..6) and write the CP table, results.json, plots and HTML.
+
+Every output is made from the results of the step before: the HTML page is rendered from
+results.json only (`blockqc.rfm.report`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from pyproj import CRS, Transformer
+
+from blockqc.errors import InputError, Problem
+from blockqc.outputs import write_bytes_atomic, write_json_atomic, write_text_atomic
+from blockqc.rfm import accuracy
+from blockqc.rfm.dem import DEM, load_dem
+from blockqc.rfm.model import RefinedRFM, RPCModel, fit_affine
+from blockqc.rfm.ortho import (
+    OrthoGrid,
+    crop_offset_from_file,
+    image_border,
+    ortho_grid,
+    orthorectify,
+    read_ortho,
+)
+from blockqc.rfm.readers import open_raster, read_rpc, sniff_format
+
+Matcher = Callable[..., pd.DataFrame]
+
+CP_COLUMNS = [
+    "cp_id",
+    "kind",
+    "score",
+    "row",
+    "col",
+    "ref_row",
+    "ref_col",
+    "x_m",
+    "y_m",
+    "ref_x_m",
+    "ref_y_m",
+    "lon",
+    "lat",
+    "h_m",
+    "ref_lon",
+    "ref_lat",
+    "ref_h_m",
+    "line",
+    "sample",
+    "dx_m",
+    "dy_m",
+    "gev_px",
+]
+CHECKPOINT_COLUMNS = [
+    "point_id",
+    "method",
+    "reference_id",
+    "x_m",
+    "y_m",
+    "z_m",
+    "ref_x_m",
+    "ref_y_m",
+    "ref_z_m",
+]
+METHODS = ("high_precision", "same_accuracy", "recalculation")
+
+
+@dataclass
+class RfmAccuracyConfig:
+    """Everything one run needs; paths are the user's, the output folder must lie outside them."""
+
+    image: Path
+    dem: Path
+    reference: Path
+    out: Path
+    rpc: Path | None = None
+    geoid: Path | None = None
+    dem_vertical: str = "geoid"
+    dem_fill: int = 0
+    reference_rpc: Path | None = None
+    crs: CRS | None = None
+    gsd: float | None = None
+    crop_offset: tuple[float, float] | None = None
+    reference_crop_offset: tuple[float, float] | None = None
+    ortho_chunk: int = 1024
+    margin: int = 32
+    match_chunk: int = 5000
+    match_grid: int = 400
+    ks: tuple[int, ...] = (6, 12, 16, 20)
+    repeats: int = 100
+    seed: int = 0
+    requirement_px: float = accuracy.REQUIREMENT_PX
+    distortion_threshold_px: float = accuracy.DISTORTION_THRESHOLD_PX
+    method: str = "same_accuracy"
+    export_checkpoints: bool = False
+    refined_ortho: bool = False
+    match_settings: dict[str, object] = field(default_factory=dict)
+
+
+def default_matcher() -> Matcher:
+    """The §RA-3 matcher of `blockqc.matching`."""
+    from blockqc.matching import match_images
+
+    return match_images
+
+
+def _footprint_bounds(
+    rpc: RPCModel, shape: tuple[int, int], offset: tuple[float, float], pad_deg: float
+) -> tuple[float, float, float, float]:
+    """lon/lat box of the image over the RPC's whole height range, padded (for DEM windows)."""
+    br, bc = image_border(*shape, per_edge=16)
+    lons, lats = [], []
+    for h in (rpc.height_off - abs(rpc.height_scale), rpc.height_off + abs(rpc.height_scale)):
+        lon, lat, _ = rpc.image_to_ground(br + offset[0], bc + offset[1], h)
+        lons.append(lon)
+        lats.append(lat)
+    lon = np.concatenate(lons)
+    lat = np.concatenate(lats)
+    if not np.any(np.isfinite(lon)):
+        raise InputError(
+            Problem(file=rpc.source, message="the RPCs give no ground position for the image")
+        )
+    return (
+        float(np.nanmin(lon)) - pad_deg,
+        float(np.nanmin(lat)) - pad_deg,
+        float(np.nanmax(lon)) + pad_deg,
+        float(np.nanmax(lat)) + pad_deg,
+    )
+
+
+def _raster_shape(path: Path) -> tuple[tuple[int, int], bool]:
+    with open_raster(path) as ds:
+        return (ds.height, ds.width), ds.crs is not None
+
+
+def reference_on_grid(
+    cfg: RfmAccuracyConfig, grid: OrthoGrid, dem: DEM, out_path: Path
+) -> tuple[str, str]:
+    """§RA-2: the reference on the image's CRS and GSD, `cfg.margin` px larger on every side.
+
+    A georeferenced reference is reprojected (bilinear); a reference in sensor geometry with
+    RPCs (a same-accuracy stereo mate) is orthorectified with its own RPCs and the same DEM.
+    Returns (how, rpc source).
+    """
+    import rasterio
+    from rasterio.warp import Resampling, reproject
+
+    ref_grid = grid.expanded(cfg.margin)
+    _, georeferenced = _raster_shape(cfg.reference)
+    if cfg.reference_rpc is not None or not georeferenced:
+        rpc = read_rpc(cfg.reference_rpc or cfg.reference)
+        orthorectify(
+            cfg.reference,
+            rpc,
+            dem,
+            out_path,
+            grid=ref_grid,
+            crop_offset=cfg.reference_crop_offset,
+            chunk=cfg.ortho_chunk,
+        )
+        return "orthorectified with its RPCs and the same DEM", rpc.source
+    dst = np.full((ref_grid.height, ref_grid.width), np.nan, dtype=np.float32)
+    with rasterio.open(cfg.reference) as src:
+        reproject(
+            source=rasterio.band(src, 1),
+            destination=dst,
+            src_nodata=src.nodata,
+            dst_transform=ref_grid.transform,
+            dst_crs=rasterio.crs.CRS.from_wkt(ref_grid.crs.to_wkt()),
+            dst_nodata=np.nan,
+            resampling=Resampling.bilinear,
+        )
+    profile = {
+        "driver": "GTiff",
+        "dtype": "float32",
+        "count": 1,
+        "width": ref_grid.width,
+        "height": ref_grid.height,
+        "crs": rasterio.crs.CRS.from_wkt(ref_grid.crs.to_wkt()),
+        "transform": ref_grid.transform,
+        "nodata": float("nan"),
+        "compress": "deflate",
+        "tiled": True,
+        "blockxsize": 256,
+        "blockysize": 256,
+    }
+    tmp = out_path.with_name(f".{out_path.name}.partial.tif")
+    try:
+        with rasterio.open(tmp, "w", **profile) as ds:
+            ds.write(dst, 1)
+        tmp.replace(out_path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return "reprojected (bilinear) onto the image grid", ""
+
+
+def build_cp_table(
+    matches: pd.DataFrame,
+    grid: OrthoGrid,
+    ref_grid: OrthoGrid,
+    rpc: RPCModel,
+    dem: DEM,
+) -> pd.DataFrame:
+    """Matches (ortho and reference pixels) → CPs with map, geographic and image coordinates."""
+    row = matches["row"].to_numpy(np.float64)
+    col = matches["col"].to_numpy(np.float64)
+    x, y = grid.xy(row, col)
+    rx, ry = ref_grid.xy(
+        matches["ref_row"].to_numpy(np.float64), matches["ref_col"].to_numpy(np.float64)
+    )
+    to_geo = Transformer.from_crs(grid.crs, CRS.from_epsg(4326), always_xy=True)
+    lon, lat = (np.asarray(v) for v in to_geo.transform(x, y))
+    rlon, rlat = (np.asarray(v) for v in to_geo.transform(rx, ry))
+    h = dem.height(lon, lat)
+    rh = dem.height(rlon, rlat)
+    line, sample = rpc.ground_to_image(lon, lat, h)
+    dx = x - rx
+    dy = y - ry
+    table = pd.DataFrame(
+        {
+            "kind": matches["kind"].to_numpy() if "kind" in matches else "",
+            "score": matches["score"].to_numpy() if "score" in matches else np.nan,
+            "row": row,
+            "col": col,
+            "ref_row": matches["ref_row"].to_numpy(np.float64),
+            "ref_col": matches["ref_col"].to_numpy(np.float64),
+            "x_m": x,
+            "y_m": y,
+            "ref_x_m": rx,
+            "ref_y_m": ry,
+            "lon": lon,
+            "lat": lat,
+            "h_m": h,
+            "ref_lon": rlon,
+            "ref_lat": rlat,
+            "ref_h_m": rh,
+            "line": line,
+            "sample": sample,
+            "dx_m": dx,
+            "dy_m": dy,
+            "gev_px": accuracy.gev(dx, dy, grid.gsd),
+        }
+    )
+    table = table[np.isfinite(table["h_m"]) & np.isfinite(table["ref_h_m"])].reset_index(drop=True)
+    table.insert(0, "cp_id", [f"CP{i + 1:04d}" for i in range(len(table))])
+    return table[CP_COLUMNS]
+
+
+def checkpoints_table(
+    cps: pd.DataFrame, method: str, reference_id: str, prefix: str
+) -> pd.DataFrame:
+    """The CPs as contract-v1 checkpoints: plane from the reference ortho, so ref_z_m is empty."""
+    return pd.DataFrame(
+        {
+            "point_id": [f"{prefix}-{c}" for c in cps["cp_id"]],
+            "method": method,
+            "reference_id": reference_id,
+            "x_m": cps["x_m"].round(4),
+            "y_m": cps["y_m"].round(4),
+            "z_m": cps["h_m"].round(3),
+            "ref_x_m": cps["ref_x_m"].round(4),
+            "ref_y_m": cps["ref_y_m"].round(4),
+            "ref_z_m": np.nan,
+        }
+    )[CHECKPOINT_COLUMNS]
+
+
+def _refine_with_all(
+    rpc: RPCModel, control: accuracy.ControlPoints, cps: pd.DataFrame
+) -> tuple[RefinedRFM, float] | None:
+    """The §3 affine fitted to every CP (None with fewer than 3 or collinear CPs)."""
+    if len(cps) < 3:
+        return None
+    try:
+        refined, residuals = fit_affine(
+            rpc, control.lon, control.lat, control.h, control.row, control.col
+        )
+    except InputError:
+        return None
+    return refined, float(np.sqrt(np.mean(np.sum(residuals**2, axis=1))))
+
+
+def _preview(path: Path, max_side: int = 1500) -> np.ndarray:
+    """The ortho decimated to at most `max_side` pixels a side (bounded memory, for plots)."""
+    import rasterio
+
+    with rasterio.open(path) as ds:
+        step = max(1, int(np.ceil(max(ds.width, ds.height) / max_side)))
+        shape = (max(1, ds.height // step), max(1, ds.width // step))
+        return ds.read(1, out_shape=shape, masked=True).astype(np.float32).filled(np.nan)
+
+
+def _finite(value: float) -> float | None:
+    return None if value is None or not math.isfinite(value) else float(value)
+
+
+def _clean(obj: object) -> object:
+    """JSON-safe copy: NaN/inf → null, numpy scalars → Python."""
+    if isinstance(obj, dict):
+        return {k: _clean(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_clean(v) for v in obj]
+    if isinstance(obj, np.generic):
+        obj = obj.item()
+    if isinstance(obj, float):
+        return _finite(obj)
+    return obj
+
+
+def run_rfm_accuracy(cfg: RfmAccuracyConfig, matcher: Matcher | None = None) -> dict[str, object]:
+    """Run §RA-1..6 for one image and write every output into `cfg.out`; returns the results."""
+    if cfg.method not in METHODS:
+        raise InputError(Problem(file="<arguments>", message=f"method must be one of {METHODS}"))
+    out = cfg.out
+    out.mkdir(parents=True, exist_ok=True)
+    rpc_path = cfg.rpc or cfg.image
+    rpc = read_rpc(rpc_path)
+    shape, _ = _raster_shape(cfg.image)
+    offset = cfg.crop_offset if cfg.crop_offset is not None else crop_offset_from_file(cfg.image)
+    bounds = _footprint_bounds(rpc, shape, offset, pad_deg=0.01)
+    dem = load_dem(
+        cfg.dem, geoid=cfg.geoid, vertical=cfg.dem_vertical, bounds=bounds, fill=cfg.dem_fill
+    )
+
+    # §RA-1 RPC correction
+    grid = ortho_grid(rpc, shape, dem, crop_offset=offset, crs=cfg.crs, gsd=cfg.gsd)
+    orthorectify(
+        cfg.image, rpc, dem, out / "ortho.tif", grid=grid, crop_offset=offset, chunk=cfg.ortho_chunk
+    )
+    # §RA-2 reference on the same grid
+    how, ref_rpc = reference_on_grid(cfg, grid, dem, out / "reference_on_grid.tif")
+    image, grid = read_ortho(out / "ortho.tif")
+    reference, ref_grid = read_ortho(out / "reference_on_grid.tif")
+    # §RA-3 matching, one call
+    match = matcher or default_matcher()
+    matches = match(
+        image,
+        reference,
+        image_valid=np.isfinite(image),
+        reference_valid=np.isfinite(reference),
+        offset=(float(cfg.margin), float(cfg.margin)),
+        chunk=cfg.match_chunk,
+        grid=cfg.match_grid,
+        **cfg.match_settings,
+    )
+    del image, reference
+    cps = build_cp_table(matches, grid, ref_grid, rpc, dem)
+    write_text_atomic(out / "cps.csv", cps.to_csv(index=False, float_format="%.6f"))
+
+    # §RA-4 accuracy, §RA-5 distortion, §RA-6 refined RFM
+    gsd = grid.gsd
+    dx, dy = cps["dx_m"].to_numpy(), cps["dy_m"].to_numpy()
+    rmse = accuracy.rmse_px(dx, dy, gsd)
+    gev = cps["gev_px"].to_numpy()
+    summary = accuracy.distortion_summary(
+        cps["col"], cps["row"], dx, dy, gsd, cfg.distortion_threshold_px
+    )
+    write_bytes_atomic(
+        out / "error_vectors.png",
+        accuracy.plot_error_vectors(
+            cps["col"],
+            cps["row"],
+            dx,
+            dy,
+            gsd,
+            (grid.height, grid.width),
+            title=f"CP error vectors, {cfg.image.name} vs {cfg.reference.name}",
+            background=_preview(out / "ortho.tif"),
+        ),
+    )
+    write_bytes_atomic(
+        out / "gev_histogram.png", accuracy.plot_gev_histogram(gev, cfg.requirement_px)
+    )
+    control = accuracy.ControlPoints(
+        row=cps["line"].to_numpy(),
+        col=cps["sample"].to_numpy(),
+        lon=cps["ref_lon"].to_numpy(),
+        lat=cps["ref_lat"].to_numpy(),
+        h=cps["ref_h_m"].to_numpy(),
+        ref_x=cps["ref_x_m"].to_numpy(),
+        ref_y=cps["ref_y_m"].to_numpy(),
+    )
+    table = accuracy.refined_rfm_table(
+        rpc, control, dem, grid.crs, gsd, ks=cfg.ks, repeats=cfg.repeats, seed=cfg.seed
+    )
+    write_text_atomic(out / "refined_rfm.csv", table.to_csv(index=False, float_format="%.4f"))
+    refined_all = _refine_with_all(rpc, control, cps)
+    if cfg.refined_ortho and refined_all is not None:
+        # §RA-1 also with the refined RFM: same grid, so the two orthos overlay pixel for pixel
+        orthorectify(
+            cfg.image,
+            refined_all[0],
+            dem,
+            out / "ortho_refined.tif",
+            grid=grid,
+            crop_offset=offset,
+            chunk=cfg.ortho_chunk,
+        )
+
+    files = {
+        "cps": "cps.csv",
+        "refined_rfm": "refined_rfm.csv",
+        "ortho": "ortho.tif",
+        "reference_on_grid": "reference_on_grid.tif",
+        "error_vectors": "error_vectors.png",
+        "gev_histogram": "gev_histogram.png",
+        "html": "report.html",
+    }
+    if cfg.refined_ortho and refined_all is not None:
+        files["ortho_refined"] = "ortho_refined.tif"
+    if cfg.export_checkpoints:
+        ckp = checkpoints_table(cps, cfg.method, cfg.reference.stem, cfg.image.stem)
+        write_text_atomic(out / "checkpoints.csv", ckp.to_csv(index=False))
+        files["checkpoints"] = "checkpoints.csv"
+
+    n = len(cps)
+    results: dict[str, object] = {
+        "kind": "rfm_accuracy",
+        "image": str(cfg.image),
+        "rpc": {"file": str(rpc_path), "format": sniff_format(Path(rpc_path))},
+        "crop_offset_px": list(offset),
+        "dem": {"file": str(cfg.dem), "heights": dem.vertical, "voids_filled_steps": cfg.dem_fill},
+        "reference": {"file": str(cfg.reference), "how": how, "rpc": ref_rpc, "method": cfg.method},
+        "conventions": {
+            "image": "pixel centre, first pixel (0, 0), full-image coordinates of the RPCs",
+            "gdal": "GDAL's RPC transformer uses pixel corners: GDAL = ours + 0.5 px",
+            "heights": "WGS-84 ellipsoidal",
+        },
+        "grid": {
+            "crs": grid.crs.to_string(),
+            "gsd_m": gsd,
+            "width": grid.width,
+            "height": grid.height,
+            "transform": list(grid.transform)[:6],
+        },
+        "matching": {
+            "chunk": cfg.match_chunk,
+            "grid": cfg.match_grid,
+            "n_cps": n,
+            "by_kind": {str(k): int(v) for k, v in cps["kind"].value_counts().items()},
+        },
+        "accuracy": {
+            "clause": "§RA-4",
+            "n": n,
+            "rmse_px": rmse,
+            "rmse_m": rmse * gsd,
+            "rmse_px_per_image_if_same_accuracy": rmse / math.sqrt(2)
+            if cfg.method != "high_precision"
+            else None,
+            "gev_mean_px": float(np.mean(gev)) if n else None,
+            "gev_max_px": float(np.max(gev)) if n else None,
+            "requirement_px": cfg.requirement_px,
+            "verdict": accuracy.verdict(rmse, cfg.requirement_px),
+        },
+        "distortion": {"clause": "§RA-5", **summary},
+        "refined_rfm": {
+            "clause": "§RA-6",
+            "evaluation": "RMSE (§RA-4) on the CPs not used for fitting; "
+            f"{cfg.repeats} random draws per k (seed {cfg.seed})",
+            "rows": table.to_dict(orient="records"),
+            "all_cps": None
+            if refined_all is None
+            else {
+                "affine": refined_all[0].affine.as_dict(),
+                "fit_rms_px": refined_all[1],
+                "note": "image-space affine (§3) fitted to every CP; its residual is in-sample",
+            },
+        },
+        "files": files,
+    }
+    results = _clean(results)  # type: ignore[assignment]
+    write_json_atomic(out / "results.json", results)
+    from blockqc.rfm.report import render_html
+
+    write_text_atomic(out / "report.html", render_html(results))
+    return results

@@ -1,0 +1,450 @@
+"""Reading RPC00B models from every common format into one `RPCModel`.
+
+Formats, told apart by their content (not their name) in `read_rpc`:
+
+* GeoTIFF / NITF RPC tags and GDAL sidecars, through rasterio (`dataset.rpcs`);
+* DigitalGlobe/Maxar `.RPB` text (`lineNumCoef = ( … );`) and XML (`<RPB><IMAGE>…`);
+* DIMAP v2 XML (Pléiades, SPOT 6/7): inverse model + RFM_Validity; DIMAP counts the first pixel
+  as 1, so 1 is subtracted from LINE_OFF and SAMP_OFF to reach our pixel-centre convention
+  (first pixel centre at (0, 0)); checked against the OSSIM `.geom` of the same Pléiades image;
+* OSSIM keyword lists (`.geom`, `polynomial_format: B`), already first-pixel-centre (0, 0);
+* the `KEY: value [unit]` text of IKONOS and of Chinese satellites (GF/ZY `*_rpc.txt`), also
+  used by Planet and SkySat (`LINE_OFF: +015750.00 pixels`, `LINE_NUM_COEFF_1: …`);
+* the JSON dictionary used by rpcm / SatNeRF (`row_offset`, `row_num`, …).
+
+Every problem is an `InputError` naming the file and the line or key that is wrong or missing.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import warnings
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from xml.etree import ElementTree
+
+import numpy as np
+import rasterio
+from rasterio.errors import NotGeoreferencedWarning, RasterioIOError
+from rasterio.io import DatasetReader
+
+from blockqc.errors import InputError, Problem
+from blockqc.rfm.model import OFFSET_SCALE_KEYS, RPCModel
+
+COEFF_KEYS = ("line_num", "line_den", "samp_num", "samp_den")
+
+_TIFF_MAGIC = (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+")
+_NITF_MAGIC = (b"NITF", b"NSIF")
+
+
+def _error(path: Path | str, message: str, line: int | None = None) -> InputError:
+    return InputError(Problem(file=str(path), message=message, line=line))
+
+
+def _number(path: Path | str, key: str, text: str, line: int | None = None) -> float:
+    """Parse one number, tolerating a trailing unit ('+005124.00 pixels')."""
+    token = text.strip().split()[0] if text.strip() else ""
+    try:
+        value = float(token)
+    except ValueError:
+        raise _error(path, f"{key}: expected a number, got {text.strip()!r}", line) from None
+    if not np.isfinite(value):
+        raise _error(path, f"{key}: expected a finite number, got {text.strip()!r}", line)
+    return value
+
+
+def _build(path: Path | str, values: Mapping[str, object], **extra: object) -> RPCModel:
+    missing = [k for k in (*OFFSET_SCALE_KEYS, *COEFF_KEYS) if k not in values]
+    if missing:
+        raise _error(path, f"missing RPC field(s): {', '.join(missing)}")
+    for key in COEFF_KEYS:
+        arr = np.asarray(values[key], dtype=np.float64)
+        if arr.shape != (20,):
+            raise _error(path, f"{key}: expected 20 coefficients, got {arr.size}")
+    kwargs = {k: values[k] for k in (*OFFSET_SCALE_KEYS, *COEFF_KEYS)}
+    return RPCModel(source=str(path), **kwargs, **extra)  # type: ignore[arg-type]
+
+
+# -- KEY: value text (IKONOS, GF/ZY *_rpc.txt, Planet, SkySat) --------------------------------
+_TXT_NAMES = {
+    "LINE_OFF": "line_off",
+    "SAMP_OFF": "samp_off",
+    "LAT_OFF": "lat_off",
+    "LONG_OFF": "lon_off",
+    "HEIGHT_OFF": "height_off",
+    "LINE_SCALE": "line_scale",
+    "SAMP_SCALE": "samp_scale",
+    "LAT_SCALE": "lat_scale",
+    "LONG_SCALE": "lon_scale",
+    "HEIGHT_SCALE": "height_scale",
+}
+_KV_LINE = re.compile(r"^\s*([A-Za-z0-9_.]+)\s*[:=]\s*(.*?)\s*;?\s*$")
+
+
+def _key_values(path: Path, text: str) -> dict[str, tuple[str, int]]:
+    """`key: value` lines → {key: (value, line number)}; lines without a colon are skipped."""
+    out: dict[str, tuple[str, int]] = {}
+    for number, raw in enumerate(text.splitlines(), start=1):
+        m = _KV_LINE.match(raw)
+        if m:
+            out[m.group(1)] = (m.group(2), number)
+    return out
+
+
+def read_rpc_txt(path: Path, text: str | None = None) -> RPCModel:
+    """The `KEY: value [unit]` format (IKONOS, GF/ZY `_rpc.txt`, Planet, SkySat)."""
+    path = Path(path)
+    text = _read_text(path) if text is None else text
+    kv = {k.upper(): v for k, v in _key_values(path, text).items()}
+    values: dict[str, object] = {}
+    for key, name in _TXT_NAMES.items():
+        if key not in kv:
+            raise _error(path, f"missing key {key}")
+        values[name] = _number(path, key, kv[key][0], kv[key][1])
+    for kind in ("LINE", "SAMP"):
+        for part in ("NUM", "DEN"):
+            coeffs = []
+            for i in range(1, 21):
+                key = f"{kind}_{part}_COEFF_{i}"
+                if key not in kv:
+                    raise _error(path, f"missing key {key}")
+                coeffs.append(_number(path, key, kv[key][0], kv[key][1]))
+            values[f"{kind.lower()}_{part.lower()}"] = coeffs
+    extra = {}
+    for key, name in (("ERR_BIAS", "err_bias"), ("ERR_RAND", "err_rand")):
+        if key in kv:
+            extra[name] = _number(path, key, kv[key][0], kv[key][1])
+    return _build(path, values, **extra)
+
+
+# -- OSSIM keyword list (.geom) ---------------------------------------------------------------
+_GEOM_NAMES = {
+    "line_off": "line_off",
+    "samp_off": "samp_off",
+    "lat_off": "lat_off",
+    "long_off": "lon_off",
+    "height_off": "height_off",
+    "line_scale": "line_scale",
+    "samp_scale": "samp_scale",
+    "lat_scale": "lat_scale",
+    "long_scale": "lon_scale",
+    "height_scale": "height_scale",
+}
+
+
+def read_rpc_geom(path: Path, text: str | None = None) -> RPCModel:
+    """OSSIM keyword list (`.geom`); only `polynomial_format: B` (RPC00B order) is accepted."""
+    path = Path(path)
+    text = _read_text(path) if text is None else text
+    kv = _key_values(path, text)
+    if "polynomial_format" in kv and kv["polynomial_format"][0].strip().upper() != "B":
+        value, line = kv["polynomial_format"]
+        raise _error(
+            path, f"polynomial_format: only B (RPC00B term order) is supported, got {value!r}", line
+        )
+    values: dict[str, object] = {}
+    for key, name in _GEOM_NAMES.items():
+        if key not in kv:
+            raise _error(path, f"missing key {key}")
+        values[name] = _number(path, key, kv[key][0], kv[key][1])
+    for kind in ("line", "samp"):
+        for part in ("num", "den"):
+            coeffs = []
+            for i in range(20):
+                key = f"{kind}_{part}_coeff_{i:02d}"
+                if key not in kv:
+                    raise _error(path, f"missing key {key}")
+                coeffs.append(_number(path, key, kv[key][0], kv[key][1]))
+            values[f"{kind}_{part}"] = coeffs
+    return _build(path, values)
+
+
+# -- DigitalGlobe .RPB ------------------------------------------------------------------------
+_RPB_NAMES = {
+    "lineOffset": "line_off",
+    "sampOffset": "samp_off",
+    "latOffset": "lat_off",
+    "longOffset": "lon_off",
+    "heightOffset": "height_off",
+    "lineScale": "line_scale",
+    "sampScale": "samp_scale",
+    "latScale": "lat_scale",
+    "longScale": "lon_scale",
+    "heightScale": "height_scale",
+}
+_RPB_COEFF = {
+    "lineNumCoef": "line_num",
+    "lineDenCoef": "line_den",
+    "sampNumCoef": "samp_num",
+    "sampDenCoef": "samp_den",
+}
+_RPB_ITEM = re.compile(r"(\w+)\s*=\s*(\([^)]*\)|[^;]*);", re.S)
+
+
+def read_rpc_rpb(path: Path, text: str | None = None) -> RPCModel:
+    """DigitalGlobe `.RPB`: `key = value;` with the coefficients as `( v, v, … );` lists."""
+    path = Path(path)
+    text = _read_text(path) if text is None else text
+    items: dict[str, tuple[str, int]] = {}
+    for m in _RPB_ITEM.finditer(text):
+        items[m.group(1)] = (m.group(2), text.count("\n", 0, m.start(2)) + 1)
+    values: dict[str, object] = {}
+    for key, name in _RPB_NAMES.items():
+        if key not in items:
+            raise _error(path, f"missing key {key}")
+        values[name] = _number(path, key, items[key][0], items[key][1])
+    for key, name in _RPB_COEFF.items():
+        if key not in items:
+            raise _error(path, f"missing key {key}")
+        raw, line = items[key]
+        parts = [p for p in raw.strip().strip("()").replace("\n", " ").split(",") if p.strip()]
+        if len(parts) != 20:
+            raise _error(path, f"{key}: expected 20 coefficients, got {len(parts)}", line)
+        values[name] = [_number(path, key, p, line) for p in parts]
+    extra = {}
+    for key, name in (("errBias", "err_bias"), ("errRand", "err_rand")):
+        if key in items:
+            extra[name] = _number(path, key, items[key][0], items[key][1])
+    return _build(path, values, **extra)
+
+
+# -- XML: DIMAP v2 and DigitalGlobe -----------------------------------------------------------
+def _xml_number(path: Path, parent: ElementTree.Element, tag: str, where: str) -> float:
+    el = parent.find(tag)
+    if el is None or el.text is None:
+        raise _error(path, f"missing element {where}/{tag}")
+    return _number(path, f"{where}/{tag}", el.text)
+
+
+def _read_dimap(path: Path, root: ElementTree.Element) -> RPCModel:
+    base = "Rational_Function_Model/Global_RFM"
+    inverse = root.find(f"{base}/Inverse_Model")
+    validity = root.find(f"{base}/RFM_Validity")
+    if inverse is None:
+        raise _error(path, f"missing element {base}/Inverse_Model (ground→image RPCs)")
+    if validity is None:
+        raise _error(path, f"missing element {base}/RFM_Validity (offsets and scales)")
+    values: dict[str, object] = {}
+    for kind in ("LINE", "SAMP"):
+        for part in ("NUM", "DEN"):
+            values[f"{kind.lower()}_{part.lower()}"] = [
+                _xml_number(path, inverse, f"{kind}_{part}_COEFF_{i}", f"{base}/Inverse_Model")
+                for i in range(1, 21)
+            ]
+    where = f"{base}/RFM_Validity"
+    for key, name in _TXT_NAMES.items():
+        values[name] = _xml_number(path, validity, key, where)
+    # DIMAP: the first pixel is (1, 1); ours is (0, 0) (pixel centres in both).
+    values["line_off"] = float(values["line_off"]) - 1.0  # type: ignore[arg-type]
+    values["samp_off"] = float(values["samp_off"]) - 1.0  # type: ignore[arg-type]
+    return _build(path, values)
+
+
+_DG_NAMES = {
+    "LINEOFFSET": "line_off",
+    "SAMPOFFSET": "samp_off",
+    "LATOFFSET": "lat_off",
+    "LONGOFFSET": "lon_off",
+    "HEIGHTOFFSET": "height_off",
+    "LINESCALE": "line_scale",
+    "SAMPSCALE": "samp_scale",
+    "LATSCALE": "lat_scale",
+    "LONGSCALE": "lon_scale",
+    "HEIGHTSCALE": "height_scale",
+}
+
+
+def _read_dg_xml(path: Path, image: ElementTree.Element) -> RPCModel:
+    where = "RPB/IMAGE"
+    values: dict[str, object] = {}
+    for key, name in _DG_NAMES.items():
+        values[name] = _xml_number(path, image, key, where)
+    for kind in ("LINE", "SAMP"):
+        for part in ("NUM", "DEN"):
+            tag = f"{kind}{part}COEF"
+            holder = image.find(f"{tag}List")
+            if holder is None:
+                raise _error(path, f"missing element {where}/{tag}List")
+            text = " ".join((el.text or "") for el in holder.iter(tag))
+            tokens = text.split()
+            if len(tokens) != 20:
+                raise _error(
+                    path, f"{where}/{tag}List: expected 20 coefficients, got {len(tokens)}"
+                )
+            values[f"{kind.lower()}_{part.lower()}"] = [
+                _number(path, f"{where}/{tag}List", t) for t in tokens
+            ]
+    extra = {}
+    for key, name in (("ERRBIAS", "err_bias"), ("ERRRAND", "err_rand")):
+        el = image.find(key)
+        if el is not None and el.text:
+            extra[name] = _number(path, f"{where}/{key}", el.text)
+    return _build(path, values, **extra)
+
+
+def read_rpc_xml(path: Path, text: str | None = None) -> RPCModel:
+    """DIMAP v2 (Pléiades, SPOT 6/7) or DigitalGlobe XML (`<isd>…<RPB><IMAGE>` or `<RPB>`)."""
+    path = Path(path)
+    text = _read_text(path) if text is None else text
+    try:
+        root = ElementTree.fromstring(text)
+    except ElementTree.ParseError as exc:
+        line = exc.position[0] if getattr(exc, "position", None) else None
+        raise _error(path, f"not well-formed XML: {exc}", line) from None
+    if root.tag == "Dimap_Document":
+        return _read_dimap(path, root)
+    image = root.find("IMAGE") if root.tag == "RPB" else root.find(".//RPB/IMAGE")
+    if image is not None:
+        return _read_dg_xml(path, image)
+    raise _error(
+        path,
+        f"XML root <{root.tag}> holds no RPCs this reader knows "
+        "(expected a DIMAP Dimap_Document or a DigitalGlobe RPB/IMAGE element)",
+    )
+
+
+# -- JSON (rpcm / SatNeRF) --------------------------------------------------------------------
+_JSON_NAMES = {
+    "row_offset": "line_off",
+    "col_offset": "samp_off",
+    "lat_offset": "lat_off",
+    "lon_offset": "lon_off",
+    "alt_offset": "height_off",
+    "row_scale": "line_scale",
+    "col_scale": "samp_scale",
+    "lat_scale": "lat_scale",
+    "lon_scale": "lon_scale",
+    "alt_scale": "height_scale",
+    "row_num": "line_num",
+    "row_den": "line_den",
+    "col_num": "samp_num",
+    "col_den": "samp_den",
+}
+
+
+def read_rpc_json(path: Path, text: str | None = None) -> RPCModel:
+    """The JSON dictionary of rpcm / SatNeRF (`{"rpc": {"row_offset": …, "row_num": […]}}`)."""
+    path = Path(path)
+    text = _read_text(path) if text is None else text
+    try:
+        doc = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise _error(path, f"not valid JSON: {exc.msg}", exc.lineno) from None
+    d = doc.get("rpc", doc) if isinstance(doc, dict) else None
+    if not isinstance(d, dict):
+        raise _error(path, "expected a JSON object with an 'rpc' object")
+    values: dict[str, object] = {}
+    for key, name in _JSON_NAMES.items():
+        if key not in d:
+            raise _error(path, f"missing key rpc.{key}")
+        v = d[key]
+        if name in COEFF_KEYS:
+            if not isinstance(v, list) or len(v) != 20:
+                raise _error(path, f"rpc.{key}: expected a list of 20 numbers")
+            values[name] = [_number(path, f"rpc.{key}", str(x)) for x in v]
+        else:
+            values[name] = _number(path, f"rpc.{key}", str(v))
+    return _build(path, values)
+
+
+# -- GDAL (GeoTIFF / NITF tags, GDAL sidecars) ------------------------------------------------
+def open_raster(path: Path | str) -> DatasetReader:
+    """`rasterio.open` without GDAL's 'no geotransform' warning, which every image in sensor
+    geometry would raise; an unreadable file is an InputError naming it."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", NotGeoreferencedWarning)
+        try:
+            return rasterio.open(path)
+        except RasterioIOError as exc:
+            raise _error(path, f"cannot open as a raster: {exc}") from None
+
+
+def read_rpc_gdal(path: Path) -> RPCModel:
+    """RPCs GDAL finds for a raster (TIFF tags, NITF RPC00B TRE, `_rpc.txt` / `.RPB` sidecars)."""
+    path = Path(path)
+    with open_raster(path) as ds:
+        rpcs = ds.rpcs
+    if rpcs is None:
+        raise _error(path, "the raster carries no RPCs (no RPC tags, no RPC sidecar found by GDAL)")
+    values = {
+        "line_off": rpcs.line_off,
+        "samp_off": rpcs.samp_off,
+        "lat_off": rpcs.lat_off,
+        "lon_off": rpcs.long_off,
+        "height_off": rpcs.height_off,
+        "line_scale": rpcs.line_scale,
+        "samp_scale": rpcs.samp_scale,
+        "lat_scale": rpcs.lat_scale,
+        "lon_scale": rpcs.long_scale,
+        "height_scale": rpcs.height_scale,
+        "line_num": rpcs.line_num_coeff,
+        "line_den": rpcs.line_den_coeff,
+        "samp_num": rpcs.samp_num_coeff,
+        "samp_den": rpcs.samp_den_coeff,
+    }
+    return _build(path, values, err_bias=rpcs.err_bias, err_rand=rpcs.err_rand)
+
+
+# -- sniffing -------------------------------------------------------------------------------
+def _read_text(path: Path) -> str:
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise _error(path, f"cannot read: {exc.strerror or exc}") from None
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        return data.decode("latin-1")
+
+
+def sniff_format(path: Path) -> str:
+    """Name of the RPC format of a file, from its content: gdal, xml, json, rpb, geom or txt."""
+    path = Path(path)
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(4096)
+    except OSError as exc:
+        raise _error(path, f"cannot read: {exc.strerror or exc}") from None
+    if head[:4] in _TIFF_MAGIC or head[:4] in _NITF_MAGIC:
+        return "gdal"
+    if b"\x00" in head:
+        return "gdal"
+    stripped = head.lstrip(b"\xef\xbb\xbf \t\r\n")
+    if stripped.startswith(b"<"):
+        return "xml"
+    if stripped.startswith(b"{"):
+        return "json"
+    text = _read_text(path)
+    if re.search(r"\blineNumCoef\s*=", text):
+        return "rpb"
+    if re.search(r"^\s*line_num_coeff_00\s*:", text, re.M):
+        return "geom"
+    if re.search(r"^\s*LINE_NUM_COEFF_1\s*:", text, re.M | re.I):
+        return "txt"
+    return "unknown"
+
+
+_READERS: dict[str, Callable[[Path], RPCModel]] = {
+    "gdal": read_rpc_gdal,
+    "xml": read_rpc_xml,
+    "json": read_rpc_json,
+    "rpb": read_rpc_rpb,
+    "geom": read_rpc_geom,
+    "txt": read_rpc_txt,
+}
+
+
+def read_rpc(path: str | Path) -> RPCModel:
+    """Read an RPC00B model from any supported file, choosing the reader from the content."""
+    path = Path(path)
+    if not path.is_file():
+        raise _error(path, "no such file")
+    kind = sniff_format(path)
+    if kind == "unknown":
+        raise _error(
+            path,
+            "not a known RPC format (GeoTIFF/NITF tags, DigitalGlobe .RPB or XML, DIMAP XML, "
+            "OSSIM .geom, KEY: value _rpc.txt, rpcm JSON)",
+        )
+    return _READERS[kind](path)

@@ -1,0 +1,36 @@
+"""The HTML page of an RFM accuracy run, rendered from its results.json only."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from jinja2 import Environment, FileSystemLoader, StrictUndefined, select_autoescape
+
+TEMPLATES = Path(__file__).parent / "templates"
+
+
+def _fmt(value: object, digits: int = 3) -> str:
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return "—"
+    if isinstance(value, int | float):
+        return f"{value:.{digits}f}"
+    return str(value)
+
+
+def render_html(results: dict, template_dir: Path | None = None) -> str:
+    """HTML for one run; `template_dir` may hold a user's `rfm_accuracy.html.j2` that overrides."""
+    dirs = [str(template_dir)] if template_dir else []
+    env = Environment(
+        loader=FileSystemLoader([*dirs, str(TEMPLATES)]),
+        autoescape=select_autoescape(["html", "j2"]),
+        undefined=StrictUndefined,
+    )
+    template = env.get_template("rfm_accuracy.html.j2")
+    return template.render(
+        r=results,
+        a=results["accuracy"],
+        d=results["distortion"],
+        image_name=Path(str(results["image"])).name,
+        fmt=_fmt,
+    )

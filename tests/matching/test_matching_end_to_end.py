@@ -1,0 +1,128 @@
+"""End to end: real crops warped by a known displacement are matched back (§RA-3)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy import ndimage
+
+from blockqc.errors import InputError
+from blockqc.matching import COLUMNS, match_candidates, match_images
+
+
+def warped(reference: np.ndarray, shift: tuple[float, float], seed: int = 0) -> np.ndarray:
+    """image(r, c) = reference(r + dr, c + dc), cubic spline, with a gain, an offset and noise."""
+    moved = ndimage.shift(
+        reference.astype(np.float64), (-shift[0], -shift[1]), order=3, mode="reflect"
+    )
+    noise = np.random.default_rng(seed).normal(0, 3.0, reference.shape)
+    return (0.9 * moved + 40 + noise).astype(np.float32)
+
+
+def rms_error(cps: pd.DataFrame, shift: tuple[float, float], offset=(0.0, 0.0)) -> float:
+    dr = cps["ref_row"] - cps["row"] - offset[0] - shift[0]
+    dc = cps["ref_col"] - cps["col"] - offset[1] - shift[1]
+    return float(np.sqrt(np.mean(dr**2 + dc**2)))
+
+
+@pytest.mark.parametrize("crop", ["forest", "city"])
+def test_known_shift_is_recovered(crop, request):
+    reference = request.getfixturevalue(crop)
+    shift = (2.3, -1.6)
+    cps = match_images(warped(reference, shift), reference, grid=128)
+    assert list(cps.columns) == COLUMNS
+    assert len(cps) == 4  # one CP in each of the 2x2 cells of 128 px
+    assert not cps.duplicated(["cell_row", "cell_col"]).any()
+    assert set(cps["kind"]) <= {"brief", "ncc"}
+    assert rms_error(cps, shift) < 0.2
+    everything = match_candidates(warped(reference, shift), reference, grid=128)
+    assert len(everything) > 20 and rms_error(everything, shift) < 0.2
+
+
+@given(st.floats(-6.0, 6.0), st.floats(-6.0, 6.0))
+@settings(max_examples=8, deadline=None)
+def test_any_shift_within_the_search_window_is_recovered(city, dr, dc):
+    cps = match_candidates(warped(city, (dr, dc), seed=3), city, grid=128)
+    assert len(cps) > 20
+    assert rms_error(cps, (dr, dc)) < 0.2
+
+
+def test_ncc_alone_when_no_brief_match_is_accepted(forest):
+    shift = (-0.4, 1.3)
+    cps = match_candidates(warped(forest, shift), forest, grid=128, max_hamming=0)
+    assert len(cps) > 20 and (cps["kind"] == "ncc").all()
+    assert rms_error(cps, shift) < 0.2
+    assert (cps["score"] >= 0.7).all()
+
+
+def test_offset_places_the_image_inside_a_larger_reference(forest):
+    # The image covers reference rows 40..199 and columns 30..219, plus a sub-pixel shift.
+    shift = (0.35, -0.6)
+    image = warped(forest, shift)[40:200, 30:220]
+    cps = match_candidates(image, forest, offset=(40.0, 30.0), grid=100)
+    assert len(cps) > 10
+    assert rms_error(cps, shift, offset=(40.0, 30.0)) < 0.2
+    assert cps["row"].between(0, 159).all() and cps["col"].between(0, 189).all()
+
+
+def test_no_cp_outside_the_valid_masks(forest):
+    shift = (1.0, 1.0)
+    image = warped(forest, shift)
+    image_valid = np.ones(image.shape, dtype=bool)
+    image_valid[:, 128:] = False  # right half outside the orthorectified footprint
+    image[:, 128:] = np.nan
+    cps = match_candidates(image, forest, image_valid=image_valid, grid=128)
+    assert len(cps) > 5 and (cps["col"] < 128).all()
+    assert rms_error(cps, shift) < 0.2
+    reference_valid = np.ones(forest.shape, dtype=bool)
+    reference_valid[:128] = False
+    cps = match_candidates(
+        image, forest, image_valid=image_valid, reference_valid=reference_valid, grid=128
+    )
+    assert (cps["ref_row"] >= 128).all()
+
+
+def test_chunks_give_the_same_geometry(city):
+    shift = (1.7, 2.2)
+    image = warped(city, shift)
+    whole = match_candidates(image, city, grid=64)
+    chunked = match_candidates(image, city, grid=64, chunk=100)
+    assert rms_error(chunked, shift) < 0.2
+    # Chunking moves corners in and out of the per-cell selection but finds as many matches.
+    assert len(chunked) > 0.8 * len(whole)
+
+
+def test_unrelated_noise_gives_no_cp(forest):
+    noise = np.random.default_rng(1).normal(600, 100, forest.shape).astype(np.float32)
+    assert match_images(noise, forest, grid=128).empty
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "fragment"),
+    [
+        ({"image": np.zeros((64, 64), np.float64)}, "same dtype"),
+        ({"image": np.zeros((4, 64, 64), np.float32)}, "2-D"),
+        (
+            {"image": np.zeros((64, 64), np.uint16), "reference": np.zeros((64, 64), np.uint16)},
+            "floating",
+        ),
+        ({"chunk": 15}, "chunk"),
+        ({"grid": 0}, "grid"),
+        ({"offset": (1.0,)}, "offset"),
+        ({"image_valid": np.ones((10, 10), bool)}, "image_valid"),
+        ({"template": 20}, "odd"),
+        ({"search_radius": 0}, "search_radius"),
+        ({"ransac_model": "homography"}, "ransac_model"),
+        ({"no_such_setting": 1}, "unknown"),
+    ],
+)
+def test_bad_arguments_raise_input_error(kwargs, fragment):
+    args = {"image": np.zeros((64, 64), np.float32), "reference": np.zeros((64, 64), np.float32)}
+    args.update(kwargs)
+    with pytest.raises(InputError) as info:
+        match_images(args.pop("image"), args.pop("reference"), **args)
+    assert fragment in str(info.value)
+    assert info.value.problems[0].file == "<arguments>"

@@ -1,0 +1,226 @@
+"""What the block report says, worked out from a hand-written results.json (no PDF here)."""
+
+from __future__ import annotations
+
+import csv
+import io
+import re
+import string
+from pathlib import Path
+
+import pytest
+from fontTools.ttLib import TTFont
+
+from blockqc.report import write_block_report, write_summary_report
+from blockqc.report.build import Formatter, block_context
+from blockqc.report.contents import content_rows
+from blockqc.report.html import FONT_FILE, render_block
+from blockqc.report.messages import MESSAGES, catalogue_characters
+
+# DOMAIN §2: three quality elements and the inspection contents, with their Chinese names as the
+# Chinese quality-inspection method names them.
+QUALITY_ELEMENTS_ZH = {"qe_data": "数据质量", "qe_layout": "布局质量", "qe_attachment": "附件质量"}
+ITEMS_ZH = {"it_math": "数学基础", "it_plane": "平面精度", "it_height": "高程精度",
+            "it_edge": "接边精度", "it_report": "报告", "it_points": "点位分布",
+            "it_documents": "文档资料"}
+CONTENTS_ZH = {
+    "ct_coordinate_system": "坐标系统", "ct_geodetic_datum": "大地基准",
+    "ct_height_datum": "高程基准", "ct_projection": "地图投影", "ct_cp_plane": "检查点平面精度",
+    "ct_pan_ms": "全色多光谱相对定向精度", "ct_cp_height": "检查点高程精度",
+    "ct_between_blocks": "区域网间相对定向精度",
+    "ct_within_block": "区域网内相对定向精度（相邻影像）",
+    "ct_ro_report": "相对定向精度报告", "ct_ao_report": "绝对定向精度报告",
+    "ct_tp_number": "连接点数量", "ct_tp_distribution": "连接点分布",
+    "ct_documents": "文档资料完整性与规范性"}
+TERMS_ZH = {"method_high_precision": "高精度数据法", "method_same_accuracy": "同精度数据法",
+            "method_recalculation": "其他软件重新计算法", "n_gross": "粗差个数",
+            "gross_rate": "粗差率"}
+
+
+def test_catalogue_has_both_languages_with_the_same_placeholders():
+    fields = string.Formatter()
+    for key, (en, zh) in MESSAGES.items():
+        assert en.strip() and zh.strip(), key
+        names_en = {f for _, f, _, _ in fields.parse(en) if f}
+        names_zh = {f for _, f, _, _ in fields.parse(zh) if f}
+        assert names_en == names_zh, key
+
+
+@pytest.mark.parametrize("table", [QUALITY_ELEMENTS_ZH, ITEMS_ZH, CONTENTS_ZH, TERMS_ZH])
+def test_chinese_names_of_the_method(table):
+    for key, zh in table.items():
+        assert MESSAGES[key][1] == zh
+    assert "中误差" in MESSAGES["medium_error"][1] and "最大误差" in MESSAGES["max_error"][1]
+
+
+def test_packaged_font_covers_the_catalogue_and_gb2312_level_1():
+    cmap = TTFont(FONT_FILE, lazy=True).getBestCmap()
+    missing = [c for c in catalogue_characters() if not c.isspace() and ord(c) not in cmap]
+    assert not missing, f"characters of the catalogue missing from the font: {missing}"
+    level1 = [bytes([hi, lo]).decode("gb2312") for hi in range(0xB0, 0xD8)
+              for lo in range(0xA1, 0xFF) if (hi, lo) < (0xD7, 0xFA)]
+    assert len(level1) == 3755
+    assert all(ord(c) in cmap for c in level1)
+    assert (FONT_FILE.parent / "OFL.txt").read_text().count("SIL OPEN FONT LICENSE") >= 1
+    assert FONT_FILE.stat().st_size < 3_200_000
+
+
+def test_every_inspection_content_is_listed_with_the_rules_deciding_it(results_doc):
+    rows, others = content_rows(results_doc["results"])
+    by = {r.content: r for r in rows}
+    assert set(by) == set(CONTENTS_ZH) and len(rows) == len(CONTENTS_ZH)
+    elements = {r.content: r.element for r in rows}
+    assert elements["ct_tp_distribution"] == "qe_layout"
+    assert elements["ct_ro_report"] == elements["ct_documents"] == "qe_attachment"
+    assert elements["ct_projection"] == elements["ct_within_block"] == "qe_data"
+    assert by["ct_tp_number"].status == "fail"  # TP-4 fails on the sparse scene
+    assert by["ct_tp_distribution"].status == "fail"
+    assert by["ct_cp_plane"].status == "fail"  # CP-2 high-precision 10.4 m > 10 m
+    assert by["ct_cp_height"].status == "pass"  # CP-3 only; the plane CP-4 is not a height rule
+    assert [r["rule"] for r in by["ct_cp_height"].results] == ["CP-3"]
+    assert by["ct_within_block"].status == "fail"
+    assert by["ct_documents"].status == "waived"  # DOC-1 waived, DOC-3 passed by the inspector
+    assert by["ct_pan_ms"].status is None  # no RO-1 result: not checked
+    assert by["ct_coordinate_system"].status == by["ct_geodetic_datum"].status == "pass"
+    assert others == []
+
+
+def test_results_naming_their_content_are_placed_there(results_doc):
+    results_doc["results"].append({"rule": "X-9", "title": "Project rule", "clause": "§X",
+                                   "group": {}, "status": "fail", "value": 1, "threshold": 0,
+                                   "comparison": "<=", "unit": "", "detail": {}, "evidence": [],
+                                   "inspection_content": "PAN-MS relative orientation accuracy"})
+    results_doc["results"].append({"rule": "X-10", "title": "Unplaced", "clause": "§X",
+                                   "group": {}, "status": "pass", "value": 1, "threshold": 2,
+                                   "comparison": "<=", "unit": "", "detail": {}, "evidence": []})
+    rows, others = content_rows(results_doc["results"])
+    pan_ms = next(r for r in rows if r.content == "ct_pan_ms")
+    assert pan_ms.status == "fail" and [r["rule"] for r in pan_ms.results] == ["X-9"]
+    assert [r["rule"] for r in others] == ["X-10"]
+
+
+def test_formatter_thresholds_and_groups():
+    f = Formatter("en")
+    assert f.threshold({"comparison": "<=", "threshold": 10.0, "unit": "m"}) == "≤ 10 m"
+    assert f.threshold({"comparison": "<", "threshold": 28.284271247461902, "unit": "m"}) \
+        == "< 28.28 m"
+    assert f.threshold({"comparison": "between", "threshold": [20.0, 50.0],
+                        "unit": "points"}) == "20 … 50 points"
+    z = Formatter("zh")
+    assert z.group({"component": "plane", "method": "same_accuracy"}) == "平面 · 同精度数据法"
+    assert z.status("fail") == "不合格" and z.verdict("pass") == "合格"
+    assert z.threshold({"comparison": ">=", "threshold": 100.0, "unit": "points"}) == "≥ 100 个"
+
+
+def test_checkpoint_tables_put_methods_side_by_side(results_doc):
+    ctx = block_context(results_doc, "en", figures=False)
+    plane = next(t for t in ctx["cp_tables"] if t["key"] == "plane")
+    assert plane["methods"] == ["High-precision data", "Same-accuracy data"]
+    rows = dict(plane["rows"])
+    assert rows["Medium error (m)"] == ["* 10.40", "* 2.10"]  # the mean replaced it (§CP-7)
+    assert rows["Gross errors"] == ["3", "0"]
+    assert rows["Gross-error rate"] == ["37.5 %", "0.0 %"]
+    assert rows["Mean used"] == ["yes", "yes"]
+    assert [s for s, _ in plane["statuses"]] == ["fail", "pass"]
+    assert plane["agreement"][0]["agree"] is False
+
+
+def test_html_escapes_scene_ids_notes_and_names(results_doc):
+    html = render_block(results_doc, lang="en")
+    assert "<script>alert(1)</script>" not in html
+    assert "&lt;script&gt;alert(1)&lt;/script&gt;" in html
+    # the scene id reaches the failure evidence, the note the manual items, the reason the waivers
+    assert "S-003&lt;script&gt;" in html
+    assert "follows the template &lt;script&gt;" in html
+    assert "delivered later &lt;script&gt;" in html
+    assert "<script" not in html.lower().replace("&lt;script", "")
+
+
+def test_block_report_sections_in_chinese(results_doc):
+    html = render_block(results_doc, lang="zh")
+    for text in ("区域网 T-B01 验收报告", "不合格", "数据质量", "布局质量", "附件质量",
+                 "检查点平面精度", "连接点数量", "人机交互检查项", "豁免与例外", "不合格项及其依据",
+                 "高精度数据法", "同精度数据法", "粗差率"):
+        assert text in html, text
+    assert '<html lang="zh-CN">' in html
+    assert html.count("<svg") >= 6  # residuals, counts, footprints, 2 error plots, vectors, map
+
+
+def test_block_files_and_csv_exports(tmp_path, results_doc):
+    written = write_block_report(tmp_path / "T-B01", results_doc, pdf=False)
+    assert sorted(p.name for p in written) == ["checkpoints.csv", "evidence.csv", "report.html"]
+    text = (tmp_path / "T-B01" / "checkpoints.csv").read_text(encoding="utf-8-sig")
+    rows = list(csv.DictReader(io.StringIO(text)))
+    assert len(rows) == 16  # 8 high-precision plane, 4 same-accuracy plane, 4 height
+    gross = [r["point_id"] for r in rows if r["gross"] == "true"]
+    assert gross == ["C05", "C06", "C07"]  # 21, 25 and 30 m beyond 2·10 m
+    ev = list(csv.DictReader(io.StringIO(
+        (tmp_path / "T-B01" / "evidence.csv").read_text(encoding="utf-8-sig"))))
+    by_rule = {}
+    for r in ev:
+        by_rule.setdefault(r["rule"], []).append(r)
+    assert [r["point_id"] for r in by_rule["RO-3"]] == ["O7", "O9"]  # worst first
+    assert by_rule["TP-4"][0]["scene_id"] == "S-003<script>alert(1)</script>"
+    assert {r["status"] for r in by_rule["DOC-1"]} == {"waived"}
+    assert "CP-2" in by_rule and by_rule["CP-2"][0]["group"] == \
+        "component=plane;method=high_precision"
+
+
+def test_user_templates_take_precedence(tmp_path, results_doc):
+    mine = tmp_path / "templates"
+    mine.mkdir()
+    (mine / "base.css.j2").write_text("body { color: #123456; }\n", encoding="utf-8")
+    write_block_report(tmp_path / "out", results_doc, templates=mine, pdf=False)
+    html = (tmp_path / "out" / "report.html").read_text(encoding="utf-8")
+    assert "#123456" in html and "--accent" not in html
+
+
+def test_summary_lists_sampled_blocks_and_links(tmp_path, results_doc):
+    passing = {**results_doc, "block_id": "T-B02", "verdict": "pass", "results": [],
+               "measurements": {}}
+    summary = {"rule_pack": "global-project", "rule_pack_version": "1.0",
+               "blockqc_version": "0.1.0", "generated_at": "2026-11-20T08:00:00Z",
+               "inspector": None, "verdict": "fail", "complete": True,
+               "counts": {"blocks": 2, "pass": 1, "fail": 1, "unreadable": 0},
+               "blocks": [
+                   {"block_id": "T-B01", "verdict": "fail", "report": "T-B01/report.html",
+                    "sampled": True, "failed_rules": ["CP-2", "TP-4"], "warned_rules": [],
+                    "pending_manual": []},
+                   {"block_id": "T-B02", "verdict": "pass", "report": "T-B02/report.html",
+                    "sampled": False, "failed_rules": [], "warned_rules": [],
+                    "pending_manual": ["DOC-3"]}],
+               "rules": {"CP-2": {"pass": 1, "fail": 1, "warn": 0, "waived": 0, "manual": 0,
+                                  "not_applicable": 0, "error": 0}},
+               "unreadable": []}
+    written = write_summary_report(tmp_path, summary, [results_doc, passing], pdf=False)
+    assert [p.name for p in written] == ["summary.html"]
+    html = written[0].read_text(encoding="utf-8")
+    assert 'href="T-B01/report.html"' in html and 'href="T-B02/report.html"' in html
+    sampled = html[html.index('id="sampled-table"'):html.index('id="rules"')]
+    assert sampled.count("<tr>") == 1 + 3  # heading + plane hp, plane sa, height sa of T-B01
+    assert "T-B02" not in sampled
+    assert not re.search(r"<(script|link)[^>]+src=|https?://", html)  # no network
+
+
+def test_unknown_language_is_refused(tmp_path, results_doc):
+    with pytest.raises(ValueError, match="en, zh"):
+        write_block_report(Path(tmp_path), results_doc, lang="fr", pdf=False)
+
+
+def test_figures_carry_no_input_text_as_markup(results_doc):
+    """Labels in the figures are outlines; matplotlib's echo of them in comments is removed."""
+    sneaky = "S-9--><script>alert(2)</script>"
+    results_doc["measurements"]["scenes"][0]["scene_id"] = sneaky
+    results_doc["results"][6]["evidence"][0]["scene_a"] = sneaky  # RO-3: the map marks it
+    html = render_block(results_doc, lang="en")
+    assert "<script>alert(2)</script>" not in html
+    assert "<!--" not in html
+
+
+def test_failing_scenes_get_a_distribution_map(results_doc):
+    maps = block_context(results_doc, "en")["figures"]["scene_maps"]
+    assert [m["scene"] for m in maps] == ["S-003<script>alert(1)</script>"]
+    assert maps[0]["svg"].startswith("<svg") and "40 points shown" in maps[0]["caption"]
+    del results_doc["measurements"]["tie_point_distribution"]["failing_scene_points"]
+    maps = block_context(results_doc, "en")["figures"]["scene_maps"]
+    assert maps[0]["svg"] is None and "not in results.json" in maps[0]["caption"]

@@ -1,0 +1,141 @@
+"""§RA-4 RMSE and GEV by hand, §RA-5 distortion summary and plots, §RA-6 held-out table."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+from pyproj import CRS, Transformer
+from rfm_helpers import VENTOUX
+
+from blockqc.rfm import accuracy
+from blockqc.rfm.dem import constant_height
+from blockqc.rfm.model import ImageAffine, RefinedRFM
+from blockqc.rfm.readers import read_rpc
+
+LEFT = read_rpc(VENTOUX / "left_image.geom")
+UTM31 = CRS.from_epsg(32631)
+
+
+def test_rmse_and_gev_by_hand():
+    # errors (m): (3, 4) → 5, (0, 1) → 1, (-6, 8) → 10; GSD 0.5 m
+    dx = np.array([3.0, 0.0, -6.0])
+    dy = np.array([4.0, 1.0, 8.0])
+    np.testing.assert_allclose(accuracy.gev(dx, dy, 0.5), [10.0, 2.0, 20.0])
+    # RMSE = √((25 + 1 + 100)/3) / 0.5 = √42 / 0.5 = 12.961481…
+    assert accuracy.rmse_px(dx, dy, 0.5) == pytest.approx(np.sqrt(42.0) / 0.5, rel=1e-12)
+    assert np.isnan(accuracy.rmse_px([], [], 0.5))
+
+
+def test_verdict_against_the_requirement():
+    assert accuracy.verdict(0.99) == "pass"
+    assert accuracy.verdict(1.0) == "fail"  # §RA-6: RMSE < 1.0 px
+    assert accuracy.verdict(float("nan")) == "error"
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    d=arrays(
+        np.float64,
+        st.tuples(st.integers(2, 30), st.just(2)),
+        elements=st.floats(-50, 50, allow_nan=False),
+    ),
+    k=st.floats(0.1, 10),
+    seed=st.integers(0, 10),
+)
+def test_rmse_is_order_free_and_scales(d, k, seed):
+    perm = np.random.default_rng(seed).permutation(len(d))
+    r = accuracy.rmse_px(d[:, 0], d[:, 1], 0.5)
+    assert accuracy.rmse_px(d[perm, 0], d[perm, 1], 0.5) == pytest.approx(r, rel=1e-12, abs=1e-12)
+    assert accuracy.rmse_px(k * d[:, 0], k * d[:, 1], 0.5) == pytest.approx(
+        k * r, rel=1e-9, abs=1e-9
+    )
+
+
+def test_pure_shift_has_no_local_distortion():
+    rng = np.random.default_rng(0)
+    col, row = rng.uniform(0, 1000, (2, 40))
+    s = accuracy.distortion_summary(col, row, np.full(40, 1.5), np.full(40, -2.0), 0.5)
+    assert s["systematic_px"] == pytest.approx(5.0)  # (3, -4) px
+    assert s["local_rms_px"] == pytest.approx(0.0, abs=1e-12)
+    assert s["direction_consistency"] == pytest.approx(1.0)
+    assert s["significant"] is False
+
+
+def test_rotation_field_is_significant_distortion():
+    """Errors turning around the centre: no common direction, all explained by an affine."""
+    rng = np.random.default_rng(1)
+    col, row = rng.uniform(-500, 500, (2, 60))
+    dx, dy = -0.004 * row, 0.004 * col  # metres; GSD 0.5 → up to ~5.6 px
+    s = accuracy.distortion_summary(col, row, dx, dy, 0.5)
+    assert s["significant"] is True
+    assert s["direction_consistency"] < 0.3
+    assert s["affine_explained_share"] == pytest.approx(1.0)
+
+
+def test_plots_are_png():
+    rng = np.random.default_rng(2)
+    col, row = rng.uniform(0, 500, (2, 20))
+    png = accuracy.plot_error_vectors(
+        col,
+        row,
+        rng.normal(0, 1, 20),
+        rng.normal(0, 1, 20),
+        0.5,
+        (500, 500),
+        background=rng.normal(size=(50, 50)),
+    )
+    assert png[:8] == b"\x89PNG\r\n\x1a\n"
+    assert accuracy.plot_gev_histogram(rng.uniform(0, 2, 20))[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def _synthetic_cps(n: int, truth: ImageAffine, noise_px: float, seed: int):
+    """CPs whose true ground is seen through `truth`: the RFM is off by that affine."""
+    rng = np.random.default_rng(seed)
+    row = rng.uniform(100, 41700, n)
+    col = rng.uniform(100, 39100, n)
+    h = 700.0
+    lon, lat, _ = RefinedRFM(LEFT, truth).image_to_ground(row, col, h)
+    # observations carry measurement noise
+    row_obs = row + rng.normal(0, noise_px, n)
+    col_obs = col + rng.normal(0, noise_px, n)
+    x, y = Transformer.from_crs(4326, UTM31, always_xy=True).transform(lon, lat)
+    return accuracy.ControlPoints(
+        row_obs, col_obs, lon, lat, np.full(n, h), np.asarray(x), np.asarray(y)
+    )
+
+
+def test_refined_rfm_removes_a_known_affine_error_on_held_out_cps():
+    truth = ImageAffine(a0=4.0, a1=1e-5, a2=-2e-5, b0=-3.0, b1=2e-5, b2=1e-5)
+    cps = _synthetic_cps(40, truth, noise_px=0.0, seed=3)
+    table = accuracy.refined_rfm_table(
+        LEFT, cps, constant_height(700.0), UTM31, 0.5, ks=(6, 12), repeats=5
+    )
+    k0 = table.iloc[0]
+    # the original RFM is wrong by the affine: ~5 px (image px ≈ ground px at 0.5 m)
+    assert k0["k"] == 0 and 3.0 < k0["rmse_px_mean"] < 12.0
+    assert table.loc[table.k == 6, "rmse_px_max"].item() < 1e-4
+    assert table.loc[table.k == 12, "rmse_px_max"].item() < 1e-4
+
+
+def test_held_out_rmse_falls_with_k_under_noise():
+    truth = ImageAffine(a0=4.0, a1=1e-5, a2=-2e-5, b0=-3.0, b1=2e-5, b2=1e-5)
+    cps = _synthetic_cps(60, truth, noise_px=0.5, seed=4)
+    table = accuracy.refined_rfm_table(
+        LEFT, cps, constant_height(700.0), UTM31, 0.5, ks=(6, 20, 40), repeats=30, seed=1
+    )
+    means = table.set_index("k")["rmse_px_mean"]
+    assert means[0] > means[6] > means[20] > means[40]
+    # with many CPs the held-out RMSE approaches the noise: ~0.5·√2 px ground ≈ 0.7 px
+    assert means[40] < 1.0
+
+
+def test_k_beyond_the_cps_is_reported_not_fitted():
+    cps = _synthetic_cps(8, ImageAffine(), noise_px=0.0, seed=5)
+    table = accuracy.refined_rfm_table(
+        LEFT, cps, constant_height(700.0), UTM31, 0.5, ks=(6, 12), repeats=2
+    )
+    row = table.set_index("k").loc[12]
+    assert row["repeats"] == 0 and np.isnan(row["rmse_px_mean"]) and "n = 8" in row["note"]

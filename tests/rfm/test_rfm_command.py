@@ -1,0 +1,245 @@
+"""`blockqc rfm-accuracy` end to end on the real Pléiades pair, and its checkpoints in `inspect`."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pandas as pd
+import pytest
+import rasterio
+from click.testing import CliRunner
+from rfm_helpers import VENTOUX
+
+from blockqc.rfm.command import command
+from blockqc.rfm.dem import load_dem
+from blockqc.rfm.model import ImageAffine
+from blockqc.rfm.ortho import orthorectify, read_ortho
+from blockqc.rfm.pipeline import RfmAccuracyConfig, run_rfm_accuracy
+from blockqc.rfm.readers import read_rpc
+
+SAMPLES = Path(__file__).resolve().parents[2] / "samples" / "batch"
+CONTRACT_V1 = [
+    "point_id",
+    "method",
+    "reference_id",
+    "x_m",
+    "y_m",
+    "z_m",
+    "ref_x_m",
+    "ref_y_m",
+    "ref_z_m",
+]
+pytestmark = pytest.mark.filterwarnings("ignore::rasterio.errors.NotGeoreferencedWarning")
+
+
+def base_args(out: Path) -> list[str]:
+    return [
+        str(VENTOUX / "left_image.tif"),
+        "--rpc",
+        str(VENTOUX / "left_image.geom"),
+        "--dem",
+        str(VENTOUX / "srtm_N44E005_crop.tif"),
+        "--geoid",
+        str(VENTOUX / "egm96_15_crop.gtx"),
+        "--out",
+        str(out),
+    ]
+
+
+@pytest.fixture(scope="module")
+def real_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, object]:
+    """Left image against the right image orthorectified as a same-accuracy reference."""
+    out = tmp_path_factory.mktemp("rfm") / "run"
+    args = base_args(out) + [
+        "--reference",
+        str(VENTOUX / "right_image.tif"),
+        "--reference-rpc",
+        str(VENTOUX / "right_image.geom"),
+        "--grid",
+        "25",
+        "--export-checkpoints",
+        "--refined-ortho",
+    ]
+    result = CliRunner().invoke(command, args)
+    return out, result
+
+
+def test_command_writes_every_output(real_run):
+    out, result = real_run
+    assert result.exception is None or isinstance(result.exception, SystemExit), result.output
+    for name in (
+        "cps.csv",
+        "results.json",
+        "error_vectors.png",
+        "gev_histogram.png",
+        "refined_rfm.csv",
+        "report.html",
+        "ortho.tif",
+        "reference_on_grid.tif",
+        "checkpoints.csv",
+        "ortho_refined.tif",
+    ):
+        assert (out / name).is_file(), name
+    assert (out / "error_vectors.png").read_bytes()[:4] == b"\x89PNG"
+    assert "§RA-4" in (out / "report.html").read_text()
+
+
+def test_real_pair_gives_a_believable_rmse_and_a_failing_verdict(real_run):
+    """The README of the pair measured ~5 px relative error with the original RPCs."""
+    out, result = real_run
+    results = json.loads((out / "results.json").read_text())
+    acc = results["accuracy"]
+    assert acc["n"] >= 20
+    assert 2.0 < acc["rmse_px"] < 15.0
+    assert acc["verdict"] == "fail" and result.exit_code == 1
+    assert results["grid"]["crs"] == "EPSG:32631"
+    assert "egm96" in results["dem"]["heights"].lower()
+    cps = pd.read_csv(out / "cps.csv")
+    assert len(cps) == acc["n"]
+    # GEV per CP recomputed by hand from the coordinates
+    gev = np.hypot(cps.x_m - cps.ref_x_m, cps.y_m - cps.ref_y_m) / results["grid"]["gsd_m"]
+    np.testing.assert_allclose(cps.gev_px, gev, atol=1e-5)
+
+
+def test_refined_rfm_table_falls_below_the_original(real_run):
+    out, _ = real_run
+    table = pd.read_csv(out / "refined_rfm.csv").set_index("k")
+    assert list(table.index) == [0, 6, 12, 16, 20]
+    assert (
+        table.loc[20, "rmse_px_mean"] < table.loc[6, "rmse_px_mean"] < table.loc[0, "rmse_px_mean"]
+    )
+
+
+def test_exported_checkpoints_are_contract_v1(real_run):
+    out, _ = real_run
+    ckp = pd.read_csv(out / "checkpoints.csv", keep_default_na=False)
+    assert list(ckp.columns) == CONTRACT_V1
+    assert set(ckp.method) == {"same_accuracy"} and set(ckp.reference_id) == {"right_image"}
+    assert (ckp.ref_z_m == "").all() and ckp.point_id.is_unique
+
+
+def test_exported_checkpoints_run_through_inspect(real_run, tmp_path: Path):
+    """Put the CPs into a same-accuracy sample delivery (UTM 31N) and inspect it."""
+    from blockqc.cli import cli
+
+    out, _ = real_run
+    delivery = tmp_path / "F4-B01"
+    shutil.copytree(SAMPLES / "F4-B01", delivery)
+    shutil.copy(out / "checkpoints.csv", delivery / "checkpoints.csv")
+    n = len(pd.read_csv(out / "checkpoints.csv"))
+    result = CliRunner().invoke(cli, ["inspect", str(delivery), "--out", str(tmp_path / "insp")])
+    assert result.exit_code in (0, 1), result.output
+    found = list((tmp_path / "insp").rglob("results.json"))
+    results = json.loads(found[0].read_text())
+    plane = [
+        r
+        for r in results["results"]
+        if r["rule"] == "CP-2" and r.get("group", {}).get("method") == "same_accuracy"
+    ]
+    assert plane and plane[0]["detail"]["n"] + plane[0]["detail"].get("n_gross", 0) == n
+    assert plane[0]["status"] == "pass"  # ~3.5 m plane differences against a 10 m norm
+
+
+# -- the pipeline's geometry with a known shift and an independent stand-in matcher ------------
+def phase_correlation_matcher(
+    image, reference, *, image_valid, reference_valid, offset, chunk, grid
+):
+    """One global shift by phase correlation (OpenCV) of the central, fully valid part of the
+    image, applied at the centre of each cell."""
+    oy, ox = int(round(offset[0])), int(round(offset[1]))
+    h, w = image.shape
+    r0, r1, c0, c1 = h // 4, 3 * h // 4, w // 4, 3 * w // 4
+    a = image[r0:r1, c0:c1].astype(np.float64)
+    b = reference[oy + r0 : oy + r1, ox + c0 : ox + c1].astype(np.float64)
+    assert np.isfinite(a).all() and np.isfinite(b).all()
+    window = cv2.createHanningWindow((a.shape[1], a.shape[0]), cv2.CV_64F)
+    (sx, sy), _ = cv2.phaseCorrelate(a, b, window)
+    both = np.isfinite(image) & np.isfinite(reference[oy : oy + h, ox : ox + w])
+    rows, cols = np.mgrid[grid // 2 : image.shape[0] : grid, grid // 2 : image.shape[1] : grid]
+    rows, cols = rows.ravel().astype(float), cols.ravel().astype(float)
+    keep = both[rows.astype(int), cols.astype(int)]
+    rows, cols = rows[keep], cols[keep]
+    return pd.DataFrame(
+        {
+            "row": rows,
+            "col": cols,
+            "ref_row": rows + offset[0] + round(sy),
+            "ref_col": cols + offset[1] + round(sx),
+            "kind": "ncc",
+            "score": 1.0,
+            "cell_row": (rows // grid).astype(int),
+            "cell_col": (cols // grid).astype(int),
+        }
+    )
+
+
+def test_pipeline_measures_a_known_reference_shift(tmp_path: Path):
+    """Reference = the image's own ortho georeferenced 3 px east and 2 px south: every CP must
+    show dx = −3 px, dy = +2 px, so RMSE = √13 px; a refined RFM removes the shift."""
+    rpc = read_rpc(VENTOUX / "left_image.geom")
+    dem = load_dem(VENTOUX / "srtm_N44E005_crop.tif", geoid=VENTOUX / "egm96_15_crop.gtx")
+    grid = orthorectify(VENTOUX / "left_image.tif", rpc, dem, tmp_path / "own.tif")
+    g = grid.gsd
+    with rasterio.open(tmp_path / "own.tif") as src:
+        profile = src.profile
+        data = src.read()
+    t = grid.transform
+    profile["transform"] = rasterio.Affine(t.a, 0, t.c + 3 * g, 0, t.e, t.f - 2 * g)
+    with rasterio.open(tmp_path / "reference.tif", "w", **profile) as dst:
+        dst.write(data)
+    cfg = RfmAccuracyConfig(
+        image=VENTOUX / "left_image.tif",
+        rpc=VENTOUX / "left_image.geom",
+        dem=VENTOUX / "srtm_N44E005_crop.tif",
+        geoid=VENTOUX / "egm96_15_crop.gtx",
+        reference=tmp_path / "reference.tif",
+        out=tmp_path / "out",
+        match_grid=50,
+        refined_ortho=True,
+        repeats=3,
+    )
+    results = run_rfm_accuracy(cfg, matcher=phase_correlation_matcher)
+    cps = pd.read_csv(tmp_path / "out" / "cps.csv")
+    assert len(cps) > 50
+    np.testing.assert_allclose(cps.dx_m / g, -3.0, atol=1e-6)
+    np.testing.assert_allclose(cps.dy_m / g, 2.0, atol=1e-6)
+    assert results["accuracy"]["rmse_px"] == pytest.approx(np.sqrt(13.0), abs=1e-6)
+    assert results["distortion"]["significant"] is False
+    rows = {r["k"]: r for r in results["refined_rfm"]["rows"]}
+    assert rows[0]["rmse_px_mean"] == pytest.approx(np.sqrt(13.0), abs=0.05)
+    # a ground shift is affine in image space only up to relief: the DEM height at the shifted
+    # position differs (slopes of ~20 %), which moves the image position by ~0.1 px here
+    assert rows[6]["rmse_px_max"] < 0.2
+    # §RA-1 with the refined RFM: the corrected image moves by the shift, (+2 rows, +3 cols)
+    original, _ = read_ortho(tmp_path / "out" / "ortho.tif")
+    refined, _ = read_ortho(tmp_path / "out" / "ortho_refined.tif")
+    moved = np.nanmedian(np.abs(refined[2:, 3:] - original[:-2, :-3]))
+    unmoved = np.nanmedian(np.abs(refined - original))
+    assert moved < 0.2 * unmoved
+    # in image space, at the crop's centre, the correction is the same shift: ~(+2 lines,
+    # +3 samples) for a near north-up image at ~the ortho's GSD
+    affine = ImageAffine(**results["refined_rfm"]["all_cps"]["affine"])
+    d_line, d_sample = affine.delta(5250.0, 5250.0)
+    assert d_line == pytest.approx(2.0, abs=0.3) and d_sample == pytest.approx(3.0, abs=0.3)
+
+
+def test_geoid_dem_without_geoid_is_an_input_error(tmp_path: Path, capsys):
+    from blockqc.cli import main
+
+    args = base_args(tmp_path / "out")
+    i = args.index("--geoid")
+    del args[i : i + 2]
+    args += [
+        "--reference",
+        str(VENTOUX / "right_image.tif"),
+        "--reference-rpc",
+        str(VENTOUX / "right_image.geom"),
+    ]
+    with pytest.raises(SystemExit) as exc:
+        main(["rfm-accuracy", *args])
+    assert exc.value.code == 2
+    assert "ellipsoidal" in capsys.readouterr().err

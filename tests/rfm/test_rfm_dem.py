@@ -1,0 +1,123 @@
+"""DEMs as ellipsoidal heights: bilinear sampling, geoid conversion, refusals."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import rasterio
+from rasterio.transform import from_origin
+from rfm_helpers import VENTOUX
+
+from blockqc.errors import InputError
+from blockqc.rfm.dem import constant_height, fill_voids, load_dem
+
+SRTM = VENTOUX / "srtm_N44E005_crop.tif"
+GEOID = VENTOUX / "egm96_15_crop.gtx"
+
+
+def write_grid(
+    path: Path, values: np.ndarray, west: float, north: float, step: float, crs="EPSG:4326"
+):
+    with rasterio.open(
+        path,
+        "w",
+        driver="GTiff",
+        width=values.shape[1],
+        height=values.shape[0],
+        count=1,
+        dtype="float32",
+        crs=crs,
+        transform=from_origin(west, north, step, step),
+        nodata=-9999,
+    ) as ds:
+        ds.write(values.astype(np.float32), 1)
+
+
+def test_bilinear_sampling_by_hand(tmp_path: Path):
+    # pixel centres at lon 10.5, 11.5 and lat 50.5, 49.5 (1° pixels, north-west corner 10, 51)
+    write_grid(tmp_path / "dem.tif", np.array([[100.0, 200.0], [300.0, 500.0]]), 10.0, 51.0, 1.0)
+    dem = load_dem(tmp_path / "dem.tif", vertical="ellipsoid")
+    h = dem.height(
+        np.array([10.5, 11.5, 11.0, 10.75, 12.0, 12.2]),
+        np.array([50.5, 49.5, 50.0, 50.25, 50.0, 50.0]),
+    )
+    # centre of the four: (100+200+300+500)/4 = 275; (10.75, 50.25): row 0.25, col 0.25:
+    # 100*.75*.75 + 200*.75*.25 + 300*.25*.75 + 500*.25*.25 = 56.25 + 37.5 + 56.25 + 31.25
+    # = 181.25; lon 12.0 is on the raster's edge, half a pixel beyond the last centre: the edge
+    # column is used, (200 + 500)/2 = 350; lon 12.2 is outside
+    np.testing.assert_allclose(h[:5], [100.0, 500.0, 275.0, 181.25, 350.0])
+    assert np.isnan(h[5])
+
+
+def test_voids_give_nan(tmp_path: Path):
+    write_grid(tmp_path / "dem.tif", np.array([[100.0, -9999.0], [300.0, 500.0]]), 10.0, 51.0, 1.0)
+    dem = load_dem(tmp_path / "dem.tif", vertical="ellipsoid")
+    assert np.isnan(dem.height(11.0, 50.0)) and dem.height(10.5, 49.5) == 300.0
+
+
+def test_geoid_heights_become_ellipsoidal():
+    """h = H + N at an SRTM node, with N interpolated by hand from the four EGM96 nodes."""
+    dem = load_dem(SRTM, geoid=GEOID)
+    with rasterio.open(SRTM) as ds:
+        t = ds.transform
+        srtm = ds.read(1).astype(float)
+    r, c = 20, 30
+    lon = t.c + (c + 0.5) * t.a
+    lat = t.f + (r + 0.5) * t.e
+    with rasterio.open(GEOID) as ds:
+        g = ds.read(1).astype(float)
+        gt = ds.transform
+    gc = (lon - gt.c) / gt.a - 0.5
+    gr = (lat - gt.f) / gt.e - 0.5
+    i, j = int(gr), int(gc)
+    fr, fc = gr - i, gc - j
+    n = (
+        g[i, j] * (1 - fr) * (1 - fc)
+        + g[i, j + 1] * (1 - fr) * fc
+        + g[i + 1, j] * fr * (1 - fc)
+        + g[i + 1, j + 1] * fr * fc
+    )
+    assert 50.0 < n < 52.0  # EGM96 over Provence, ~51 m
+    assert dem.height(lon, lat) == pytest.approx(srtm[r, c] + n, abs=1e-4)
+    assert "EGM96" in dem.vertical or "egm96" in dem.vertical
+
+
+def test_geoid_dem_without_geoid_is_refused():
+    with pytest.raises(InputError, match="ellipsoidal"):
+        load_dem(SRTM)
+
+
+def test_projected_dem_is_sampled_through_its_crs(tmp_path: Path):
+    # a UTM 31N plane z = 0.01 * easting: the height at a lon/lat is 0.01 * its easting
+    from pyproj import Transformer
+
+    x0, y0 = 675000.0, 4898000.0
+    cols = np.arange(100)
+    values = np.tile(0.01 * (x0 + (cols + 0.5) * 10.0), (100, 1))
+    write_grid(tmp_path / "dsm.tif", values, x0, y0, 10.0, crs="EPSG:32631")
+    dem = load_dem(tmp_path / "dsm.tif", vertical="ellipsoid")
+    lon, lat = Transformer.from_crs(32631, 4326, always_xy=True).transform(675333.0, 4897500.0)
+    assert dem.height(lon, lat) == pytest.approx(6753.33, abs=1e-3)
+
+
+def test_window_outside_the_dem_is_refused():
+    with pytest.raises(InputError, match="does not cover"):
+        load_dem(SRTM, geoid=GEOID, bounds=(7.0, 45.0, 7.1, 45.1))
+
+
+def test_small_voids_are_filled_from_their_neighbours():
+    values = np.arange(25, dtype=float).reshape(5, 5)
+    values[2, 2] = np.nan  # a hole: mean of its 8 neighbours = 12 (the grid is linear)
+    values[0, 4] = np.nan  # a corner cell has 3 neighbours: an edge, not a hole
+    out = fill_voids(values, 3)
+    assert out[2, 2] == pytest.approx(12.0)
+    assert np.isnan(out[0, 4])
+
+
+def test_constant_height():
+    assert np.all(
+        constant_height(321.5).height(np.array([-179.0, 0.0, 179.9]), np.array([-80.0, 0.0, 80.0]))
+        == 321.5
+    )

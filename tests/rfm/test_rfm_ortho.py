@@ -1,0 +1,121 @@
+"""Chunked orthorectification (§RA-1) checked against direct ground→image sampling with GDAL."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import rasterio
+from pyproj import Transformer
+from rasterio.transform import Affine
+from rfm_helpers import VENTOUX, gdal_transformer
+
+from blockqc.errors import InputError
+from blockqc.rfm.dem import constant_height, load_dem
+from blockqc.rfm.ortho import crop_offset_from_file, ortho_grid, orthorectify, read_ortho, utm_crs
+from blockqc.rfm.readers import read_rpc
+
+LEFT = read_rpc(VENTOUX / "left_image.geom")
+CROP = (5000.0, 5000.0)  # the left crop's position in the full image (its geotransform)
+
+
+def ramp(row, col):
+    """A linear image: bilinear resampling reproduces it exactly at any position."""
+    return 100.0 + 0.5 * row + 0.25 * col
+
+
+@pytest.fixture(scope="module")
+def dem():
+    return load_dem(VENTOUX / "srtm_N44E005_crop.tif", geoid=VENTOUX / "egm96_15_crop.gtx")
+
+
+@pytest.fixture()
+def ramp_image(tmp_path: Path) -> Path:
+    rows, cols = np.mgrid[0:120, 0:150].astype(np.float64)
+    path = tmp_path / "ramp.tif"
+    with rasterio.open(
+        path,
+        "w",
+        driver="GTiff",
+        width=150,
+        height=120,
+        count=1,
+        dtype="float32",
+        transform=Affine(1, 0, CROP[1], 0, 1, CROP[0]),
+    ) as ds:
+        ds.write(ramp(rows, cols).astype(np.float32), 1)
+    return path
+
+
+@pytest.mark.filterwarnings("ignore::rasterio.errors.NotGeoreferencedWarning")
+def test_ortho_matches_direct_sampling_through_gdal(ramp_image: Path, tmp_path: Path, dem):
+    assert crop_offset_from_file(ramp_image) == CROP
+    grid = orthorectify(ramp_image, LEFT, dem, tmp_path / "ortho.tif", chunk=40)
+    values, grid_read = read_ortho(tmp_path / "ortho.tif")
+    assert grid_read.transform == grid.transform and grid_read.crs == utm_crs(5.19, 44.2)
+    assert 0.45 < grid.gsd < 0.55  # Pléiades PAN, ~0.5 m
+    # expected value of every output pixel, computed independently: pixel centre → lon/lat
+    # (pyproj) → height (DEM) → GDAL's RPC transformer (pixel corner) → file pixel → ramp
+    rr, cc = np.mgrid[0 : grid.height, 0 : grid.width].astype(np.float64)
+    x = grid.transform.c + (cc + 0.5) * grid.transform.a
+    y = grid.transform.f + (rr + 0.5) * grid.transform.e
+    lon, lat = Transformer.from_crs(grid.crs, 4326, always_xy=True).transform(x, y)
+    h = dem.height(lon, lat)
+    with gdal_transformer(LEFT) as t:
+        g_row, g_col = t.rowcol(lon.ravel(), lat.ravel(), h.ravel(), op=float)
+    row = np.asarray(g_row).reshape(lon.shape) - 0.5 - CROP[0]
+    col = np.asarray(g_col).reshape(lon.shape) - 0.5 - CROP[1]
+    inside = (row >= 0) & (row <= 119) & (col >= 0) & (col <= 149)
+    outside = (row < -0.5) | (row > 119.5) | (col < -0.5) | (col > 149.5)
+    assert inside.sum() > 0.5 * values.size
+    np.testing.assert_allclose(values[inside], ramp(row, col)[inside], atol=2e-3)
+    assert np.isnan(values[outside]).all()
+
+
+@pytest.mark.filterwarnings("ignore::rasterio.errors.NotGeoreferencedWarning")
+def test_chunk_size_does_not_change_the_result(ramp_image: Path, tmp_path: Path, dem):
+    grid = orthorectify(ramp_image, LEFT, dem, tmp_path / "a.tif", chunk=1024)
+    orthorectify(ramp_image, LEFT, dem, tmp_path / "b.tif", chunk=33, grid=grid)
+    a, _ = read_ortho(tmp_path / "a.tif")
+    b, _ = read_ortho(tmp_path / "b.tif")
+    np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.filterwarnings("ignore::rasterio.errors.NotGeoreferencedWarning")
+def test_grid_covers_the_footprint_at_the_requested_gsd(ramp_image: Path):
+    grid = ortho_grid(LEFT, (120, 150), constant_height(560.0), crop_offset=CROP, gsd=2.0)
+    assert grid.gsd == 2.0 and grid.transform.c % 2.0 == 0 and grid.transform.f % 2.0 == 0
+    corners = LEFT.image_to_ground(
+        np.array([-0.5, -0.5, 119.5, 119.5]) + CROP[0],
+        np.array([-0.5, 149.5, -0.5, 149.5]) + CROP[1],
+        560.0,
+    )
+    x, y = Transformer.from_crs(4326, grid.crs, always_xy=True).transform(corners[0], corners[1])
+    r, c = grid.rowcol(x, y)
+    assert np.all((r >= -0.5) & (r <= grid.height - 0.5) & (c >= -0.5) & (c <= grid.width - 0.5))
+
+
+def test_dem_that_misses_the_image_is_refused(tmp_path: Path):
+    path = tmp_path / "far.tif"
+    with rasterio.open(
+        path,
+        "w",
+        driver="GTiff",
+        width=2,
+        height=2,
+        count=1,
+        dtype="float32",
+        crs="EPSG:4326",
+        transform=Affine(0.1, 0, 10.0, 0, -0.1, 50.0),
+    ) as ds:
+        ds.write(np.zeros((1, 2, 2), np.float32))
+    with pytest.raises(InputError, match="does not cover"):
+        ortho_grid(LEFT, (120, 150), load_dem(path, vertical="ellipsoid"), crop_offset=CROP)
+
+
+def test_utm_zone():
+    assert utm_crs(5.19, 44.2).to_epsg() == 32631
+    assert utm_crs(55.7, -21.2).to_epsg() == 32740
+    with pytest.raises(InputError):
+        utm_crs(0.0, 85.0)

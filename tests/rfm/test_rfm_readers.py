@@ -1,0 +1,221 @@
+"""Every RPC format into one model; formats holding the same RPC agree; errors name the place."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+import rasterio
+from rfm_helpers import DATA, VENTOUX
+
+from blockqc.errors import InputError
+from blockqc.rfm.readers import read_rpc, read_rpc_gdal, sniff_format
+
+FORMATS = DATA / "rpc_formats"
+pytestmark = pytest.mark.filterwarnings("ignore::rasterio.errors.NotGeoreferencedWarning")
+
+
+def assert_same_model(a, b, offsets_tol=0.0, coeff_rtol=0.0):
+    for name in (
+        "line_off",
+        "samp_off",
+        "lat_off",
+        "lon_off",
+        "height_off",
+        "line_scale",
+        "samp_scale",
+        "lat_scale",
+        "lon_scale",
+        "height_scale",
+    ):
+        assert getattr(a, name) == pytest.approx(getattr(b, name), abs=offsets_tol), name
+    for name in ("line_num", "line_den", "samp_num", "samp_den"):
+        np.testing.assert_allclose(getattr(a, name), getattr(b, name), rtol=coeff_rtol, atol=0)
+
+
+@pytest.mark.parametrize(
+    ("name", "kind"),
+    [
+        ("sample.RPB", "rpb"),
+        ("rpc_IKONOS.txt", "txt"),
+        ("20200413_151408_ssc4d2_0011_basic_panchromatic_dn.rpc", "txt"),
+        ("rpc_PLEIADES.xml", "xml"),
+        ("rpc_WV2.xml", "xml"),
+        ("JAX_068_001_RGB.json", "json"),
+        ("wv3_20_16x16.ntf", "gdal"),
+    ],
+)
+def test_format_is_sniffed_from_content(name, kind):
+    assert sniff_format(FORMATS / name) == kind
+
+
+def test_dimap_and_ossim_geom_of_the_same_image_agree():
+    """DIMAP counts the first pixel as 1, OSSIM as 0: after the reader's −1 they are one model."""
+    dimap = read_rpc(VENTOUX / "RPC_PHR1B_P_201308051042194_SEN_690908101-001.XML")
+    geom = read_rpc(VENTOUX / "left_image.geom")
+    # the files: DIMAP LINE_OFF 21110.49999999999, SAMP_OFF 19208.5; .geom 21109.5, 19207.5
+    assert dimap.line_off == pytest.approx(21109.5, abs=1e-9)
+    assert dimap.samp_off == pytest.approx(19207.5, abs=1e-9)
+    assert_same_model(dimap, geom, offsets_tol=1e-9, coeff_rtol=1e-13)
+    rng = np.random.default_rng(0)
+    lon = geom.lon_off + rng.uniform(-1, 1, 50) * geom.lon_scale
+    lat = geom.lat_off + rng.uniform(-1, 1, 50) * geom.lat_scale
+    h = rng.uniform(100, 1900, 50)
+    r1, c1 = dimap.ground_to_image(lon, lat, h)
+    r2, c2 = geom.ground_to_image(lon, lat, h)
+    assert np.max(np.hypot(r1 - r2, c1 - c2)) < 1e-6
+
+
+def test_gf_rpc_txt_fixture_agrees_with_its_source():
+    gf = read_rpc(DATA / "gf_rpc_txt" / "left_image_rpc.txt")
+    geom = read_rpc(VENTOUX / "left_image.geom")
+    assert_same_model(gf, geom, coeff_rtol=1e-15)
+
+
+def test_gf_rpc_txt_agrees_with_gdal_reading_it_as_a_sidecar(tmp_path: Path):
+    """GDAL reads `<image>_rpc.txt` next to a raster: an independent parser of the same file."""
+    image = tmp_path / "scene.tif"
+    with rasterio.open(image, "w", driver="GTiff", width=4, height=4, count=1, dtype="uint8") as ds:
+        ds.write(np.zeros((1, 4, 4), np.uint8))
+    shutil.copy(DATA / "gf_rpc_txt" / "left_image_rpc.txt", tmp_path / "scene_rpc.txt")
+    ours = read_rpc(DATA / "gf_rpc_txt" / "left_image_rpc.txt")
+    assert_same_model(read_rpc_gdal(image), ours, coeff_rtol=1e-15)
+
+
+def test_rpb_agrees_with_gdal_reading_it_as_a_sidecar(tmp_path: Path):
+    image = tmp_path / "sample.tif"
+    with rasterio.open(image, "w", driver="GTiff", width=4, height=4, count=1, dtype="uint8") as ds:
+        ds.write(np.zeros((1, 4, 4), np.uint8))
+    shutil.copy(FORMATS / "sample.RPB", tmp_path / "sample.RPB")
+    assert_same_model(read_rpc_gdal(image), read_rpc(FORMATS / "sample.RPB"), coeff_rtol=1e-15)
+
+
+def test_nitf_rpc00b_tre_values_by_hand():
+    """Values read off the RPC00B TRE text of wv3_20 ('…17495 20749 -34.5043 -058.6024 …')."""
+    m = read_rpc(FORMATS / "wv3_20_16x16.ntf")
+    assert (m.line_off, m.samp_off, m.lat_off, m.lon_off, m.height_off) == (
+        17495.0,
+        20749.0,
+        -34.5043,
+        -58.6024,
+        31.0,
+    )
+    assert (m.line_scale, m.samp_scale, m.lat_scale, m.lon_scale, m.height_scale) == (
+        17996.0,
+        21250.0,
+        0.0531,
+        0.0803,
+        501.0,
+    )
+    assert m.line_num[2] == 1.002863 and m.samp_num[1] == -1.021695
+    assert m.err_bias == 0.87 and m.err_rand == 0.33
+
+
+def test_digitalglobe_xml_values_by_hand():
+    m = read_rpc(FORMATS / "rpc_WV3_RPB_only.xml")
+    assert (m.line_off, m.samp_off, m.lat_off, m.lon_off, m.height_off) == (
+        11984.0,
+        17589.0,
+        26.79,
+        80.9911,
+        53.0,
+    )
+    assert m.line_num[0] == -3.450710e-03 and m.samp_den[19] == 0.0
+
+
+def test_ikonos_txt_values_by_hand():
+    m = read_rpc(FORMATS / "rpc_IKONOS.txt")  # 'LINE_OFF: +005124.00 pixels' …
+    assert (m.line_off, m.samp_off, m.lat_off, m.lon_off, m.height_off) == (
+        5124.0,
+        6334.0,
+        -34.903,
+        -56.1722,
+        28.0,
+    )
+    assert m.line_num[1] == 1.221942364020734
+
+
+def test_json_values_by_hand():
+    m = read_rpc(FORMATS / "JAX_068_001_RGB.json")
+    assert m.line_off == 405.51806724276 and m.samp_off == 371.692595898949
+    assert m.height_off == -21.0 and m.line_den[0] == 1.0 and m.samp_num[19] == 7.6381e-06
+
+
+# -- errors name the file and the line or key ------------------------------------------------
+def test_missing_key_is_named(tmp_path: Path):
+    text = (DATA / "gf_rpc_txt" / "left_image_rpc.txt").read_text()
+    bad = tmp_path / "bad_rpc.txt"
+    bad.write_text(text.replace("SAMP_DEN_COEFF_7:", "SAMP_DEN_COEF_7:"))
+    with pytest.raises(InputError) as err:
+        read_rpc(bad)
+    assert "missing key SAMP_DEN_COEFF_7" in str(err.value) and "bad_rpc.txt" in str(err.value)
+
+
+def test_bad_number_names_the_line(tmp_path: Path):
+    lines = (DATA / "gf_rpc_txt" / "left_image_rpc.txt").read_text().splitlines()
+    lines[2] = "LAT_OFF: north degrees"
+    bad = tmp_path / "bad_rpc.txt"
+    bad.write_text("\n".join(lines) + "\n")
+    with pytest.raises(InputError) as err:
+        read_rpc(bad)
+    problem = err.value.problems[0]
+    assert problem.line == 3 and "LAT_OFF" in problem.message
+
+
+def test_geom_in_rpc00a_order_is_refused(tmp_path: Path):
+    text = (
+        (VENTOUX / "left_image.geom")
+        .read_text()
+        .replace("polynomial_format:  B", "polynomial_format:  A")
+    )
+    bad = tmp_path / "a.geom"
+    bad.write_text(text)
+    with pytest.raises(InputError, match="only B"):
+        read_rpc(bad)
+
+
+def test_rpb_with_19_coefficients_names_the_key(tmp_path: Path):
+    text = (FORMATS / "sample.RPB").read_text()
+    head, tail = text.split("sampDenCoef = (", 1)
+    tail = tail.split(",", 1)[1]  # drop the first coefficient
+    bad = tmp_path / "bad.RPB"
+    bad.write_text(head + "sampDenCoef = (" + tail)
+    with pytest.raises(InputError) as err:
+        read_rpc(bad)
+    assert "sampDenCoef" in str(err.value) and "got 19" in str(err.value)
+    assert err.value.problems[0].line is not None
+
+
+def test_dimap_without_inverse_model_is_refused(tmp_path: Path):
+    text = (FORMATS / "rpc_PLEIADES.xml").read_text()
+    bad = tmp_path / "dimap.xml"
+    bad.write_text(text.replace("Inverse_Model", "Inverse_Modl"))
+    with pytest.raises(InputError, match="Inverse_Model"):
+        read_rpc(bad)
+
+
+def test_broken_xml_names_the_line(tmp_path: Path):
+    bad = tmp_path / "broken.xml"
+    bad.write_text("<?xml version='1.0'?>\n<isd>\n<RPB>\n</isd>\n")
+    with pytest.raises(InputError) as err:
+        read_rpc(bad)
+    assert err.value.problems[0].line == 4
+
+
+def test_unknown_format_and_missing_file(tmp_path: Path):
+    other = tmp_path / "notes.txt"
+    other.write_text("hello\n")
+    with pytest.raises(InputError, match="not a known RPC format"):
+        read_rpc(other)
+    with pytest.raises(InputError, match="no such file"):
+        read_rpc(tmp_path / "absent.RPB")
+
+
+def test_raster_without_rpc(tmp_path: Path):
+    image = tmp_path / "plain.tif"
+    with rasterio.open(image, "w", driver="GTiff", width=2, height=2, count=1, dtype="uint8") as ds:
+        ds.write(np.zeros((1, 2, 2), np.uint8))
+    with pytest.raises(InputError, match="carries no RPCs"):
+        read_rpc(image)
