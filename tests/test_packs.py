@@ -81,6 +81,7 @@ def test_ten_line_pack_changes_verdicts(blockqc, tmp_path: Path) -> None:
             rules,
             "--out",
             out,
+            "--no-pdf",
         )
     stock = json.loads((out_stock / "F2-B01" / "results.json").read_text())
     strict = json.loads((out_strict / "F2-B01" / "results.json").read_text())
