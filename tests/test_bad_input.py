@@ -153,3 +153,24 @@ def test_empty_and_ragged_csv(blockqc, delivery: Path, tmp_path: Path) -> None:
     _no_traceback(p)
     assert "edges.csv: the file is empty" in p.stderr
     assert "overlaps.csv: not a readable CSV table" in p.stderr and "line 7" in p.stderr
+
+
+def test_parquet_tables_read_and_validated(blockqc, delivery: Path, tmp_path: Path) -> None:
+    import pandas as pd
+
+    tp = pd.read_csv(delivery / "tie_points.csv", dtype={"point_id": str, "scene_id": str})
+    (delivery / "tie_points.csv").unlink()
+    tp.to_parquet(delivery / "tie_points.parquet")
+    p = blockqc("inspect", delivery, "--out", tmp_path / "ok", "--no-pdf")
+    assert p.returncode == 0, p.stderr  # the base delivery passes (DOC-3 awaits the inspector)
+    tp["v_line"] = tp["v_line"].astype(object)
+    tp.loc[41, "v_line"] = "n/a"
+    tp["v_line"] = tp["v_line"].astype(str)
+    tp.to_parquet(delivery / "tie_points.parquet")
+    p = blockqc("inspect", delivery, "--out", tmp_path / "bad")
+    assert p.returncode == 2
+    _no_traceback(p)
+    assert "tie_points.parquet, row 42, column 'v_line': expected a number, got 'n/a'" in p.stderr
+    tp.to_csv(delivery / "tie_points.csv", index=False)
+    p = blockqc("inspect", delivery, "--out", tmp_path / "both")
+    assert p.returncode == 2 and "both tie_points.csv and tie_points.parquet" in p.stderr

@@ -135,3 +135,10 @@ def test_rules_cli(blockqc) -> None:
     assert p.returncode == 2 and "no rule XX-1" in p.stderr
     p = blockqc("rules", "lint")
     assert p.returncode == 0 and "global-project: 20 rules, ok" in p.stdout
+
+
+def test_rule_reference_is_generated_from_the_pack(blockqc) -> None:
+    """docs/rules.md is `blockqc rules list --markdown`: regenerate it when the pack changes."""
+    p = blockqc("rules", "list", "--markdown")
+    doc = Path(__file__).resolve().parents[1] / "docs" / "rules.md"
+    assert p.stdout == doc.read_text(), "docs/rules.md is stale: blockqc rules list --markdown"
