@@ -174,3 +174,21 @@ def test_parquet_tables_read_and_validated(blockqc, delivery: Path, tmp_path: Pa
     tp.to_csv(delivery / "tie_points.csv", index=False)
     p = blockqc("inspect", delivery, "--out", tmp_path / "both")
     assert p.returncode == 2 and "both tie_points.csv and tie_points.parquet" in p.stderr
+
+
+def test_duplicate_block_ids_refused_in_parallel_batch(blockqc, tmp_path: Path) -> None:
+    import json
+
+    batch = tmp_path / "batch"
+    write_delivery(batch / "a")
+    write_delivery(batch / "b")  # the same block_id CASE again
+    write_delivery(batch / "c", {"manifest": {"block_id": "OTHER"}})
+    p = blockqc("inspect", batch, "--out", tmp_path / "out", "--no-pdf", "--jobs", "2")
+    assert p.returncode == 2
+    _no_traceback(p)
+    assert f"{batch / 'b' / 'block.yaml'}: block_id CASE is also the id of {batch / 'a'}" \
+        in p.stderr
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert [b["block_id"] for b in summary["blocks"]] == ["CASE", "OTHER"]
+    assert summary["unreadable"][0]["path"] == str(batch / "b")
+    assert summary["complete"] is False and summary["verdict"] == "error"

@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import datetime as dt
 from collections.abc import Callable, Iterable
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from blockqc import __version__
-from blockqc.delivery import find_deliveries, load_delivery
+from blockqc.delivery import MANIFEST, find_deliveries, load_delivery, load_manifest
 from blockqc.engine import STATUSES, inspect_delivery
 from blockqc.errors import InputError, Problem
 from blockqc.inspector import InspectorInput
@@ -65,24 +66,42 @@ def write_block(
     return folder
 
 
-def _duplicate(o: Outcome, seen: dict[str, Path]) -> Outcome:
-    """A second delivery with a block id already seen is refused (block ids are unique)."""
-    bid = o.results["block_id"] if o.results else None
-    if bid is None:
+def refuse_duplicates(deliveries: list[Path]) -> dict[Path, Problem]:
+    """Deliveries repeating a block id seen before: refused before anything is inspected."""
+    seen: dict[str, Path] = {}
+    refused: dict[Path, Problem] = {}
+    for path in deliveries:
+        try:
+            bid = load_manifest(path / MANIFEST).block_id
+        except InputError:
+            continue  # reported in full when the delivery is read
+        if bid in seen:
+            refused[path] = Problem(
+                str(path / MANIFEST),
+                f"block_id {bid} is also the id of {seen[bid]}: block ids must be unique "
+                "in a batch",
+            )
+        else:
+            seen[bid] = path
+    return refused
+
+
+@dataclass(frozen=True)
+class Job:
+    """Inspect one delivery and write its outputs (runs in a worker process with --jobs)."""
+
+    pack: Pack
+    inspector: InspectorInput | None
+    out: Path
+    templates: Path | None
+    lang: str
+    pdf: bool
+
+    def __call__(self, path: Path) -> Outcome:
+        o = inspect_one(path, self.pack, self.inspector)
+        if o.results is not None:
+            write_block(self.out, o.results, templates=self.templates, lang=self.lang, pdf=self.pdf)
         return o
-    if bid in seen:
-        return Outcome(
-            o.path,
-            problems=[
-                Problem(
-                    str(o.path / "block.yaml"),
-                    f"block_id {bid} is also the id of {seen[bid]}: "
-                    "block ids must be unique in a batch",
-                )
-            ],
-        )
-    seen[bid] = o.path
-    return o
 
 
 def summarize(outcomes: list[Outcome], pack: Pack, inspector: InspectorInput | None) -> dict:
@@ -153,19 +172,35 @@ def run(
     templates: Path | None = None,
     lang: str = "en",
     pdf: bool = True,
+    jobs: int = 1,
     progress: Callable[[Outcome], None] | None = None,
 ) -> tuple[list[Outcome], dict | None]:
-    """Inspect every delivery named, writing its outputs as it goes; for a batch, the summary."""
+    """Inspect every delivery named, writing its outputs as it goes; for a batch, the summary.
+
+    With jobs > 1 the deliveries are inspected in that many processes; outcomes keep the order
+    of the deliveries.
+    """
     deliveries, batch = collect(paths)
-    outcomes: list[Outcome] = []
-    seen: dict[str, Path] = {}
-    for path in deliveries:
-        o = _duplicate(inspect_one(path, pack, inspector), seen)
-        if o.results is not None:
-            write_block(out, o.results, templates=templates, lang=lang, pdf=pdf)
-        outcomes.append(o)
+    refused = refuse_duplicates(deliveries)
+    done = {p: Outcome(p, problems=[problem]) for p, problem in refused.items()}
+    todo = [p for p in deliveries if p not in refused]
+    job = Job(pack, inspector, out, templates, lang, pdf)
+
+    def finished(o: Outcome) -> None:
+        done[o.path] = o
         if progress:
             progress(o)
+
+    for o in list(done.values()):
+        finished(o)
+    if jobs > 1 and len(todo) > 1:
+        with ProcessPoolExecutor(max_workers=min(jobs, len(todo))) as pool:
+            for future in as_completed([pool.submit(job, p) for p in todo]):
+                finished(future.result())
+    else:
+        for p in todo:
+            finished(job(p))
+    outcomes = [done[p] for p in deliveries]
     summary = None
     if batch:
         summary = summarize(outcomes, pack, inspector)

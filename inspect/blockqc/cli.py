@@ -88,6 +88,14 @@ def cli() -> None:
     help="Write report.pdf beside report.html (and summary.pdf for a batch).",
 )
 @click.option(
+    "--jobs",
+    "-j",
+    type=click.IntRange(0),
+    default=1,
+    show_default=True,
+    help="Deliveries inspected in parallel processes (0: one per CPU core).",
+)
+@click.option(
     "--progress/--no-progress",
     default=None,
     help="Progress bar for batches (default: when stderr is a terminal).",
@@ -100,6 +108,7 @@ def inspect_cmd(
     templates: Path | None,
     lang: str,
     pdf: bool,
+    jobs: int,
     progress: bool | None,
 ) -> int:
     """Inspect one delivery or a batch (a folder of deliveries) with a rule pack."""
@@ -113,6 +122,7 @@ def inspect_cmd(
     inspector = load_inspector_input(verdicts) if verdicts else None
     deliveries, _ = batch.collect(paths)
     show = sys.stderr.isatty() if progress is None else progress
+    jobs = jobs or os.cpu_count() or 1
 
     def line(o: batch.Outcome) -> str:
         if o.results is None:
@@ -158,6 +168,7 @@ def inspect_cmd(
                 templates=templates,
                 lang=lang,
                 pdf=pdf,
+                jobs=jobs,
                 progress=tick,
             )
     else:
@@ -169,6 +180,7 @@ def inspect_cmd(
             templates=templates,
             lang=lang,
             pdf=pdf,
+            jobs=jobs,
             progress=lambda o: click.echo(line(o)),
         )
     for o in outcomes:
