@@ -12,7 +12,7 @@ import numpy as np
 from markupsafe import Markup
 from matplotlib.figure import Figure
 
-from blockqc.resources import templates_dir
+from blockqc.report.html import environment as report_environment
 
 TEMPLATE = "factors.html.j2"
 
@@ -110,18 +110,8 @@ def structure_plot(results: dict[str, Any]) -> tuple[bytes, bytes] | None:
 
 
 def environment(user_templates: Path | None = None) -> jinja2.Environment:
-    """Jinja2 with autoescape and StrictUndefined; a user's folder overrides the stock templates."""
-    loaders: list[jinja2.BaseLoader] = []
-    if user_templates is not None:
-        loaders.append(jinja2.FileSystemLoader(str(user_templates)))
-    loaders.append(jinja2.FileSystemLoader(str(templates_dir())))
-    env = jinja2.Environment(
-        loader=jinja2.ChoiceLoader(loaders),
-        autoescape=True,
-        undefined=jinja2.StrictUndefined,
-        trim_blocks=True,
-        lstrip_blocks=True,
-    )
+    """The report environment (autoescape, strict, user templates first) plus its filters."""
+    env = report_environment(user_templates)
     env.filters["num"] = _fmt
     env.filters["cell"] = _cell
     env.globals["n_text"] = _n_text

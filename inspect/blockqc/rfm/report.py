@@ -5,9 +5,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from jinja2 import Environment, FileSystemLoader, StrictUndefined, select_autoescape
-
-TEMPLATES = Path(__file__).parent / "templates"
+from blockqc.report.html import environment
 
 
 def _fmt(value: object, digits: int = 3) -> str:
@@ -20,13 +18,7 @@ def _fmt(value: object, digits: int = 3) -> str:
 
 def render_html(results: dict, template_dir: Path | None = None) -> str:
     """HTML for one run; `template_dir` may hold a user's `rfm_accuracy.html.j2` that overrides."""
-    dirs = [str(template_dir)] if template_dir else []
-    env = Environment(
-        loader=FileSystemLoader([*dirs, str(TEMPLATES)]),
-        autoescape=select_autoescape(["html", "j2"]),
-        undefined=StrictUndefined,
-    )
-    template = env.get_template("rfm_accuracy.html.j2")
+    template = environment(template_dir).get_template("rfm_accuracy.html.j2")
     return template.render(
         r=results,
         a=results["accuracy"],
