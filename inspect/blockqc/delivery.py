@@ -69,9 +69,6 @@ class Delivery:
     def block_id(self) -> str:
         return self.manifest.block_id
 
-    def table(self, name: str) -> pd.DataFrame | None:
-        return getattr(self, name)
-
 
 def is_delivery(path: Path) -> bool:
     return (path / MANIFEST).is_file()

@@ -10,7 +10,7 @@ from typing import Any
 import jinja2
 from markupsafe import Markup
 
-from blockqc.report.build import Formatter, block_context, summary_context
+from blockqc.report.build import Formatter, block_context
 from blockqc.resources import templates_dir
 
 FONT_FILE = Path(__file__).resolve().parent / "fonts" / "BlockqcSansSC-Regular.otf"
@@ -69,12 +69,4 @@ def render_block(results: dict[str, Any], env: jinja2.Environment | None = None,
     return render_page("block.html.j2", block_context(results, lang), env, for_pdf=for_pdf)
 
 
-def render_summary(summary: dict[str, Any], env: jinja2.Environment | None = None, *,
-                   block_results: Sequence[dict[str, Any]] = (), lang: str = "en",
-                   for_pdf: bool = False, pdf_links: bool = False) -> str:
-    """The batch summary's HTML (sortable, filterable, self-contained)."""
-    ctx = summary_context(summary, list(block_results), lang, pdf=pdf_links)
-    return render_page("summary.html.j2", ctx, env, for_pdf=for_pdf)
-
-
-__all__: Sequence[str] = ["environment", "render_block", "render_page", "render_summary"]
+__all__: Sequence[str] = ["environment", "render_block", "render_page"]
