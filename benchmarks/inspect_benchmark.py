@@ -35,8 +35,10 @@ def main() -> None:
         t0 = time.perf_counter()
         simulate(Path(tmp), Options(fields=(1,), blocks_per_field=1, layout=layout))
         block = Path(tmp) / "F1-B01"
-        print(f"generated {side}x{side} footprints ({3 * side * side} scenes) "
-              f"in {time.perf_counter() - t0:.1f} s")
+        print(
+            f"generated {side}x{side} footprints ({3 * side * side} scenes) "
+            f"in {time.perf_counter() - t0:.1f} s"
+        )
         pack = load_pack("global-project")
         reads, judges = [], []
         for _ in range(args.repeat):
@@ -50,10 +52,14 @@ def main() -> None:
         n = len(d.tie_points)
         read, judge = statistics.median(reads), statistics.median(judges)
         print(f"tie-point observations: {n:,}; scenes: {len(d.scenes)}; verdict {r['verdict']}")
-        print(f"read + validate: {read:.2f} s   judge 20 rules: {judge:.2f} s   "
-              f"(median of {args.repeat})")
-        print(f"throughput: {n / (read + judge):,.0f} observations/s "
-              f"(judging alone {n / judge:,.0f}/s)")
+        print(
+            f"read + validate: {read:.2f} s   judge 20 rules: {judge:.2f} s   "
+            f"(median of {args.repeat})"
+        )
+        print(
+            f"throughput: {n / (read + judge):,.0f} observations/s "
+            f"(judging alone {n / judge:,.0f}/s)"
+        )
 
 
 if __name__ == "__main__":

@@ -39,7 +39,10 @@ def run_blockqc(*args: object, cwd: Path | None = None) -> subprocess.CompletedP
     """Run the real command line in a child process (exit status, stdout, stderr)."""
     return subprocess.run(
         [sys.executable, "-m", "blockqc", *map(str, args)],
-        cwd=cwd, capture_output=True, text=True, timeout=600,
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+        timeout=600,
     )
 
 

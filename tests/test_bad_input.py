@@ -186,8 +186,9 @@ def test_duplicate_block_ids_refused_in_parallel_batch(blockqc, tmp_path: Path) 
     p = blockqc("inspect", batch, "--out", tmp_path / "out", "--no-pdf", "--jobs", "2")
     assert p.returncode == 2
     _no_traceback(p)
-    assert f"{batch / 'b' / 'block.yaml'}: block_id CASE is also the id of {batch / 'a'}" \
-        in p.stderr
+    assert (
+        f"{batch / 'b' / 'block.yaml'}: block_id CASE is also the id of {batch / 'a'}" in p.stderr
+    )
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert [b["block_id"] for b in summary["blocks"]] == ["CASE", "OTHER"]
     assert summary["unreadable"][0]["path"] == str(batch / "b")

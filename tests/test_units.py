@@ -23,8 +23,10 @@ from blockqc.rules.expr import ExpressionError, evaluate
 P = SpatialParams()
 
 
-@pytest.mark.parametrize(("lon", "zone"), [(-180.0, 1), (-177.0, 1), (-174.0, 2), (0.0, 31),
-                                           (116.3, 50), (179.99, 60), (180.0, 60)])
+@pytest.mark.parametrize(
+    ("lon", "zone"),
+    [(-180.0, 1), (-177.0, 1), (-174.0, 2), (0.0, 31), (116.3, 50), (179.99, 60), (180.0, 60)],
+)
 def test_utm_zone(lon: float, zone: int) -> None:
     assert utm_zone(lon) == zone
 
@@ -51,10 +53,16 @@ def test_expressions() -> None:
     assert evaluate("2*sqrt(2)*norm.plane_m", c) == pytest.approx(20 * math.sqrt(2))
     assert evaluate("max(norm.plane_m, 12) - -1", c) == 13.0
     assert evaluate("k", c) == [1.0, 2.0]
-    for bad, msg in [("open('x')", "not allowed"), ("norm.missing", "unknown constant"),
-                     ("norm.__class__", "unknown constant"), ("(1).real", "not allowed"),
-                     ("1 if 1 else 0", "not allowed"), ("1/0", "cannot evaluate"),
-                     ("10.0**1000", "cannot evaluate"), ("2 +", "malformed")]:
+    for bad, msg in [
+        ("open('x')", "not allowed"),
+        ("norm.missing", "unknown constant"),
+        ("norm.__class__", "unknown constant"),
+        ("(1).real", "not allowed"),
+        ("1 if 1 else 0", "not allowed"),
+        ("1/0", "cannot evaluate"),
+        ("10.0**1000", "cannot evaluate"),
+        ("2 +", "malformed"),
+    ]:
         with pytest.raises(ExpressionError, match=msg):
             evaluate(bad, c)
 
@@ -63,15 +71,18 @@ def test_expressions() -> None:
 @given(st.floats(-1e6, 1e6), st.floats(-1e6, 1e6), st.floats(0.001, 1e3))
 def test_expression_arithmetic_matches_python(a: float, b: float, c: float) -> None:
     consts = {"a": a, "b": b, "c": c}
-    assert evaluate("a + b * c - a / c", consts) == pytest.approx(a + b * c - a / c, rel=1e-12,
-                                                                   abs=1e-9)
+    assert evaluate("a + b * c - a / c", consts) == pytest.approx(
+        a + b * c - a / c, rel=1e-12, abs=1e-9
+    )
     assert evaluate("sqrt(abs(a)) + min(a, b)", consts) == pytest.approx(
-        math.sqrt(abs(a)) + min(a, b), rel=1e-12, abs=1e-12)
+        math.sqrt(abs(a)) + min(a, b), rel=1e-12, abs=1e-12
+    )
 
 
 def test_tie_point_statistics_by_hand() -> None:
-    err = pd.Series(tie_point_error_px(np.array([0.3, 0.6, 0.0, 1.2, 0.9]),
-                                       np.array([0.4, 0.8, 1.0, 0.9, 1.2])))
+    err = pd.Series(
+        tie_point_error_px(np.array([0.3, 0.6, 0.0, 1.2, 0.9]), np.array([0.4, 0.8, 1.0, 0.9, 1.2]))
+    )
     # errors 0.5, 1.0, 1.0, 1.5, 1.5: median 1.0, RMS √(6.75/5), in (1.0, 1.5]: two of five
     s = _stats(err, None, 1.0, 1.5).iloc[0]
     assert s["median"] == pytest.approx(1.0)
@@ -81,8 +92,11 @@ def test_tie_point_statistics_by_hand() -> None:
 
 
 @settings(max_examples=60, deadline=None)
-@given(st.lists(st.tuples(st.floats(-2, 2), st.floats(-2, 2)), min_size=1, max_size=200),
-       st.randoms(use_true_random=False), st.floats(0.1, 10))
+@given(
+    st.lists(st.tuples(st.floats(-2, 2), st.floats(-2, 2)), min_size=1, max_size=200),
+    st.randoms(use_true_random=False),
+    st.floats(0.1, 10),
+)
 def test_tie_point_statistics_properties(v, rnd, k) -> None:
     vl, vs = (np.array(x) for x in zip(*v, strict=True))
     base = _stats(pd.Series(tie_point_error_px(vl, vs)), None, 1.0, 1.5).iloc[0]

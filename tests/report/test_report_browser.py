@@ -13,20 +13,35 @@ from blockqc.report import write_block_report, write_summary_report
 
 pytestmark = pytest.mark.browser
 
-FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-         "--disable-background-networking", "--disable-component-update", "--disable-sync",
-         "--disable-extensions", "--enable-logging=stderr", "--v=1"]
+FLAGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--disable-extensions",
+    "--enable-logging=stderr",
+    "--v=1",
+]
 
 
 def chromium(url: str, tmp_path: Path, *extra: str) -> tuple[str, list[str]]:
     """The DOM after the page's scripts ran, and the console messages Chromium logged."""
     exe = require_tool("chromium")
     profile = tmp_path / f"profile-{len(list(tmp_path.glob('profile-*')))}"
-    proc = subprocess.run([exe, *FLAGS, f"--user-data-dir={profile}", *extra, url],
-                          capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(
+        [exe, *FLAGS, f"--user-data-dir={profile}", *extra, url],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert proc.returncode == 0, proc.stderr[-2000:]
-    console = [line for line in proc.stderr.splitlines()
-               if ":CONSOLE" in line or "Uncaught" in line]
+    console = [
+        line for line in proc.stderr.splitlines() if ":CONSOLE" in line or "Uncaught" in line
+    ]
     return proc.stdout, console
 
 
@@ -39,15 +54,30 @@ def pages(tmp_path_factory):
     write_block_report(out / "T-B01", doc, pdf=False)
     other = {**doc, "block_id": "T-B02", "verdict": "pass", "results": [], "measurements": {}}
     write_block_report(out / "T-B02", other, pdf=False)
-    summary = {"rule_pack": "global-project", "rule_pack_version": "1.0",
-               "blockqc_version": "0.1.0", "generated_at": "2026-11-20T08:00:00Z",
-               "inspector": None, "verdict": "fail", "complete": True,
-               "counts": {"blocks": 2, "pass": 1, "fail": 1, "unreadable": 0},
-               "blocks": [{"block_id": b, "verdict": v, "report": f"{b}/report.html",
-                           "sampled": b == "T-B01", "failed_rules": f, "warned_rules": [],
-                           "pending_manual": []}
-                          for b, v, f in (("T-B02", "pass", []), ("T-B01", "fail", ["TP-4"]))],
-               "rules": {}, "unreadable": []}
+    summary = {
+        "rule_pack": "global-project",
+        "rule_pack_version": "1.0",
+        "blockqc_version": "0.1.0",
+        "generated_at": "2026-11-20T08:00:00Z",
+        "inspector": None,
+        "verdict": "fail",
+        "complete": True,
+        "counts": {"blocks": 2, "pass": 1, "fail": 1, "unreadable": 0},
+        "blocks": [
+            {
+                "block_id": b,
+                "verdict": v,
+                "report": f"{b}/report.html",
+                "sampled": b == "T-B01",
+                "failed_rules": f,
+                "warned_rules": [],
+                "pending_manual": [],
+            }
+            for b, v, f in (("T-B02", "pass", []), ("T-B01", "fail", ["TP-4"]))
+        ],
+        "rules": {},
+        "unreadable": [],
+    }
     write_summary_report(out, summary, [doc, other], pdf=False)
     return out
 
@@ -64,9 +94,13 @@ def test_block_report_renders_without_console_errors(pages, tmp_path):
 
 def test_block_report_screenshot(pages, tmp_path):
     shot = tmp_path / "block.png"
-    _, console = chromium((pages / "T-B01" / "report.html").as_uri(), tmp_path,
-                          f"--screenshot={shot}", "--window-size=1280,2000",
-                          "--hide-scrollbars")
+    _, console = chromium(
+        (pages / "T-B01" / "report.html").as_uri(),
+        tmp_path,
+        f"--screenshot={shot}",
+        "--window-size=1280,2000",
+        "--hide-scrollbars",
+    )
     assert console == []
     assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and shot.stat().st_size > 20_000
 
@@ -76,12 +110,16 @@ def test_summary_sorts_and_filters_offline(pages, tmp_path):
     dom, console = chromium(url, tmp_path, "--dump-dom")
     assert console == []
     assert re.search(r'id="shown">2<', dom)
-    body = dom[dom.index('id="blocks-table"'):dom.index("</table>", dom.index('id="blocks-table"'))]
+    body = dom[
+        dom.index('id="blocks-table"') : dom.index("</table>", dom.index('id="blocks-table"'))
+    ]
     assert body.index("T-B02") < body.index("T-B01")  # as the summary lists them
     # sort by the block column, and keep only failing blocks, through the page's own script
     dom, console = chromium(url + "#sort=0&verdict=fail", tmp_path, "--dump-dom")
     assert console == []
-    body = dom[dom.index('id="blocks-table"'):dom.index("</table>", dom.index('id="blocks-table"'))]
+    body = dom[
+        dom.index('id="blocks-table"') : dom.index("</table>", dom.index('id="blocks-table"'))
+    ]
     assert body.index("T-B01") < body.index("T-B02")
     assert re.search(r'<tr data-verdict="pass" hidden="">', body)
     assert re.search(r'id="shown">1<', dom)

@@ -25,7 +25,11 @@ def test_report_command_rerenders_the_same_content(tmp_path, results_file, resul
     assert run("report", str(results_file), "--out", str(tmp_path / "out"), "--no-pdf") == 0
     again = tmp_path / "out" / "T-B01"
     assert sorted(p.name for p in again.iterdir()) == [
-        "checkpoints.csv", "evidence.csv", "report.html", "results.json"]
+        "checkpoints.csv",
+        "evidence.csv",
+        "report.html",
+        "results.json",
+    ]
     for name in ("report.html", "checkpoints.csv", "evidence.csv"):
         assert (again / name).read_bytes() == (direct / name).read_bytes(), name
     assert (again / "results.json").read_bytes() == results_file.read_bytes()
@@ -33,8 +37,18 @@ def test_report_command_rerenders_the_same_content(tmp_path, results_file, resul
 
 
 def test_report_command_takes_a_folder_and_chinese(tmp_path, results_file):
-    assert run("report", str(results_file.parent), "--out", str(tmp_path / "zh"), "--lang", "zh",
-               "--no-pdf") == 0
+    assert (
+        run(
+            "report",
+            str(results_file.parent),
+            "--out",
+            str(tmp_path / "zh"),
+            "--lang",
+            "zh",
+            "--no-pdf",
+        )
+        == 0
+    )
     html = (tmp_path / "zh" / "T-B01" / "report.html").read_text(encoding="utf-8")
     assert "验收报告" in html and "不合格" in html
 
@@ -43,27 +57,45 @@ def test_report_command_rerenders_a_batch_summary(tmp_path, results_doc):
     batch = tmp_path / "batch"
     (batch / "T-B01").mkdir(parents=True)
     (batch / "T-B01" / "results.json").write_text(json.dumps(results_doc), encoding="utf-8")
-    summary = {"rule_pack": "global-project", "rule_pack_version": "1.0",
-               "blockqc_version": "0.1.0", "generated_at": "2026-11-20T08:00:00Z",
-               "inspector": None, "verdict": "fail", "complete": True,
-               "counts": {"blocks": 1, "pass": 0, "fail": 1, "unreadable": 0},
-               "blocks": [{"block_id": "T-B01", "verdict": "fail", "report": "T-B01/report.html",
-                           "results": "T-B01/results.json", "sampled": True,
-                           "failed_rules": ["TP-4"], "warned_rules": [], "pending_manual": []}],
-               "rules": {}, "unreadable": []}
+    summary = {
+        "rule_pack": "global-project",
+        "rule_pack_version": "1.0",
+        "blockqc_version": "0.1.0",
+        "generated_at": "2026-11-20T08:00:00Z",
+        "inspector": None,
+        "verdict": "fail",
+        "complete": True,
+        "counts": {"blocks": 1, "pass": 0, "fail": 1, "unreadable": 0},
+        "blocks": [
+            {
+                "block_id": "T-B01",
+                "verdict": "fail",
+                "report": "T-B01/report.html",
+                "results": "T-B01/results.json",
+                "sampled": True,
+                "failed_rules": ["TP-4"],
+                "warned_rules": [],
+                "pending_manual": [],
+            }
+        ],
+        "rules": {},
+        "unreadable": [],
+    }
     (batch / "summary.json").write_text(json.dumps(summary), encoding="utf-8")
-    assert run("report", str(batch / "summary.json"), "--out", str(tmp_path / "o"),
-               "--no-pdf") == 0
+    assert run("report", str(batch / "summary.json"), "--out", str(tmp_path / "o"), "--no-pdf") == 0
     assert (tmp_path / "o" / "summary.html").is_file()
     assert (tmp_path / "o" / "T-B01" / "report.html").is_file()
 
 
-@pytest.mark.parametrize("content, expected", [
-    ('{"block_id": "X",\n  "verdict": }', "line 2"),
-    ('[1, 2, 3]', "not a results document"),
-    ('{"block_id": "X", "results": []}', "missing key(s) verdict"),
-    ('{"block_id": "X", "verdict": "pass", "results": [{"rule": "A"}]}', "'rule' and 'status'"),
-])
+@pytest.mark.parametrize(
+    "content, expected",
+    [
+        ('{"block_id": "X",\n  "verdict": }', "line 2"),
+        ("[1, 2, 3]", "not a results document"),
+        ('{"block_id": "X", "results": []}', "missing key(s) verdict"),
+        ('{"block_id": "X", "verdict": "pass", "results": [{"rule": "A"}]}', "'rule' and 'status'"),
+    ],
+)
 def test_bad_input_is_exit_2_naming_the_file(tmp_path, capsys, content, expected):
     bad = tmp_path / "results.json"
     bad.write_text(content, encoding="utf-8")
@@ -82,16 +114,36 @@ def test_missing_input_is_exit_2(tmp_path, capsys):
 def test_inspection_run_and_rerender_give_the_same_report(tmp_path):
     """A simulated block through the engine, then `blockqc report` on its results.json."""
     exe = [str(Path(sys.executable).parent / "blockqc")]
-    subprocess.run([*exe, "simulate", str(tmp_path / "d"), "--fields", "3",
-                    "--blocks-per-field", "1", "--grid", "3x3", "--obs-per-scene", "120"],
-                   check=True, capture_output=True)
-    rc = subprocess.run([*exe, "inspect", str(tmp_path / "d"), "--out", str(tmp_path / "a")],
-                        capture_output=True, text=True)
+    subprocess.run(
+        [
+            *exe,
+            "simulate",
+            str(tmp_path / "d"),
+            "--fields",
+            "3",
+            "--blocks-per-field",
+            "1",
+            "--grid",
+            "3x3",
+            "--obs-per-scene",
+            "120",
+        ],
+        check=True,
+        capture_output=True,
+    )
+    rc = subprocess.run(
+        [*exe, "inspect", str(tmp_path / "d"), "--out", str(tmp_path / "a")],
+        capture_output=True,
+        text=True,
+    )
     assert rc.returncode in (0, 1), rc.stderr
     first = next((tmp_path / "a").glob("*/results.json"))
     inspected = first.parent / "report.html"
-    rc = subprocess.run([*exe, "report", str(first), "--out", str(tmp_path / "b"), "--no-pdf"],
-                        capture_output=True, text=True)
+    rc = subprocess.run(
+        [*exe, "report", str(first), "--out", str(tmp_path / "b"), "--no-pdf"],
+        capture_output=True,
+        text=True,
+    )
     assert rc.returncode == 0, rc.stderr
     again = tmp_path / "b" / first.parent.name / "report.html"
     assert again.read_text(encoding="utf-8") == inspected.read_text(encoding="utf-8")

@@ -20,21 +20,38 @@ from blockqc.report.messages import MESSAGES, catalogue_characters
 # DOMAIN §2: three quality elements and the inspection contents, with their Chinese names as the
 # Chinese quality-inspection method names them.
 QUALITY_ELEMENTS_ZH = {"qe_data": "数据质量", "qe_layout": "布局质量", "qe_attachment": "附件质量"}
-ITEMS_ZH = {"it_math": "数学基础", "it_plane": "平面精度", "it_height": "高程精度",
-            "it_edge": "接边精度", "it_report": "报告", "it_points": "点位分布",
-            "it_documents": "文档资料"}
+ITEMS_ZH = {
+    "it_math": "数学基础",
+    "it_plane": "平面精度",
+    "it_height": "高程精度",
+    "it_edge": "接边精度",
+    "it_report": "报告",
+    "it_points": "点位分布",
+    "it_documents": "文档资料",
+}
 CONTENTS_ZH = {
-    "ct_coordinate_system": "坐标系统", "ct_geodetic_datum": "大地基准",
-    "ct_height_datum": "高程基准", "ct_projection": "地图投影", "ct_cp_plane": "检查点平面精度",
-    "ct_pan_ms": "全色多光谱相对定向精度", "ct_cp_height": "检查点高程精度",
+    "ct_coordinate_system": "坐标系统",
+    "ct_geodetic_datum": "大地基准",
+    "ct_height_datum": "高程基准",
+    "ct_projection": "地图投影",
+    "ct_cp_plane": "检查点平面精度",
+    "ct_pan_ms": "全色多光谱相对定向精度",
+    "ct_cp_height": "检查点高程精度",
     "ct_between_blocks": "区域网间相对定向精度",
     "ct_within_block": "区域网内相对定向精度（相邻影像）",
-    "ct_ro_report": "相对定向精度报告", "ct_ao_report": "绝对定向精度报告",
-    "ct_tp_number": "连接点数量", "ct_tp_distribution": "连接点分布",
-    "ct_documents": "文档资料完整性与规范性"}
-TERMS_ZH = {"method_high_precision": "高精度数据法", "method_same_accuracy": "同精度数据法",
-            "method_recalculation": "其他软件重新计算法", "n_gross": "粗差个数",
-            "gross_rate": "粗差率"}
+    "ct_ro_report": "相对定向精度报告",
+    "ct_ao_report": "绝对定向精度报告",
+    "ct_tp_number": "连接点数量",
+    "ct_tp_distribution": "连接点分布",
+    "ct_documents": "文档资料完整性与规范性",
+}
+TERMS_ZH = {
+    "method_high_precision": "高精度数据法",
+    "method_same_accuracy": "同精度数据法",
+    "method_recalculation": "其他软件重新计算法",
+    "n_gross": "粗差个数",
+    "gross_rate": "粗差率",
+}
 
 
 def test_catalogue_has_both_languages_with_the_same_placeholders():
@@ -57,8 +74,12 @@ def test_packaged_font_covers_the_catalogue_and_gb2312_level_1():
     cmap = TTFont(FONT_FILE, lazy=True).getBestCmap()
     missing = [c for c in catalogue_characters() if not c.isspace() and ord(c) not in cmap]
     assert not missing, f"characters of the catalogue missing from the font: {missing}"
-    level1 = [bytes([hi, lo]).decode("gb2312") for hi in range(0xB0, 0xD8)
-              for lo in range(0xA1, 0xFF) if (hi, lo) < (0xD7, 0xFA)]
+    level1 = [
+        bytes([hi, lo]).decode("gb2312")
+        for hi in range(0xB0, 0xD8)
+        for lo in range(0xA1, 0xFF)
+        if (hi, lo) < (0xD7, 0xFA)
+    ]
     assert len(level1) == 3755
     assert all(ord(c) in cmap for c in level1)
     assert (FONT_FILE.parent / "OFL.txt").read_text().count("SIL OPEN FONT LICENSE") >= 1
@@ -86,13 +107,37 @@ def test_every_inspection_content_is_listed_with_the_rules_deciding_it(results_d
 
 
 def test_results_naming_their_content_are_placed_there(results_doc):
-    results_doc["results"].append({"rule": "X-9", "title": "Project rule", "clause": "§X",
-                                   "group": {}, "status": "fail", "value": 1, "threshold": 0,
-                                   "comparison": "<=", "unit": "", "detail": {}, "evidence": [],
-                                   "inspection_content": "PAN-MS relative orientation accuracy"})
-    results_doc["results"].append({"rule": "X-10", "title": "Unplaced", "clause": "§X",
-                                   "group": {}, "status": "pass", "value": 1, "threshold": 2,
-                                   "comparison": "<=", "unit": "", "detail": {}, "evidence": []})
+    results_doc["results"].append(
+        {
+            "rule": "X-9",
+            "title": "Project rule",
+            "clause": "§X",
+            "group": {},
+            "status": "fail",
+            "value": 1,
+            "threshold": 0,
+            "comparison": "<=",
+            "unit": "",
+            "detail": {},
+            "evidence": [],
+            "inspection_content": "PAN-MS relative orientation accuracy",
+        }
+    )
+    results_doc["results"].append(
+        {
+            "rule": "X-10",
+            "title": "Unplaced",
+            "clause": "§X",
+            "group": {},
+            "status": "pass",
+            "value": 1,
+            "threshold": 2,
+            "comparison": "<=",
+            "unit": "",
+            "detail": {},
+            "evidence": [],
+        }
+    )
     rows, others = content_rows(results_doc["results"])
     pan_ms = next(r for r in rows if r.content == "ct_pan_ms")
     assert pan_ms.status == "fail" and [r["rule"] for r in pan_ms.results] == ["X-9"]
@@ -102,10 +147,14 @@ def test_results_naming_their_content_are_placed_there(results_doc):
 def test_formatter_thresholds_and_groups():
     f = Formatter("en")
     assert f.threshold({"comparison": "<=", "threshold": 10.0, "unit": "m"}) == "≤ 10 m"
-    assert f.threshold({"comparison": "<", "threshold": 28.284271247461902, "unit": "m"}) \
+    assert (
+        f.threshold({"comparison": "<", "threshold": 28.284271247461902, "unit": "m"})
         == "< 28.28 m"
-    assert f.threshold({"comparison": "between", "threshold": [20.0, 50.0],
-                        "unit": "points"}) == "20 … 50 points"
+    )
+    assert (
+        f.threshold({"comparison": "between", "threshold": [20.0, 50.0], "unit": "points"})
+        == "20 … 50 points"
+    )
     z = Formatter("zh")
     assert z.group({"component": "plane", "method": "same_accuracy"}) == "平面 · 同精度数据法"
     assert z.status("fail") == "不合格" and z.verdict("pass") == "合格"
@@ -138,9 +187,21 @@ def test_html_escapes_scene_ids_notes_and_names(results_doc):
 
 def test_block_report_sections_in_chinese(results_doc):
     html = render_block(results_doc, lang="zh")
-    for text in ("区域网 T-B01 验收报告", "不合格", "数据质量", "布局质量", "附件质量",
-                 "检查点平面精度", "连接点数量", "人机交互检查项", "豁免与例外", "不合格项及其依据",
-                 "高精度数据法", "同精度数据法", "粗差率"):
+    for text in (
+        "区域网 T-B01 验收报告",
+        "不合格",
+        "数据质量",
+        "布局质量",
+        "附件质量",
+        "检查点平面精度",
+        "连接点数量",
+        "人机交互检查项",
+        "豁免与例外",
+        "不合格项及其依据",
+        "高精度数据法",
+        "同精度数据法",
+        "粗差率",
+    ):
         assert text in html, text
     assert '<html lang="zh-CN">' in html
     assert html.count("<svg") >= 6  # residuals, counts, footprints, 2 error plots, vectors, map
@@ -154,16 +215,20 @@ def test_block_files_and_csv_exports(tmp_path, results_doc):
     assert len(rows) == 16  # 8 high-precision plane, 4 same-accuracy plane, 4 height
     gross = [r["point_id"] for r in rows if r["gross"] == "true"]
     assert gross == ["C05", "C06", "C07"]  # 21, 25 and 30 m beyond 2·10 m
-    ev = list(csv.DictReader(io.StringIO(
-        (tmp_path / "T-B01" / "evidence.csv").read_text(encoding="utf-8-sig"))))
+    ev = list(
+        csv.DictReader(
+            io.StringIO((tmp_path / "T-B01" / "evidence.csv").read_text(encoding="utf-8-sig"))
+        )
+    )
     by_rule = {}
     for r in ev:
         by_rule.setdefault(r["rule"], []).append(r)
     assert [r["point_id"] for r in by_rule["RO-3"]] == ["O7", "O9"]  # worst first
     assert by_rule["TP-4"][0]["scene_id"] == "S-003<script>alert(1)</script>"
     assert {r["status"] for r in by_rule["DOC-1"]} == {"waived"}
-    assert "CP-2" in by_rule and by_rule["CP-2"][0]["group"] == \
-        "component=plane;method=high_precision"
+    assert (
+        "CP-2" in by_rule and by_rule["CP-2"][0]["group"] == "component=plane;method=high_precision"
+    )
 
 
 def test_user_templates_take_precedence(tmp_path, results_doc):
@@ -176,27 +241,60 @@ def test_user_templates_take_precedence(tmp_path, results_doc):
 
 
 def test_summary_lists_sampled_blocks_and_links(tmp_path, results_doc):
-    passing = {**results_doc, "block_id": "T-B02", "verdict": "pass", "results": [],
-               "measurements": {}}
-    summary = {"rule_pack": "global-project", "rule_pack_version": "1.0",
-               "blockqc_version": "0.1.0", "generated_at": "2026-11-20T08:00:00Z",
-               "inspector": None, "verdict": "fail", "complete": True,
-               "counts": {"blocks": 2, "pass": 1, "fail": 1, "unreadable": 0},
-               "blocks": [
-                   {"block_id": "T-B01", "verdict": "fail", "report": "T-B01/report.html",
-                    "sampled": True, "failed_rules": ["CP-2", "TP-4"], "warned_rules": [],
-                    "pending_manual": []},
-                   {"block_id": "T-B02", "verdict": "pass", "report": "T-B02/report.html",
-                    "sampled": False, "failed_rules": [], "warned_rules": [],
-                    "pending_manual": ["DOC-3"]}],
-               "rules": {"CP-2": {"pass": 1, "fail": 1, "warn": 0, "waived": 0, "manual": 0,
-                                  "not_applicable": 0, "error": 0}},
-               "unreadable": []}
+    passing = {
+        **results_doc,
+        "block_id": "T-B02",
+        "verdict": "pass",
+        "results": [],
+        "measurements": {},
+    }
+    summary = {
+        "rule_pack": "global-project",
+        "rule_pack_version": "1.0",
+        "blockqc_version": "0.1.0",
+        "generated_at": "2026-11-20T08:00:00Z",
+        "inspector": None,
+        "verdict": "fail",
+        "complete": True,
+        "counts": {"blocks": 2, "pass": 1, "fail": 1, "unreadable": 0},
+        "blocks": [
+            {
+                "block_id": "T-B01",
+                "verdict": "fail",
+                "report": "T-B01/report.html",
+                "sampled": True,
+                "failed_rules": ["CP-2", "TP-4"],
+                "warned_rules": [],
+                "pending_manual": [],
+            },
+            {
+                "block_id": "T-B02",
+                "verdict": "pass",
+                "report": "T-B02/report.html",
+                "sampled": False,
+                "failed_rules": [],
+                "warned_rules": [],
+                "pending_manual": ["DOC-3"],
+            },
+        ],
+        "rules": {
+            "CP-2": {
+                "pass": 1,
+                "fail": 1,
+                "warn": 0,
+                "waived": 0,
+                "manual": 0,
+                "not_applicable": 0,
+                "error": 0,
+            }
+        },
+        "unreadable": [],
+    }
     written = write_summary_report(tmp_path, summary, [results_doc, passing], pdf=False)
     assert [p.name for p in written] == ["summary.html"]
     html = written[0].read_text(encoding="utf-8")
     assert 'href="T-B01/report.html"' in html and 'href="T-B02/report.html"' in html
-    sampled = html[html.index('id="sampled-table"'):html.index('id="rules"')]
+    sampled = html[html.index('id="sampled-table"') : html.index('id="rules"')]
     assert sampled.count("<tr>") == 1 + 3  # heading + plane hp, plane sa, height sa of T-B01
     assert "T-B02" not in sampled
     assert not re.search(r"<(script|link)[^>]+src=|https?://", html)  # no network

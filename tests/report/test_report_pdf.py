@@ -23,13 +23,26 @@ def zh_pdf(tmp_path_factory):
 
 def test_pdf_text_has_block_verdict_and_chinese_labels(zh_pdf):
     pdftotext = require_tool("pdftotext")
-    text = subprocess.run([pdftotext, "-layout", str(zh_pdf), "-"], capture_output=True,
-                          text=True, check=True).stdout
+    text = subprocess.run(
+        [pdftotext, "-layout", str(zh_pdf), "-"], capture_output=True, text=True, check=True
+    ).stdout
     assert zh_pdf.read_bytes().startswith(b"%PDF-")
     assert "T-B01" in text
     assert "不合格" in text  # the verdict, in Chinese
-    for label in ("验收报告", "数据质量", "布局质量", "附件质量", "检查点平面精度", "连接点分布",
-                  "中误差", "最大误差", "粗差个数", "粗差率", "高精度数据法", "同精度数据法"):
+    for label in (
+        "验收报告",
+        "数据质量",
+        "布局质量",
+        "附件质量",
+        "检查点平面精度",
+        "连接点分布",
+        "中误差",
+        "最大误差",
+        "粗差个数",
+        "粗差率",
+        "高精度数据法",
+        "同精度数据法",
+    ):
         assert label in text, label
     assert "<script>alert(1)</script>" in text  # shown as text, never run
     assert "\ufffd" not in text and "□" not in text
@@ -37,8 +50,7 @@ def test_pdf_text_has_block_verdict_and_chinese_labels(zh_pdf):
 
 def test_pdf_embeds_the_packaged_cjk_font(zh_pdf):
     pdffonts = require_tool("pdffonts")
-    out = subprocess.run([pdffonts, str(zh_pdf)], capture_output=True, text=True,
-                         check=True).stdout
+    out = subprocess.run([pdffonts, str(zh_pdf)], capture_output=True, text=True, check=True).stdout
     rows = [line.split() for line in out.splitlines()[2:] if line.strip()]
     ours = [r for r in rows if "Blockqc-Sans-SC" in r[0]]
     assert ours, out
@@ -49,12 +61,14 @@ def test_pdf_embeds_the_packaged_cjk_font(zh_pdf):
 
 def test_pdf_pages_are_a4_with_page_numbers(zh_pdf):
     pdfinfo = require_tool("pdfinfo")
-    info = subprocess.run([pdfinfo, str(zh_pdf)], capture_output=True, text=True,
-                          check=True).stdout
+    info = subprocess.run([pdfinfo, str(zh_pdf)], capture_output=True, text=True, check=True).stdout
     assert re.search(r"Page size:\s+595\.\d+ x 841\.\d+ pts \(A4\)", info), info
-    pages = int(next(line.split()[-1] for line in info.splitlines()
-                     if line.startswith("Pages:")))
+    pages = int(next(line.split()[-1] for line in info.splitlines() if line.startswith("Pages:")))
     assert pages >= 3
-    last = subprocess.run([require_tool("pdftotext"), "-f", str(pages), "-l", str(pages),
-                           str(zh_pdf), "-"], capture_output=True, text=True, check=True).stdout
+    last = subprocess.run(
+        [require_tool("pdftotext"), "-f", str(pages), "-l", str(pages), str(zh_pdf), "-"],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
     assert re.search(rf"\b{pages}\s*/\s*{pages}\b", last), last

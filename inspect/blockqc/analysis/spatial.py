@@ -46,8 +46,13 @@ def expected_nearest_neighbour_distance(n, area, perimeter=None):
     return expected
 
 
-def clark_evans_grouped(x: np.ndarray, y: np.ndarray, group: np.ndarray, area: np.ndarray,
-                        perimeter: np.ndarray | None = None) -> np.ndarray:
+def clark_evans_grouped(
+    x: np.ndarray,
+    y: np.ndarray,
+    group: np.ndarray,
+    area: np.ndarray,
+    perimeter: np.ndarray | None = None,
+) -> np.ndarray:
     """Clark–Evans R of many patterns at once (one per group code 0..k−1), with one k-d tree.
 
     Each pattern is shifted far from the others, so that every point's nearest neighbour lies

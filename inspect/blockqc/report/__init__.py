@@ -13,8 +13,14 @@ from blockqc.report.html import environment, render_page
 from blockqc.report.messages import LANGUAGES
 
 
-def write_block_report(folder: Path, results: dict[str, Any], *, lang: str = "en",
-                       templates: Path | None = None, pdf: bool = True) -> list[Path]:
+def write_block_report(
+    folder: Path,
+    results: dict[str, Any],
+    *,
+    lang: str = "en",
+    templates: Path | None = None,
+    pdf: bool = True,
+) -> list[Path]:
     """report.html, report.pdf, checkpoints.csv and evidence.csv of one block, from its results."""
     if lang not in LANGUAGES:
         raise ValueError(f"language {lang!r}: choose one of {', '.join(LANGUAGES)}")
@@ -31,16 +37,24 @@ def write_block_report(folder: Path, results: dict[str, Any], *, lang: str = "en
         data = html_to_pdf(render_page("block.html.j2", ctx, env, for_pdf=True), folder)
         write_bytes_atomic(folder / "report.pdf", data)
         written.append(folder / "report.pdf")
-    for name, text in (("checkpoints.csv", checkpoints_csv(results)),
-                       ("evidence.csv", evidence_csv(results))):
+    for name, text in (
+        ("checkpoints.csv", checkpoints_csv(results)),
+        ("evidence.csv", evidence_csv(results)),
+    ):
         write_text_atomic(folder / name, text)
         written.append(folder / name)
     return written
 
 
-def write_summary_report(out: Path, summary: dict[str, Any],
-                         block_results: Sequence[dict[str, Any]], *, lang: str = "en",
-                         templates: Path | None = None, pdf: bool = True) -> list[Path]:
+def write_summary_report(
+    out: Path,
+    summary: dict[str, Any],
+    block_results: Sequence[dict[str, Any]],
+    *,
+    lang: str = "en",
+    templates: Path | None = None,
+    pdf: bool = True,
+) -> list[Path]:
     """summary.html and summary.pdf of a batch, linking each block's report."""
     if lang not in LANGUAGES:
         raise ValueError(f"language {lang!r}: choose one of {', '.join(LANGUAGES)}")

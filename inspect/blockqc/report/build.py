@@ -72,8 +72,11 @@ class Formatter:
             text = "∈ {" + self.num(th) + "}"
         else:
             return res.get("threshold_text") or "–"
-        return f"{text} {unit}".strip() if isinstance(th, int | float | list) and \
-            not isinstance(th, bool) and unit else text
+        return (
+            f"{text} {unit}".strip()
+            if isinstance(th, int | float | list) and not isinstance(th, bool) and unit
+            else text
+        )
 
     def group(self, group: dict[str, Any] | None) -> str:
         parts = []
@@ -125,8 +128,7 @@ def _status_rank(s: str) -> int:
     return order.get(s, 5)
 
 
-def scene_statuses(results: dict[str, Any], rules: tuple[str, ...] | None = None
-                   ) -> dict[str, str]:
+def scene_statuses(results: dict[str, Any], rules: tuple[str, ...] | None = None) -> dict[str, str]:
     """The worst status met by each scene in the evidence, exemptions or waivers of `rules`."""
     out: dict[str, str] = {}
 
@@ -162,15 +164,26 @@ def _evidence_table(res: dict[str, Any], f: Formatter) -> dict[str, Any]:
     for r in rows:
         keys += [k for k in r if k not in keys]
     group = res.get("group") or {}
-    keys = [k for k in keys if any(r.get(k) is not None for r in rows)
-            and not (k in group and all(r.get(k) == group[k] for r in rows))]
+    keys = [
+        k
+        for k in keys
+        if any(r.get(k) is not None for r in rows)
+        and not (k in group and all(r.get(k) == group[k] for r in rows))
+    ]
     truncated = (res.get("detail") or {}).get("evidence_truncated") or 0
     return {
         "headers": [f.column(k) for k in keys],
-        "numeric": [all(isinstance(r.get(k), int | float) and not isinstance(r.get(k), bool)
-                        for r in rows if r.get(k) is not None) for k in keys],
+        "numeric": [
+            all(
+                isinstance(r.get(k), int | float) and not isinstance(r.get(k), bool)
+                for r in rows
+                if r.get(k) is not None
+            )
+            for k in keys
+        ],
         "rows": [[f.num(r.get(k)) for k in keys] for r in rows],
-        "shown": len(rows), "total": len(rows) + int(truncated),
+        "shown": len(rows),
+        "total": len(rows) + int(truncated),
     }
 
 
@@ -182,10 +195,17 @@ def _row(res: dict[str, Any], f: Formatter) -> dict[str, Any]:
             notes.append(str(detail[k]))
     if detail.get("used_mean") or detail.get("statistic") == "mean":
         notes.append(f.t("used_mean_note"))
-    return {"rule": res["rule"], "title": f.title(res), "group": f.group(res.get("group")),
-            "status": res.get("status"), "status_text": f.status(res.get("status")),
-            "value": f.value(res), "threshold": f.threshold(res),
-            "clause": res.get("clause") or "", "notes": notes}
+    return {
+        "rule": res["rule"],
+        "title": f.title(res),
+        "group": f.group(res.get("group")),
+        "status": res.get("status"),
+        "status_text": f.status(res.get("status")),
+        "value": f.value(res),
+        "threshold": f.threshold(res),
+        "clause": res.get("clause") or "",
+        "notes": notes,
+    }
 
 
 def _checkpoint_tables(results: dict[str, Any], f: Formatter) -> list[dict[str, Any]]:
@@ -203,44 +223,78 @@ def _checkpoint_tables(results: dict[str, Any], f: Formatter) -> list[dict[str, 
         rows = [
             (f.t("n_total"), [f.num(s.get("n_total")) for s in cols]),
             (f.t("n_used"), [f.num(s.get("n")) for s in cols]),
-            (f.t("statistic"), [f.t(f"stat_{s['statistic']}") if f"stat_{s.get('statistic')}"
-                                in MESSAGES else f.num(s.get("statistic")) for s in cols]),
-            (f.t("medium_error"), [("* " if u else "") + f.num(s.get("medium_error"), 2)
-                                   for s, u in zip(cols, mean_used, strict=True)]),
+            (
+                f.t("statistic"),
+                [
+                    f.t(f"stat_{s['statistic']}")
+                    if f"stat_{s.get('statistic')}" in MESSAGES
+                    else f.num(s.get("statistic"))
+                    for s in cols
+                ],
+            ),
+            (
+                f.t("medium_error"),
+                [
+                    ("* " if u else "") + f.num(s.get("medium_error"), 2)
+                    for s, u in zip(cols, mean_used, strict=True)
+                ],
+            ),
             (f.t("used_mean"), [f.num(u) for u in mean_used]),
             (f.t("max_error"), [f.num(s.get("max_error"), 2) for s in cols]),
             (f.t("n_gross"), [f.num(s.get("n_gross")) for s in cols]),
-            (f.t("gross_rate"), [f.num(s.get("gross_rate"), 1) + " %"
-                                 if s.get("gross_rate") is not None else "–" for s in cols]),
+            (
+                f.t("gross_rate"),
+                [
+                    f.num(s.get("gross_rate"), 1) + " %" if s.get("gross_rate") is not None else "–"
+                    for s in cols
+                ],
+            ),
             (f.t("norm"), [f.num(s.get("norm_m"), 2) for s in cols]),
             (f.t("bound"), [f.num(s.get("bound_m"), 2) for s in cols]),
         ]
         statuses = [worst(res_by_group.get((component, s["method"]), [])) for s in cols]
         agree = [a for a in agreement if a.get("component") == component]
-        tables.append({
-            "component": f.component(component), "key": component,
-            "methods": [f.method(s["method"]) for s in cols], "rows": rows,
-            "statuses": [(s, f.status(s)) for s in statuses], "any_mean": any(mean_used),
-            "agreement": [{
-                "methods": " / ".join(f.method(m) for m in a.get("methods", [])),
-                "errors": f.num(a.get("medium_error"), 2),
-                "spread": f.num(a.get("spread_m"), 2),
-                "agree": a.get("agree"),
-                "text": f.t("agree") if a.get("agree") else f.t("disagree"),
-            } for a in agree],
-        })
+        tables.append(
+            {
+                "component": f.component(component),
+                "key": component,
+                "methods": [f.method(s["method"]) for s in cols],
+                "rows": rows,
+                "statuses": [(s, f.status(s)) for s in statuses],
+                "any_mean": any(mean_used),
+                "agreement": [
+                    {
+                        "methods": " / ".join(f.method(m) for m in a.get("methods", [])),
+                        "errors": f.num(a.get("medium_error"), 2),
+                        "spread": f.num(a.get("spread_m"), 2),
+                        "agree": a.get("agree"),
+                        "text": f.t("agree") if a.get("agree") else f.t("disagree"),
+                    }
+                    for a in agree
+                ],
+            }
+        )
     return tables
 
 
 def _checkpoint_points(results: dict[str, Any], f: Formatter) -> list[dict[str, Any]]:
     points = _measure(results, "checkpoint_accuracy", "point") or []
-    return [{"component": f.component(p.get("component", "")), "method": f.method(
-        p.get("method", "")), "point_id": f.num(p.get("point_id")),
-        "reference_id": f.num(p.get("reference_id")), "dx": f.num(p.get("dx_m"), 2),
-        "dy": f.num(p.get("dy_m"), 2), "dz": f.num(p.get("dz_m"), 2),
-        "error": f.num(p.get("error_m"), 2), "bound": f.num(p.get("bound_m"), 2),
-        "gross": bool(p.get("gross")), "gross_text": f.num(bool(p.get("gross")))}
-        for p in points]
+    return [
+        {
+            "component": f.component(p.get("component", "")),
+            "method": f.method(p.get("method", "")),
+            "point_id": f.num(p.get("point_id")),
+            "reference_id": f.num(p.get("reference_id")),
+            "dx": f.num(p.get("dx_m"), 2),
+            "dy": f.num(p.get("dy_m"), 2),
+            "dz": f.num(p.get("dz_m"), 2),
+            "error": f.num(p.get("error_m"), 2),
+            "bound": f.num(p.get("bound_m"), 2),
+            "gross": bool(p.get("gross")),
+            "gross_text": f.num(bool(p.get("gross"))),
+        }
+        for p in points
+    ]
 
 
 def _marks(results: dict[str, Any]) -> list[float]:
@@ -261,8 +315,9 @@ def _figures(results: dict[str, Any], f: Formatter, statuses: dict[str, str]) ->
     stats = _measure(results, "checkpoint_accuracy", "component_method") or []
     for component in ("plane", "height"):
         if any(p.get("component") == component for p in points):
-            figs["detailed"].append(plots.checkpoint_errors(points, stats, component, t,
-                                                            f"cp-{component}"))
+            figs["detailed"].append(
+                plots.checkpoint_errors(points, stats, component, t, f"cp-{component}")
+            )
     if any(p.get("component") == "plane" for p in points):
         if not any(p.get("x_m") is not None for p in points):
             figs["notes"].append(t("vector_no_positions"))
@@ -272,20 +327,26 @@ def _figures(results: dict[str, Any], f: Formatter, statuses: dict[str, str]) ->
         figs["general"].append(plots.residual_histogram(hist, _marks(results), t, "tp-hist"))
     per_scene = _measure(results, "tie_point_distribution", "scene") or []
     tp4 = next((r for r in results.get("results", []) if r["rule"] == "TP-4"), None)
-    minimum = tp4.get("threshold") if tp4 and isinstance(tp4.get("threshold"), int | float) \
-        else None
+    minimum = (
+        tp4.get("threshold") if tp4 and isinstance(tp4.get("threshold"), int | float) else None
+    )
     if per_scene:
-        figs["general"].append(plots.scene_counts(per_scene, minimum,
-                                                  scene_statuses(results, ("TP-4",)), t,
-                                                  "tp-counts"))
+        figs["general"].append(
+            plots.scene_counts(
+                per_scene, minimum, scene_statuses(results, ("TP-4",)), t, "tp-counts"
+            )
+        )
     scenes = _measure(results, "scenes") or []
     if any(s.get("footprint_wkt") for s in scenes):
         figs["general"].append(plots.footprints(scenes, statuses, t, "footprints"))
     failing: list[str] = []
     for res in results.get("results", []):
         if res["rule"] in ("TP-4", "TP-5") and res.get("status") in ("fail", "error"):
-            failing += [str(r["scene_id"]) for r in res.get("evidence") or []
-                        if "scene_id" in r and str(r["scene_id"]) not in failing]
+            failing += [
+                str(r["scene_id"])
+                for r in res.get("evidence") or []
+                if "scene_id" in r and str(r["scene_id"]) not in failing
+            ]
     kept = _measure(results, "tie_point_distribution", "failing_scene_points") or {}
     grid = _measure(results, "tie_point_distribution", "detail", "grid") or 3
     size = {str(s["scene_id"]): s for s in scenes}
@@ -295,17 +356,31 @@ def _figures(results: dict[str, Any], f: Formatter, statuses: dict[str, str]) ->
         if not pts or not scene.get("lines") or not scene.get("samples"):
             figs["scene_maps"].append({"scene": sid, "svg": None, "caption": t("no_points_kept")})
             continue
-        svg = plots.scene_points(sid, pts.get("line", []), pts.get("sample", []),
-                                 scene["lines"], scene["samples"], int(grid), t, f"scene-{i}")
-        figs["scene_maps"].append({"scene": sid, "svg": svg, "caption": t(
-            "scene_points_caption", n=len(pts.get("line", [])))})
+        svg = plots.scene_points(
+            sid,
+            pts.get("line", []),
+            pts.get("sample", []),
+            scene["lines"],
+            scene["samples"],
+            int(grid),
+            t,
+            f"scene-{i}",
+        )
+        figs["scene_maps"].append(
+            {
+                "scene": sid,
+                "svg": svg,
+                "caption": t("scene_points_caption", n=len(pts.get("line", []))),
+            }
+        )
     if len(failing) > MAX_SCENE_MAPS:
         figs["notes"].append(t("maps_capped", n=MAX_SCENE_MAPS, total=len(failing)))
     return figs
 
 
-def block_context(results: dict[str, Any], lang: str = "en", figures: bool = True
-                  ) -> dict[str, Any]:
+def block_context(
+    results: dict[str, Any], lang: str = "en", figures: bool = True
+) -> dict[str, Any]:
     """Everything block.html.j2 shows, formatted in `lang`."""
     f = Formatter(lang)
     t = f.t
@@ -317,72 +392,117 @@ def block_context(results: dict[str, Any], lang: str = "en", figures: bool = Tru
             elements.append({"key": row.element, "name": t(row.element), "items": []})
         items = elements[-1]["items"]
         if not items or items[-1]["key"] != row.item:
-            items.append({"key": row.item, "name": t(row.item), "how": t(row.how),
-                          "contents": []})
-        items[-1]["contents"].append({"name": t(row.content), "status": row.status,
-                                      "status_text": f.status(row.status),
-                                      "results": [_row(r, f) for r in row.results]})
+            items.append({"key": row.item, "name": t(row.item), "how": t(row.how), "contents": []})
+        items[-1]["contents"].append(
+            {
+                "name": t(row.content),
+                "status": row.status,
+                "status_text": f.status(row.status),
+                "results": [_row(r, f) for r in row.results],
+            }
+        )
     general = [_row(r, f) for r in rs if not r["rule"].startswith("CP-")]
     detailed = [_row(r, f) for r in rs if r["rule"].startswith("CP-")]
-    manual = [{**_row(r, f), "verdict": f.status(r.get("value")) if r.get("value") else "–",
-               "note": (r.get("detail") or {}).get("note") or
-               (r.get("detail") or {}).get("reason") or ""}
-              for r in rs if r.get("status") == "manual"
-              or (r.get("detail") or {}).get("decided_by") == "inspector"]
+    manual = [
+        {
+            **_row(r, f),
+            "verdict": f.status(r.get("value")) if r.get("value") else "–",
+            "note": (r.get("detail") or {}).get("note")
+            or (r.get("detail") or {}).get("reason")
+            or "",
+        }
+        for r in rs
+        if r.get("status") == "manual" or (r.get("detail") or {}).get("decided_by") == "inspector"
+    ]
     waivers, exemptions = [], []
     for r in rs:
         d = r.get("detail") or {}
         if d.get("waived") or d.get("waiver_reason") or r.get("status") == "waived":
-            waivers.append({"rule": r["rule"], "group": f.group(r.get("group")),
-                            "units": ", ".join(map(str, d.get("waived") or [])) or
-                            t("whole_rule"), "reason": d.get("waiver_reason") or "",
-                            "status_text": f.status(r.get("status")), "status": r.get("status")})
+            waivers.append(
+                {
+                    "rule": r["rule"],
+                    "group": f.group(r.get("group")),
+                    "units": ", ".join(map(str, d.get("waived") or [])) or t("whole_rule"),
+                    "reason": d.get("waiver_reason") or "",
+                    "status_text": f.status(r.get("status")),
+                    "status": r.get("status"),
+                }
+            )
         if d.get("waiver_ignored"):
-            waivers.append({"rule": r["rule"], "group": f.group(r.get("group")),
-                            "units": "–", "reason": f"{t('waiver_ignored')}: "
-                            f"{d['waiver_ignored']}", "status_text": f.status(r.get("status")),
-                            "status": r.get("status")})
+            waivers.append(
+                {
+                    "rule": r["rule"],
+                    "group": f.group(r.get("group")),
+                    "units": "–",
+                    "reason": f"{t('waiver_ignored')}: {d['waiver_ignored']}",
+                    "status_text": f.status(r.get("status")),
+                    "status": r.get("status"),
+                }
+            )
         for e in d.get("exempt") or []:
             if isinstance(e, dict):
                 unit = ", ".join(str(v) for k, v in e.items() if k != "exempt_reason")
-                exemptions.append({"rule": r["rule"], "units": unit,
-                                   "reason": e.get("exempt_reason", "")})
+                exemptions.append(
+                    {"rule": r["rule"], "units": unit, "reason": e.get("exempt_reason", "")}
+                )
     rank = {s: i for i, s in enumerate(SEVERITY_ORDER)}
     failures = sorted(
-        ({**_row(r, f), "evidence": _evidence_table(r, f)} for r in rs
-         if r.get("status") in ("fail", "error", "warn")),
-        key=lambda x: rank.get(x["status"], 9))
+        (
+            {**_row(r, f), "evidence": _evidence_table(r, f)}
+            for r in rs
+            if r.get("status") in ("fail", "error", "warn")
+        ),
+        key=lambda x: rank.get(x["status"], 9),
+    )
     statuses = scene_statuses(results)
     counts = results.get("counts") or {}
     summary = results.get("summary") or {}
     return {
-        "t": t, "f": f, "lang": lang, "r": results,
+        "t": t,
+        "f": f,
+        "lang": lang,
+        "r": results,
         "verdict": results.get("verdict", "error"),
         "verdict_text": f.verdict(results.get("verdict", "error")),
         "inspector": results.get("inspector") or t("not_given"),
         "date": (results.get("generated_at") or "").replace("T", " ").replace("Z", " UTC"),
-        "counts_text": t("counts_line", pass_=counts.get("pass", 0), fail=counts.get("fail", 0),
-                         warn=counts.get("warn", 0), waived=counts.get("waived", 0),
-                         manual=counts.get("manual", 0), na=counts.get("not_applicable", 0),
-                         error=counts.get("error", 0)),
-        "contents_text": t("contents_text", scenes=summary.get("scenes", "–"),
-                           tie_points=summary.get("tie_points", "–"),
-                           observations=summary.get("tie_point_observations", "–"),
-                           checkpoints=summary.get("checkpoints", "–")),
-        "elements": elements, "others": [_row(r, f) for r in others],
-        "general": general, "detailed": detailed,
+        "counts_text": t(
+            "counts_line",
+            pass_=counts.get("pass", 0),
+            fail=counts.get("fail", 0),
+            warn=counts.get("warn", 0),
+            waived=counts.get("waived", 0),
+            manual=counts.get("manual", 0),
+            na=counts.get("not_applicable", 0),
+            error=counts.get("error", 0),
+        ),
+        "contents_text": t(
+            "contents_text",
+            scenes=summary.get("scenes", "–"),
+            tie_points=summary.get("tie_points", "–"),
+            observations=summary.get("tie_point_observations", "–"),
+            checkpoints=summary.get("checkpoints", "–"),
+        ),
+        "elements": elements,
+        "others": [_row(r, f) for r in others],
+        "general": general,
+        "detailed": detailed,
         "cp_tables": _checkpoint_tables(results, f),
         "cp_points": _checkpoint_points(results, f),
-        "manual": manual, "waivers": waivers, "exemptions": exemptions,
+        "manual": manual,
+        "waivers": waivers,
+        "exemptions": exemptions,
         "failures": failures,
-        "figures": _figures(results, f, statuses) if figures else
-        {"general": [], "detailed": [], "scene_maps": [], "notes": []},
+        "figures": _figures(results, f, statuses)
+        if figures
+        else {"general": [], "detailed": [], "scene_maps": [], "notes": []},
         "pending": results.get("pending_manual") or [],
     }
 
 
-def summary_context(summary: dict[str, Any], block_results: list[dict[str, Any]],
-                    lang: str = "en", pdf: bool = True) -> dict[str, Any]:
+def summary_context(
+    summary: dict[str, Any], block_results: list[dict[str, Any]], lang: str = "en", pdf: bool = True
+) -> dict[str, Any]:
     """Everything summary.html.j2 shows: verdicts, counts per rule, the sampled blocks."""
     f = Formatter(lang)
     t = f.t
@@ -390,14 +510,20 @@ def summary_context(summary: dict[str, Any], block_results: list[dict[str, Any]]
     blocks = []
     for b in summary.get("blocks", []):
         report = b.get("report") or f"{b['block_id']}/report.html"
-        blocks.append({**b, "verdict_text": f.verdict(b.get("verdict", "error")),
-                       "report": report,
-                       "pdf": report[: -len(".html")] + ".pdf" if pdf and
-                       report.endswith(".html") else None,
-                       "sampled_text": f.num(bool(b.get("sampled"))),
-                       "failed": ", ".join(b.get("failed_rules") or []),
-                       "warned": ", ".join(b.get("warned_rules") or []),
-                       "pending": ", ".join(b.get("pending_manual") or [])})
+        blocks.append(
+            {
+                **b,
+                "verdict_text": f.verdict(b.get("verdict", "error")),
+                "report": report,
+                "pdf": report[: -len(".html")] + ".pdf"
+                if pdf and report.endswith(".html")
+                else None,
+                "sampled_text": f.num(bool(b.get("sampled"))),
+                "failed": ", ".join(b.get("failed_rules") or []),
+                "warned": ", ".join(b.get("warned_rules") or []),
+                "pending": ", ".join(b.get("pending_manual") or []),
+            }
+        )
     sampled = []
     for b in summary.get("blocks", []):
         r = by_id.get(b["block_id"])
@@ -411,30 +537,53 @@ def summary_context(summary: dict[str, Any], block_results: list[dict[str, Any]]
                 status_of.setdefault((g["component"], g["method"]), []).append(res["status"])
         for s in stats:
             st = worst(status_of.get((s["component"], s["method"]), []))
-            sampled.append({
-                "block_id": b["block_id"], "report": b.get("report"),
-                "component": f.component(s["component"]), "method": f.method(s["method"]),
-                "n_total": f.num(s.get("n_total")), "n": f.num(s.get("n")),
-                "medium_error": ("* " if s.get("used_mean") else "") +
-                f.num(s.get("medium_error"), 2),
-                "max_error": f.num(s.get("max_error"), 2), "n_gross": f.num(s.get("n_gross")),
-                "gross_rate": f.num(s.get("gross_rate"), 1) + " %"
-                if s.get("gross_rate") is not None else "–",
-                "used_mean": bool(s.get("used_mean")), "status": st, "status_text": f.status(st)})
+            sampled.append(
+                {
+                    "block_id": b["block_id"],
+                    "report": b.get("report"),
+                    "component": f.component(s["component"]),
+                    "method": f.method(s["method"]),
+                    "n_total": f.num(s.get("n_total")),
+                    "n": f.num(s.get("n")),
+                    "medium_error": ("* " if s.get("used_mean") else "")
+                    + f.num(s.get("medium_error"), 2),
+                    "max_error": f.num(s.get("max_error"), 2),
+                    "n_gross": f.num(s.get("n_gross")),
+                    "gross_rate": f.num(s.get("gross_rate"), 1) + " %"
+                    if s.get("gross_rate") is not None
+                    else "–",
+                    "used_mean": bool(s.get("used_mean")),
+                    "status": st,
+                    "status_text": f.status(st),
+                }
+            )
     statuses = ("pass", "fail", "warn", "waived", "manual", "not_applicable", "error")
-    rules = [{"rule": rid, "counts": [c.get(s, 0) for s in statuses]}
-             for rid, c in (summary.get("rules") or {}).items()]
+    rules = [
+        {"rule": rid, "counts": [c.get(s, 0) for s in statuses]}
+        for rid, c in (summary.get("rules") or {}).items()
+    ]
     c = summary.get("counts") or {}
     return {
-        "t": t, "f": f, "lang": lang, "s": summary,
+        "t": t,
+        "f": f,
+        "lang": lang,
+        "s": summary,
         "verdict": summary.get("verdict", "error"),
         "verdict_text": f.verdict(summary.get("verdict", "error")),
         "inspector": summary.get("inspector") or t("not_given"),
         "date": (summary.get("generated_at") or "").replace("T", " ").replace("Z", " UTC"),
-        "counts_text": t("batch_counts", blocks=c.get("blocks", 0), pass_=c.get("pass", 0),
-                         fail=c.get("fail", 0), unreadable=c.get("unreadable", 0)),
-        "blocks": blocks, "sampled": sampled, "any_mean": any(x["used_mean"] for x in sampled),
-        "rule_statuses": [f.status(s) for s in statuses], "rules": rules,
+        "counts_text": t(
+            "batch_counts",
+            blocks=c.get("blocks", 0),
+            pass_=c.get("pass", 0),
+            fail=c.get("fail", 0),
+            unreadable=c.get("unreadable", 0),
+        ),
+        "blocks": blocks,
+        "sampled": sampled,
+        "any_mean": any(x["used_mean"] for x in sampled),
+        "rule_statuses": [f.status(s) for s in statuses],
+        "rules": rules,
         "unreadable": summary.get("unreadable") or [],
     }
 

@@ -24,34 +24,60 @@ def _read_json(path: Path) -> tuple[Any, bytes]:
     except UnicodeDecodeError as exc:
         raise InputError(Problem(str(path), f"is not UTF-8 text (byte {exc.start})")) from None
     except json.JSONDecodeError as exc:
-        raise InputError(Problem(str(path), f"is not valid JSON: {exc.msg} (column {exc.colno})",
-                                 line=exc.lineno)) from None
+        raise InputError(
+            Problem(
+                str(path), f"is not valid JSON: {exc.msg} (column {exc.colno})", line=exc.lineno
+            )
+        ) from None
 
 
 def _check_results(path: Path, doc: Any) -> dict[str, Any]:
     if not isinstance(doc, dict):
-        raise InputError(Problem(str(path), "not a results document: expected a JSON object with "
-                                 "block_id, verdict and results", line=1))
+        raise InputError(
+            Problem(
+                str(path),
+                "not a results document: expected a JSON object with block_id, verdict and results",
+                line=1,
+            )
+        )
     missing = [k for k in RESULT_KEYS if k not in doc]
     if missing:
-        raise InputError(Problem(str(path), f"not a results document: missing key(s) "
-                                 f"{', '.join(missing)} (contract v1 results.json)", line=1))
+        raise InputError(
+            Problem(
+                str(path),
+                f"not a results document: missing key(s) "
+                f"{', '.join(missing)} (contract v1 results.json)",
+                line=1,
+            )
+        )
     if not isinstance(doc["results"], list) or not all(
-            isinstance(r, dict) and "rule" in r and "status" in r for r in doc["results"]):
-        raise InputError(Problem(str(path), "not a results document: 'results' must be a list "
-                                 "of objects each with 'rule' and 'status'"))
+        isinstance(r, dict) and "rule" in r and "status" in r for r in doc["results"]
+    ):
+        raise InputError(
+            Problem(
+                str(path),
+                "not a results document: 'results' must be a list "
+                "of objects each with 'rule' and 'status'",
+            )
+        )
     return doc
 
 
 def _check_summary(path: Path, doc: Any) -> dict[str, Any]:
     if not isinstance(doc, dict) or not isinstance(doc.get("blocks"), list):
-        raise InputError(Problem(str(path), "not a batch summary: expected a JSON object with a "
-                                 "'blocks' list (summary.json)", line=1))
+        raise InputError(
+            Problem(
+                str(path),
+                "not a batch summary: expected a JSON object with a 'blocks' list (summary.json)",
+                line=1,
+            )
+        )
     return doc
 
 
-def gather(paths: list[Path]) -> tuple[list[tuple[Path, dict, bytes]],
-                                         tuple[Path, dict, bytes] | None]:
+def gather(
+    paths: list[Path],
+) -> tuple[list[tuple[Path, dict, bytes]], tuple[Path, dict, bytes] | None]:
     """The results documents named (files or folders holding them) and a summary, if any."""
     results: list[tuple[Path, dict, bytes]] = []
     summary: tuple[Path, dict, bytes] | None = None
@@ -66,8 +92,11 @@ def gather(paths: list[Path]) -> tuple[list[tuple[Path, dict, bytes]],
                 if (p / "summary.json").is_file():
                     files.append(p / "summary.json")
                 if not found and not (p / "summary.json").is_file():
-                    problems.append(Problem(str(p), "holds no results.json (nor */results.json "
-                                            "or summary.json)"))
+                    problems.append(
+                        Problem(
+                            str(p), "holds no results.json (nor */results.json or summary.json)"
+                        )
+                    )
                 files.extend(found)
         elif p.is_file():
             files.append(p)
@@ -108,8 +137,7 @@ def gather(paths: list[Path]) -> tuple[list[tuple[Path, dict, bytes]],
         bid = str(doc["block_id"])
         if bid in seen:
             if seen[bid].resolve() != f.resolve():
-                problems.append(Problem(str(f), f"block_id {bid} is also the block of "
-                                        f"{seen[bid]}"))
+                problems.append(Problem(str(f), f"block_id {bid} is also the block of {seen[bid]}"))
             continue
         seen[bid] = f
         results.append((f, doc, raw))
@@ -120,16 +148,29 @@ def gather(paths: list[Path]) -> tuple[list[tuple[Path, dict, bytes]],
 
 @click.command("report")
 @click.argument("results", nargs=-1, required=True, type=click.Path(path_type=Path))
-@click.option("--out", required=True, type=click.Path(path_type=Path, file_okay=False),
-              help="Output folder: <out>/<block_id>/report.html, report.pdf, CSV exports; "
-                   "<out>/summary.html for a batch.")
-@click.option("--lang", type=click.Choice(LANGUAGES), default="en", show_default=True,
-              help="Language of the report.")
-@click.option("--templates", type=click.Path(path_type=Path, file_okay=False, exists=True),
-              help="Folder of templates that take precedence over the stock ones.")
+@click.option(
+    "--out",
+    required=True,
+    type=click.Path(path_type=Path, file_okay=False),
+    help="Output folder: <out>/<block_id>/report.html, report.pdf, CSV exports; "
+    "<out>/summary.html for a batch.",
+)
+@click.option(
+    "--lang",
+    type=click.Choice(LANGUAGES),
+    default="en",
+    show_default=True,
+    help="Language of the report.",
+)
+@click.option(
+    "--templates",
+    type=click.Path(path_type=Path, file_okay=False, exists=True),
+    help="Folder of templates that take precedence over the stock ones.",
+)
 @click.option("--pdf/--no-pdf", default=True, show_default=True, help="Also write the PDFs.")
-def command(results: tuple[Path, ...], out: Path, lang: str, templates: Path | None,
-            pdf: bool) -> int:
+def command(
+    results: tuple[Path, ...], out: Path, lang: str, templates: Path | None, pdf: bool
+) -> int:
     """Re-render reports from results.json files (or folders holding them), not recomputing.
 
     A batch folder (or its summary.json) re-renders the batch summary as well.
@@ -149,8 +190,9 @@ def command(results: tuple[Path, ...], out: Path, lang: str, templates: Path | N
         path, doc, raw = summary
         if (out / "summary.json").resolve() != path.resolve():
             write_bytes_atomic(out / "summary.json", raw)
-        written += write_summary_report(out, doc, [d for _, d, _ in docs], lang=lang,
-                                        templates=templates, pdf=pdf)
+        written += write_summary_report(
+            out, doc, [d for _, d, _ in docs], lang=lang, templates=templates, pdf=pdf
+        )
         click.echo(f"summary      {out / 'summary.html'}")
     click.echo(f"{len(written)} files written in {out}")
     return 0

@@ -46,47 +46,79 @@ PLANE = {"component": "plane"}
 HEIGHT = {"component": "height"}
 
 ELEMENTS: tuple[Element, ...] = (
-    Element("qe_data", (
-        Item("it_math", "how_process", (
-            _c("ct_coordinate_system", "MB-1"),
-            _c("ct_geodetic_datum", "MB-1"),
-            _c("ct_height_datum", "MB-2"),
-            _c("ct_projection", "MB-3"),
-        )),
-        Item("it_plane", "how_checkpoints", (
-            _c("ct_cp_plane", "CP-1", ("CP-2", PLANE), ("CP-4", PLANE), "CP-5"),
-            _c("ct_pan_ms", "RO-1"),
-        )),
-        Item("it_height", "how_checkpoints", (
-            _c("ct_cp_height", "CP-1", ("CP-3", HEIGHT), ("CP-4", HEIGHT), "CP-5"),
-        )),
-        Item("it_edge", "how_automatic", (
-            _c("ct_between_blocks", "RO-2"),
-            _c("ct_within_block", "RO-3", "RO-4"),
-        )),
-    )),
-    Element("qe_layout", (
-        Item("it_points", "how_process", (
-            _c("ct_tp_number", "TP-4"),
-            _c("ct_tp_distribution", "TP-5"),
-        )),
-    )),
-    Element("qe_attachment", (
-        Item("it_report", "how_process", (
-            _c("ct_ro_report", "TP-1", "TP-2", "TP-3", "DOC-2"),
-            _c("ct_ao_report", "DOC-2"),
-        )),
-        Item("it_documents", "how_process_person", (
-            _c("ct_documents", "DOC-1", "DOC-3"),
-        )),
-    )),
+    Element(
+        "qe_data",
+        (
+            Item(
+                "it_math",
+                "how_process",
+                (
+                    _c("ct_coordinate_system", "MB-1"),
+                    _c("ct_geodetic_datum", "MB-1"),
+                    _c("ct_height_datum", "MB-2"),
+                    _c("ct_projection", "MB-3"),
+                ),
+            ),
+            Item(
+                "it_plane",
+                "how_checkpoints",
+                (
+                    _c("ct_cp_plane", "CP-1", ("CP-2", PLANE), ("CP-4", PLANE), "CP-5"),
+                    _c("ct_pan_ms", "RO-1"),
+                ),
+            ),
+            Item(
+                "it_height",
+                "how_checkpoints",
+                (_c("ct_cp_height", "CP-1", ("CP-3", HEIGHT), ("CP-4", HEIGHT), "CP-5"),),
+            ),
+            Item(
+                "it_edge",
+                "how_automatic",
+                (
+                    _c("ct_between_blocks", "RO-2"),
+                    _c("ct_within_block", "RO-3", "RO-4"),
+                ),
+            ),
+        ),
+    ),
+    Element(
+        "qe_layout",
+        (
+            Item(
+                "it_points",
+                "how_process",
+                (
+                    _c("ct_tp_number", "TP-4"),
+                    _c("ct_tp_distribution", "TP-5"),
+                ),
+            ),
+        ),
+    ),
+    Element(
+        "qe_attachment",
+        (
+            Item(
+                "it_report",
+                "how_process",
+                (
+                    _c("ct_ro_report", "TP-1", "TP-2", "TP-3", "DOC-2"),
+                    _c("ct_ao_report", "DOC-2"),
+                ),
+            ),
+            Item("it_documents", "how_process_person", (_c("ct_documents", "DOC-1", "DOC-3"),)),
+        ),
+    ),
 )
 
 # Names a result (or a pack) may give for its content or element → message keys.
 CONTENT_NAMES = {
-    "coordinate system": "ct_coordinate_system", "geodetic datum": "ct_geodetic_datum",
-    "height datum": "ct_height_datum", "projection": "ct_projection",
-    "map projection": "ct_projection", "checkpoint plane accuracy": "ct_cp_plane",
+    "coordinate system": "ct_coordinate_system",
+    "geodetic datum": "ct_geodetic_datum",
+    "height datum": "ct_height_datum",
+    "projection": "ct_projection",
+    "map projection": "ct_projection",
+    "checkpoint plane accuracy": "ct_cp_plane",
     "pan-ms relative orientation accuracy": "ct_pan_ms",
     "pan–ms relative orientation accuracy": "ct_pan_ms",
     "checkpoint height accuracy": "ct_cp_height",
@@ -116,8 +148,7 @@ def _matches(result: dict[str, Any], rule: str, where: dict[str, str]) -> bool:
 
 
 def mapped_rules() -> set[str]:
-    return {rule for e in ELEMENTS for i in e.items for c in i.contents
-            for rule, _ in c.selectors}
+    return {rule for e in ELEMENTS for i in e.items for c in i.contents for rule, _ in c.selectors}
 
 
 @dataclass
@@ -143,12 +174,24 @@ def content_rows(results: list[dict[str, Any]]) -> tuple[list[ContentRow], list[
     for element in ELEMENTS:
         for item in element.items:
             for content in item.contents:
-                mine = [i for i, r in enumerate(results) if i not in self_named and any(
-                    _matches(r, rule, where) for rule, where in content.selectors)]
+                mine = [
+                    i
+                    for i, r in enumerate(results)
+                    if i not in self_named
+                    and any(_matches(r, rule, where) for rule, where in content.selectors)
+                ]
                 mine += named.get(content.key, [])
                 claimed.update(mine)
                 chosen = [results[i] for i in sorted(set(mine))]
-                rows.append(ContentRow(element.key, item.key, item.how, content.key,
-                                       worst([r["status"] for r in chosen]), chosen))
+                rows.append(
+                    ContentRow(
+                        element.key,
+                        item.key,
+                        item.how,
+                        content.key,
+                        worst([r["status"] for r in chosen]),
+                        chosen,
+                    )
+                )
     others = [r for i, r in enumerate(results) if i not in claimed]
     return rows, others

@@ -7,10 +7,30 @@ import io
 import json
 from typing import Any
 
-CHECKPOINT_COLUMNS = ["component", "method", "point_id", "reference_id", "dx_m", "dy_m", "dz_m",
-                      "error_m", "abs_error_m", "bound_m", "gross"]
-EVIDENCE_COLUMNS = ["block_id", "rule", "group", "status", "clause", "value", "threshold",
-                    "unit", "row"]
+CHECKPOINT_COLUMNS = [
+    "component",
+    "method",
+    "point_id",
+    "reference_id",
+    "dx_m",
+    "dy_m",
+    "dz_m",
+    "error_m",
+    "abs_error_m",
+    "bound_m",
+    "gross",
+]
+EVIDENCE_COLUMNS = [
+    "block_id",
+    "rule",
+    "group",
+    "status",
+    "clause",
+    "value",
+    "threshold",
+    "unit",
+    "row",
+]
 
 
 def _cell(v: Any) -> Any:
@@ -42,7 +62,8 @@ def _union(first: list[str], rows: list[dict[str, Any]]) -> list[str]:
 def checkpoints_csv(results: dict[str, Any]) -> str:
     """Every checkpoint of every component and method (measurements.checkpoint_accuracy.point)."""
     points = ((results.get("measurements") or {}).get("checkpoint_accuracy") or {}).get(
-        "point") or []
+        "point"
+    ) or []
     rows = [{"block_id": results.get("block_id"), **p} for p in points]
     return _csv(_union(["block_id", *CHECKPOINT_COLUMNS], rows), rows)
 
@@ -54,15 +75,23 @@ def evidence_csv(results: dict[str, Any]) -> str:
         if res.get("status") not in ("fail", "error", "warn", "waived"):
             continue
         group = ";".join(f"{k}={v}" for k, v in (res.get("group") or {}).items())
-        base = {"block_id": results.get("block_id"), "rule": res["rule"], "group": group,
-                "status": res["status"], "clause": res.get("clause"), "value": res.get("value"),
-                "threshold": res.get("threshold"), "unit": res.get("unit")}
+        base = {
+            "block_id": results.get("block_id"),
+            "rule": res["rule"],
+            "group": group,
+            "status": res["status"],
+            "clause": res.get("clause"),
+            "value": res.get("value"),
+            "threshold": res.get("threshold"),
+            "unit": res.get("unit"),
+        }
         evidence = res.get("evidence") or []
         if not evidence:
             rows.append({**base, "row": ""})
         for i, e in enumerate(evidence, start=1):
-            rows.append({**{f"evidence_{k}" if k in base else k: v for k, v in e.items()},
-                         **base, "row": i})
+            rows.append(
+                {**{f"evidence_{k}" if k in base else k: v for k, v in e.items()}, **base, "row": i}
+            )
     return _csv(_union(EVIDENCE_COLUMNS, rows), rows)
 
 

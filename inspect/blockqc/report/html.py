@@ -43,13 +43,20 @@ def environment(user_templates: Path | None = None) -> jinja2.Environment:
     return env
 
 
-def render_page(template: str, ctx: dict[str, Any], env: jinja2.Environment | None = None, *,
-                for_pdf: bool = False) -> str:
+def render_page(
+    template: str,
+    ctx: dict[str, Any],
+    env: jinja2.Environment | None = None,
+    *,
+    for_pdf: bool = False,
+) -> str:
     """One page from a prepared context; `for_pdf` adds the packaged CJK font for WeasyPrint."""
     env = env or environment()
     return env.get_template(template).render(
-        **ctx, font_url=FONT_FILE.as_uri() if for_pdf else "",
-        figure=_figure_as_image if for_pdf else _figure_inline)
+        **ctx,
+        font_url=FONT_FILE.as_uri() if for_pdf else "",
+        figure=_figure_as_image if for_pdf else _figure_inline,
+    )
 
 
 def _figure_inline(svg: str) -> Markup:
@@ -63,8 +70,13 @@ def _figure_as_image(svg: str) -> Markup:
     return Markup(f'<img class="figure" alt="" src="data:image/svg+xml;base64,{data}">')
 
 
-def render_block(results: dict[str, Any], env: jinja2.Environment | None = None, *,
-                 lang: str = "en", for_pdf: bool = False) -> str:
+def render_block(
+    results: dict[str, Any],
+    env: jinja2.Environment | None = None,
+    *,
+    lang: str = "en",
+    for_pdf: bool = False,
+) -> str:
     """The block report's HTML."""
     return render_page("block.html.j2", block_context(results, lang), env, for_pdf=for_pdf)
 

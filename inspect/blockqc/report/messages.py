@@ -11,12 +11,18 @@ MESSAGES: dict[str, tuple[str, str]] = {
     # --- page furniture
     "block_report": ("Acceptance report of block {block}", "区域网 {block} 验收报告"),
     "batch_summary": ("Batch summary", "批次汇总"),
-    "report_subtitle": ("Satellite block adjustment without ground control points",
-                        "无地面控制点卫星影像区域网平差成果"),
-    "generated_by": ("Generated {date} by blockqc {version}",
-                     "由 blockqc {version} 于 {date} 生成"),
-    "rendered_from": ("Rendered from results.json; rule pack files: {files}",
-                      "由 results.json 生成；规则包文件：{files}"),
+    "report_subtitle": (
+        "Satellite block adjustment without ground control points",
+        "无地面控制点卫星影像区域网平差成果",
+    ),
+    "generated_by": (
+        "Generated {date} by blockqc {version}",
+        "由 blockqc {version} 于 {date} 生成",
+    ),
+    "rendered_from": (
+        "Rendered from results.json; rule pack files: {files}",
+        "由 results.json 生成；规则包文件：{files}",
+    ),
     # --- header
     "block": ("Block", "区域网"),
     "sensor": ("Sensor", "传感器"),
@@ -26,10 +32,12 @@ MESSAGES: dict[str, tuple[str, str]] = {
     "verdict": ("Overall verdict", "总体结论"),
     "delivery": ("Delivery", "成果路径"),
     "contents": ("Contents", "成果内容"),
-    "contents_text": ("{scenes} scenes, {tie_points} tie points ({observations} observations), "
-                      "{checkpoints} checkpoints",
-                      "影像 {scenes} 景，连接点 {tie_points} 个（观测 {observations} 个），"
-                      "检查点 {checkpoints} 个"),
+    "contents_text": (
+        "{scenes} scenes, {tie_points} tie points ({observations} observations), "
+        "{checkpoints} checkpoints",
+        "影像 {scenes} 景，连接点 {tie_points} 个（观测 {observations} 个），"
+        "检查点 {checkpoints} 个",
+    ),
     "complete": ("Complete", "检查完成"),
     "awaiting": ("Awaiting the inspector", "待检查员判定"),
     "not_given": ("not given", "未填写"),
@@ -42,10 +50,12 @@ MESSAGES: dict[str, tuple[str, str]] = {
     "verdict_pass": ("PASS", "合格"),
     "verdict_fail": ("FAIL", "不合格"),
     "verdict_error": ("ERROR", "错误"),
-    "counts_line": ("{pass_} pass, {fail} fail, {warn} warn, {waived} waived, {manual} manual, "
-                    "{na} not applicable, {error} error",
-                    "合格 {pass_}，不合格 {fail}，警告 {warn}，豁免 {waived}，待人工 {manual}，"
-                    "不适用 {na}，错误 {error}"),
+    "counts_line": (
+        "{pass_} pass, {fail} fail, {warn} warn, {waived} waived, {manual} manual, "
+        "{na} not applicable, {error} error",
+        "合格 {pass_}，不合格 {fail}，警告 {warn}，豁免 {waived}，待人工 {manual}，"
+        "不适用 {na}，错误 {error}",
+    ),
     # --- statuses
     "status_pass": ("pass", "合格"),
     "status_fail": ("fail", "不合格"),
@@ -56,32 +66,46 @@ MESSAGES: dict[str, tuple[str, str]] = {
     "status_error": ("error", "错误"),
     # --- sections
     "sec_contents": ("Inspection contents", "检查内容"),
-    "sec_contents_intro": ("Each inspection content of the quality-inspection method (DOMAIN §2), "
-                           "grouped by quality element and item; its status is the worst of "
-                           "the rules that decide it.",
-                           "按质量元素和检查项列出质量检查方法的各项检查内容（DOMAIN §2）；"
-                           "其状态取决定它的各条规则中最差者。"),
+    "sec_contents_intro": (
+        "Each inspection content of the quality-inspection method (DOMAIN §2), "
+        "grouped by quality element and item; its status is the worst of "
+        "the rules that decide it.",
+        "按质量元素和检查项列出质量检查方法的各项检查内容（DOMAIN §2）；"
+        "其状态取决定它的各条规则中最差者。",
+    ),
     "sec_general": ("General inspection", "概查"),
-    "sec_general_intro": ("Every delivered block, automatically: tie points, relative orientation, "
-                          "process data and documents.",
-                          "对每个提交的区域网自动检查：连接点、相对定向、过程数据与文档资料。"),
+    "sec_general_intro": (
+        "Every delivered block, automatically: tie points, relative orientation, "
+        "process data and documents.",
+        "对每个提交的区域网自动检查：连接点、相对定向、过程数据与文档资料。",
+    ),
     "sec_detailed": ("Detailed inspection: checkpoint accuracy", "详查：检查点精度"),
-    "sec_detailed_intro": ("Checkpoint statistics per component and method, in the layout of the "
-                           "published statistical tables (§CP-3..8).",
-                           "按分量和检查方法统计检查点精度，格式同公开的精度统计表（§CP-3..8）。"),
-    "not_sampled": ("This block was not sampled for detailed inspection (no checkpoints).",
-                    "该区域网未被抽取详查（无检查点）。"),
+    "sec_detailed_intro": (
+        "Checkpoint statistics per component and method, in the layout of the "
+        "published statistical tables (§CP-3..8).",
+        "按分量和检查方法统计检查点精度，格式同公开的精度统计表（§CP-3..8）。",
+    ),
+    "not_sampled": (
+        "This block was not sampled for detailed inspection (no checkpoints).",
+        "该区域网未被抽取详查（无检查点）。",
+    ),
     "sec_manual": ("Manual items", "人机交互检查项"),
-    "sec_manual_intro": ("Items decided by the inspector at the screen.",
-                         "由检查员人机交互判定的检查项。"),
+    "sec_manual_intro": (
+        "Items decided by the inspector at the screen.",
+        "由检查员人机交互判定的检查项。",
+    ),
     "sec_waivers": ("Waivers and exemptions", "豁免与例外"),
-    "sec_waivers_intro": ("Units waived by the inspector with the reason given, and units exempt "
-                          "by rule (e.g. scenes that are mostly water).",
-                          "检查员豁免的单元及其理由，以及按规则免检的单元（如大部分为水域的影像）。"),
+    "sec_waivers_intro": (
+        "Units waived by the inspector with the reason given, and units exempt "
+        "by rule (e.g. scenes that are mostly water).",
+        "检查员豁免的单元及其理由，以及按规则免检的单元（如大部分为水域的影像）。",
+    ),
     "sec_failures": ("Failures and their evidence", "不合格项及其依据"),
-    "sec_failures_intro": ("Every result that is not a pass, with the offending scenes, pairs, "
-                           "points and values, the worst first.",
-                           "所有未合格的结果，列出问题影像、像对、点位及其数值，最差者在前。"),
+    "sec_failures_intro": (
+        "Every result that is not a pass, with the offending scenes, pairs, "
+        "points and values, the worst first.",
+        "所有未合格的结果，列出问题影像、像对、点位及其数值，最差者在前。",
+    ),
     "no_failures": ("No failures.", "无不合格项。"),
     "sec_summary_blocks": ("Blocks", "区域网"),
     "sec_summary_rules": ("Results per rule", "各规则结果统计"),
@@ -93,8 +117,10 @@ MESSAGES: dict[str, tuple[str, str]] = {
     "shown": ("shown", "显示"),
     "sort_hint": ("Click a column heading to sort.", "点击列标题排序。"),
     "report_links": ("Reports", "报告"),
-    "batch_counts": ("{blocks} blocks: {pass_} pass, {fail} fail, {unreadable} unreadable",
-                     "区域网 {blocks} 个：合格 {pass_}，不合格 {fail}，无法读取 {unreadable}"),
+    "batch_counts": (
+        "{blocks} blocks: {pass_} pass, {fail} fail, {unreadable} unreadable",
+        "区域网 {blocks} 个：合格 {pass_}，不合格 {fail}，无法读取 {unreadable}",
+    ),
     "blocks": ("Blocks", "区域网"),
     "sampled": ("Sampled", "抽样"),
     "failed_rules": ("Failed rules", "不合格规则"),
@@ -119,8 +145,10 @@ MESSAGES: dict[str, tuple[str, str]] = {
     "units": ("Units", "单元"),
     "kind": ("Kind", "类别"),
     "evidence": ("Evidence", "依据"),
-    "evidence_rows": ("{shown} row(s) of {total}, the worst first",
-                      "共 {total} 行，显示 {shown} 行，最差者在前"),
+    "evidence_rows": (
+        "{shown} row(s) of {total}, the worst first",
+        "共 {total} 行，显示 {shown} 行，最差者在前",
+    ),
     "not_checked": ("not checked by this pack", "本规则包未检查"),
     "component": ("Component", "分量"),
     "n_total": ("Checkpoints", "检查点数"),
@@ -137,8 +165,10 @@ MESSAGES: dict[str, tuple[str, str]] = {
     "agree": ("agree", "一致"),
     "disagree": ("differ", "不一致"),
     "spread": ("Spread (m)", "差值（m）"),
-    "used_mean_note": ("Fewer than 20 checkpoints: the mean error replaces the medium error "
-                       "(§CP-7).", "检查点少于 20 个：以平均误差代替中误差（§CP-7）。"),
+    "used_mean_note": (
+        "Fewer than 20 checkpoints: the mean error replaces the medium error (§CP-7).",
+        "检查点少于 20 个：以平均误差代替中误差（§CP-7）。",
+    ),
     "checkpoint_list": ("Checkpoints", "检查点明细"),
     "point_id": ("Point", "点号"),
     "reference_id": ("Reference", "参考数据"),
@@ -156,22 +186,34 @@ MESSAGES: dict[str, tuple[str, str]] = {
     # --- titles of the stock rules (used when a result's title is the stock English one)
     "rt_MB-1": ("Geodetic coordinate system is WGS-84", "大地坐标系为 WGS-84"),
     "rt_MB-2": ("Heights are ellipsoidal (WGS-84)", "高程为 WGS-84 椭球高（大地高）"),
-    "rt_MB-3": ("UTM projection in the block's zone (UPS in polar regions)",
-                "采用区域网所在带的 UTM 投影（极区为 UPS）"),
+    "rt_MB-3": (
+        "UTM projection in the block's zone (UPS in polar regions)",
+        "采用区域网所在带的 UTM 投影（极区为 UPS）",
+    ),
     "rt_TP-1": ("Tie-point error statistic", "连接点误差统计值"),
     "rt_TP-2": ("Largest tie-point error", "连接点最大误差"),
-    "rt_TP-3": ("Share of tie points with errors in (1.0, 1.5] px",
-                "误差在 (1.0, 1.5] 像素之间的连接点比例"),
+    "rt_TP-3": (
+        "Share of tie points with errors in (1.0, 1.5] px",
+        "误差在 (1.0, 1.5] 像素之间的连接点比例",
+    ),
     "rt_TP-4": ("At least 100 tie points in every scene", "每景影像至少 100 个连接点"),
     "rt_TP-5": ("Tie points uniformly distributed in every scene", "每景影像连接点分布均匀"),
-    "rt_RO-1": ("PAN–MS registration within one MS pixel",
-                "全色与多光谱配准差不超过 1 个多光谱像元"),
-    "rt_RO-2": ("Discrepancies with adjacent blocks below 2·m",
-                "与相邻区域网的接边差小于 2 倍中误差"),
-    "rt_RO-3": ("Each adjacent-image discrepancy below 2√2·m",
-                "相邻影像间每个接边差小于 2√2 倍中误差"),
-    "rt_RO-4": ("RMS of adjacent-image discrepancies within √2·m",
-                "相邻影像接边差的均方根不超过 √2 倍中误差"),
+    "rt_RO-1": (
+        "PAN–MS registration within one MS pixel",
+        "全色与多光谱配准差不超过 1 个多光谱像元",
+    ),
+    "rt_RO-2": (
+        "Discrepancies with adjacent blocks below 2·m",
+        "与相邻区域网的接边差小于 2 倍中误差",
+    ),
+    "rt_RO-3": (
+        "Each adjacent-image discrepancy below 2√2·m",
+        "相邻影像间每个接边差小于 2√2 倍中误差",
+    ),
+    "rt_RO-4": (
+        "RMS of adjacent-image discrepancies within √2·m",
+        "相邻影像接边差的均方根不超过 √2 倍中误差",
+    ),
     "rt_CP-1": ("20 to 50 checkpoints on the sampled block", "抽样区域网布设 20 至 50 个检查点"),
     "rt_CP-2": ("Checkpoint plane medium error within the norm", "检查点平面中误差不超过规定值"),
     "rt_CP-3": ("Checkpoint height medium error within the norm", "检查点高程中误差不超过规定值"),
@@ -212,8 +254,10 @@ MESSAGES: dict[str, tuple[str, str]] = {
     "whole_rule": ("the whole rule", "整条规则"),
     "waiver_ignored": ("Waiver ignored", "豁免无效"),
     "truncated": ("{n} more not listed in results.json", "另有 {n} 行未列入 results.json"),
-    "maps_capped": ("The first {n} of {total} failing scenes are drawn.",
-                    "仅绘出 {total} 景不合格影像中的前 {n} 景。"),
+    "maps_capped": (
+        "The first {n} of {total} failing scenes are drawn.",
+        "仅绘出 {total} 景不合格影像中的前 {n} 景。",
+    ),
     # --- units of the stock rules
     "unit_points": ("points", "个"),
     "unit_share of cells": ("share of cells", "格网覆盖率"),
@@ -238,22 +282,26 @@ MESSAGES: dict[str, tuple[str, str]] = {
     "ct_cp_plane": ("Checkpoint plane accuracy", "检查点平面精度"),
     "ct_pan_ms": ("PAN–MS relative orientation accuracy", "全色多光谱相对定向精度"),
     "ct_cp_height": ("Checkpoint height accuracy", "检查点高程精度"),
-    "ct_between_blocks": ("Relative orientation accuracy between blocks",
-                          "区域网间相对定向精度"),
-    "ct_within_block": ("Relative orientation accuracy within blocks (adjacent images)",
-                        "区域网内相对定向精度（相邻影像）"),
+    "ct_between_blocks": ("Relative orientation accuracy between blocks", "区域网间相对定向精度"),
+    "ct_within_block": (
+        "Relative orientation accuracy within blocks (adjacent images)",
+        "区域网内相对定向精度（相邻影像）",
+    ),
     "ct_ro_report": ("Relative orientation accuracy report", "相对定向精度报告"),
     "ct_ao_report": ("Absolute orientation accuracy report", "绝对定向精度报告"),
     "ct_tp_number": ("Number of connection points", "连接点数量"),
     "ct_tp_distribution": ("Distribution of connection points", "连接点分布"),
-    "ct_documents": ("Completeness and standardization of the documents",
-                     "文档资料完整性与规范性"),
+    "ct_documents": ("Completeness and standardization of the documents", "文档资料完整性与规范性"),
     "how_process": ("verification of process data", "过程数据核查"),
-    "how_checkpoints": ("checkpoints: high-precision, same-accuracy or recalculation",
-                        "检查点：高精度数据法、同精度数据法或其他软件重新计算法"),
+    "how_checkpoints": (
+        "checkpoints: high-precision, same-accuracy or recalculation",
+        "检查点：高精度数据法、同精度数据法或其他软件重新计算法",
+    ),
     "how_automatic": ("automatic, over the process data", "基于过程数据自动检查"),
-    "how_process_person": ("verification of process data; partly by a person",
-                           "过程数据核查，部分人工判定"),
+    "how_process_person": (
+        "verification of process data; partly by a person",
+        "过程数据核查，部分人工判定",
+    ),
     # --- methods and components
     "method_high_precision": ("High-precision data", "高精度数据法"),
     "method_same_accuracy": ("Same-accuracy data", "同精度数据法"),
@@ -270,8 +318,10 @@ MESSAGES: dict[str, tuple[str, str]] = {
     "fig_tp_hist": ("Tie-point residuals", "连接点残差直方图"),
     "fig_tp_counts": ("Tie points per scene", "每景影像连接点数量"),
     "fig_footprints": ("Scene footprints by status", "影像范围及检查状态"),
-    "sec_scene_maps": ("Tie-point distribution of the scenes failing TP-4 / TP-5",
-                       "TP-4 / TP-5 不合格影像的连接点分布"),
+    "sec_scene_maps": (
+        "Tie-point distribution of the scenes failing TP-4 / TP-5",
+        "TP-4 / TP-5 不合格影像的连接点分布",
+    ),
     "fig_scene_points": ("Tie-point distribution of scene {scene}", "影像 {scene} 的连接点分布"),
     "ax_error_m": ("error (m)", "误差（m）"),
     "ax_residual_px": ("residual √(v_l² + v_s²) (px)", "残差 √(v_l² + v_s²)（像素）"),
@@ -292,14 +342,21 @@ MESSAGES: dict[str, tuple[str, str]] = {
     "lg_minimum": ("minimum {n}", "最少 {n} 个"),
     "lg_exempt": ("exempt", "免检"),
     "lg_vector_scale": ("arrow of {m} m", "箭头长 {m} m"),
-    "no_points_kept": ("The points of this scene are not in results.json.",
-                       "results.json 中没有该影像的连接点。"),
-    "scene_points_caption": ("{n} points shown; 3×3 grid, land cells must each hold points (TP-5).",
-                             "显示 {n} 个点；3×3 格网，每个陆地格网须有连接点（TP-5）。"),
-    "vector_no_positions": ("The checkpoints' positions are not in results.json: the plane "
-                            "errors are drawn from a common origin.",
-                            "results.json 中没有检查点坐标：平面误差从同一原点绘出。"),
+    "no_points_kept": (
+        "The points of this scene are not in results.json.",
+        "results.json 中没有该影像的连接点。",
+    ),
+    "scene_points_caption": (
+        "{n} points shown; 3×3 grid, land cells must each hold points (TP-5).",
+        "显示 {n} 个点；3×3 格网，每个陆地格网须有连接点（TP-5）。",
+    ),
+    "vector_no_positions": (
+        "The checkpoints' positions are not in results.json: the plane "
+        "errors are drawn from a common origin.",
+        "results.json 中没有检查点坐标：平面误差从同一原点绘出。",
+    ),
 }
+
 
 def translator(lang: str) -> Callable[..., str]:
     """`t(key, **values)`: the label in `lang`, formatted; unknown keys are a defect, loudly."""

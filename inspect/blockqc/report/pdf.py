@@ -34,7 +34,8 @@ def html_to_pdf(html: str, base_url: Path | None = None) -> bytes:
     try:
         fonts = FontConfiguration()
         data = HTML(string=html, base_url=str(base_url) if base_url else None).write_pdf(
-            font_config=fonts)
+            font_config=fonts
+        )
     finally:
         logger.removeHandler(collect)
     bad = [m for m in collect.messages if "font" in m.lower() and FONT_FILE.name in m]

@@ -25,10 +25,20 @@ from matplotlib.patches import Circle, Patch, Polygon  # noqa: E402
 FONT_FILE = Path(__file__).resolve().parent / "fonts" / "BlockqcSansSC-Regular.otf"
 FONT_FAMILY = "Blockqc Sans SC"
 
-STATUS_COLOURS = {"pass": "#2e7d32", "fail": "#c62828", "error": "#c62828", "warn": "#e07b00",
-                  "waived": "#7b1fa2", "exempt": "#1565c0", "other": "#9e9e9e"}
-METHOD_COLOURS = {"high_precision": "#1f4e99", "same_accuracy": "#e07b00",
-                  "recalculation": "#2e7d32"}
+STATUS_COLOURS = {
+    "pass": "#2e7d32",
+    "fail": "#c62828",
+    "error": "#c62828",
+    "warn": "#e07b00",
+    "waived": "#7b1fa2",
+    "exempt": "#1565c0",
+    "other": "#9e9e9e",
+}
+METHOD_COLOURS = {
+    "high_precision": "#1f4e99",
+    "same_accuracy": "#e07b00",
+    "recalculation": "#2e7d32",
+}
 WIDTH_IN = 6.7  # the A4 text width (170 mm)
 
 _registered = False
@@ -39,29 +49,47 @@ def _setup() -> None:
     if not _registered:
         font_manager.fontManager.addfont(str(FONT_FILE))
         _registered = True
-    matplotlib.rcParams.update({
-        "font.family": ["DejaVu Sans", FONT_FAMILY],
-        "font.size": 8, "axes.titlesize": 9, "axes.labelsize": 8, "legend.fontsize": 7,
-        "xtick.labelsize": 7, "ytick.labelsize": 7, "svg.fonttype": "path",
-        "axes.spines.top": False, "axes.spines.right": False, "axes.grid": True,
-        "grid.color": "#e3e3e3", "grid.linewidth": 0.6, "axes.axisbelow": True,
-        "svg.hashsalt": "blockqc", "axes.unicode_minus": True,
-    })
+    matplotlib.rcParams.update(
+        {
+            "font.family": ["DejaVu Sans", FONT_FAMILY],
+            "font.size": 8,
+            "axes.titlesize": 9,
+            "axes.labelsize": 8,
+            "legend.fontsize": 7,
+            "xtick.labelsize": 7,
+            "ytick.labelsize": 7,
+            "svg.fonttype": "path",
+            "axes.spines.top": False,
+            "axes.spines.right": False,
+            "axes.grid": True,
+            "grid.color": "#e3e3e3",
+            "grid.linewidth": 0.6,
+            "axes.axisbelow": True,
+            "svg.hashsalt": "blockqc",
+            "axes.unicode_minus": True,
+        }
+    )
 
 
 def _svg(fig: plt.Figure, name: str) -> str:
     """The figure as an SVG element, ids prefixed with `name` so several can share a page."""
     buf = io.StringIO()
-    fig.savefig(buf, format="svg", metadata={"Date": None, "Creator": None}, bbox_inches="tight",
-                pad_inches=0.04)
+    fig.savefig(
+        buf,
+        format="svg",
+        metadata={"Date": None, "Creator": None},
+        bbox_inches="tight",
+        pad_inches=0.04,
+    )
     plt.close(fig)
     text = buf.getvalue()
-    text = text[text.index("<svg"):]
+    text = text[text.index("<svg") :]
     text = re.sub(r"<!--.*?-->", "", text, flags=re.S)  # matplotlib echoes every label here
     text = re.sub(r'\bid="([^"]+)"', lambda m: f'id="{name}-{m.group(1)}"', text)
-    text = re.sub(r'(xlink:href|href)="#([^"]+)"', lambda m: f'{m.group(1)}="#{name}-{m.group(2)}"',
-                  text)
-    text = re.sub(r'url\(#([^)]+)\)', lambda m: f"url(#{name}-{m.group(1)})", text)
+    text = re.sub(
+        r'(xlink:href|href)="#([^"]+)"', lambda m: f'{m.group(1)}="#{name}-{m.group(2)}"', text
+    )
+    text = re.sub(r"url\(#([^)]+)\)", lambda m: f"url(#{name}-{m.group(1)})", text)
     return text.replace("<svg ", '<svg class="figure" role="img" ', 1)
 
 
@@ -71,8 +99,13 @@ def _figure(height_in: float, width_in: float = WIDTH_IN) -> tuple[plt.Figure, A
     return fig, ax
 
 
-def checkpoint_errors(points: list[dict[str, Any]], stats: list[dict[str, Any]], component: str,
-                      t: Callable[..., str], name: str) -> str:
+def checkpoint_errors(
+    points: list[dict[str, Any]],
+    stats: list[dict[str, Any]],
+    component: str,
+    t: Callable[..., str],
+    name: str,
+) -> str:
     """Error of every checkpoint, norm ±m and tolerance drawn, like the published error figures."""
     fig, ax = _figure(2.5)
     rows = [p for p in points if p.get("component") == component and p.get("error_m") is not None]
@@ -86,22 +119,34 @@ def checkpoint_errors(points: list[dict[str, Any]], stats: list[dict[str, Any]],
         gross = np.array([bool(p.get("gross")) for p in mine])
         colour = METHOD_COLOURS.get(method, "#444")
         ax.vlines(xs, 0, err, color=colour, linewidth=1.2)
-        ax.plot(xs[~gross], err[~gross], "o", color=colour, markersize=3.2,
-                label=_method(t, method))
+        ax.plot(
+            xs[~gross], err[~gross], "o", color=colour, markersize=3.2, label=_method(t, method)
+        )
         if gross.any():
-            ax.plot(xs[gross], err[gross], "x", color=STATUS_COLOURS["fail"], markersize=6,
-                    markeredgewidth=1.5)
-        st = next((s for s in stats if s["component"] == component and s["method"] == method),
-                  None)
+            ax.plot(
+                xs[gross],
+                err[gross],
+                "x",
+                color=STATUS_COLOURS["fail"],
+                markersize=6,
+                markeredgewidth=1.5,
+            )
+        st = next((s for s in stats if s["component"] == component and s["method"] == method), None)
         if st is not None:
             span = (x0 - 0.5, x0 + len(mine) - 0.5)
-            for sign in ((1, -1) if component == "height" else (1,)):
+            for sign in (1, -1) if component == "height" else (1,):
                 if st.get("norm_m") is not None:
-                    ax.hlines(sign * st["norm_m"], *span, colors="#555", linestyles="--",
-                              linewidth=0.9)
+                    ax.hlines(
+                        sign * st["norm_m"], *span, colors="#555", linestyles="--", linewidth=0.9
+                    )
                 if st.get("bound_m") is not None:
-                    ax.hlines(sign * st["bound_m"], *span, colors=STATUS_COLOURS["fail"],
-                              linestyles=":", linewidth=1.1)
+                    ax.hlines(
+                        sign * st["bound_m"],
+                        *span,
+                        colors=STATUS_COLOURS["fail"],
+                        linestyles=":",
+                        linewidth=1.1,
+                    )
         ticks += list(xs)
         labels += [str(p["point_id"]) for p in mine]
         x0 += len(mine) + 1
@@ -120,8 +165,9 @@ def checkpoint_errors(points: list[dict[str, Any]], stats: list[dict[str, Any]],
     return _svg(fig, name)
 
 
-def checkpoint_vectors(points: list[dict[str, Any]], stats: list[dict[str, Any]],
-                       t: Callable[..., str], name: str) -> str:
+def checkpoint_vectors(
+    points: list[dict[str, Any]], stats: list[dict[str, Any]], t: Callable[..., str], name: str
+) -> str:
     """Plane error vectors at the checkpoints (or from one origin when positions are missing)."""
     rows = [p for p in points if p.get("component") == "plane" and p.get("dx_m") is not None]
     placed = [p for p in rows if p.get("x_m") is not None and p.get("y_m") is not None]
@@ -139,16 +185,43 @@ def checkpoint_vectors(points: list[dict[str, Any]], stats: list[dict[str, Any]]
             gross = np.array([bool(p.get("gross")) for p in placed]) & sel
             ok = sel & ~gross
             colour = METHOD_COLOURS.get(method, "#444")
-            q = ax.quiver(x[ok], y[ok], dx[ok] * scale, dy[ok] * scale, angles="xy",
-                          scale_units="xy", scale=1, color=colour, width=0.004,
-                          label=_method(t, method))
+            q = ax.quiver(
+                x[ok],
+                y[ok],
+                dx[ok] * scale,
+                dy[ok] * scale,
+                angles="xy",
+                scale_units="xy",
+                scale=1,
+                color=colour,
+                width=0.004,
+                label=_method(t, method),
+            )
             if gross.any():
-                ax.quiver(x[gross], y[gross], dx[gross] * scale, dy[gross] * scale, angles="xy",
-                          scale_units="xy", scale=1, color=STATUS_COLOURS["fail"], width=0.004)
+                ax.quiver(
+                    x[gross],
+                    y[gross],
+                    dx[gross] * scale,
+                    dy[gross] * scale,
+                    angles="xy",
+                    scale_units="xy",
+                    scale=1,
+                    color=STATUS_COLOURS["fail"],
+                    width=0.004,
+                )
             ax.plot(x[sel], y[sel], "o", color=colour, markersize=2.5)
         ref = _nice(longest / 2)
-        ax.quiverkey(q, 0.06, 0.05, ref * scale, t("lg_vector_scale", m=_num(ref)),
-                     labelpos="E", coordinates="axes", color="#333", fontproperties={"size": 7})
+        ax.quiverkey(
+            q,
+            0.06,
+            0.05,
+            ref * scale,
+            t("lg_vector_scale", m=_num(ref)),
+            labelpos="E",
+            coordinates="axes",
+            color="#333",
+            fontproperties={"size": 7},
+        )
         ax.set_aspect("equal", adjustable="datalim")
         ax.set_xlabel(t("ax_easting"))
         ax.set_ylabel(t("ax_northing"))
@@ -161,8 +234,9 @@ def checkpoint_vectors(points: list[dict[str, Any]], stats: list[dict[str, Any]]
         return _svg(fig, name)
     fig, ax = _figure(3.6, 4.6)
     norm = next((s.get("norm_m") for s in stats if s["component"] == "plane"), None)
-    bounds = sorted({s["bound_m"] for s in stats if s["component"] == "plane"
-                     and s.get("bound_m") is not None})
+    bounds = sorted(
+        {s["bound_m"] for s in stats if s["component"] == "plane" and s.get("bound_m") is not None}
+    )
     lim = 1.0
     for method in dict.fromkeys(p["method"] for p in rows):
         mine = [p for p in rows if p["method"] == method]
@@ -170,14 +244,14 @@ def checkpoint_vectors(points: list[dict[str, Any]], stats: list[dict[str, Any]]
         dy = np.array([p["dy_m"] for p in mine], float)
         gross = np.array([bool(p.get("gross")) for p in mine])
         colour = METHOD_COLOURS.get(method, "#444")
-        ax.plot(dx[~gross], dy[~gross], "o", color=colour, markersize=3.5,
-                label=_method(t, method))
+        ax.plot(dx[~gross], dy[~gross], "o", color=colour, markersize=3.5, label=_method(t, method))
         if gross.any():
             ax.plot(dx[gross], dy[gross], "x", color=STATUS_COLOURS["fail"], markersize=6)
         lim = max(lim, float(np.max(np.abs(np.r_[dx, dy]))) * 1.1)
     if norm is not None:
-        ax.add_patch(Circle((0, 0), norm, fill=False, ls="--", ec="#555", lw=0.9,
-                            label=t("lg_norm")))
+        ax.add_patch(
+            Circle((0, 0), norm, fill=False, ls="--", ec="#555", lw=0.9, label=t("lg_norm"))
+        )
         lim = max(lim, norm * 1.1)
     for b in bounds:
         ax.add_patch(Circle((0, 0), b, fill=False, ls=":", ec=STATUS_COLOURS["fail"], lw=1.1))
@@ -214,18 +288,30 @@ def _num(v: float) -> str:
     return f"{v:g}"
 
 
-def residual_histogram(hist: dict[str, Any], marks: Sequence[float], t: Callable[..., str],
-                       name: str) -> str:
+def residual_histogram(
+    hist: dict[str, Any], marks: Sequence[float], t: Callable[..., str], name: str
+) -> str:
     """Tie-point residual histogram with the 0.5 / 1.0 / 1.5 px marks (§TP-1..3)."""
     fig, ax = _figure(2.3)
     edges = np.asarray(hist["edges_px"], float)
     counts = np.asarray(hist["counts"], float)
-    ax.bar(edges[:-1], counts, width=np.diff(edges), align="edge", color="#7a9cc6",
-           edgecolor="#4f6f99", linewidth=0.4)
+    ax.bar(
+        edges[:-1],
+        counts,
+        width=np.diff(edges),
+        align="edge",
+        color="#7a9cc6",
+        edgecolor="#4f6f99",
+        linewidth=0.4,
+    )
     top = counts.max() if counts.size else 1
     for m in marks:
-        ax.axvline(m, color=STATUS_COLOURS["fail"] if m >= 1.5 else "#555",
-                   ls="--" if m < 1.5 else "-", lw=0.9)
+        ax.axvline(
+            m,
+            color=STATUS_COLOURS["fail"] if m >= 1.5 else "#555",
+            ls="--" if m < 1.5 else "-",
+            lw=0.9,
+        )
         ax.text(m, top * 1.02, f"{m:g} px", ha="center", va="bottom", fontsize=7)
     ax.set_ylim(0, top * 1.15)
     ax.set_xlim(0, max(float(edges[-1]) if edges.size else 2.0, max(marks) + 0.1))
@@ -236,20 +322,36 @@ def residual_histogram(hist: dict[str, Any], marks: Sequence[float], t: Callable
     return _svg(fig, name)
 
 
-def scene_counts(scenes: list[dict[str, Any]], minimum: float | None,
-                 status: dict[str, str], t: Callable[..., str], name: str) -> str:
+def scene_counts(
+    scenes: list[dict[str, Any]],
+    minimum: float | None,
+    status: dict[str, str],
+    t: Callable[..., str],
+    name: str,
+) -> str:
     """Tie points per scene, the minimum drawn; failing scenes red, exempt scenes blue."""
     n = len(scenes)
     fig, ax = _figure(2.6 if n <= 60 else 3.0)
     xs = np.arange(n)
     counts = np.array([s.get("n_points", 0) or 0 for s in scenes], float)
-    colours = [STATUS_COLOURS.get(status.get(s["scene_id"], "pass"), "#7a9cc6")
-               if status.get(s["scene_id"]) else "#7a9cc6" for s in scenes]
+    colours = [
+        STATUS_COLOURS.get(status.get(s["scene_id"], "pass"), "#7a9cc6")
+        if status.get(s["scene_id"])
+        else "#7a9cc6"
+        for s in scenes
+    ]
     ax.bar(xs, counts, color=colours, width=0.8)
     handles: list[Any] = []
     if minimum is not None:
-        handles.append(ax.axhline(minimum, color=STATUS_COLOURS["fail"], ls="--", lw=1,
-                                  label=t("lg_minimum", n=_num(minimum))))
+        handles.append(
+            ax.axhline(
+                minimum,
+                color=STATUS_COLOURS["fail"],
+                ls="--",
+                lw=1,
+                label=t("lg_minimum", n=_num(minimum)),
+            )
+        )
     if any(status.get(s["scene_id"]) == "exempt" for s in scenes):
         handles.append(Patch(color=STATUS_COLOURS["exempt"], label=t("lg_exempt")))
     if any(status.get(s["scene_id"]) == "waived" for s in scenes):
@@ -258,8 +360,9 @@ def scene_counts(scenes: list[dict[str, Any]], minimum: float | None,
         handles.append(Patch(color=STATUS_COLOURS["fail"], label=t("status_fail")))
     if n <= 60:
         ax.set_xticks(xs)
-        ax.set_xticklabels([str(s["scene_id"]) for s in scenes], rotation=90,
-                           fontsize=5.5 if n > 30 else 6.5)
+        ax.set_xticklabels(
+            [str(s["scene_id"]) for s in scenes], rotation=90, fontsize=5.5 if n > 30 else 6.5
+        )
     else:
         ax.set_xlabel(t("ax_scene") + f" (1–{n})")
     ax.set_xlim(-0.8, n - 0.2)
@@ -271,8 +374,9 @@ def scene_counts(scenes: list[dict[str, Any]], minimum: float | None,
     return _svg(fig, name)
 
 
-def footprints(scenes: list[dict[str, Any]], status: dict[str, str], t: Callable[..., str],
-               name: str) -> str:
+def footprints(
+    scenes: list[dict[str, Any]], status: dict[str, str], t: Callable[..., str], name: str
+) -> str:
     """A map of the scene footprints (lon/lat) coloured by the worst status found per scene."""
     from shapely import wkt
     from shapely.errors import ShapelyError
@@ -294,19 +398,41 @@ def footprints(scenes: list[dict[str, Any]], status: dict[str, str], t: Callable
                 continue
             xy = np.asarray(poly.exterior.coords)[:, :2]
             highlight = st not in ("pass", "other")
-            ax.add_patch(Polygon(xy, closed=True, fc=colour, alpha=0.35 if highlight else 0.12,
-                                 ec=colour, lw=1.3 if highlight else 0.6, zorder=3 if highlight
-                                 else 2))
+            ax.add_patch(
+                Polygon(
+                    xy,
+                    closed=True,
+                    fc=colour,
+                    alpha=0.35 if highlight else 0.12,
+                    ec=colour,
+                    lw=1.3 if highlight else 0.6,
+                    zorder=3 if highlight else 2,
+                )
+            )
             lon_lo, lat_lo = min(lon_lo, xy[:, 0].min()), min(lat_lo, xy[:, 1].min())
             lon_hi, lat_hi = max(lon_hi, xy[:, 0].max()), max(lat_hi, xy[:, 1].max())
             if highlight:
                 c = poly.representative_point()
-                ax.text(c.x, c.y, str(s["scene_id"]), fontsize=6, ha="center", va="center",
-                        zorder=4, color="#111")
+                ax.text(
+                    c.x,
+                    c.y,
+                    str(s["scene_id"]),
+                    fontsize=6,
+                    ha="center",
+                    va="center",
+                    zorder=4,
+                    color="#111",
+                )
         shown.add(st)
-    handles = [Patch(fc=STATUS_COLOURS[st], alpha=0.5,
-                     label=t("lg_exempt") if st == "exempt" else t(f"status_{st}"))
-               for st in ("pass", "fail", "warn", "waived", "exempt") if st in shown]
+    handles = [
+        Patch(
+            fc=STATUS_COLOURS[st],
+            alpha=0.5,
+            label=t("lg_exempt") if st == "exempt" else t(f"status_{st}"),
+        )
+        for st in ("pass", "fail", "warn", "waived", "exempt")
+        if st in shown
+    ]
     if math.isfinite(lon_lo):
         pad = 0.03 * max(lon_hi - lon_lo, lat_hi - lat_lo, 1e-3)
         ax.set_xlim(lon_lo - pad, lon_hi + pad)
@@ -321,12 +447,21 @@ def footprints(scenes: list[dict[str, Any]], status: dict[str, str], t: Callable
     return _svg(fig, name)
 
 
-def scene_points(scene_id: str, line: Sequence[float], sample: Sequence[float], lines: float,
-                 samples: float, grid: int, t: Callable[..., str], name: str) -> str:
+def scene_points(
+    scene_id: str,
+    line: Sequence[float],
+    sample: Sequence[float],
+    lines: float,
+    samples: float,
+    grid: int,
+    t: Callable[..., str],
+    name: str,
+) -> str:
     """One scene's tie points on its image frame with the k×k uniformity grid (§TP-4, TP-5)."""
     fig, ax = _figure(2.6, 3.0)
-    ax.plot(np.asarray(sample, float), np.asarray(line, float), ".", color="#1f4e99",
-            markersize=2.2)
+    ax.plot(
+        np.asarray(sample, float), np.asarray(line, float), ".", color="#1f4e99", markersize=2.2
+    )
     for k in range(1, grid):
         ax.axvline(samples * k / grid, color="#999", lw=0.7, ls="--")
         ax.axhline(lines * k / grid, color="#999", lw=0.7, ls="--")

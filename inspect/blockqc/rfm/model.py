@@ -113,6 +113,7 @@ OFFSET_SCALE_KEYS = (
     "height_scale",
 )
 
+
 @dataclass(frozen=True, eq=False)
 class RPCModel:
     """One scene's RPC00B model: ten offsets/scales and the 4×20 coefficients (§3).
