@@ -10,80 +10,104 @@ from pathlib import Path
 from typing import Any
 
 from blockqc import __version__
-from blockqc.delivery import MANIFEST, find_deliveries, load_delivery, load_manifest
-from blockqc.engine import STATUSES, inspect_delivery
+from blockqc.delivery import MANIFEST, Manifest, find_deliveries, load_delivery, load_manifest
+from blockqc.engine import inspect_delivery
 from blockqc.errors import InputError, Problem
 from blockqc.inspector import InspectorInput
 from blockqc.outputs import write_json_atomic
-from blockqc.report import write_block_report, write_summary_report
+from blockqc.report import checkpoint_rows, write_block_report, write_summary_report
+from blockqc.results import (
+    STATUSES,
+    BatchCounts,
+    BlockEntry,
+    BlockResults,
+    Rejected,
+    Summary,
+    block_fails,
+)
 from blockqc.rules.model import Pack
 
 
 @dataclass
 class Outcome:
-    """One delivery's fate: its results, or the problems that kept it from being read."""
+    """One delivery's fate: its results, or the problems that kept it from being inspected."""
 
     path: Path
-    results: dict[str, Any] | None = None
+    results: BlockResults | None = None
     problems: list[Problem] = field(default_factory=list)
 
 
-def collect(paths: Iterable[Path]) -> tuple[list[Path], bool]:
-    """The delivery folders named by the arguments, and whether this is a batch."""
+@dataclass
+class Collected:
+    """The deliveries named on the command line, each manifest read once."""
+
+    deliveries: list[Path]
+    is_batch: bool
+    manifests: dict[Path, Manifest] = field(default_factory=dict)
+    refused: dict[Path, Problem] = field(default_factory=dict)
+
+
+def collect(paths: Iterable[Path]) -> Collected:
+    """The delivery folders named by the arguments; duplicate block ids refused up front."""
     found: list[Path] = []
     batch = False
     for p in paths:
         ds = find_deliveries(Path(p))
         batch |= len(ds) > 1 or ds[0] != Path(p)
         found.extend(ds)
-    return found, batch or len(found) > 1
+    got = Collected(found, batch or len(found) > 1)
+    seen: dict[str, Path] = {}
+    for path in found:
+        try:
+            manifest = got.manifests[path] = load_manifest(path / MANIFEST)
+        except InputError:
+            continue  # reported in full when the delivery is read
+        if manifest.block_id in seen:
+            got.refused[path] = Problem(
+                str(path / MANIFEST),
+                f"block_id {manifest.block_id} is also the id of {seen[manifest.block_id]}: "
+                "block ids must be unique in a batch",
+            )
+        else:
+            seen[manifest.block_id] = path
+    return got
 
 
-def inspect_one(path: Path, pack: Pack, inspector: InspectorInput | None) -> Outcome:
+def inspect_one(
+    path: Path, pack: Pack, inspector: InspectorInput | None, manifest: Manifest | None = None
+) -> Outcome:
     try:
-        delivery = load_delivery(path)
+        delivery = load_delivery(path, manifest=manifest)
     except InputError as exc:
         return Outcome(path, problems=exc.problems)
     block_input = inspector.for_block(delivery.block_id) if inspector else None
-    return Outcome(
-        path,
-        inspect_delivery(delivery, pack, block_input, inspector.inspector if inspector else None),
+    results = inspect_delivery(
+        delivery, pack, block_input, inspector.inspector if inspector else None
     )
+    return Outcome(path, results)
 
 
-def write_block(
-    out: Path,
-    results: dict[str, Any],
-    *,
-    templates: Path | None = None,
-    lang: str = "en",
-    pdf: bool = True,
-) -> Path:
-    """results.json first; the report is rendered from it (never beside it)."""
-    folder = out / results["block_id"]
-    write_json_atomic(folder / "results.json", results)
-    write_block_report(folder, results, lang=lang, templates=templates, pdf=pdf)
-    return folder
+@dataclass(frozen=True)
+class Writer:
+    """Where and how the outputs are written."""
 
+    out: Path
+    templates: Path | None = None
+    lang: str = "en"
+    pdf: bool = True
 
-def refuse_duplicates(deliveries: list[Path]) -> dict[Path, Problem]:
-    """Deliveries repeating a block id seen before: refused before anything is inspected."""
-    seen: dict[str, Path] = {}
-    refused: dict[Path, Problem] = {}
-    for path in deliveries:
-        try:
-            bid = load_manifest(path / MANIFEST).block_id
-        except InputError:
-            continue  # reported in full when the delivery is read
-        if bid in seen:
-            refused[path] = Problem(
-                str(path / MANIFEST),
-                f"block_id {bid} is also the id of {seen[bid]}: block ids must be unique "
-                "in a batch",
-            )
-        else:
-            seen[bid] = path
-    return refused
+    def block(self, results: BlockResults) -> Path:
+        """results.json first; the report is rendered from it (never beside it)."""
+        folder = self.out / results.block_id
+        write_json_atomic(folder / "results.json", results)
+        write_block_report(folder, results, lang=self.lang, templates=self.templates, pdf=self.pdf)
+        return folder
+
+    def summary(self, summary: Summary) -> None:
+        write_json_atomic(self.out / "summary.json", summary)
+        write_summary_report(
+            self.out, summary, lang=self.lang, templates=self.templates, pdf=self.pdf
+        )
 
 
 @dataclass(frozen=True)
@@ -92,134 +116,137 @@ class Job:
 
     pack: Pack
     inspector: InspectorInput | None
-    out: Path
-    templates: Path | None
-    lang: str
-    pdf: bool
+    writer: Writer
 
-    def __call__(self, path: Path) -> Outcome:
-        o = inspect_one(path, self.pack, self.inspector)
-        if o.results is not None:
-            write_block(self.out, o.results, templates=self.templates, lang=self.lang, pdf=self.pdf)
-        return o
+    def __call__(self, path: Path, manifest: Manifest | None = None) -> Outcome:
+        try:
+            o = inspect_one(path, self.pack, self.inspector, manifest)
+            if o.results is not None:
+                self.writer.block(o.results)
+            return o
+        except Exception as exc:  # one block's failure must not stop the batch
+            reason = f"could not be inspected: {type(exc).__name__}: {exc}"
+            return Outcome(path, problems=[Problem(str(path), reason)])
 
 
-def summarize(outcomes: list[Outcome], pack: Pack, inspector: InspectorInput | None) -> dict:
-    blocks, unreadable = [], []
+def block_entry(o: Outcome) -> BlockEntry:
+    """A block's line in the summary, with the checkpoint statistics of sampled blocks."""
+    r = o.results
+    assert r is not None
+    cps = checkpoint_rows(r)
+    return BlockEntry(
+        block_id=r.block_id,
+        verdict=r.verdict,
+        path=str(o.path),
+        results=f"{r.block_id}/results.json",
+        report=f"{r.block_id}/report.html",
+        sampled=r.summary.get("checkpoints", 0) > 0,
+        failed_rules=sorted({x.rule for x in r.results if x.status in ("fail", "error")}),
+        warned_rules=sorted({x.rule for x in r.results if x.status == "warn"}),
+        pending_manual=r.pending_manual,
+        counts=r.counts,
+        checkpoints=cps,
+    )
+
+
+def summarize(outcomes: list[Outcome], pack: Pack, inspector: InspectorInput | None) -> Summary:
+    """summary.json of a batch: one entry per block, counts per rule, rejected deliveries."""
+    blocks: list[BlockEntry] = []
+    rejected: list[Rejected] = []
     rules: dict[str, dict[str, int]] = {r.id: dict.fromkeys(STATUSES, 0) for r in pack.rules}
     for o in outcomes:
         if o.results is None:
-            unreadable.append({"path": str(o.path), "problems": [str(p) for p in o.problems]})
+            rejected.append(Rejected(path=str(o.path), problems=[str(p) for p in o.problems]))
             continue
-        r = o.results
-        for res in r["results"]:
-            rules.setdefault(res["rule"], dict.fromkeys(STATUSES, 0))[res["status"]] += 1
-        blocks.append(
-            {
-                "block_id": r["block_id"],
-                "verdict": r["verdict"],
-                "path": str(o.path),
-                "results": f"{r['block_id']}/results.json",
-                "report": f"{r['block_id']}/report.html",
-                "sampled": r["summary"]["checkpoints"] > 0,
-                "failed_rules": sorted({x["rule"] for x in r["results"] if x["status"] == "fail"}),
-                "warned_rules": sorted({x["rule"] for x in r["results"] if x["status"] == "warn"}),
-                "pending_manual": r["pending_manual"],
-                "counts": r["counts"],
-            }
-        )
-    n_fail = sum(b["verdict"] != "pass" for b in blocks)
-    verdict = "error" if unreadable else "fail" if n_fail else "pass"
-    return {
-        "rule_pack": pack.name,
-        "rule_pack_version": pack.version,
-        "blockqc_version": __version__,
-        "generated_at": dt.datetime.now(dt.UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
-        "inspector": inspector.inspector if inspector else None,
-        "verdict": verdict,
-        "complete": not unreadable and not any(b["pending_manual"] for b in blocks),
-        "counts": {
-            "blocks": len(outcomes),
-            "pass": len(blocks) - n_fail,
-            "fail": n_fail,
-            "unreadable": len(unreadable),
-        },
-        "blocks": blocks,
-        "rules": rules,
-        "unreadable": unreadable,
-    }
+        for res in o.results.results:
+            rules.setdefault(res.rule, dict.fromkeys(STATUSES, 0))[res.status] += 1
+        blocks.append(block_entry(o))
+    failing = [b for b in blocks if block_fails(b.verdict)]
+    verdict = "error" if rejected else "fail" if failing else "pass"
+    return Summary(
+        rule_pack=pack.name,
+        rule_pack_version=pack.version,
+        blockqc_version=__version__,
+        generated_at=dt.datetime.now(dt.UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
+        inspector=inspector.inspector if inspector else None,
+        verdict=verdict,
+        complete=not rejected and not any(b.pending_manual for b in blocks),
+        counts=BatchCounts(
+            blocks=len(outcomes),
+            **{"pass": len(blocks) - len(failing)},
+            fail=len(failing),
+            error=sum(b.verdict == "error" for b in blocks),
+            unreadable=len(rejected),
+        ),
+        blocks=blocks,
+        rules=rules,
+        unreadable=rejected,
+    )
 
 
-def write_summary(
-    out: Path,
-    summary: dict[str, Any],
-    block_results: list[dict[str, Any]],
-    *,
-    templates: Path | None = None,
-    lang: str = "en",
-    pdf: bool = True,
-) -> None:
-    write_json_atomic(out / "summary.json", summary)
-    write_summary_report(out, summary, block_results, lang=lang, templates=templates, pdf=pdf)
+def _inspect_all(got: Collected, job: Job, jobs: int, finished: Callable[[Outcome], None]) -> None:
+    todo = [p for p in got.deliveries if p not in got.refused]
+    if jobs > 1 and len(todo) > 1:
+        with ProcessPoolExecutor(max_workers=min(jobs, len(todo))) as pool:
+            futures = [pool.submit(job, p, got.manifests.get(p)) for p in todo]
+            for future in as_completed(futures):
+                finished(future.result())
+    else:
+        for p in todo:
+            finished(job(p, got.manifests.get(p)))
 
 
 def run(
-    paths: list[Path],
+    got: Collected,
     pack: Pack,
-    out: Path,
+    writer: Writer,
     inspector: InspectorInput | None = None,
     *,
-    templates: Path | None = None,
-    lang: str = "en",
-    pdf: bool = True,
     jobs: int = 1,
     progress: Callable[[Outcome], None] | None = None,
-) -> tuple[list[Outcome], dict | None]:
-    """Inspect every delivery named, writing its outputs as it goes; for a batch, the summary.
+) -> tuple[list[Outcome], Summary | None]:
+    """Inspect every delivery collected, writing its outputs as it goes; for a batch, the summary.
 
     With jobs > 1 the deliveries are inspected in that many processes; outcomes keep the order
     of the deliveries.
     """
-    deliveries, batch = collect(paths)
-    refused = refuse_duplicates(deliveries)
-    done = {p: Outcome(p, problems=[problem]) for p, problem in refused.items()}
-    todo = [p for p in deliveries if p not in refused]
-    job = Job(pack, inspector, out, templates, lang, pdf)
+    done: dict[Path, Outcome] = {}
 
     def finished(o: Outcome) -> None:
         done[o.path] = o
         if progress:
             progress(o)
 
-    for o in list(done.values()):
-        finished(o)
-    if jobs > 1 and len(todo) > 1:
-        with ProcessPoolExecutor(max_workers=min(jobs, len(todo))) as pool:
-            for future in as_completed([pool.submit(job, p) for p in todo]):
-                finished(future.result())
-    else:
-        for p in todo:
-            finished(job(p))
-    outcomes = [done[p] for p in deliveries]
+    for p, problem in got.refused.items():
+        finished(Outcome(p, problems=[problem]))
+    _inspect_all(got, Job(pack, inspector, writer), jobs, finished)
+    outcomes = [done[p] for p in got.deliveries]
     summary = None
-    if batch:
+    if got.is_batch:
         summary = summarize(outcomes, pack, inspector)
-        write_summary(
-            out,
-            summary,
-            [o.results for o in outcomes if o.results],
-            templates=templates,
-            lang=lang,
-            pdf=pdf,
-        )
+        writer.summary(summary)
     return outcomes, summary
 
 
 def exit_status(outcomes: list[Outcome]) -> int:
     """0 every block passes, 1 some block fails, 2 something could not be read or judged."""
-    if any(o.results is None or o.results["verdict"] == "error" for o in outcomes):
+    if any(o.results is None or o.results.verdict == "error" for o in outcomes):
         return 2
-    return 1 if any(o.results["verdict"] == "fail" for o in outcomes) else 0
+    return 1 if any(block_fails(o.results.verdict) for o in outcomes) else 0
 
 
-__all__ = ["Outcome", "exit_status", "run", "summarize"]
+def outcome_line(o: Outcome) -> dict[str, Any]:
+    """What the command line prints of one outcome."""
+    if o.results is None:
+        return {"path": str(o.path), "problems": len(o.problems)}
+    r = o.results
+    return {
+        "block_id": r.block_id,
+        "verdict": r.verdict,
+        "failed": sorted({x.rule for x in r.results if x.status in ("fail", "error")}),
+        "warned": sorted({x.rule for x in r.results if x.status == "warn"}),
+        "pending": r.pending_manual,
+    }
+
+
+__all__ = ["Collected", "Outcome", "Writer", "collect", "exit_status", "run", "summarize"]

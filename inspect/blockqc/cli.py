@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import sys
 from pathlib import Path
@@ -120,81 +121,80 @@ def inspect_cmd(
     out = check_out_dir(out, paths)
     pack = load_pack(rules_ref)
     inspector = load_inspector_input(verdicts) if verdicts else None
-    deliveries, _ = batch.collect(paths)
+    got = batch.collect(paths)
+    writer = batch.Writer(out, templates, lang, pdf)
     show = sys.stderr.isatty() if progress is None else progress
-    jobs = jobs or os.cpu_count() or 1
-
-    def line(o: batch.Outcome) -> str:
-        if o.results is None:
-            return click.style(f"{o.path}  UNREADABLE  ({len(o.problems)} problem(s))", fg="red")
-        r = o.results
-        failed = sorted({x["rule"] for x in r["results"] if x["status"] in ("fail", "error")})
-        warned = sorted({x["rule"] for x in r["results"] if x["status"] == "warn"})
-        notes = [f"failed: {', '.join(failed)}"] if failed else []
-        notes += [f"warnings: {', '.join(warned)}"] if warned else []
-        notes += (
-            [f"awaiting the inspector: {', '.join(r['pending_manual'])}"]
-            if r["pending_manual"]
-            else []
-        )
-        verdict = click.style(
-            f"{r['verdict'].upper():5}", fg=STATUS_STYLE.get(r["verdict"]), bold=True
-        )
-        return f"{r['block_id']:12} {verdict}  " + "; ".join(notes)
-
-    if show and len(deliveries) > 1:
-        from rich.console import Console
-        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
-
-        with Progress(
-            "[progress.description]{task.description}",
-            BarColumn(),
-            MofNCompleteColumn(),
-            TimeElapsedColumn(),
-            console=Console(stderr=True),
-            transient=True,
-        ) as bar:
-            task = bar.add_task("inspecting", total=len(deliveries))
-
-            def tick(o: batch.Outcome) -> None:
-                bar.console.print(line(o), markup=False, highlight=False)
-                bar.advance(task)
-
-            outcomes, summary = batch.run(
-                list(paths),
-                pack,
-                out,
-                inspector,
-                templates=templates,
-                lang=lang,
-                pdf=pdf,
-                jobs=jobs,
-                progress=tick,
-            )
-    else:
+    with _progress(len(got.deliveries) if show else 0) as tick:
         outcomes, summary = batch.run(
-            list(paths),
-            pack,
-            out,
-            inspector,
-            templates=templates,
-            lang=lang,
-            pdf=pdf,
-            jobs=jobs,
-            progress=lambda o: click.echo(line(o)),
+            got, pack, writer, inspector, jobs=jobs or os.cpu_count() or 1, progress=tick
         )
+    _closing_lines(outcomes, summary, out)
+    return batch.exit_status(outcomes)
+
+
+def _outcome_line(o) -> str:
+    """One line per delivery: the verdict and the rules behind it, or why it was not read."""
+    from blockqc.batch import outcome_line
+
+    d = outcome_line(o)
+    if "problems" in d:
+        return click.style(f"{d['path']}  UNREADABLE  ({d['problems']} problem(s))", fg="red")
+    notes = [f"failed: {', '.join(d['failed'])}"] if d["failed"] else []
+    notes += [f"warnings: {', '.join(d['warned'])}"] if d["warned"] else []
+    notes += [f"awaiting the inspector: {', '.join(d['pending'])}"] if d["pending"] else []
+    verdict = click.style(f"{d['verdict'].upper():5}", fg=STATUS_STYLE.get(d["verdict"]), bold=True)
+    return f"{d['block_id']:12} {verdict}  " + "; ".join(notes)
+
+
+@contextlib.contextmanager
+def _progress(total: int):
+    """A progress bar on stderr for batches (total > 1), else one line per outcome on stdout."""
+    if total <= 1:
+        yield lambda o: click.echo(_outcome_line(o))
+        return
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
+
+    columns = ("[progress.description]{task.description}", BarColumn(), MofNCompleteColumn())
+    with Progress(
+        *columns, TimeElapsedColumn(), console=Console(stderr=True), transient=True
+    ) as bar:
+        task = bar.add_task("inspecting", total=total)
+
+        def tick(o) -> None:
+            bar.console.print(_outcome_line(o), markup=False, highlight=False)
+            bar.advance(task)
+
+        yield tick
+
+
+def _closing_lines(outcomes, summary, out: Path) -> None:
+    """Every problem, then where the results are — or that nothing was written."""
     for o in outcomes:
         for p in o.problems:
             click.echo(f"error: {p}", err=True)
     if summary is not None:
-        c = summary["counts"]
+        c = summary.counts
         click.echo(
-            f"{c['blocks']} blocks: {c['pass']} pass, {c['fail']} fail, "
-            f"{c['unreadable']} unreadable — {out / 'summary.html'}"
+            f"{c.blocks} blocks: {c.pass_} pass, {c.fail} fail, "
+            f"{c.unreadable} unreadable — {out / 'summary.html'}"
         )
+    elif all(o.results is None for o in outcomes):
+        click.echo("nothing was written: the delivery could not be inspected", err=True)
     else:
         click.echo(f"results in {out}")
-    return batch.exit_status(outcomes)
+
+
+# ---------------------------------------------------------------------------------- schema
+@cli.command("schema")
+@click.argument("kind", type=click.Choice(["results", "summary"]))
+def schema_cmd(kind: str) -> None:
+    """Print the JSON Schema of results.json or summary.json."""
+    import json
+
+    from blockqc.results import json_schema
+
+    click.echo(json.dumps(json_schema(kind), indent=2, ensure_ascii=False))
 
 
 # --------------------------------------------------------------------------------- rules

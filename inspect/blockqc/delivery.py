@@ -173,13 +173,15 @@ def load_manifest(path: Path) -> Manifest:
         raise InputError(pydantic_problems(exc, path, data)) from None
 
 
-def load_delivery(path: Path) -> Delivery:
-    """Read a delivery folder; raise InputError listing every problem found (file, row, column)."""
+def load_delivery(path: Path, manifest: Manifest | None = None) -> Delivery:
+    """Read a delivery folder; raise InputError listing every problem found (file, row, column).
+
+    `manifest`: block.yaml when already read (a batch reads each manifest once).
+    """
     path = Path(path)
     problems: list[Problem] = []
-    manifest: Manifest | None = None
     try:
-        manifest = load_manifest(path / MANIFEST)
+        manifest = manifest or load_manifest(path / MANIFEST)
     except InputError as exc:
         problems.extend(exc.problems)
 

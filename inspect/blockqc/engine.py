@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import datetime as dt
 import json
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -16,35 +15,13 @@ from blockqc import __version__
 from blockqc.delivery import Delivery, summary
 from blockqc.inspector import BlockInput, Waiver
 from blockqc.metrics import REGISTRY, Measurement, Table
+from blockqc.outputs import jsonable, records
+from blockqc.results import STATUSES, BlockResults, MeasurementRecord, RuleResult
 from blockqc.rules.expr import ExpressionError, evaluate, resolve_params
 from blockqc.rules.model import Pack, Rule, Threshold
 
-STATUSES = ("pass", "fail", "warn", "waived", "manual", "not_applicable", "error")
 #: tables up to this many rows are kept in results.json for the report
 MEASUREMENT_ROWS_KEPT = 5000
-
-
-def jsonable(value: Any) -> Any:
-    """Plain JSON values: numpy scalars unwrapped, NaN/NaT as null, timestamps as ISO dates."""
-    if isinstance(value, Mapping):
-        return {str(k): jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple, np.ndarray)):
-        return [jsonable(v) for v in value]
-    if isinstance(value, (np.bool_, bool)):
-        return bool(value)
-    if isinstance(value, (np.integer, int)):
-        return int(value)
-    if isinstance(value, (np.floating, float)):
-        return None if not math.isfinite(float(value)) else float(value)
-    if isinstance(value, (pd.Timestamp, dt.date)):
-        return value.isoformat()[:10] if not pd.isna(value) else None
-    if value is None or value is pd.NA or value is pd.NaT:
-        return None
-    return value
-
-
-def records(df: pd.DataFrame) -> list[dict[str, Any]]:
-    return jsonable(df.to_dict("records"))
 
 
 @dataclass
@@ -55,13 +32,27 @@ class Context:
     constants: dict[str, Any]
     cache: dict[tuple[str, str], Measurement] = field(default_factory=dict)
 
+    def cache_key(self, name: str, raw_params: Mapping[str, Any]) -> tuple[str, str]:
+        params = resolve_params(REGISTRY[name].params, raw_params, self.constants)
+        return name, json.dumps(params.model_dump(mode="json"), sort_keys=True)
+
     def measure(self, name: str, raw_params: Mapping[str, Any]) -> Measurement:
-        spec = REGISTRY[name]
-        params = resolve_params(spec.params, raw_params, self.constants)
-        key = (name, json.dumps(params.model_dump(mode="json"), sort_keys=True))
+        key = self.cache_key(name, raw_params)
         if key not in self.cache:
+            spec = REGISTRY[name]
+            params = spec.params.model_validate(json.loads(key[1]))
             self.cache[key] = spec.func(self.delivery, params, self.measure)
         return self.cache[key]
+
+    def measurement_keys(self) -> dict[tuple[str, str], str]:
+        """A readable key per measurement: the metric's name, numbered when measured twice."""
+        names = [name for name, _ in self.cache]
+        seen: dict[str, int] = {}
+        out = {}
+        for key in self.cache:
+            n = seen[key[0]] = seen.get(key[0], 0) + 1
+            out[key] = key[0] if names.count(key[0]) == 1 else f"{key[0]}#{n}"
+        return out
 
 
 def names_for(delivery: Delivery, pack: Pack) -> dict[str, Any]:
@@ -155,10 +146,12 @@ def _order(df: pd.DataFrame, stat: str | None, sort: str | None, hi: float | Non
 class Judge:
     """Judges one rule against its measurement, producing results in the contract's shape."""
 
-    def __init__(self, rule: Rule, ctx: Context, block_input: BlockInput):
-        self.rule, self.ctx = rule, ctx
+    def __init__(self, rule: Rule, ctx: Context, block_input: BlockInput, elements: dict[str, str]):
+        self.rule, self.ctx, self.elements = rule, ctx, elements
         self.waiver: Waiver | None = block_input.waivers.get(rule.id)
         self.verdict = block_input.verdicts.get(rule.id)
+        self.cache_key: tuple[str, str] | None = None
+        self.th, self.lo, self.hi = None, None, None
         self.bind({})
 
     def bind(self, group: dict[str, Any]) -> None:
@@ -182,30 +175,43 @@ class Judge:
         value: Any,
         detail: dict[str, Any],
         evidence: list[dict[str, Any]] | None = None,
-    ) -> dict[str, Any]:
+    ) -> RuleResult:
         r = self.rule
-        return {
-            "rule": r.id,
-            "title": r.title,
-            "clause": r.clause,
-            "quality_element": r.quality_element,
-            "content": r.content,
-            "inspection_content": r.inspection_content,
-            "group": group,
-            "status": status,
-            "statistic": r.statistic,
-            "value": jsonable(value),
+        contents = [c for c, where in r.content.items() if _in_group(group, where)]
+        element = self.elements.get(contents[0], "") if contents else r.quality_element
+        return RuleResult(
+            rule=r.id,
+            title=r.title,
+            title_zh=r.title_zh,
+            clause=r.clause,
+            description=r.description.strip(),
+            description_zh=r.description_zh.strip(),
+            quality_element=element,
+            content=contents,
+            inspection=r.inspection,
+            figures=list(r.figures),
+            group=jsonable(group),
+            status=status,
+            statistic=r.statistic,
+            value=jsonable(value),
             **jsonable(_threshold_fields(self.th, self.lo, self.hi)),
-            "unit": r.unit,
-            "severity": r.severity,
-            "detail": jsonable(detail),
-            "evidence": jsonable(evidence or []),
-        }
+            unit=r.unit,
+            severity=r.severity,
+            measurement="|".join(self.cache_key) if self.cache_key else None,
+            detail=jsonable(detail),
+            evidence=jsonable(evidence or []),
+        )
 
-    def run(self) -> list[dict[str, Any]]:
+    def error(self, reason: str) -> RuleResult:
+        """The rule could not be judged on this delivery (e.g. a threshold for a missing group)."""
+        self.th, self.lo, self.hi = None, None, None
+        return self.result({}, "error", None, {"reason": reason})
+
+    def run(self) -> list[RuleResult]:
         r = self.rule
         if r.manual:
             return [self._manual()]
+        self.cache_key = self.ctx.cache_key(r.metric, r.params)
         m = self.ctx.measure(r.metric, r.params)
         if m.not_applicable:
             return [self.result({}, "not_applicable", None, {"reason": m.not_applicable})]
@@ -253,7 +259,7 @@ class Judge:
             labels = labels + "/" + units[k].astype(str)
         return labels.isin(self.waiver.labels()).to_numpy(dtype=bool), labels
 
-    def _units(self, group: dict[str, Any], sub: pd.DataFrame, table: Table) -> dict[str, Any]:
+    def _units(self, group: dict[str, Any], sub: pd.DataFrame, table: Table) -> RuleResult:
         """Per scene/pair/point: value = worst case, evidence = the offending units."""
         r = self.rule
         exempt = sub["exempt"].to_numpy(dtype=bool) if "exempt" in sub else np.zeros(len(sub), bool)
@@ -290,7 +296,7 @@ class Judge:
                 detail["evidence_truncated"] = int(len(bad) - r.evidence_limit)
         return self.result(group, status, value, detail, evidence)
 
-    def _rows(self, group: dict[str, Any], sub: pd.DataFrame, m: Measurement) -> list[dict]:
+    def _rows(self, group: dict[str, Any], sub: pd.DataFrame, m: Measurement) -> list[RuleResult]:
         """Block- or group-level rows: one result per row, evidence from `evidence_from`."""
         r = self.rule
         out = []
@@ -332,7 +338,7 @@ class Judge:
             return {"waiver_ignored": f"rule {self.rule.id} is not waivable"}
         return {}
 
-    def _manual(self) -> dict[str, Any]:
+    def _manual(self) -> RuleResult:
         if self.verdict is None:
             return self.result({}, "manual", None, {"reason": "awaiting the inspector's verdict"})
         status = "pass" if self.verdict.status == "pass" else _severity_status(self.rule)
@@ -341,94 +347,107 @@ class Judge:
         )
 
 
+def _in_group(group: Mapping[str, Any], where: Mapping[str, Any]) -> bool:
+    return all(str(group.get(k, v)) == str(v) for k, v in where.items())
+
+
+def judge_all(ctx: Context, pack: Pack, block_input: BlockInput) -> list[RuleResult]:
+    """Every rule of the pack judged; a rule that cannot be judged is an error result."""
+    elements = pack.content_ids()
+    results: list[RuleResult] = []
+    for rule in pack.rules:
+        judge = Judge(rule, ctx, block_input, elements)
+        try:
+            results.extend(judge.run())
+        except (ExpressionError, KeyError, ValueError) as exc:
+            results.append(judge.error(str(exc).strip("'\"")))
+    keys = ctx.measurement_keys()
+    by_cache = {"|".join(k): v for k, v in keys.items()}
+    for res in results:
+        res.measurement = by_cache.get(res.measurement or "")
+    return results
+
+
 def inspect_delivery(
     delivery: Delivery,
     pack: Pack,
     block_input: BlockInput | None = None,
     inspector: str | None = None,
-) -> dict[str, Any]:
+) -> BlockResults:
     """Judge every rule of the pack on one delivery; the results document of contract v1."""
-    block_input = block_input or BlockInput()
     ctx = Context(delivery, names_for(delivery, pack))
-    results: list[dict[str, Any]] = []
-    for rule in pack.rules:
-        try:
-            results.extend(Judge(rule, ctx, block_input).run())
-        except (ExpressionError, KeyError, ValueError) as exc:
-            judge = Judge.__new__(Judge)
-            judge.rule, judge.th, judge.lo, judge.hi = rule, None, None, None
-            results.append(judge.result({}, "error", None, {"reason": str(exc).strip("'\"")}))
-    counts = {s: 0 for s in STATUSES}
+    results = judge_all(ctx, pack, block_input or BlockInput())
+    counts = dict.fromkeys(STATUSES, 0)
     for res in results:
-        counts[res["status"]] += 1
+        counts[res.status] += 1
     verdict = "error" if counts["error"] else "fail" if counts["fail"] else "pass"
-    pending = sorted({r["rule"] for r in results if r["status"] == "manual"})
-    return {
-        "block_id": delivery.block_id,
-        "sensor": delivery.manifest.sensor,
-        "rule_pack": pack.name,
-        "rule_pack_version": pack.version,
-        "rule_pack_files": pack.chain,
-        "blockqc_version": __version__,
-        "generated_at": dt.datetime.now(dt.UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
-        "inspector": inspector,
-        "delivery": str(delivery.path),
-        "verdict": verdict,
-        "complete": not pending,
-        "pending_manual": pending,
-        "counts": counts,
-        "summary": summary(delivery),
-        "results": results,
-        "measurements": _measurements(ctx, pack, results),
-    }
+    pending = sorted({r.rule for r in results if r.status == "manual"})
+    return BlockResults(
+        block_id=delivery.block_id,
+        sensor=delivery.manifest.sensor,
+        rule_pack=pack.name,
+        rule_pack_version=pack.version,
+        rule_pack_files=pack.chain,
+        blockqc_version=__version__,
+        generated_at=dt.datetime.now(dt.UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
+        inspector=inspector,
+        delivery=str(delivery.path),
+        verdict=verdict,
+        complete=not pending,
+        pending_manual=pending,
+        counts=counts,
+        summary=summary(delivery),
+        elements=pack.elements,
+        scenes=_scenes(delivery),
+        results=results,
+        measurements=_measurements(ctx, pack, results),
+    )
 
 
-def _offending_points(ctx: Context, pack: Pack, results: list[dict]) -> dict[str, dict]:
-    """For failing per-scene rules, the positions behind the offending scenes (for maps)."""
-    out: dict[str, dict] = {}
-    for res in results:
-        if res["status"] not in ("fail", "warn", "waived") or not res["evidence"]:
+SCENE_COLUMNS = ("scene_id", "band", "acquired", "lines", "samples", "footprint_wkt")
+
+
+def _scenes(d: Delivery) -> list[dict[str, Any]]:
+    cols = [c for c in (*SCENE_COLUMNS, "water_fraction") if c in d.scenes]
+    return records(d.scenes[cols])
+
+
+def _offending_points(ctx: Context, pack: Pack, res: RuleResult) -> dict[str, Any]:
+    """For a failing per-scene rule, the positions behind the offending scenes (for maps)."""
+    if res.status not in ("fail", "warn", "waived") or not res.evidence:
+        return {}
+    rule = pack.rule(res.rule)
+    if rule.manual:
+        return {}
+    m = ctx.measure(rule.metric, rule.params)
+    ids = [e["scene_id"] for e in res.evidence if "scene_id" in e]
+    return m.unit_points(ids) if m.unit_points is not None and ids else {}
+
+
+def _measurements(ctx: Context, pack: Pack, results: list[RuleResult]) -> list[MeasurementRecord]:
+    """Every measurement taken, keyed by metric and parameters: details and small tables."""
+    out = []
+    for cache_key, key in ctx.measurement_keys().items():
+        m = ctx.cache[cache_key]
+        if m.not_applicable:
             continue
-        rule = pack.rule(res["rule"])
-        if rule.manual:
-            continue
-        m = ctx.measure(rule.metric, rule.params)
-        ids = [e["scene_id"] for e in res["evidence"] if "scene_id" in e]
-        if m.unit_points is not None and ids:
-            out.setdefault(rule.metric, {}).update(m.unit_points(ids))
-    return out
-
-
-def _measurements(ctx: Context, pack: Pack, results: list[dict]) -> dict[str, Any]:
-    """Small tables and details of every metric measured, for reports and plots."""
-    d = ctx.delivery
-    out: dict[str, Any] = {
-        "scenes": records(
-            d.scenes[
-                [
-                    c
-                    for c in (
-                        "scene_id",
-                        "band",
-                        "acquired",
-                        "lines",
-                        "samples",
-                        "footprint_wkt",
-                        "water_fraction",
-                    )
-                    if c in d.scenes
-                ]
-            ]
-        ),
-    }
-    for (name, _), m in ctx.cache.items():
-        if m.not_applicable or name in out:
-            continue
-        entry: dict[str, Any] = {"detail": jsonable(m.detail)} if m.detail else {}
-        for scope, table in m.tables.items():
-            if len(table.df) <= MEASUREMENT_ROWS_KEPT:
-                entry[scope] = records(table.df)
-        out[name] = entry
-    for name, points in _offending_points(ctx, pack, results).items():
-        out.setdefault(name, {})["failing_scene_points"] = jsonable(points)
+        points: dict[str, Any] = {}
+        for res in results:
+            if res.measurement == key:
+                points.update(_offending_points(ctx, pack, res))
+        out.append(
+            MeasurementRecord(
+                key=key,
+                metric=cache_key[0],
+                params=json.loads(cache_key[1]),
+                detail=jsonable(m.detail),
+                tables={
+                    scope: records(t.df)
+                    for scope, t in m.tables.items()
+                    if len(t.df) <= MEASUREMENT_ROWS_KEPT
+                },
+                rows={scope: len(t.df) for scope, t in m.tables.items()},
+                failing_scene_points=jsonable(points) or None,
+            )
+        )
     return out

@@ -2,20 +2,20 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 from blockqc.outputs import write_bytes_atomic, write_text_atomic
 from blockqc.report.build import block_context, summary_context
+from blockqc.report.checkpoints import checkpoint_rows
 from blockqc.report.exports import checkpoints_csv, evidence_csv
 from blockqc.report.html import environment, render_page
 from blockqc.report.messages import LANGUAGES
+from blockqc.results import BlockResults, Summary
 
 
 def write_block_report(
     folder: Path,
-    results: dict[str, Any],
+    results: BlockResults,
     *,
     lang: str = "en",
     templates: Path | None = None,
@@ -48,8 +48,7 @@ def write_block_report(
 
 def write_summary_report(
     out: Path,
-    summary: dict[str, Any],
-    block_results: Sequence[dict[str, Any]],
+    summary: Summary,
     *,
     lang: str = "en",
     templates: Path | None = None,
@@ -60,7 +59,7 @@ def write_summary_report(
         raise ValueError(f"language {lang!r}: choose one of {', '.join(LANGUAGES)}")
     out = Path(out)
     env = environment(templates)
-    ctx = summary_context(summary, list(block_results), lang, pdf=pdf)
+    ctx = summary_context(summary, lang, pdf=pdf)
     write_text_atomic(out / "summary.html", render_page("summary.html.j2", ctx, env))
     written = [out / "summary.html"]
     if pdf:
@@ -72,4 +71,4 @@ def write_summary_report(
     return written
 
 
-__all__ = ["LANGUAGES", "write_block_report", "write_summary_report"]
+__all__ = ["LANGUAGES", "checkpoint_rows", "write_block_report", "write_summary_report"]

@@ -10,8 +10,7 @@ import click
 
 from blockqc.errors import InputError, Problem
 from blockqc.report.messages import LANGUAGES
-
-RESULT_KEYS = ("block_id", "verdict", "results")
+from blockqc.results import BlockResults, Summary, parse
 
 
 def _read_json(path: Path) -> tuple[Any, bytes]:
@@ -31,56 +30,20 @@ def _read_json(path: Path) -> tuple[Any, bytes]:
         ) from None
 
 
-def _check_results(path: Path, doc: Any) -> dict[str, Any]:
-    if not isinstance(doc, dict):
-        raise InputError(
-            Problem(
-                str(path),
-                "not a results document: expected a JSON object with block_id, verdict and results",
-                line=1,
-            )
-        )
-    missing = [k for k in RESULT_KEYS if k not in doc]
-    if missing:
-        raise InputError(
-            Problem(
-                str(path),
-                f"not a results document: missing key(s) "
-                f"{', '.join(missing)} (contract v1 results.json)",
-                line=1,
-            )
-        )
-    if not isinstance(doc["results"], list) or not all(
-        isinstance(r, dict) and "rule" in r and "status" in r for r in doc["results"]
-    ):
-        raise InputError(
-            Problem(
-                str(path),
-                "not a results document: 'results' must be a list "
-                "of objects each with 'rule' and 'status'",
-            )
-        )
-    return doc
+def _check_results(path: Path, doc: Any) -> BlockResults:
+    return parse(doc, str(path), "results")
 
 
-def _check_summary(path: Path, doc: Any) -> dict[str, Any]:
-    if not isinstance(doc, dict) or not isinstance(doc.get("blocks"), list):
-        raise InputError(
-            Problem(
-                str(path),
-                "not a batch summary: expected a JSON object with a 'blocks' list (summary.json)",
-                line=1,
-            )
-        )
-    return doc
+def _check_summary(path: Path, doc: Any) -> Summary:
+    return parse(doc, str(path), "summary")
 
 
 def gather(
     paths: list[Path],
-) -> tuple[list[tuple[Path, dict, bytes]], tuple[Path, dict, bytes] | None]:
+) -> tuple[list[tuple[Path, BlockResults, bytes]], tuple[Path, Summary, bytes] | None]:
     """The results documents named (files or folders holding them) and a summary, if any."""
-    results: list[tuple[Path, dict, bytes]] = []
-    summary: tuple[Path, dict, bytes] | None = None
+    results: list[tuple[Path, BlockResults, bytes]] = []
+    summary: tuple[Path, Summary, bytes] | None = None
     problems: list[Problem] = []
     files: list[Path] = []
     for p in paths:
@@ -134,7 +97,7 @@ def gather(
         except InputError as exc:
             problems.extend(exc.problems)
             continue
-        bid = str(doc["block_id"])
+        bid = doc.block_id
         if bid in seen:
             if seen[bid].resolve() != f.resolve():
                 problems.append(Problem(str(f), f"block_id {bid} is also the block of {seen[bid]}"))
@@ -181,18 +144,16 @@ def command(
     docs, summary = gather(list(results))
     written: list[Path] = []
     for path, doc, raw in docs:
-        folder = out / str(doc["block_id"])
+        folder = out / doc.block_id
         if (folder / "results.json").resolve() != path.resolve():
             write_bytes_atomic(folder / "results.json", raw)
         written += write_block_report(folder, doc, lang=lang, templates=templates, pdf=pdf)
-        click.echo(f"{doc['block_id']:12} {str(doc['verdict']).upper():5}  {folder}")
+        click.echo(f"{doc.block_id:12} {doc.verdict.upper():5}  {folder}")
     if summary is not None:
         path, doc, raw = summary
         if (out / "summary.json").resolve() != path.resolve():
             write_bytes_atomic(out / "summary.json", raw)
-        written += write_summary_report(
-            out, doc, [d for _, d, _ in docs], lang=lang, templates=templates, pdf=pdf
-        )
+        written += write_summary_report(out, doc, lang=lang, templates=templates, pdf=pdf)
         click.echo(f"summary      {out / 'summary.html'}")
     click.echo(f"{len(written)} files written in {out}")
     return 0

@@ -7,6 +7,9 @@ import io
 import json
 from typing import Any
 
+from blockqc.report.checkpoints import checkpoint_points
+from blockqc.results import BlockResults
+
 CHECKPOINT_COLUMNS = [
     "component",
     "method",
@@ -59,36 +62,31 @@ def _union(first: list[str], rows: list[dict[str, Any]]) -> list[str]:
     return keys
 
 
-def checkpoints_csv(results: dict[str, Any]) -> str:
-    """Every checkpoint of every component and method (measurements.checkpoint_accuracy.point)."""
-    points = ((results.get("measurements") or {}).get("checkpoint_accuracy") or {}).get(
-        "point"
-    ) or []
-    rows = [{"block_id": results.get("block_id"), **p} for p in points]
+def checkpoints_csv(results: BlockResults) -> str:
+    """Every checkpoint of every component and method, as measured."""
+    rows = [{"block_id": results.block_id, **p} for p in checkpoint_points(results)]
     return _csv(_union(["block_id", *CHECKPOINT_COLUMNS], rows), rows)
 
 
-def evidence_csv(results: dict[str, Any]) -> str:
+def evidence_csv(results: BlockResults) -> str:
     """One row per evidence row of every result that is not a pass (fail, error, warn, waived)."""
     rows = []
-    for res in results.get("results", []):
-        if res.get("status") not in ("fail", "error", "warn", "waived"):
+    for res in results.results:
+        if res.status not in ("fail", "error", "warn", "waived"):
             continue
-        group = ";".join(f"{k}={v}" for k, v in (res.get("group") or {}).items())
         base = {
-            "block_id": results.get("block_id"),
-            "rule": res["rule"],
-            "group": group,
-            "status": res["status"],
-            "clause": res.get("clause"),
-            "value": res.get("value"),
-            "threshold": res.get("threshold"),
-            "unit": res.get("unit"),
+            "block_id": results.block_id,
+            "rule": res.rule,
+            "group": ";".join(f"{k}={v}" for k, v in res.group.items()),
+            "status": res.status,
+            "clause": res.clause,
+            "value": res.value,
+            "threshold": res.threshold,
+            "unit": res.unit,
         }
-        evidence = res.get("evidence") or []
-        if not evidence:
+        if not res.evidence:
             rows.append({**base, "row": ""})
-        for i, e in enumerate(evidence, start=1):
+        for i, e in enumerate(res.evidence, start=1):
             rows.append(
                 {**{f"evidence_{k}" if k in base else k: v for k, v in e.items()}, **base, "row": i}
             )

@@ -10,15 +10,17 @@ from typing import Any
 import jinja2
 from markupsafe import Markup
 
-from blockqc.report.build import Formatter, block_context
+from blockqc.report.build import block_context
+from blockqc.report.format import number
 from blockqc.resources import templates_dir
+from blockqc.results import BlockResults
 
 FONT_FILE = Path(__file__).resolve().parent / "fonts" / "BlockqcSansSC-Regular.otf"
 
 
 def _fmt(value: Any, digits: int = 2) -> str:
-    """Numbers for people: fixed decimals, booleans as yes/no, missing as an en dash."""
-    return Formatter("en").num(value, digits if isinstance(value, float) else None)
+    """Numbers for people: fixed decimals, missing as an en dash."""
+    return number(value, digits if isinstance(value, float) else None)
 
 
 def _group(group: dict[str, Any]) -> str:
@@ -71,7 +73,7 @@ def _figure_as_image(svg: str) -> Markup:
 
 
 def render_block(
-    results: dict[str, Any],
+    results: BlockResults,
     env: jinja2.Environment | None = None,
     *,
     lang: str = "en",

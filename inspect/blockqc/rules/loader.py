@@ -16,7 +16,7 @@ from blockqc.errors import Problem, RuleError
 from blockqc.metrics import REGISTRY
 from blockqc.resources import rules_dir
 from blockqc.rules.expr import ExpressionError, evaluate, resolve_params
-from blockqc.rules.model import Pack, PackFile, Rule
+from blockqc.rules.model import ElementDef, Pack, PackFile, Rule, merge_elements
 from blockqc.yamlio import LineDict, line_of, load_yaml, pydantic_problems
 
 #: values the delivery supplies to expressions; pack checks evaluate them with these stand-ins
@@ -160,6 +160,7 @@ def load_pack(ref: str | Path) -> Pack:
     """Load, merge and validate a rule pack; raise RuleError listing every problem."""
     path = resolve_pack_path(ref)
     pf, constants, raw_rules, chain, disabled = _load_raw(path, ())
+    elements = _elements(chain)
     problems: list[Problem] = []
     rules: list[Rule] = []
     names = {**constants, **DELIVERY_NAMES}
@@ -173,6 +174,7 @@ def load_pack(ref: str | Path) -> Pack:
                 )
             continue
         problems.extend(_check_rule(rule, names, raw))
+        problems.extend(_check_contents(rule, elements, raw))
         rules.append(rule)
     if problems:
         raise RuleError(problems)
@@ -183,10 +185,45 @@ def load_pack(ref: str | Path) -> Pack:
         description=pf.description,
         constants=constants,
         rules=rules,
+        elements=elements,
         chain=chain,
         disabled=disabled,
         origin={rid: (r.file, r.line) for rid, r in raw_rules.items()},
     )
+
+
+def _check_contents(rule: Rule, elements: list[ElementDef], raw: _Raw) -> list[Problem]:
+    """A rule's contents and quality element must be in the pack's `elements:` tree."""
+    contents = {c.id for e in elements for i in e.items for c in i.contents}
+    out = [
+        Problem(
+            raw.file,
+            f"rule {rule.id}: content '{c}' is not in the pack's elements "
+            f"(known: {', '.join(sorted(contents))}); add it under elements:",
+            line=_line(raw, "content"),
+        )
+        for c in rule.content
+        if c not in contents
+    ]
+    if rule.quality_element and rule.quality_element not in {e.id for e in elements}:
+        out.append(
+            Problem(
+                raw.file,
+                f"rule {rule.id}: quality_element '{rule.quality_element}' is not an element id "
+                f"(known: {', '.join(e.id for e in elements)})",
+                line=_line(raw, "quality_element"),
+            )
+        )
+    return out
+
+
+def _elements(chain: list[str]) -> list[ElementDef]:
+    """The pack's inspection contents: each file's `elements:` merged from the root pack down."""
+    out: list[ElementDef] = []
+    for file in reversed(chain):
+        data = load_yaml(Path(file), RuleError)
+        out = merge_elements(out, PackFile.model_validate(data).elements)
+    return out
 
 
 def _line(raw: _Raw, *loc: Any) -> int | None:

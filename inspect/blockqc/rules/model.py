@@ -24,6 +24,60 @@ SCOPES = (
 )
 
 
+#: what a rule may ask the report to draw from its results (§2 report figures)
+FigureHint = Literal[
+    "residual_histogram",  # the rule's threshold marked on the tie-point residual histogram
+    "scene_counts",  # the rule's threshold as the minimum on the per-scene counts chart
+    "scene_points",  # the tie-point layout of every scene the rule fails
+]
+
+
+class Titled(BaseModel):
+    """Something the report names in both languages."""
+
+    model_config = ConfigDict(extra="forbid")
+    id: str = Field(pattern=r"^[A-Za-z][A-Za-z0-9_]*$")
+    title: str = Field(min_length=1)
+    title_zh: str = ""
+
+
+class ContentDef(Titled):
+    """An inspection content (DOMAIN §2), decided by the rules that name it."""
+
+
+class ItemDef(Titled):
+    """A quality item: its contents and how they are checked."""
+
+    method: str = ""
+    method_zh: str = ""
+    contents: list[ContentDef] = Field(default_factory=list)
+
+
+class ElementDef(Titled):
+    """A quality element (data, layout, attachment quality) and its items."""
+
+    items: list[ItemDef] = Field(default_factory=list)
+
+
+def merge_elements(base: list[ElementDef], extra: list[ElementDef]) -> list[ElementDef]:
+    """A project's elements merged into its parent's by id: titles replaced, new parts appended."""
+    out = [e.model_copy(deep=True) for e in base]
+    for e in extra:
+        mine = next((x for x in out if x.id == e.id), None)
+        if mine is None:
+            out.append(e.model_copy(deep=True))
+            continue
+        mine.title, mine.title_zh = e.title, e.title_zh or mine.title_zh
+        for item in e.items:
+            old = next((x for x in mine.items if x.id == item.id), None)
+            if old is None:
+                mine.items.append(item.model_copy(deep=True))
+                continue
+            known = {c.id for c in old.contents}
+            old.contents += [c for c in item.contents if c.id not in known]
+    return out
+
+
 class Threshold(BaseModel):
     """What passes: a lower and/or upper bound (inclusive or not), or allowed values."""
 
@@ -67,10 +121,15 @@ class Rule(BaseModel):
     id: str = Field(pattern=r"^[A-Z][A-Z0-9]*(-[A-Za-z0-9]+)+$")
     title: str = Field(min_length=1)
     clause: str = Field(min_length=1)
+    title_zh: str = ""
     description: str = ""
-    quality_element: str = ""  # DOMAIN §2: data quality, layout quality, attachment quality
-    content: str = ""  # the §2 item, e.g. "plane accuracy"
-    inspection_content: str = ""  # for a project's own rule: one of §2's inspection contents
+    description_zh: str = ""
+    # the inspection content(s) the rule decides (ids of the pack's `elements:` tree): one id, a
+    # list, or {content id: {group column: value}} where results of a group decide one content
+    content: dict[str, dict[str, str | float | bool]] = Field(default_factory=dict)
+    quality_element: str = ""  # an element id, for a rule that decides no content of the tree
+    inspection: Literal["general", "detailed"] = "general"  # DOMAIN §2: every block / sampled
+    figures: list[FigureHint] = Field(default_factory=list)
     metric: str | None = None
     params: dict[str, Any] = Field(default_factory=dict)
     scope: Literal[SCOPES] = "block"  # type: ignore[valid-type]
@@ -86,6 +145,15 @@ class Rule(BaseModel):
     evidence_from: str | None = None  # another scope of the metric listing the offending units
     evidence_where: dict[str, str | float | bool] = Field(default_factory=dict)
     evidence_limit: int = Field(default=50, ge=0)
+
+    @field_validator("content", mode="before")
+    @classmethod
+    def _content(cls, v: Any) -> Any:
+        if isinstance(v, str):
+            return {v: {}} if v else {}
+        if isinstance(v, list):
+            return {c: {} for c in v}
+        return v
 
     @field_validator("clause")
     @classmethod
@@ -125,6 +193,7 @@ class PackFile(BaseModel):
     title: str = ""
     description: str = ""
     extends: str | None = None
+    elements: list[ElementDef] = Field(default_factory=list)
     constants: dict[str, Any] = Field(default_factory=dict)
     rules: list[dict[str, Any]] = Field(default_factory=list)
     overrides: dict[str, dict[str, Any]] = Field(default_factory=dict)
@@ -141,6 +210,7 @@ class Pack:
     description: str
     constants: dict[str, Any]
     rules: list[Rule]
+    elements: list[ElementDef] = field(default_factory=list)
     chain: list[str] = field(default_factory=list)  # files, the pack's own first
     disabled: list[str] = field(default_factory=list)
     origin: dict[str, tuple[str, int | None]] = field(default_factory=dict)  # id -> (file, line)
@@ -150,3 +220,7 @@ class Pack:
             if r.id == rule_id:
                 return r
         raise KeyError(rule_id)
+
+    def content_ids(self) -> dict[str, str]:
+        """Every content id of the pack's tree with the id of its element."""
+        return {c.id: e.id for e in self.elements for i in e.items for c in i.contents}

@@ -1,0 +1,134 @@
+"""Which figures a block report draws, chosen from the results' figure hints and measurements."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from blockqc.report import plots
+from blockqc.report.checkpoints import checkpoint_measurement
+from blockqc.report.format import Formatter
+from blockqc.results import BlockResults, MeasurementRecord, RuleResult
+
+SCENE_KEYS = ("scene_id", "scene_a", "scene_b", "pan_scene_id", "ms_scene_id")
+MAX_SCENE_MAPS = 24
+DEFAULT_MARKS = (0.5, 1.0, 1.5)
+#: how bad a scene's worst mark is (lower is worse)
+SCENE_RANK = {"error": 0, "fail": 0, "warn": 1, "waived": 2, "exempt": 3, "pass": 4}
+
+
+def _hinted(results: BlockResults, hint: str) -> list[RuleResult]:
+    return [r for r in results.results if hint in r.figures]
+
+
+def _measurement_of(results: BlockResults, rules: list[RuleResult]) -> MeasurementRecord | None:
+    return next((m for r in rules if (m := results.measurement(r.measurement))), None)
+
+
+def scene_statuses(results: BlockResults, rules: list[RuleResult] | None = None) -> dict[str, str]:
+    """The worst status met by each scene in the evidence, exemptions or waivers of `rules`."""
+    out: dict[str, str] = {}
+
+    def mark(scene: Any, status: str) -> None:
+        key = str(scene)
+        if scene is not None and SCENE_RANK.get(status, 5) < SCENE_RANK.get(out.get(key, ""), 6):
+            out[key] = status
+
+    for res in results.results if rules is None else rules:
+        for row in res.detail.get("exempt") or []:
+            if isinstance(row, dict):
+                mark(row.get("scene_id"), "exempt")
+        for label in res.detail.get("waived") or []:
+            for part in str(label).split("/"):
+                mark(part, "waived")
+        if res.status in ("fail", "error", "warn"):
+            for row in res.evidence:
+                for k in SCENE_KEYS:
+                    if k in row:
+                        mark(row[k], res.status)
+    return out
+
+
+def _numeric_thresholds(rules: list[RuleResult]) -> list[float]:
+    return [
+        float(r.threshold)
+        for r in rules
+        if isinstance(r.threshold, int | float) and not isinstance(r.threshold, bool)
+    ]
+
+
+def _checkpoint_figures(results: BlockResults, f: Formatter, figs: dict[str, Any]) -> None:
+    m = checkpoint_measurement(results)
+    if m is None:
+        return
+    points, stats = m.tables.get("point", []), m.tables.get("component_method", [])
+    for component in ("plane", "height"):
+        if any(p.get("component") == component for p in points):
+            figs["detailed"].append(
+                plots.checkpoint_errors(points, stats, component, f.t, f"cp-{component}")
+            )
+    if any(p.get("component") == "plane" for p in points):
+        if not any(p.get("x_m") is not None for p in points):
+            figs["notes"].append(f.t("vector_no_positions"))
+        figs["detailed"].append(plots.checkpoint_vectors(points, stats, f.t, "cp-vectors"))
+
+
+def _histogram(results: BlockResults, f: Formatter, figs: dict[str, Any]) -> None:
+    rules = _hinted(results, "residual_histogram")
+    m = _measurement_of(results, rules)
+    hist = m.detail.get("histogram") if m else None
+    if not isinstance(hist, dict) or not hist.get("counts"):
+        return
+    marks = set(_numeric_thresholds(rules))
+    interval = m.detail.get("interval_px")
+    if isinstance(interval, list):
+        marks.update(float(v) for v in interval if isinstance(v, int | float))
+    marks_list = sorted(marks) or list(DEFAULT_MARKS)
+    figs["general"].append(plots.residual_histogram(hist, marks_list, f.t, "tp-hist"))
+
+
+def _scene_counts(results: BlockResults, f: Formatter, figs: dict[str, Any]) -> None:
+    rules = _hinted(results, "scene_counts")
+    m = _measurement_of(results, rules)
+    per_scene = m.tables.get("scene") if m else None
+    if not per_scene:
+        return
+    minimum = next(iter(_numeric_thresholds(rules)), None)
+    statuses = scene_statuses(results, rules)
+    figs["general"].append(plots.scene_counts(per_scene, minimum, statuses, f.t, "tp-counts"))
+
+
+def _scene_maps(results: BlockResults, f: Formatter, figs: dict[str, Any]) -> None:
+    """The tie-point layout of each scene a `scene_points` rule fails."""
+    rules = [r for r in _hinted(results, "scene_points") if r.status in ("fail", "error")]
+    failing = list(
+        dict.fromkeys(str(e["scene_id"]) for r in rules for e in r.evidence if "scene_id" in e)
+    )
+    m = _measurement_of(results, rules)
+    kept = (m.failing_scene_points if m else None) or {}
+    grid = int((m.detail.get("grid") if m else None) or 3)
+    size = {str(s["scene_id"]): s for s in results.scenes}
+    for i, sid in enumerate(failing[:MAX_SCENE_MAPS]):
+        pts, scene = kept.get(sid), size.get(sid, {})
+        if not pts or not scene.get("lines") or not scene.get("samples"):
+            figs["scene_maps"].append({"scene": sid, "svg": None, "caption": f.t("no_points_kept")})
+            continue
+        lines, samples = pts.get("line", []), pts.get("sample", [])
+        svg = plots.scene_points(
+            sid, lines, samples, scene["lines"], scene["samples"], grid, f.t, f"scene-{i}"
+        )
+        caption = f.t("scene_points_caption", n=len(lines))
+        figs["scene_maps"].append({"scene": sid, "svg": svg, "caption": caption})
+    if len(failing) > MAX_SCENE_MAPS:
+        figs["notes"].append(f.t("maps_capped", n=MAX_SCENE_MAPS, total=len(failing)))
+
+
+def block_figures(results: BlockResults, f: Formatter, statuses: dict[str, str]) -> dict[str, Any]:
+    """The SVG figures of a block report, by section."""
+    figs: dict[str, Any] = {"general": [], "detailed": [], "scene_maps": [], "notes": []}
+    _checkpoint_figures(results, f, figs)
+    _histogram(results, f, figs)
+    _scene_counts(results, f, figs)
+    if any(s.get("footprint_wkt") for s in results.scenes):
+        figs["general"].append(plots.footprints(results.scenes, statuses, f.t, "footprints"))
+    _scene_maps(results, f, figs)
+    return figs

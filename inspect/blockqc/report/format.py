@@ -1,0 +1,118 @@
+"""Numbers, thresholds, groups and statuses for people: the one formatter of every page."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from blockqc.report.messages import MESSAGES, translator
+from blockqc.results import RuleResult
+
+MISSING = "–"
+
+
+def number(v: Any, digits: int | None = None) -> str:
+    """A value for a table cell: integers whole, floats to `digits` decimals (3 below 1, else 2
+    by default), tiny values in exponent form, missing or non-finite as an en dash."""
+    if v is None:
+        return MISSING
+    if isinstance(v, np.generic):
+        v = v.item()
+    if isinstance(v, bool) or not isinstance(v, int | float):
+        return str(v)
+    if isinstance(v, int):
+        return str(v)
+    if not math.isfinite(v):
+        return MISSING
+    if v.is_integer() and abs(v) < 1e9 and digits is None:
+        return str(int(v))
+    d = digits if digits is not None else (3 if abs(v) < 1 else 2)
+    if v != 0 and abs(v) < 10 ** (-d):
+        return f"{v:.2e}"
+    return f"{v:.{d}f}"
+
+
+def bound(v: Any) -> str:
+    """A threshold as the specification writes it: 0.5, 2.6, 28.28 (two decimals at most)."""
+    if isinstance(v, float) and math.isfinite(v):
+        return f"{v:.2f}".rstrip("0").rstrip(".")
+    return number(v)
+
+
+SYMBOLS = {"<=": "≤", "<": "<", ">=": "≥", ">": ">", "equals": "="}
+
+
+class Formatter:
+    """The formatter of one language."""
+
+    def __init__(self, lang: str):
+        self.lang = lang
+        self.t = translator(lang)
+
+    def _key(self, prefix: str, value: Any, fallback: str | None = None) -> str:
+        key = f"{prefix}_{value}"
+        return (
+            self.t(key) if key in MESSAGES else (fallback if fallback is not None else str(value))
+        )
+
+    def num(self, v: Any, digits: int | None = None) -> str:
+        if isinstance(v, bool):
+            return self.t("yes") if v else self.t("no")
+        if isinstance(v, list | tuple):
+            return ", ".join(self.num(x, digits) for x in v)
+        if isinstance(v, dict):
+            return ", ".join(f"{k}: {self.num(x, digits)}" for k, x in v.items())
+        return number(v, digits)
+
+    def unit(self, unit: str | None) -> str:
+        return self._key("unit", unit, unit) if unit else ""
+
+    def value(self, res: RuleResult) -> str:
+        if res.value is None:
+            return MISSING
+        text = self.num(res.value)
+        unit = self.unit(res.unit)
+        return f"{text} {unit}".strip() if unit and not isinstance(res.value, str) else text
+
+    def threshold(self, res: RuleResult) -> str:
+        comp, th = res.comparison, res.threshold
+        if comp is None or th is None:
+            return res.threshold_text or MISSING
+        if comp in SYMBOLS:
+            text = f"{SYMBOLS[comp]} {bound(th)}"
+        elif comp in ("between", "strictly_between") and isinstance(th, list) and len(th) == 2:
+            text = f"{bound(th[0])} … {bound(th[1])}"
+        elif comp == "in":
+            text = "∈ {" + self.num(th) + "}"
+        else:
+            return res.threshold_text or MISSING
+        numeric = isinstance(th, int | float | list) and not isinstance(th, bool)
+        unit = self.unit(res.unit)
+        return f"{text} {unit}".strip() if numeric and unit else text
+
+    def group(self, group: dict[str, Any] | None) -> str:
+        return " · ".join(self._key(k, v, str(v)) for k, v in (group or {}).items())
+
+    def status(self, s: str | None) -> str:
+        return self.t("not_checked") if s is None else self._key("status", s, s)
+
+    def verdict(self, v: str) -> str:
+        return self._key("verdict", v, v.upper())
+
+    def title(self, res: RuleResult) -> str:
+        return self.pick(res.title, res.title_zh) or res.rule
+
+    def pick(self, en: str, zh: str) -> str:
+        """A pack's text in the report's language (English when no translation is given)."""
+        return zh if self.lang == "zh" and zh else en
+
+    def column(self, key: str) -> str:
+        return self._key("col", key, self.t(key) if key in MESSAGES else key)
+
+    def method(self, m: str) -> str:
+        return self._key("method", m, m)
+
+    def component(self, c: str) -> str:
+        return self._key("component", c, c)
