@@ -10,6 +10,7 @@ import yaml
 
 from blockqc.delivery import load_delivery
 from blockqc.engine import inspect_delivery
+from blockqc.results import dump
 from blockqc.inspector import InspectorInput
 from blockqc.rules import load_pack
 from casekit import aggregate_status, write_delivery, write_pack
@@ -48,7 +49,7 @@ def test_rule_case(tmp_path: Path, pack_name: str, rule_id: str, case: dict) -> 
         pack_ref = str(write_pack(tmp_path / "pack.yaml", case["pack"]))
     pack = load_pack(pack_ref)
     inspector = InspectorInput.model_validate(case.get("verdicts") or {})
-    doc = inspect_delivery(load_delivery(folder), pack, inspector.for_block("CASE"))
+    doc = dump(inspect_delivery(load_delivery(folder), pack, inspector.for_block("CASE")))
     results = [r for r in doc["results"] if r["rule"] == rule_id]
     assert results, f"rule {rule_id} gave no result"
     group = case.get("group")

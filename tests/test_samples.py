@@ -76,7 +76,9 @@ def test_checkpoint_statistics_close_to_published(inspected, block: str) -> None
     r = json.loads((out / block / "results.json").read_text())
     table = {
         (g["component"], g["method"]): g
-        for g in r["measurements"]["checkpoint_accuracy"]["component_method"]
+        for m in r["measurements"]
+        if m["metric"] == "checkpoint_accuracy"
+        for g in m["tables"]["component_method"]
     }
     assert set(table) == set(PUBLISHED[block])
     for key, (m, mx, n_gross, rate) in PUBLISHED[block].items():

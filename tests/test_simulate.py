@@ -9,6 +9,7 @@ import pytest
 
 from blockqc.delivery import load_delivery
 from blockqc.engine import inspect_delivery
+from blockqc.results import dump
 from blockqc.rules import load_pack
 from blockqc.simulate import FAULTS, Layout, Options, simulate
 from casekit import SAMPLES, aggregate_status
@@ -56,7 +57,7 @@ def test_same_seed_same_files(tmp_path: Path) -> None:
 def test_clean_blocks_pass(tmp_path: Path) -> None:
     pack = load_pack("global-project")
     for block in simulate(tmp_path, Options(seed=11, **SMALL), DEM):
-        doc = inspect_delivery(load_delivery(tmp_path / block), pack)
+        doc = dump(inspect_delivery(load_delivery(tmp_path / block), pack))
         assert doc["verdict"] == "pass", [r for r in doc["results"] if r["status"] == "fail"]
 
 
@@ -64,7 +65,7 @@ def test_clean_blocks_pass(tmp_path: Path) -> None:
 def test_fault_trips_its_rule(tmp_path: Path, fault: str) -> None:
     rule, expected = EXPECTED[fault]
     simulate(tmp_path, Options(seed=3, faults=frozenset({fault}), **SMALL), DEM)
-    doc = inspect_delivery(load_delivery(tmp_path / "F4-B01"), load_pack("global-project"))
+    doc = dump(inspect_delivery(load_delivery(tmp_path / "F4-B01"), load_pack("global-project")))
     results = [r for r in doc["results"] if r["rule"] == rule]
     assert aggregate_status(results) == expected, results
     others = {r["rule"] for r in doc["results"] if r["status"] == "fail"} - {rule}

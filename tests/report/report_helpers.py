@@ -43,7 +43,7 @@ def _point(
     }
 
 
-def make_results() -> dict[str, Any]:
+def _hand_results() -> dict[str, Any]:
     """A small results.json written by hand (not by the engine) touching every report section."""
     # Eight high-precision plane checkpoints, three of them gross (bound 2·10 m), like field 3 of
     # DOMAIN §CP; four same-accuracy plane and height checkpoints.
@@ -467,6 +467,43 @@ def make_results() -> dict[str, Any]:
             },
         },
     }
+
+
+def make_results() -> dict[str, Any]:
+    """The hand-made results as the stock pack would report them (results.json, contract v1):
+    each result carries its rule's contents, inspection and figure hints from the pack, and names
+    the measurement it judged."""
+    from blockqc.rules import load_pack
+
+    doc = _hand_results()
+    pack = load_pack("global-project")
+    legacy = doc.pop("measurements")
+    doc["scenes"] = legacy.pop("scenes")
+    doc["elements"] = [e.model_dump() for e in pack.elements]
+    doc["measurements"] = [
+        {
+            "key": name,
+            "metric": name,
+            "detail": m.get("detail", {}),
+            "tables": {k: v for k, v in m.items() if k not in ("detail", "failing_scene_points")},
+            "failing_scene_points": m.get("failing_scene_points"),
+        }
+        for name, m in legacy.items()
+    ]
+    elements = pack.content_ids()
+    for res in doc["results"]:
+        rule = pack.rule(res["rule"])
+        res["title_zh"] = rule.title_zh
+        res["content"] = [
+            c
+            for c, where in rule.content.items()
+            if all(res["group"].get(k, v) == v for k, v in where.items())
+        ]
+        res["quality_element"] = elements[res["content"][0]] if res["content"] else ""
+        res["inspection"] = rule.inspection
+        res["figures"] = list(rule.figures)
+        res["measurement"] = rule.metric if rule.metric in legacy else None
+    return doc
 
 
 def require_tool(name: str) -> str:

@@ -16,34 +16,36 @@ from blockqc.report.build import Formatter, block_context
 from blockqc.report.contents import content_rows
 from blockqc.report.html import FONT_FILE, render_block
 from blockqc.report.messages import MESSAGES, catalogue_characters
+from blockqc.results import BlockResults, RuleResult
+from blockqc.rules import load_pack
 
 # DOMAIN §2: three quality elements and the inspection contents, with their Chinese names as the
 # Chinese quality-inspection method names them.
-QUALITY_ELEMENTS_ZH = {"qe_data": "数据质量", "qe_layout": "布局质量", "qe_attachment": "附件质量"}
+QUALITY_ELEMENTS_ZH = {"data": "数据质量", "layout": "布局质量", "attachment": "附件质量"}
 ITEMS_ZH = {
-    "it_math": "数学基础",
-    "it_plane": "平面精度",
-    "it_height": "高程精度",
-    "it_edge": "接边精度",
-    "it_report": "报告",
-    "it_points": "点位分布",
-    "it_documents": "文档资料",
+    "mathematical_basis": "数学基础",
+    "plane_accuracy": "平面精度",
+    "height_accuracy": "高程精度",
+    "edge_accuracy": "接边精度",
+    "report": "报告",
+    "points_distribution": "点位分布",
+    "documents": "文档资料",
 }
 CONTENTS_ZH = {
-    "ct_coordinate_system": "坐标系统",
-    "ct_geodetic_datum": "大地基准",
-    "ct_height_datum": "高程基准",
-    "ct_projection": "地图投影",
-    "ct_cp_plane": "检查点平面精度",
-    "ct_pan_ms": "全色多光谱相对定向精度",
-    "ct_cp_height": "检查点高程精度",
-    "ct_between_blocks": "区域网间相对定向精度",
-    "ct_within_block": "区域网内相对定向精度（相邻影像）",
-    "ct_ro_report": "相对定向精度报告",
-    "ct_ao_report": "绝对定向精度报告",
-    "ct_tp_number": "连接点数量",
-    "ct_tp_distribution": "连接点分布",
-    "ct_documents": "文档资料完整性与规范性",
+    "coordinate_system": "坐标系统",
+    "geodetic_datum": "大地基准",
+    "height_datum": "高程基准",
+    "projection": "地图投影",
+    "cp_plane": "检查点平面精度",
+    "pan_ms": "全色多光谱相对定向精度",
+    "cp_height": "检查点高程精度",
+    "between_blocks": "区域网间相对定向精度",
+    "within_block": "区域网内相对定向精度（相邻影像）",
+    "ro_report": "相对定向精度报告",
+    "ao_report": "绝对定向精度报告",
+    "tp_number": "连接点数量",
+    "tp_distribution": "连接点分布",
+    "documents": "文档资料完整性与规范性",
 }
 TERMS_ZH = {
     "method_high_precision": "高精度数据法",
@@ -63,9 +65,29 @@ def test_catalogue_has_both_languages_with_the_same_placeholders():
         assert names_en == names_zh, key
 
 
-@pytest.mark.parametrize("table", [QUALITY_ELEMENTS_ZH, ITEMS_ZH, CONTENTS_ZH, TERMS_ZH])
-def test_chinese_names_of_the_method(table):
+def _pack_titles_zh() -> dict[str, str]:
+    out = {}
+    for e in load_pack("global-project").elements:
+        out[f"element:{e.id}"] = e.title_zh
+        for i in e.items:
+            out[f"item:{i.id}"] = i.title_zh
+            out.update({f"content:{c.id}": c.title_zh for c in i.contents})
+    return out
+
+
+@pytest.mark.parametrize(
+    ("kind", "table"),
+    [("element", QUALITY_ELEMENTS_ZH), ("item", ITEMS_ZH), ("content", CONTENTS_ZH)],
+)
+def test_chinese_names_of_the_method_in_the_pack(kind, table):
+    titles = _pack_titles_zh()
+    assert {k.split(":")[1] for k in titles if k.startswith(kind)} == set(table)
     for key, zh in table.items():
+        assert titles[f"{kind}:{key}"] == zh
+
+
+def test_chinese_terms_of_the_method():
+    for key, zh in TERMS_ZH.items():
         assert MESSAGES[key][1] == zh
     assert "中误差" in MESSAGES["medium_error"][1] and "最大误差" in MESSAGES["max_error"][1]
 
@@ -87,78 +109,73 @@ def test_packaged_font_covers_the_catalogue_and_gb2312_level_1():
 
 
 def test_every_inspection_content_is_listed_with_the_rules_deciding_it(results_doc):
-    rows, others = content_rows(results_doc["results"])
+    rows, others = content_rows(BlockResults.model_validate(results_doc))
     by = {r.content: r for r in rows}
     assert set(by) == set(CONTENTS_ZH) and len(rows) == len(CONTENTS_ZH)
-    elements = {r.content: r.element for r in rows}
-    assert elements["ct_tp_distribution"] == "qe_layout"
-    assert elements["ct_ro_report"] == elements["ct_documents"] == "qe_attachment"
-    assert elements["ct_projection"] == elements["ct_within_block"] == "qe_data"
-    assert by["ct_tp_number"].status == "fail"  # TP-4 fails on the sparse scene
-    assert by["ct_tp_distribution"].status == "fail"
-    assert by["ct_cp_plane"].status == "fail"  # CP-2 high-precision 10.4 m > 10 m
-    assert by["ct_cp_height"].status == "pass"  # CP-3 only; the plane CP-4 is not a height rule
-    assert [r["rule"] for r in by["ct_cp_height"].results] == ["CP-3"]
-    assert by["ct_within_block"].status == "fail"
-    assert by["ct_documents"].status == "waived"  # DOC-1 waived, DOC-3 passed by the inspector
-    assert by["ct_pan_ms"].status is None  # no RO-1 result: not checked
-    assert by["ct_coordinate_system"].status == by["ct_geodetic_datum"].status == "pass"
+    elements = {r.content: r.element.id for r in rows}
+    assert elements["tp_distribution"] == "layout"
+    assert elements["ro_report"] == elements["documents"] == "attachment"
+    assert elements["projection"] == elements["within_block"] == "data"
+    assert by["tp_number"].status == "fail"  # TP-4 fails on the sparse scene
+    assert by["tp_distribution"].status == "fail"
+    assert by["cp_plane"].status == "fail"  # CP-2 high-precision 10.4 m > 10 m
+    assert by["cp_height"].status == "pass"  # CP-3 only; the plane CP-4 is not a height rule
+    assert [r.rule for r in by["cp_height"].results] == ["CP-3"]
+    assert by["within_block"].status == "fail"
+    assert by["documents"].status == "waived"  # DOC-1 waived, DOC-3 passed by the inspector
+    assert by["pan_ms"].status is None  # no RO-1 result: not checked
+    assert by["coordinate_system"].status == by["geodetic_datum"].status == "pass"
     assert others == []
 
 
+def _project_result(rule: str, status: str, content: list[str]) -> dict:
+    return {
+        "rule": rule,
+        "title": "Project rule",
+        "title_zh": "项目规则",
+        "clause": "§X",
+        "content": content,
+        "status": status,
+        "value": 1,
+        "threshold": 0,
+        "comparison": "<=",
+    }
+
+
 def test_results_naming_their_content_are_placed_there(results_doc):
-    results_doc["results"].append(
-        {
-            "rule": "X-9",
-            "title": "Project rule",
-            "clause": "§X",
-            "group": {},
-            "status": "fail",
-            "value": 1,
-            "threshold": 0,
-            "comparison": "<=",
-            "unit": "",
-            "detail": {},
-            "evidence": [],
-            "inspection_content": "PAN-MS relative orientation accuracy",
-        }
+    results_doc["results"].append(_project_result("X-9", "fail", ["pan_ms"]))
+    results_doc["results"].append(_project_result("X-10", "pass", []))
+    rows, others = content_rows(BlockResults.model_validate(results_doc))
+    pan_ms = next(r for r in rows if r.content == "pan_ms")
+    assert pan_ms.status == "fail" and [r.rule for r in pan_ms.results] == ["X-9"]
+    assert [r.rule for r in others] == ["X-10"]
+    zh = block_context(results_doc, "zh", figures=False)
+    plane = next(i for e in zh["elements"] for i in e["items"] if i["key"] == "plane_accuracy")
+    assert plane["name"] == "平面精度"
+    assert [x["title"] for c in plane["contents"] for x in c["results"]][-1] == "项目规则"
+
+
+def _th(comparison: str, threshold, unit: str) -> RuleResult:
+    return RuleResult(
+        rule="X-1",
+        title="x",
+        clause="§X",
+        status="pass",
+        comparison=comparison,
+        threshold=threshold,
+        unit=unit,
     )
-    results_doc["results"].append(
-        {
-            "rule": "X-10",
-            "title": "Unplaced",
-            "clause": "§X",
-            "group": {},
-            "status": "pass",
-            "value": 1,
-            "threshold": 2,
-            "comparison": "<=",
-            "unit": "",
-            "detail": {},
-            "evidence": [],
-        }
-    )
-    rows, others = content_rows(results_doc["results"])
-    pan_ms = next(r for r in rows if r.content == "ct_pan_ms")
-    assert pan_ms.status == "fail" and [r["rule"] for r in pan_ms.results] == ["X-9"]
-    assert [r["rule"] for r in others] == ["X-10"]
 
 
 def test_formatter_thresholds_and_groups():
     f = Formatter("en")
-    assert f.threshold({"comparison": "<=", "threshold": 10.0, "unit": "m"}) == "≤ 10 m"
-    assert (
-        f.threshold({"comparison": "<", "threshold": 28.284271247461902, "unit": "m"})
-        == "< 28.28 m"
-    )
-    assert (
-        f.threshold({"comparison": "between", "threshold": [20.0, 50.0], "unit": "points"})
-        == "20 … 50 points"
-    )
+    assert f.threshold(_th("<=", 10.0, "m")) == "≤ 10 m"
+    assert f.threshold(_th("<", 28.284271247461902, "m")) == "< 28.28 m"
+    assert f.threshold(_th("between", [20.0, 50.0], "points")) == "20 … 50 points"
     z = Formatter("zh")
     assert z.group({"component": "plane", "method": "same_accuracy"}) == "平面 · 同精度数据法"
     assert z.status("fail") == "不合格" and z.verdict("pass") == "合格"
-    assert z.threshold({"comparison": ">=", "threshold": 100.0, "unit": "points"}) == "≥ 100 个"
+    assert z.threshold(_th(">=", 100.0, "points")) == "≥ 100 个"
 
 
 def test_checkpoint_tables_put_methods_side_by_side(results_doc):
@@ -241,13 +258,8 @@ def test_user_templates_take_precedence(tmp_path, results_doc):
 
 
 def test_summary_lists_sampled_blocks_and_links(tmp_path, results_doc):
-    passing = {
-        **results_doc,
-        "block_id": "T-B02",
-        "verdict": "pass",
-        "results": [],
-        "measurements": {},
-    }
+    from blockqc.report import checkpoint_rows
+
     summary = {
         "rule_pack": "global-project",
         "rule_pack_version": "1.0",
@@ -256,21 +268,24 @@ def test_summary_lists_sampled_blocks_and_links(tmp_path, results_doc):
         "inspector": None,
         "verdict": "fail",
         "complete": True,
-        "counts": {"blocks": 2, "pass": 1, "fail": 1, "unreadable": 0},
+        "counts": {"blocks": 2, "pass": 1, "fail": 1, "error": 0, "unreadable": 0},
         "blocks": [
             {
                 "block_id": "T-B01",
                 "verdict": "fail",
                 "report": "T-B01/report.html",
                 "sampled": True,
+                "results": "T-B01/results.json",
                 "failed_rules": ["CP-2", "TP-4"],
                 "warned_rules": [],
                 "pending_manual": [],
+                "checkpoints": checkpoint_rows(BlockResults.model_validate(results_doc)),
             },
             {
                 "block_id": "T-B02",
                 "verdict": "pass",
                 "report": "T-B02/report.html",
+                "results": "T-B02/results.json",
                 "sampled": False,
                 "failed_rules": [],
                 "warned_rules": [],
@@ -290,7 +305,7 @@ def test_summary_lists_sampled_blocks_and_links(tmp_path, results_doc):
         },
         "unreadable": [],
     }
-    written = write_summary_report(tmp_path, summary, [results_doc, passing], pdf=False)
+    written = write_summary_report(tmp_path, summary, pdf=False)
     assert [p.name for p in written] == ["summary.html"]
     html = written[0].read_text(encoding="utf-8")
     assert 'href="T-B01/report.html"' in html and 'href="T-B02/report.html"' in html
@@ -308,7 +323,7 @@ def test_unknown_language_is_refused(tmp_path, results_doc):
 def test_figures_carry_no_input_text_as_markup(results_doc):
     """Labels in the figures are outlines; matplotlib's echo of them in comments is removed."""
     sneaky = "S-9--><script>alert(2)</script>"
-    results_doc["measurements"]["scenes"][0]["scene_id"] = sneaky
+    results_doc["scenes"][0]["scene_id"] = sneaky
     results_doc["results"][6]["evidence"][0]["scene_a"] = sneaky  # RO-3: the map marks it
     html = render_block(results_doc, lang="en")
     assert "<script>alert(2)</script>" not in html
@@ -319,6 +334,9 @@ def test_failing_scenes_get_a_distribution_map(results_doc):
     maps = block_context(results_doc, "en")["figures"]["scene_maps"]
     assert [m["scene"] for m in maps] == ["S-003<script>alert(1)</script>"]
     assert maps[0]["svg"].startswith("<svg") and "40 points shown" in maps[0]["caption"]
-    del results_doc["measurements"]["tie_point_distribution"]["failing_scene_points"]
+    distribution = next(
+        m for m in results_doc["measurements"] if m["metric"] == "tie_point_distribution"
+    )
+    distribution["failing_scene_points"] = None
     maps = block_context(results_doc, "en")["figures"]["scene_maps"]
     assert maps[0]["svg"] is None and "not in results.json" in maps[0]["caption"]

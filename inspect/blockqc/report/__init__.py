@@ -15,7 +15,7 @@ from blockqc.results import BlockResults, Summary
 
 def write_block_report(
     folder: Path,
-    results: BlockResults,
+    results: BlockResults | dict,
     *,
     lang: str = "en",
     templates: Path | None = None,
@@ -25,6 +25,7 @@ def write_block_report(
     if lang not in LANGUAGES:
         raise ValueError(f"language {lang!r}: choose one of {', '.join(LANGUAGES)}")
     folder = Path(folder)
+    results = BlockResults.model_validate(results)
     env = environment(templates)
     ctx = block_context(results, lang)
     written = []
@@ -48,7 +49,7 @@ def write_block_report(
 
 def write_summary_report(
     out: Path,
-    summary: Summary,
+    summary: Summary | dict,
     *,
     lang: str = "en",
     templates: Path | None = None,
@@ -58,6 +59,7 @@ def write_summary_report(
     if lang not in LANGUAGES:
         raise ValueError(f"language {lang!r}: choose one of {', '.join(LANGUAGES)}")
     out = Path(out)
+    summary = Summary.model_validate(summary)
     env = environment(templates)
     ctx = summary_context(summary, lang, pdf=pdf)
     write_text_atomic(out / "summary.html", render_page("summary.html.j2", ctx, env))

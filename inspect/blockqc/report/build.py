@@ -264,8 +264,11 @@ def _header(results: BlockResults, f: Formatter) -> dict[str, Any]:
     }
 
 
-def block_context(results: BlockResults, lang: str = "en", figures: bool = True) -> dict[str, Any]:
+def block_context(
+    results: BlockResults | dict[str, Any], lang: str = "en", figures: bool = True
+) -> dict[str, Any]:
     """Everything block.html.j2 shows, formatted in `lang`."""
+    results = BlockResults.model_validate(results)
     f = Formatter(lang)
     elements, others = _elements(results, f)
     rows = results.results
@@ -320,8 +323,11 @@ def _sampled_row(b: Any, s: dict[str, Any], f: Formatter) -> dict[str, Any]:
     }
 
 
-def summary_context(summary: Summary, lang: str = "en", pdf: bool = True) -> dict[str, Any]:
+def summary_context(
+    summary: Summary | dict[str, Any], lang: str = "en", pdf: bool = True
+) -> dict[str, Any]:
     """Everything summary.html.j2 shows: verdicts, counts per rule, the sampled blocks."""
+    summary = Summary.model_validate(summary)
     f = Formatter(lang)
     t = f.t
     sampled = [_sampled_row(b, s, f) for b in summary.blocks if b.sampled for s in b.checkpoints]
