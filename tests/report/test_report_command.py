@@ -91,9 +91,17 @@ def test_report_command_rerenders_a_batch_summary(tmp_path, results_doc):
     "content, expected",
     [
         ('{"block_id": "X",\n  "verdict": }', "line 2"),
-        ("[1, 2, 3]", "not a results document"),
-        ('{"block_id": "X", "results": []}', "missing key(s) verdict"),
-        ('{"block_id": "X", "verdict": "pass", "results": [{"rule": "A"}]}', "'rule' and 'status'"),
+        ("[1, 2, 3]", "at $: Input should be a valid dictionary"),
+        ('{"block_id": "X", "rule_pack": "p", "results": []}', "at $.verdict: Field required"),
+        (
+            '{"block_id": "X", "rule_pack": "p", "verdict": "pass", "results": [{"rule": "A"}]}',
+            "at $.results[0].status: Field required",
+        ),
+        (
+            '{"block_id": "X", "rule_pack": "p", "verdict": "pass", "results": '
+            '[{"rule": "A", "title": "a", "clause": "§A", "status": "passed"}]}',
+            "at $.results[0].status: Input should be 'pass'",
+        ),
     ],
 )
 def test_bad_input_is_exit_2_naming_the_file(tmp_path, capsys, content, expected):
