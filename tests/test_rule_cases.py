@@ -10,8 +10,8 @@ import yaml
 
 from blockqc.delivery import load_delivery
 from blockqc.engine import inspect_delivery
-from blockqc.results import dump
 from blockqc.inspector import InspectorInput
+from blockqc.results import dump
 from blockqc.rules import load_pack
 from casekit import aggregate_status, write_delivery, write_pack
 

@@ -104,3 +104,30 @@ def test_outputs_are_complete_and_atomic(inspected) -> None:
     ro3 = next(x for x in r["results"] if x["rule"] == "RO-3" and x["status"] == "fail")
     assert ro3["evidence"] and ro3["evidence"][0]["value_m"] >= 28.28
     assert ro3["evidence"] == sorted(ro3["evidence"], key=lambda e: -e["value_m"])
+
+
+def test_results_and_summary_follow_the_published_json_schema(inspected) -> None:
+    """`blockqc schema` validates every document the sample batch produces, rejects a broken one."""
+    import jsonschema
+
+    from casekit import run_blockqc
+
+    _, out = inspected
+    schemas = {}
+    for kind in ("results", "summary"):
+        proc = run_blockqc("schema", kind)
+        assert proc.returncode == 0, proc.stderr
+        schemas[kind] = json.loads(proc.stdout)
+        jsonschema.Draft202012Validator.check_schema(schemas[kind])
+    docs = sorted(out.glob("*/results.json"))
+    assert len(docs) == 8
+    for path in docs:
+        jsonschema.validate(json.loads(path.read_text()), schemas["results"])
+    jsonschema.validate(json.loads((out / "summary.json").read_text()), schemas["summary"])
+    broken = json.loads(docs[0].read_text())
+    broken["results"][0]["status"] = "passed"
+    with pytest.raises(jsonschema.ValidationError):
+        jsonschema.validate(broken, schemas["results"])
+    del broken["verdict"]
+    with pytest.raises(jsonschema.ValidationError):
+        jsonschema.validate(broken, schemas["summary"])
