@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import json
-from html import escape
 
 import yaml
+from markupsafe import escape
 
 from blockqc.report.build import block_context
 from casekit import SAMPLES, run_blockqc
