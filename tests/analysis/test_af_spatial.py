@@ -13,7 +13,7 @@ from pyproj import CRS, Transformer
 
 from blockqc.analysis.factors import tie_point_factors
 from blockqc.analysis.footprints import equal_area_crs
-from blockqc.analysis.spatial import clark_evans, mean_nearest_neighbour_distance
+from blockqc.spatial import clark_evans, mean_nearest_neighbour_distance
 
 
 def test_uniform_random_is_about_one():

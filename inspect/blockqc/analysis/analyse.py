@@ -15,23 +15,14 @@ from blockqc.analysis.cca import (
     pearson,
 )
 from blockqc.analysis.table import FACTOR_COLUMNS, INDICATOR_COLUMNS, LABELS, TABLE_COLUMNS
+from blockqc.outputs import jsonable
 
 #: A column whose standard deviation is below this share of its mean is called nearly constant.
 NEARLY_CONSTANT = 1e-3
 
 
-def _num(v: Any) -> Any:
-    if isinstance(v, (np.integer,)):
-        return int(v)
-    if isinstance(v, (float, np.floating)):
-        return float(v) if np.isfinite(v) else None
-    if isinstance(v, np.bool_):
-        return bool(v)
-    return v
-
-
 def _matrix(frame: pd.DataFrame) -> dict[str, dict[str, float | None]]:
-    return {str(i): {str(c): _num(frame.loc[i, c]) for c in frame.columns} for i in frame.index}
+    return {str(i): {str(c): jsonable(frame.loc[i, c]) for c in frame.columns} for i in frame.index}
 
 
 def analyse(table: pd.DataFrame, source: str) -> dict[str, Any]:
@@ -78,7 +69,9 @@ def analyse(table: pd.DataFrame, source: str) -> dict[str, Any]:
         "descriptive": _matrix(stats),
         "table_columns": [c for c in TABLE_COLUMNS if c in table.columns],
         "extra_columns": [str(c) for c in table.columns if c not in TABLE_COLUMNS],
-        "table": [{k: _num(v) for k, v in row.items()} for row in table.to_dict(orient="records")],
+        "table": [
+            {k: jsonable(v) for k, v in row.items()} for row in table.to_dict(orient="records")
+        ],
         "correlation": None,
         "correlation_note": None,
         "cca": None,

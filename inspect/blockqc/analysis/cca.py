@@ -10,6 +10,8 @@ import pandas as pd
 import scipy.linalg
 from scipy import stats
 
+from blockqc.outputs import jsonable
+
 
 class AnalysisError(ValueError):
     """The table cannot support the analysis (too few rows, constant or collinear columns)."""
@@ -235,16 +237,8 @@ def _dependent_columns(z: np.ndarray, names: list[str]) -> list[tuple[str, list[
 
 
 def _records(frame: pd.DataFrame) -> list[dict[str, Any]]:
-    return [{k: _num(v) for k, v in row.items()} for row in frame.to_dict(orient="records")]
+    return [{k: jsonable(v) for k, v in row.items()} for row in frame.to_dict(orient="records")]
 
 
 def _frame_dict(frame: pd.DataFrame) -> dict[str, dict[str, float | None]]:
-    return {str(i): {str(c): _num(frame.loc[i, c]) for c in frame.columns} for i in frame.index}
-
-
-def _num(v: Any) -> Any:
-    if isinstance(v, (np.integer,)):
-        return int(v)
-    if isinstance(v, (float, np.floating)):
-        return float(v) if np.isfinite(v) else None
-    return v
+    return {str(i): {str(c): jsonable(frame.loc[i, c]) for c in frame.columns} for i in frame.index}

@@ -21,9 +21,9 @@ from blockqc.analysis.footprints import (
     tie_point_lonlat,
 )
 from blockqc.analysis.indicators import DEFAULT_METHOD_ORDER, block_indicators
-from blockqc.analysis.spatial import clark_evans
 from blockqc.analysis.table import TABLE_COLUMNS
 from blockqc.analysis.terrain import DemSet
+from blockqc.spatial import clark_evans
 
 
 @dataclass(frozen=True)

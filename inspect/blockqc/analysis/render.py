@@ -12,6 +12,7 @@ import numpy as np
 from markupsafe import Markup
 from matplotlib.figure import Figure
 
+from blockqc.report.format import number
 from blockqc.report.html import environment as report_environment
 
 TEMPLATE = "factors.html.j2"
@@ -119,26 +120,15 @@ def environment(user_templates: Path | None = None) -> jinja2.Environment:
 
 
 def _fmt(v: Any, digits: int = 3) -> str:
-    """A number for a table cell: fixed decimals, thousands kept readable, '–' when missing."""
-    if v is None:
-        return "–"
-    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
-        return str(v)
-    if isinstance(v, (int, np.integer)):
-        return f"{v:d}"
-    if not np.isfinite(v):
-        return "–"
-    if abs(v) >= 1000:
-        return f"{v:.1f}"
-    if v != 0 and abs(v) < 10 ** (-digits):
-        return f"{v:.2e}"
-    return f"{v:.{digits}f}"
+    """A number for a table cell: fixed decimals (one from a thousand up), '–' when missing."""
+    big = isinstance(v, float | np.floating) and np.isfinite(v) and abs(v) >= 1000
+    return number(v, 1 if big else digits)
 
 
 def _cell(v: Any) -> str:
     """A table cell: whole numbers without decimals, others as `_fmt`."""
-    if isinstance(v, (float, np.floating)) and np.isfinite(v) and float(v).is_integer():
-        return f"{int(v):d}"
+    if isinstance(v, float | np.floating) and np.isfinite(v) and float(v).is_integer():
+        return number(v)
     return _fmt(v, 3)
 
 

@@ -8,9 +8,9 @@ import numpy as np
 import pandas as pd
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from blockqc.analysis.spatial import clark_evans_grouped
 from blockqc.delivery import Delivery
 from blockqc.metrics import Measure, Measurement, Table, metric, not_applicable
+from blockqc.spatial import clark_evans_grouped
 
 Band = Literal["pan", "ms"]
 
