@@ -51,7 +51,7 @@ def main() -> None:
             judges.append(t2 - t1)
         n = len(d.tie_points)
         read, judge = statistics.median(reads), statistics.median(judges)
-        print(f"tie-point observations: {n:,}; scenes: {len(d.scenes)}; verdict {r['verdict']}")
+        print(f"tie-point observations: {n:,}; scenes: {len(d.scenes)}; verdict {r.verdict}")
         print(
             f"read + validate: {read:.2f} s   judge 20 rules: {judge:.2f} s   "
             f"(median of {args.repeat})"

@@ -33,6 +33,9 @@ class DistributionParams(BaseModel):
     grid: int = Field(default=3, ge=1, le=50)  # k×k cells over each scene (§TP-4 uniformity)
     min_points_per_cell: int = Field(default=1, ge=1)
     exempt_water_fraction: float = Field(default=0.5, ge=0.0, le=1.0)
+    # the Clark–Evans R of every scene (one nearest-neighbour query over all observations): only
+    # when a rule asks for it, since it costs more than everything else of this metric together
+    clark_evans: bool = False
 
 
 def tie_point_error_px(v_line: np.ndarray, v_sample: np.ndarray) -> np.ndarray:
@@ -122,41 +125,18 @@ def tie_point_distribution(d: Delivery, p: DistributionParams, measure: Measure)
     scenes, tp = _select(d, p.bands)
     if scenes.empty:
         return not_applicable("no scenes of the bands checked")
-    k = p.grid
     geo = scenes.set_index("scene_id")[["lines", "samples"]].astype(float)
-    lines = geo["lines"].reindex(tp["scene_id"]).to_numpy()
-    samples = geo["samples"].reindex(tp["scene_id"]).to_numpy()
-    row = np.clip((tp["line"].to_numpy() / lines * k).astype(int), 0, k - 1)
-    col = np.clip((tp["sample"].to_numpy() / samples * k).astype(int), 0, k - 1)
-    cells = pd.DataFrame({"scene_id": tp["scene_id"].to_numpy(), "cell": row * k + col})
-    per_cell = cells.groupby(["scene_id", "cell"], sort=False).size()
-    covered = (per_cell >= p.min_points_per_cell).groupby(level="scene_id").sum()
-    n_points = tp.groupby("scene_id", sort=False)["point_id"].nunique()
-
-    out = scenes[["scene_id", "band", "lines", "samples"]].copy()
-    water = (
-        scenes["water_fraction"]
-        if "water_fraction" in scenes
-        else pd.Series(np.nan, index=scenes.index)
-    ).astype(float)
-    out["water_fraction"] = water.to_numpy()
-    out["n_points"] = n_points.reindex(out["scene_id"]).fillna(0).astype(int).to_numpy()
-    out["cells_covered"] = covered.reindex(out["scene_id"]).fillna(0).astype(int).to_numpy()
-    # land cells expected to hold points: k² scaled by the scene's land share (Reading, §TP-4)
-    land = 1.0 - np.nan_to_num(out["water_fraction"].to_numpy(), nan=0.0)
-    out["cells_expected"] = np.maximum(1, np.round(k * k * land)).astype(int)
-    out["coverage"] = np.minimum(1.0, out["cells_covered"] / out["cells_expected"])
-    out["clark_evans"] = out["scene_id"].map(_clark_evans_per_scene(tp, geo)).astype(float)
-    exempt = np.nan_to_num(out["water_fraction"].to_numpy(), nan=0.0) >= p.exempt_water_fraction
+    out = _per_scene_cells(scenes, tp, p)
+    if p.clark_evans:
+        out["clark_evans"] = out["scene_id"].map(_clark_evans_per_scene(tp, geo)).astype(float)
+    water = np.nan_to_num(out["water_fraction"].to_numpy(), nan=0.0)
+    exempt = water >= p.exempt_water_fraction
     out["exempt"] = exempt
-    out["exempt_reason"] = np.where(
-        exempt,
-        [
-            f"water_fraction {w:.2f} ≥ {p.exempt_water_fraction:g} (mostly sea)"
-            for w in np.nan_to_num(out["water_fraction"].to_numpy())
-        ],
-        "",
-    )
+    reason = np.full(len(out), "", dtype=object)
+    reason[exempt] = [
+        f"water_fraction {w:.2f} ≥ {p.exempt_water_fraction:g} (mostly sea)" for w in water[exempt]
+    ]
+    out["exempt_reason"] = reason
     out = out.drop(columns=["lines", "samples"])
 
     def scene_points(scene_ids: list[str], cap: int = 2000) -> dict:
@@ -175,9 +155,39 @@ def tie_point_distribution(d: Delivery, p: DistributionParams, measure: Measure)
 
     return Measurement(
         tables={"scene": Table(out, keys=["scene_id"], sort="n_points")},
-        detail={"grid": k, "exempt_water_fraction": p.exempt_water_fraction},
+        detail={"grid": p.grid, "exempt_water_fraction": p.exempt_water_fraction},
         unit_points=scene_points,
     )
+
+
+def _per_scene_cells(scenes: pd.DataFrame, tp: pd.DataFrame, p: DistributionParams) -> pd.DataFrame:
+    """Per scene: observations, k×k cells holding at least the minimum, land cells expected.
+
+    One bincount over (scene, cell) codes; an observation is one tie point on one scene (the
+    contract's unique key), so the count of observations is the count of tie points.
+    """
+    k = p.grid
+    out = scenes[["scene_id", "band", "lines", "samples"]].reset_index(drop=True)
+    code = pd.Index(out["scene_id"]).get_indexer(tp["scene_id"])
+    lines = out["lines"].to_numpy(dtype=float)[code]
+    samples = out["samples"].to_numpy(dtype=float)[code]
+    row = np.clip((tp["line"].to_numpy() / lines * k).astype(int), 0, k - 1)
+    col = np.clip((tp["sample"].to_numpy() / samples * k).astype(int), 0, k - 1)
+    n_cells = len(out) * k * k
+    per_cell = np.bincount(code * k * k + row * k + col, minlength=n_cells).reshape(len(out), -1)
+    water = (
+        scenes["water_fraction"].to_numpy(dtype=float)
+        if "water_fraction" in scenes
+        else np.full(len(out), np.nan)
+    )
+    out["water_fraction"] = water
+    out["n_points"] = per_cell.sum(axis=1)
+    out["cells_covered"] = (per_cell >= p.min_points_per_cell).sum(axis=1)
+    # land cells expected to hold points: k² scaled by the scene's land share (Reading, §TP-4)
+    land = 1.0 - np.nan_to_num(water, nan=0.0)
+    out["cells_expected"] = np.maximum(1, np.round(k * k * land)).astype(int)
+    out["coverage"] = np.minimum(1.0, out["cells_covered"] / out["cells_expected"])
+    return out
 
 
 def _clark_evans_per_scene(tp: pd.DataFrame, geo: pd.DataFrame) -> pd.Series:

@@ -10,6 +10,7 @@ from blockqc.report.checkpoints import checkpoint_rows
 from blockqc.report.exports import checkpoints_csv, evidence_csv
 from blockqc.report.html import environment, render_page
 from blockqc.report.messages import LANGUAGES
+from blockqc.report.plots import FOR_PRINT
 from blockqc.results import BlockResults, Summary
 
 
@@ -27,7 +28,11 @@ def write_block_report(
     folder = Path(folder)
     results = BlockResults.model_validate(results)
     env = environment(templates)
-    ctx = block_context(results, lang)
+    token = FOR_PRINT.set(pdf)
+    try:
+        ctx = block_context(results, lang)
+    finally:
+        FOR_PRINT.reset(token)
     written = []
     html = render_page("block.html.j2", ctx, env)
     write_text_atomic(folder / "report.html", html)

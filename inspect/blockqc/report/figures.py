@@ -103,9 +103,9 @@ def _scene_maps(results: BlockResults, f: Formatter, figs: dict[str, Any]) -> No
     failing = list(
         dict.fromkeys(str(e["scene_id"]) for r in rules for e in r.evidence if "scene_id" in e)
     )
-    m = _measurement_of(results, rules)
-    kept = (m.failing_scene_points if m else None) or {}
-    grid = int((m.detail.get("grid") if m else None) or 3)
+    measured = [m for r in rules if (m := results.measurement(r.measurement))]
+    kept = {k: v for m in measured for k, v in (m.failing_scene_points or {}).items()}
+    grid = int(next((m.detail["grid"] for m in measured if "grid" in m.detail), 3))
     size = {str(s["scene_id"]): s for s in results.scenes}
     for i, sid in enumerate(failing[:MAX_SCENE_MAPS]):
         pts, scene = kept.get(sid), size.get(sid, {})

@@ -6,6 +6,7 @@ browser and in the PDF, whatever fonts the reader's machine has.
 
 from __future__ import annotations
 
+import contextvars
 import io
 import math
 import re
@@ -19,8 +20,10 @@ matplotlib.use("Agg")
 
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
 from matplotlib import font_manager  # noqa: E402
-from matplotlib.patches import Circle, Patch, Polygon  # noqa: E402
+from matplotlib.collections import PolyCollection  # noqa: E402
+from matplotlib.patches import Circle, Patch  # noqa: E402
 
 FONT_FILE = Path(__file__).resolve().parent / "fonts" / "BlockqcSansSC-Regular.otf"
 FONT_FAMILY = "Blockqc Sans SC"
@@ -71,8 +74,26 @@ def _setup() -> None:
     )
 
 
-def _svg(fig: plt.Figure, name: str) -> str:
+#: set while a report for print is built: figures then also carry a PNG at print resolution
+FOR_PRINT: contextvars.ContextVar[bool] = contextvars.ContextVar("for_print", default=False)
+PRINT_DPI = 200
+
+
+class Drawn(str):
+    """A figure's SVG element; `png` holds the same figure at print resolution when FOR_PRINT."""
+
+    png: bytes | None = None
+
+
+def _png(fig: plt.Figure) -> bytes:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=PRINT_DPI, bbox_inches="tight", pad_inches=0.04)
+    return buf.getvalue()
+
+
+def _svg(fig: plt.Figure, name: str) -> Drawn:
     """The figure as an SVG element, ids prefixed with `name` so several can share a page."""
+    png = _png(fig) if FOR_PRINT.get() else None
     buf = io.StringIO()
     fig.savefig(
         buf,
@@ -90,7 +111,9 @@ def _svg(fig: plt.Figure, name: str) -> str:
         r'(xlink:href|href)="#([^"]+)"', lambda m: f'{m.group(1)}="#{name}-{m.group(2)}"', text
     )
     text = re.sub(r"url\(#([^)]+)\)", lambda m: f"url(#{name}-{m.group(1)})", text)
-    return text.replace("<svg ", '<svg class="figure" role="img" ', 1)
+    drawn = Drawn(text.replace("<svg ", '<svg class="figure" role="img" ', 1))
+    drawn.png = png
+    return drawn
 
 
 def _figure(height_in: float, width_in: float = WIDTH_IN) -> tuple[plt.Figure, Any]:
@@ -322,6 +345,40 @@ def residual_histogram(
     return _svg(fig, name)
 
 
+#: above this many scenes, the per-scene layers are rasterized inside the SVG (size and speed)
+RASTER_ABOVE = 400
+
+
+def _bars(ax: Any, heights: np.ndarray, colours: list[str], width: float = 0.8) -> None:
+    """Bars as one collection of rectangles (one artist, whatever the number of bars)."""
+    x0 = np.arange(len(heights)) - width / 2
+    verts = np.stack(
+        [
+            np.column_stack([x0, np.zeros_like(heights)]),
+            np.column_stack([x0, heights]),
+            np.column_stack([x0 + width, heights]),
+            np.column_stack([x0 + width, np.zeros_like(heights)]),
+        ],
+        axis=1,
+    )
+    bars = PolyCollection(verts, facecolors=colours, edgecolors="none")
+    bars.set_rasterized(len(heights) > RASTER_ABOVE)
+    ax.add_collection(bars)
+    ax.set_ylim(0, max(float(heights.max(initial=0)) * 1.08, 1.0))
+
+
+def _status_handles(t: Callable[..., str], present: set[str], minimum: Any = None) -> list[Any]:
+    handles: list[Any] = [minimum] if minimum is not None else []
+    for st, label in (
+        ("exempt", "lg_exempt"),
+        ("waived", "status_waived"),
+        ("fail", "status_fail"),
+    ):
+        if st in present or (st == "fail" and "error" in present):
+            handles.append(Patch(color=STATUS_COLOURS[st], label=t(label)))
+    return handles
+
+
 def scene_counts(
     scenes: list[dict[str, Any]],
     minimum: float | None,
@@ -332,37 +389,21 @@ def scene_counts(
     """Tie points per scene, the minimum drawn; failing scenes red, exempt scenes blue."""
     n = len(scenes)
     fig, ax = _figure(2.6 if n <= 60 else 3.0)
-    xs = np.arange(n)
-    counts = np.array([s.get("n_points", 0) or 0 for s in scenes], float)
-    colours = [
-        STATUS_COLOURS.get(status.get(s["scene_id"], "pass"), "#7a9cc6")
-        if status.get(s["scene_id"])
-        else "#7a9cc6"
-        for s in scenes
-    ]
-    ax.bar(xs, counts, color=colours, width=0.8)
-    handles: list[Any] = []
+    table = pd.DataFrame(scenes)
+    ids = table["scene_id"].astype(str)
+    counts = pd.to_numeric(table.get("n_points"), errors="coerce").fillna(0).to_numpy(float)
+    marks = ids.map(status)
+    colours = marks.map(STATUS_COLOURS).fillna("#7a9cc6").tolist()
+    _bars(ax, counts, colours)
+    line = None
     if minimum is not None:
-        handles.append(
-            ax.axhline(
-                minimum,
-                color=STATUS_COLOURS["fail"],
-                ls="--",
-                lw=1,
-                label=t("lg_minimum", n=_num(minimum)),
-            )
-        )
-    if any(status.get(s["scene_id"]) == "exempt" for s in scenes):
-        handles.append(Patch(color=STATUS_COLOURS["exempt"], label=t("lg_exempt")))
-    if any(status.get(s["scene_id"]) == "waived" for s in scenes):
-        handles.append(Patch(color=STATUS_COLOURS["waived"], label=t("status_waived")))
-    if any(status.get(s["scene_id"]) in ("fail", "error") for s in scenes):
-        handles.append(Patch(color=STATUS_COLOURS["fail"], label=t("status_fail")))
+        label = t("lg_minimum", n=_num(minimum))
+        line = ax.axhline(minimum, color=STATUS_COLOURS["fail"], ls="--", lw=1, label=label)
+        ax.set_ylim(0, max(ax.get_ylim()[1], minimum * 1.15))
+    handles = _status_handles(t, set(marks.dropna()), line)
     if n <= 60:
-        ax.set_xticks(xs)
-        ax.set_xticklabels(
-            [str(s["scene_id"]) for s in scenes], rotation=90, fontsize=5.5 if n > 30 else 6.5
-        )
+        ax.set_xticks(np.arange(n))
+        ax.set_xticklabels(ids.tolist(), rotation=90, fontsize=5.5 if n > 30 else 6.5)
     else:
         ax.set_xlabel(t("ax_scene") + f" (1–{n})")
     ax.set_xlim(-0.8, n - 0.2)
@@ -374,66 +415,67 @@ def scene_counts(
     return _svg(fig, name)
 
 
+FOOTPRINT_ORDER = {
+    "pass": 0,
+    "other": 0,
+    "exempt": 1,
+    "waived": 2,
+    "warn": 3,
+    "fail": 4,
+    "error": 4,
+}
+
+
+def _rings(wkts: list[Any]) -> tuple[list[np.ndarray], np.ndarray]:
+    """Exterior rings of every footprint polygon (parts of multipolygons too) and their scene."""
+    import shapely
+
+    geoms = shapely.from_wkt(
+        np.array([w if isinstance(w, str) else None for w in wkts], dtype=object),
+        on_invalid="ignore",
+    )
+    parts, owner = shapely.get_parts(geoms, return_index=True)
+    polygon = shapely.get_type_id(parts) == 3
+    parts, owner = parts[polygon], owner[polygon]
+    coords, ring = shapely.get_coordinates(shapely.get_exterior_ring(parts), return_index=True)
+    if len(coords) == 0:
+        return [], owner[:0]
+    cuts = np.flatnonzero(np.diff(ring)) + 1
+    return np.split(coords, cuts), owner[np.unique(ring)]
+
+
 def footprints(
     scenes: list[dict[str, Any]], status: dict[str, str], t: Callable[..., str], name: str
 ) -> str:
     """A map of the scene footprints (lon/lat) coloured by the worst status found per scene."""
-    from shapely import wkt
-    from shapely.errors import ShapelyError
-
     fig, ax = _figure(4.4, 5.6)
-    order = {"pass": 0, "other": 0, "exempt": 1, "waived": 2, "warn": 3, "fail": 4, "error": 4}
-    shown: set[str] = set()
-    lon_lo, lat_lo, lon_hi, lat_hi = math.inf, math.inf, -math.inf, -math.inf
-    for s in sorted(scenes, key=lambda s: order.get(status.get(s["scene_id"], "pass"), 0)):
-        try:
-            geom = wkt.loads(s["footprint_wkt"])
-        except (ShapelyError, TypeError, KeyError, ValueError):
-            continue
-        st = status.get(s["scene_id"], "pass")
-        colour = STATUS_COLOURS.get(st, STATUS_COLOURS["other"])
-        polys = getattr(geom, "geoms", [geom])
-        for poly in polys:
-            if not hasattr(poly, "exterior"):
-                continue
-            xy = np.asarray(poly.exterior.coords)[:, :2]
-            highlight = st not in ("pass", "other")
-            ax.add_patch(
-                Polygon(
-                    xy,
-                    closed=True,
-                    fc=colour,
-                    alpha=0.35 if highlight else 0.12,
-                    ec=colour,
-                    lw=1.3 if highlight else 0.6,
-                    zorder=3 if highlight else 2,
-                )
-            )
-            lon_lo, lat_lo = min(lon_lo, xy[:, 0].min()), min(lat_lo, xy[:, 1].min())
-            lon_hi, lat_hi = max(lon_hi, xy[:, 0].max()), max(lat_hi, xy[:, 1].max())
-            if highlight:
-                c = poly.representative_point()
-                ax.text(
-                    c.x,
-                    c.y,
-                    str(s["scene_id"]),
-                    fontsize=6,
-                    ha="center",
-                    va="center",
-                    zorder=4,
-                    color="#111",
-                )
-        shown.add(st)
+    rings, owner = _rings([s.get("footprint_wkt") for s in scenes])
+    ids = [str(s["scene_id"]) for s in scenes]
+    st = pd.Series(np.asarray(ids, dtype=object)[owner]).map(status).fillna("pass")
+    highlight = ~st.isin(["pass", "other"]).to_numpy()
+    for layer, alpha, lw, z in ((~highlight, 0.12, 0.6, 2), (highlight, 0.35, 1.3, 3)):
+        idx = np.flatnonzero(layer)
+        colours = st.iloc[idx].map(STATUS_COLOURS).fillna(STATUS_COLOURS["other"]).tolist()
+        col = PolyCollection(
+            [rings[i] for i in idx], facecolors=colours, edgecolors=colours, alpha=alpha, lw=lw
+        )
+        col.set_zorder(z)
+        col.set_rasterized(len(idx) > RASTER_ABOVE)
+        ax.add_collection(col)
+    _label_footprints(ax, rings, owner, ids, highlight)
+    shown = set(st)
     handles = [
         Patch(
-            fc=STATUS_COLOURS[st],
+            fc=STATUS_COLOURS[x],
             alpha=0.5,
-            label=t("lg_exempt") if st == "exempt" else t(f"status_{st}"),
+            label=t("lg_exempt") if x == "exempt" else t(f"status_{x}"),
         )
-        for st in ("pass", "fail", "warn", "waived", "exempt")
-        if st in shown
+        for x in ("pass", "fail", "warn", "waived", "exempt")
+        if x in shown
     ]
-    if math.isfinite(lon_lo):
+    if rings:
+        allxy = np.concatenate(rings)
+        (lon_lo, lat_lo), (lon_hi, lat_hi) = allxy.min(axis=0), allxy.max(axis=0)
         pad = 0.03 * max(lon_hi - lon_lo, lat_hi - lat_lo, 1e-3)
         ax.set_xlim(lon_lo - pad, lon_hi + pad)
         ax.set_ylim(lat_lo - pad, lat_hi + pad)
@@ -445,6 +487,19 @@ def footprints(
     if handles:
         ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
     return _svg(fig, name)
+
+
+MAX_FOOTPRINT_LABELS = 40
+
+
+def _label_footprints(
+    ax: Any, rings: list, owner: np.ndarray, ids: list[str], mark: np.ndarray
+) -> None:
+    """The ids of the highlighted footprints at their centres (at most MAX_FOOTPRINT_LABELS)."""
+    for i in np.flatnonzero(mark)[:MAX_FOOTPRINT_LABELS]:
+        cx, cy = rings[i][:-1].mean(axis=0)
+        ax.text(cx, cy, ids[owner[i]], fontsize=6, ha="center", va="center", zorder=4,
+                color="#111", parse_math=False)  # fmt: skip
 
 
 def scene_points(
