@@ -80,8 +80,11 @@ class RfmAccuracyConfig:
     reference: Path
     out: Path
     rpc: Path | None = None
-    geoid: Path | None = None
-    dem_vertical: str = "geoid"
+    geoid: str | Path | None = None
+    """'egm96' (the shipped grid) or a geoid grid file."""
+    geoid_offset: float | None = None
+    """A constant geoid undulation N (m)."""
+    dem_vertical: str = "auto"
     dem_fill: int = 0
     reference_rpc: Path | None = None
     crs: CRS | None = None
@@ -132,6 +135,17 @@ def _footprint_bounds(
         float(np.nanmax(lon)) + pad_deg,
         float(np.nanmax(lat)) + pad_deg,
     )
+
+
+def plane_per_height(rpc: RPCModel, shape: tuple[int, int], offset: tuple[float, float]) -> float:
+    """Plane metres the image centre's ground position moves per metre of height error."""
+    from pyproj import Geod
+
+    row = np.array([shape[0] / 2.0 + offset[0]] * 2)
+    col = np.array([shape[1] / 2.0 + offset[1]] * 2)
+    lon, lat, _ = rpc.image_to_ground(row, col, np.array([rpc.height_off, rpc.height_off + 100.0]))
+    _, _, dist = Geod(ellps="WGS84").inv(lon[0], lat[0], lon[1], lat[1])
+    return float(dist) / 100.0
 
 
 def _raster_shape(path: Path) -> tuple[tuple[int, int], bool]:
@@ -325,7 +339,13 @@ def run_rfm_accuracy(cfg: RfmAccuracyConfig, matcher: Matcher | None = None) -> 
     offset = cfg.crop_offset if cfg.crop_offset is not None else crop_offset_from_file(cfg.image)
     bounds = _footprint_bounds(rpc, shape, offset, pad_deg=0.01)
     dem = load_dem(
-        cfg.dem, geoid=cfg.geoid, vertical=cfg.dem_vertical, bounds=bounds, fill=cfg.dem_fill
+        cfg.dem,
+        geoid=cfg.geoid,
+        geoid_offset=cfg.geoid_offset,
+        vertical=cfg.dem_vertical,
+        bounds=bounds,
+        fill=cfg.dem_fill,
+        plane_per_m=plane_per_height(rpc, shape, offset),
     )
 
     # §RA-1 RPC correction
