@@ -139,3 +139,62 @@ def test_k_beyond_the_cps_is_reported_not_fitted():
     )
     row = table.set_index("k").loc[12]
     assert row["repeats"] == 0 and np.isnan(row["rmse_px_mean"]) and "n = 8" in row["note"]
+
+
+def test_batched_draws_equal_one_fit_per_draw():
+    """Every draw's held-out RMSE as `held_out_rmse` computes it, one affine fit at a time."""
+    truth = ImageAffine(a0=4.0, a1=1e-5, a2=-2e-5, b0=-3.0, b1=2e-5, b2=1e-5)
+    cps = _synthetic_cps(30, truth, noise_px=0.7, seed=6)
+    dem = constant_height(700.0)
+    perms = accuracy.draws(30, 7, seed=2)
+    to_map = Transformer.from_crs(4326, UTM31, always_xy=True)
+    for k in (3, 6, 20):
+        batch = accuracy.held_out_rmse_batch(LEFT, cps, perms, k, dem, to_map, 0.5)
+        one_by_one = [
+            accuracy.held_out_rmse(LEFT, cps, p[:k], p[k:], dem, UTM31, 0.5) for p in perms
+        ]
+        np.testing.assert_allclose(batch, one_by_one, rtol=1e-7)
+
+
+def test_refined_rfm_table_solves_all_draws_of_a_k_together(monkeypatch):
+    """§RA-6 cost: one image→ground on the DEM per k, not one per draw."""
+    from blockqc.rfm.model import RPCModel
+
+    cps = _synthetic_cps(30, ImageAffine(a0=2.0), noise_px=0.3, seed=7)
+    calls = []
+    original = RPCModel.image_to_ground
+
+    def counting(self, *args, **kwargs):
+        calls.append(1)
+        return original(self, *args, **kwargs)
+
+    monkeypatch.setattr(RPCModel, "image_to_ground", counting)
+    table = accuracy.refined_rfm_table(
+        LEFT, cps, constant_height(700.0), UTM31, 0.5, ks=(6, 12), repeats=25
+    )
+    assert (table.repeats[1:] == 25).all() and np.isfinite(table.rmse_px_mean).all()
+    assert len(calls) <= 3
+
+
+def test_draws_on_collinear_cps_are_left_out_not_fatal():
+    """Seven of ten CPs on one line: some 3-CP draws cannot fix an affine."""
+    cps = _synthetic_cps(10, ImageAffine(a0=2.0), noise_px=0.0, seed=8)
+    line = np.linspace(1000.0, 30000.0, 7)
+    row = cps.row.copy()
+    col = cps.col.copy()
+    row[:7], col[:7] = line, line
+    lon, lat, _ = LEFT.image_to_ground(row + 2.0, col, 700.0)
+    x, y = Transformer.from_crs(4326, UTM31, always_xy=True).transform(lon, lat)
+    cps = accuracy.ControlPoints(row, col, lon, lat, np.full(10, 700.0), *map(np.asarray, (x, y)))
+    table = accuracy.refined_rfm_table(
+        LEFT, cps, constant_height(700.0), UTM31, 0.5, ks=(3,), repeats=40
+    )
+    row3 = table.set_index("k").loc[3]
+    assert "collinear" in row3["note"] and row3["rmse_px_max"] < 1e-4
+
+
+def test_k_warnings_name_unsupported_and_thin_rows():
+    warnings = accuracy.k_warnings((6, 12, 16, 20), 18)
+    assert len(warnings) == 3
+    assert "k = 12 leaves 6 CPs" in warnings[0] and "k = 20 needs more than 20" in warnings[2]
+    assert accuracy.k_warnings((6, 12), 60) == []

@@ -246,6 +246,96 @@ def held_out_rmse(
     return rmse_px(dx[ok], dy[ok], gsd)
 
 
+MIN_CHECK_CPS = 10
+"""§RA-6 rows measured on fewer held-out CPs than this are flagged (an RMSE from a handful of
+points varies by tens of percent from draw to draw)."""
+
+
+def draws(n: int, repeats: int, seed: int) -> NDArray[np.intp]:
+    """`repeats` random orders of the n CPs (fixed seed): draw r fits on perms[r, :k]."""
+    rng = np.random.default_rng(seed)
+    return np.array([rng.permutation(n) for _ in range(repeats)], dtype=np.intp).reshape(-1, n)
+
+
+def _batch_affines(
+    row: FloatArray, col: FloatArray, row_r: FloatArray, col_r: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.bool_]]:
+    """The §3 affine of every draw at once (draws × k CPs), centred and scaled as `fit_affine`:
+    returns the solutions (draws × 3 × 2), the centres and scales, and the draws of full rank."""
+    r0 = row.mean(axis=1, keepdims=True)
+    c0 = col.mean(axis=1, keepdims=True)
+    sr = np.maximum(np.abs(row - r0).max(axis=1, keepdims=True), 1.0)
+    sc = np.maximum(np.abs(col - c0).max(axis=1, keepdims=True), 1.0)
+    design = np.stack([np.ones_like(row), (col - c0) / sc, (row - r0) / sr], axis=-1)
+    rhs = np.stack([row_r - row, col_r - col], axis=-1)
+    sol = np.linalg.pinv(design) @ rhs
+    full = np.linalg.matrix_rank(design) == 3
+    return sol, np.stack([r0, c0, sr, sc], axis=-1)[:, 0, :], design, full
+
+
+def held_out_rmse_batch(
+    rpc: RPCModel,
+    cps: ControlPoints,
+    perms: NDArray[np.intp],
+    k: int,
+    dem: DEM,
+    to_map: Transformer,
+    gsd: float,
+) -> FloatArray:
+    """`held_out_rmse` of every draw at once: one affine solve for all draws, one image→ground
+    on the DEM for all their check CPs. NaN for a draw whose fit CPs are collinear."""
+    fit, check = perms[:, :k], perms[:, k:]
+    rr, cc = cps.row[check], cps.col[check]
+    d_row = np.zeros(check.shape)  # k = 0: the original RFM
+    d_col = np.zeros(check.shape)
+    full = np.ones(check.shape[0], dtype=bool)
+    if k > 0:
+        row_r, col_r = rpc.ground_to_image(cps.lon[fit], cps.lat[fit], cps.h[fit])
+        sol, centre, _, full = _batch_affines(cps.row[fit], cps.col[fit], row_r, col_r)
+        r0, c0, sr, sc = (centre[:, i : i + 1] for i in range(4))
+        u = (cc - c0) / sc
+        v = (rr - r0) / sr
+        d_row = sol[:, 0:1, 0] + sol[:, 1:2, 0] * u + sol[:, 2:3, 0] * v
+        d_col = sol[:, 0:1, 1] + sol[:, 1:2, 1] * u + sol[:, 2:3, 1] * v
+    lon, lat, _ = rpc.image_to_ground((rr + d_row).ravel(), (cc + d_col).ravel(), dem)
+    x, y = to_map.transform(lon, lat)
+    dx = np.asarray(x).reshape(check.shape) - cps.ref_x[check]
+    dy = np.asarray(y).reshape(check.shape) - cps.ref_y[check]
+    ok = np.isfinite(dx) & np.isfinite(dy)
+    sq = np.where(ok, dx * dx + dy * dy, 0.0).sum(axis=1)
+    count = ok.sum(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rmse = np.sqrt(sq / count) / float(gsd)
+    return np.where(full & (count > 0), rmse, np.nan)
+
+
+def k_warnings(ks: tuple[int, ...], n: int) -> list[str]:
+    """§RA-6 values of k the n CPs cannot support (no or few CPs left to check on)."""
+    out = []
+    for k in ks:
+        if k >= n:
+            out.append(f"§RA-6: k = {k} needs more than {k} CPs, only {n} found: row left empty")
+        elif n - k < MIN_CHECK_CPS:
+            out.append(
+                f"§RA-6: k = {k} leaves {n - k} CPs to check on (< {MIN_CHECK_CPS}): "
+                "its RMSE is a rough figure"
+            )
+    return out
+
+
+def _row(k: int, n_check: int, repeats: int, v: FloatArray, note: str) -> dict[str, object]:
+    finite = v[np.isfinite(v)]
+    return {
+        "k": int(k),
+        "n_check": int(n_check),
+        "repeats": int(repeats),
+        "rmse_px_mean": float(finite.mean()) if finite.size else float("nan"),
+        "rmse_px_min": float(finite.min()) if finite.size and repeats > 1 else float("nan"),
+        "rmse_px_max": float(finite.max()) if finite.size and repeats > 1 else float("nan"),
+        "note": note,
+    }
+
+
 def refined_rfm_table(
     rpc: RPCModel,
     cps: ControlPoints,
@@ -257,57 +347,26 @@ def refined_rfm_table(
     seed: int = 0,
 ) -> pd.DataFrame:
     """§RA-6: for each k, refine the RFM from k CPs drawn at random and measure the RMSE on the
-    CPs *not* drawn; `repeats` draws per k (fixed seed) give the mean and spread.
+    CPs *not* drawn; `repeats` draws per k (fixed seed) give the mean and spread. All draws of
+    one k are solved and evaluated together (`held_out_rmse_batch`).
 
     The first row (k = 0) is the original RFM evaluated the same way on all CPs.
     """
     n = cps.row.size
-    rng = np.random.default_rng(seed)
-    everyone = np.arange(n)
-    lon0, lat0, _ = rpc.image_to_ground(cps.row, cps.col, dem)
-    x0, y0 = Transformer.from_crs(CRS.from_epsg(4326), crs, always_xy=True).transform(lon0, lat0)
-    ok0 = np.isfinite(np.asarray(x0))
-    rows = [
-        {
-            "k": 0,
-            "n_check": int(n),
-            "repeats": 1,
-            "rmse_px_mean": rmse_px(
-                (np.asarray(x0) - cps.ref_x)[ok0], (np.asarray(y0) - cps.ref_y)[ok0], gsd
-            ),
-            "rmse_px_min": float("nan"),
-            "rmse_px_max": float("nan"),
-            "note": "original RFM",
-        }
-    ]
+    to_map = Transformer.from_crs(CRS.from_epsg(4326), crs, always_xy=True)
+    everyone = np.arange(n, dtype=np.intp)[None, :]
+    zero = held_out_rmse_batch(rpc, cps, everyone, 0, dem, to_map, gsd) if n else np.array([])
+    rows = [_row(0, n, 1, zero, "original RFM")]
     for k in ks:
         if k < 3 or k >= n:
-            rows.append(
-                {
-                    "k": int(k),
-                    "n_check": max(n - k, 0),
-                    "repeats": 0,
-                    "rmse_px_mean": float("nan"),
-                    "rmse_px_min": float("nan"),
-                    "rmse_px_max": float("nan"),
-                    "note": f"needs 3 ≤ k < n CPs (n = {n})",
-                }
-            )
+            note = f"needs 3 ≤ k < n CPs (n = {n})"
+            rows.append(_row(k, max(n - k, 0), 0, np.array([]), note))
             continue
-        values = []
-        for _ in range(repeats):
-            perm = rng.permutation(everyone)
-            values.append(held_out_rmse(rpc, cps, perm[:k], perm[k:], dem, crs, gsd))
-        v = np.asarray(values)
-        rows.append(
-            {
-                "k": int(k),
-                "n_check": int(n - k),
-                "repeats": int(repeats),
-                "rmse_px_mean": float(np.nanmean(v)),
-                "rmse_px_min": float(np.nanmin(v)),
-                "rmse_px_max": float(np.nanmax(v)),
-                "note": "refined RFM (image-space affine), held-out CPs",
-            }
-        )
+        v = held_out_rmse_batch(rpc, cps, draws(n, repeats, seed + k), k, dem, to_map, gsd)
+        note = "refined RFM (image-space affine), held-out CPs"
+        if n - k < MIN_CHECK_CPS:
+            note += f"; only {n - k} check CPs"
+        if np.isnan(v).any():
+            note += f"; {int(np.isnan(v).sum())} draws with collinear CPs left out"
+        rows.append(_row(k, n - k, repeats, v, note))
     return pd.DataFrame(rows)
