@@ -198,3 +198,84 @@ def test_k_warnings_name_unsupported_and_thin_rows():
     assert len(warnings) == 3
     assert "k = 12 leaves 6 CPs" in warnings[0] and "k = 20 needs more than 20" in warnings[2]
     assert accuracy.k_warnings((6, 12), 60) == []
+
+
+def _noise_field(n: int, sigma_px: float, seed: int, gsd: float = 0.5):
+    rng = np.random.default_rng(seed)
+    col, row = rng.uniform(0, 5000, (2, n))
+    dx, dy = rng.normal(0.0, sigma_px * gsd, (2, n)) + np.array([[1.0], [-0.5]])
+    return col, row, dx, dy
+
+
+def test_matching_noise_is_not_distortion():
+    """0.5 px of matching noise about a shift: the RMS about the mean (0.7 px) exceeds 0.5 px,
+    but no field over the image explains it."""
+    col, row, dx, dy = _noise_field(200, 0.5, seed=11)
+    s = accuracy.distortion_summary(col, row, dx, dy, 0.5)
+    assert s["local_rms_px"] > 0.6
+    assert s["significant"] is False and s["p_value"] > 0.01
+    assert s["noise_robust_px"] == pytest.approx(0.5, abs=0.08)
+    assert s["mean_dx_m"] == pytest.approx(1.0, abs=0.05) and s["mean_dx_px"] == pytest.approx(
+        2.0, abs=0.1
+    )
+
+
+def test_f_statistic_against_an_independent_fit():
+    """F = ((RSS_mean − RSS_affine)/4) / (RSS_affine/(2n − 6)), fits by scikit-learn."""
+    from scipy.stats import f as f_dist
+    from sklearn.linear_model import LinearRegression
+
+    col, row, dx, dy = _noise_field(80, 0.5, seed=12)
+    dx = dx + 0.0002 * col  # a weak scale error along columns
+    e = np.column_stack([dx, dy]) / 0.5
+    X = np.column_stack([col, row])
+    rss_a = float(np.sum((e - LinearRegression().fit(X, e).predict(X)) ** 2))
+    rss_0 = float(np.sum((e - e.mean(axis=0)) ** 2))
+    f = ((rss_0 - rss_a) / 4) / (rss_a / (2 * 80 - 6))
+    s = accuracy.distortion_summary(col, row, dx, dy, 0.5)
+    assert s["model"] == "affine"
+    assert s["f_statistic"] == pytest.approx(f, rel=1e-9)
+    assert s["p_value"] == pytest.approx(f_dist.sf(f, 4, 154), rel=1e-9)
+    assert s["field_rms_px"] == pytest.approx(np.sqrt((rss_0 - rss_a) / 80), rel=1e-9)
+
+
+def test_an_affine_field_above_the_threshold_is_distortion():
+    col, row, dx, dy = _noise_field(100, 0.3, seed=13)
+    dx = dx + 0.0006 * (col - 2500)  # ±1.5 px along columns, field RMS ≈ 0.87 px
+    s = accuracy.distortion_summary(col, row, dx, dy, 0.5)
+    assert s["significant"] is True and s["p_value"] < 1e-6 and s["field_rms_px"] > 0.5
+
+
+def test_a_significant_but_tiny_field_is_not_flagged():
+    col, row, dx, dy = _noise_field(3000, 0.3, seed=14)
+    dx = dx + 0.00012 * (col - 2500)  # field RMS ≈ 0.17 px: real but below the threshold
+    s = accuracy.distortion_summary(col, row, dx, dy, 0.5)
+    assert s["p_value"] < 1e-6 and s["field_rms_px"] < 0.5 and s["significant"] is False
+
+
+def test_a_bowl_is_fitted_by_the_quadratic():
+    col, row, dx, dy = _noise_field(150, 0.2, seed=15)
+    u = (col - 2500) / 2500
+    dx = dx + 1.0 * (u * u) * 0.5  # up to 1 px at the edges, no affine part
+    s = accuracy.distortion_summary(col, row, dx, dy, 0.5)
+    assert s["model"] == "quadratic" and s["significant"] is False  # field RMS ≈ 0.3 px
+    s = accuracy.distortion_summary(col, row, dx * 3, dy, 0.5)
+    assert s["model"] == "quadratic" and s["significant"] is True
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    a=st.floats(-0.002, 0.002),
+    b=st.floats(-0.002, 0.002),
+    shift=st.floats(-5, 5),
+    seed=st.integers(0, 100),
+)
+def test_an_exact_affine_field_is_explained_and_measured(a, b, shift, seed):
+    rng = np.random.default_rng(seed)
+    col, row = rng.uniform(0, 4000, (2, 30))
+    dx = shift + a * (col - 2000)
+    dy = b * (row - 2000)
+    s = accuracy.distortion_summary(col, row, dx, dy, 1.0)
+    field = np.sqrt(np.mean((dx - dx.mean()) ** 2 + (dy - dy.mean()) ** 2))
+    assert s["field_rms_px"] == pytest.approx(field, rel=1e-6, abs=1e-9)
+    assert s["significant"] is bool(field >= 0.5 and field > 1e-9)

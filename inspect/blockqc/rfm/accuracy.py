@@ -23,9 +23,11 @@ FloatArray = NDArray[np.float64]
 REQUIREMENT_PX = 1.0
 """§RA-6 practical requirement: RMSE < 1.0 pixel."""
 DISTORTION_THRESHOLD_PX = 0.5
-"""**Reading** of §RA-5 (no number in the source): local distortion is significant when the RMS
-of the error vectors about their mean exceeds this many pixels, i.e. when sizes or directions
-vary across the image by more than half a pixel. Configurable."""
+"""**Reading** of §RA-5 (no number in the source): the smallest variation of the error vectors
+across the image (RMS about their mean of the fitted low-order field) that counts as systematic
+distortion; configurable."""
+DISTORTION_ALPHA = 0.01
+"""Significance level of the F-test of the low-order field against the mean shift alone."""
 
 
 def gev(dx: ArrayLike, dy: ArrayLike, gsd: float) -> FloatArray:
@@ -49,6 +51,74 @@ def verdict(rmse: float, requirement: float = REQUIREMENT_PX) -> str:
     return "pass" if rmse < requirement else "fail"
 
 
+_READING = (
+    "systematic distortion is significant when a low-order field of the error vectors over the "
+    "image (affine in column and row, or quadratic where it adds significantly to the affine) "
+    "explains a significant share of their variance against the mean shift alone (F-test, "
+    "p < {alpha:g}) and that field varies by at least {threshold:g} px RMS about the mean; the "
+    "scatter left about it is matching noise (its robust spread is stated), not distortion "
+    "(§RA-5 gives no number)"
+)
+
+
+def _design(col: FloatArray, row: FloatArray, order: int) -> FloatArray:
+    """Columns 1, u, v (and u², uv, v² for order 2) of centred, scaled image positions."""
+    u = (col - col.mean()) / max(float(np.ptp(col)), 1.0)
+    v = (row - row.mean()) / max(float(np.ptp(row)), 1.0)
+    terms = [np.ones_like(u), u, v] + ([u * u, u * v, v * v] if order == 2 else [])
+    return np.column_stack(terms)
+
+
+def _field_fit(design: FloatArray, e: FloatArray) -> tuple[FloatArray, float]:
+    """Least-squares fit of both error components (n×2); fitted values and residual SS."""
+    sol, *_ = np.linalg.lstsq(design, e, rcond=None)
+    fitted = design @ sol
+    return fitted, float(np.sum((e - fitted) ** 2))
+
+
+def _f_test(rss_small: float, rss_big: float, extra: int, df_big: int) -> tuple[float, float]:
+    """F statistic and p-value of a nested model adding `extra` parameters (both components)."""
+    from scipy.stats import f as f_dist
+
+    if rss_small <= 0.0:
+        return 0.0, 1.0  # nothing to explain
+    if rss_big <= rss_small * 1e-24:
+        return float("inf"), 0.0  # an exact field
+    stat = ((rss_small - rss_big) / extra) / (rss_big / df_big)
+    return float(stat), float(f_dist.sf(stat, extra, df_big))
+
+
+def systematic_field(
+    col: FloatArray, row: FloatArray, e: FloatArray, alpha: float
+) -> dict[str, float | int | str]:
+    """§RA-5: the low-order field of the errors e (n×2, px) and its F-test against the mean.
+
+    Affine (3 parameters per component) against the mean (1 each): F on (4, 2n − 6) degrees of
+    freedom; quadratic (6 each) kept when it adds significantly to the affine, F on (6, 2n − 12),
+    and then tested against the mean on (10, 2n − 12).
+    """
+    n = e.shape[0]
+    rss0 = float(np.sum((e - e.mean(axis=0)) ** 2))
+    fitted, rss = _field_fit(_design(col, row, 1), e)
+    stat, p = _f_test(rss0, rss, 4, 2 * n - 6)
+    model, affine_share = "affine", 1.0 - rss / rss0 if rss0 > 0 else 0.0
+    if n >= 15:
+        q_fitted, q_rss = _field_fit(_design(col, row, 2), e)
+        if _f_test(rss, q_rss, 6, 2 * n - 12)[1] < alpha:
+            stat, p = _f_test(rss0, q_rss, 10, 2 * n - 12)
+            model, fitted, rss = "quadratic", q_fitted, q_rss
+    resid = (e - fitted).ravel()
+    return {
+        "model": model,
+        "affine_explained_share": float(affine_share),
+        "explained_share": float(1.0 - rss / rss0) if rss0 > 0 else 0.0,
+        "f_statistic": stat,
+        "p_value": p,
+        "field_rms_px": float(np.sqrt(max(rss0 - rss, 0.0) / n)),
+        "noise_robust_px": float(1.4826 * np.median(np.abs(resid - np.median(resid)))),
+    }
+
+
 def distortion_summary(
     col: ArrayLike,
     row: ArrayLike,
@@ -56,60 +126,54 @@ def distortion_summary(
     dy: ArrayLike,
     gsd: float,
     threshold_px: float = DISTORTION_THRESHOLD_PX,
+    alpha: float = DISTORTION_ALPHA,
 ) -> dict[str, float | int | bool | str]:
     """§RA-5: how error vectors vary across the image.
 
-    Splits each CP's error (in pixels) into the mean vector (systematic shift) and the remainder;
-    reports the RMS of the remainder (local distortion), the mean resultant length of the error
-    directions (1: all point the same way, 0: no common direction), the share of the error
-    variance an affine function of position explains, and the GEV percentiles.
+    Splits each CP's error (px) into the mean vector (systematic shift), a low-order field over
+    the image (systematic distortion, `systematic_field`) and the scatter about it (noise);
+    also the RMS about the mean, the mean resultant length of the error directions (1: all
+    point the same way, 0: no common direction) and the GEV percentiles.
     """
     col = np.asarray(col, np.float64)
     row = np.asarray(row, np.float64)
     ex = np.asarray(dx, np.float64) / gsd
     ey = np.asarray(dy, np.float64) / gsd
     n = ex.size
+    reading = _READING.format(alpha=alpha, threshold=threshold_px)
     if n == 0:
-        return {"n": 0, "significant": False, "reading": _READING}
+        return {"n": 0, "significant": False, "reading": reading}
     g = np.hypot(ex, ey)
     mx, my = float(ex.mean()), float(ey.mean())
-    local = float(np.sqrt(np.mean((ex - mx) ** 2 + (ey - my) ** 2)))
     nz = g > 0
-    if nz.any():
-        resultant = float(np.hypot(np.mean(ex[nz] / g[nz]), np.mean(ey[nz] / g[nz])))
-    else:
-        resultant = 1.0
-    explained = float("nan")
+    resultant = (
+        float(np.hypot(np.mean(ex[nz] / g[nz]), np.mean(ey[nz] / g[nz]))) if nz.any() else 1.0
+    )
+    field: dict[str, float | int | str] = {"model": "none (fewer than 4 CPs)", "p_value": 1.0}
     if n >= 4:
-        design = np.column_stack([np.ones(n), col, row])
-        fit, *_ = np.linalg.lstsq(design, np.column_stack([ex, ey]), rcond=None)
-        res = np.column_stack([ex, ey]) - design @ fit
-        total = np.sum((ex - mx) ** 2 + (ey - my) ** 2)
-        explained = float(1.0 - np.sum(res**2) / total) if total > 0 else 1.0
+        field = systematic_field(col, row, np.column_stack([ex, ey]), alpha)
     p50, p90, p_max = np.percentile(g, [50, 90, 100])
+    significant = field["p_value"] < alpha and field.get("field_rms_px", 0.0) >= threshold_px
     return {
         "n": int(n),
         "mean_dx_px": mx,
         "mean_dy_px": my,
+        "mean_dx_m": mx * gsd,
+        "mean_dy_m": my * gsd,
         "systematic_px": float(np.hypot(mx, my)),
-        "local_rms_px": local,
+        "local_rms_px": float(np.sqrt(np.mean((ex - mx) ** 2 + (ey - my) ** 2))),
         "std_dx_px": float(ex.std(ddof=1)) if n > 1 else 0.0,
         "std_dy_px": float(ey.std(ddof=1)) if n > 1 else 0.0,
         "direction_consistency": resultant,
-        "affine_explained_share": explained,
+        **field,
         "gev_median_px": float(p50),
         "gev_p90_px": float(p90),
         "gev_max_px": float(p_max),
         "threshold_px": float(threshold_px),
-        "significant": bool(local > threshold_px),
-        "reading": _READING,
+        "alpha": float(alpha),
+        "significant": bool(significant),
+        "reading": reading,
     }
-
-
-_READING = (
-    "distortion is significant when the RMS of the error vectors about their mean exceeds "
-    "the threshold (§RA-5 gives no number)"
-)
 
 
 # -- plots (§RA-5) ---------------------------------------------------------------------------

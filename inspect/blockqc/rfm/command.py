@@ -124,10 +124,9 @@ _path = click.Path(exists=True, dir_okay=False, path_type=Path)
 @click.option(
     "--grid",
     "match_grid",
-    type=int,
-    default=400,
-    show_default=True,
-    help="Homogenization cell (px): one CP per cell (§RA-3).",
+    type=click.IntRange(min=1),
+    help="Homogenization cell (px): one CP per cell (§RA-3); default: chosen from the image "
+    "size (≥ ~50 CPs where the texture allows, at most 400 px).",
 )
 @click.option(
     "--chunk",
@@ -195,7 +194,7 @@ def command(
     gsd: float | None,
     crop_offset: str,
     reference_crop_offset: str,
-    match_grid: int,
+    match_grid: int | None,
     match_chunk: int,
     margin: int,
     k_text: str,
@@ -254,12 +253,27 @@ def command(
         dem_fill=dem_fill,
     )
     results = run_rfm_accuracy(cfg)
+    for warning in results.get("warnings") or []:  # type: ignore[union-attr]
+        click.echo(f"warning: {warning}", err=True)
     acc = results["accuracy"]
-    rmse = acc["rmse_px"]  # type: ignore[index]
-    click.echo(
-        f"{image.name}: {acc['n']} CPs, RMSE "  # type: ignore[index]
-        + (f"{rmse:.3f} px" if rmse is not None else "n/a")
-        + f" → {acc['verdict']} (requirement < {requirement:g} px); results in {out_dir}"  # type: ignore[index]
-    )
+    click.echo(console_line(image.name, results, requirement, out_dir))
     if acc["verdict"] != "pass":  # type: ignore[index]
         click.get_current_context().exit(1)
+
+
+def console_line(name: str, results: dict, requirement: float, out_dir: Path) -> str:
+    """One line: CPs, RMSE, the systematic shift (mean dx, dy in metres and pixels), verdict."""
+    acc, d = results["accuracy"], results["distortion"]
+    rmse = acc["rmse_px"]
+    shift = ""
+    if d.get("mean_dx_m") is not None:
+        shift = (
+            f", shift dx {d['mean_dx_m']:+.2f} m ({d['mean_dx_px']:+.2f} px) "
+            f"dy {d['mean_dy_m']:+.2f} m ({d['mean_dy_px']:+.2f} px)"
+        )
+    return (
+        f"{name}: {acc['n']} CPs, RMSE "
+        + (f"{rmse:.3f} px" if rmse is not None else "n/a")
+        + shift
+        + f" → {acc['verdict']} (requirement < {requirement:g} px); results in {out_dir}"
+    )

@@ -94,7 +94,8 @@ class RfmAccuracyConfig:
     ortho_chunk: int = 1024
     margin: int = 32
     match_chunk: int = 5000
-    match_grid: int = 400
+    match_grid: int | None = None
+    """Homogenization cell (px); None: chosen from the image size (`choose_cell`)."""
     ks: tuple[int, ...] = (6, 12, 16, 20)
     repeats: int = 100
     seed: int = 0
@@ -327,6 +328,72 @@ def _clean(obj: object) -> object:
     return obj
 
 
+MAX_CELL = 400
+"""§RA-3's homogenization cell (px): the largest chosen."""
+MIN_CELL = 48
+"""Smallest chosen cell (px): the matcher's BRIEF patch, so neighbouring CPs stay distinct."""
+TARGET_CELLS = 100
+"""Cells aimed at when the cell is chosen: ≥ ~50 CPs where half the cells have texture."""
+TARGET_CPS = 50
+
+
+def overlap_mask(image: np.ndarray, reference: np.ndarray, margin: int) -> np.ndarray:
+    """Image pixels with data in both the image and the reference (the reference is `margin`
+    pixels larger on every side)."""
+    h, w = image.shape
+    return np.isfinite(image) & np.isfinite(reference[margin : margin + h, margin : margin + w])
+
+
+def choose_cell(overlap_px: int) -> tuple[int, str]:
+    """§RA-3 cell from the area both images cover: TARGET_CELLS cells, within MIN..MAX_CELL."""
+    cell = int(np.clip(np.floor(np.sqrt(max(overlap_px, 1) / TARGET_CELLS)), MIN_CELL, MAX_CELL))
+    return cell, (
+        f"chosen from the image size: {cell} px for {overlap_px} px covered by both images "
+        f"(about {overlap_px // cell**2} cells, aiming at ≥ {TARGET_CPS} CPs; "
+        f"{MIN_CELL}..{MAX_CELL} px)"
+    )
+
+
+def no_cp_reason(image: np.ndarray, overlap: np.ndarray, dem: DEM, n_matches: int) -> str:
+    """Why matching gave no CP: the likely cause first, then the figures behind it."""
+    valid = float(np.isfinite(image).mean())
+    both = float(overlap.sum() / max(np.isfinite(image).sum(), 1))
+    voids = float(np.isnan(dem.grid.values).mean())
+    pixels = image[overlap]
+    spread = float(np.subtract(*np.percentile(pixels, [98, 2]))) if pixels.size else 0.0
+    figures = (
+        f"image pixels with data {valid:.0%} of the grid, of which {both:.0%} also on the "
+        f"reference; DEM voids {voids:.0%} of its window; {n_matches} matches found; "
+        f"grey-level spread (2–98 %) over the overlap {spread:.4g}"
+    )
+    if n_matches:
+        why = "every match fell on a DEM void (no height under it)"
+    elif both < 0.05:
+        why = "the reference does not overlap the image (wrong reference, CRS or crop offset?)"
+    elif voids > 0.2 or valid < 0.2:
+        why = "DEM voids: most of the image has no height (fill voids with --dem-fill-voids?)"
+    else:
+        why = "no texture or too little likeness between the two images to match"
+    return f"no control point found: {why}. {figures}"
+
+
+def run_warnings(cfg: RfmAccuracyConfig, dem: DEM, n: int, cell: int) -> list[str]:
+    """What the user should know about the run's inputs and its CP count."""
+    out = []
+    if n < TARGET_CPS:
+        how = "given" if cfg.match_grid else "chosen"
+        out.append(
+            f"§RA-3: only {n} CPs with a {cell} px cell ({how}): the texture or the overlap "
+            f"allows no more at this cell; a smaller --grid may find more"
+        )
+    if "stated by the user" in dem.vertical:
+        out.append(
+            "the DEM was taken as ellipsoidal on --dem-vertical ellipsoid alone: if it holds "
+            "geoid heights every height is off by N (tens of metres) and the image by metres"
+        )
+    return out
+
+
 def run_rfm_accuracy(cfg: RfmAccuracyConfig, matcher: Matcher | None = None) -> dict[str, object]:
     """Run §RA-1..6 for one image and write every output into `cfg.out`; returns the results."""
     if cfg.method not in METHODS:
@@ -358,6 +425,8 @@ def run_rfm_accuracy(cfg: RfmAccuracyConfig, matcher: Matcher | None = None) -> 
     image, grid = read_ortho(out / "ortho.tif")
     reference, ref_grid = read_ortho(out / "reference_on_grid.tif")
     # §RA-3 matching, one call
+    overlap = overlap_mask(image, reference, cfg.margin)
+    cell, cell_how = (cfg.match_grid, "given") if cfg.match_grid else choose_cell(overlap.sum())
     match = matcher or default_matcher()
     matches = match(
         image,
@@ -366,11 +435,15 @@ def run_rfm_accuracy(cfg: RfmAccuracyConfig, matcher: Matcher | None = None) -> 
         reference_valid=np.isfinite(reference),
         offset=(float(cfg.margin), float(cfg.margin)),
         chunk=cfg.match_chunk,
-        grid=cfg.match_grid,
+        grid=cell,
         **cfg.match_settings,
     )
-    del image, reference
     cps = build_cp_table(matches, grid, ref_grid, rpc, dem)
+    if cps.empty:
+        raise InputError(
+            Problem(file=str(cfg.image), message=no_cp_reason(image, overlap, dem, len(matches)))
+        )
+    del image, reference, overlap
     write_text_atomic(out / "cps.csv", cps.to_csv(index=False, float_format="%.6f"))
 
     # §RA-4 accuracy, §RA-5 distortion, §RA-6 refined RFM
@@ -461,7 +534,8 @@ def run_rfm_accuracy(cfg: RfmAccuracyConfig, matcher: Matcher | None = None) -> 
         },
         "matching": {
             "chunk": cfg.match_chunk,
-            "grid": cfg.match_grid,
+            "grid": cell,
+            "grid_choice": cell_how,
             "n_cps": n,
             "by_kind": {str(k): int(v) for k, v in cps["kind"].value_counts().items()},
         },
@@ -493,6 +567,7 @@ def run_rfm_accuracy(cfg: RfmAccuracyConfig, matcher: Matcher | None = None) -> 
             },
         },
         "files": files,
+        "warnings": run_warnings(cfg, dem, n, cell) + accuracy.k_warnings(cfg.ks, n),
     }
     results = _clean(results)  # type: ignore[assignment]
     write_json_atomic(out / "results.json", results)
