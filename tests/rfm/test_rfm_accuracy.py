@@ -279,3 +279,31 @@ def test_an_exact_affine_field_is_explained_and_measured(a, b, shift, seed):
     field = np.sqrt(np.mean((dx - dx.mean()) ** 2 + (dy - dy.mean()) ** 2))
     assert s["field_rms_px"] == pytest.approx(field, rel=1e-6, abs=1e-9)
     assert s["significant"] is bool(field >= 0.5 and field > 1e-9)
+
+
+@pytest.mark.parametrize("shape", [(4000, 800), (600, 4000), (500, 500)])
+def test_vector_plot_scale_key_is_inside_the_figure_and_clear_of_the_axes(monkeypatch, shape):
+    """The key (arrow and label) lies inside the saved figure and does not overlap the image
+    axes, their tick labels or the column label, for tall, wide and square images."""
+    import re
+
+    from matplotlib.text import Text
+
+    kept = []
+    monkeypatch.setattr(accuracy, "_figure_png", lambda fig: kept.append(fig) or b"")
+    rng = np.random.default_rng(3)
+    col, row = rng.uniform(0, shape[1], 30), rng.uniform(0, shape[0], 30)
+    accuracy.plot_error_vectors(col, row, rng.normal(0, 1, 30), rng.normal(0, 1, 30), 0.5, shape)
+    fig = kept[0]
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    keys = [t for t in fig.findobj(Text) if re.match(r"^\d+(\.\d+)? px", t.get_text())]
+    assert keys, "no scale key"
+    box = keys[0].get_window_extent(renderer)
+    inside = fig.bbox
+    assert inside.x0 <= box.x0 and box.x1 <= inside.x1 and inside.y0 <= box.y0
+    assert box.y1 <= inside.y1
+    assert not box.overlaps(fig.axes[0].get_tightbbox(renderer))
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)

@@ -186,6 +186,40 @@ def _figure_png(fig: object) -> bytes:
     return buf.getvalue()
 
 
+def _vector_layout(shape: tuple[int, int]) -> tuple[object, object, object, float]:
+    """Figure, image axes, colour-bar axes and inches per image pixel for an image
+    of `shape`: the axes keep the image's aspect within 6 × 7 inches, with fixed margins in
+    inches for the title, the labels, the key row under the axes and the colour bar."""
+    import matplotlib.pyplot as plt
+
+    height, width = max(shape[0], 1), max(shape[1], 1)
+    scale = min(6.0 / width, 7.0 / height)  # inches per pixel
+    aw, ah = max(width * scale, 0.4), max(height * scale, 0.4)
+    left, right, bottom, top = 0.9, 1.2, 1.0, 0.45
+    fw, fh = left + aw + right, bottom + ah + top
+    fig = plt.figure(figsize=(fw, fh))
+    ax = fig.add_axes((left / fw, bottom / fh, aw / fw, ah / fh))
+    cax = fig.add_axes(((left + aw + 0.25) / fw, bottom / fh, 0.15 / fw, ah / fh))
+    return fig, ax, cax, scale
+
+
+def _scale_key(fig: object, key_px: float, length_in: float) -> None:
+    """The arrow of `key_px` pixels of error, `length_in` inches long as on the image axes, in
+    its own row at the bottom-left of the figure (inside the saved area, whatever the aspect)."""
+    fw, fh = fig.get_size_inches()  # type: ignore[attr-defined]
+    kax = fig.add_axes((0.1 / fw, 0.02 / fh, (fw - 0.2) / fw, 0.3 / fh))  # type: ignore[attr-defined]
+    kax.set_xlim(0.0, fw - 0.2)  # data units are inches
+    kax.set_ylim(0.0, 0.3)
+    kax.set_axis_off()
+    kax.annotate(
+        "",
+        xy=(0.8 + length_in, 0.15),
+        xytext=(0.8, 0.15),
+        arrowprops={"arrowstyle": "-|>", "color": "black", "shrinkA": 0, "shrinkB": 0},
+    )
+    kax.text(0.8 + length_in + 0.1, 0.15, f"{key_px:g} px error", va="center")
+
+
 def plot_error_vectors(
     col: ArrayLike,
     row: ArrayLike,
@@ -199,38 +233,26 @@ def plot_error_vectors(
     """PNG of every CP's error vector drawn at its position on the image (§RA-5).
 
     `background` (optional) is the image, possibly decimated, drawn in grey under the vectors.
+    The scale key sits in its own row under the axes, whatever the image's aspect.
     """
     import matplotlib
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    col = np.asarray(col, np.float64)
-    row = np.asarray(row, np.float64)
     ex = np.asarray(dx, np.float64) / gsd
     ey = np.asarray(dy, np.float64) / gsd
     g = np.hypot(ex, ey)
-    fig, ax = plt.subplots(figsize=(6.4, 6.4 * shape[0] / max(shape[1], 1) + 0.8))
-    span = max(shape)
+    fig, ax, cax, inch_per_px = _vector_layout(shape)
     if background is not None and np.isfinite(background).any():
         lo, hi = np.nanpercentile(background, [2, 98])
-        ax.imshow(
-            background,
-            cmap="gray",
-            vmin=lo,
-            vmax=hi,
-            alpha=0.6,
-            interpolation="nearest",
-            extent=(-0.5, shape[1] - 0.5, shape[0] - 0.5, -0.5),
-        )
+        extent = (-0.5, shape[1] - 0.5, shape[0] - 0.5, -0.5)
+        ax.imshow(background, cmap="gray", vmin=lo, vmax=hi, alpha=0.6, extent=extent)
     biggest = float(g.max()) if g.size else 1.0
-    # arrows scaled so the largest is ~1/8 of the image; the key gives the scale
-    scale = biggest / (span / 8.0) if biggest > 0 else 1.0
+    # arrows scaled so the largest is 0.4 inch long on the page; the key gives the scale
+    scale = biggest / (0.4 / inch_per_px) if biggest > 0 else 1.0
     if g.size:
         # map y points north, image rows point south: an error dy > 0 is drawn upward
         q = ax.quiver(
-            col,
-            row,
+            *(np.asarray(v, np.float64) for v in (col, row)),
             ex,
             -ey,
             g,
@@ -238,14 +260,16 @@ def plot_error_vectors(
             scale_units="xy",
             scale=scale,
             cmap="viridis",
-            width=0.004,
+            units="inches",
+            width=0.012,
         )
         key = max(round(biggest, 1), 0.1)
-        ax.quiverkey(q, 0.8, -0.12, key, f"{key:g} px", labelpos="E", coordinates="axes")
-        fig.colorbar(q, ax=ax, shrink=0.7, label="GEV (px)")
+        _scale_key(fig, key, key / scale * inch_per_px)
+        fig.colorbar(q, cax=cax, label="GEV (px)")
+    else:
+        cax.set_axis_off()
     ax.set_xlim(0, shape[1])
     ax.set_ylim(shape[0], 0)
-    ax.set_aspect("equal")
     ax.set_xlabel("column (px)")
     ax.set_ylabel("row (px)")
     ax.set_title(title, loc="left")
