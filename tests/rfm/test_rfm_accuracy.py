@@ -307,3 +307,14 @@ def test_vector_plot_scale_key_is_inside_the_figure_and_clear_of_the_axes(monkey
     import matplotlib.pyplot as plt
 
     plt.close(fig)
+
+
+def test_vector_plot_of_vanishing_errors_keeps_its_size():
+    """Errors of 1e-9 px (a reference identical to the image): a key of 1e-09 px, same figure."""
+    col, row = np.linspace(0, 500, 20), np.linspace(0, 480, 20)
+    png = accuracy.plot_error_vectors(col, row, np.full(20, 5e-10), np.zeros(20), 0.5, (480, 520))
+    import io
+
+    from PIL import Image
+
+    assert max(Image.open(io.BytesIO(png)).size) < 2000

@@ -263,8 +263,9 @@ def plot_error_vectors(
             units="inches",
             width=0.012,
         )
-        key = max(round(biggest, 1), 0.1)
-        _scale_key(fig, key, key / scale * inch_per_px)
+        if biggest > 0:  # one significant digit: 5.1 → 5, 0.37 → 0.4, 2e-9 → 2e-9
+            key = float(f"{biggest:.1g}")
+            _scale_key(fig, key, key / scale * inch_per_px)
         fig.colorbar(q, cax=cax, label="GEV (px)")
     else:
         cax.set_axis_off()
