@@ -376,7 +376,7 @@ def test_cell_is_chosen_from_the_image_size(tmp_path: Path):
     from blockqc.rfm.pipeline import choose_cell
 
     assert choose_cell(250_000)[0] == 50  # √(250000 / 100)
-    assert choose_cell(10_000**2)[0] == 400 and choose_cell(900)[0] == 48
+    assert choose_cell(10_000**2)[0] == 400 and choose_cell(900)[0] == 24
     rpc = read_rpc(VENTOUX / "left_image.geom")
     dem = load_dem(VENTOUX / "srtm_N44E005_crop.tif", geoid="egm96")
     orthorectify(VENTOUX / "left_image.tif", rpc, dem, tmp_path / "own.tif")
@@ -393,3 +393,22 @@ def test_cell_is_chosen_from_the_image_size(tmp_path: Path):
     m = results["matching"]
     assert m["grid"] < 400 and "chosen from the image size" in m["grid_choice"]
     assert m["n_cps"] >= 50 and results["warnings"] == []
+
+
+def test_too_few_cps_on_a_small_image_match_again_with_a_smaller_cell(tmp_path: Path):
+    """A chosen cell that gives < 50 matches is shrunk once in proportion to √(n / 60)."""
+    from blockqc.rfm.pipeline import match_cps
+
+    cells = []
+
+    def sparse(image, reference, *, grid, **_):
+        cells.append(grid)
+        n = 30 if len(cells) == 1 else 55
+        return pd.DataFrame({"row": np.arange(n, dtype=float), "col": 0.0})
+
+    cfg = RfmAccuracyConfig(image=Path("a"), dem=Path("b"), reference=Path("c"), out=tmp_path)
+    image = np.zeros((400, 400), np.float32)
+    overlap = np.ones((400, 400), bool)
+    matches, cell, how = match_cps(cfg, image, image, overlap, sparse)
+    # 160000 px → 40 px cells; 30 matches → 40·√(30/60) = 28.3 → 28 px
+    assert cells == [40, 28] and cell == 28 and len(matches) == 55 and "again at 28 px" in how

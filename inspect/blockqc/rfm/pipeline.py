@@ -330,8 +330,8 @@ def _clean(obj: object) -> object:
 
 MAX_CELL = 400
 """§RA-3's homogenization cell (px): the largest chosen."""
-MIN_CELL = 48
-"""Smallest chosen cell (px): the matcher's BRIEF patch, so neighbouring CPs stay distinct."""
+MIN_CELL = 24
+"""Smallest chosen cell (px): about the matcher's NCC template (21 px)."""
 TARGET_CELLS = 100
 """Cells aimed at when the cell is chosen: ≥ ~50 CPs where half the cells have texture."""
 TARGET_CPS = 50
@@ -352,6 +352,43 @@ def choose_cell(overlap_px: int) -> tuple[int, str]:
         f"(about {overlap_px // cell**2} cells, aiming at ≥ {TARGET_CPS} CPs; "
         f"{MIN_CELL}..{MAX_CELL} px)"
     )
+
+
+def match_cps(
+    cfg: RfmAccuracyConfig,
+    image: np.ndarray,
+    reference: np.ndarray,
+    overlap: np.ndarray,
+    matcher: Matcher | None,
+) -> tuple[pd.DataFrame, int, str]:
+    """§RA-3 with the given cell, or one chosen from the image size; a chosen cell below
+    MAX_CELL (a small image) that gives fewer than TARGET_CPS CPs is shrunk once, in proportion,
+    and the matching repeated. Returns the matches, the cell and how it was chosen."""
+    match = matcher or default_matcher()
+
+    def run(cell: int) -> pd.DataFrame:
+        return match(
+            image,
+            reference,
+            image_valid=np.isfinite(image),
+            reference_valid=np.isfinite(reference),
+            offset=(float(cfg.margin), float(cfg.margin)),
+            chunk=cfg.match_chunk,
+            grid=cell,
+            **cfg.match_settings,
+        )
+
+    if cfg.match_grid:
+        return run(cfg.match_grid), cfg.match_grid, "given"
+    cell, how = choose_cell(int(overlap.sum()))
+    matches = run(cell)
+    if len(matches) < TARGET_CPS and MIN_CELL < cell < MAX_CELL:
+        smaller = max(MIN_CELL, int(cell * np.sqrt(max(len(matches), 1) / (1.2 * TARGET_CPS))))
+        again = run(smaller)
+        if len(again) > len(matches):
+            how += f"; {len(matches)} CPs at {cell} px, so matched again at {smaller} px"
+            return again, smaller, how
+    return matches, cell, how
 
 
 def no_cp_reason(image: np.ndarray, overlap: np.ndarray, dem: DEM, n_matches: int) -> str:
@@ -424,20 +461,9 @@ def run_rfm_accuracy(cfg: RfmAccuracyConfig, matcher: Matcher | None = None) -> 
     how, ref_rpc = reference_on_grid(cfg, grid, dem, out / "reference_on_grid.tif")
     image, grid = read_ortho(out / "ortho.tif")
     reference, ref_grid = read_ortho(out / "reference_on_grid.tif")
-    # §RA-3 matching, one call
+    # §RA-3 matching (a second call only for a small image that gave too few CPs)
     overlap = overlap_mask(image, reference, cfg.margin)
-    cell, cell_how = (cfg.match_grid, "given") if cfg.match_grid else choose_cell(overlap.sum())
-    match = matcher or default_matcher()
-    matches = match(
-        image,
-        reference,
-        image_valid=np.isfinite(image),
-        reference_valid=np.isfinite(reference),
-        offset=(float(cfg.margin), float(cfg.margin)),
-        chunk=cfg.match_chunk,
-        grid=cell,
-        **cfg.match_settings,
-    )
+    matches, cell, cell_how = match_cps(cfg, image, reference, overlap, matcher)
     cps = build_cp_table(matches, grid, ref_grid, rpc, dem)
     if cps.empty:
         raise InputError(
