@@ -188,12 +188,12 @@ def _figure_png(fig: object) -> bytes:
 
 def _vector_layout(shape: tuple[int, int]) -> tuple[object, object, object, float]:
     """Figure, image axes, colour-bar axes and inches per image pixel for an image
-    of `shape`: the axes keep the image's aspect within 6 × 7 inches, with fixed margins in
+    of `shape`: the axes keep the image's aspect within 5 × 6 inches, with fixed margins in
     inches for the title, the labels, the key row under the axes and the colour bar."""
     import matplotlib.pyplot as plt
 
     height, width = max(shape[0], 1), max(shape[1], 1)
-    scale = min(6.0 / width, 7.0 / height)  # inches per pixel
+    scale = min(5.0 / width, 6.0 / height)  # inches per pixel
     aw, ah = max(width * scale, 0.4), max(height * scale, 0.4)
     left, right, bottom, top = 0.9, 1.2, 1.0, 0.45
     fw, fh = left + aw + right, bottom + ah + top
@@ -245,7 +245,15 @@ def plot_error_vectors(
     if background is not None and np.isfinite(background).any():
         lo, hi = np.nanpercentile(background, [2, 98])
         extent = (-0.5, shape[1] - 0.5, shape[0] - 0.5, -0.5)
-        ax.imshow(background, cmap="gray", vmin=lo, vmax=hi, alpha=0.6, extent=extent)
+        ax.imshow(
+            background,
+            cmap="gray",
+            vmin=lo,
+            vmax=hi,
+            alpha=0.6,
+            extent=extent,
+            interpolation="nearest",
+        )
     biggest = float(g.max()) if g.size else 1.0
     # arrows scaled so the largest is 0.4 inch long on the page; the key gives the scale
     scale = biggest / (0.4 / inch_per_px) if biggest > 0 else 1.0
