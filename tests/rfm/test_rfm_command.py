@@ -412,3 +412,20 @@ def test_too_few_cps_on_a_small_image_match_again_with_a_smaller_cell(tmp_path: 
     matches, cell, how = match_cps(cfg, image, image, overlap, sparse)
     # 160000 px → 40 px cells; 30 matches → 40·√(30/60) = 28.3 → 28 px
     assert cells == [40, 28] and cell == 28 and len(matches) == 55 and "again at 28 px" in how
+
+
+def test_no_cp_reasons_name_dem_voids_and_overlap():
+    from pyproj import CRS
+    from rasterio.transform import from_origin
+
+    from blockqc.rfm.dem import DEM, Grid
+    from blockqc.rfm.pipeline import no_cp_reason
+
+    holes = np.full((10, 10), np.nan)
+    holes[:2] = 500.0  # 80 % voids
+    dem = DEM(Grid(holes, from_origin(5.0, 45.0, 0.01, 0.01), CRS.from_epsg(4326)), "test")
+    image = np.where(np.arange(100)[:, None] < 10, 1.0, np.nan) * np.ones((100, 100))
+    overlap = np.isfinite(image)
+    assert "DEM voids" in no_cp_reason(image, overlap, dem, 0)
+    assert "does not overlap" in no_cp_reason(image, np.zeros_like(overlap), dem, 0)
+    assert "every match fell on a DEM void" in no_cp_reason(image, overlap, dem, 12)
