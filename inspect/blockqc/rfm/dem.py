@@ -191,7 +191,7 @@ def _node_lonlat(grid: Grid) -> tuple[FloatArray, FloatArray]:
     return np.asarray(lon), np.asarray(lat)
 
 
-def _unknown_reference(path: Path, why: str, n_here: float, plane_per_m: float | None) -> str:
+def _unknown_reference(why: str, n_here: float, plane_per_m: float | None) -> str:
     """The message for a DEM whose height reference is not known: both options, and what
     declaring it ellipsoidal would cost if it is not."""
     cost = f"tens of metres (EGM96: N = {n_here:.1f} m here)"
@@ -276,9 +276,7 @@ def _resolve_geoid(
         why = f"the DEM does not say what its heights are measured from ({how})"
     lon, lat = _node_lonlat(grid)
     n_here = float(geoid_mod.egm96().undulation(np.nanmean(lon), np.nanmean(lat)))
-    raise InputError(
-        Problem(file=str(path), message=_unknown_reference(path, why, n_here, plane_per_m))
-    )
+    raise InputError(Problem(file=str(path), message=_unknown_reference(why, n_here, plane_per_m)))
 
 
 def load_dem(
