@@ -139,3 +139,182 @@ def test_k_beyond_the_cps_is_reported_not_fitted():
     )
     row = table.set_index("k").loc[12]
     assert row["repeats"] == 0 and np.isnan(row["rmse_px_mean"]) and "n = 8" in row["note"]
+
+
+def test_batched_draws_equal_one_fit_per_draw():
+    """Every draw's held-out RMSE as `held_out_rmse` computes it, one affine fit at a time."""
+    truth = ImageAffine(a0=4.0, a1=1e-5, a2=-2e-5, b0=-3.0, b1=2e-5, b2=1e-5)
+    cps = _synthetic_cps(30, truth, noise_px=0.7, seed=6)
+    dem = constant_height(700.0)
+    perms = accuracy.draws(30, 7, seed=2)
+    to_map = Transformer.from_crs(4326, UTM31, always_xy=True)
+    for k in (3, 6, 20):
+        batch = accuracy.held_out_rmse_batch(LEFT, cps, perms, k, dem, to_map, 0.5)
+        one_by_one = [
+            accuracy.held_out_rmse(LEFT, cps, p[:k], p[k:], dem, UTM31, 0.5) for p in perms
+        ]
+        np.testing.assert_allclose(batch, one_by_one, rtol=1e-7)
+
+
+def test_refined_rfm_table_solves_all_draws_of_a_k_together(monkeypatch):
+    """§RA-6 cost: one image→ground on the DEM per k, not one per draw."""
+    from blockqc.rfm.model import RPCModel
+
+    cps = _synthetic_cps(30, ImageAffine(a0=2.0), noise_px=0.3, seed=7)
+    calls = []
+    original = RPCModel.image_to_ground
+
+    def counting(self, *args, **kwargs):
+        calls.append(1)
+        return original(self, *args, **kwargs)
+
+    monkeypatch.setattr(RPCModel, "image_to_ground", counting)
+    table = accuracy.refined_rfm_table(
+        LEFT, cps, constant_height(700.0), UTM31, 0.5, ks=(6, 12), repeats=25
+    )
+    assert (table.repeats[1:] == 25).all() and np.isfinite(table.rmse_px_mean).all()
+    assert len(calls) <= 3
+
+
+def test_draws_on_collinear_cps_are_left_out_not_fatal():
+    """Seven of ten CPs on one line: some 3-CP draws cannot fix an affine."""
+    cps = _synthetic_cps(10, ImageAffine(a0=2.0), noise_px=0.0, seed=8)
+    line = np.linspace(1000.0, 30000.0, 7)
+    row = cps.row.copy()
+    col = cps.col.copy()
+    row[:7], col[:7] = line, line
+    lon, lat, _ = LEFT.image_to_ground(row + 2.0, col, 700.0)
+    x, y = Transformer.from_crs(4326, UTM31, always_xy=True).transform(lon, lat)
+    cps = accuracy.ControlPoints(row, col, lon, lat, np.full(10, 700.0), *map(np.asarray, (x, y)))
+    table = accuracy.refined_rfm_table(
+        LEFT, cps, constant_height(700.0), UTM31, 0.5, ks=(3,), repeats=40
+    )
+    row3 = table.set_index("k").loc[3]
+    assert "collinear" in row3["note"] and row3["rmse_px_max"] < 1e-4
+
+
+def test_k_warnings_name_unsupported_and_thin_rows():
+    warnings = accuracy.k_warnings((6, 12, 16, 20), 18)
+    assert len(warnings) == 3
+    assert "k = 12 leaves 6 CPs" in warnings[0] and "k = 20 needs more than 20" in warnings[2]
+    assert accuracy.k_warnings((6, 12), 60) == []
+
+
+def _noise_field(n: int, sigma_px: float, seed: int, gsd: float = 0.5):
+    rng = np.random.default_rng(seed)
+    col, row = rng.uniform(0, 5000, (2, n))
+    dx, dy = rng.normal(0.0, sigma_px * gsd, (2, n)) + np.array([[1.0], [-0.5]])
+    return col, row, dx, dy
+
+
+def test_matching_noise_is_not_distortion():
+    """0.5 px of matching noise about a shift: the RMS about the mean (0.7 px) exceeds 0.5 px,
+    but no field over the image explains it."""
+    col, row, dx, dy = _noise_field(200, 0.5, seed=11)
+    s = accuracy.distortion_summary(col, row, dx, dy, 0.5)
+    assert s["local_rms_px"] > 0.6
+    assert s["significant"] is False and s["p_value"] > 0.01
+    assert s["noise_robust_px"] == pytest.approx(0.5, abs=0.08)
+    assert s["mean_dx_m"] == pytest.approx(1.0, abs=0.05) and s["mean_dx_px"] == pytest.approx(
+        2.0, abs=0.1
+    )
+
+
+def test_f_statistic_against_an_independent_fit():
+    """F = ((RSS_mean − RSS_affine)/4) / (RSS_affine/(2n − 6)), fits by scikit-learn."""
+    from scipy.stats import f as f_dist
+    from sklearn.linear_model import LinearRegression
+
+    col, row, dx, dy = _noise_field(80, 0.5, seed=12)
+    dx = dx + 0.0002 * col  # a weak scale error along columns
+    e = np.column_stack([dx, dy]) / 0.5
+    X = np.column_stack([col, row])
+    rss_a = float(np.sum((e - LinearRegression().fit(X, e).predict(X)) ** 2))
+    rss_0 = float(np.sum((e - e.mean(axis=0)) ** 2))
+    f = ((rss_0 - rss_a) / 4) / (rss_a / (2 * 80 - 6))
+    s = accuracy.distortion_summary(col, row, dx, dy, 0.5)
+    assert s["model"] == "affine"
+    assert s["f_statistic"] == pytest.approx(f, rel=1e-9)
+    assert s["p_value"] == pytest.approx(f_dist.sf(f, 4, 154), rel=1e-9)
+    assert s["field_rms_px"] == pytest.approx(np.sqrt((rss_0 - rss_a) / 80), rel=1e-9)
+
+
+def test_an_affine_field_above_the_threshold_is_distortion():
+    col, row, dx, dy = _noise_field(100, 0.3, seed=13)
+    dx = dx + 0.0006 * (col - 2500)  # ±1.5 px along columns, field RMS ≈ 0.87 px
+    s = accuracy.distortion_summary(col, row, dx, dy, 0.5)
+    assert s["significant"] is True and s["p_value"] < 1e-6 and s["field_rms_px"] > 0.5
+
+
+def test_a_significant_but_tiny_field_is_not_flagged():
+    col, row, dx, dy = _noise_field(3000, 0.3, seed=14)
+    dx = dx + 0.00012 * (col - 2500)  # field RMS ≈ 0.17 px: real but below the threshold
+    s = accuracy.distortion_summary(col, row, dx, dy, 0.5)
+    assert s["p_value"] < 1e-6 and s["field_rms_px"] < 0.5 and s["significant"] is False
+
+
+def test_a_bowl_is_fitted_by_the_quadratic():
+    col, row, dx, dy = _noise_field(150, 0.2, seed=15)
+    u = (col - 2500) / 2500
+    dx = dx + 1.0 * (u * u) * 0.5  # up to 1 px at the edges, no affine part
+    s = accuracy.distortion_summary(col, row, dx, dy, 0.5)
+    assert s["model"] == "quadratic" and s["significant"] is False  # field RMS ≈ 0.3 px
+    s = accuracy.distortion_summary(col, row, dx * 3, dy, 0.5)
+    assert s["model"] == "quadratic" and s["significant"] is True
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    a=st.floats(-0.002, 0.002),
+    b=st.floats(-0.002, 0.002),
+    shift=st.floats(-5, 5),
+    seed=st.integers(0, 100),
+)
+def test_an_exact_affine_field_is_explained_and_measured(a, b, shift, seed):
+    rng = np.random.default_rng(seed)
+    col, row = rng.uniform(0, 4000, (2, 30))
+    dx = shift + a * (col - 2000)
+    dy = b * (row - 2000)
+    s = accuracy.distortion_summary(col, row, dx, dy, 1.0)
+    field = np.sqrt(np.mean((dx - dx.mean()) ** 2 + (dy - dy.mean()) ** 2))
+    assert s["field_rms_px"] == pytest.approx(field, rel=1e-6, abs=1e-9)
+    assert s["significant"] is bool(field >= 0.5 and field > 1e-9)
+
+
+@pytest.mark.parametrize("shape", [(4000, 800), (600, 4000), (500, 500)])
+def test_vector_plot_scale_key_is_inside_the_figure_and_clear_of_the_axes(monkeypatch, shape):
+    """The key (arrow and label) lies inside the saved figure and does not overlap the image
+    axes, their tick labels or the column label, for tall, wide and square images."""
+    import re
+
+    from matplotlib.text import Text
+
+    kept = []
+    monkeypatch.setattr(accuracy, "_figure_png", lambda fig: kept.append(fig) or b"")
+    rng = np.random.default_rng(3)
+    col, row = rng.uniform(0, shape[1], 30), rng.uniform(0, shape[0], 30)
+    accuracy.plot_error_vectors(col, row, rng.normal(0, 1, 30), rng.normal(0, 1, 30), 0.5, shape)
+    fig = kept[0]
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    keys = [t for t in fig.findobj(Text) if re.match(r"^\d+(\.\d+)? px", t.get_text())]
+    assert keys, "no scale key"
+    box = keys[0].get_window_extent(renderer)
+    inside = fig.bbox
+    assert inside.x0 <= box.x0 and box.x1 <= inside.x1 and inside.y0 <= box.y0
+    assert box.y1 <= inside.y1
+    assert not box.overlaps(fig.axes[0].get_tightbbox(renderer))
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+
+
+def test_vector_plot_of_vanishing_errors_keeps_its_size():
+    """Errors of 1e-9 px (a reference identical to the image): a key of 1e-09 px, same figure."""
+    col, row = np.linspace(0, 500, 20), np.linspace(0, 480, 20)
+    png = accuracy.plot_error_vectors(col, row, np.full(20, 5e-10), np.zeros(20), 0.5, (480, 520))
+    import io
+
+    from PIL import Image
+
+    assert max(Image.open(io.BytesIO(png)).size) < 2000

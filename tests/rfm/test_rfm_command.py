@@ -243,3 +243,189 @@ def test_geoid_dem_without_geoid_is_an_input_error(tmp_path: Path, capsys):
         main(["rfm-accuracy", *args])
     assert exc.value.code == 2
     assert "ellipsoidal" in capsys.readouterr().err
+
+
+# -- issue 13: geoid options, the console line, the chosen cell, no CPs -----------------------
+def _hgt_args(tmp_path: Path, out: str, *geoid: str) -> list[str]:
+    from test_rfm_geoid import write_hgt
+
+    hgt = tmp_path / "N44E005.hgt"
+    if not hgt.exists():
+        write_hgt(hgt)
+    args = base_args(tmp_path / out)
+    i = args.index("--dem")
+    args[i + 1] = str(hgt)
+    j = args.index("--geoid")
+    del args[j : j + 2]
+    return args + [
+        *geoid,
+        "--reference",
+        str(VENTOUX / "right_image.tif"),
+        "--reference-rpc",
+        str(VENTOUX / "right_image.geom"),
+        "--grid",
+        "25",
+        "--repeats",
+        "10",
+    ]
+
+
+def test_srtm_tile_with_shipped_egm96_agrees_with_a_constant_offset(tmp_path: Path):
+    """An SRTM .hgt with `--geoid egm96` needs no other file; `--geoid-offset N` (N of EGM96 at
+    the scene) gives the same result to within the grid's resolution (N varies by < 0.1 m over
+    the scene: ~0.01 m of plane shift for this view)."""
+    from blockqc.rfm.geoid import egm96
+
+    runner = CliRunner()
+    a = runner.invoke(command, _hgt_args(tmp_path, "egm96", "--geoid", "egm96"))
+    n = float(egm96().undulation(5.195, 44.207))
+    b = runner.invoke(command, _hgt_args(tmp_path, "offset", "--geoid-offset", f"{n:.3f}"))
+    assert a.exit_code == 1 and b.exit_code == 1, a.output + b.output
+    ra = json.loads((tmp_path / "egm96" / "results.json").read_text())
+    rb = json.loads((tmp_path / "offset" / "results.json").read_text())
+    assert "EGM96" in ra["dem"]["heights"] and "--geoid-offset" in rb["dem"]["heights"]
+    assert ra["accuracy"]["n"] == rb["accuracy"]["n"] >= 20
+    assert abs(ra["accuracy"]["rmse_px"] - rb["accuracy"]["rmse_px"]) < 0.02
+    ca, cb = (
+        pd.read_csv(tmp_path / "egm96" / "cps.csv"),
+        pd.read_csv(tmp_path / "offset" / "cps.csv"),
+    )
+    assert np.max(np.abs(ca.h_m - cb.h_m)) < 0.1
+
+
+def test_srtm_tile_refuses_being_declared_ellipsoidal(tmp_path: Path, capsys):
+    from blockqc.cli import main
+
+    with pytest.raises(SystemExit) as exc:
+        main(["rfm-accuracy", *_hgt_args(tmp_path, "out", "--dem-vertical", "ellipsoid")])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert "declares EGM96" in err and "Traceback" not in err
+
+
+def test_unknown_dem_reference_names_both_options(tmp_path: Path, capsys):
+    from blockqc.cli import main
+
+    args = base_args(tmp_path / "out")
+    i = args.index("--geoid")
+    del args[i : i + 2]
+    args += ["--reference", str(VENTOUX / "right_image.tif")]
+    with pytest.raises(SystemExit) as exc:
+        main(["rfm-accuracy", *args])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    for words in ("--geoid egm96", "--geoid FILE", "--geoid-offset", "m of plane error"):
+        assert words in err
+
+
+def test_console_line_gives_the_systematic_shift(real_run):
+    out, result = real_run
+    d = json.loads((out / "results.json").read_text())["distortion"]
+    cps = pd.read_csv(out / "cps.csv")
+    gsd = json.loads((out / "results.json").read_text())["grid"]["gsd_m"]
+    assert d["mean_dx_m"] == pytest.approx(cps.dx_m.mean(), abs=1e-6)
+    assert d["mean_dy_px"] == pytest.approx(cps.dy_m.mean() / gsd, abs=1e-6)
+    line = (
+        f"shift dx {d['mean_dx_m']:+.2f} m ({d['mean_dx_px']:+.2f} px) "
+        f"dy {d['mean_dy_m']:+.2f} m ({d['mean_dy_px']:+.2f} px)"
+    )
+    assert line in result.output
+
+
+def test_no_overlap_is_an_input_error_with_its_reason(tmp_path: Path, capsys):
+    """A reference placed elsewhere (wrong crop offset): 0 CPs is exit 2, not a failed verdict."""
+    from blockqc.cli import main
+
+    args = base_args(tmp_path / "out") + [
+        "--reference",
+        str(VENTOUX / "right_image.tif"),
+        "--reference-rpc",
+        str(VENTOUX / "right_image.geom"),
+        "--reference-crop-offset",
+        "20000,20000",
+    ]
+    with pytest.raises(SystemExit) as exc:
+        main(["rfm-accuracy", *args])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert "no control point found" in err and "overlap" in err
+    assert not (tmp_path / "out" / "results.json").exists()
+
+
+def test_no_texture_is_an_input_error_with_its_reason(tmp_path: Path):
+    from blockqc.errors import InputError
+
+    def nothing(image, reference, **_):
+        return pd.DataFrame(columns=["row", "col", "ref_row", "ref_col", "kind", "score"])
+
+    cfg = RfmAccuracyConfig(
+        image=VENTOUX / "left_image.tif",
+        rpc=VENTOUX / "left_image.geom",
+        dem=VENTOUX / "srtm_N44E005_crop.tif",
+        geoid="egm96",
+        reference=VENTOUX / "right_image.tif",
+        reference_rpc=VENTOUX / "right_image.geom",
+        out=tmp_path / "out",
+    )
+    with pytest.raises(InputError, match="no control point found: no texture"):
+        run_rfm_accuracy(cfg, matcher=nothing)
+
+
+def test_cell_is_chosen_from_the_image_size(tmp_path: Path):
+    """No --grid on a 500 × 500 px crop: the cell gives ≥ 50 CPs (the old 400 px cell gave 4)."""
+    from blockqc.rfm.pipeline import choose_cell
+
+    assert choose_cell(250_000)[0] == 50  # √(250000 / 100)
+    assert choose_cell(10_000**2)[0] == 400 and choose_cell(900)[0] == 24
+    rpc = read_rpc(VENTOUX / "left_image.geom")
+    dem = load_dem(VENTOUX / "srtm_N44E005_crop.tif", geoid="egm96")
+    orthorectify(VENTOUX / "left_image.tif", rpc, dem, tmp_path / "own.tif")
+    cfg = RfmAccuracyConfig(
+        image=VENTOUX / "left_image.tif",
+        rpc=VENTOUX / "left_image.geom",
+        dem=VENTOUX / "srtm_N44E005_crop.tif",
+        geoid="egm96",
+        reference=tmp_path / "own.tif",
+        out=tmp_path / "out",
+        repeats=3,
+    )
+    results = run_rfm_accuracy(cfg, matcher=phase_correlation_matcher)
+    m = results["matching"]
+    assert m["grid"] < 400 and "chosen from the image size" in m["grid_choice"]
+    assert m["n_cps"] >= 50 and results["warnings"] == []
+
+
+def test_too_few_cps_on_a_small_image_match_again_with_a_smaller_cell(tmp_path: Path):
+    """A chosen cell that gives < 50 matches is shrunk once in proportion to √(n / 60)."""
+    from blockqc.rfm.pipeline import match_cps
+
+    cells = []
+
+    def sparse(image, reference, *, grid, **_):
+        cells.append(grid)
+        n = 30 if len(cells) == 1 else 55
+        return pd.DataFrame({"row": np.arange(n, dtype=float), "col": 0.0})
+
+    cfg = RfmAccuracyConfig(image=Path("a"), dem=Path("b"), reference=Path("c"), out=tmp_path)
+    image = np.zeros((400, 400), np.float32)
+    overlap = np.ones((400, 400), bool)
+    matches, cell, how = match_cps(cfg, image, image, overlap, sparse)
+    # 160000 px → 40 px cells; 30 matches → 40·√(30/60) = 28.3 → 28 px
+    assert cells == [40, 28] and cell == 28 and len(matches) == 55 and "again at 28 px" in how
+
+
+def test_no_cp_reasons_name_dem_voids_and_overlap():
+    from pyproj import CRS
+    from rasterio.transform import from_origin
+
+    from blockqc.rfm.dem import DEM, Grid
+    from blockqc.rfm.pipeline import no_cp_reason
+
+    holes = np.full((10, 10), np.nan)
+    holes[:2] = 500.0  # 80 % voids
+    dem = DEM(Grid(holes, from_origin(5.0, 45.0, 0.01, 0.01), CRS.from_epsg(4326)), "test")
+    image = np.where(np.arange(100)[:, None] < 10, 1.0, np.nan) * np.ones((100, 100))
+    overlap = np.isfinite(image)
+    assert "DEM voids" in no_cp_reason(image, overlap, dem, 0)
+    assert "does not overlap" in no_cp_reason(image, np.zeros_like(overlap), dem, 0)
+    assert "every match fell on a DEM void" in no_cp_reason(image, overlap, dem, 12)

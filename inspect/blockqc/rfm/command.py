@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import click
@@ -35,6 +36,20 @@ def _ks(value: str) -> tuple[int, ...]:
     return ks
 
 
+def _geoid(value: str | None, offset: float | None) -> str | Path | None:
+    """--geoid: 'egm96' or an existing grid file; exclusive with --geoid-offset."""
+    if value is not None and offset is not None:
+        raise UsageError("give --geoid or --geoid-offset, not both")
+    if offset is not None and not (math.isfinite(offset) and abs(offset) <= 150.0):
+        raise UsageError(f"--geoid-offset is a geoid undulation in metres (±150), got {offset!r}")
+    if value is None or value.lower() == "egm96":
+        return value and "egm96"
+    path = Path(value)
+    if not path.is_file():
+        raise UsageError(f"--geoid is 'egm96' or a geoid grid file; {value!r} is neither")
+    return path
+
+
 _path = click.Path(exists=True, dir_okay=False, path_type=Path)
 
 
@@ -50,15 +65,21 @@ _path = click.Path(exists=True, dir_okay=False, path_type=Path)
 )
 @click.option(
     "--geoid",
-    type=_path,
-    help="Geoid undulation grid (e.g. egm96_15.gtx) to turn geoid heights into ellipsoidal ones.",
+    help="Geoid of a DEM in geoid heights: 'egm96' (the global EGM96 grid shipped with blockqc) "
+    "or a geoid grid file (e.g. egm96_15.gtx); h = H + N.",
+)
+@click.option(
+    "--geoid-offset",
+    type=float,
+    help="A constant geoid undulation N in metres (h = H + N), instead of --geoid.",
 )
 @click.option(
     "--dem-vertical",
-    type=click.Choice(["geoid", "ellipsoid"]),
-    default="geoid",
+    type=click.Choice(["auto", "geoid", "ellipsoid"]),
+    default="auto",
     show_default=True,
-    help="What the DEM heights are measured from; 'geoid' (SRTM) needs --geoid.",
+    help="What the DEM heights are measured from; 'auto': what the DEM declares (compound or "
+    "3-D CRS; SRTM .hgt is EGM96), else --geoid/--geoid-offset must say.",
 )
 @click.option(
     "--reference",
@@ -103,10 +124,9 @@ _path = click.Path(exists=True, dir_okay=False, path_type=Path)
 @click.option(
     "--grid",
     "match_grid",
-    type=int,
-    default=400,
-    show_default=True,
-    help="Homogenization cell (px): one CP per cell (§RA-3).",
+    type=click.IntRange(min=1),
+    help="Homogenization cell (px): one CP per cell (§RA-3); default: chosen from the image "
+    "size (≥ ~50 CPs where the texture allows, at most 400 px).",
 )
 @click.option(
     "--chunk",
@@ -164,7 +184,8 @@ def command(
     image: Path,
     rpc: Path | None,
     dem: Path,
-    geoid: Path | None,
+    geoid: str | None,
+    geoid_offset: float | None,
     dem_vertical: str,
     reference: Path,
     reference_rpc: Path | None,
@@ -173,7 +194,7 @@ def command(
     gsd: float | None,
     crop_offset: str,
     reference_crop_offset: str,
-    match_grid: int,
+    match_grid: int | None,
     match_chunk: int,
     margin: int,
     k_text: str,
@@ -200,7 +221,10 @@ def command(
             raise UsageError(f"--crs {crs_text!r} is not a CRS pyproj knows") from None
         if not crs.is_projected:
             raise UsageError(f"--crs {crs_text!r} must be a projected CRS (metres)")
-    inputs = [p for p in (image, rpc, dem, geoid, reference, reference_rpc) if p is not None]
+    geoid_path = _geoid(geoid, geoid_offset)
+    inputs = [p for p in (image, rpc, dem, reference, reference_rpc) if p is not None]
+    if isinstance(geoid_path, Path):
+        inputs.append(geoid_path)
     out_dir = check_out_dir(out, inputs)
     cfg = RfmAccuracyConfig(
         image=image,
@@ -208,7 +232,8 @@ def command(
         reference=reference,
         out=out_dir,
         rpc=rpc,
-        geoid=geoid,
+        geoid=geoid_path,
+        geoid_offset=geoid_offset,
         dem_vertical=dem_vertical,
         reference_rpc=reference_rpc,
         crs=crs,
@@ -228,12 +253,27 @@ def command(
         dem_fill=dem_fill,
     )
     results = run_rfm_accuracy(cfg)
+    for warning in results.get("warnings") or []:  # type: ignore[union-attr]
+        click.echo(f"warning: {warning}", err=True)
     acc = results["accuracy"]
-    rmse = acc["rmse_px"]  # type: ignore[index]
-    click.echo(
-        f"{image.name}: {acc['n']} CPs, RMSE "  # type: ignore[index]
-        + (f"{rmse:.3f} px" if rmse is not None else "n/a")
-        + f" → {acc['verdict']} (requirement < {requirement:g} px); results in {out_dir}"  # type: ignore[index]
-    )
+    click.echo(console_line(image.name, results, requirement, out_dir))
     if acc["verdict"] != "pass":  # type: ignore[index]
         click.get_current_context().exit(1)
+
+
+def console_line(name: str, results: dict, requirement: float, out_dir: Path) -> str:
+    """One line: CPs, RMSE, the systematic shift (mean dx, dy in metres and pixels), verdict."""
+    acc, d = results["accuracy"], results["distortion"]
+    rmse = acc["rmse_px"]
+    shift = ""
+    if d.get("mean_dx_m") is not None:
+        shift = (
+            f", shift dx {d['mean_dx_m']:+.2f} m ({d['mean_dx_px']:+.2f} px) "
+            f"dy {d['mean_dy_m']:+.2f} m ({d['mean_dy_px']:+.2f} px)"
+        )
+    return (
+        f"{name}: {acc['n']} CPs, RMSE "
+        + (f"{rmse:.3f} px" if rmse is not None else "n/a")
+        + shift
+        + f" → {acc['verdict']} (requirement < {requirement:g} px); results in {out_dir}"
+    )

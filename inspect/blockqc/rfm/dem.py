@@ -1,9 +1,10 @@
 """Digital elevation models as ellipsoidal heights for the RFM (§MB-2, §RA-1).
 
 RPC heights are ellipsoidal (WGS-84). SRTM and most national DEMs give heights above a geoid
-(SRTM: EGM96), so h_ellipsoid = h_DEM + N, with N the geoid undulation sampled from a geoid grid
-(e.g. EGM96 15' `egm96_15.gtx`). `load_dem` makes that conversion when a geoid is given and
-records it in `DEM.vertical`, so reports can say which heights were used.
+(SRTM: EGM96), so h_ellipsoid = h_DEM + N, with N the geoid undulation (`blockqc.rfm.geoid`: a
+grid file, the shipped EGM96 grid or a constant). `load_dem` makes that conversion from what the
+DEM declares or the caller states, refuses an unknown reference, and records it in
+`DEM.vertical`, so reports can say which heights were used.
 
 Sampling is bilinear between pixel centres, vectorized; points outside the DEM (or on voids) give
 NaN. A DEM in a projected CRS (e.g. a UTM DSM) is sampled after converting lon/lat to its CRS.
@@ -20,6 +21,7 @@ from pyproj import CRS, Transformer
 from rasterio.transform import Affine
 
 from blockqc.errors import InputError, Problem
+from blockqc.rfm import geoid as geoid_mod
 
 FloatArray = NDArray[np.float64]
 
@@ -125,6 +127,8 @@ def _read_grid(path: Path, bounds: tuple[float, float, float, float] | None, wha
                 Problem(file=str(path), message=f"the {what} must be a north-up grid, got {t}")
             )
         crs = CRS.from_wkt(ds.crs.to_wkt())
+        if len(crs.axis_info) > 2:
+            crs = crs.to_2d()  # heights are the values; the grid is horizontal
         window = Window(0, 0, ds.width, ds.height)
         if bounds is not None:
             west, south, east, north = bounds
@@ -174,77 +178,146 @@ def fill_voids(values: FloatArray, max_steps: int) -> FloatArray:
     return out
 
 
-def load_dem(
-    path: str | Path,
-    *,
-    geoid: str | Path | None = None,
-    vertical: str = "geoid",
-    bounds: tuple[float, float, float, float] | None = None,
-    fill: int = 0,
-) -> DEM:
-    """Load a DEM as ellipsoidal heights.
-
-    `vertical` is 'geoid' (heights above a geoid, as SRTM: a `geoid` grid of undulations N is
-    then required and h = H + N) or 'ellipsoid' (already WGS-84 ellipsoidal). `bounds`
-    (west, south, east, north in degrees) restricts reading to the window needed. `fill` > 0
-    closes small voids (`fill_voids`), e.g. the holes of a photogrammetric DSM.
-    """
-    path = Path(path)
-    if vertical not in ("geoid", "ellipsoid"):
-        raise InputError(
-            Problem(
-                file=str(path), message=f"vertical must be 'geoid' or 'ellipsoid', got {vertical!r}"
-            )
-        )
-    grid = _read_grid(path, bounds, "DEM")
-    if fill > 0:
-        grid = Grid(fill_voids(grid.values, fill), grid.transform, grid.crs, grid.source)
-    if vertical == "ellipsoid":
-        return DEM(grid, f"ellipsoidal (WGS-84) heights from {path.name}")
-    if geoid is None:
-        raise InputError(
-            Problem(
-                file=str(path),
-                message="the DEM holds geoid heights (e.g. SRTM/EGM96) but no geoid grid was "
-                "given: RPC heights are ellipsoidal; pass a geoid grid or declare the DEM "
-                "ellipsoidal",
-            )
-        )
-    geoid = Path(geoid)
-    # undulation at every DEM node (lon/lat of the node centres)
+def _node_lonlat(grid: Grid) -> tuple[FloatArray, FloatArray]:
+    """lon/lat (degrees) of every DEM node centre."""
     nr, nc = grid.values.shape
     cols, rows = np.meshgrid(np.arange(nc) + 0.5, np.arange(nr) + 0.5)
     xs = grid.transform.c + cols * grid.transform.a
     ys = grid.transform.f + rows * grid.transform.e
     if grid.crs.is_geographic:
-        lon, lat = np.asarray(xs), np.asarray(ys)
-    else:
-        tr = Transformer.from_crs(grid.crs, CRS.from_epsg(4326), always_xy=True)
-        lon, lat = tr.transform(xs, ys)
-    margin = 0.5
-    g = _read_grid(
-        geoid,
-        (
-            float(np.min(lon)) - margin,
-            float(np.min(lat)) - margin,
-            float(np.max(lon)) + margin,
-            float(np.max(lat)) + margin,
-        ),
-        "geoid grid",
+        return np.asarray(xs), np.asarray(ys)
+    tr = Transformer.from_crs(grid.crs, CRS.from_epsg(4326), always_xy=True)
+    lon, lat = tr.transform(xs, ys)
+    return np.asarray(lon), np.asarray(lat)
+
+
+def _unknown_reference(why: str, n_here: float, plane_per_m: float | None) -> str:
+    """The message for a DEM whose height reference is not known: both options, and what
+    declaring it ellipsoidal would cost if it is not."""
+    cost = f"tens of metres (EGM96: N = {n_here:.1f} m here)"
+    moved = "metres of plane error wherever the view is oblique"
+    if plane_per_m is not None and np.isfinite(plane_per_m) and np.isfinite(n_here):
+        moved = f"{abs(n_here) * plane_per_m:.1f} m of plane error for this image's view"
+    return (
+        f"{why}; RPC heights are WGS-84 ellipsoidal, so the DEM must be converted. Most DEMs "
+        "(SRTM, ASTER, Copernicus, national DEMs) give heights above a geoid: pass --geoid egm96 "
+        "(the EGM96 grid shipped with blockqc), --geoid FILE (a geoid grid, e.g. egm96_15.gtx or "
+        "a national one) or --geoid-offset METRES (a constant undulation N). Use --dem-vertical "
+        "ellipsoid only for a DEM known to hold ellipsoidal heights: a geoid DEM taken as "
+        f"ellipsoidal has every height off by N, {cost}, which moves the corrected image by "
+        f"N·tan(view angle): {moved}"
     )
-    if not g.crs.is_geographic:
-        raise InputError(Problem(file=str(geoid), message="the geoid grid must be in lon/lat"))
-    glon = np.where(lon < g.transform.c, lon + 360.0, lon)
-    n = g.sample(glon, lat)
+
+
+def _check_choice(
+    path: Path,
+    declared: str | None,
+    how: str,
+    geoid: str | Path | None,
+    geoid_offset: float | None,
+    vertical: str,
+) -> None:
+    """Refuse contradictory statements about the DEM's height reference."""
+
+    def refuse(message: str) -> None:
+        raise InputError(Problem(file=str(path), message=message))
+
+    if vertical not in ("auto", "geoid", "ellipsoid"):
+        refuse(f"vertical must be 'auto', 'geoid' or 'ellipsoid', got {vertical!r}")
+    given = geoid is not None or geoid_offset is not None
+    if geoid is not None and geoid_offset is not None:
+        refuse("give either a geoid (--geoid) or a constant undulation (--geoid-offset), not both")
+    if vertical == "ellipsoid" and given:
+        refuse("--dem-vertical ellipsoid contradicts --geoid/--geoid-offset (geoid heights)")
+    if declared == geoid_mod.ELLIPSOID and (given or vertical == "geoid"):
+        refuse(f"the DEM declares ellipsoidal heights ({how}): no geoid conversion applies")
+    if declared not in (None, geoid_mod.ELLIPSOID) and vertical == "ellipsoid":
+        refuse(
+            f"the DEM declares {declared} geoid heights ({how}); --dem-vertical ellipsoid would "
+            "leave every height off by the geoid undulation (tens of metres)"
+        )
+    named = "EGM96" if str(geoid).lower() == "egm96" else None
+    if declared not in (None, geoid_mod.ELLIPSOID, "EGM96") and named == "EGM96":
+        refuse(
+            f"the DEM declares {declared} heights ({how}), not EGM96: pass that model's grid "
+            "with --geoid FILE, or its undulation here with --geoid-offset"
+        )
+
+
+def _resolve_geoid(
+    path: Path,
+    grid: Grid,
+    declared: str | None,
+    how: str,
+    geoid: str | Path | None,
+    geoid_offset: float | None,
+    vertical: str,
+    plane_per_m: float | None,
+) -> geoid_mod.Geoid | None:
+    """The geoid to add to the DEM's heights (None: the heights are already ellipsoidal)."""
+    _check_choice(path, declared, how, geoid, geoid_offset, vertical)
+    if geoid_offset is not None:
+        return geoid_mod.constant_geoid(float(geoid_offset))
+    if geoid is not None and str(geoid).lower() == "egm96":
+        return geoid_mod.egm96()
+    if geoid is not None:
+        lon, lat = _node_lonlat(grid)
+        box = (np.min(lon) - 0.5, np.min(lat) - 0.5, np.max(lon) + 0.5, np.max(lat) + 0.5)
+        return geoid_mod.geoid_from_file(Path(geoid), tuple(float(v) for v in box))
+    if vertical == "ellipsoid" or declared == geoid_mod.ELLIPSOID:
+        return None
+    if declared == "EGM96":
+        return geoid_mod.egm96()
+    if declared is not None:
+        why = f"the DEM declares {declared} heights ({how}) and blockqc ships only EGM96"
+    elif vertical == "geoid":
+        why = "the DEM is said to hold geoid heights (--dem-vertical geoid) but no geoid was given"
+    else:
+        why = f"the DEM does not say what its heights are measured from ({how})"
+    lon, lat = _node_lonlat(grid)
+    n_here = float(geoid_mod.egm96().undulation(np.nanmean(lon), np.nanmean(lat)))
+    raise InputError(Problem(file=str(path), message=_unknown_reference(why, n_here, plane_per_m)))
+
+
+def load_dem(
+    path: str | Path,
+    *,
+    geoid: str | Path | None = None,
+    geoid_offset: float | None = None,
+    vertical: str = "auto",
+    bounds: tuple[float, float, float, float] | None = None,
+    fill: int = 0,
+    plane_per_m: float | None = None,
+) -> DEM:
+    """Load a DEM as ellipsoidal heights, h = H + N for a geoid DEM (§MB-2).
+
+    The height reference is what the file declares (compound or 3-D CRS, SRTM .hgt: EGM96)
+    unless the caller states it: `geoid` ('egm96' for the shipped grid, or a grid file),
+    `geoid_offset` (constant N, m) or `vertical` 'ellipsoid'; contradictions and an unknown
+    reference are refused. `plane_per_m` (plane metres per metre of height error for the image's
+    view) makes that refusal say what a wrong choice would cost. `bounds` (west, south, east,
+    north in degrees) restricts reading to the window needed; `fill` > 0 closes small voids.
+    """
+    path = Path(path)
+    declared, how = geoid_mod.declared_reference(path)
+    grid = _read_grid(path, bounds, "DEM")
+    if fill > 0:
+        grid = Grid(fill_voids(grid.values, fill), grid.transform, grid.crs, grid.source)
+    g = _resolve_geoid(path, grid, declared, how, geoid, geoid_offset, vertical, plane_per_m)
+    if g is None:
+        said = f"declared by {how}" if declared == geoid_mod.ELLIPSOID else "as stated by the user"
+        return DEM(grid, f"ellipsoidal (WGS-84) heights from {path.name} ({said})")
+    lon, lat = _node_lonlat(grid)
+    n = g.undulation(lon, lat)
     if np.any(np.isnan(n) & np.isfinite(grid.values)):
         raise InputError(
-            Problem(file=str(geoid), message=f"the geoid grid does not cover {path.name}")
+            Problem(file=g.description, message=f"the geoid does not cover {path.name}")
         )
-    ellipsoidal = Grid(grid.values + n, grid.transform, grid.crs, str(path))
+    source = f"declared by {how}" if declared not in (None, geoid_mod.ELLIPSOID) else "stated"
     return DEM(
-        ellipsoidal,
-        f"geoid heights from {path.name} + geoid undulation from {geoid.name} "
-        f"(N {np.nanmin(n):.2f}..{np.nanmax(n):.2f} m) = ellipsoidal (WGS-84)",
+        Grid(grid.values + n, grid.transform, grid.crs, str(path)),
+        f"geoid heights from {path.name} ({declared or 'geoid'}, {source}) + undulation N "
+        f"from {g.description} (N {np.nanmin(n):.2f}..{np.nanmax(n):.2f} m) = ellipsoidal (WGS-84)",
     )
 
 

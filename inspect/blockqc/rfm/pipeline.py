@@ -80,8 +80,11 @@ class RfmAccuracyConfig:
     reference: Path
     out: Path
     rpc: Path | None = None
-    geoid: Path | None = None
-    dem_vertical: str = "geoid"
+    geoid: str | Path | None = None
+    """'egm96' (the shipped grid) or a geoid grid file."""
+    geoid_offset: float | None = None
+    """A constant geoid undulation N (m)."""
+    dem_vertical: str = "auto"
     dem_fill: int = 0
     reference_rpc: Path | None = None
     crs: CRS | None = None
@@ -91,7 +94,8 @@ class RfmAccuracyConfig:
     ortho_chunk: int = 1024
     margin: int = 32
     match_chunk: int = 5000
-    match_grid: int = 400
+    match_grid: int | None = None
+    """Homogenization cell (px); None: chosen from the image size (`choose_cell`)."""
     ks: tuple[int, ...] = (6, 12, 16, 20)
     repeats: int = 100
     seed: int = 0
@@ -132,6 +136,17 @@ def _footprint_bounds(
         float(np.nanmax(lon)) + pad_deg,
         float(np.nanmax(lat)) + pad_deg,
     )
+
+
+def plane_per_height(rpc: RPCModel, shape: tuple[int, int], offset: tuple[float, float]) -> float:
+    """Plane metres the image centre's ground position moves per metre of height error."""
+    from pyproj import Geod
+
+    row = np.array([shape[0] / 2.0 + offset[0]] * 2)
+    col = np.array([shape[1] / 2.0 + offset[1]] * 2)
+    lon, lat, _ = rpc.image_to_ground(row, col, np.array([rpc.height_off, rpc.height_off + 100.0]))
+    _, _, dist = Geod(ellps="WGS84").inv(lon[0], lat[0], lon[1], lat[1])
+    return float(dist) / 100.0
 
 
 def _raster_shape(path: Path) -> tuple[tuple[int, int], bool]:
@@ -313,6 +328,109 @@ def _clean(obj: object) -> object:
     return obj
 
 
+MAX_CELL = 400
+"""§RA-3's homogenization cell (px): the largest chosen."""
+MIN_CELL = 24
+"""Smallest chosen cell (px): about the matcher's NCC template (21 px)."""
+TARGET_CELLS = 100
+"""Cells aimed at when the cell is chosen: ≥ ~50 CPs where half the cells have texture."""
+TARGET_CPS = 50
+
+
+def overlap_mask(image: np.ndarray, reference: np.ndarray, margin: int) -> np.ndarray:
+    """Image pixels with data in both the image and the reference (the reference is `margin`
+    pixels larger on every side)."""
+    h, w = image.shape
+    return np.isfinite(image) & np.isfinite(reference[margin : margin + h, margin : margin + w])
+
+
+def choose_cell(overlap_px: int) -> tuple[int, str]:
+    """§RA-3 cell from the area both images cover: TARGET_CELLS cells, within MIN..MAX_CELL."""
+    cell = int(np.clip(np.floor(np.sqrt(max(overlap_px, 1) / TARGET_CELLS)), MIN_CELL, MAX_CELL))
+    return cell, (
+        f"chosen from the image size: {cell} px for {overlap_px} px covered by both images "
+        f"(about {overlap_px // cell**2} cells, aiming at ≥ {TARGET_CPS} CPs; "
+        f"{MIN_CELL}..{MAX_CELL} px)"
+    )
+
+
+def match_cps(
+    cfg: RfmAccuracyConfig,
+    image: np.ndarray,
+    reference: np.ndarray,
+    overlap: np.ndarray,
+    matcher: Matcher | None,
+) -> tuple[pd.DataFrame, int, str]:
+    """§RA-3 with the given cell, or one chosen from the image size; a chosen cell below
+    MAX_CELL (a small image) that gives fewer than TARGET_CPS CPs is shrunk once, in proportion,
+    and the matching repeated. Returns the matches, the cell and how it was chosen."""
+    match = matcher or default_matcher()
+
+    def run(cell: int) -> pd.DataFrame:
+        return match(
+            image,
+            reference,
+            image_valid=np.isfinite(image),
+            reference_valid=np.isfinite(reference),
+            offset=(float(cfg.margin), float(cfg.margin)),
+            chunk=cfg.match_chunk,
+            grid=cell,
+            **cfg.match_settings,
+        )
+
+    if cfg.match_grid:
+        return run(cfg.match_grid), cfg.match_grid, "given"
+    cell, how = choose_cell(int(overlap.sum()))
+    matches = run(cell)
+    if len(matches) < TARGET_CPS and MIN_CELL < cell < MAX_CELL:
+        smaller = max(MIN_CELL, int(cell * np.sqrt(max(len(matches), 1) / (1.2 * TARGET_CPS))))
+        again = run(smaller)
+        if len(again) > len(matches):
+            how += f"; {len(matches)} CPs at {cell} px, so matched again at {smaller} px"
+            return again, smaller, how
+    return matches, cell, how
+
+
+def no_cp_reason(image: np.ndarray, overlap: np.ndarray, dem: DEM, n_matches: int) -> str:
+    """Why matching gave no CP: the likely cause first, then the figures behind it."""
+    valid = float(np.isfinite(image).mean())
+    both = float(overlap.sum() / max(np.isfinite(image).sum(), 1))
+    voids = float(np.isnan(dem.grid.values).mean())
+    pixels = image[overlap]
+    spread = float(np.subtract(*np.percentile(pixels, [98, 2]))) if pixels.size else 0.0
+    figures = (
+        f"image pixels with data {valid:.0%} of the grid, of which {both:.0%} also on the "
+        f"reference; DEM voids {voids:.0%} of its window; {n_matches} matches found; "
+        f"grey-level spread (2–98 %) over the overlap {spread:.4g}"
+    )
+    if n_matches:
+        why = "every match fell on a DEM void (no height under it)"
+    elif both < 0.05:
+        why = "the reference does not overlap the image (wrong reference, CRS or crop offset?)"
+    elif voids > 0.2 or valid < 0.2:
+        why = "DEM voids: most of the image has no height (fill voids with --dem-fill-voids?)"
+    else:
+        why = "no texture or too little likeness between the two images to match"
+    return f"no control point found: {why}. {figures}"
+
+
+def run_warnings(cfg: RfmAccuracyConfig, dem: DEM, n: int, cell: int) -> list[str]:
+    """What the user should know about the run's inputs and its CP count."""
+    out = []
+    if n < TARGET_CPS:
+        how = "given" if cfg.match_grid else "chosen"
+        out.append(
+            f"§RA-3: only {n} CPs with a {cell} px cell ({how}): the texture or the overlap "
+            f"allows no more at this cell; a smaller --grid may find more"
+        )
+    if "stated by the user" in dem.vertical:
+        out.append(
+            "the DEM was taken as ellipsoidal on --dem-vertical ellipsoid alone: if it holds "
+            "geoid heights every height is off by N (tens of metres) and the image by metres"
+        )
+    return out
+
+
 def run_rfm_accuracy(cfg: RfmAccuracyConfig, matcher: Matcher | None = None) -> dict[str, object]:
     """Run §RA-1..6 for one image and write every output into `cfg.out`; returns the results."""
     if cfg.method not in METHODS:
@@ -325,7 +443,13 @@ def run_rfm_accuracy(cfg: RfmAccuracyConfig, matcher: Matcher | None = None) -> 
     offset = cfg.crop_offset if cfg.crop_offset is not None else crop_offset_from_file(cfg.image)
     bounds = _footprint_bounds(rpc, shape, offset, pad_deg=0.01)
     dem = load_dem(
-        cfg.dem, geoid=cfg.geoid, vertical=cfg.dem_vertical, bounds=bounds, fill=cfg.dem_fill
+        cfg.dem,
+        geoid=cfg.geoid,
+        geoid_offset=cfg.geoid_offset,
+        vertical=cfg.dem_vertical,
+        bounds=bounds,
+        fill=cfg.dem_fill,
+        plane_per_m=plane_per_height(rpc, shape, offset),
     )
 
     # §RA-1 RPC correction
@@ -337,20 +461,15 @@ def run_rfm_accuracy(cfg: RfmAccuracyConfig, matcher: Matcher | None = None) -> 
     how, ref_rpc = reference_on_grid(cfg, grid, dem, out / "reference_on_grid.tif")
     image, grid = read_ortho(out / "ortho.tif")
     reference, ref_grid = read_ortho(out / "reference_on_grid.tif")
-    # §RA-3 matching, one call
-    match = matcher or default_matcher()
-    matches = match(
-        image,
-        reference,
-        image_valid=np.isfinite(image),
-        reference_valid=np.isfinite(reference),
-        offset=(float(cfg.margin), float(cfg.margin)),
-        chunk=cfg.match_chunk,
-        grid=cfg.match_grid,
-        **cfg.match_settings,
-    )
-    del image, reference
+    # §RA-3 matching (a second call only for a small image that gave too few CPs)
+    overlap = overlap_mask(image, reference, cfg.margin)
+    matches, cell, cell_how = match_cps(cfg, image, reference, overlap, matcher)
     cps = build_cp_table(matches, grid, ref_grid, rpc, dem)
+    if cps.empty:
+        raise InputError(
+            Problem(file=str(cfg.image), message=no_cp_reason(image, overlap, dem, len(matches)))
+        )
+    del image, reference, overlap
     write_text_atomic(out / "cps.csv", cps.to_csv(index=False, float_format="%.6f"))
 
     # §RA-4 accuracy, §RA-5 distortion, §RA-6 refined RFM
@@ -441,7 +560,8 @@ def run_rfm_accuracy(cfg: RfmAccuracyConfig, matcher: Matcher | None = None) -> 
         },
         "matching": {
             "chunk": cfg.match_chunk,
-            "grid": cfg.match_grid,
+            "grid": cell,
+            "grid_choice": cell_how,
             "n_cps": n,
             "by_kind": {str(k): int(v) for k, v in cps["kind"].value_counts().items()},
         },
@@ -473,6 +593,7 @@ def run_rfm_accuracy(cfg: RfmAccuracyConfig, matcher: Matcher | None = None) -> 
             },
         },
         "files": files,
+        "warnings": run_warnings(cfg, dem, n, cell) + accuracy.k_warnings(cfg.ks, n),
     }
     results = _clean(results)  # type: ignore[assignment]
     write_json_atomic(out / "results.json", results)
