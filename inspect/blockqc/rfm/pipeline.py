@@ -11,6 +11,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -431,97 +432,103 @@ def run_warnings(cfg: RfmAccuracyConfig, dem: DEM, n: int, cell: int) -> list[st
     return out
 
 
-def run_rfm_accuracy(cfg: RfmAccuracyConfig, matcher: Matcher | None = None) -> dict[str, object]:
-    """Run §RA-1..6 for one image and write every output into `cfg.out`; returns the results."""
+@dataclass
+class _Run:
+    """What the stages of one run hand on to the next."""
+
+    cfg: RfmAccuracyConfig
+    rpc: RPCModel
+    offset: tuple[float, float]
+    dem: DEM
+    grid: OrthoGrid | None = None
+    cps: pd.DataFrame | None = None
+    cell: int = 0
+    cell_how: str = ""
+    how: str = ""
+    ref_rpc: Any = None
+
+
+def _prepare(cfg: RfmAccuracyConfig) -> _Run:
+    """Read the RPC and the image size, and the DEM over the footprint (heights ellipsoidal)."""
     if cfg.method not in METHODS:
         raise InputError(Problem(file="<arguments>", message=f"method must be one of {METHODS}"))
-    out = cfg.out
-    out.mkdir(parents=True, exist_ok=True)
-    rpc_path = cfg.rpc or cfg.image
-    rpc = read_rpc(rpc_path)
+    cfg.out.mkdir(parents=True, exist_ok=True)
+    rpc = read_rpc(cfg.rpc or cfg.image)
     shape, _ = _raster_shape(cfg.image)
     offset = cfg.crop_offset if cfg.crop_offset is not None else crop_offset_from_file(cfg.image)
-    bounds = _footprint_bounds(rpc, shape, offset, pad_deg=0.01)
     dem = load_dem(
         cfg.dem,
         geoid=cfg.geoid,
         geoid_offset=cfg.geoid_offset,
         vertical=cfg.dem_vertical,
-        bounds=bounds,
+        bounds=_footprint_bounds(rpc, shape, offset, pad_deg=0.01),
         fill=cfg.dem_fill,
         plane_per_m=plane_per_height(rpc, shape, offset),
     )
+    run = _Run(cfg, rpc, offset, dem)
+    run.grid = ortho_grid(rpc, shape, dem, crop_offset=offset, crs=cfg.crs, gsd=cfg.gsd)
+    return run
 
-    # §RA-1 RPC correction
-    grid = ortho_grid(rpc, shape, dem, crop_offset=offset, crs=cfg.crs, gsd=cfg.gsd)
+
+def _correct_and_match(run: _Run, matcher: Matcher | None) -> None:
+    """§RA-1 orthorectify, §RA-2 the reference on the same grid, §RA-3 match: the CP table."""
+    cfg, out = run.cfg, run.cfg.out
     orthorectify(
-        cfg.image, rpc, dem, out / "ortho.tif", grid=grid, crop_offset=offset, chunk=cfg.ortho_chunk
-    )
-    # §RA-2 reference on the same grid
-    how, ref_rpc = reference_on_grid(cfg, grid, dem, out / "reference_on_grid.tif")
-    image, grid = read_ortho(out / "ortho.tif")
+        cfg.image, run.rpc, run.dem, out / "ortho.tif", grid=run.grid,
+        crop_offset=run.offset, chunk=cfg.ortho_chunk,
+    )  # fmt: skip
+    run.how, run.ref_rpc = reference_on_grid(cfg, run.grid, run.dem, out / "reference_on_grid.tif")
+    image, run.grid = read_ortho(out / "ortho.tif")
     reference, ref_grid = read_ortho(out / "reference_on_grid.tif")
-    # §RA-3 matching (a second call only for a small image that gave too few CPs)
     overlap = overlap_mask(image, reference, cfg.margin)
-    matches, cell, cell_how = match_cps(cfg, image, reference, overlap, matcher)
-    cps = build_cp_table(matches, grid, ref_grid, rpc, dem)
-    if cps.empty:
-        raise InputError(
-            Problem(file=str(cfg.image), message=no_cp_reason(image, overlap, dem, len(matches)))
-        )
-    del image, reference, overlap
-    write_text_atomic(out / "cps.csv", cps.to_csv(index=False, float_format="%.6f"))
+    matches, run.cell, run.cell_how = match_cps(cfg, image, reference, overlap, matcher)
+    run.cps = build_cp_table(matches, run.grid, ref_grid, run.rpc, run.dem)
+    if run.cps.empty:
+        reason = no_cp_reason(image, overlap, run.dem, len(matches))
+        raise InputError(Problem(file=str(cfg.image), message=reason))
+    write_text_atomic(out / "cps.csv", run.cps.to_csv(index=False, float_format="%.6f"))
 
-    # §RA-4 accuracy, §RA-5 distortion, §RA-6 refined RFM
-    gsd = grid.gsd
-    dx, dy = cps["dx_m"].to_numpy(), cps["dy_m"].to_numpy()
-    rmse = accuracy.rmse_px(dx, dy, gsd)
-    gev = cps["gev_px"].to_numpy()
-    summary = accuracy.distortion_summary(
-        cps["col"], cps["row"], dx, dy, gsd, cfg.distortion_threshold_px
-    )
-    write_bytes_atomic(
-        out / "error_vectors.png",
-        accuracy.plot_error_vectors(
-            cps["col"],
-            cps["row"],
-            dx,
-            dy,
-            gsd,
-            (grid.height, grid.width),
-            title=f"CP error vectors, {cfg.image.name} vs {cfg.reference.name}",
-            background=_preview(out / "ortho.tif"),
-        ),
-    )
-    write_bytes_atomic(
-        out / "gev_histogram.png", accuracy.plot_gev_histogram(gev, cfg.requirement_px)
-    )
+
+def _plots(run: _Run, dx: np.ndarray, dy: np.ndarray, gev: np.ndarray) -> None:
+    """§RA-5 the error-vector plot over the ortho and the GEV histogram."""
+    cfg, cps, grid = run.cfg, run.cps, run.grid
+    vectors = accuracy.plot_error_vectors(
+        cps["col"], cps["row"], dx, dy, grid.gsd, (grid.height, grid.width),
+        title=f"CP error vectors, {cfg.image.name} vs {cfg.reference.name}",
+        background=_preview(cfg.out / "ortho.tif"),
+    )  # fmt: skip
+    write_bytes_atomic(cfg.out / "error_vectors.png", vectors)
+    histogram = accuracy.plot_gev_histogram(gev, cfg.requirement_px)
+    write_bytes_atomic(cfg.out / "gev_histogram.png", histogram)
+
+
+def _refine(run: _Run) -> tuple[pd.DataFrame, Any]:
+    """§RA-6 refined RFM from k CPs (held-out RMSE), and the affine fitted to every CP."""
+    cfg, cps = run.cfg, run.cps
     control = accuracy.ControlPoints(
-        row=cps["line"].to_numpy(),
-        col=cps["sample"].to_numpy(),
-        lon=cps["ref_lon"].to_numpy(),
-        lat=cps["ref_lat"].to_numpy(),
+        row=cps["line"].to_numpy(), col=cps["sample"].to_numpy(),
+        lon=cps["ref_lon"].to_numpy(), lat=cps["ref_lat"].to_numpy(),
         h=cps["ref_h_m"].to_numpy(),
-        ref_x=cps["ref_x_m"].to_numpy(),
-        ref_y=cps["ref_y_m"].to_numpy(),
-    )
+        ref_x=cps["ref_x_m"].to_numpy(), ref_y=cps["ref_y_m"].to_numpy(),
+    )  # fmt: skip
     table = accuracy.refined_rfm_table(
-        rpc, control, dem, grid.crs, gsd, ks=cfg.ks, repeats=cfg.repeats, seed=cfg.seed
-    )
-    write_text_atomic(out / "refined_rfm.csv", table.to_csv(index=False, float_format="%.4f"))
-    refined_all = _refine_with_all(rpc, control, cps)
+        run.rpc, control, run.dem, run.grid.crs, run.grid.gsd,
+        ks=cfg.ks, repeats=cfg.repeats, seed=cfg.seed,
+    )  # fmt: skip
+    write_text_atomic(cfg.out / "refined_rfm.csv", table.to_csv(index=False, float_format="%.4f"))
+    refined_all = _refine_with_all(run.rpc, control, cps)
     if cfg.refined_ortho and refined_all is not None:
         # §RA-1 also with the refined RFM: same grid, so the two orthos overlay pixel for pixel
         orthorectify(
-            cfg.image,
-            refined_all[0],
-            dem,
-            out / "ortho_refined.tif",
-            grid=grid,
-            crop_offset=offset,
-            chunk=cfg.ortho_chunk,
-        )
+            cfg.image, refined_all[0], run.dem, cfg.out / "ortho_refined.tif", grid=run.grid,
+            crop_offset=run.offset, chunk=cfg.ortho_chunk,
+        )  # fmt: skip
+    return table, refined_all
 
+
+def _files(run: _Run, refined: bool) -> dict[str, str]:
+    """The files of the run (the checkpoints export written here when asked)."""
+    cfg = run.cfg
     files = {
         "cps": "cps.csv",
         "refined_rfm": "refined_rfm.csv",
@@ -531,21 +538,53 @@ def run_rfm_accuracy(cfg: RfmAccuracyConfig, matcher: Matcher | None = None) -> 
         "gev_histogram": "gev_histogram.png",
         "html": "report.html",
     }
-    if cfg.refined_ortho and refined_all is not None:
+    if cfg.refined_ortho and refined:
         files["ortho_refined"] = "ortho_refined.tif"
     if cfg.export_checkpoints:
-        ckp = checkpoints_table(cps, cfg.method, cfg.reference.stem, cfg.image.stem)
-        write_text_atomic(out / "checkpoints.csv", ckp.to_csv(index=False))
+        ckp = checkpoints_table(run.cps, cfg.method, cfg.reference.stem, cfg.image.stem)
+        write_text_atomic(cfg.out / "checkpoints.csv", ckp.to_csv(index=False))
         files["checkpoints"] = "checkpoints.csv"
+    return files
 
-    n = len(cps)
-    results: dict[str, object] = {
+
+def _accuracy(run: _Run, rmse: float, gev: np.ndarray) -> dict[str, object]:
+    """§RA-4 figures of the whole image."""
+    cfg, n = run.cfg, len(gev)
+    return {
+        "clause": "§RA-4",
+        "n": n,
+        "rmse_px": rmse,
+        "rmse_m": rmse * run.grid.gsd,
+        "rmse_px_per_image_if_same_accuracy": rmse / math.sqrt(2)
+        if cfg.method != "high_precision"
+        else None,
+        "gev_mean_px": float(np.mean(gev)) if n else None,
+        "gev_max_px": float(np.max(gev)) if n else None,
+        "requirement_px": cfg.requirement_px,
+        "verdict": accuracy.verdict(rmse, cfg.requirement_px),
+    }
+
+
+def _inputs(run: _Run) -> dict[str, object]:
+    """Where the run's inputs came from and the conventions it used."""
+    cfg, grid = run.cfg, run.grid
+    rpc_path = cfg.rpc or cfg.image
+    return {
         "kind": "rfm_accuracy",
         "image": str(cfg.image),
         "rpc": {"file": str(rpc_path), "format": sniff_format(Path(rpc_path))},
-        "crop_offset_px": list(offset),
-        "dem": {"file": str(cfg.dem), "heights": dem.vertical, "voids_filled_steps": cfg.dem_fill},
-        "reference": {"file": str(cfg.reference), "how": how, "rpc": ref_rpc, "method": cfg.method},
+        "crop_offset_px": list(run.offset),
+        "dem": {
+            "file": str(cfg.dem),
+            "heights": run.dem.vertical,
+            "voids_filled_steps": cfg.dem_fill,
+        },
+        "reference": {
+            "file": str(cfg.reference),
+            "how": run.how,
+            "rpc": run.ref_rpc,
+            "method": cfg.method,
+        },
         "conventions": {
             "image": "pixel centre, first pixel (0, 0), full-image coordinates of the RPCs",
             "gdal": "GDAL's RPC transformer uses pixel corners: GDAL = ours + 0.5 px",
@@ -553,51 +592,62 @@ def run_rfm_accuracy(cfg: RfmAccuracyConfig, matcher: Matcher | None = None) -> 
         },
         "grid": {
             "crs": grid.crs.to_string(),
-            "gsd_m": gsd,
+            "gsd_m": grid.gsd,
             "width": grid.width,
             "height": grid.height,
             "transform": list(grid.transform)[:6],
         },
+    }
+
+
+def _refined_doc(run: _Run, table: pd.DataFrame, refined_all: Any) -> dict[str, object]:
+    cfg = run.cfg
+    return {
+        "clause": "§RA-6",
+        "evaluation": "RMSE (§RA-4) on the CPs not used for fitting; "
+        f"{cfg.repeats} random draws per k (seed {cfg.seed})",
+        "rows": table.to_dict(orient="records"),
+        "all_cps": None
+        if refined_all is None
+        else {
+            "affine": refined_all[0].affine.as_dict(),
+            "fit_rms_px": refined_all[1],
+            "note": "image-space affine (§3) fitted to every CP; its residual is in-sample",
+        },
+    }
+
+
+def run_rfm_accuracy(cfg: RfmAccuracyConfig, matcher: Matcher | None = None) -> dict[str, object]:
+    """Run §RA-1..6 for one image and write every output into `cfg.out`; returns the results."""
+    run = _prepare(cfg)
+    _correct_and_match(run, matcher)
+    cps, gsd = run.cps, run.grid.gsd
+    dx, dy, gev = cps["dx_m"].to_numpy(), cps["dy_m"].to_numpy(), cps["gev_px"].to_numpy()
+    rmse = accuracy.rmse_px(dx, dy, gsd)
+    summary = accuracy.distortion_summary(
+        cps["col"], cps["row"], dx, dy, gsd, cfg.distortion_threshold_px
+    )
+    _plots(run, dx, dy, gev)
+    table, refined_all = _refine(run)
+    n = len(cps)
+    results: dict[str, object] = {
+        **_inputs(run),
         "matching": {
             "chunk": cfg.match_chunk,
-            "grid": cell,
-            "grid_choice": cell_how,
+            "grid": run.cell,
+            "grid_choice": run.cell_how,
             "n_cps": n,
             "by_kind": {str(k): int(v) for k, v in cps["kind"].value_counts().items()},
         },
-        "accuracy": {
-            "clause": "§RA-4",
-            "n": n,
-            "rmse_px": rmse,
-            "rmse_m": rmse * gsd,
-            "rmse_px_per_image_if_same_accuracy": rmse / math.sqrt(2)
-            if cfg.method != "high_precision"
-            else None,
-            "gev_mean_px": float(np.mean(gev)) if n else None,
-            "gev_max_px": float(np.max(gev)) if n else None,
-            "requirement_px": cfg.requirement_px,
-            "verdict": accuracy.verdict(rmse, cfg.requirement_px),
-        },
+        "accuracy": _accuracy(run, rmse, gev),
         "distortion": {"clause": "§RA-5", **summary},
-        "refined_rfm": {
-            "clause": "§RA-6",
-            "evaluation": "RMSE (§RA-4) on the CPs not used for fitting; "
-            f"{cfg.repeats} random draws per k (seed {cfg.seed})",
-            "rows": table.to_dict(orient="records"),
-            "all_cps": None
-            if refined_all is None
-            else {
-                "affine": refined_all[0].affine.as_dict(),
-                "fit_rms_px": refined_all[1],
-                "note": "image-space affine (§3) fitted to every CP; its residual is in-sample",
-            },
-        },
-        "files": files,
-        "warnings": run_warnings(cfg, dem, n, cell) + accuracy.k_warnings(cfg.ks, n),
+        "refined_rfm": _refined_doc(run, table, refined_all),
+        "files": _files(run, refined_all is not None),
+        "warnings": run_warnings(cfg, run.dem, n, run.cell) + accuracy.k_warnings(cfg.ks, n),
     }
     results = _clean(results)  # type: ignore[assignment]
-    write_json_atomic(out / "results.json", results)
+    write_json_atomic(cfg.out / "results.json", results)
     from blockqc.rfm.report import render_html
 
-    write_text_atomic(out / "report.html", render_html(results))
+    write_text_atomic(cfg.out / "report.html", render_html(results))
     return results

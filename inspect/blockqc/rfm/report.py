@@ -2,18 +2,14 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
+from blockqc.report.format import number
 from blockqc.report.html import environment
 
 
 def _fmt(value: object, digits: int = 3) -> str:
-    if value is None or (isinstance(value, float) and not math.isfinite(value)):
-        return "—"
-    if isinstance(value, int | float):
-        return f"{value:.{digits}f}"
-    return str(value)
+    return number(value, digits if isinstance(value, float) else None)
 
 
 def render_html(results: dict, template_dir: Path | None = None) -> str:
