@@ -83,6 +83,23 @@ def check_constants(consts: Mapping[str, Any], data: Any, path: Path) -> list[Pr
     return out
 
 
+def stand_in_invalid(consts: Mapping[str, Any], inherited: Mapping[str, Any]) -> dict[str, Any]:
+    """The constants with each invalid value replaced by the inherited one (or 1.0), so that an
+    invalid constant is reported once, where it is written, and not again at every use."""
+    out: dict[str, Any] = {}
+    for key, value in consts.items():
+        before = inherited.get(key) if isinstance(inherited, Mapping) else None
+        if isinstance(value, Mapping):
+            out[key] = stand_in_invalid(value, before if isinstance(before, Mapping) else {})
+        elif _is_number(value) or (
+            isinstance(value, list) and value and all(_is_number(v) for v in value)
+        ):
+            out[key] = value
+        else:
+            out[key] = before if before is not None and not isinstance(before, Mapping) else 1.0
+    return out
+
+
 def _valid_name(key: str) -> bool:
     return re.fullmatch(_NAME, key) is not None
 

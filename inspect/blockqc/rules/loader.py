@@ -17,11 +17,11 @@ from pydantic import ValidationError
 from blockqc.errors import Problem, RuleError
 from blockqc.resources import rules_dir
 from blockqc.rules.lint import (
-    ConstantSite,
     check_constants,
     check_rule,
     did_you_mean,
     new_constant_sites,
+    stand_in_invalid,
     unused_constants,
 )
 from blockqc.rules.model import Pack, PackFile, Rule
@@ -56,10 +56,12 @@ def resolve_pack_path(
         f"give a file path or one of the stock packs ({', '.join(available_packs()) or 'none'})"
     )
     if site is not None:
-        tried = base / ref_s if base is not None else Path(ref_s)
+        tried = (base / ref_s if base is not None else Path(ref_s)).resolve()
         raise RuleError(
             Problem(
-                site[0], f"extends: no rule pack '{ref_s}' (not {tried}): {message}", line=site[1]
+                site[0],
+                f"extends: no rule pack '{ref_s}' (no file {tried}): {message}",
+                line=site[1],
             )
         )
     raise RuleError(Problem(ref_s, f"no such rule pack: {message}"))
@@ -103,7 +105,6 @@ class _Loaded:
     rules: dict[str, _Raw] = field(default_factory=dict)
     chain: list[str] = field(default_factory=list)
     disabled: list[str] = field(default_factory=list)
-    new_constants: list[ConstantSite] = field(default_factory=list)
     problems: list[Problem] = field(default_factory=list)
 
 
@@ -133,13 +134,16 @@ def _load_raw(path: Path, seen: tuple[Path, ...]) -> _Loaded:
         parent = resolve_pack_path(pf.extends, path.parent, site)
         out = _load_raw(parent, seen + (path.resolve(),))
         out.pf = pf
-    out.problems += check_constants(pf.constants, data, path)
-    out.new_constants += new_constant_sites(pf.constants, out.constants, data, path)
-    out.constants = _deep_merge(out.constants, pf.constants)
+    found = check_constants(pf.constants, data, path)
+    out.problems += found
+    sites = new_constant_sites(pf.constants, out.constants, data, path)
+    # an invalid constant is reported once, at its own line; its uses evaluate a stand-in
+    out.constants = _deep_merge(out.constants, stand_in_invalid(pf.constants, out.constants))
     out.chain.insert(0, str(path))
     _add_rules(out, pf, data, path)
     _apply_overrides(out, pf, data, path)
     _apply_disable(out, pf, data, path)
+    out.problems += unused_constants(sites, [r.data for r in out.rules.values()])
     return out
 
 
@@ -227,7 +231,6 @@ def read_pack(ref: str | Path) -> tuple[Pack | None, list[Problem]]:
             continue
         problems.extend(check_rule(rule, names, raw.file, partial(_line, raw)))
         rules.append(rule)
-    problems.extend(unused_constants(loaded.new_constants, [r.data for r in loaded.rules.values()]))
     pf = loaded.pf
     pack = Pack(
         name=pf.pack,
