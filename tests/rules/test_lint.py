@@ -203,3 +203,25 @@ def test_lint_command_lists_every_problem(blockqc, tmp_path: Path) -> None:
     assert p.returncode == 2 and "Traceback" not in p.stderr
     assert "did you mean norm.plane_m?" in p.stderr
     assert "disable: no rule XX-1 to disable" in p.stderr
+
+
+def test_figures_naming_other_metrics_are_checked(tmp_path: Path) -> None:
+    """DOC-2's figures name a metric, scope, statistic and filter: checked like a rule's."""
+    pack = _pack(
+        tmp_path,
+        "overrides:\n  DOC-2:\n    params:\n      figures:\n"
+        "        tie_point_error_px: {metric: tie_point_erors, statistic: median}\n"
+        "        tie_point_rms_px: {metric: tie_point_errors, statistic: rsm}\n"
+        "        relative_orientation_rms_m: {metric: overlap_discrepancy, scope: component,\n"
+        "                                     where: {component: plnae}, statistic: rms_m}\n",
+    )
+    msgs = _messages(pack)
+    head = f"{pack}, line {{}}: rule DOC-2: params.figures."
+    assert msgs == [
+        head.format(7) + "tie_point_error_px.metric: unknown metric 'tie_point_erors' "
+        "(did you mean tie_point_errors?)",
+        head.format(8) + "tie_point_rms_px.statistic: tie_point_errors at scope block gives no "
+        "'rsm' (did you mean rms?)",
+        head.format(10) + "relative_orientation_rms_m.where.component: no component 'plnae' "
+        "(did you mean plane?) (values: plane, height)",
+    ]

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from pydantic import ValidationError
+from pydantic import BaseModel, ValidationError
 
 from blockqc.errors import Problem, RuleError
 from blockqc.metrics import REGISTRY, MetricSpec, Scope
@@ -278,10 +278,24 @@ def _check_evidence(rule: Rule, spec: MetricSpec, scope: Scope, bad: Callable[..
 def _check_params(
     rule: Rule, spec: MetricSpec, names: Mapping[str, Any], bad: Callable[..., None]
 ) -> None:
+    resolved = _resolve(spec, rule.params, names, bad, ("params",))
+    for loc, ref in _references(resolved):
+        _check_reference(ref, names, bad, ("params", *loc))
+
+
+def _resolve(
+    spec: MetricSpec,
+    raw: Mapping[str, Any],
+    names: Mapping[str, Any],
+    bad: Callable[..., None],
+    at: tuple[Any, ...],
+) -> BaseModel | None:
+    """A metric's parameters validated, expressions evaluated; None (reported) when invalid."""
+    label = ".".join(map(str, at))
     try:
-        resolve_params(spec.params, rule.params, names)
+        return resolve_params(spec.params, raw, names)
     except ExpressionError as exc:
-        bad(f"params: {exc}", "params")
+        bad(f"{label}: {exc}", *at)
     except ValidationError as exc:
         for err in exc.errors():
             loc = ".".join(str(x) for x in err["loc"])
@@ -290,7 +304,50 @@ def _check_params(
                 msg = f"unknown parameter{hint} (known: {', '.join(spec.params.model_fields)})"
             else:
                 msg = err["msg"]
-            bad(f"params.{loc}: {msg}", "params", *err["loc"])
+            bad(f"{label}.{loc}: {msg}", *at, *err["loc"])
+    return None
+
+
+def _references(params: BaseModel | None) -> list[tuple[tuple[str, ...], Any]]:
+    """Parameters that name another metric's statistic (e.g. DOC-2's figures), by location."""
+    out = []
+    for key, value in params if params is not None else ():
+        for k, v in value.items() if isinstance(value, dict) else ():
+            if isinstance(v, BaseModel) and all(
+                hasattr(v, a) for a in ("metric", "scope", "statistic", "params")
+            ):
+                out.append(((key, k), v))
+    return out
+
+
+def _check_reference(
+    ref: Any, names: Mapping[str, Any], bad: Callable[..., None], at: tuple[Any, ...]
+) -> None:
+    """A parameter naming a metric, scope, statistic and filter: checked like a rule's."""
+    label = ".".join(map(str, at))
+    spec = REGISTRY.get(ref.metric)
+    if spec is None:
+        hint = did_you_mean(ref.metric, REGISTRY)
+        bad(f"{label}.metric: unknown metric '{ref.metric}'{hint}", *at, "metric")
+        return
+    scope = spec.scopes.get(ref.scope)
+    if scope is None:
+        hint = did_you_mean(ref.scope, spec.scopes)
+        bad(f"{label}.scope: metric {spec.name} offers no scope '{ref.scope}'{hint}", *at, "scope")
+        return
+    if ref.statistic not in scope.all_columns():
+        hint = did_you_mean(ref.statistic, scope.all_columns())
+        bad(
+            f"{label}.statistic: {spec.name} at scope {ref.scope} gives no '{ref.statistic}'{hint}",
+            *at,
+            "statistic",
+        )
+    what = f"{spec.name} at scope {ref.scope}"
+    _check_where(ref.where, scope, what, f"{label}.where", lambda m, *_: bad(m, *at, "where"))
+    for col in getattr(ref, "prefer", {}) or {}:
+        if col not in scope.all_columns():
+            bad(f"{label}.prefer: {what} gives no column '{col}'", *at, "prefer")
+    _resolve(spec, ref.params, names, bad, (*at, "params"))
 
 
 # ---------------------------------------------------------------------------------- lint
