@@ -40,7 +40,10 @@ def test_explain_is_case_insensitive(blockqc) -> None:
     p = blockqc("rules", "explain", "tp-1")
     assert p.returncode == 0 and p.stdout.startswith("TP-1 — ")
     p = blockqc("rules", "explain", "TP-10")
-    assert p.returncode == 2 and "no rule TP-10 in pack global-project" in p.stderr
+    assert (
+        p.returncode == 2
+        and "no rule TP-10 in pack global-project (did you mean TP-1?)" in p.stderr
+    )
 
 
 def test_list_shows_units_and_waivable(blockqc) -> None:
