@@ -39,8 +39,9 @@ def _footprint(i: int, j: int) -> str:
     return f"POLYGON(({x0} {y1}, {x1} {y1}, {x1} {y0}, {x0} {y0}, {x0} {y1}))"
 
 
-def base_tables() -> dict[str, pd.DataFrame]:
-    scenes = pd.DataFrame(
+def _scenes() -> pd.DataFrame:
+    """4 PAN scenes of 1000×1000 px on a 2×2 layout and one MS scene over S1."""
+    return pd.DataFrame(
         {
             "scene_id": ["S1", "S2", "S3", "S4", "M1"],
             "band": ["pan"] * 4 + ["ms"],
@@ -48,67 +49,47 @@ def base_tables() -> dict[str, pd.DataFrame]:
             "lines": [1000] * 4 + [250],
             "samples": [1000] * 4 + [250],
             "footprint_wkt": [
-                _footprint(0, 0),
-                _footprint(0, 1),
-                _footprint(1, 0),
-                _footprint(1, 1),
-                _footprint(0, 0),
+                _footprint(i, j) for i, j in ((0, 0), (0, 1), (1, 0), (1, 1), (0, 0))
             ],
             "water_fraction": [0.0] * 5,
         }
     )
+
+
+def _tie_points() -> pd.DataFrame:
+    """An 11×11 grid of observations per PAN scene, each with an error of exactly 0.3 px."""
     grid = 45.0 + 91.0 * np.arange(11)
     line, sample = (a.ravel() for a in np.meshgrid(grid, grid, indexing="ij"))
     k = np.arange(121)
     theta = k * 0.7
-    parts = []
-    for s in ("S1", "S2", "S3", "S4"):
-        parts.append(
-            pd.DataFrame(
-                {
-                    "point_id": [f"P{s}-{i:03d}" for i in k],
-                    "scene_id": s,
-                    "line": line,
-                    "sample": sample,
-                    "v_line": 0.3 * np.cos(theta),
-                    "v_sample": 0.3 * np.sin(theta),
-                }
-            )
+    parts = [
+        pd.DataFrame(
+            {
+                "point_id": [f"P{s}-{i:03d}" for i in k],
+                "scene_id": s,
+                "line": line,
+                "sample": sample,
+                "v_line": 0.3 * np.cos(theta),
+                "v_sample": 0.3 * np.sin(theta),
+            }
         )
-    tie_points = pd.concat(parts, ignore_index=True)
-    pan_ms = pd.DataFrame(
-        {
-            "pan_scene_id": "S1",
-            "ms_scene_id": "M1",
-            "point_id": [f"R{i}" for i in range(5)],
-            "dx_m": 1.0,
-            "dy_m": 1.0,
-        }
-    )
-    overlaps = pd.DataFrame(
-        {
-            "scene_a": "S1",
-            "scene_b": "S2",
-            "point_id": [f"O{i}" for i in range(5)],
-            "dx_m": 3.0,
-            "dy_m": 4.0,
-            "dz_m": 2.0,
-        }
-    )
-    edges = pd.DataFrame(
-        {
-            "neighbour_block": "B2",
-            "point_id": [f"E{i}" for i in range(5)],
-            "dx_m": 3.0,
-            "dy_m": 4.0,
-            "dz_m": 2.0,
-        }
-    )
-    n = 27
+        for s in ("S1", "S2", "S3", "S4")
+    ]
+    return pd.concat(parts, ignore_index=True)
+
+
+def _discrepancies(unit: dict[str, str], prefix: str, dz: bool = True) -> pd.DataFrame:
+    """5 points of one unit: dx 3 m, dy 4 m (plane 5 m), dz 2 m — or dx = dy = 1 m (√2 m)."""
+    values = {"dx_m": 3.0, "dy_m": 4.0, "dz_m": 2.0} if dz else {"dx_m": 1.0, "dy_m": 1.0}
+    return pd.DataFrame({**unit, "point_id": [f"{prefix}{i}" for i in range(5)], **values})
+
+
+def _checkpoints(n: int = 27) -> pd.DataFrame:
+    """n high-precision checkpoints, 3 per reference image, plane Δ 5 m and height Δ 2 m."""
     x = 440000.0 + 100.0 * np.arange(n)
     y = 4410000.0 + 50.0 * np.arange(n)
     z = 50.0 + np.arange(n, dtype=float)
-    checkpoints = pd.DataFrame(
+    return pd.DataFrame(
         {
             "point_id": [f"C{i:02d}" for i in range(n)],
             "method": "high_precision",
@@ -121,13 +102,17 @@ def base_tables() -> dict[str, pd.DataFrame]:
             "ref_z_m": z - 2.0,
         }
     )
+
+
+def base_tables() -> dict[str, pd.DataFrame]:
+    """The base delivery's tables (it passes every automatic rule of the stock pack)."""
     return {
-        "scenes": scenes,
-        "tie_points": tie_points,
-        "pan_ms": pan_ms,
-        "overlaps": overlaps,
-        "edges": edges,
-        "checkpoints": checkpoints,
+        "scenes": _scenes(),
+        "tie_points": _tie_points(),
+        "pan_ms": _discrepancies({"pan_scene_id": "S1", "ms_scene_id": "M1"}, "R", dz=False),
+        "overlaps": _discrepancies({"scene_a": "S1", "scene_b": "S2"}, "O"),
+        "edges": _discrepancies({"neighbour_block": "B2"}, "E"),
+        "checkpoints": _checkpoints(),
     }
 
 
