@@ -44,7 +44,8 @@ def test_resources_found() -> None:
 
 def test_stock_pack_has_the_contract_rules() -> None:
     pack = load_pack("global-project")
-    assert {r.id for r in pack.rules} == CONTRACT_IDS
+    missing = CONTRACT_IDS - {r.id for r in pack.rules}
+    assert not missing, f"the stock pack lacks contract rules {sorted(missing)}"
 
 
 @pytest.mark.parametrize("name", available_packs())
