@@ -22,6 +22,7 @@ class LazyGroup(click.Group):
         "rfm-accuracy": "blockqc.rfm.command",
         "factors": "blockqc.analysis.command",
         "report": "blockqc.report.command",
+        "rules": "blockqc.rules.command",
     }
 
     def list_commands(self, ctx: click.Context) -> list[str]:
@@ -195,130 +196,6 @@ def schema_cmd(kind: str) -> None:
     from blockqc.results import json_schema
 
     click.echo(json.dumps(json_schema(kind), indent=2, ensure_ascii=False))
-
-
-# --------------------------------------------------------------------------------- rules
-@cli.group("rules")
-def rules_group() -> None:
-    """List, explain and lint rule packs."""
-
-
-def _pack_option(f):
-    return click.option(
-        "--rules",
-        "rules_ref",
-        default="global-project",
-        show_default=True,
-        help="Stock rule pack name or a rule pack file.",
-    )(f)
-
-
-def _threshold_text(rule, constants) -> str:
-    """Thresholds evaluated over the pack's constants; those naming delivery values as written."""
-    from blockqc.engine import bounds
-    from blockqc.rules.loader import DELIVERY_NAMES
-
-    parts = []
-    for group, th in rule.all_thresholds().items():
-        exprs = [e for e in (th.min, th.max) if isinstance(e, str)]
-        if any(
-            e.split(".")[0] in DELIVERY_NAMES or f" {n}." in f" {e}"
-            for e in exprs
-            for n in DELIVERY_NAMES
-        ):
-            text = th.describe(th.min, th.max)
-        else:
-            text = th.describe(*bounds(th, constants))
-        parts.append(f"{group}: {text}" if group else text)
-    return "; ".join(parts) or "inspector's verdict"
-
-
-@rules_group.command("list")
-@_pack_option
-@click.option("--markdown", is_flag=True, help="Print a Markdown table (for the docs).")
-def rules_list(rules_ref: str, markdown: bool) -> None:
-    """List the rules of a pack with their thresholds."""
-    from blockqc.rules import load_pack
-
-    pack = load_pack(rules_ref)
-    if markdown:
-        click.echo(f"# Rule pack `{pack.name}` {pack.version}\n\n{pack.description.strip()}\n")
-        click.echo("| id | clause | title | measured | threshold | severity |")
-        click.echo("| --- | --- | --- | --- | --- | --- |")
-    for r in pack.rules:
-        what = f"{r.metric}.{r.scope}.{r.statistic}" if not r.manual else "manual"
-        th = _threshold_text(r, pack.constants)
-        if markdown:
-            click.echo(f"| {r.id} | {r.clause} | {r.title} | `{what}` | {th} | {r.severity} |")
-        else:
-            click.echo(f"{r.id:7} {r.clause:8} {r.severity:5} {th:28} {r.title}")
-    if pack.disabled and not markdown:
-        click.echo(f"disabled: {', '.join(pack.disabled)}")
-
-
-@rules_group.command("explain")
-@click.argument("rule_id")
-@_pack_option
-def rules_explain(rule_id: str, rules_ref: str) -> None:
-    """Explain one rule: what it measures, how it judges, where it comes from."""
-    from blockqc.errors import RuleError
-    from blockqc.metrics import REGISTRY
-    from blockqc.rules import load_pack
-
-    pack = load_pack(rules_ref)
-    try:
-        r = pack.rule(rule_id)
-    except KeyError:
-        raise RuleError(
-            f"no rule {rule_id} in pack {pack.name} (rules: {', '.join(x.id for x in pack.rules)})",
-            file=rules_ref,
-        ) from None
-    file, line = pack.origin.get(r.id, ("", None))
-    click.echo(f"{r.id} — {r.title}  ({r.clause})")
-    click.echo(f"  pack:      {pack.name} {pack.version}; defined in {file}, line {line}")
-    click.echo(f"  severity:  {r.severity}{'; waivable' if r.waivable else ''}")
-    if r.manual:
-        click.echo("  judged by: the inspector's verdict (--verdicts file)")
-    else:
-        spec = REGISTRY[r.metric]
-        click.echo(f"  measures:  {r.metric} — {spec.description}")
-        click.echo(
-            f"  scope:     {r.scope}; statistic {r.statistic}"
-            + (f"; where {r.where}" if r.where else "")
-        )
-        if r.params:
-            click.echo(f"  params:    {r.params}")
-        click.echo(f"  threshold: {_threshold_text(r, pack.constants)}")
-        for group, th in r.all_thresholds().items():
-            exprs = [
-                f"{k}: {getattr(th, k)}" for k in ("min", "max") if isinstance(getattr(th, k), str)
-            ]
-            if exprs:
-                click.echo(f"             {(group + ' ') if group else ''}{', '.join(exprs)}")
-        click.echo(f"  unit:      {r.unit or '-'}")
-    if r.description:
-        click.echo("\n" + click.wrap_text(r.description.strip(), 96, "  ", "  "))
-
-
-@rules_group.command("lint")
-@click.argument("packs", nargs=-1)
-def rules_lint(packs: tuple[str, ...]) -> int:
-    """Check rule packs (default: every stock pack); exit 2 listing every problem."""
-    from blockqc.errors import RuleError
-    from blockqc.rules import available_packs, load_pack
-
-    problems = []
-    for ref in packs or available_packs():
-        try:
-            pack = load_pack(ref)
-        except RuleError as exc:
-            problems.extend(exc.problems)
-            continue
-        ids = [r.id for r in pack.rules]
-        click.echo(f"{ref}: {len(ids)} rules, ok")
-    if problems:
-        raise RuleError(problems)
-    return 0
 
 
 # ------------------------------------------------------------------------------ simulate

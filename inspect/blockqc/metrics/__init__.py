@@ -48,25 +48,54 @@ MetricFunc = Callable[[Delivery, Any, Measure], Measurement]
 
 
 @dataclass(frozen=True)
+class Scope:
+    """What a metric offers at one scope: statistics (with units), groups, keys, other columns.
+
+    A rule names a statistic; `where` and `evidence_where` may filter on any column; a rule's
+    `thresholds:` give one threshold per value of a group column.
+    """
+
+    statistics: Mapping[str, str]  # statistic -> unit ("" when it has none)
+    groups: Mapping[str, tuple[str, ...]] = field(default_factory=dict)  # column -> its values
+    keys: tuple[str, ...] = ()  # what identifies a unit (scene, pair, point) inside a group
+    columns: tuple[str, ...] = ()  # further columns of the table (some only when input has them)
+
+    def all_columns(self) -> tuple[str, ...]:
+        """Every column the scope's table may carry."""
+        names = [*self.groups, *self.keys, *self.statistics, *self.columns]
+        return tuple(dict.fromkeys(names))
+
+
+@dataclass(frozen=True)
 class MetricSpec:
     name: str
     func: MetricFunc
     params: type[BaseModel]
-    scopes: Mapping[str, tuple[str, ...]]  # scope -> statistics it offers
+    scopes: Mapping[str, Scope]  # scope name -> what it offers
     description: str
+    param_units: Mapping[str, str] = field(default_factory=dict)  # parameter -> unit
 
 
 REGISTRY: dict[str, MetricSpec] = {}
 
 
 def metric(
-    name: str, *, params: type[BaseModel] = NoParams, scopes: Mapping[str, tuple[str, ...]]
+    name: str,
+    *,
+    params: type[BaseModel] = NoParams,
+    scopes: Mapping[str, Scope],
+    param_units: Mapping[str, str] | None = None,
 ) -> Callable[[MetricFunc], MetricFunc]:
-    """Register a measurement under `name`, declaring its parameters and what it offers."""
+    """Register a measurement under `name`, declaring its parameters and the scopes it offers."""
 
     def register(func: MetricFunc) -> MetricFunc:
         doc = (func.__doc__ or "").strip().splitlines()
-        REGISTRY[name] = MetricSpec(name, func, params, dict(scopes), doc[0] if doc else "")
+        unknown = set(param_units or {}) - set(params.model_fields)
+        if unknown:
+            raise TypeError(f"metric {name}: units for unknown parameters {sorted(unknown)}")
+        REGISTRY[name] = MetricSpec(
+            name, func, params, dict(scopes), doc[0] if doc else "", dict(param_units or {})
+        )
         return func
 
     return register

@@ -10,7 +10,7 @@ import pandas as pd
 from pydantic import BaseModel, ConfigDict, Field
 
 from blockqc.delivery import Delivery
-from blockqc.metrics import Measure, Measurement, Table, metric, not_applicable
+from blockqc.metrics import Measure, Measurement, Scope, Table, metric, not_applicable
 from blockqc.schema import METHODS
 
 Method = Literal["high_precision", "same_accuracy", "recalculation"]
@@ -155,13 +155,39 @@ def method_agreement(groups: pd.DataFrame) -> list[dict]:
     return out
 
 
+_GROUPS = {"component": ("plane", "height"), "method": METHODS}
+
+
 @metric(
     "checkpoint_accuracy",
     params=AccuracyParams,
     scopes={
-        "block": ("n_points", "n_rows"),
-        "component_method": ("medium_error", "max_error", "gross_rate", "n_gross", "n", "n_total"),
-        "point": ("abs_error_m", "error_m"),
+        "block": Scope({"n_points": "points", "n_rows": "rows"}),
+        "component_method": Scope(
+            {
+                "medium_error": "m",
+                "max_error": "m",
+                "gross_rate": "%",
+                "n_gross": "points",
+                "n": "points",
+                "n_total": "points",
+            },
+            groups=_GROUPS,
+            columns=("statistic", "used_mean", "norm_m", "bound_m"),
+        ),
+        "point": Scope(
+            {"abs_error_m": "m", "error_m": "m"},
+            groups=_GROUPS,
+            keys=("point_id",),
+            columns=("reference_id", "x_m", "y_m", "dx_m", "dy_m", "dz_m", "bound_m", "gross"),
+        ),
+    },
+    param_units={
+        "plane_norm_m": "m",
+        "height_norm_m": "m",
+        "tolerance_factor": "× norm",
+        "min_points_for_medium_error": "points",
+        "bound_tolerance_m": "m",
     },
 )
 def checkpoint_accuracy(d: Delivery, p: AccuracyParams, measure: Measure) -> Measurement:
@@ -194,9 +220,19 @@ def checkpoint_accuracy(d: Delivery, p: AccuracyParams, measure: Measure) -> Mea
     "reference_coverage",
     params=CoverageParams,
     scopes={
-        "block": ("conforms", "n_reference_images", "min_points_per_reference"),
-        "reference": ("conforms", "n_points"),
+        "block": Scope(
+            {
+                "conforms": "true/false",
+                "n_reference_images": "images",
+                "min_points_per_reference": "points",
+            },
+            columns=("enough_images", "supplemented"),
+        ),
+        "reference": Scope(
+            {"conforms": "true/false", "n_points": "points"}, keys=("reference_id",)
+        ),
     },
+    param_units={"min_reference_images": "images", "points_per_reference": "points"},
 )
 def reference_coverage(d: Delivery, p: CoverageParams, measure: Measure) -> Measurement:
     """High-precision references: > 7 images with 3 checkpoints each, else supplemented (§CP-2)."""

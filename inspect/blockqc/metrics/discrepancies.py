@@ -6,10 +6,18 @@ import numpy as np
 import pandas as pd
 
 from blockqc.delivery import Delivery
-from blockqc.metrics import Measure, Measurement, NoParams, Table, metric, not_applicable
+from blockqc.metrics import (
+    Measure,
+    Measurement,
+    NoParams,
+    Scope,
+    Table,
+    metric,
+    not_applicable,
+)
 
 COMPONENTS = ("plane", "height")
-_STATS = ("n", "rms_m", "max_m", "mean_m")
+_STATS = {"n": "points", "rms_m": "m", "max_m": "m", "mean_m": "m"}
 
 
 def plane_discrepancy(dx: np.ndarray, dy: np.ndarray) -> np.ndarray:
@@ -71,22 +79,46 @@ def _measure(df: pd.DataFrame | None, unit: list[str], what: str) -> Measurement
     )
 
 
-_SCOPES = {"point": ("value_m",), "pair": _STATS, "component": _STATS}
+def _scopes(unit: tuple[str, ...]) -> dict[str, Scope]:
+    """Per point, per unit (pair of scenes or neighbour block) and per component."""
+    groups = {"component": COMPONENTS}
+    return {
+        "point": Scope(
+            {"value_m": "m"},
+            groups=groups,
+            keys=(*unit, "point_id"),
+            columns=("dx_m", "dy_m", "dz_m"),
+        ),
+        "pair": Scope(_STATS, groups=groups, keys=unit),
+        "component": Scope(_STATS, groups=groups),
+    }
 
 
-@metric("overlap_discrepancy", scopes=_SCOPES)
+@metric("overlap_discrepancy", scopes=_scopes(("scene_a", "scene_b")))
 def overlap_discrepancy(d: Delivery, p: NoParams, measure: Measure) -> Measurement:
     """Discrepancies between adjacent overlapping images, per point and pair (§RO-3)."""
     return _measure(d.overlaps, ["scene_a", "scene_b"], "overlaps table (overlaps.csv)")
 
 
-@metric("edge_discrepancy", scopes=_SCOPES)
+@metric("edge_discrepancy", scopes=_scopes(("neighbour_block",)))
 def edge_discrepancy(d: Delivery, p: NoParams, measure: Measure) -> Measurement:
     """Discrepancies against adjacent blocks, per point and neighbour (§RO-2)."""
     return _measure(d.edges, ["neighbour_block"], "edges table (edges.csv)")
 
 
-@metric("pan_ms_discrepancy", scopes={"point": ("value_m",), "pair": _STATS, "block": _STATS})
+_PAN_MS = ("pan_scene_id", "ms_scene_id")
+
+
+@metric(
+    "pan_ms_discrepancy",
+    scopes={
+        "point": Scope(
+            {"value_m": "m"}, keys=(*_PAN_MS, "point_id"), columns=("component", "dx_m", "dy_m")
+        ),
+        "pair": Scope(_STATS, keys=_PAN_MS),
+        "block": Scope(_STATS),
+    },
+)
 def pan_ms_discrepancy(d: Delivery, p: NoParams, measure: Measure) -> Measurement:
     """PAN–MS registration discrepancies, plane, per point, per scene pair and block (§RO-1)."""
     if d.pan_ms is None or d.pan_ms.empty:

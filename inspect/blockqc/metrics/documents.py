@@ -8,7 +8,7 @@ import pandas as pd
 from pydantic import BaseModel, ConfigDict, Field
 
 from blockqc.delivery import Delivery
-from blockqc.metrics import Measure, Measurement, Table, metric
+from blockqc.metrics import Measure, Measurement, Scope, Table, metric
 
 REQUIRED = [
     "technical_design",
@@ -66,7 +66,14 @@ def check_document(root: Path, rel: str | None) -> tuple[bool, bool, int, str]:
 @metric(
     "documents",
     params=DocumentParams,
-    scopes={"document": ("ok", "present", "readable"), "block": ("n_missing",)},
+    scopes={
+        "document": Scope(
+            {"ok": "true/false", "present": "true/false", "readable": "true/false"},
+            keys=("kind",),
+            columns=("path", "required", "size_bytes", "problem"),
+        ),
+        "block": Scope({"n_missing": "documents"}),
+    },
 )
 def documents(d: Delivery, p: DocumentParams, measure: Measure) -> Measurement:
     """Each required document: declared in block.yaml, inside the delivery, readable (§DOC-1)."""

@@ -9,7 +9,7 @@ import pandas as pd
 from pydantic import BaseModel, ConfigDict, Field
 
 from blockqc.delivery import Delivery
-from blockqc.metrics import Measure, Measurement, Table, metric, not_applicable
+from blockqc.metrics import Measure, Measurement, Scope, Table, metric, not_applicable
 
 
 class Figure(BaseModel):
@@ -48,7 +48,18 @@ def recompute(fig: Figure, measure: Measure) -> tuple[float, str]:
     return float(df[fig.statistic].iloc[0]), ""
 
 
-@metric("reported_figures", params=ReportedParams, scopes={"figure": ("agrees", "difference")})
+@metric(
+    "reported_figures",
+    params=ReportedParams,
+    scopes={
+        "figure": Scope(
+            {"agrees": "true/false", "difference": "the figure's unit"},
+            keys=("figure",),
+            columns=("reported", "recomputed", "exempt", "exempt_reason"),
+        )
+    },
+    param_units={"rel_tol": "fraction", "abs_tol": "the figure's unit"},
+)
 def reported_figures(d: Delivery, p: ReportedParams, measure: Measure) -> Measurement:
     """Each figure in block.yaml `reported` against its recomputation (§DOC-2)."""
     reported = d.manifest.reported

@@ -10,7 +10,7 @@ import shapely
 from pydantic import BaseModel, ConfigDict
 
 from blockqc.delivery import Delivery
-from blockqc.metrics import Measure, Measurement, Table, metric
+from blockqc.metrics import Measure, Measurement, Scope, Table, metric
 
 _WGS84 = {"WGS84", "WGS1984", "EPSG4326", "WORLDGEODETICSYSTEM1984", "G1762", "ITRF-WGS84"}
 _ELLIPSOIDAL = {
@@ -94,7 +94,18 @@ def describe_epsg(code: int | None) -> str:
 @metric(
     "spatial_reference",
     params=SpatialParams,
-    scopes={"block": ("geodetic_datum", "height_datum", "projection_ok", "epsg")},
+    scopes={
+        "block": Scope(
+            {
+                "geodetic_datum": "name",
+                "height_datum": "name",
+                "projection_ok": "true/false",
+                "epsg": "EPSG code",
+            },
+            columns=("projection",),
+        )
+    },
+    param_units={"ups_north_lat": "degrees", "ups_south_lat": "degrees"},
 )
 def spatial_reference(d: Delivery, p: SpatialParams, measure: Measure) -> Measurement:
     """The block's stated datum, height datum and projection against its extent (§MB-1..3)."""

@@ -9,7 +9,7 @@ import pandas as pd
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from blockqc.delivery import Delivery
-from blockqc.metrics import Measure, Measurement, Table, metric, not_applicable
+from blockqc.metrics import Measure, Measurement, Scope, Table, metric, not_applicable
 from blockqc.spatial import clark_evans_grouped
 
 Band = Literal["pan", "ms"]
@@ -74,14 +74,29 @@ def _stats(err: pd.Series, by: pd.Series | None, lo: float, hi: float) -> pd.Dat
     return out
 
 
+_ERROR_STATS = {
+    "n": "observations",
+    "median": "px",
+    "rms": "px",
+    "mean": "px",
+    "max": "px",
+    "share_in_interval": "%",
+}
+
+
 @metric(
     "tie_point_errors",
     params=ErrorParams,
     scopes={
-        "block": ("n", "median", "rms", "mean", "max", "share_in_interval", "n_in_interval"),
-        "scene": ("n", "median", "rms", "mean", "max", "share_in_interval"),
-        "observation": ("error_px",),
+        "block": Scope({**_ERROR_STATS, "n_in_interval": "observations"}, columns=("n_points",)),
+        "scene": Scope(_ERROR_STATS, keys=("scene_id",), columns=("n_in_interval",)),
+        "observation": Scope(
+            {"error_px": "px"},
+            keys=("point_id", "scene_id"),
+            columns=("line", "sample", "v_line", "v_sample"),
+        ),
     },
+    param_units={"interval_px": "px"},
 )
 def tie_point_errors(d: Delivery, p: ErrorParams, measure: Measure) -> Measurement:
     """Tie-point error statistics: per observation, per scene and over the block (§TP-1..3)."""
@@ -118,7 +133,23 @@ def tie_point_errors(d: Delivery, p: ErrorParams, measure: Measure) -> Measureme
 @metric(
     "tie_point_distribution",
     params=DistributionParams,
-    scopes={"scene": ("n_points", "coverage", "clark_evans", "cells_covered")},
+    scopes={
+        "scene": Scope(
+            {
+                "n_points": "points",
+                "coverage": "share of cells",
+                "clark_evans": "R",
+                "cells_covered": "cells",
+            },
+            keys=("scene_id",),
+            columns=("band", "water_fraction", "cells_expected", "exempt", "exempt_reason"),
+        )
+    },
+    param_units={
+        "grid": "cells per side",
+        "min_points_per_cell": "points",
+        "exempt_water_fraction": "fraction",
+    },
 )
 def tie_point_distribution(d: Delivery, p: DistributionParams, measure: Measure) -> Measurement:
     """Per scene: tie-point count, k×k grid coverage of its land, Clark–Evans R (§TP-4)."""

@@ -1,4 +1,5 @@
-"""The rule language: pack models, the loader (extends/overrides/disable), expressions."""
+"""The rule language: pack models, the loader (extends/overrides/disable), expressions, lint,
+and the pass/fail cases that ship beside each pack."""
 
 from blockqc.rules.loader import available_packs, load_pack
 from blockqc.rules.model import Pack, Rule, Threshold

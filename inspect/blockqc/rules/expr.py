@@ -7,6 +7,7 @@ FUNCTIONS are allowed; anything else is refused with a message. Python's `eval` 
 from __future__ import annotations
 
 import ast
+import difflib
 import math
 import operator
 from collections.abc import Callable, Mapping
@@ -28,6 +29,13 @@ _BINARY: dict[type, Callable[[Any, Any], Any]] = {
 }
 _UNARY: dict[type, Callable[[Any], Any]] = {ast.USub: operator.neg, ast.UAdd: operator.pos}
 
+#: bounds checked before anything is evaluated: a threshold is a short formula, not a program
+MAX_LENGTH = 200  # characters
+MAX_NODES = 100  # syntax-tree nodes
+MAX_DEPTH = 24  # nesting of operations and calls
+MAX_MAGNITUDE = 1e12  # |literal| and |result|
+MAX_EXPONENT = 64.0  # |b| in a ** b
+
 
 class ExpressionError(ValueError):
     """An expression that is malformed, refers to an unknown name or uses what is not allowed."""
@@ -47,8 +55,12 @@ def lookup(name: str, constants: Mapping[str, Any]) -> Any:
     node: Any = constants
     for part in name.split("."):
         if not isinstance(node, Mapping) or part not in node:
-            known = ", ".join(sorted(flatten(constants))) or "none"
-            raise ExpressionError(f"unknown constant '{name}' (known: {known})")
+            names = sorted(flatten(constants))
+            close = difflib.get_close_matches(name, names, n=1, cutoff=0.6)
+            hint = f" (did you mean {close[0]}?)" if close else ""
+            raise ExpressionError(
+                f"unknown constant '{name}'{hint} (known: {', '.join(names) or 'none'})"
+            )
         node = node[part]
     return node
 
@@ -70,15 +82,12 @@ def evaluate(expression: Any, constants: Mapping[str, Any]) -> Any:
     if isinstance(expression, bool) or expression is None:
         return expression
     if isinstance(expression, (int, float)):
-        return float(expression)
+        return _bounded(float(expression), repr(expression))
     if isinstance(expression, list):
         return [evaluate(e, constants) for e in expression]
     if not isinstance(expression, str):
         raise ExpressionError(f"cannot evaluate a {type(expression).__name__}")
-    try:
-        tree = ast.parse(expression.strip(), mode="eval")
-    except SyntaxError as exc:
-        raise ExpressionError(f"malformed expression {expression!r}: {exc.msg}") from None
+    tree = parse(expression)
     name = _dotted(tree.body)
     if name is not None:  # a bare constant may also stand for a list of numbers
         value = lookup(name, constants)
@@ -89,19 +98,79 @@ def evaluate(expression: Any, constants: Mapping[str, Any]) -> Any:
     return _eval(tree.body, constants, expression)
 
 
+def _short(text: str) -> str:
+    return repr(text if len(text) <= 60 else text[:57] + "...")
+
+
+def _bounded(value: float, text: str) -> float:
+    """A finite number of sane magnitude, or an ExpressionError."""
+    if not math.isfinite(value) or abs(value) > MAX_MAGNITUDE:
+        raise ExpressionError(
+            f"cannot evaluate {_short(text)}: {value:g} is not a finite number of magnitude "
+            f"at most {MAX_MAGNITUDE:g}"
+        )
+    return value
+
+
+def _depth(node: ast.AST) -> int:
+    """Nesting depth of a tree (iterative: a deep tree must not exhaust the stack)."""
+    deepest, stack = 0, [(node, 1)]
+    while stack:
+        n, d = stack.pop()
+        deepest = max(deepest, d)
+        if deepest > MAX_DEPTH:
+            return deepest
+        stack.extend((c, d + 1) for c in ast.iter_child_nodes(n))
+    return deepest
+
+
+def parse(expression: str) -> ast.Expression:
+    """Parse an expression after bounding its length, then its size and depth."""
+    text = expression.strip()
+    if len(text) > MAX_LENGTH:
+        raise ExpressionError(
+            f"expression {_short(text)} is {len(text)} characters long (at most {MAX_LENGTH})"
+        )
+    try:
+        tree = ast.parse(text, mode="eval")
+    except (SyntaxError, ValueError) as exc:
+        msg = getattr(exc, "msg", str(exc))
+        raise ExpressionError(f"malformed expression {_short(text)}: {msg}") from None
+    except (RecursionError, MemoryError):
+        raise ExpressionError(f"expression {_short(text)} is nested too deeply") from None
+    nodes = sum(1 for _ in ast.walk(tree))
+    if nodes > MAX_NODES:
+        raise ExpressionError(
+            f"expression {_short(text)} has {nodes} terms and operators (at most {MAX_NODES})"
+        )
+    if _depth(tree) > MAX_DEPTH:
+        raise ExpressionError(
+            f"expression {_short(text)} is nested more than {MAX_DEPTH} levels deep"
+        )
+    return tree
+
+
 def _eval(node: ast.AST, constants: Mapping[str, Any], text: str) -> Any:
     if (
         isinstance(node, ast.Constant)
         and isinstance(node.value, (int, float))
         and not isinstance(node.value, bool)
     ):
-        return float(node.value)
+        if isinstance(node.value, int) and abs(node.value) > MAX_MAGNITUDE:
+            raise ExpressionError(
+                f"cannot evaluate {_short(text)}: a literal beyond ±{MAX_MAGNITUDE:g}"
+            )
+        return _bounded(float(node.value), text)
     if isinstance(node, ast.BinOp) and type(node.op) in _BINARY:
         left, right = _eval(node.left, constants, text), _eval(node.right, constants, text)
+        if isinstance(node.op, ast.Pow) and abs(right) > MAX_EXPONENT:
+            raise ExpressionError(
+                f"cannot evaluate {_short(text)}: exponent {right:g} beyond ±{MAX_EXPONENT:g}"
+            )
         try:
-            return float(_BINARY[type(node.op)](left, right))
+            return _bounded(float(_BINARY[type(node.op)](left, right)), text)
         except (ZeroDivisionError, OverflowError, TypeError) as exc:
-            raise ExpressionError(f"cannot evaluate {text!r}: {exc}") from None
+            raise ExpressionError(f"cannot evaluate {_short(text)}: {exc}") from None
     if isinstance(node, ast.UnaryOp) and type(node.op) in _UNARY:
         return _UNARY[type(node.op)](_eval(node.operand, constants, text))
     if isinstance(node, ast.Call):
@@ -114,15 +183,15 @@ def _eval(node: ast.AST, constants: Mapping[str, Any], text: str) -> Any:
             )
         args = [_eval(a, constants, text) for a in node.args]
         try:
-            return float(FUNCTIONS[name](*args))
-        except (ValueError, TypeError) as exc:
+            return _bounded(float(FUNCTIONS[name](*args)), text)
+        except (ValueError, TypeError, OverflowError) as exc:
             raise ExpressionError(f"cannot evaluate {text!r}: {exc}") from None
     name = _dotted(node)
     if name is not None:
         value = lookup(name, constants)
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise ExpressionError(f"constant '{name}' in {text!r} is not a number")
-        return float(value)
+            raise ExpressionError(f"constant '{name}' in {_short(text)} is not a number")
+        return _bounded(float(value), text)
     raise ExpressionError(
         f"'{ast.unparse(node)}' is not allowed in {text!r}: use numbers, constants, + - * / ** "
         f"and {', '.join(sorted(FUNCTIONS))}()"

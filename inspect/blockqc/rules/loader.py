@@ -7,15 +7,23 @@ and line: unknown keys, unknown metrics or statistics, bad parameters, bad expre
 from __future__ import annotations
 
 import copy
+from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Any
 
 from pydantic import ValidationError
 
 from blockqc.errors import Problem, RuleError
-from blockqc.metrics import REGISTRY
 from blockqc.resources import rules_dir
-from blockqc.rules.expr import ExpressionError, evaluate, resolve_params
+from blockqc.rules.lint import (
+    check_constants,
+    check_rule,
+    did_you_mean,
+    new_constant_sites,
+    stand_in_invalid,
+    unused_constants,
+)
 from blockqc.rules.model import ElementDef, Pack, PackFile, Rule, merge_elements
 from blockqc.yamlio import LineDict, line_of, load_yaml, pydantic_problems
 
@@ -27,8 +35,13 @@ def available_packs() -> list[str]:
     return sorted(p.stem for p in rules_dir().glob("*.yaml"))
 
 
-def resolve_pack_path(ref: str | Path, base: Path | None = None) -> Path:
-    """A pack reference is a file path (relative to `base` in `extends`) or a stock pack name."""
+def resolve_pack_path(
+    ref: str | Path, base: Path | None = None, site: tuple[str, int | None] | None = None
+) -> Path:
+    """A pack reference is a file path (relative to `base` in `extends`) or a stock pack name.
+
+    `site` is the file and line that names the reference (an `extends:`), for the message.
+    """
     ref_s = str(ref)
     candidates = []
     if base is not None:
@@ -39,13 +52,19 @@ def resolve_pack_path(ref: str | Path, base: Path | None = None) -> Path:
     for c in candidates:
         if c.is_file():
             return c
-    raise RuleError(
-        Problem(
-            ref_s,
-            "no such rule pack: give a file path or one of the stock "
-            f"packs ({', '.join(available_packs()) or 'none'})",
-        )
+    message = (
+        f"give a file path or one of the stock packs ({', '.join(available_packs()) or 'none'})"
     )
+    if site is not None:
+        tried = (base / ref_s if base is not None else Path(ref_s)).resolve()
+        raise RuleError(
+            Problem(
+                site[0],
+                f"extends: no rule pack '{ref_s}' (no file {tried}): {message}",
+                line=site[1],
+            )
+        )
+    raise RuleError(Problem(ref_s, f"no such rule pack: {message}"))
 
 
 def _deep_merge(base: dict[str, Any], extra: dict[str, Any]) -> dict[str, Any]:
@@ -74,12 +93,23 @@ class _Raw:
 
     def __init__(self, data: dict[str, Any], file: str, line: int | None, src: Any):
         self.data, self.file, self.line, self.src = data, file, line, src
+        self.history: list[tuple[str, int | None, dict[str, Any]]] = [(file, line, {})]
 
 
-def _load_raw(
-    path: Path, seen: tuple[Path, ...]
-) -> tuple[PackFile, dict[str, Any], dict[str, _Raw], list[str], list[str]]:
-    """Read one pack file and what it extends: file model, constants, raw rules, chain, disabled."""
+@dataclass
+class _Loaded:
+    """What reading a pack file and its parents gave, with every problem found on the way."""
+
+    pf: PackFile
+    constants: dict[str, Any] = field(default_factory=dict)
+    rules: dict[str, _Raw] = field(default_factory=dict)
+    chain: list[str] = field(default_factory=list)
+    disabled: list[str] = field(default_factory=list)
+    problems: list[Problem] = field(default_factory=list)
+
+
+def _read_file(path: Path, seen: tuple[Path, ...]) -> tuple[PackFile, Any]:
+    """One pack file read and validated for its shape (unknown keys refused)."""
     resolved = path.resolve()
     if resolved in seen:
         chain = " -> ".join(str(p) for p in seen + (resolved,))
@@ -90,81 +120,108 @@ def _load_raw(
             Problem(str(path), "a rule pack is a mapping with pack, rules, ...", line=1)
         )
     try:
-        pf = PackFile.model_validate(data)
+        return PackFile.model_validate(data), data
     except ValidationError as exc:
         raise RuleError(pydantic_problems(exc, path, data)) from None
 
-    problems: list[Problem] = []
-    constants: dict[str, Any] = {}
-    rules: dict[str, _Raw] = {}
-    chain = [str(path)]
-    disabled: list[str] = []
-    if pf.extends:
-        parent = resolve_pack_path(pf.extends, path.parent)
-        _, constants, rules, parent_chain, disabled = _load_raw(parent, seen + (resolved,))
-        chain += parent_chain
-    constants = _deep_merge(constants, pf.constants)
 
+def _load_raw(path: Path, seen: tuple[Path, ...]) -> _Loaded:
+    """Read one pack file and what it extends, collecting (not raising) the problems found."""
+    pf, data = _read_file(path, seen)
+    out = _Loaded(pf)
+    if pf.extends:
+        site = (str(path), line_of(data, ("extends",)))
+        parent = resolve_pack_path(pf.extends, path.parent, site)
+        out = _load_raw(parent, seen + (path.resolve(),))
+        out.pf = pf
+    found = check_constants(pf.constants, data, path)
+    out.problems += found
+    sites = new_constant_sites(pf.constants, out.constants, data, path)
+    # an invalid constant is reported once, at its own line; its uses evaluate a stand-in
+    out.constants = _deep_merge(out.constants, stand_in_invalid(pf.constants, out.constants))
+    out.chain.insert(0, str(path))
+    _add_rules(out, pf, data, path)
+    _apply_overrides(out, pf, data, path)
+    _apply_disable(out, pf, data, path)
+    out.problems += unused_constants(sites, [r.data for r in out.rules.values()])
+    return out
+
+
+def _add_rules(out: _Loaded, pf: PackFile, data: Any, path: Path) -> None:
     for i, raw in enumerate(pf.rules):
         line = line_of(data, ("rules", i))
         rid = raw.get("id") if isinstance(raw, dict) else None
         if not isinstance(rid, str):
-            problems.append(Problem(str(path), f"rules.{i}: a rule needs an id", line=line))
+            out.problems.append(Problem(str(path), f"rules.{i}: a rule needs an id", line=line))
             continue
-        if rid in rules:
-            where = "earlier in this file" if rules[rid].file == str(path) else rules[rid].file
-            problems.append(
+        same = next((k for k in out.rules if k.upper() == rid.upper()), None)
+        if same is not None:
+            where = (
+                "earlier in this file"
+                if out.rules[same].file == str(path)
+                else out.rules[same].file
+            )
+            out.problems.append(
                 Problem(
                     str(path),
-                    f"rules.{i}: rule {rid} is already defined "
+                    f"rules.{i}: rule {rid} is already defined as {same} "
                     f"({where}); change it under overrides:",
                     line=line,
                 )
             )
             continue
-        rules[rid] = _Raw(dict(raw), str(path), line, data["rules"][i])
+        out.rules[rid] = _Raw(dict(raw), str(path), line, data["rules"][i])
+
+
+def _apply_overrides(out: _Loaded, pf: PackFile, data: Any, path: Path) -> None:
     for rid, override in pf.overrides.items():
         line = line_of(data, ("overrides", rid))
-        if rid not in rules:
-            problems.append(
+        if rid not in out.rules:
+            hint = did_you_mean(rid, out.rules)
+            out.problems.append(
                 Problem(
                     str(path),
-                    f"overrides.{rid}: no rule {rid} to override (known: {', '.join(rules)})",
+                    f"overrides.{rid}: no rule {rid} to override{hint} "
+                    f"(known: {', '.join(out.rules)})",
                     line=line,
                 )
             )
             continue
         if "id" in override and override["id"] != rid:
-            problems.append(Problem(str(path), f"overrides.{rid}: the id cannot change", line=line))
+            out.problems.append(
+                Problem(str(path), f"overrides.{rid}: the id cannot change", line=line)
+            )
             continue
-        prev = rules[rid]
-        rules[rid] = _Raw(_merge_rule(prev.data, override), str(path), line, data["overrides"][rid])
+        prev = out.rules[rid]
+        merged = _merge_rule(prev.data, override)
+        out.rules[rid] = _Raw(merged, str(path), line, data["overrides"][rid])
+        out.rules[rid].history = [*prev.history, (str(path), line, dict(override))]
+
+
+def _apply_disable(out: _Loaded, pf: PackFile, data: Any, path: Path) -> None:
     for i, rid in enumerate(pf.disable):
-        if rid not in rules:
-            problems.append(
+        if rid not in out.rules:
+            out.problems.append(
                 Problem(
                     str(path),
-                    f"disable: no rule {rid} to disable",
+                    f"disable: no rule {rid} to disable{did_you_mean(rid, out.rules)}",
                     line=line_of(data, ("disable", i)),
                 )
             )
             continue
-        del rules[rid]
-        disabled.append(rid)
-    if problems:
-        raise RuleError(problems)
-    return pf, constants, rules, chain, disabled
+        del out.rules[rid]
+        out.disabled.append(rid)
 
 
-def load_pack(ref: str | Path) -> Pack:
-    """Load, merge and validate a rule pack; raise RuleError listing every problem."""
+def read_pack(ref: str | Path) -> tuple[Pack | None, list[Problem]]:
+    """Load, merge and check a rule pack: the pack (None when unusable) and every problem."""
     path = resolve_pack_path(ref)
-    pf, constants, raw_rules, chain, disabled = _load_raw(path, ())
-    elements = _elements(chain)
-    problems: list[Problem] = []
+    loaded = _load_raw(path, ())
+    problems = list(loaded.problems)
+    elements = _elements(loaded.chain)
     rules: list[Rule] = []
-    names = {**constants, **DELIVERY_NAMES}
-    for rid, raw in raw_rules.items():
+    names = {**loaded.constants, **DELIVERY_NAMES}
+    for rid, raw in loaded.rules.items():
         try:
             rule = Rule.model_validate(raw.data)
         except ValidationError as exc:
@@ -173,23 +230,32 @@ def load_pack(ref: str | Path) -> Pack:
                     Problem(p.file, f"rule {rid}: {p.message}", line=p.line or raw.line)
                 )
             continue
-        problems.extend(_check_rule(rule, names, raw))
+        problems.extend(check_rule(rule, names, raw.file, partial(_line, raw)))
         problems.extend(_check_contents(rule, elements, raw))
         rules.append(rule)
-    if problems:
-        raise RuleError(problems)
-    return Pack(
+    pf = loaded.pf
+    pack = Pack(
         name=pf.pack,
         version=pf.version,
         title=pf.title,
         description=pf.description,
-        constants=constants,
+        constants=loaded.constants,
         rules=rules,
         elements=elements,
-        chain=chain,
-        disabled=disabled,
-        origin={rid: (r.file, r.line) for rid, r in raw_rules.items()},
+        chain=loaded.chain,
+        disabled=loaded.disabled,
+        origin={rid: (r.file, r.line) for rid, r in loaded.rules.items()},
+        history={rid: r.history for rid, r in loaded.rules.items()},
     )
+    return pack, problems
+
+
+def load_pack(ref: str | Path) -> Pack:
+    """Load, merge and validate a rule pack; raise RuleError listing every problem."""
+    pack, problems = read_pack(ref)
+    if problems or pack is None:
+        raise RuleError(problems)
+    return pack
 
 
 def _check_contents(rule: Rule, elements: list[ElementDef], raw: _Raw) -> list[Problem]:
@@ -230,54 +296,3 @@ def _line(raw: _Raw, *loc: Any) -> int | None:
     if isinstance(raw.src, LineDict):
         return line_of(raw.src, loc) or raw.line
     return raw.line
-
-
-def _check_rule(rule: Rule, names: dict[str, Any], raw: _Raw) -> list[Problem]:
-    """Everything a pack can get wrong beyond its shape: metric, scope, statistic, parameters."""
-    out: list[Problem] = []
-
-    def bad(msg: str, *loc: Any) -> None:
-        out.append(Problem(raw.file, f"rule {rule.id}: {msg}", line=_line(raw, *loc)))
-
-    for group, th in rule.all_thresholds().items():
-        loc = ("thresholds", group) if group else ("threshold",)
-        for key in ("min", "max"):
-            expr = getattr(th, key)
-            if expr is not None:
-                try:
-                    evaluate(expr, names)
-                except ExpressionError as exc:
-                    bad(f"{'.'.join(loc)}.{key}: {exc}", *loc, key)
-    if rule.manual:
-        return out
-    spec = REGISTRY.get(rule.metric or "")
-    if spec is None:
-        bad(f"unknown metric '{rule.metric}' (known: {', '.join(sorted(REGISTRY))})", "metric")
-        return out
-    if rule.scope not in spec.scopes:
-        bad(
-            f"metric {spec.name} offers no scope '{rule.scope}' "
-            f"(it offers: {', '.join(spec.scopes)})",
-            "scope",
-        )
-    elif rule.statistic not in spec.scopes[rule.scope]:
-        bad(
-            f"metric {spec.name} at scope {rule.scope} offers no statistic '{rule.statistic}' "
-            f"(it offers: {', '.join(spec.scopes[rule.scope])})",
-            "statistic",
-        )
-    if rule.evidence_from is not None and rule.evidence_from not in spec.scopes:
-        bad(
-            f"evidence_from: metric {spec.name} offers no scope '{rule.evidence_from}'",
-            "evidence_from",
-        )
-    try:
-        resolve_params(spec.params, rule.params, names)
-    except ExpressionError as exc:
-        bad(f"params: {exc}", "params")
-    except ValidationError as exc:
-        for err in exc.errors():
-            loc = ".".join(str(x) for x in err["loc"])
-            msg = "unknown parameter" if err["type"] == "extra_forbidden" else err["msg"]
-            bad(f"params.{loc}: {msg}", "params", *err["loc"])
-    return out

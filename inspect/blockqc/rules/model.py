@@ -10,19 +10,6 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator, model_valida
 #: a number, or an arithmetic expression over the pack's constants, e.g. "2*sqrt(2)*norm.plane_m"
 Expr = float | int | str
 
-SCOPES = (
-    "block",
-    "scene",
-    "pair",
-    "point",
-    "observation",
-    "component",
-    "component_method",
-    "reference",
-    "document",
-    "figure",
-)
-
 
 #: what a rule may ask the report to draw from its results (§2 report figures)
 FigureHint = Literal[
@@ -132,7 +119,8 @@ class Rule(BaseModel):
     figures: list[FigureHint] = Field(default_factory=list)
     metric: str | None = None
     params: dict[str, Any] = Field(default_factory=dict)
-    scope: Literal[SCOPES] = "block"  # type: ignore[valid-type]
+    # a scope the metric declares (blockqc.metrics registry), checked when the pack is loaded
+    scope: str = Field(default="block", pattern=r"^[a-z][a-z0-9_]*$")
     where: dict[str, str | float | bool] = Field(default_factory=dict)
     statistic: str | None = None
     threshold: Threshold | None = None
@@ -214,10 +202,13 @@ class Pack:
     chain: list[str] = field(default_factory=list)  # files, the pack's own first
     disabled: list[str] = field(default_factory=list)
     origin: dict[str, tuple[str, int | None]] = field(default_factory=dict)  # id -> (file, line)
+    # id -> [(file, line, fields written)]: the definition first, then each override
+    history: dict[str, list[tuple[str, int | None, dict[str, Any]]]] = field(default_factory=dict)
 
     def rule(self, rule_id: str) -> Rule:
+        """The rule of that id, compared case-insensitively (`tp-1` is TP-1)."""
         for r in self.rules:
-            if r.id == rule_id:
+            if r.id.upper() == rule_id.upper():
                 return r
         raise KeyError(rule_id)
 

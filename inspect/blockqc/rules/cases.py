@@ -1,0 +1,269 @@
+"""Rule cases: a rule's passing and failing examples, kept beside its pack and run on demand.
+
+The cases of a pack file `NAME.yaml` live in the folder `NAME.cases/` beside it, one file per
+rule, `NAME.cases/<RULE>.yaml`:
+
+    rule: TP-4
+    cases:
+      - name: 99 tie points on S1
+        drop: {tie_points: [{where: {scene_id: S1}, keep_first: 99}]}   # edits (casebase.py)
+        expect: fail                 # the rule's overall status over its results
+        value: 99                    # optional: a result's value, evidence rows, detail keys
+        evidence: [{scene_id: S1, n_points: 99}]
+
+A case may also give `group` (judge only the results of that group), `verdicts` (the
+inspector's file) and `pack` (a pack extending the one under test: constants, overrides …).
+Each case is applied to the hand-computable base delivery and judged by the pack the case file
+sits beside (`blockqc rules test PACK`).
+"""
+
+from __future__ import annotations
+
+import math
+import tempfile
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, model_validator
+
+from blockqc.errors import BlockqcError, Problem, RuleError
+from blockqc.rules.casebase import EditError, write_delivery
+from blockqc.rules.model import Pack
+from blockqc.yamlio import line_of, load_yaml, pydantic_problems
+
+#: the most severe status first: a rule's overall status over its results
+Expect = Literal["error", "fail", "warn", "waived", "manual", "pass", "not_applicable"]
+Scalar = str | float | bool | None
+
+
+class _RowEdit(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    where: dict[str, Scalar | dict[str, Scalar | list[Scalar]]] = Field(default_factory=dict)
+    any: list[dict[str, Scalar | dict[str, Scalar | list[Scalar]]]] = Field(default_factory=list)
+
+
+class SetEdit(_RowEdit):
+    values: dict[str, Scalar]
+
+
+class DeriveEdit(_RowEdit):
+    model_config = ConfigDict(extra="forbid", populate_by_name=True)
+    column: str
+    from_: str = Field(alias="from")
+    add: float = 0.0
+    times: float = 1.0
+
+
+class DropEdit(_RowEdit):
+    keep_first: int | None = Field(default=None, ge=0)
+
+
+class Case(BaseModel):
+    """One case: edits of the base delivery, and what the rule must then say."""
+
+    model_config = ConfigDict(extra="forbid")
+    name: str = Field(min_length=1)
+    expect: Expect
+    manifest: dict[str, Any] = Field(default_factory=dict)
+    set: dict[str, list[SetEdit]] = Field(default_factory=dict)
+    derive: dict[str, list[DeriveEdit]] = Field(default_factory=dict)
+    drop: dict[str, list[DropEdit]] = Field(default_factory=dict)
+    append: dict[str, list[dict[str, Scalar]]] = Field(default_factory=dict)
+    remove_tables: list[str] = Field(default_factory=list)
+    files: dict[str, str | None] = Field(default_factory=dict)
+    verdicts: dict[str, Any] = Field(default_factory=dict)
+    pack: dict[str, Any] = Field(default_factory=dict)
+    group: dict[str, Scalar] = Field(default_factory=dict)
+    value: Any = None
+    evidence: list[dict[str, Any]] | None = None
+    detail: dict[str, Any] | None = None
+
+
+class CaseFile(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    rule: str
+    cases: list[Case] = Field(min_length=1)
+    _lines: list[int | None] = PrivateAttr(default_factory=list)
+
+    def line(self, i: int) -> int | None:
+        """The line where case `i` starts."""
+        return self._lines[i] if i < len(self._lines) else None
+
+    @model_validator(mode="after")
+    def _unique(self) -> CaseFile:
+        names = [c.name for c in self.cases]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise ValueError(f"case names repeat: {', '.join(dup)}")
+        return self
+
+
+@dataclass
+class Outcome:
+    """The result of one case."""
+
+    file: Path
+    line: int | None
+    rule: str
+    name: str
+    ok: bool
+    message: str = ""
+
+
+def case_folder(pack_file: Path) -> Path:
+    """`NAME.cases/` beside the pack file `NAME.yaml`."""
+    return pack_file.with_name(pack_file.stem + ".cases")
+
+
+def find_case_file(chain: list[str], rule_id: str) -> Path | None:
+    """The case file of a rule nearest to the pack: its own folder first, then its parents'."""
+    for file in chain:
+        candidate = case_folder(Path(file)) / f"{rule_id}.yaml"
+        if candidate.is_file():
+            return candidate
+    return None
+
+
+def read_case_file(path: Path) -> CaseFile:
+    """Read and validate a case file; problems name the file and line."""
+    data = load_yaml(path, RuleError)
+    try:
+        doc = CaseFile.model_validate(data)
+    except ValidationError as exc:
+        raise RuleError(pydantic_problems(exc, path, data)) from None
+    if doc.rule != path.stem:
+        line = line_of(data, ("rule",))
+        raise RuleError(
+            Problem(str(path), f"rule: {doc.rule}, but the file is {path.name}", line=line)
+        )
+    doc._lines = [line_of(data, ("cases", i)) for i in range(len(doc.cases))]
+    return doc
+
+
+def aggregate_status(results: list[dict[str, Any]]) -> str:
+    """A rule's overall status: the most severe over its results."""
+    from blockqc.results import worst_status
+
+    return worst_status(r["status"] for r in results) or "none"
+
+
+def matches(expected: Any, actual: Any) -> bool:
+    """`expected` is found in `actual`: mappings by their keys, lists item by item, numbers
+    to 1e-8 relative."""
+    if isinstance(expected, dict):
+        return isinstance(actual, dict) and all(
+            k in actual and matches(v, actual[k]) for k, v in expected.items()
+        )
+    if isinstance(expected, list):
+        return isinstance(actual, list) and all(
+            any(matches(e, a) for a in actual) for e in expected
+        )
+    if isinstance(expected, float) and isinstance(actual, (int, float)):
+        return math.isclose(expected, actual, rel_tol=1e-8, abs_tol=1e-9)
+    return expected == actual
+
+
+def _judge(case: Case, results: list[dict[str, Any]]) -> str:
+    """'' when the rule's results meet the case's expectations, else what differs."""
+    chosen = [r for r in results if not case.group or matches(case.group, r["group"])]
+    status = aggregate_status(chosen)
+    if status != case.expect:
+        got = "; ".join(f"{r['group'] or ''} {r['status']} {r['value']!r}".strip() for r in chosen)
+        return f"expected {case.expect}, got {status} ({got or 'no result'})"
+    if case.value is not None:
+        values = [r["value"] for r in chosen if r["status"] == status]
+        if not any(matches(case.value, v) for v in values):
+            return f"expected value {case.value!r}, got {values!r}"
+    if case.evidence is not None:
+        evidence = [e for r in chosen for e in r["evidence"]]
+        if not matches(case.evidence, evidence):
+            return f"expected evidence {case.evidence!r}, got {evidence[:5]!r}"
+    if case.detail is not None and not any(matches(case.detail, r["detail"]) for r in chosen):
+        return f"expected detail {case.detail!r}, got {[r['detail'] for r in chosen]!r}"
+    return ""
+
+
+def _plain(value: Any) -> Any:
+    """Plain dicts and lists (as read from YAML, with line numbers dropped)."""
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_plain(v) for v in value]
+    return value
+
+
+def _case_pack(pack: Pack, pack_file: Path, case: Case, folder: Path) -> Pack:
+    """The pack a case is judged by: the pack, or a pack extending it with `case.pack`."""
+    from blockqc.rules.loader import load_pack
+
+    if not case.pack:
+        return pack
+    extends = str(pack_file.resolve())
+    extra = {"pack": "case-pack", "version": "1", **_plain(case.pack), "extends": extends}
+    path = folder / "case-pack.yaml"
+    path.write_text(yaml.safe_dump(extra, sort_keys=False, allow_unicode=True), "utf-8")
+    return load_pack(path)
+
+
+def run_case(pack: Pack, pack_file: Path, rule_id: str, case: Case, work: Path) -> str:
+    """Apply one case to the base delivery, inspect it with the pack, say what differs ('')."""
+    from blockqc.delivery import load_delivery
+    from blockqc.engine import inspect_delivery
+    from blockqc.inspector import InspectorInput
+    from blockqc.results import dump
+
+    edits = _plain(case.model_dump(by_alias=True, exclude_none=True))
+    folder = write_delivery(work / "delivery", edits)
+    pack = _case_pack(pack, pack_file, case, work)
+    inspector = InspectorInput.model_validate(case.verdicts)
+    doc = dump(inspect_delivery(load_delivery(folder), pack, inspector.for_block("CASE")))
+    results = [r for r in doc["results"] if r["rule"] == rule_id]
+    if not results:
+        return f"rule {rule_id} gave no result"
+    return _judge(case, results)
+
+
+def iter_cases(pack_file: Path) -> Iterator[tuple[Path, CaseFile, int, Case]]:
+    """Every case beside one pack file: (case file, its document, case index, case)."""
+    folder = case_folder(pack_file)
+    for f in sorted(folder.glob("*.yaml")) if folder.is_dir() else []:
+        doc = read_case_file(f)
+        for i, case in enumerate(doc.cases):
+            yield f, doc, i, case
+
+
+def run_file_cases(pack_file: Path) -> list[Outcome]:
+    """Run the cases beside one pack file against that pack; a broken case raises RuleError."""
+    from blockqc.rules.loader import load_pack
+
+    pack = load_pack(pack_file)
+    ids = {r.id for r in pack.rules}
+    out = []
+    for f, doc, i, case in iter_cases(pack_file):
+        line = doc.line(i)
+        if doc.rule not in ids:
+            raise RuleError(Problem(str(f), f"cases for {doc.rule}: no such rule in the pack"))
+        with tempfile.TemporaryDirectory(prefix="blockqc-case-") as tmp:
+            try:
+                message = run_case(pack, pack_file, doc.rule, case, Path(tmp))
+            except (EditError, ValidationError, BlockqcError) as exc:
+                raise RuleError(
+                    Problem(str(f), f"case '{case.name}': {_text(exc)}", line=line)
+                ) from None
+        out.append(Outcome(f, line, doc.rule, case.name, not message, message))
+    return out
+
+
+def _text(exc: Exception) -> str:
+    if isinstance(exc, BlockqcError):
+        return "; ".join(str(p) for p in exc.problems)
+    return str(exc).replace("\n", " ")
+
+
+def run_pack_cases(pack: Pack, own_only: bool = False) -> list[Outcome]:
+    """Run the cases of a pack and, unless `own_only`, those of the packs it extends."""
+    files = pack.chain[:1] if own_only else pack.chain
+    return [o for f in files for o in run_file_cases(Path(f))]

@@ -1,0 +1,411 @@
+"""Checking rule packs: every problem of a pack at once, each with its file and line.
+
+The loader calls the checks of one rule and of the constants while it reads a pack (a pack with
+a problem is refused whole); `lint` adds what only matters when a pack is written: that every
+rule ships a passing and a failing case beside its pack (`blockqc rules lint`, the tests).
+"""
+
+from __future__ import annotations
+
+import ast
+import difflib
+import math
+import re
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from pydantic import BaseModel, ValidationError
+
+from blockqc.errors import Problem, RuleError
+from blockqc.metrics import REGISTRY, MetricSpec, Scope
+from blockqc.rules.expr import ExpressionError, evaluate, flatten, resolve_params
+from blockqc.rules.model import Pack, Rule
+from blockqc.yamlio import line_of
+
+LineFn = Callable[..., int | None]
+_NAME = r"^[A-Za-z_][A-Za-z0-9_]*$"
+
+
+def did_you_mean(name: str, known: Iterable[str]) -> str:
+    """' (did you mean X?)' when a known name is close to `name` (case-insensitive), else ''."""
+    known = list(known)
+    by_upper = {k.upper(): k for k in known}
+    if name.upper() in by_upper and by_upper[name.upper()] != name:
+        return f" (did you mean {by_upper[name.upper()]}?)"
+    close = difflib.get_close_matches(name.upper(), list(by_upper), n=1, cutoff=0.6)
+    return f" (did you mean {by_upper[close[0]]}?)" if close else ""
+
+
+# ------------------------------------------------------------------------------ constants
+@dataclass(frozen=True)
+class ConstantSite:
+    """A constant a pack file introduces (not inherited): its dotted name and where it stands."""
+
+    name: str
+    file: str
+    line: int | None
+    parent_names: tuple[str, ...]  # the constants inherited, for "did you mean"
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def check_constants(consts: Mapping[str, Any], data: Any, path: Path) -> list[Problem]:
+    """Each constant is a finite number or a list of them, under a plain name (at its own line)."""
+    out: list[Problem] = []
+
+    def walk(node: Mapping[str, Any], loc: tuple[str, ...]) -> None:
+        for key, value in node.items():
+            here = (*loc, key)
+            where = ".".join(here)
+            line = line_of(data, ("constants", *here))
+            if not isinstance(key, str) or not _valid_name(key):
+                out.append(Problem(str(path), f"constants.{where}: not a plain name", line=line))
+            elif isinstance(value, Mapping):
+                walk(value, here)
+            elif isinstance(value, list) and value and all(_is_number(v) for v in value):
+                continue
+            elif not _is_number(value):
+                got = "a non-finite number" if isinstance(value, float) else repr(value)
+                out.append(
+                    Problem(
+                        str(path),
+                        f"constants.{where}: expected a finite number or a list of finite "
+                        f"numbers, got {got}",
+                        line=line,
+                    )
+                )
+
+    walk(consts, ())
+    return out
+
+
+def stand_in_invalid(consts: Mapping[str, Any], inherited: Mapping[str, Any]) -> dict[str, Any]:
+    """The constants with each invalid value replaced by the inherited one (or 1.0), so that an
+    invalid constant is reported once, where it is written, and not again at every use."""
+    out: dict[str, Any] = {}
+    for key, value in consts.items():
+        before = inherited.get(key) if isinstance(inherited, Mapping) else None
+        if isinstance(value, Mapping):
+            out[key] = stand_in_invalid(value, before if isinstance(before, Mapping) else {})
+        elif _is_number(value) or (
+            isinstance(value, list) and value and all(_is_number(v) for v in value)
+        ):
+            out[key] = value
+        else:
+            out[key] = before if before is not None and not isinstance(before, Mapping) else 1.0
+    return out
+
+
+def _valid_name(key: str) -> bool:
+    return re.fullmatch(_NAME, key) is not None
+
+
+def new_constant_sites(
+    consts: Mapping[str, Any], inherited: Mapping[str, Any], data: Any, path: Path
+) -> list[ConstantSite]:
+    """The constants a file adds to those it inherits, with their lines."""
+    known = flatten(inherited)
+    sites = []
+    for name in flatten(consts):
+        if name not in known:
+            line = line_of(data, ("constants", *name.split(".")))
+            sites.append(ConstantSite(name, str(path), line, tuple(known)))
+    return sites
+
+
+def referenced_names(value: Any) -> set[str]:
+    """Dotted names the expressions inside a rule's fields refer to."""
+    if isinstance(value, Mapping):
+        return set().union(set(), *(referenced_names(v) for v in value.values()))
+    if isinstance(value, list):
+        return set().union(set(), *(referenced_names(v) for v in value))
+    if not isinstance(value, str) or len(value) > 500:
+        return set()
+    try:
+        tree = ast.parse(value.strip(), mode="eval")
+    except (SyntaxError, ValueError, RecursionError, MemoryError):
+        return set()
+    out = set()
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Attribute, ast.Name)):
+            name = ast.unparse(node)
+            if all(_valid_name(p) for p in name.split(".")):
+                out.add(name)
+    return out
+
+
+def unused_constants(
+    sites: list[ConstantSite], rules: Iterable[Mapping[str, Any]]
+) -> list[Problem]:
+    """A constant a pack adds that no rule uses is a typo until shown otherwise (`plane` for
+    `plane_m`): refused, with the inherited name it most resembles."""
+    used: set[str] = set()
+    for raw in rules:
+        for key in ("threshold", "thresholds", "params"):
+            used |= referenced_names(raw.get(key))
+    out = []
+    for s in sites:
+        if s.name in used:
+            continue
+        hint = did_you_mean(s.name, s.parent_names)
+        inherited = " is not a constant of the pack it extends and" if s.parent_names else ""
+        out.append(
+            Problem(s.file, f"constants.{s.name}{inherited} is used by no rule{hint}", line=s.line)
+        )
+    return out
+
+
+# ---------------------------------------------------------------------------------- rules
+def check_rule(rule: Rule, names: Mapping[str, Any], file: str, line: LineFn) -> list[Problem]:
+    """Everything a rule can get wrong beyond its shape: expressions, metric, scope, statistic,
+    columns in `where`, threshold groups, parameters."""
+    out: list[Problem] = []
+
+    def bad(msg: str, *loc: Any) -> None:
+        out.append(Problem(file, f"rule {rule.id}: {msg}", line=line(*loc)))
+
+    if not rule.title.strip():
+        bad("a rule needs a title", "title")
+    _check_thresholds(rule, names, bad)
+    if rule.manual:
+        return out
+    spec = REGISTRY.get(rule.metric or "")
+    if spec is None:
+        known = sorted(REGISTRY)
+        hint = did_you_mean(rule.metric or "", known)
+        bad(f"unknown metric '{rule.metric}'{hint} (known: {', '.join(known)})", "metric")
+        return out
+    scope = spec.scopes.get(rule.scope)
+    if scope is None:
+        hint = did_you_mean(rule.scope, spec.scopes)
+        offers = ", ".join(spec.scopes)
+        bad(f"metric {spec.name} offers no scope '{rule.scope}'{hint} (offers: {offers})", "scope")
+        return out
+    if rule.statistic not in scope.statistics:
+        hint = did_you_mean(rule.statistic or "", scope.statistics)
+        offers = ", ".join(scope.statistics)
+        bad(
+            f"metric {spec.name} at scope {rule.scope} offers no statistic "
+            f"'{rule.statistic}'{hint} (offers: {offers})",
+            "statistic",
+        )
+    _check_where(rule.where, scope, f"{spec.name} at scope {rule.scope}", "where", bad)
+    _check_groups(rule, spec, scope, bad)
+    _check_evidence(rule, spec, scope, bad)
+    _check_params(rule, spec, names, bad)
+    return out
+
+
+def _check_thresholds(rule: Rule, names: Mapping[str, Any], bad: Callable[..., None]) -> None:
+    for group, th in rule.all_thresholds().items():
+        loc = ("thresholds", group) if group else ("threshold",)
+        for key in ("min", "max"):
+            expr = getattr(th, key)
+            if expr is None:
+                continue
+            try:
+                evaluate(expr, names)
+            except ExpressionError as exc:
+                bad(f"{'.'.join(loc)}.{key}: {exc}", *loc, key)
+
+
+def _check_where(
+    where: Mapping[str, Any], scope: Scope, what: str, key: str, bad: Callable[..., None]
+) -> None:
+    columns = scope.all_columns()
+    for col, val in where.items():
+        if col not in columns:
+            hint = did_you_mean(col, columns)
+            bad(
+                f"{key}: {what} gives no column '{col}'{hint} (columns: {', '.join(columns)})",
+                key,
+                col,
+            )
+        elif col in scope.groups and str(val) not in scope.groups[col]:
+            values = scope.groups[col]
+            hint = did_you_mean(str(val), values)
+            bad(f"{key}.{col}: no {col} '{val}'{hint} (values: {', '.join(values)})", key, col)
+
+
+def _check_groups(rule: Rule, spec: MetricSpec, scope: Scope, bad: Callable[..., None]) -> None:
+    """`thresholds:` give one threshold per value of one group column (after `where`)."""
+    if not rule.thresholds:
+        return
+    what = f"metric {spec.name} at scope {rule.scope}"
+    if not scope.groups:
+        bad(f"thresholds: {what} has no groups: give a single threshold:", "thresholds")
+        return
+    values = {
+        col: (str(rule.where[col]),) if col in rule.where else vals
+        for col, vals in scope.groups.items()
+    }
+    every = {v for vals in values.values() for v in vals}
+    for key in rule.thresholds:
+        if key not in every:
+            groups = "; ".join(f"{c}: {', '.join(v)}" for c, v in values.items())
+            hint = did_you_mean(key, every)
+            bad(f"thresholds.{key}: no group '{key}'{hint} ({groups})", "thresholds", key)
+    if any(set(vals) <= set(rule.thresholds) for vals in values.values()):
+        return
+    col, vals = max(values.items(), key=lambda cv: len(set(cv[1]) & set(rule.thresholds)))
+    missing = [v for v in vals if v not in rule.thresholds]
+    bad(
+        f"thresholds: no threshold for {col} {', '.join(missing)} "
+        f"(give one per value of {col}: {', '.join(vals)}, or filter with where:)",
+        "thresholds",
+    )
+
+
+def _check_evidence(rule: Rule, spec: MetricSpec, scope: Scope, bad: Callable[..., None]) -> None:
+    ev_scope = scope
+    if rule.evidence_from is not None:
+        ev_scope = spec.scopes.get(rule.evidence_from)
+        if ev_scope is None:
+            hint = did_you_mean(rule.evidence_from, spec.scopes)
+            bad(
+                f"evidence_from: metric {spec.name} offers no scope '{rule.evidence_from}'{hint}",
+                "evidence_from",
+            )
+            return
+    what = f"{spec.name} at scope {rule.evidence_from or rule.scope}"
+    _check_where(rule.evidence_where, ev_scope, what, "evidence_where", bad)
+
+
+def _check_params(
+    rule: Rule, spec: MetricSpec, names: Mapping[str, Any], bad: Callable[..., None]
+) -> None:
+    resolved = _resolve(spec, rule.params, names, bad, ("params",))
+    for loc, ref in _references(resolved):
+        _check_reference(ref, names, bad, ("params", *loc))
+
+
+def _resolve(
+    spec: MetricSpec,
+    raw: Mapping[str, Any],
+    names: Mapping[str, Any],
+    bad: Callable[..., None],
+    at: tuple[Any, ...],
+) -> BaseModel | None:
+    """A metric's parameters validated, expressions evaluated; None (reported) when invalid."""
+    label = ".".join(map(str, at))
+    try:
+        return resolve_params(spec.params, raw, names)
+    except ExpressionError as exc:
+        bad(f"{label}: {exc}", *at)
+    except ValidationError as exc:
+        for err in exc.errors():
+            loc = ".".join(str(x) for x in err["loc"])
+            if err["type"] == "extra_forbidden":
+                hint = did_you_mean(str(err["loc"][-1]), spec.params.model_fields)
+                msg = f"unknown parameter{hint} (known: {', '.join(spec.params.model_fields)})"
+            else:
+                msg = err["msg"]
+            bad(f"{label}.{loc}: {msg}", *at, *err["loc"])
+    return None
+
+
+def _references(params: BaseModel | None) -> list[tuple[tuple[str, ...], Any]]:
+    """Parameters that name another metric's statistic (e.g. DOC-2's figures), by location."""
+    out = []
+    for key, value in params if params is not None else ():
+        for k, v in value.items() if isinstance(value, dict) else ():
+            if isinstance(v, BaseModel) and all(
+                hasattr(v, a) for a in ("metric", "scope", "statistic", "params")
+            ):
+                out.append(((key, k), v))
+    return out
+
+
+def _check_reference(
+    ref: Any, names: Mapping[str, Any], bad: Callable[..., None], at: tuple[Any, ...]
+) -> None:
+    """A parameter naming a metric, scope, statistic and filter: checked like a rule's."""
+    label = ".".join(map(str, at))
+    spec = REGISTRY.get(ref.metric)
+    if spec is None:
+        hint = did_you_mean(ref.metric, REGISTRY)
+        bad(f"{label}.metric: unknown metric '{ref.metric}'{hint}", *at, "metric")
+        return
+    scope = spec.scopes.get(ref.scope)
+    if scope is None:
+        hint = did_you_mean(ref.scope, spec.scopes)
+        bad(f"{label}.scope: metric {spec.name} offers no scope '{ref.scope}'{hint}", *at, "scope")
+        return
+    if ref.statistic not in scope.all_columns():
+        hint = did_you_mean(ref.statistic, scope.all_columns())
+        bad(
+            f"{label}.statistic: {spec.name} at scope {ref.scope} gives no '{ref.statistic}'{hint}",
+            *at,
+            "statistic",
+        )
+    what = f"{spec.name} at scope {ref.scope}"
+    _check_where(ref.where, scope, what, f"{label}.where", lambda m, *_: bad(m, *at, "where"))
+    for col in getattr(ref, "prefer", {}) or {}:
+        if col not in scope.all_columns():
+            bad(f"{label}.prefer: {what} gives no column '{col}'", *at, "prefer")
+    _resolve(spec, ref.params, names, bad, (*at, "params"))
+
+
+# ---------------------------------------------------------------------------------- lint
+def check_cases(pack: Pack) -> list[Problem]:
+    """Every rule has a case file (nearest along the pack's chain) with a pass and a fail case."""
+    from blockqc.rules.cases import case_folder, find_case_file, read_case_file
+
+    out: list[Problem] = []
+    for rule in pack.rules:
+        file, line = pack.origin.get(rule.id, (pack.chain[0], None))
+        found = find_case_file(pack.chain, rule.id)
+        if found is None:
+            folder = case_folder(Path(file))
+            out.append(
+                Problem(
+                    file,
+                    f"rule {rule.id} has no cases: write {folder / (rule.id + '.yaml')} with a "
+                    "passing and a failing case",
+                    line=line,
+                )
+            )
+            continue
+        try:
+            doc = read_case_file(found)
+        except RuleError as exc:
+            out.extend(exc.problems)
+            continue
+        expects = {c.expect for c in doc.cases}
+        if "pass" not in expects:
+            out.append(Problem(str(found), f"rule {rule.id}: no passing case (expect: pass)"))
+        if not expects & {"fail", "warn"}:
+            out.append(Problem(str(found), f"rule {rule.id}: no failing case (expect: fail)"))
+    out.extend(_stray_case_files(pack))
+    return out
+
+
+def _stray_case_files(pack: Pack) -> list[Problem]:
+    """A case file in the pack's own folder for a rule the pack does not have."""
+    from blockqc.rules.cases import case_folder
+
+    folder = case_folder(Path(pack.chain[0]))
+    ids = [r.id for r in pack.rules]
+    out = []
+    for f in sorted(folder.glob("*.yaml")) if folder.is_dir() else []:
+        if f.stem not in ids and f.stem not in pack.disabled:
+            hint = did_you_mean(f.stem, ids)
+            out.append(Problem(str(f), f"cases for {f.stem}, which the pack has no rule for{hint}"))
+    return out
+
+
+def lint(ref: str | Path) -> tuple[Pack | None, list[Problem]]:
+    """Every problem of a pack: its files, its rules, its constants and its cases."""
+    from blockqc.rules.loader import read_pack
+
+    try:
+        pack, problems = read_pack(ref)
+    except RuleError as exc:
+        return None, list(exc.problems)
+    if pack is not None:
+        problems += check_cases(pack)
+    return pack, problems

@@ -1,0 +1,40 @@
+"""Threshold expressions: any text gives a bounded finite number or an ExpressionError."""
+
+from __future__ import annotations
+
+import math
+
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from blockqc.rules.expr import MAX_MAGNITUDE, ExpressionError, evaluate
+
+NAMES = {"norm": {"plane_m": 10.0, "height_m": 6.0}, "tp": {"interval": [1.0, 1.5]}}
+ALPHABET = "0123456789.e+-*/() ,abdgilmnoqrstux_"
+TOKENS = ["sqrt(", "abs(", "min(", "max(", "round(", "norm.plane_m", "tp.interval", "**", "1e308"]
+
+
+@settings(max_examples=400, deadline=None)
+@given(st.lists(st.one_of(st.sampled_from(TOKENS), st.text(ALPHABET, max_size=4)), max_size=80))
+def test_any_text_is_a_bounded_number_or_a_message(parts: list[str]) -> None:
+    text = "".join(parts)
+    try:
+        value = evaluate(text, NAMES)
+    except ExpressionError:
+        return
+    values = value if isinstance(value, list) else [value]
+    assert all(math.isfinite(v) and abs(v) <= MAX_MAGNITUDE for v in values), (text, value)
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.integers(min_value=1, max_value=5000))
+def test_nesting_of_any_depth_is_refused_not_crashing(depth: int) -> None:
+    for text in (
+        "(" * depth + "1" + ")" * depth,
+        "-" * depth + "1",
+        "sqrt(" * depth + "4" + ")" * depth,
+    ):
+        try:
+            evaluate(text, NAMES)
+        except ExpressionError:
+            continue

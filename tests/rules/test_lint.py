@@ -1,0 +1,227 @@
+"""`blockqc rules lint`: every problem of a pack at once, each at its file and line."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from blockqc.errors import RuleError
+from blockqc.rules import load_pack
+from blockqc.rules.lint import lint
+
+
+def _pack(tmp_path: Path, body: str, name: str = "project") -> Path:
+    path = tmp_path / f"{name}.yaml"
+    path.write_text(f"pack: {name}\nextends: global-project\n{body}", "utf-8")
+    return path
+
+
+def _messages(path: Path) -> list[str]:
+    _, problems = lint(path)
+    return [str(p) for p in problems]
+
+
+def test_misspelt_constant_is_refused_with_the_name_it_resembles(tmp_path: Path) -> None:
+    pack = _pack(tmp_path, "constants:\n  norm: {plane: 5}\n")
+    msgs = _messages(pack)
+    assert msgs == [
+        f"{pack}, line 4: constants.norm.plane is not a constant of the pack it extends and is "
+        "used by no rule (did you mean norm.plane_m?)"
+    ]
+    with pytest.raises(RuleError):  # inspect refuses it too: the norm would silently stay 10
+        load_pack(pack)
+
+
+def test_a_new_constant_used_by_a_new_rule_is_fine(tmp_path: Path) -> None:
+    pack = _pack(
+        tmp_path,
+        "constants:\n  mine: {share_pct: 10}\nrules:\n  - id: PR-1\n    title: t\n"
+        "    clause: §TP-3\n    metric: tie_point_errors\n    scope: scene\n"
+        "    statistic: share_in_interval\n    threshold: {max: mine.share_pct}\n",
+    )
+    assert load_pack(pack).rule("PR-1").threshold.max == "mine.share_pct"
+
+
+def test_unknown_disable_does_not_stop_the_lint(tmp_path: Path) -> None:
+    pack = _pack(tmp_path, "disable: [XX-1]\noverrides:\n  TP-1: {statistic: medain}\n")
+    msgs = _messages(pack)
+    assert f"{pack}, line 3: disable: no rule XX-1 to disable" in msgs
+    assert any(
+        m.startswith(
+            f"{pack}, line 5: rule TP-1: metric tie_point_errors at scope block offers no "
+            "statistic 'medain' (did you mean median?)"
+        )  # fmt: skip
+        for m in msgs
+    ), msgs
+
+
+def test_missing_extends_target_names_the_pack_file_and_line(tmp_path: Path) -> None:
+    pack = tmp_path / "p.yaml"
+    pack.write_text("# a project\npack: p\nextends: global-projekt\n", "utf-8")
+    msgs = _messages(pack)
+    assert len(msgs) == 1
+    assert msgs[0].startswith(f"{pack}, line 3: extends: no rule pack 'global-projekt'")
+
+
+@pytest.mark.parametrize(
+    ("value", "got"),
+    [(".nan", "a non-finite number"), (".inf", "a non-finite number"), ("ten", "'ten'")],
+)
+def test_invalid_constant_is_reported_once_at_the_users_line(tmp_path, value, got) -> None:
+    pack = _pack(tmp_path, f"constants:\n  norm:\n    height_m: {value}\n")
+    assert _messages(pack) == [
+        f"{pack}, line 5: constants.norm.height_m: expected a finite number or a list of finite "
+        f"numbers, got {got}"
+    ]
+
+
+def test_where_on_a_column_the_metric_does_not_give(tmp_path: Path) -> None:
+    pack = _pack(
+        tmp_path,
+        "overrides:\n  RO-2: {where: {compnent: plane}}\n  CP-2: {where: {component: plnae}}\n"
+        "  CP-4: {evidence_where: {gros: true}}\n",
+    )
+    msgs = _messages(pack)
+    assert any(
+        m.startswith(
+            f"{pack}, line 4: rule RO-2: where: edge_discrepancy at scope point gives no "
+            "column 'compnent' (did you mean component?)"
+        )  # fmt: skip
+        for m in msgs
+    ), msgs
+    assert any(
+        m.startswith(
+            f"{pack}, line 5: rule CP-2: where.component: no component 'plnae' "
+            "(did you mean plane?)"
+        )  # fmt: skip
+        for m in msgs
+    ), msgs
+    assert any("rule CP-4: evidence_where: checkpoint_accuracy at scope point gives no column "
+               "'gros' (did you mean gross?)" in m for m in msgs), msgs  # fmt: skip
+    assert len(msgs) == 3, msgs
+
+
+def test_thresholds_must_cover_every_group(tmp_path: Path) -> None:
+    pack = _pack(
+        tmp_path,
+        "overrides:\n  RO-3:\n    thresholds:\n      plane: {max: 20}\n"
+        "  RO-4:\n    thresholds:\n      plane: {max: 20}\n      heigth: {max: 20}\n"
+        "  TP-1:\n    thresholds:\n      plane: {max: 1}\n    threshold: null\n",
+    )
+    msgs = _messages(pack)
+    assert (
+        f"{pack}, line 5: rule RO-3: thresholds: no threshold for component height (give one "
+        "per value of component: plane, height, or filter with where:)" in msgs
+    ), msgs
+    assert any("rule RO-4: thresholds.heigth: no group 'heigth' (did you mean height?)" in m
+               for m in msgs), msgs  # fmt: skip
+    assert any(
+        "rule TP-1: thresholds: metric tie_point_errors at scope block has no groups" in m
+        for m in msgs
+    ), msgs
+
+
+def test_thresholds_of_one_group_after_where_are_enough(tmp_path: Path) -> None:
+    pack = _pack(
+        tmp_path,
+        "overrides:\n  RO-3:\n    where: {component: plane}\n    thresholds:\n"
+        "      plane: {max: 20}\n",
+    )
+    assert _messages(pack) == []
+
+
+def test_ids_are_unique_regardless_of_case(tmp_path: Path) -> None:
+    pack = _pack(
+        tmp_path,
+        "rules:\n  - id: TP-1\n    title: t\n    clause: §TP-1\n    manual: true\n"
+        "  - id: PR-1a\n    title: t\n    clause: §TP-1\n    manual: true\n"
+        "  - id: PR-1A\n    title: t\n    clause: §TP-1\n    manual: true\n",
+    )
+    msgs = _messages(pack)
+    assert any("line 4: rules.0: rule TP-1 is already defined as TP-1" in m for m in msgs), msgs
+    assert any("line 12: rules.2: rule PR-1A is already defined as PR-1a" in m for m in msgs)
+
+
+def test_a_rule_without_cases(tmp_path: Path) -> None:
+    pack = _pack(
+        tmp_path,
+        "rules:\n  - id: PR-1\n    title: t\n    clause: §TP-1\n    manual: true\n"
+        "  - id: PR-2\n    title: t\n    clause: §TP-1\n    manual: true\n",
+    )
+    cases = tmp_path / "project.cases"
+    cases.mkdir()
+    (cases / "PR-2.yaml").write_text(
+        "rule: PR-2\ncases:\n  - name: awaiting\n    expect: manual\n"
+        "  - name: accepted\n    verdicts: {verdicts: {PR-2: {status: pass}}}\n    expect: pass\n",
+        "utf-8",
+    )
+    (cases / "PR-9.yaml").write_text("rule: PR-9\ncases: [{name: x, expect: pass}]\n", "utf-8")
+    msgs = _messages(pack)
+    assert msgs[:2] == [
+        f"{pack}, line 4: rule PR-1 has no cases: write {cases / 'PR-1.yaml'} with a passing "
+        "and a failing case",
+        f"{cases / 'PR-2.yaml'}: rule PR-2: no failing case (expect: fail)",
+    ]
+    assert len(msgs) == 3
+    assert msgs[2].startswith(f"{cases / 'PR-9.yaml'}: cases for PR-9, which the pack has no rule")
+
+
+def test_broken_case_file_is_named_with_its_line(tmp_path: Path) -> None:
+    pack = _pack(
+        tmp_path, "rules:\n  - id: PR-1\n    title: t\n    clause: §TP-1\n    manual: true\n"
+    )
+    cases = tmp_path / "project.cases"
+    cases.mkdir()
+    (cases / "PR-1.yaml").write_text(
+        "rule: PR-1\ncases:\n  - name: a\n    expect: pass\n    query: 'line > 3'\n", "utf-8"
+    )
+    assert _messages(pack) == [f"{cases / 'PR-1.yaml'}, line 5: cases.0.query: unknown key"]
+
+
+@pytest.mark.parametrize(
+    ("expr", "why"),
+    [
+        ("9" * 150, "a literal beyond"),
+        ("1e300 * 1e300", "not a finite number"),
+        ("+".join(["1"] * 90), "terms and operators"),
+        ("-" * 30 + "1", "nested more than"),
+        ("(" * 150 + "1" + ")" * 150, "characters long"),
+        ("2 ** 2 ** 2 ** 2 ** 2", "exponent 65536"),
+    ],
+)
+def test_expressions_are_bounded_before_evaluation(tmp_path: Path, expr: str, why: str) -> None:
+    pack = _pack(tmp_path, f'overrides:\n  TP-2:\n    threshold: {{max: "{expr}"}}\n')
+    msgs = _messages(pack)
+    assert len(msgs) == 1 and msgs[0].startswith(f"{pack}, line 5: rule TP-2: threshold.max"), msgs
+    assert why in msgs[0], msgs
+
+
+def test_lint_command_lists_every_problem(blockqc, tmp_path: Path) -> None:
+    pack = _pack(tmp_path, "constants:\n  norm: {plane: 5}\ndisable: [XX-1]\n")
+    p = blockqc("rules", "lint", pack)
+    assert p.returncode == 2 and "Traceback" not in p.stderr
+    assert "did you mean norm.plane_m?" in p.stderr
+    assert "disable: no rule XX-1 to disable" in p.stderr
+
+
+def test_figures_naming_other_metrics_are_checked(tmp_path: Path) -> None:
+    """DOC-2's figures name a metric, scope, statistic and filter: checked like a rule's."""
+    pack = _pack(
+        tmp_path,
+        "overrides:\n  DOC-2:\n    params:\n      figures:\n"
+        "        tie_point_error_px: {metric: tie_point_erors, statistic: median}\n"
+        "        tie_point_rms_px: {metric: tie_point_errors, statistic: rsm}\n"
+        "        relative_orientation_rms_m: {metric: overlap_discrepancy, scope: component,\n"
+        "                                     where: {component: plnae}, statistic: rms_m}\n",
+    )
+    msgs = _messages(pack)
+    head = f"{pack}, line {{}}: rule DOC-2: params.figures."
+    assert msgs == [
+        head.format(7) + "tie_point_error_px.metric: unknown metric 'tie_point_erors' "
+        "(did you mean tie_point_errors?)",
+        head.format(8) + "tie_point_rms_px.statistic: tie_point_errors at scope block gives no "
+        "'rsm' (did you mean rms?)",
+        head.format(10) + "relative_orientation_rms_m.where.component: no component 'plnae' "
+        "(did you mean plane?) (values: plane, height)",
+    ]

@@ -1,0 +1,110 @@
+"""A project adds a rule in one place: its pack file and the cases beside it, no Python."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from blockqc.rules import load_pack
+from blockqc.rules.model import Rule
+
+# "≤ 10 % of each PAN scene's tie-point observations above 1 px": the share in (1 px, 1000 px]
+RULE = """\
+pack: scene-share
+version: "1.0"
+extends: global-project
+constants:
+  scene: {max_share_above_1px_pct: 10}
+rules:
+  - id: PR-1
+    title: At most 10 % of each scene's tie points above 1 px
+{title_zh}    clause: §TP-3
+    quality_element: attachment quality
+    content: report
+    description: The share of a PAN scene's tie-point observations with errors above 1 px.
+    metric: tie_point_errors
+    params: {bands: [pan], interval_px: [1.0, 1000.0]}
+    scope: scene
+    statistic: share_in_interval
+    threshold: {max: scene.max_share_above_1px_pct}
+    unit: "%"
+"""
+
+# the base delivery has 121 observations per PAN scene, all at 0.3 px (casebase.py)
+CASES = """\
+rule: PR-1
+cases:
+  - name: no observation above 1 px
+    expect: pass
+    value: 0.0
+  - name: 12 of S1's 121 observations at 1.2 px (9.92 %)
+    set: {tie_points: [{where: {scene_id: S1, point_id: {lt: PS1-012}},
+                        values: {v_line: 1.2, v_sample: 0.0}}]}
+    expect: pass
+  - name: 13 of S1's 121 observations at 1.2 px (10.74 %)
+    set: {tie_points: [{where: {scene_id: S1, point_id: {lt: PS1-013}},
+                        values: {v_line: 1.2, v_sample: 0.0}}]}
+    expect: fail
+    value: 10.743801653
+    evidence: [{scene_id: S1}]
+"""
+
+
+def write_project(folder: Path, cases: str = CASES) -> Path:
+    """The project pack and its cases file beside it (project.cases/PR-1.yaml)."""
+    title_zh = "    title_zh: 每景影像连接点误差大于1像素的比例不超过10%\n"
+    pack = folder / "project.yaml"
+    pack.write_text(
+        RULE.replace("{title_zh}", title_zh if "title_zh" in Rule.model_fields else ""), "utf-8"
+    )
+    (folder / "project.cases").mkdir(exist_ok=True)
+    (folder / "project.cases" / "PR-1.yaml").write_text(cases, "utf-8")
+    return pack
+
+
+def test_project_rule_with_its_cases_lints_and_tests(blockqc, tmp_path: Path) -> None:
+    pack = write_project(tmp_path)
+    stock = len(load_pack("global-project").rules)
+    p = blockqc("rules", "lint", pack)
+    assert p.returncode == 0, p.stderr
+    assert f"{pack}: {stock + 1} rules, ok" in p.stdout
+    p = blockqc("rules", "test", pack, "--own")
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert p.stdout.count("pass  PR-1") == 3
+    assert "3 cases, 0 failed" in p.stdout
+    rule = load_pack(pack).rule("PR-1")
+    assert rule.content == "report" and rule.quality_element == "attachment quality"
+
+
+def test_rules_test_exits_1_on_a_failing_case(blockqc, tmp_path: Path) -> None:
+    wrong = CASES.replace("value: 10.743801653", "value: 10.0")
+    pack = write_project(tmp_path, wrong)
+    p = blockqc("rules", "test", pack, "--own")
+    assert p.returncode == 1
+    assert "FAIL  PR-1" in p.stdout and "3 cases, 1 failed" in p.stdout
+    assert f"{tmp_path / 'project.cases' / 'PR-1.yaml'}, line 10: expected value 10.0" in p.stdout
+
+
+@pytest.mark.parametrize(
+    ("broken", "where", "what"),
+    [
+        ("    expect: passs\n", "line 4", "cases.0.expect"),
+        (
+            "    set: {tie_points: [{where: {scene: S1}, values: {v_line: 2}}]}\n",
+            "line 3",
+            "tie_points has no column 'scene'",
+        ),  # fmt: skip
+        ("    files: {../outside.txt: x}\n", "line 3", "outside the delivery"),
+    ],
+)
+def test_rules_test_exits_2_on_a_broken_case_file(blockqc, tmp_path, broken, where, what) -> None:
+    text = "rule: PR-1\ncases:\n  - name: broken\n" + broken
+    if "expect" not in broken:
+        text += "    expect: pass\n"
+    pack = write_project(tmp_path, text)
+    p = blockqc("rules", "test", pack, "--own")
+    assert p.returncode == 2 and "Traceback" not in p.stderr
+    assert f"{tmp_path / 'project.cases' / 'PR-1.yaml'}, {where}" in p.stderr, p.stderr
+    assert what in p.stderr
+    assert not (tmp_path / "outside.txt").exists()
