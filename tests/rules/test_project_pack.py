@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
+from markupsafe import escape
 
+from blockqc.report.build import block_context
 from blockqc.rules import load_pack
-from blockqc.rules.model import Rule
 
 # "≤ 10 % of each PAN scene's tie-point observations above 1 px": the share in (1 px, 1000 px]
 RULE = """\
@@ -19,9 +21,9 @@ constants:
 rules:
   - id: PR-1
     title: At most 10 % of each scene's tie points above 1 px
-{title_zh}    clause: §TP-3
-    quality_element: attachment quality
-    content: report
+    title_zh: 每景影像连接点误差大于1像素的比例不超过10%
+    clause: §TP-3
+    content: ro_report
     description: The share of a PAN scene's tie-point observations with errors above 1 px.
     metric: tie_point_errors
     params: {bands: [pan], interval_px: [1.0, 1000.0]}
@@ -53,11 +55,8 @@ cases:
 
 def write_project(folder: Path, cases: str = CASES) -> Path:
     """The project pack and its cases file beside it (project.cases/PR-1.yaml)."""
-    title_zh = "    title_zh: 每景影像连接点误差大于1像素的比例不超过10%\n"
     pack = folder / "project.yaml"
-    pack.write_text(
-        RULE.replace("{title_zh}", title_zh if "title_zh" in Rule.model_fields else ""), "utf-8"
-    )
+    pack.write_text(RULE, "utf-8")
     (folder / "project.cases").mkdir(exist_ok=True)
     (folder / "project.cases" / "PR-1.yaml").write_text(cases, "utf-8")
     return pack
@@ -74,7 +73,7 @@ def test_project_rule_with_its_cases_lints_and_tests(blockqc, tmp_path: Path) ->
     assert p.stdout.count("pass  PR-1") == 3
     assert "3 cases, 0 failed" in p.stdout
     rule = load_pack(pack).rule("PR-1")
-    assert rule.content == "report" and rule.quality_element == "attachment quality"
+    assert rule.content == {"ro_report": {}}
 
 
 def test_rules_test_exits_1_on_a_failing_case(blockqc, tmp_path: Path) -> None:
@@ -108,3 +107,31 @@ def test_rules_test_exits_2_on_a_broken_case_file(blockqc, tmp_path, broken, whe
     assert f"{tmp_path / 'project.cases' / 'PR-1.yaml'}, {where}" in p.stderr, p.stderr
     assert what in p.stderr
     assert not (tmp_path / "outside.txt").exists()
+
+
+def test_a_project_rule_is_reported_under_its_content_in_both_languages(blockqc, tmp_path):
+    """The same pack on a sample block: the report places the rule under its content."""
+    pack = write_project(tmp_path)
+    stock = Path(__file__).resolve().parents[2] / "samples" / "batch" / "F1-B01"
+    for lang in ("en", "zh"):
+        out = tmp_path / f"out-{lang}"
+        proc = blockqc(
+            "inspect", stock, "--rules", pack, "--out", out,
+            "--lang", lang, "--no-pdf",
+        )  # fmt: skip
+        assert proc.returncode == 0, proc.stderr
+        results = json.loads((out / "F1-B01" / "results.json").read_text(encoding="utf-8"))
+        mine = [r for r in results["results"] if r["rule"] == "PR-1"]
+        assert [r["status"] for r in mine] == ["pass"] and mine[0]["content"] == ["ro_report"]
+        ctx = block_context(results, lang)
+        placed = {
+            c["name"]: [x["rule"] for x in c["results"]]
+            for e in ctx["elements"]
+            for i in e["items"]
+            for c in i["contents"]
+        }
+        name = "相对定向精度报告" if lang == "zh" else "Relative orientation accuracy report"
+        assert placed[name] == ["TP-1", "TP-2", "TP-3", "DOC-2", "PR-1"] and not ctx["others"]
+        html = (out / "F1-B01" / "report.html").read_text(encoding="utf-8")
+        title = "每景影像连接点误差大于1像素的比例不超过10%" if lang == "zh" else "At most 10 %"
+        assert escape(title) in html

@@ -392,8 +392,8 @@ def scene_counts(
     table = pd.DataFrame(scenes)
     ids = table["scene_id"].astype(str)
     counts = pd.to_numeric(table.get("n_points"), errors="coerce").fillna(0).to_numpy(float)
-    marks = ids.map(status)
-    colours = marks.map(STATUS_COLOURS).fillna("#7a9cc6").tolist()
+    marks = ids.map(status).astype(object)
+    colours = marks.map(STATUS_COLOURS).astype(object).fillna("#7a9cc6").tolist()
     _bars(ax, counts, colours)
     line = None
     if minimum is not None:
@@ -451,7 +451,7 @@ def footprints(
     fig, ax = _figure(4.4, 5.6)
     rings, owner = _rings([s.get("footprint_wkt") for s in scenes])
     ids = [str(s["scene_id"]) for s in scenes]
-    st = pd.Series(np.asarray(ids, dtype=object)[owner]).map(status).fillna("pass")
+    st = pd.Series(np.asarray(ids, dtype=object)[owner]).map(status).astype(object).fillna("pass")
     highlight = ~st.isin(["pass", "other"]).to_numpy()
     for layer, alpha, lw, z in ((~highlight, 0.12, 0.6, 2), (highlight, 0.35, 1.3, 3)):
         idx = np.flatnonzero(layer)
