@@ -1,4 +1,9 @@
-"""Inspecting many deliveries: per-block outputs and the batch summary (contract v1)."""
+"""Inspecting many deliveries: per-block outputs and the batch summary (contract v1).
+
+Each delivery is inspected and written by a `Job` — in this process, in a pool of processes
+(`--jobs`) or on a dask.distributed cluster (`--scheduler`) — which hands back only the block's
+line of the summary: a batch never holds the results of all its blocks.
+"""
 
 from __future__ import annotations
 
@@ -7,9 +12,9 @@ from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 from blockqc import __version__
+from blockqc.cache import Cached, delivery_fingerprint, read_cached, write_cached
 from blockqc.delivery import MANIFEST, Manifest, find_deliveries, load_delivery, load_manifest
 from blockqc.engine import inspect_delivery
 from blockqc.errors import InputError, Problem
@@ -27,14 +32,19 @@ from blockqc.results import (
 )
 from blockqc.rules.model import Pack
 
+PDF_POLICIES = ("all", "failing", "sampled", "none")
+
 
 @dataclass
 class Outcome:
-    """One delivery's fate: its results, or the problems that kept it from being inspected."""
+    """One delivery's fate: its line of the summary, or the problems that kept it from being
+    inspected. `rules` counts its results per rule and status; `cached` when reused unchanged."""
 
     path: Path
-    results: BlockResults | None = None
+    entry: BlockEntry | None = None
+    rules: dict[str, dict[str, int]] = field(default_factory=dict)
     problems: list[Problem] = field(default_factory=list)
+    cached: bool = False
 
 
 @dataclass
@@ -75,69 +85,54 @@ def collect(paths: Iterable[Path]) -> Collected:
 
 def inspect_one(
     path: Path, pack: Pack, inspector: InspectorInput | None, manifest: Manifest | None = None
-) -> Outcome:
-    try:
-        delivery = load_delivery(path, manifest=manifest)
-    except InputError as exc:
-        return Outcome(path, problems=exc.problems)
+) -> BlockResults:
+    """Read one delivery (InputError when it cannot be) and judge every rule of the pack."""
+    delivery = load_delivery(path, manifest=manifest)
     block_input = inspector.for_block(delivery.block_id) if inspector else None
-    results = inspect_delivery(
-        delivery, pack, block_input, inspector.inspector if inspector else None
-    )
-    return Outcome(path, results)
+    return inspect_delivery(delivery, pack, block_input, inspector.inspector if inspector else None)
 
 
 @dataclass(frozen=True)
 class Writer:
-    """Where and how the outputs are written."""
+    """Where and how the outputs are written; `pdf` is one of PDF_POLICIES."""
 
     out: Path
     templates: Path | None = None
     lang: str = "en"
-    pdf: bool = True
+    pdf: str = "all"
 
-    def block(self, results: BlockResults) -> Path:
-        """results.json first; the report is rendered from it (never beside it)."""
+    def wants_pdf(self, results: BlockResults) -> bool:
+        if self.pdf == "failing":
+            return block_fails(results.verdict)
+        if self.pdf == "sampled":
+            return results.summary.get("checkpoints", 0) > 0
+        return self.pdf == "all"
+
+    def block(self, results: BlockResults) -> bool:
+        """results.json first, the report rendered from it; whether a PDF was written."""
         folder = self.out / results.block_id
         write_json_atomic(folder / "results.json", results)
-        write_block_report(folder, results, lang=self.lang, templates=self.templates, pdf=self.pdf)
-        return folder
+        pdf = self.wants_pdf(results)
+        write_block_report(folder, results, lang=self.lang, templates=self.templates, pdf=pdf)
+        if not pdf:
+            (folder / "report.pdf").unlink(missing_ok=True)  # never a stale PDF beside
+        return pdf
 
     def summary(self, summary: Summary) -> None:
         write_json_atomic(self.out / "summary.json", summary)
         write_summary_report(
-            self.out, summary, lang=self.lang, templates=self.templates, pdf=self.pdf
+            self.out, summary, lang=self.lang, templates=self.templates, pdf=self.pdf != "none"
         )
 
 
-@dataclass(frozen=True)
-class Job:
-    """Inspect one delivery and write its outputs (runs in a worker process with --jobs)."""
-
-    pack: Pack
-    inspector: InspectorInput | None
-    writer: Writer
-
-    def __call__(self, path: Path, manifest: Manifest | None = None) -> Outcome:
-        try:
-            o = inspect_one(path, self.pack, self.inspector, manifest)
-            if o.results is not None:
-                self.writer.block(o.results)
-            return o
-        except Exception as exc:  # one block's failure must not stop the batch
-            reason = f"could not be inspected: {type(exc).__name__}: {exc}"
-            return Outcome(path, problems=[Problem(str(path), reason)])
-
-
-def block_entry(o: Outcome) -> BlockEntry:
+def block_entry(path: Path, r: BlockResults, pdf: bool) -> BlockEntry:
     """A block's line in the summary, with the checkpoint statistics of sampled blocks."""
-    r = o.results
-    assert r is not None
-    cps = checkpoint_rows(r)
+    from blockqc.report.overview import block_extent
+
     return BlockEntry(
         block_id=r.block_id,
         verdict=r.verdict,
-        path=str(o.path),
+        path=str(path),
         results=f"{r.block_id}/results.json",
         report=f"{r.block_id}/report.html",
         sampled=r.summary.get("checkpoints", 0) > 0,
@@ -145,8 +140,51 @@ def block_entry(o: Outcome) -> BlockEntry:
         warned_rules=sorted({x.rule for x in r.results if x.status == "warn"}),
         pending_manual=r.pending_manual,
         counts=r.counts,
-        checkpoints=cps,
+        checkpoints=checkpoint_rows(r),
+        extent_wkt=block_extent(r.scenes),
+        pdf=pdf,
     )
+
+
+def rule_counts(r: BlockResults) -> dict[str, dict[str, int]]:
+    out: dict[str, dict[str, int]] = {}
+    for res in r.results:
+        out.setdefault(res.rule, dict.fromkeys(STATUSES, 0))[res.status] += 1
+    return out
+
+
+@dataclass(frozen=True)
+class Job:
+    """Inspect one delivery and write its outputs; runs here, in a worker process or on a dask
+    worker. With `digest` (incremental mode) an unchanged delivery's outputs are reused."""
+
+    pack: Pack
+    inspector: InspectorInput | None
+    writer: Writer
+    digest: str | None = None
+
+    def __call__(self, path: Path, manifest: Manifest | None = None) -> Outcome:
+        try:
+            key = self._key(path, manifest)
+            if key and (hit := read_cached(self.writer.out / manifest.block_id, key)):
+                return Outcome(path, hit.entry, hit.rules, cached=True)
+            results = inspect_one(path, self.pack, self.inspector, manifest)
+            pdf = self.writer.block(results)
+            o = Outcome(path, block_entry(path, results, pdf), rule_counts(results))
+            if key:
+                write_cached(self.writer.out / results.block_id, Cached(key, o.entry, o.rules))
+            return o
+        except InputError as exc:
+            return Outcome(path, problems=exc.problems)
+        except Exception as exc:  # one block's failure must not stop the batch
+            reason = f"could not be inspected: {type(exc).__name__}: {exc}"
+            return Outcome(path, problems=[Problem(str(path), reason)])
+
+    def _key(self, path: Path, manifest: Manifest | None) -> str | None:
+        if self.digest is None or manifest is None:
+            return None
+        block_input = self.inspector.for_block(manifest.block_id) if self.inspector else None
+        return delivery_fingerprint(path, self.digest, block_input)
 
 
 def summarize(outcomes: list[Outcome], pack: Pack, inspector: InspectorInput | None) -> Summary:
@@ -155,12 +193,14 @@ def summarize(outcomes: list[Outcome], pack: Pack, inspector: InspectorInput | N
     rejected: list[Rejected] = []
     rules: dict[str, dict[str, int]] = {r.id: dict.fromkeys(STATUSES, 0) for r in pack.rules}
     for o in outcomes:
-        if o.results is None:
+        if o.entry is None:
             rejected.append(Rejected(path=str(o.path), problems=[str(p) for p in o.problems]))
             continue
-        for res in o.results.results:
-            rules.setdefault(res.rule, dict.fromkeys(STATUSES, 0))[res.status] += 1
-        blocks.append(block_entry(o))
+        for rid, counts in o.rules.items():
+            mine = rules.setdefault(rid, dict.fromkeys(STATUSES, 0))
+            for status, n in counts.items():
+                mine[status] += n
+        blocks.append(o.entry)
     failing = [b for b in blocks if block_fails(b.verdict)]
     verdict = "error" if rejected else "fail" if failing else "pass"
     return Summary(
@@ -184,16 +224,26 @@ def summarize(outcomes: list[Outcome], pack: Pack, inspector: InspectorInput | N
     )
 
 
-def _inspect_all(got: Collected, job: Job, jobs: int, finished: Callable[[Outcome], None]) -> None:
-    todo = [p for p in got.deliveries if p not in got.refused]
-    if jobs > 1 and len(todo) > 1:
-        with ProcessPoolExecutor(max_workers=min(jobs, len(todo))) as pool:
-            futures = [pool.submit(job, p, got.manifests.get(p)) for p in todo]
-            for future in as_completed(futures):
-                finished(future.result())
-    else:
-        for p in todo:
-            finished(job(p, got.manifests.get(p)))
+@dataclass(frozen=True)
+class Runner:
+    """Where the jobs run: here, `jobs` local processes, or a dask scheduler ('local' or an
+    address such as tcp://host:8786)."""
+
+    jobs: int = 1
+    scheduler: str | None = None
+
+    def run(self, job: Job, todo: list[tuple[Path, Manifest | None]], done: Callable) -> None:
+        if self.scheduler:
+            from blockqc.distributed import run_on_dask
+
+            run_on_dask(self.scheduler, job, todo, done)
+        elif self.jobs > 1 and len(todo) > 1:
+            with ProcessPoolExecutor(max_workers=min(self.jobs, len(todo))) as pool:
+                for future in as_completed([pool.submit(job, p, m) for p, m in todo]):
+                    done(future.result())
+        else:
+            for p, m in todo:
+                done(job(p, m))
 
 
 def run(
@@ -202,14 +252,16 @@ def run(
     writer: Writer,
     inspector: InspectorInput | None = None,
     *,
-    jobs: int = 1,
+    runner: Runner | None = None,
+    incremental: bool = False,
     progress: Callable[[Outcome], None] | None = None,
 ) -> tuple[list[Outcome], Summary | None]:
     """Inspect every delivery collected, writing its outputs as it goes; for a batch, the summary.
 
-    With jobs > 1 the deliveries are inspected in that many processes; outcomes keep the order
-    of the deliveries.
+    Outcomes keep the order of the deliveries, whatever order the jobs finish in.
     """
+    from blockqc.cache import run_digest
+
     done: dict[Path, Outcome] = {}
 
     def finished(o: Outcome) -> None:
@@ -219,7 +271,9 @@ def run(
 
     for p, problem in got.refused.items():
         finished(Outcome(p, problems=[problem]))
-    _inspect_all(got, Job(pack, inspector, writer), jobs, finished)
+    digest = run_digest(pack, writer) if incremental else None
+    todo = [(p, got.manifests.get(p)) for p in got.deliveries if p not in got.refused]
+    (runner or Runner()).run(Job(pack, inspector, writer, digest), todo, finished)
     outcomes = [done[p] for p in got.deliveries]
     summary = None
     if got.is_batch:
@@ -230,23 +284,19 @@ def run(
 
 def exit_status(outcomes: list[Outcome]) -> int:
     """0 every block passes, 1 some block fails, 2 something could not be read or judged."""
-    if any(o.results is None or o.results.verdict == "error" for o in outcomes):
+    if any(o.entry is None or o.entry.verdict == "error" for o in outcomes):
         return 2
-    return 1 if any(block_fails(o.results.verdict) for o in outcomes) else 0
+    return 1 if any(block_fails(o.entry.verdict) for o in outcomes) else 0
 
 
-def outcome_line(o: Outcome) -> dict[str, Any]:
-    """What the command line prints of one outcome."""
-    if o.results is None:
-        return {"path": str(o.path), "problems": len(o.problems)}
-    r = o.results
-    return {
-        "block_id": r.block_id,
-        "verdict": r.verdict,
-        "failed": sorted({x.rule for x in r.results if x.status in ("fail", "error")}),
-        "warned": sorted({x.rule for x in r.results if x.status == "warn"}),
-        "pending": r.pending_manual,
-    }
-
-
-__all__ = ["Collected", "Outcome", "Writer", "collect", "exit_status", "run", "summarize"]
+__all__ = [
+    "Collected",
+    "Job",
+    "Outcome",
+    "Runner",
+    "Writer",
+    "collect",
+    "exit_status",
+    "run",
+    "summarize",
+]

@@ -84,10 +84,22 @@ def cli() -> None:
     help="Language of the reports.",
 )
 @click.option(
-    "--pdf/--no-pdf",
-    default=True,
+    "--pdf",
+    type=click.Choice(["all", "failing", "sampled", "none"]),
+    default="all",
     show_default=True,
-    help="Write report.pdf beside report.html (and summary.pdf for a batch).",
+    help="Blocks whose report.pdf is written beside report.html (summary.pdf unless none).",
+)
+@click.option("--no-pdf", is_flag=True, help="The same as --pdf none.")
+@click.option(
+    "--incremental",
+    is_flag=True,
+    help="Reuse the outputs of blocks whose delivery, verdicts, pack and options are unchanged.",
+)
+@click.option(
+    "--scheduler",
+    metavar="local|tcp://HOST:PORT",
+    help="Run the blocks as tasks on dask.distributed: a LocalCluster, or a running scheduler.",
 )
 @click.option(
     "--jobs",
@@ -109,7 +121,10 @@ def inspect_cmd(
     out: Path,
     templates: Path | None,
     lang: str,
-    pdf: bool,
+    pdf: str,
+    no_pdf: bool,
+    incremental: bool,
+    scheduler: str | None,
     jobs: int,
     progress: bool | None,
 ) -> int:
@@ -123,11 +138,12 @@ def inspect_cmd(
     pack = load_pack(rules_ref)
     inspector = load_inspector_input(verdicts) if verdicts else None
     got = batch.collect(paths)
-    writer = batch.Writer(out, templates, lang, pdf)
+    writer = batch.Writer(out, templates, lang, "none" if no_pdf else pdf)
+    runner = batch.Runner(jobs or os.cpu_count() or 1, scheduler)
     show = sys.stderr.isatty() if progress is None else progress
     with _progress(len(got.deliveries) if show else 0) as tick:
         outcomes, summary = batch.run(
-            got, pack, writer, inspector, jobs=jobs or os.cpu_count() or 1, progress=tick
+            got, pack, writer, inspector, runner=runner, incremental=incremental, progress=tick
         )
     _closing_lines(outcomes, summary, out)
     return batch.exit_status(outcomes)
@@ -135,16 +151,15 @@ def inspect_cmd(
 
 def _outcome_line(o) -> str:
     """One line per delivery: the verdict and the rules behind it, or why it was not read."""
-    from blockqc.batch import outcome_line
-
-    d = outcome_line(o)
-    if "problems" in d:
-        return click.style(f"{d['path']}  UNREADABLE  ({d['problems']} problem(s))", fg="red")
-    notes = [f"failed: {', '.join(d['failed'])}"] if d["failed"] else []
-    notes += [f"warnings: {', '.join(d['warned'])}"] if d["warned"] else []
-    notes += [f"awaiting the inspector: {', '.join(d['pending'])}"] if d["pending"] else []
-    verdict = click.style(f"{d['verdict'].upper():5}", fg=STATUS_STYLE.get(d["verdict"]), bold=True)
-    return f"{d['block_id']:12} {verdict}  " + "; ".join(notes)
+    e = o.entry
+    if e is None:
+        return click.style(f"{o.path}  UNREADABLE  ({len(o.problems)} problem(s))", fg="red")
+    notes = [f"failed: {', '.join(e.failed_rules)}"] if e.failed_rules else []
+    notes += [f"warnings: {', '.join(e.warned_rules)}"] if e.warned_rules else []
+    notes += [f"awaiting the inspector: {', '.join(e.pending_manual)}"] if e.pending_manual else []
+    notes += ["unchanged, outputs reused"] if o.cached else []
+    verdict = click.style(f"{e.verdict.upper():5}", fg=STATUS_STYLE.get(e.verdict), bold=True)
+    return f"{e.block_id:12} {verdict}  " + "; ".join(notes)
 
 
 @contextlib.contextmanager
@@ -180,7 +195,7 @@ def _closing_lines(outcomes, summary, out: Path) -> None:
             f"{c.blocks} blocks: {c.pass_} pass, {c.fail} fail, "
             f"{c.unreadable} unreadable — {out / 'summary.html'}"
         )
-    elif all(o.results is None for o in outcomes):
+    elif all(o.entry is None for o in outcomes):
         click.echo("nothing was written: the delivery could not be inspected", err=True)
     else:
         click.echo(f"results in {out}")

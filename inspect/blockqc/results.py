@@ -146,6 +146,8 @@ class BlockEntry(_Model):
     counts: dict[Status, int] = Field(default_factory=dict)
     # a sampled block's checkpoint statistics per component and method, with their status
     checkpoints: list[dict[str, Any]] = Field(default_factory=list)
+    extent_wkt: str | None = None  # the block's footprint (lon/lat), for the overview map
+    pdf: bool = False  # report.pdf written beside report.html
 
 
 class Rejected(_Model):

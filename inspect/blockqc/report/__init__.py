@@ -7,7 +7,7 @@ from pathlib import Path
 from blockqc.outputs import write_bytes_atomic, write_text_atomic
 from blockqc.report.build import block_context, summary_context
 from blockqc.report.checkpoints import checkpoint_rows
-from blockqc.report.exports import checkpoints_csv, evidence_csv
+from blockqc.report.exports import checkpoints_csv, evidence_csv, summary_csv, summary_parquet
 from blockqc.report.html import environment, render_page
 from blockqc.report.messages import LANGUAGES
 from blockqc.report.plots import FOR_PRINT
@@ -66,9 +66,15 @@ def write_summary_report(
     out = Path(out)
     summary = Summary.model_validate(summary)
     env = environment(templates)
-    ctx = summary_context(summary, lang, pdf=pdf)
+    token = FOR_PRINT.set(pdf)
+    try:
+        ctx = summary_context(summary, lang, pdf=pdf)
+    finally:
+        FOR_PRINT.reset(token)
     write_text_atomic(out / "summary.html", render_page("summary.html.j2", ctx, env))
-    written = [out / "summary.html"]
+    write_text_atomic(out / "summary.csv", summary_csv(summary))
+    write_bytes_atomic(out / "summary.parquet", summary_parquet(summary))
+    written = [out / "summary.html", out / "summary.csv", out / "summary.parquet"]
     if pdf:
         from blockqc.report.pdf import html_to_pdf
 

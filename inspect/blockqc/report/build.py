@@ -14,6 +14,7 @@ from blockqc.report.contents import content_rows
 from blockqc.report.figures import block_figures, scene_statuses
 from blockqc.report.format import Formatter
 from blockqc.report.messages import MESSAGES
+from blockqc.report.overview import overview_map
 from blockqc.results import (
     STATUSES,
     BlockResults,
@@ -297,7 +298,7 @@ def _summary_block(b: Any, f: Formatter, pdf: bool) -> dict[str, Any]:
     return {
         **b.model_dump(by_alias=True),
         "verdict_text": f.verdict(b.verdict),
-        "pdf": b.report[: -len(".html")] + ".pdf" if pdf and b.report.endswith(".html") else None,
+        "pdf": b.report[: -len(".html")] + ".pdf" if b.pdf and b.report.endswith(".html") else None,
         "sampled_text": f.num(b.sampled),
         "failed": ", ".join(b.failed_rules),
         "warned": ", ".join(b.warned_rules),
@@ -324,7 +325,7 @@ def _sampled_row(b: Any, s: dict[str, Any], f: Formatter) -> dict[str, Any]:
 
 
 def summary_context(
-    summary: Summary | dict[str, Any], lang: str = "en", pdf: bool = True
+    summary: Summary | dict[str, Any], lang: str = "en", pdf: bool = True, figures: bool = True
 ) -> dict[str, Any]:
     """Everything summary.html.j2 shows: verdicts, counts per rule, the sampled blocks."""
     summary = Summary.model_validate(summary)
@@ -349,6 +350,7 @@ def summary_context(
             unreadable=c.unreadable,
         ),
         "blocks": [_summary_block(b, f, pdf) for b in summary.blocks],
+        "overview": overview_map(summary.blocks, t, "overview") if figures else None,
         "sampled": sampled,
         "any_mean": any(x["used_mean"] for x in sampled),
         "rule_statuses": [f.status(s) for s in STATUSES],

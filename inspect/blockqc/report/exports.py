@@ -8,7 +8,7 @@ import json
 from typing import Any
 
 from blockqc.report.checkpoints import checkpoint_points
-from blockqc.results import BlockResults
+from blockqc.results import STATUSES, BlockResults, Summary
 
 CHECKPOINT_COLUMNS = [
     "component",
@@ -93,4 +93,41 @@ def evidence_csv(results: BlockResults) -> str:
     return _csv(_union(EVIDENCE_COLUMNS, rows), rows)
 
 
-__all__ = ["checkpoints_csv", "evidence_csv"]
+SUMMARY_COLUMNS = ["block_id", "verdict", "sampled", "failed_rules", "warned_rules",
+                   "pending_manual", *(f"n_{s}" for s in STATUSES), "report", "path"]  # fmt: skip
+
+
+def summary_rows(summary: Summary) -> list[dict[str, Any]]:
+    """One row per block of the batch (lists joined with spaces), for spreadsheets."""
+    return [
+        {
+            "block_id": b.block_id,
+            "verdict": b.verdict,
+            "sampled": b.sampled,
+            "failed_rules": " ".join(b.failed_rules),
+            "warned_rules": " ".join(b.warned_rules),
+            "pending_manual": " ".join(b.pending_manual),
+            **{f"n_{s}": b.counts.get(s, 0) for s in STATUSES},
+            "report": b.report,
+            "path": b.path,
+        }
+        for b in summary.blocks
+    ]
+
+
+def summary_csv(summary: Summary) -> str:
+    return _csv(SUMMARY_COLUMNS, summary_rows(summary))
+
+
+def summary_parquet(summary: Summary) -> bytes:
+    """The same table as Parquet (typed columns), for analysis tools."""
+    import io as _io
+
+    import pandas as pd
+
+    buf = _io.BytesIO()
+    pd.DataFrame(summary_rows(summary), columns=SUMMARY_COLUMNS).to_parquet(buf, index=False)
+    return buf.getvalue()
+
+
+__all__ = ["checkpoints_csv", "evidence_csv", "summary_csv", "summary_parquet"]

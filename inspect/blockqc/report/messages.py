@@ -241,6 +241,8 @@ MESSAGES: dict[str, tuple[str, str]] = {
     "fig_tp_hist": ("Tie-point residuals", "连接点残差直方图"),
     "fig_tp_counts": ("Tie points per scene", "每景影像连接点数量"),
     "fig_footprints": ("Scene footprints by status", "影像范围及检查状态"),
+    "fig_overview": ("Blocks of the batch by verdict", "批次各区域网范围及检查结论"),
+    "summary_tables": ("For spreadsheets", "表格文件"),
     "sec_scene_maps": (
         "Tie-point distribution of the scenes failing a tie-point count or distribution rule",
         "连接点数量或分布不合格影像的连接点分布",
