@@ -41,6 +41,9 @@ def overview_map(blocks: list[Any], t: Callable[..., str], name: str) -> str | N
     col = plots.PolyCollection(rings, facecolors=colours, edgecolors=colours, alpha=0.45, lw=0.6)
     col.set_rasterized(len(rings) > plots.RASTER_ABOVE)
     ax.add_collection(col)
+    if len(blocks) <= plots.MAX_FOOTPRINT_LABELS:  # few blocks: name them
+        ids = [b.block_id for b in blocks]
+        plots._label_footprints(ax, rings, owner, ids, np.ones(len(rings), dtype=bool))
     allxy = np.concatenate(rings)
     (x0, y0), (x1, y1) = allxy.min(axis=0), allxy.max(axis=0)
     pad = 0.03 * max(x1 - x0, y1 - y0, 1e-3)
