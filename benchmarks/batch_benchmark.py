@@ -1,0 +1,94 @@
+"""Times `blockqc inspect` over a generated batch: HTML per block, PDFs of failing blocks, summary.
+
+    python benchmarks/batch_benchmark.py --blocks 1000 --observations 100000000 [--jobs 2]
+
+The batch is written to disk block by block, never held in memory: the sample generator makes
+one delivery per published test field at the observations per block asked for, and every block
+of the batch is a copy of one of them (tables hard-linked, block.yaml rewritten with its own
+block id and the reported figures kept). The inspection runs as its own process; its wall time
+and the peak resident memory of its largest process are measured. The last line is:
+
+    batch: N blocks, M observations, T s, peak G GB, B blocks/s
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import resource
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import yaml
+
+from blockqc.simulate import Layout, Options, simulate
+
+
+def templates(folder: Path, obs_per_block: int, seed: int) -> list[Path]:
+    """One generated delivery per test field with about `obs_per_block` observations."""
+    per_scene = 300
+    pan_scenes = max(8, obs_per_block / per_scene)
+    side = max(2, round(math.sqrt(pan_scenes / 2)))
+    per_scene = max(50, round(obs_per_block / (2 * side * side)))
+    layout = Layout(rows=side, cols=side, obs_per_scene=per_scene)
+    simulate(folder, Options(seed=seed, blocks_per_field=1, layout=layout))
+    return sorted(p for p in folder.iterdir() if (p / "block.yaml").is_file())
+
+
+def write_batch(batch: Path, blocks: int, sources: list[Path]) -> int:
+    """`blocks` deliveries, each a hard-linked copy of a template with its own block id."""
+    total = 0
+    for i in range(blocks):
+        src = sources[i % len(sources)]
+        dst = batch / f"B{i:05d}"
+        shutil.copytree(src, dst, copy_function=os.link)
+        manifest = yaml.safe_load((src / "block.yaml").read_text(encoding="utf-8"))
+        manifest["block_id"] = dst.name
+        (dst / "block.yaml").unlink()  # a link to the template's: replace, never write through
+        (dst / "block.yaml").write_text(yaml.safe_dump(manifest, allow_unicode=True), "utf-8")
+        with open(dst / "tie_points.csv", "rb") as fh:
+            total += sum(chunk.count(b"\n") for chunk in iter(lambda: fh.read(1 << 20), b"")) - 1
+    return total
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--blocks", type=int, default=100)
+    ap.add_argument("--observations", type=int, default=10_000_000)
+    ap.add_argument("--jobs", type=int, default=0, help="inspect --jobs (0: every core)")
+    ap.add_argument("--pdf", default="failing", choices=["all", "failing", "sampled", "none"])
+    ap.add_argument("--seed", type=int, default=20231)
+    ap.add_argument("--keep", type=Path, help="keep the batch and outputs in this folder")
+    args = ap.parse_args()
+
+    with tempfile.TemporaryDirectory() as tmp:
+        root = args.keep or Path(tmp)
+        root.mkdir(parents=True, exist_ok=True)
+        t0 = time.perf_counter()
+        sources = templates(root / "templates", args.observations // args.blocks, args.seed)
+        n_obs = write_batch(root / "batch", args.blocks, sources)
+        print(f"generated {args.blocks} blocks, {n_obs} observations in "
+              f"{time.perf_counter() - t0:.1f} s", flush=True)  # fmt: skip
+        cmd = [sys.executable, "-m", "blockqc", "inspect", str(root / "batch"),
+               "--out", str(root / "out"), "--pdf", args.pdf, "--jobs", str(args.jobs),
+               "--no-progress"]  # fmt: skip
+        t0 = time.perf_counter()
+        proc = subprocess.run(cmd, capture_output=True, text=True)
+        wall = time.perf_counter() - t0
+        if proc.returncode not in (0, 1):
+            sys.exit(f"inspect failed ({proc.returncode}):\n{proc.stderr[-2000:]}")
+        peak_gb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024**2
+        print(proc.stdout.strip().splitlines()[-1])
+        print(
+            f"batch: {args.blocks} blocks, {n_obs} observations, {wall:.1f} s, "
+            f"peak {peak_gb:.2f} GB, {args.blocks / wall:.2f} blocks/s"
+        )
+
+
+if __name__ == "__main__":
+    main()
