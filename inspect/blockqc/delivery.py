@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import io
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -10,17 +12,48 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
-from pydantic import BaseModel, ConfigDict, Field, PositiveFloat, ValidationError, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    PositiveFloat,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 
 from blockqc.errors import InputError, Problem
-from blockqc.schema import TABLES, TableSchema, report_rows, validate_table
+from blockqc.schema import TABLES, TableSchema, did_you_mean, report_rows, validate_table
+from blockqc.textio import BOM, decode_utf8, read_bytes
 from blockqc.yamlio import load_yaml, pydantic_problems
 
 MANIFEST = "block.yaml"
 
 
+#: block ids are also folder names of the outputs (contract v1.1)
+BLOCK_ID_MAX = 100
+
+
+def block_id_problem(value: str) -> str | None:
+    """Why a block id cannot be a folder name of the outputs (contract v1.1), or None."""
+    if not value:
+        return "the block id is empty"
+    if len(value) > BLOCK_ID_MAX:
+        return f"the block id has {len(value)} characters: at most {BLOCK_ID_MAX} are allowed"
+    bad = sorted({c for c in value if not (c.isalnum() or c in "-_.") or not c.isprintable()})
+    if bad:
+        shown = ", ".join(repr(c) for c in bad[:5])
+        return (
+            f"the block id {value[:40]!r} holds {shown}: only letters, digits, '-', '_' and "
+            "'.' are allowed (it names the output folder)"
+        )
+    if value.startswith("."):
+        return f"the block id {value[:40]!r} starts with '.': it names the output folder"
+    return None
+
+
 class GSD(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     pan: PositiveFloat | None = None
     ms: PositiveFloat | None = None
 
@@ -32,23 +65,39 @@ class GSD(BaseModel):
 
 
 class SpatialReference(BaseModel):
-    model_config = ConfigDict(extra="allow")
+    model_config = ConfigDict(extra="allow", allow_inf_nan=False)
     geodetic_datum: str | None = None
     height_datum: str | None = None
     projection: str | None = None
-    epsg: int | None = None
+    epsg: int | None = Field(default=None, ge=1, le=2**31 - 1)
 
 
 class Manifest(BaseModel):
     """block.yaml: the block's identity, GSDs, spatial reference, documents, reported figures."""
 
-    model_config = ConfigDict(extra="allow")
+    model_config = ConfigDict(extra="allow", allow_inf_nan=False)
     block_id: str = Field(min_length=1)
     sensor: str | None = None
     gsd_m: GSD
     spatial_reference: SpatialReference | None = None
     documents: dict[str, str] = Field(default_factory=dict)
     reported: dict[str, float] = Field(default_factory=dict)
+
+    @field_validator("block_id")
+    @classmethod
+    def _safe_block_id(cls, value: str) -> str:
+        problem = block_id_problem(value)
+        if problem:
+            raise ValueError(problem)
+        return value
+
+    @field_validator("documents")
+    @classmethod
+    def _document_paths(cls, value: dict[str, str]) -> dict[str, str]:
+        for kind, rel in value.items():
+            if not rel.strip() or "\0" in rel or len(rel) > 1000:
+                raise ValueError(f"{kind}: expected a file path inside the delivery")
+        return value
 
 
 @dataclass
@@ -101,24 +150,42 @@ def find_deliveries(path: Path) -> list[Path]:
 
 
 def _table_file(folder: Path, name: str) -> Path | None:
-    csv, parquet = folder / f"{name}.csv", folder / f"{name}.parquet"
-    if csv.is_file() and parquet.is_file():
+    """The table's file, or None when the delivery has none; anything else there is an error."""
+    given = [
+        f
+        for f in (folder / f"{name}.csv", folder / f"{name}.parquet")
+        if f.exists() or f.is_symlink()
+    ]
+    if len(given) > 1:
         raise InputError(
             Problem(
-                str(folder), f"both {csv.name} and {parquet.name} are present; give the table once"
+                str(folder),
+                f"both {given[0].name} and {given[1].name} are present; give the table once",
             )
         )
-    return csv if csv.is_file() else parquet if parquet.is_file() else None
+    if not given:
+        return None
+    f = given[0]
+    if f.is_symlink() and not f.exists():
+        raise InputError(Problem(str(f), "a symbolic link to a file that does not exist"))
+    if not f.is_file():
+        raise InputError(Problem(str(f), f"is not a regular file: expected the {name} table"))
+    return f
 
 
 def _read_csv(path: Path, schema: TableSchema) -> pd.DataFrame:
     """Read a CSV fast with pyarrow; text-like columns stay text (ids keep leading zeros)."""
+    data = read_bytes(path, None)
+    decode_utf8(path, data)  # the whole file is UTF-8, or the line that is not is named
+    data = data.removeprefix(BOM)
+    if not data.strip():
+        raise InputError(Problem(str(path), "the file is empty: expected a header row"))
     text_cols = {
         c.name: pa.string() for c in schema.columns if c.kind in ("str", "enum", "date", "wkt")
     }
     try:
         table = pacsv.read_csv(
-            path,
+            pa.BufferReader(data),
             read_options=pacsv.ReadOptions(use_threads=True),
             convert_options=pacsv.ConvertOptions(
                 column_types=text_cols,
@@ -127,37 +194,72 @@ def _read_csv(path: Path, schema: TableSchema) -> pd.DataFrame:
             ),
         )
     except pa.ArrowInvalid as exc:
-        return _read_csv_slow(path, str(exc))
-    if table.num_columns and table.num_rows == 0 and len(table.column_names) == 0:
-        raise InputError(Problem(str(path), "the file is empty: expected a header row"))
+        return _read_csv_slow(path, data, str(exc))
     return table.to_pandas(types_mapper=None)
 
 
-def _read_csv_slow(path: Path, reason: str) -> pd.DataFrame:
+def _read_csv_slow(path: Path, data: bytes, reason: str) -> pd.DataFrame:
     """Fallback reader whose errors carry the line number of a malformed row."""
     try:
-        return pd.read_csv(
-            path, dtype=str, keep_default_na=False, skipinitialspace=True, encoding="utf-8-sig"
-        )
+        raw = pd.read_csv(
+            io.BytesIO(data), dtype=str, keep_default_na=False, skipinitialspace=True, header=None
+        )  # header=None: every row must have the header's fields, and repeated names stay
+        return raw.iloc[1:].set_axis(list(raw.iloc[0]), axis=1).reset_index(drop=True)
     except pd.errors.EmptyDataError:
         raise InputError(Problem(str(path), "the file is empty: expected a header row")) from None
-    except (pd.errors.ParserError, UnicodeDecodeError, ValueError) as exc:
-        raise InputError(Problem(str(path), f"not a readable CSV table: {exc}")) from None
+    except (pd.errors.ParserError, ValueError) as exc:
+        raise InputError(_parser_problem(path, str(exc))) from None
     except Exception:  # pragma: no cover - report the original reader's reason
         raise InputError(Problem(str(path), f"not a readable CSV table: {reason}")) from None
 
 
-def _read_parquet(path: Path) -> pd.DataFrame:
+def _parser_problem(path: Path, message: str) -> Problem:
+    """A CSV parser's complaint, with its line taken out into the problem's place."""
+    ragged = re.search(r"Expected (\d+) fields in line (\d+), saw (\d+)", message)
+    if ragged:
+        want, line, got = map(int, ragged.groups())
+        return Problem(
+            str(path),
+            f"not a readable CSV table: {got} fields where the header has {want}",
+            line=line,
+        )
+    line = re.search(r"(?:line|row) (\d+)", message)
+    return Problem(
+        str(path),
+        f"not a readable CSV table: {message.strip()}",
+        line=int(line.group(1)) if line else None,
+    )
+
+
+def _read_parquet(path: Path, schema: TableSchema) -> pd.DataFrame:
+    """Read a Parquet table; columns of the contract must hold plain values, not lists."""
     try:
-        return pq.read_table(path).to_pandas()
+        table = pq.read_table(path)
     except (pa.ArrowException, OSError) as exc:
+        raise InputError(Problem(str(path), f"not a readable Parquet table: {exc}")) from None
+    names = {c.name for c in schema.columns}
+    nested = [
+        Problem(
+            str(path),
+            f"a column of type {f.type} (lists or records): expected one "
+            f"{schema.column(f.name).kind} value per row",
+            column=f.name,
+        )
+        for f in table.schema
+        if f.name in names and pa.types.is_nested(f.type)
+    ]
+    if nested:
+        raise InputError(nested)
+    try:
+        return table.to_pandas()
+    except (pa.ArrowException, ValueError, OverflowError) as exc:
         raise InputError(Problem(str(path), f"not a readable Parquet table: {exc}")) from None
 
 
 def read_table(path: Path, schema: TableSchema) -> tuple[pd.DataFrame, list[Problem]]:
     """Read and validate one table file (CSV or Parquet) against its schema."""
     csv = path.suffix.lower() == ".csv"
-    raw = _read_csv(path, schema) if csv else _read_parquet(path)
+    raw = _read_csv(path, schema) if csv else _read_parquet(path, schema)
     return validate_table(raw, schema, str(path), csv=csv)
 
 
@@ -207,6 +309,8 @@ def load_delivery(path: Path) -> Delivery:
         tables[name] = df
 
     problems.extend(_check_references(tables, files))
+    if problems and manifest is not None:  # reported now too, not only once the tables are fixed
+        problems.extend(_missing_documents(path, manifest))
     if problems:
         raise InputError(problems)
     assert manifest is not None
@@ -231,8 +335,22 @@ def _check_references(tables: dict[str, pd.DataFrame], files: dict[str, Path]) -
                 f"unknown {ref.key} (not in {files[ref.table].name})",
                 df[ref.column],
                 f.suffix == ".csv",
+                did_you_mean(target[ref.key].dropna().unique()[:100_000]),
             )
     return problems
+
+
+def _missing_documents(path: Path, manifest: Manifest) -> list[Problem]:
+    """Documents block.yaml names that are not files of the delivery (judged by DOC-1 when the
+    delivery is otherwise readable; listed with its other problems when it is not)."""
+    return [
+        Problem(
+            str(path / MANIFEST),
+            f"documents.{kind}: {rel} is missing from the delivery",
+        )
+        for kind, rel in manifest.documents.items()
+        if not (path / rel).is_file()
+    ]
 
 
 def summary(d: Delivery) -> dict[str, Any]:
