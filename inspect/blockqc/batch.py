@@ -14,7 +14,7 @@ from blockqc.delivery import MANIFEST, find_deliveries, load_delivery, load_mani
 from blockqc.engine import STATUSES, inspect_delivery
 from blockqc.errors import InputError, Problem
 from blockqc.inspector import InspectorInput
-from blockqc.outputs import write_json_atomic
+from blockqc.outputs import safe_child, write_json_atomic
 from blockqc.report import write_block_report, write_summary_report
 from blockqc.rules.model import Pack
 
@@ -60,7 +60,7 @@ def write_block(
     pdf: bool = True,
 ) -> Path:
     """results.json first; the report is rendered from it (never beside it)."""
-    folder = out / results["block_id"]
+    folder = safe_child(out, results["block_id"], source=results.get("delivery"))
     write_json_atomic(folder / "results.json", results)
     write_block_report(folder, results, lang=lang, templates=templates, pdf=pdf)
     return folder

@@ -71,7 +71,7 @@ def cli() -> None:
 )
 @click.option(
     "--templates",
-    type=click.Path(path_type=Path, file_okay=False),
+    type=click.Path(path_type=Path, file_okay=False, exists=True),
     help="Folder of templates that take precedence over the stock ones.",
 )
 @click.option(
@@ -113,7 +113,8 @@ def inspect_cmd(
 ) -> int:
     """Inspect one delivery or a batch (a folder of deliveries) with a rule pack."""
     from blockqc import batch
-    from blockqc.inspector import load_inspector_input
+    from blockqc.delivery import block_scenes
+    from blockqc.inspector import check_inspector_input, load_inspector_input
     from blockqc.outputs import check_out_dir
     from blockqc.rules import load_pack
 
@@ -121,6 +122,8 @@ def inspect_cmd(
     pack = load_pack(rules_ref)
     inspector = load_inspector_input(verdicts) if verdicts else None
     deliveries, _ = batch.collect(paths)
+    if inspector is not None:
+        check_inspector_input(inspector, {r.id: r for r in pack.rules}, block_scenes(deliveries))
     show = sys.stderr.isatty() if progress is None else progress
     jobs = jobs or os.cpu_count() or 1
 

@@ -23,33 +23,12 @@ from pydantic import (
 )
 
 from blockqc.errors import InputError, Problem
+from blockqc.outputs import block_id_problem
 from blockqc.schema import TABLES, TableSchema, did_you_mean, report_rows, validate_table
 from blockqc.textio import BOM, decode_utf8, read_bytes
 from blockqc.yamlio import load_yaml, pydantic_problems
 
 MANIFEST = "block.yaml"
-
-
-#: block ids are also folder names of the outputs (contract v1.1)
-BLOCK_ID_MAX = 100
-
-
-def block_id_problem(value: str) -> str | None:
-    """Why a block id cannot be a folder name of the outputs (contract v1.1), or None."""
-    if not value:
-        return "the block id is empty"
-    if len(value) > BLOCK_ID_MAX:
-        return f"the block id has {len(value)} characters: at most {BLOCK_ID_MAX} are allowed"
-    bad = sorted({c for c in value if not (c.isalnum() or c in "-_.") or not c.isprintable()})
-    if bad:
-        shown = ", ".join(repr(c) for c in bad[:5])
-        return (
-            f"the block id {value[:40]!r} holds {shown}: only letters, digits, '-', '_' and "
-            "'.' are allowed (it names the output folder)"
-        )
-    if value.startswith("."):
-        return f"the block id {value[:40]!r} starts with '.': it names the output folder"
-    return None
 
 
 class GSD(BaseModel):
@@ -361,3 +340,23 @@ def summary(d: Delivery) -> dict[str, Any]:
         "tie_points": int(d.tie_points["point_id"].nunique()),
         "checkpoints": 0 if d.checkpoints is None else int(d.checkpoints["point_id"].nunique()),
     }
+
+
+def block_scenes(paths: list[Path]) -> dict[str, set[str] | None]:
+    """Block id -> scene ids of each delivery, read lightly for checking the inspector's file;
+    None where the scenes cannot be read (a placeholder key where the manifest cannot)."""
+    out: dict[str, set[str] | None] = {}
+    for path in paths:  # a handful of small files per delivery
+        try:
+            bid = load_manifest(path / MANIFEST).block_id
+        except InputError:
+            out[f"(unreadable: {path})"] = None
+            continue
+        try:
+            f = _table_file(path, "scenes")
+            df, problems = read_table(f, TABLES["scenes"]) if f else (None, [])
+        except InputError:
+            df, problems = None, []
+        ok = df is not None and not problems
+        out[bid] = set(df["scene_id"].dropna().astype(str)) if ok else None
+    return out

@@ -9,6 +9,7 @@ from typing import Any
 import click
 
 from blockqc.errors import InputError, Problem
+from blockqc.outputs import block_id_problem
 from blockqc.report.messages import LANGUAGES
 
 RESULT_KEYS = ("block_id", "verdict", "results")
@@ -50,6 +51,10 @@ def _check_results(path: Path, doc: Any) -> dict[str, Any]:
                 line=1,
             )
         )
+    bid = doc["block_id"]
+    why = block_id_problem(bid) if isinstance(bid, str) else "the block id must be text"
+    if why:
+        raise InputError(Problem(str(path), f"block_id: {why}", line=1))
     if not isinstance(doc["results"], list) or not all(
         isinstance(r, dict) and "rule" in r and "status" in r for r in doc["results"]
     ):
@@ -175,13 +180,13 @@ def command(
 
     A batch folder (or its summary.json) re-renders the batch summary as well.
     """
-    from blockqc.outputs import write_bytes_atomic
+    from blockqc.outputs import safe_child, write_bytes_atomic
     from blockqc.report import write_block_report, write_summary_report
 
     docs, summary = gather(list(results))
     written: list[Path] = []
     for path, doc, raw in docs:
-        folder = out / str(doc["block_id"])
+        folder = safe_child(out, doc["block_id"], source=path)
         if (folder / "results.json").resolve() != path.resolve():
             write_bytes_atomic(folder / "results.json", raw)
         written += write_block_report(folder, doc, lang=lang, templates=templates, pdf=pdf)
