@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 import pyarrow as pa
 import pyarrow.csv as pacsv
@@ -266,6 +267,7 @@ def load_delivery(path: Path) -> Delivery:
 
     tables: dict[str, pd.DataFrame] = {}
     files: dict[str, Path] = {}
+    clean: set[str] = set()  # tables read without a problem, checked row by row further
     for name, schema in TABLES.items():
         try:
             f = _table_file(path, name)
@@ -286,8 +288,11 @@ def load_delivery(path: Path) -> Delivery:
             continue
         problems.extend(found)
         tables[name] = df
+        if not found:
+            clean.add(name)
 
     problems.extend(_check_references(tables, files))
+    problems.extend(_check_consistency({k: tables[k] for k in clean}, files))
     if problems and manifest is not None:  # reported now too, not only once the tables are fixed
         problems.extend(_missing_documents(path, manifest))
     if problems:
@@ -316,6 +321,41 @@ def _check_references(tables: dict[str, pd.DataFrame], files: dict[str, Path]) -
                 f.suffix == ".csv",
                 did_you_mean(target[ref.key].dropna().unique()[:100_000]),
             )
+    return problems
+
+
+def _consistency_masks(
+    tables: dict[str, pd.DataFrame],
+) -> list[tuple[str, str | None, np.ndarray, str]]:
+    """Rows whose cells contradict each other, per table: (table, column, mask, message)."""
+    out = []
+    cp = tables.get("checkpoints")
+    if cp is not None and {"x_m", "ref_x_m", "ref_y_m", "z_m", "ref_z_m"} <= set(cp.columns):
+        rx, ry = cp["ref_x_m"].isna().to_numpy(), cp["ref_y_m"].isna().to_numpy()
+        z, rz = cp["z_m"].isna().to_numpy(), cp["ref_z_m"].isna().to_numpy()
+        out += [
+            ("checkpoints", "ref_x_m", rx & ~ry,
+             "ref_x_m is empty where ref_y_m is given: give both, or neither"),
+            ("checkpoints", "ref_y_m", ry & ~rx,
+             "ref_y_m is empty where ref_x_m is given: give both, or neither"),
+            ("checkpoints", "z_m", z & ~rz,
+             "z_m is empty where ref_z_m is given: the height cannot be compared"),
+            ("checkpoints", None, rx & ry & rz,
+             "the row compares nothing: give ref_x_m and ref_y_m, or ref_z_m"),
+        ]  # fmt: skip
+    ov = tables.get("overlaps")
+    if ov is not None and {"scene_a", "scene_b"} <= set(ov.columns):
+        same = (ov["scene_a"] == ov["scene_b"]).to_numpy(dtype=bool)
+        out.append(("overlaps", "scene_b", same, "scene_b is scene_a: expected two scenes"))
+    return out
+
+
+def _check_consistency(tables: dict[str, pd.DataFrame], files: dict[str, Path]) -> list[Problem]:
+    """Cells of one row that contradict each other (else their rows would be dropped unsaid)."""
+    problems: list[Problem] = []
+    for name, column, mask, message in _consistency_masks(tables):
+        f = files[name]
+        report_rows(problems, str(f), column, mask, message, None, f.suffix == ".csv")
     return problems
 
 

@@ -51,6 +51,8 @@ def check_out_dir(out: Path, inputs: Iterable[Path]) -> Path:
 
 #: block ids are also folder names of the outputs (contract v1.1)
 BLOCK_ID_MAX = 100
+#: files a batch writes beside the block folders: no block id may take their names
+BATCH_OUTPUTS = ("summary.json", "summary.html", "summary.pdf")
 
 
 def block_id_problem(value: str) -> str | None:
@@ -68,6 +70,8 @@ def block_id_problem(value: str) -> str | None:
         )
     if value.startswith("."):
         return f"the block id {value[:40]!r} starts with '.': it names the output folder"
+    if value.lower() in BATCH_OUTPUTS:
+        return f"the block id {value!r} is the name of a batch output file"
     return None
 
 

@@ -274,6 +274,10 @@ def _check_polygons(
     text = wkt.where(ok, "").fillna("").to_numpy(dtype=object)
     geoms = shapely.from_wkt(text, on_invalid="ignore")
     invalid = ok & ~shapely.is_valid(geoms)
+    rings = shapely.get_exterior_ring(geoms)
+    few = ok & ~invalid & (shapely.get_num_coordinates(rings) < 5)
+    msg = "a footprint has at least four corners (they are read as the image corners)"
+    report_rows(problems, file, column, few, msg, wkt, csv)
     if invalid.any():
         reasons = pd.Series(shapely.is_valid_reason(geoms), index=wkt.index)
         msg = "not a valid polygon (its boundary must not cross itself)"

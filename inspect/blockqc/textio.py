@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from blockqc.errors import BlockqcError, InputError, Problem
 
 BOM = b"\xef\xbb\xbf"
@@ -11,13 +13,17 @@ BOM = b"\xef\xbb\xbf"
 
 def _likely_encoding(data: bytes) -> str:
     """A cheap guess at the encoding of bytes that are not UTF-8 (only for the message)."""
-    try:
-        text = data.decode("gb18030")
-    except UnicodeDecodeError:
-        return "Latin-1 / Windows-1252"
-    wide = [c for c in text if ord(c) > 127]
-    cjk = sum("\u4e00" <= c <= "\u9fff" for c in wide)
-    return "GBK / GB18030" if wide and cjk >= 0.8 * len(wide) else "Latin-1 / Windows-1252"
+    if data.startswith((b"\xff\xfe", b"\xfe\xff")):
+        return "UTF-16"
+    high = np.frombuffer(data, dtype=np.uint8) >= 0x80
+    paired = high[:-1] & high[1:]  # GBK writes each Chinese character as two high bytes
+    if high.any() and 2 * paired.sum() >= 0.8 * high.sum():
+        try:
+            data.decode("gb18030")
+            return "GBK / GB18030"
+        except UnicodeDecodeError:
+            pass
+    return "Latin-1 / Windows-1252"
 
 
 def utf8_problem(path: Path, data: bytes, exc: UnicodeDecodeError) -> Problem:

@@ -24,6 +24,10 @@ def _read_json(path: Path) -> tuple[Any, bytes]:
         return json.loads(raw.decode("utf-8")), raw
     except UnicodeDecodeError as exc:
         raise InputError(Problem(str(path), f"is not UTF-8 text (byte {exc.start})")) from None
+    except RecursionError:
+        raise InputError(
+            Problem(str(path), "is not accepted: JSON nested too deeply for a results document")
+        ) from None
     except json.JSONDecodeError as exc:
         raise InputError(
             Problem(
