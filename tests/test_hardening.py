@@ -524,3 +524,15 @@ def test_histogram_edges_bounded() -> None:
     assert histogram_edges(3.04)[-1] == pytest.approx(3.1)
     e = histogram_edges(1e9)
     assert len(e) == 202 and e[-2] == pytest.approx(10.0) and e[-1] == 1e9
+
+
+def test_misspelt_manifest_key(blockqc, delivery: Path, tmp_path: Path) -> None:
+    _replace(delivery / "block.yaml", "reported: {}", "reportd: {tie_point_error_px: 0.3}")
+    _replace(delivery / "block.yaml", "  height_datum:", "  hieght_datum:")
+    _refused(
+        blockqc,
+        delivery,
+        tmp_path / "out",
+        "block.yaml, line 17: reportd: unknown key; did you mean 'reported'?",
+        "block.yaml, line 8: spatial_reference.hieght_datum: unknown key; did you mean",
+    )

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import difflib
 import io
 import re
 from dataclasses import dataclass, field
@@ -27,7 +28,7 @@ from blockqc.errors import InputError, Problem
 from blockqc.outputs import block_id_problem
 from blockqc.schema import TABLES, TableSchema, did_you_mean, report_rows, validate_table
 from blockqc.textio import BOM, decode_utf8, read_bytes
-from blockqc.yamlio import load_yaml, pydantic_problems
+from blockqc.yamlio import line_of, load_yaml, pydantic_problems
 
 MANIFEST = "block.yaml"
 
@@ -249,10 +250,37 @@ def load_manifest(path: Path) -> Manifest:
         raise InputError(
             Problem(str(path), "expected a mapping of keys (block_id, gsd_m, ...)", line=1)
         )
+    problems = _misspelt_keys(path, data)
     try:
-        return Manifest.model_validate(data)
+        manifest = Manifest.model_validate(data)
     except ValidationError as exc:
-        raise InputError(pydantic_problems(exc, path, data)) from None
+        problems = pydantic_problems(exc, path, data) + problems
+    if problems:
+        raise InputError(problems)
+    return manifest
+
+
+def _misspelt_keys(path: Path, data: dict) -> list[Problem]:
+    """Extra keys are allowed in block.yaml, but not one that looks like a misspelt known key
+    (it would be ignored while the key meant is missed)."""
+    sections: list[tuple[tuple[str, ...], Any, set[str]]] = [((), data, set(Manifest.model_fields))]
+    sr = data.get("spatial_reference")
+    if isinstance(sr, dict):
+        sections.append((("spatial_reference",), sr, {*SpatialReference.model_fields, "zone"}))
+    problems = []
+    for loc, section, known in sections:
+        for key in section:
+            close = difflib.get_close_matches(str(key), known, n=1, cutoff=0.75)
+            if key not in known and close:
+                where = ".".join((*loc, str(key)))
+                problems.append(
+                    Problem(
+                        str(path),
+                        f"{where}: unknown key; did you mean '{close[0]}'?",
+                        line=line_of(data, (*loc, key)),
+                    )
+                )
+    return problems
 
 
 def load_delivery(path: Path) -> Delivery:
