@@ -227,9 +227,11 @@ def test_latin1_manifest_names_line(blockqc, delivery: Path, tmp_path: Path) -> 
     )
 
 
-def test_bom_and_crlf_give_the_same_results(blockqc, tmp_path: Path) -> None:
+def test_bom_crlf_and_trailing_commas_give_the_same_results(blockqc, tmp_path: Path) -> None:
     clean = write_delivery(tmp_path / "clean")
     variant = write_delivery(tmp_path / "variant")
+    edges = variant / "edges.csv"
+    edges.write_text(edges.read_text().replace("\n", ",,\n"))  # empty unnamed columns
     for f in [*variant.glob("*.csv"), variant / "block.yaml"]:
         f.write_bytes(b"\xef\xbb\xbf" + f.read_bytes().replace(b"\n", b"\r\n"))
     docs = []

@@ -289,6 +289,8 @@ def validate_table(
 ) -> tuple[pd.DataFrame, list[Problem]]:
     """Check and convert a raw table (strings or typed) column by column; list every problem."""
     df = df.rename(columns=lambda c: str(c).strip())
+    unnamed = [i for i, c in enumerate(df.columns) if c == "" and _blank(df.iloc[:, i]).all()]
+    df = df.iloc[:, [i for i in range(df.shape[1]) if i not in unnamed]]  # trailing commas
     df, problems = _duplicate_headers(df, file)
     if len(df) == 0 and len(df.columns):
         problems.append(
