@@ -19,7 +19,7 @@ from blockqc.delivery import MANIFEST, Manifest, find_deliveries, load_delivery,
 from blockqc.engine import inspect_delivery
 from blockqc.errors import InputError, Problem
 from blockqc.inspector import InspectorInput
-from blockqc.outputs import write_json_atomic
+from blockqc.outputs import safe_child, write_json_atomic
 from blockqc.report import checkpoint_rows, write_block_report, write_summary_report
 from blockqc.results import (
     STATUSES,
@@ -110,7 +110,7 @@ class Writer:
 
     def block(self, results: BlockResults) -> bool:
         """results.json first, the report rendered from it; whether a PDF was written."""
-        folder = self.out / results.block_id
+        folder = safe_child(self.out, results.block_id, source=results.delivery)
         write_json_atomic(folder / "results.json", results)
         pdf = self.wants_pdf(results)
         write_block_report(folder, results, lang=self.lang, templates=self.templates, pdf=pdf)
@@ -166,13 +166,14 @@ class Job:
     def __call__(self, path: Path, manifest: Manifest | None = None) -> Outcome:
         try:
             key = self._key(path, manifest)
-            if key and (hit := read_cached(self.writer.out / manifest.block_id, key)):
+            if key and (hit := read_cached(safe_child(self.writer.out, manifest.block_id), key)):
                 return Outcome(path, hit.entry, hit.rules, cached=True)
             results = inspect_one(path, self.pack, self.inspector, manifest)
             pdf = self.writer.block(results)
             o = Outcome(path, block_entry(path, results, pdf), rule_counts(results))
             if key:
-                write_cached(self.writer.out / results.block_id, Cached(key, o.entry, o.rules))
+                folder = safe_child(self.writer.out, results.block_id)
+                write_cached(folder, Cached(key, o.entry, o.rules))
             return o
         except InputError as exc:
             return Outcome(path, problems=exc.problems)

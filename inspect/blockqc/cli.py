@@ -73,7 +73,7 @@ def cli() -> None:
 )
 @click.option(
     "--templates",
-    type=click.Path(path_type=Path, file_okay=False),
+    type=click.Path(path_type=Path, file_okay=False, exists=True),
     help="Folder of templates that take precedence over the stock ones.",
 )
 @click.option(
@@ -130,7 +130,8 @@ def inspect_cmd(
 ) -> int:
     """Inspect one delivery or a batch (a folder of deliveries) with a rule pack."""
     from blockqc import batch
-    from blockqc.inspector import load_inspector_input
+    from blockqc.delivery import block_scenes
+    from blockqc.inspector import check_inspector_input, load_inspector_input
     from blockqc.outputs import check_out_dir
     from blockqc.rules import load_pack
 
@@ -138,6 +139,9 @@ def inspect_cmd(
     pack = load_pack(rules_ref)
     inspector = load_inspector_input(verdicts) if verdicts else None
     got = batch.collect(paths)
+    if inspector is not None:
+        scenes = block_scenes(got.deliveries, got.manifests)
+        check_inspector_input(inspector, {r.id: r for r in pack.rules}, scenes)
     writer = batch.Writer(out, templates, lang, "none" if no_pdf else pdf)
     runner = batch.Runner(jobs or os.cpu_count() or 1, scheduler)
     show = sys.stderr.isatty() if progress is None else progress

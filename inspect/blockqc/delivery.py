@@ -2,25 +2,39 @@
 
 from __future__ import annotations
 
+import difflib
+import io
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 import pyarrow as pa
 import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
-from pydantic import BaseModel, ConfigDict, Field, PositiveFloat, ValidationError, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    PositiveFloat,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 
 from blockqc.errors import InputError, Problem
-from blockqc.schema import TABLES, TableSchema, report_rows, validate_table
-from blockqc.yamlio import load_yaml, pydantic_problems
+from blockqc.outputs import block_id_problem
+from blockqc.schema import TABLES, TableSchema, did_you_mean, report_rows, validate_table
+from blockqc.textio import BOM, decode_utf8, read_bytes
+from blockqc.yamlio import line_of, load_yaml, pydantic_problems
 
 MANIFEST = "block.yaml"
 
 
 class GSD(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     pan: PositiveFloat | None = None
     ms: PositiveFloat | None = None
 
@@ -32,23 +46,39 @@ class GSD(BaseModel):
 
 
 class SpatialReference(BaseModel):
-    model_config = ConfigDict(extra="allow")
+    model_config = ConfigDict(extra="allow", allow_inf_nan=False)
     geodetic_datum: str | None = None
     height_datum: str | None = None
     projection: str | None = None
-    epsg: int | None = None
+    epsg: int | None = Field(default=None, ge=1, le=2**31 - 1)
 
 
 class Manifest(BaseModel):
     """block.yaml: the block's identity, GSDs, spatial reference, documents, reported figures."""
 
-    model_config = ConfigDict(extra="allow")
+    model_config = ConfigDict(extra="allow", allow_inf_nan=False)
     block_id: str = Field(min_length=1)
     sensor: str | None = None
     gsd_m: GSD
     spatial_reference: SpatialReference | None = None
     documents: dict[str, str] = Field(default_factory=dict)
     reported: dict[str, float] = Field(default_factory=dict)
+
+    @field_validator("block_id")
+    @classmethod
+    def _safe_block_id(cls, value: str) -> str:
+        problem = block_id_problem(value)
+        if problem:
+            raise ValueError(problem)
+        return value
+
+    @field_validator("documents")
+    @classmethod
+    def _document_paths(cls, value: dict[str, str]) -> dict[str, str]:
+        for kind, rel in value.items():
+            if not rel.strip() or "\0" in rel or len(rel) > 1000:
+                raise ValueError(f"{kind}: expected a file path inside the delivery")
+        return value
 
 
 @dataclass
@@ -101,24 +131,42 @@ def find_deliveries(path: Path) -> list[Path]:
 
 
 def _table_file(folder: Path, name: str) -> Path | None:
-    csv, parquet = folder / f"{name}.csv", folder / f"{name}.parquet"
-    if csv.is_file() and parquet.is_file():
+    """The table's file, or None when the delivery has none; anything else there is an error."""
+    given = [
+        f
+        for f in (folder / f"{name}.csv", folder / f"{name}.parquet")
+        if f.exists() or f.is_symlink()
+    ]
+    if len(given) > 1:
         raise InputError(
             Problem(
-                str(folder), f"both {csv.name} and {parquet.name} are present; give the table once"
+                str(folder),
+                f"both {given[0].name} and {given[1].name} are present; give the table once",
             )
         )
-    return csv if csv.is_file() else parquet if parquet.is_file() else None
+    if not given:
+        return None
+    f = given[0]
+    if f.is_symlink() and not f.exists():
+        raise InputError(Problem(str(f), "a symbolic link to a file that does not exist"))
+    if not f.is_file():
+        raise InputError(Problem(str(f), f"is not a regular file: expected the {name} table"))
+    return f
 
 
 def _read_csv(path: Path, schema: TableSchema) -> pd.DataFrame:
     """Read a CSV fast with pyarrow; text-like columns stay text (ids keep leading zeros)."""
+    data = read_bytes(path, None)
+    decode_utf8(path, data)  # the whole file is UTF-8, or the line that is not is named
+    data = data.removeprefix(BOM)
+    if not data.strip():
+        raise InputError(Problem(str(path), "the file is empty: expected a header row"))
     text_cols = {
         c.name: pa.string() for c in schema.columns if c.kind in ("str", "enum", "date", "wkt")
     }
     try:
         table = pacsv.read_csv(
-            path,
+            pa.BufferReader(data),
             read_options=pacsv.ReadOptions(use_threads=True),
             convert_options=pacsv.ConvertOptions(
                 column_types=text_cols,
@@ -127,37 +175,72 @@ def _read_csv(path: Path, schema: TableSchema) -> pd.DataFrame:
             ),
         )
     except pa.ArrowInvalid as exc:
-        return _read_csv_slow(path, str(exc))
-    if table.num_columns and table.num_rows == 0 and len(table.column_names) == 0:
-        raise InputError(Problem(str(path), "the file is empty: expected a header row"))
+        return _read_csv_slow(path, data, str(exc))
     return table.to_pandas(types_mapper=None)
 
 
-def _read_csv_slow(path: Path, reason: str) -> pd.DataFrame:
+def _read_csv_slow(path: Path, data: bytes, reason: str) -> pd.DataFrame:
     """Fallback reader whose errors carry the line number of a malformed row."""
     try:
-        return pd.read_csv(
-            path, dtype=str, keep_default_na=False, skipinitialspace=True, encoding="utf-8-sig"
-        )
+        raw = pd.read_csv(
+            io.BytesIO(data), dtype=str, keep_default_na=False, skipinitialspace=True, header=None
+        )  # header=None: every row must have the header's fields, and repeated names stay
+        return raw.iloc[1:].set_axis(list(raw.iloc[0]), axis=1).reset_index(drop=True)
     except pd.errors.EmptyDataError:
         raise InputError(Problem(str(path), "the file is empty: expected a header row")) from None
-    except (pd.errors.ParserError, UnicodeDecodeError, ValueError) as exc:
-        raise InputError(Problem(str(path), f"not a readable CSV table: {exc}")) from None
+    except (pd.errors.ParserError, ValueError) as exc:
+        raise InputError(_parser_problem(path, str(exc))) from None
     except Exception:  # pragma: no cover - report the original reader's reason
         raise InputError(Problem(str(path), f"not a readable CSV table: {reason}")) from None
 
 
-def _read_parquet(path: Path) -> pd.DataFrame:
+def _parser_problem(path: Path, message: str) -> Problem:
+    """A CSV parser's complaint, with its line taken out into the problem's place."""
+    ragged = re.search(r"Expected (\d+) fields in line (\d+), saw (\d+)", message)
+    if ragged:
+        want, line, got = map(int, ragged.groups())
+        return Problem(
+            str(path),
+            f"not a readable CSV table: {got} fields where the header has {want}",
+            line=line,
+        )
+    line = re.search(r"(?:line|row) (\d+)", message)
+    return Problem(
+        str(path),
+        f"not a readable CSV table: {message.strip()}",
+        line=int(line.group(1)) if line else None,
+    )
+
+
+def _read_parquet(path: Path, schema: TableSchema) -> pd.DataFrame:
+    """Read a Parquet table; columns of the contract must hold plain values, not lists."""
     try:
-        return pq.read_table(path).to_pandas()
+        table = pq.read_table(path)
     except (pa.ArrowException, OSError) as exc:
+        raise InputError(Problem(str(path), f"not a readable Parquet table: {exc}")) from None
+    names = {c.name for c in schema.columns}
+    nested = [
+        Problem(
+            str(path),
+            f"a column of type {f.type} (lists or records): expected one "
+            f"{schema.column(f.name).kind} value per row",
+            column=f.name,
+        )
+        for f in table.schema
+        if f.name in names and pa.types.is_nested(f.type)
+    ]
+    if nested:
+        raise InputError(nested)
+    try:
+        return table.to_pandas()
+    except (pa.ArrowException, ValueError, OverflowError) as exc:
         raise InputError(Problem(str(path), f"not a readable Parquet table: {exc}")) from None
 
 
 def read_table(path: Path, schema: TableSchema) -> tuple[pd.DataFrame, list[Problem]]:
     """Read and validate one table file (CSV or Parquet) against its schema."""
     csv = path.suffix.lower() == ".csv"
-    raw = _read_csv(path, schema) if csv else _read_parquet(path)
+    raw = _read_csv(path, schema) if csv else _read_parquet(path, schema)
     return validate_table(raw, schema, str(path), csv=csv)
 
 
@@ -167,10 +250,37 @@ def load_manifest(path: Path) -> Manifest:
         raise InputError(
             Problem(str(path), "expected a mapping of keys (block_id, gsd_m, ...)", line=1)
         )
+    problems = _misspelt_keys(path, data)
     try:
-        return Manifest.model_validate(data)
+        manifest = Manifest.model_validate(data)
     except ValidationError as exc:
-        raise InputError(pydantic_problems(exc, path, data)) from None
+        problems = pydantic_problems(exc, path, data) + problems
+    if problems:
+        raise InputError(problems)
+    return manifest
+
+
+def _misspelt_keys(path: Path, data: dict) -> list[Problem]:
+    """Extra keys are allowed in block.yaml, but not one that looks like a misspelt known key
+    (it would be ignored while the key meant is missed)."""
+    sections: list[tuple[tuple[str, ...], Any, set[str]]] = [((), data, set(Manifest.model_fields))]
+    sr = data.get("spatial_reference")
+    if isinstance(sr, dict):
+        sections.append((("spatial_reference",), sr, {*SpatialReference.model_fields, "zone"}))
+    problems = []
+    for loc, section, known in sections:
+        for key in section:
+            close = difflib.get_close_matches(str(key), known, n=1, cutoff=0.75)
+            if key not in known and close:
+                where = ".".join((*loc, str(key)))
+                problems.append(
+                    Problem(
+                        str(path),
+                        f"{where}: unknown key; did you mean '{close[0]}'?",
+                        line=line_of(data, (*loc, key)),
+                    )
+                )
+    return problems
 
 
 def load_delivery(path: Path, manifest: Manifest | None = None) -> Delivery:
@@ -187,6 +297,7 @@ def load_delivery(path: Path, manifest: Manifest | None = None) -> Delivery:
 
     tables: dict[str, pd.DataFrame] = {}
     files: dict[str, Path] = {}
+    clean: set[str] = set()  # tables read without a problem, checked row by row further
     for name, schema in TABLES.items():
         try:
             f = _table_file(path, name)
@@ -207,8 +318,13 @@ def load_delivery(path: Path, manifest: Manifest | None = None) -> Delivery:
             continue
         problems.extend(found)
         tables[name] = df
+        if not found:
+            clean.add(name)
 
     problems.extend(_check_references(tables, files))
+    problems.extend(_check_consistency({k: tables[k] for k in clean}, files))
+    if problems and manifest is not None:  # reported now too, not only once the tables are fixed
+        problems.extend(_missing_documents(path, manifest))
     if problems:
         raise InputError(problems)
     assert manifest is not None
@@ -233,8 +349,57 @@ def _check_references(tables: dict[str, pd.DataFrame], files: dict[str, Path]) -
                 f"unknown {ref.key} (not in {files[ref.table].name})",
                 df[ref.column],
                 f.suffix == ".csv",
+                did_you_mean(target[ref.key].dropna().unique()[:100_000]),
             )
     return problems
+
+
+def _consistency_masks(
+    tables: dict[str, pd.DataFrame],
+) -> list[tuple[str, str | None, np.ndarray, str]]:
+    """Rows whose cells contradict each other, per table: (table, column, mask, message)."""
+    out = []
+    cp = tables.get("checkpoints")
+    if cp is not None and {"x_m", "ref_x_m", "ref_y_m", "z_m", "ref_z_m"} <= set(cp.columns):
+        rx, ry = cp["ref_x_m"].isna().to_numpy(), cp["ref_y_m"].isna().to_numpy()
+        z, rz = cp["z_m"].isna().to_numpy(), cp["ref_z_m"].isna().to_numpy()
+        out += [
+            ("checkpoints", "ref_x_m", rx & ~ry,
+             "ref_x_m is empty where ref_y_m is given: give both, or neither"),
+            ("checkpoints", "ref_y_m", ry & ~rx,
+             "ref_y_m is empty where ref_x_m is given: give both, or neither"),
+            ("checkpoints", "z_m", z & ~rz,
+             "z_m is empty where ref_z_m is given: the height cannot be compared"),
+            ("checkpoints", None, rx & ry & rz,
+             "the row compares nothing: give ref_x_m and ref_y_m, or ref_z_m"),
+        ]  # fmt: skip
+    ov = tables.get("overlaps")
+    if ov is not None and {"scene_a", "scene_b"} <= set(ov.columns):
+        same = (ov["scene_a"] == ov["scene_b"]).to_numpy(dtype=bool)
+        out.append(("overlaps", "scene_b", same, "scene_b is scene_a: expected two scenes"))
+    return out
+
+
+def _check_consistency(tables: dict[str, pd.DataFrame], files: dict[str, Path]) -> list[Problem]:
+    """Cells of one row that contradict each other (else their rows would be dropped unsaid)."""
+    problems: list[Problem] = []
+    for name, column, mask, message in _consistency_masks(tables):
+        f = files[name]
+        report_rows(problems, str(f), column, mask, message, None, f.suffix == ".csv")
+    return problems
+
+
+def _missing_documents(path: Path, manifest: Manifest) -> list[Problem]:
+    """Documents block.yaml names that are not files of the delivery (judged by DOC-1 when the
+    delivery is otherwise readable; listed with its other problems when it is not)."""
+    return [
+        Problem(
+            str(path / MANIFEST),
+            f"documents.{kind}: {rel} is missing from the delivery",
+        )
+        for kind, rel in manifest.documents.items()
+        if not (path / rel).is_file()
+    ]
 
 
 def summary(d: Delivery) -> dict[str, Any]:
@@ -245,3 +410,27 @@ def summary(d: Delivery) -> dict[str, Any]:
         "tie_points": int(d.tie_points["point_id"].nunique()),
         "checkpoints": 0 if d.checkpoints is None else int(d.checkpoints["point_id"].nunique()),
     }
+
+
+def block_scenes(
+    paths: list[Path], manifests: dict[Path, Manifest] | None = None
+) -> dict[str, set[str] | None]:
+    """Block id -> scene ids of each delivery, read lightly for checking the inspector's file;
+    None where the scenes cannot be read (a placeholder key where the manifest cannot).
+    `manifests`: those already read."""
+    out: dict[str, set[str] | None] = {}
+    manifests = manifests or {}
+    for path in paths:  # a handful of small files per delivery
+        try:
+            bid = (manifests.get(path) or load_manifest(path / MANIFEST)).block_id
+        except InputError:
+            out[f"(unreadable: {path})"] = None
+            continue
+        try:
+            f = _table_file(path, "scenes")
+            df, problems = read_table(f, TABLES["scenes"]) if f else (None, [])
+        except InputError:
+            df, problems = None, []
+        ok = df is not None and not problems
+        out[bid] = set(df["scene_id"].dropna().astype(str)) if ok else None
+    return out

@@ -252,11 +252,13 @@ class Judge:
 
     def _waived(self, units: pd.DataFrame, keys: list[str]) -> tuple[np.ndarray, pd.Series]:
         """Units the inspector waived, and their labels ("A", "A/B", ...)."""
-        if self.waiver is None or not self.rule.waivable or self.waiver.whole_rule:
+        if self.waiver is None or not self.rule.waivable:
             return np.zeros(len(units), dtype=bool), pd.Series([], dtype=object)
         labels = units[keys[0]].astype(str)
         for k in keys[1:]:
             labels = labels + "/" + units[k].astype(str)
+        if self.waiver.whole_rule:  # no units named: the waiver covers every unit
+            return np.ones(len(units), dtype=bool), labels
         return labels.isin(self.waiver.labels()).to_numpy(dtype=bool), labels
 
     def _units(self, group: dict[str, Any], sub: pd.DataFrame, table: Table) -> RuleResult:
@@ -341,10 +343,14 @@ class Judge:
     def _manual(self) -> RuleResult:
         if self.verdict is None:
             return self.result({}, "manual", None, {"reason": "awaiting the inspector's verdict"})
-        status = "pass" if self.verdict.status == "pass" else _severity_status(self.rule)
-        return self.result(
-            {}, status, self.verdict.status, {"note": self.verdict.note, "decided_by": "inspector"}
+        v = self.verdict.status  # readings of the statuses: blockqc.inspector
+        status = {"pass": "pass", "conditional_pass": "pass", "rework": "fail"}.get(
+            v, _severity_status(self.rule)
         )
+        detail = {"note": self.verdict.note, "decided_by": "inspector"}
+        if v == "conditional_pass":
+            detail["condition"] = self.verdict.note
+        return self.result({}, status, v, detail)
 
 
 def _in_group(group: Mapping[str, Any], where: Mapping[str, Any]) -> bool:

@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 from pydantic import BaseModel
 
-from blockqc.errors import UsageError
+from blockqc.errors import InputError, Problem, UsageError
 
 
 def jsonable(value: Any) -> Any:
@@ -81,3 +81,59 @@ def check_out_dir(out: Path, inputs: Iterable[Path]) -> Path:
                 "choose an output folder outside it"
             )
     return out_r
+
+
+#: block ids are also folder names of the outputs (contract v1.1)
+BLOCK_ID_MAX = 100
+#: files a batch writes beside the block folders: no block id may take their names
+BATCH_OUTPUTS = ("summary.json", "summary.html", "summary.pdf")
+
+
+def block_id_problem(value: str) -> str | None:
+    """Why a block id cannot be a folder name of the outputs (contract v1.1), or None."""
+    if not value:
+        return "the block id is empty"
+    if len(value) > BLOCK_ID_MAX:
+        return f"the block id has {len(value)} characters: at most {BLOCK_ID_MAX} are allowed"
+    bad = sorted({c for c in value if not (c.isalnum() or c in "-_.") or not c.isprintable()})
+    if bad:
+        shown = ", ".join(repr(c) for c in bad[:5])
+        return (
+            f"the block id {value[:40]!r} holds {shown}: only letters, digits, '-', '_' and "
+            "'.' are allowed (it names the output folder)"
+        )
+    if value.startswith("."):
+        return f"the block id {value[:40]!r} starts with '.': it names the output folder"
+    if value.lower() in BATCH_OUTPUTS:
+        return f"the block id {value!r} is the name of a batch output file"
+    return None
+
+
+#: the longest name of one output file or folder, in bytes (common file systems allow 255)
+NAME_MAX_BYTES = 255
+
+
+def safe_child(out_dir: Path, name: str, *, source: str | Path | None = None) -> Path:
+    """`out_dir / name` for a name from an input (a block id): one plain path component that
+    stays under `out_dir` once resolved, else an InputError naming `source`."""
+    text = str(name)
+    why = None
+    if not text or text in (".", "..") or text.startswith("."):
+        why = "is empty or starts with '.'"
+    elif "/" in text or "\\" in text or "\0" in text or not text.isprintable():
+        why = "holds a path separator or a control character"
+    elif len(text.encode("utf-8")) > NAME_MAX_BYTES:
+        why = f"is longer than {NAME_MAX_BYTES} bytes"
+    else:
+        child = out_dir / text
+        root = out_dir.resolve()
+        if child.resolve().parent != root:
+            why = "would lead outside the output folder"
+    if why:
+        raise InputError(
+            Problem(
+                str(source or ""),
+                f"the output name {text[:60]!r} {why}: refused (outputs stay under {out_dir})",
+            )
+        )
+    return out_dir / text

@@ -9,9 +9,10 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from blockqc.errors import InputError, Problem
+from blockqc.outputs import block_id_problem
 from blockqc.rules.model import ElementDef
 
 Status = Literal["pass", "fail", "warn", "waived", "manual", "not_applicable", "error"]
@@ -57,6 +58,13 @@ def status_rank(status: str) -> int:
 
 class _Model(BaseModel):
     model_config = ConfigDict(extra="forbid")
+
+
+def _safe_block_id(value: str) -> str:
+    why = block_id_problem(value)
+    if why:
+        raise ValueError(why)
+    return value
 
 
 class RuleResult(_Model):
@@ -120,6 +128,11 @@ class BlockResults(_Model):
     results: list[RuleResult]
     measurements: list[MeasurementRecord] = Field(default_factory=list)
 
+    @field_validator("block_id")
+    @classmethod
+    def _safe(cls, v: str) -> str:
+        return _safe_block_id(v)
+
     def measurement(self, key: str | None) -> MeasurementRecord | None:
         return next((m for m in self.measurements if m.key == key), None) if key else None
 
@@ -144,6 +157,12 @@ class BlockEntry(_Model):
     warned_rules: list[str] = Field(default_factory=list)
     pending_manual: list[str] = Field(default_factory=list)
     counts: dict[Status, int] = Field(default_factory=dict)
+
+    @field_validator("block_id")
+    @classmethod
+    def _safe(cls, v: str) -> str:
+        return _safe_block_id(v)
+
     # a sampled block's checkpoint statistics per component and method, with their status
     checkpoints: list[dict[str, Any]] = Field(default_factory=list)
     extent_wkt: str | None = None  # the block's footprint (lon/lat), for the overview map

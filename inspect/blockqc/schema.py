@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import difflib
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -12,6 +14,9 @@ import shapely
 from blockqc.errors import Problem
 
 Kind = Literal["str", "float", "int", "date", "enum", "wkt"]
+
+#: the largest whole number accepted in an int column (exactly representable as a float)
+MAX_INT = 2**53
 
 #: how many offending rows of one column and one kind of problem are listed one by one
 MAX_ROWS_LISTED = 5
@@ -165,11 +170,14 @@ def report_rows(
     message: str,
     values: pd.Series | None,
     csv: bool,
+    hint: Callable[[object], str] | None = None,
 ) -> None:
     """Add one problem per offending row (the first few) and a count of the rest."""
     rows = _rows(mask)
     for i in rows[:MAX_ROWS_LISTED]:
         got = f", got {_show(values.iloc[i])}" if values is not None else ""
+        if hint is not None and values is not None:
+            got += hint(values.iloc[i])
         problems.append(
             Problem(
                 file,
@@ -187,6 +195,17 @@ def report_rows(
         )
 
 
+def did_you_mean(choices: Iterable[object]) -> Callable[[object], str]:
+    """A hint for a misspelt value: "; did you mean 'x'?" when one choice is close."""
+    pool = [str(c) for c in choices]
+
+    def hint(value: object) -> str:
+        close = difflib.get_close_matches(str(value).strip(), pool, n=1, cutoff=0.6)
+        return f"; did you mean '{close[0]}'?" if close else ""
+
+    return hint
+
+
 def _show(value: object) -> str:
     if isinstance(value, str):
         return repr(value if len(value) <= 80 else value[:77] + "...")
@@ -200,93 +219,142 @@ def _blank(s: pd.Series) -> np.ndarray:
     return (s.isna() | (s.astype("string").str.strip() == "")).to_numpy(dtype=bool)
 
 
+def _duplicate_headers(df: pd.DataFrame, file: str) -> tuple[pd.DataFrame, list[Problem]]:
+    """Columns named twice in the header: each repeat is a problem (the first one is kept)."""
+    dup = df.columns.duplicated()
+    problems = [
+        Problem(
+            file,
+            f"column '{name}' appears more than once in the header (columns "
+            f"{', '.join(str(i + 1) for i in np.flatnonzero(df.columns == name))}); "
+            "give each column once",
+            line=1 if file.lower().endswith(".csv") else None,
+        )
+        for name in dict.fromkeys(df.columns[dup])
+    ]
+    return df.loc[:, ~dup], problems
+
+
+def _check_column(
+    raw: pd.Series, col: Column, file: str, csv: bool, problems: list[Problem]
+) -> pd.Series:
+    """Convert one column to its kind, adding every problem of its cells; return it converted."""
+    blank = _blank(raw)
+    if not col.nullable:
+        what = "empty or NaN value" if col.kind in ("float", "int") else "empty value"
+        report_rows(problems, file, col.name, blank, f"{what} where one is required", None, csv)
+    conv, bad = _convert(raw, col, blank)
+    if bad is not None:
+        hint = did_you_mean(col.choices) if col.kind == "enum" else None
+        report_rows(problems, file, col.name, bad, _expected(col), raw, csv, hint)
+    ok = ~blank & (~bad if bad is not None else True)
+    if col.kind == "wkt":
+        _check_polygons(conv, ok, file, col.name, csv, problems)
+    if col.kind not in ("float", "int"):
+        return conv
+    vals = conv.to_numpy(dtype=float, na_value=np.nan)
+    finite = np.isfinite(vals)
+    checks = [(~finite, "value is not finite (inf or NaN): expected a finite number")]
+    with np.errstate(invalid="ignore"):
+        if col.min is not None:
+            low = finite & (vals < col.min)
+            checks.append((low, f"value below the allowed minimum {col.min:g}"))
+        if col.max is not None:
+            high = finite & (vals > col.max)
+            checks.append((high, f"value above the allowed maximum {col.max:g}"))
+    for mask, message in checks:
+        report_rows(problems, file, col.name, ok & mask, message, raw, csv)
+    return conv
+
+
+def _check_polygons(
+    wkt: pd.Series, ok: np.ndarray, file: str, column: str, csv: bool, problems: list[Problem]
+) -> None:
+    """Footprints must be valid polygons: not self-intersecting, no repeated rings."""
+    text = wkt.where(ok, "").fillna("").to_numpy(dtype=object)
+    geoms = shapely.from_wkt(text, on_invalid="ignore")
+    invalid = ok & ~shapely.is_valid(geoms)
+    rings = shapely.get_exterior_ring(geoms)
+    few = ok & ~invalid & (shapely.get_num_coordinates(rings) < 5)
+    msg = "a footprint has at least four corners (they are read as the image corners)"
+    report_rows(problems, file, column, few, msg, wkt, csv)
+    if invalid.any():
+        reasons = pd.Series(shapely.is_valid_reason(geoms), index=wkt.index)
+        msg = "not a valid polygon (its boundary must not cross itself)"
+        report_rows(problems, file, column, invalid, msg, reasons, csv)
+
+
 def validate_table(
     df: pd.DataFrame, schema: TableSchema, file: str, csv: bool = True
 ) -> tuple[pd.DataFrame, list[Problem]]:
     """Check and convert a raw table (strings or typed) column by column; list every problem."""
-    problems: list[Problem] = []
     df = df.rename(columns=lambda c: str(c).strip())
+    unnamed = [i for i, c in enumerate(df.columns) if c == "" and _blank(df.iloc[:, i]).all()]
+    df = df.iloc[:, [i for i in range(df.shape[1]) if i not in unnamed]]  # trailing commas
+    df, problems = _duplicate_headers(df, file)
+    if len(df) == 0 and len(df.columns):
+        problems.append(
+            Problem(
+                file,
+                "the table has a header but no rows: give its rows "
+                "(or leave an optional table out of the delivery)",
+            )
+        )
     out: dict[str, pd.Series] = {}
     for col in schema.columns:
-        if col.name not in df.columns:
-            if col.required:
-                problems.append(
-                    Problem(
-                        file,
-                        f"missing column '{col.name}' (expected a {col.kind} column; "
-                        f"columns found: {', '.join(map(str, df.columns))})",
-                    )
+        if col.name in df.columns:
+            out[col.name] = _check_column(df[col.name], col, file, csv, problems)
+        elif col.required:
+            problems.append(
+                Problem(
+                    file,
+                    f"missing column '{col.name}' (expected a {col.kind} column; "
+                    f"columns found: {', '.join(map(str, df.columns))})",
                 )
-            continue
-        raw = df[col.name]
-        blank = _blank(raw)
-        if not col.nullable:
-            report_rows(
-                problems, file, col.name, blank, "empty value where one is required", None, csv
             )
-        conv, bad = _convert(raw, col, blank)
-        if bad is not None:
-            report_rows(problems, file, col.name, bad, _expected(col), raw, csv)
-        ok = ~blank & (~bad if bad is not None else True)
-        if col.kind in ("float", "int"):
-            vals = conv.to_numpy(dtype=float, na_value=np.nan)
-            if col.min is not None:
-                report_rows(
-                    problems,
-                    file,
-                    col.name,
-                    ok & (vals < col.min),
-                    f"value below the allowed minimum {col.min:g}",
-                    raw,
-                    csv,
-                )
-            if col.max is not None:
-                report_rows(
-                    problems,
-                    file,
-                    col.name,
-                    ok & (vals > col.max),
-                    f"value above the allowed maximum {col.max:g}",
-                    raw,
-                    csv,
-                )
-            if col.kind == "float":
-                report_rows(
-                    problems,
-                    file,
-                    col.name,
-                    ok & ~np.isfinite(np.nan_to_num(vals, nan=0.0)),
-                    "value is not finite",
-                    raw,
-                    csv,
-                )
-        out[col.name] = conv
-    extra = [c for c in df.columns if c not in out and c not in {x.name for x in schema.columns}]
-    for c in extra:  # extra columns are kept, untouched
-        out[c] = df[c]
+    for c in df.columns:  # extra columns are kept, untouched
+        if c not in out:
+            out[c] = df[c]
     table = pd.DataFrame(out, index=pd.RangeIndex(len(df)))
-    bad_keys = any(p.column in schema.unique for p in problems)
-    if schema.unique and not bad_keys and all(k in table.columns for k in schema.unique):
-        dup = table.duplicated(list(schema.unique), keep=False).to_numpy()
-        if dup.any():
-            key = ", ".join(schema.unique)
-            report_rows(
-                problems,
-                file,
-                schema.unique[0] if len(schema.unique) == 1 else None,
-                dup,
-                f"duplicated key ({key})",
-                table[list(schema.unique)].astype(str).agg("/".join, axis=1),
-                csv,
-            )
+    _check_unique(table, schema, file, csv, problems)
     return table, problems
+
+
+def _labels(table: pd.DataFrame, cols: list[str]) -> pd.Series:
+    """Each row's key as text, "a/b" for a key of several columns (vectorized)."""
+    parts = [table[c].astype("string").fillna("") for c in cols]
+    out = parts[0]
+    for s in parts[1:]:
+        out = out + "/" + s
+    return out
+
+
+def _check_unique(
+    table: pd.DataFrame, schema: TableSchema, file: str, csv: bool, problems: list[Problem]
+) -> None:
+    """Rows repeating a key (e.g. two rows of one scene_id) are listed."""
+    bad_keys = any(p.column in schema.unique for p in problems)
+    if not schema.unique or bad_keys or not all(k in table.columns for k in schema.unique):
+        return
+    dup = table.duplicated(list(schema.unique), keep=False).to_numpy()
+    if dup.any():
+        key = ", ".join(schema.unique)
+        report_rows(
+            problems,
+            file,
+            schema.unique[0] if len(schema.unique) == 1 else None,
+            dup,
+            f"duplicated key ({key})",
+            _labels(table, list(schema.unique)),
+            csv,
+        )
 
 
 def _expected(col: Column) -> str:
     return {
         "str": "expected text",
         "float": "expected a number",
-        "int": "expected a whole number",
+        "int": f"expected a whole number (at most {MAX_INT:,} in size)",
         "date": "expected an ISO date (YYYY-MM-DD)",
         "enum": f"expected one of {', '.join(col.choices)}",
         "wkt": "expected a WKT polygon in lon/lat degrees",
@@ -310,9 +378,10 @@ def _convert(raw: pd.Series, col: Column, blank: np.ndarray) -> tuple[pd.Series,
         bad = ~blank & num.isna().to_numpy()
         if col.kind == "int":
             v = num.to_numpy()
-            frac = ~blank & ~bad & (np.nan_to_num(v) != np.round(np.nan_to_num(v)))
-            bad = bad | frac
-            return num.round().astype("Int64"), bad
+            with np.errstate(invalid="ignore"):
+                whole = np.isfinite(v) & (np.abs(v) <= MAX_INT) & (v == np.round(v))
+            bad = bad | (~blank & ~bad & ~whole)
+            return num.where(whole).round().astype("Int64"), bad
         return num, bad
     if col.kind == "date":
         if pd.api.types.is_datetime64_any_dtype(raw.dtype):

@@ -9,6 +9,7 @@ from typing import Any
 import yaml
 
 from blockqc.errors import BlockqcError, InputError, Problem
+from blockqc.textio import read_text
 
 
 class LineDict(dict):
@@ -25,8 +26,18 @@ class LineList(list):
     item_lines: list[int]
 
 
-class _Loader(yaml.SafeLoader):
-    """SafeLoader (no Python tags) that builds LineDict/LineList and refuses duplicate keys."""
+_BaseLoader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)  # libyaml's parser when built in
+
+#: YAML inputs (block.yaml, verdicts, rule packs) larger than this are refused unread
+MAX_YAML_BYTES = 2 * 2**20
+#: deepest nesting of mappings and sequences accepted (the contract needs fewer than ten)
+MAX_YAML_DEPTH = 64
+#: most values a document may expand to once its aliases are followed
+MAX_YAML_VALUES = 1_000_000
+
+
+class _Loader(_BaseLoader):  # type: ignore[misc, valid-type]
+    """A safe loader (no Python tags) that builds LineDict/LineList and refuses duplicate keys."""
 
 
 def _mapping(loader: _Loader, node: yaml.MappingNode) -> LineDict:
@@ -66,16 +77,43 @@ _Loader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _mapping
 _Loader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_SEQUENCE_TAG, _sequence)
 
 
+def _scan(text: str) -> tuple[int, str] | None:
+    """Walk the parser's events (no recursion, nothing built): too deep, or aliases expanding
+    to too many values (an alias bomb), gives the line and the problem; else None."""
+    sizes: dict[str, int] = {}
+    stack: list[list] = [[None, 0]]  # per open collection: [anchor, values so far]
+    for ev in yaml.parse(text, Loader=_BaseLoader):
+        if isinstance(ev, yaml.CollectionStartEvent):
+            stack.append([ev.anchor, 1])
+            if len(stack) - 1 > MAX_YAML_DEPTH:
+                return ev.start_mark.line + 1, f"nested deeper than {MAX_YAML_DEPTH} levels"
+            continue
+        if isinstance(ev, yaml.CollectionEndEvent):
+            anchor, n = stack.pop()
+        elif isinstance(ev, yaml.ScalarEvent):
+            anchor, n = ev.anchor, 1
+        elif isinstance(ev, yaml.AliasEvent):
+            anchor, n = None, sizes.get(ev.anchor, 1)
+        else:
+            continue
+        if anchor is not None:
+            sizes[anchor] = n
+        stack[-1][1] += n
+        if stack[-1][1] > MAX_YAML_VALUES:
+            return ev.start_mark.line + 1, (
+                f"aliases expand to more than {MAX_YAML_VALUES:,} values: refused unexpanded"
+            )
+    return None
+
+
 def load_yaml(path: Path, error: type[BlockqcError] = InputError) -> Any:
     """Read one YAML document safely; syntax errors and unsafe tags name the file and line."""
+    text = read_text(path, MAX_YAML_BYTES, error)
     try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise error(Problem(str(path), "file not found")) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise error(Problem(str(path), f"cannot be read as UTF-8 text: {exc}")) from None
-    try:
-        loader = _Loader(text)  # a SafeLoader: no tag can build a Python object
+        bad = _scan(text)
+        if bad is not None:
+            raise error(Problem(str(path), f"not accepted: {bad[1]}", line=bad[0]))
+        loader = _Loader(text)  # a safe loader: no tag can build a Python object
         try:
             return loader.get_single_data()
         finally:
@@ -113,7 +151,7 @@ def pydantic_problems(exc: Any, file: Path, data: Any, prefix: Sequence[Any] = (
     for err in exc.errors():
         loc = tuple(prefix) + tuple(err["loc"])
         path = ".".join(str(p) for p in loc) or "(top level)"
-        msg = err["msg"]
+        msg = err["msg"].removeprefix("Value error, ")
         if err["type"] == "extra_forbidden":
             msg = "unknown key"
         problems.append(Problem(str(file), f"{path}: {msg}", line=line_of(data, loc)))

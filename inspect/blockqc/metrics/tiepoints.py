@@ -83,6 +83,18 @@ _ERROR_STATS = {
     "share_in_interval": "%",
 }
 
+#: residual histogram: bins of this width up to HIST_MAX_PX, larger errors in one last bin
+HIST_BIN_PX = 0.05
+HIST_MAX_PX = 10.0
+
+
+def histogram_edges(largest: float) -> np.ndarray:
+    """Bin edges for the residual histogram: 0.05 px bins over [0, 2 px] at least, to at most
+    10 px; one last bin gathers every larger error, so the count of bins stays bounded."""
+    top = min(max(2.0, np.ceil(largest * 10) / 10), HIST_MAX_PX)
+    edges = np.linspace(0.0, top, int(round(top / HIST_BIN_PX)) + 1)
+    return np.append(edges, largest) if largest > top else edges
+
 
 @metric(
     "tie_point_errors",
@@ -115,7 +127,7 @@ def tie_point_errors(d: Delivery, p: ErrorParams, measure: Measure) -> Measureme
     obs = tp[["point_id", "scene_id", "line", "sample", "v_line", "v_sample"]].assign(
         error_px=err.to_numpy()
     )
-    hist_edges = np.arange(0.0, max(2.0, float(np.ceil(err.max() * 10) / 10)) + 0.05, 0.05)
+    hist_edges = histogram_edges(float(err.max()))
     counts, _ = np.histogram(err.to_numpy(), bins=hist_edges)
     return Measurement(
         tables={

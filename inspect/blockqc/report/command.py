@@ -22,6 +22,10 @@ def _read_json(path: Path) -> tuple[Any, bytes]:
         return json.loads(raw.decode("utf-8")), raw
     except UnicodeDecodeError as exc:
         raise InputError(Problem(str(path), f"is not UTF-8 text (byte {exc.start})")) from None
+    except RecursionError:
+        raise InputError(
+            Problem(str(path), "is not accepted: JSON nested too deeply for a results document")
+        ) from None
     except json.JSONDecodeError as exc:
         raise InputError(
             Problem(
@@ -138,13 +142,13 @@ def command(
 
     A batch folder (or its summary.json) re-renders the batch summary as well.
     """
-    from blockqc.outputs import write_bytes_atomic
+    from blockqc.outputs import safe_child, write_bytes_atomic
     from blockqc.report import write_block_report, write_summary_report
 
     docs, summary = gather(list(results))
     written: list[Path] = []
     for path, doc, raw in docs:
-        folder = out / doc.block_id
+        folder = safe_child(out, doc.block_id, source=path)
         if (folder / "results.json").resolve() != path.resolve():
             write_bytes_atomic(folder / "results.json", raw)
         written += write_block_report(folder, doc, lang=lang, templates=templates, pdf=pdf)

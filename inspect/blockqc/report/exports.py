@@ -36,20 +36,38 @@ EVIDENCE_COLUMNS = [
 ]
 
 
+#: first characters that make a spreadsheet read a cell as a formula (OWASP CSV injection)
+FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
+
+
+def neutralise(text: str) -> str:
+    """A text cell a spreadsheet would run as a formula, prefixed with ' so it stays text;
+    numbers written as text (-3.2, +1e5) are left as they are."""
+    if not text.startswith(FORMULA_START):
+        return text
+    try:
+        float(text)
+        return text
+    except ValueError:
+        return "'" + text
+
+
 def _cell(v: Any) -> Any:
     if v is None:
         return ""
     if isinstance(v, bool):
         return "true" if v else "false"
     if isinstance(v, dict | list):
-        return json.dumps(v, ensure_ascii=False)
+        return neutralise(json.dumps(v, ensure_ascii=False))
+    if isinstance(v, str):
+        return neutralise(v)
     return v
 
 
 def _csv(header: list[str], rows: list[dict[str, Any]]) -> str:
     buf = io.StringIO()
     writer = csv.DictWriter(buf, fieldnames=header, lineterminator="\r\n", extrasaction="ignore")
-    writer.writeheader()
+    writer.writerow({k: neutralise(str(k)) for k in header})
     for r in rows:
         writer.writerow({k: _cell(r.get(k)) for k in header})
     return "\ufeff" + buf.getvalue()  # a BOM, so that spreadsheets read UTF-8

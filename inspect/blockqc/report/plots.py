@@ -43,6 +43,9 @@ METHOD_COLOURS = {
     "recalculation": "#2e7d32",
 }
 WIDTH_IN = 6.7  # the A4 text width (170 mm)
+#: residual histogram bars: 0.05 px wide, drawn up to 10 px (as the tie-point metric bins them)
+HIST_BIN_PX = 0.05
+HIST_MAX_PX = 10.0
 
 _registered = False
 
@@ -70,6 +73,8 @@ def _setup() -> None:
             "axes.axisbelow": True,
             "svg.hashsalt": "blockqc",
             "axes.unicode_minus": True,
+            "text.parse_math": False,  # ids and labels are plain text: "$x$" is not mathtext
+            "text.usetex": False,
         }
     )
 
@@ -311,13 +316,24 @@ def _num(v: float) -> str:
     return f"{v:g}"
 
 
+def _bounded_bins(hist: dict[str, Any]) -> tuple[np.ndarray, np.ndarray, float]:
+    """The histogram's bins up to 10 px (at most a few hundred bars, whatever results.json
+    holds) and the count of errors beyond them."""
+    edges = np.asarray(hist.get("edges_px") or [0.0, HIST_BIN_PX], float)
+    counts = np.asarray(hist.get("counts") or [0], float)
+    if edges.size != counts.size + 1 or not (np.isfinite(edges).all() & np.isfinite(counts).all()):
+        edges, counts = np.array([0.0, HIST_BIN_PX]), np.zeros(1)  # not a histogram: none drawn
+    inside = edges[1:] <= HIST_MAX_PX + 1e-9
+    n = int(inside.sum())
+    return edges[: n + 1], counts[:n], float(counts[~inside].sum())
+
+
 def residual_histogram(
     hist: dict[str, Any], marks: Sequence[float], t: Callable[..., str], name: str
 ) -> str:
     """Tie-point residual histogram with the 0.5 / 1.0 / 1.5 px marks (§TP-1..3)."""
     fig, ax = _figure(2.3)
-    edges = np.asarray(hist["edges_px"], float)
-    counts = np.asarray(hist["counts"], float)
+    edges, counts, over = _bounded_bins(hist)
     ax.bar(
         edges[:-1],
         counts,
@@ -327,7 +343,11 @@ def residual_histogram(
         edgecolor="#4f6f99",
         linewidth=0.4,
     )
-    top = counts.max() if counts.size else 1
+    top = max(counts.max() if counts.size else 1, over, 1)
+    if over:  # errors beyond the drawn range: one hatched bar at its end, with their count
+        ax.bar(edges[-1], over, width=HIST_BIN_PX, align="edge", color="#d9d9d9", hatch="//")
+        ax.text(edges[-1], over, f"> {edges[-1]:g} px: {over:g}", ha="right", va="bottom")
+        edges = np.append(edges, edges[-1] + HIST_BIN_PX)
     for m in marks:
         ax.axvline(
             m,

@@ -1,0 +1,75 @@
+"""Reading input files as UTF-8: size limits, a byte-order mark, and errors that name the line."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from blockqc.errors import BlockqcError, InputError, Problem
+
+BOM = b"\xef\xbb\xbf"
+
+
+def _likely_encoding(data: bytes) -> str:
+    """A cheap guess at the encoding of bytes that are not UTF-8 (only for the message)."""
+    if data.startswith((b"\xff\xfe", b"\xfe\xff")):
+        return "UTF-16"
+    high = np.frombuffer(data, dtype=np.uint8) >= 0x80
+    paired = high[:-1] & high[1:]  # GBK writes each Chinese character as two high bytes
+    if high.any() and 2 * paired.sum() >= 0.8 * high.sum():
+        try:
+            data.decode("gb18030")
+            return "GBK / GB18030"
+        except UnicodeDecodeError:
+            pass
+    return "Latin-1 / Windows-1252"
+
+
+def utf8_problem(path: Path, data: bytes, exc: UnicodeDecodeError) -> Problem:
+    """The line and column of the first byte that is not UTF-8, and the likely encoding."""
+    line = data.count(b"\n", 0, exc.start) + 1
+    column = exc.start - (data.rfind(b"\n", 0, exc.start) + 1) + 1
+    return Problem(
+        str(path),
+        f"byte 0x{data[exc.start]:02x} at character {column} is not UTF-8: the file must be "
+        f"UTF-8 text (it looks like {_likely_encoding(data)}; save it as UTF-8)",
+        line=line,
+    )
+
+
+def read_bytes(path: Path, max_bytes: int | None, error: type[BlockqcError] = InputError) -> bytes:
+    """Read a regular file whole, refusing folders, dangling links and absurd sizes."""
+    if path.is_symlink() and not path.exists():
+        raise error(Problem(str(path), "a symbolic link to a file that does not exist"))
+    if path.is_dir():
+        raise error(Problem(str(path), "is a folder: expected a file"))
+    try:
+        size = path.stat().st_size
+        if max_bytes is not None and size > max_bytes:
+            raise error(
+                Problem(
+                    str(path),
+                    f"is {size / 2**20:.1f} MiB: files of this kind are limited to "
+                    f"{max_bytes / 2**20:g} MiB",
+                )
+            )
+        return path.read_bytes()
+    except FileNotFoundError:
+        raise error(Problem(str(path), "file not found")) from None
+    except OSError as exc:
+        raise error(Problem(str(path), f"cannot be read: {exc.strerror or exc}")) from None
+
+
+def decode_utf8(path: Path, data: bytes, error: type[BlockqcError] = InputError) -> str:
+    """UTF-8 text without its byte-order mark; other encodings are refused with the line."""
+    try:
+        return data.removeprefix(BOM).decode("utf-8")
+    except UnicodeDecodeError as exc:
+        exc.start += len(BOM) if data.startswith(BOM) else 0
+        raise error(utf8_problem(path, data, exc)) from None
+
+
+def read_text(path: Path, max_bytes: int | None, error: type[BlockqcError] = InputError) -> str:
+    """A text file's contents as UTF-8 (BOM dropped; CRLF is left to the parsers)."""
+    return decode_utf8(path, read_bytes(path, max_bytes, error), error)

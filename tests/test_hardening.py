@@ -1,0 +1,540 @@
+"""Malformed inputs of every class: a clear exit 2 naming the file and the row, line or key;
+legitimate variants (BOM, CRLF) giving the same results as the clean input."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from casekit import write_delivery
+
+
+def _no_traceback(proc) -> None:
+    assert "Traceback" not in proc.stderr + proc.stdout
+    assert "internal error" not in proc.stderr
+
+
+def _replace(path: Path, old: str, new: str) -> None:
+    data = path.read_bytes()
+    assert old.encode() in data, (path, old)
+    path.write_bytes(data.replace(old.encode(), new.encode(), 1))
+
+
+def _cell(path: Path, row: int, column: str, value: str) -> None:
+    """Set one cell of a CSV (data row `row`, 1-based) to a raw text."""
+    with path.open(newline="") as fh:
+        rows = list(csv.reader(fh))
+    rows[row][rows[0].index(column)] = value
+    with path.open("w", newline="") as fh:
+        csv.writer(fh, lineterminator="\n").writerows(rows)
+
+
+@pytest.fixture
+def delivery(tmp_path: Path) -> Path:
+    return write_delivery(tmp_path / "block")
+
+
+def _refused(blockqc, delivery: Path, out: Path, *expected: str, extra: tuple = ()) -> str:
+    before = sorted(str(p) for p in delivery.rglob("*"))
+    p = blockqc("inspect", delivery, "--out", out, "--no-pdf", *extra)
+    assert p.returncode == 2, p.stdout + p.stderr
+    _no_traceback(p)
+    for text in expected:
+        assert text in p.stderr, p.stderr
+    assert sorted(str(p) for p in delivery.rglob("*")) == before  # nothing written into it
+    assert not list(out.rglob("results.json"))
+    return p.stderr
+
+
+# ------------------------------------------------------------------ non-finite numbers
+NON_FINITE = [
+    ("checkpoints.csv", 1, "x_m", "1e309", "row 1 (line 2), column 'x_m': value is not finite"),
+    ("overlaps.csv", 2, "dx_m", "-inf", "row 2 (line 3), column 'dx_m': value is not finite"),
+    ("tie_points.csv", 5, "v_line", "inf", "row 5 (line 6), column 'v_line': value is not finite"),
+    ("edges.csv", 1, "dz_m", "inf", "row 1 (line 2), column 'dz_m': value is not finite"),
+    ("pan_ms.csv", 3, "dy_m", "-1e400", "row 3 (line 4), column 'dy_m': value is not finite"),
+    ("checkpoints.csv", 4, "ref_z_m", "Infinity", "row 4 (line 5), column 'ref_z_m': value is not"),
+    ("scenes.csv", 2, "water_fraction", "inf", "row 2 (line 3), column 'water_fraction': value"),
+    ("scenes.csv", 1, "lines", "inf", "row 1 (line 2), column 'lines': expected a whole number"),
+    ("checkpoints.csv", 2, "y_m", "nan", "row 2 (line 3), column 'y_m': empty or NaN value"),
+]
+
+
+@pytest.mark.parametrize("file, row, column, value, message", NON_FINITE)
+def test_non_finite_numbers_are_refused(
+    blockqc, delivery, tmp_path, file, row, column, value, message
+):
+    _cell(delivery / file, row, column, value)
+    _refused(blockqc, delivery, tmp_path / "out", f"{file}, {message}")
+
+
+def test_non_finite_numbers_in_parquet(blockqc, delivery: Path, tmp_path: Path) -> None:
+    ov = pd.read_csv(delivery / "overlaps.csv", dtype={"point_id": str})
+    ov.loc[3, "dy_m"] = float("-inf")
+    (delivery / "overlaps.csv").unlink()
+    ov.to_parquet(delivery / "overlaps.parquet")
+    _refused(
+        blockqc,
+        delivery,
+        tmp_path / "out",
+        "overlaps.parquet, row 4, column 'dy_m': value is not finite",
+    )
+
+
+@pytest.mark.parametrize("value", [".inf", ".nan", "-.inf"])
+def test_non_finite_gsd_in_block_yaml(blockqc, delivery: Path, tmp_path: Path, value) -> None:
+    _replace(delivery / "block.yaml", "  pan: 1.0", f"  pan: {value}")
+    _refused(blockqc, delivery, tmp_path / "out", "block.yaml, line 4: gsd_m.pan: Input should")
+
+
+def test_non_finite_reported_figure(blockqc, delivery: Path, tmp_path: Path) -> None:
+    _replace(delivery / "block.yaml", "reported: {}", "reported: {tie_point_error_px: .nan}")
+    _refused(blockqc, delivery, tmp_path / "out", "line 17: reported.tie_point_error_px")
+
+
+# ------------------------------------------------------------- crashes turned into messages
+@pytest.mark.parametrize("value", ["100000000000000000000000", "1e20", "-99999999999999999999"])
+def test_integer_too_large(blockqc, delivery: Path, tmp_path: Path, value: str) -> None:
+    _cell(delivery / "scenes.csv", 3, "samples", value)
+    _refused(
+        blockqc,
+        delivery,
+        tmp_path / "out",
+        "scenes.csv, row 3 (line 4), column 'samples': expected a whole number",
+    )
+
+
+def test_epsg_too_large(blockqc, delivery: Path, tmp_path: Path) -> None:
+    _replace(delivery / "block.yaml", "epsg: 32650", "epsg: 100000000000000000000000")
+    _refused(blockqc, delivery, tmp_path / "out", "block.yaml, line 10: spatial_reference.epsg")
+
+
+@pytest.mark.parametrize(
+    "table, old, dup",
+    [
+        ("edges", "dy_m", "dx_m"),
+        ("tie_points", "v_sample", "v_line"),
+        ("scenes", "band", "acquired"),
+    ],
+)
+def test_duplicate_header_names(blockqc, delivery: Path, tmp_path: Path, table, old, dup) -> None:
+    path = delivery / f"{table}.csv"
+    lines = path.read_text().splitlines()
+    lines[0] = lines[0].replace(old, dup)
+    path.write_text("\n".join(lines) + "\n")
+    _refused(
+        blockqc,
+        delivery,
+        tmp_path / "out",
+        f"{table}.csv, line 1: column '{dup}' appears more than once in the header",
+    )
+
+
+@pytest.mark.parametrize("column", ["dx_m", "point_id"])
+def test_list_typed_parquet_column(blockqc, delivery: Path, tmp_path: Path, column) -> None:
+    edges = pd.read_csv(delivery / "edges.csv")
+    edges[column] = [[1.0, 2.0]] * len(edges) if column == "dx_m" else [["a"]] * len(edges)
+    (delivery / "edges.csv").unlink()
+    edges.to_parquet(delivery / "edges.parquet")
+    _refused(
+        blockqc,
+        delivery,
+        tmp_path / "out",
+        f"edges.parquet, column '{column}': a column of type list",
+    )
+
+
+def test_ragged_row_names_its_line(blockqc, delivery: Path, tmp_path: Path) -> None:
+    _replace(delivery / "tie_points.csv", "\nPS1-001,S1,", "\nPS1-001,S1,7,")
+    _refused(
+        blockqc,
+        delivery,
+        tmp_path / "out",
+        "tie_points.csv, line 3: not a readable CSV table: 7 fields where the header has 6",
+    )
+
+
+def test_deeply_nested_yaml(blockqc, delivery: Path, tmp_path: Path) -> None:
+    (delivery / "block.yaml").write_text("block_id: " + "[" * 50000 + "]" * 50000 + "\n")
+    _refused(blockqc, delivery, tmp_path / "out", "block.yaml, line 1: not accepted: nested")
+
+
+def test_deeply_nested_verdicts_and_pack(blockqc, delivery: Path, tmp_path: Path) -> None:
+    deep = "{a: " * 3000 + "1" + "}" * 3000
+    v = tmp_path / "verdicts.yaml"
+    v.write_text(f"inspector: A\nverdicts: {deep}\n")
+    extra = ("--verdicts", v)
+    _refused(blockqc, delivery, tmp_path / "o1", f"{v}, line 2: not accepted: nested", extra=extra)
+    pack = tmp_path / "pack.yaml"
+    pack.write_text(f"pack: p\nextends: global-project\nconstants: {deep}\n")
+    extra = ("--rules", pack)
+    _refused(blockqc, delivery, tmp_path / "o2", f"{pack}, line 3: not accepted", extra=extra)
+
+
+def test_yaml_alias_bomb_is_refused_unexpanded(blockqc, delivery: Path, tmp_path: Path) -> None:
+    lines = ["a0: &a0 [x, x, x, x, x, x, x, x, x, x]"]
+    for i in range(1, 9):
+        lines.append(f"a{i}: &a{i} [" + ", ".join([f"*a{i - 1}"] * 10) + "]")
+    v = tmp_path / "verdicts.yaml"
+    v.write_text("\n".join(lines) + "\n")
+    extra = ("--verdicts", v)
+    _refused(blockqc, delivery, tmp_path / "out", f"{v}, line 6: not accepted: alias", extra=extra)
+
+
+def test_absurdly_large_manifest_is_refused(blockqc, delivery: Path, tmp_path: Path) -> None:
+    with (delivery / "block.yaml").open("a") as fh:
+        fh.write("notes:\n" + "  - filler text of a manifest far too large\n" * 200_000)
+    _refused(blockqc, delivery, tmp_path / "out", "MiB: files of this kind are limited to 2 MiB")
+
+
+def test_deeply_nested_json_given_to_report(blockqc, tmp_path: Path) -> None:
+    f = tmp_path / "results.json"
+    f.write_text('{"block_id": "A", "verdict": "pass", "results": ' + "[" * 100000 + "]" * 100000)
+    p = blockqc("report", f, "--out", tmp_path / "out", "--no-pdf")
+    assert p.returncode == 2
+    _no_traceback(p)
+    assert f"{f}: is not accepted: JSON nested too deeply" in p.stderr
+
+
+# -------------------------------------------------------------------------- encodings
+def test_gbk_scene_ids(blockqc, delivery: Path, tmp_path: Path) -> None:
+    for name in ("scenes.csv", "tie_points.csv"):
+        text = (delivery / name).read_text().replace("S3,", "场景3,")
+        (delivery / name).write_bytes(text.encode("gbk"))
+    _refused(
+        blockqc,
+        delivery,
+        tmp_path / "out",
+        "scenes.csv, line 4: byte 0xb3 at character 1 is not UTF-8",
+        "UTF-8 text (it looks like GBK / GB18030",
+    )
+
+
+def test_latin1_manifest_names_line(blockqc, delivery: Path, tmp_path: Path) -> None:
+    data = (delivery / "block.yaml").read_bytes().replace(b"GF-7", "GF-7 Müller".encode("latin-1"))
+    (delivery / "block.yaml").write_bytes(data)
+    _refused(
+        blockqc,
+        delivery,
+        tmp_path / "out",
+        "block.yaml, line 2: byte 0xfc at character 15 is not UTF-8",
+        "Latin-1 / Windows-1252",
+    )
+
+
+def test_bom_crlf_and_trailing_commas_give_the_same_results(blockqc, tmp_path: Path) -> None:
+    clean = write_delivery(tmp_path / "clean")
+    variant = write_delivery(tmp_path / "variant")
+    edges = variant / "edges.csv"
+    edges.write_text(edges.read_text().replace("\n", ",,\n"))  # empty unnamed columns
+    for f in [*variant.glob("*.csv"), variant / "block.yaml"]:
+        f.write_bytes(b"\xef\xbb\xbf" + f.read_bytes().replace(b"\n", b"\r\n"))
+    docs = []
+    for d, out in ((clean, "o1"), (variant, "o2")):
+        p = blockqc("inspect", d, "--out", tmp_path / out, "--no-pdf")
+        assert p.returncode == 0, p.stderr
+        doc = json.loads((tmp_path / out / "CASE" / "results.json").read_text())
+        docs.append({k: v for k, v in doc.items() if k not in ("generated_at", "delivery")})
+    assert docs[0] == docs[1]
+
+
+# ------------------------------------------------------------ bad input treated as absent
+def test_dangling_symlink_for_a_table(blockqc, delivery: Path, tmp_path: Path) -> None:
+    (delivery / "checkpoints.csv").unlink()
+    os.symlink(tmp_path / "nowhere.csv", delivery / "checkpoints.csv")
+    _refused(blockqc, delivery, tmp_path / "out", "checkpoints.csv: a symbolic link to a file that")
+
+
+@pytest.mark.parametrize("name", ["edges.csv", "checkpoints.parquet", "scenes.csv"])
+def test_folder_named_like_a_table(blockqc, delivery: Path, tmp_path: Path, name: str) -> None:
+    for f in delivery.glob(name.split(".")[0] + ".*"):
+        f.unlink()
+    (delivery / name).mkdir()
+    _refused(blockqc, delivery, tmp_path / "out", f"{name}: is not a regular file")
+
+
+@pytest.mark.parametrize("table", ["checkpoints", "overlaps", "tie_points"])
+def test_header_only_table(blockqc, delivery: Path, tmp_path: Path, table: str) -> None:
+    path = delivery / f"{table}.csv"
+    path.write_text(path.read_text().splitlines()[0] + "\n")
+    _refused(blockqc, delivery, tmp_path / "out", f"{table}.csv: the table has a header but no")
+
+
+def test_self_intersecting_footprint(blockqc, delivery: Path, tmp_path: Path) -> None:
+    scenes = pd.read_csv(delivery / "scenes.csv")
+    scenes.loc[2, "footprint_wkt"] = "POLYGON((116 39, 116.02 38.98, 116.02 39, 116 38.98, 116 39))"
+    scenes.to_csv(delivery / "scenes.csv", index=False)
+    _refused(
+        blockqc,
+        delivery,
+        tmp_path / "out",
+        "scenes.csv, row 3 (line 4), column 'footprint_wkt': not a valid polygon",
+    )
+
+
+def test_missing_templates_folder(blockqc, delivery: Path, tmp_path: Path) -> None:
+    p = blockqc("inspect", delivery, "--out", tmp_path / "out", "--templates", tmp_path / "nothing")
+    assert p.returncode == 2
+    assert "nothing" in p.stderr and "does not exist" in p.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_half_given_reference_and_self_overlap(blockqc, delivery: Path, tmp_path: Path) -> None:
+    _cell(delivery / "checkpoints.csv", 5, "ref_y_m", "")
+    _cell(delivery / "overlaps.csv", 2, "scene_b", "S1")
+    _refused(
+        blockqc,
+        delivery,
+        tmp_path / "out",
+        "checkpoints.csv, row 5 (line 6), column 'ref_y_m': ref_y_m is empty where ref_x_m",
+        "overlaps.csv, row 2 (line 3), column 'scene_b': scene_b is scene_a",
+    )
+
+
+# ------------------------------------------------ problems together, "did you mean"
+def test_missing_document_reported_with_table_errors(blockqc, delivery, tmp_path) -> None:
+    (delivery / "documents" / "technical_design.pdf").unlink()
+    _cell(delivery / "tie_points.csv", 3, "v_line", "abc")
+    _refused(
+        blockqc,
+        delivery,
+        tmp_path / "out",
+        "tie_points.csv, row 3 (line 4), column 'v_line': expected a number, got 'abc'",
+        "block.yaml: documents.technical_design: documents/technical_design.pdf is missing",
+    )
+
+
+def test_did_you_mean_method_and_scene(blockqc, delivery: Path, tmp_path: Path) -> None:
+    _cell(delivery / "checkpoints.csv", 2, "method", "high_precison")
+    _cell(delivery / "tie_points.csv", 10, "scene_id", "S01")
+    _refused(
+        blockqc,
+        delivery,
+        tmp_path / "out",
+        "checkpoints.csv, row 2 (line 3), column 'method': expected one of high_precision, "
+        "same_accuracy, recalculation, got 'high_precison'; did you mean 'high_precision'?",
+        "tie_points.csv, row 10 (line 11), column 'scene_id': unknown scene_id (not in "
+        "scenes.csv), got 'S01'; did you mean 'S1'?",
+    )
+
+
+# ------------------------------------------------------------------------- path safety
+@pytest.mark.parametrize(
+    "block_id, why",
+    [
+        ("../x", "holds '/'"),
+        ("/tmp/abs", "holds '/'"),
+        ("..", "starts with '.'"),
+        ("a/b", "holds '/'"),
+        ('"a\\0b"', "holds '\\x00'"),
+        ("A" * 101, "has 101 characters: at most 100"),
+        ("summary.json", "is the name of a batch output file"),
+        ('"a b"', "holds ' '"),
+    ],
+)
+def test_unsafe_block_id(blockqc, delivery: Path, tmp_path: Path, block_id: str, why) -> None:
+    _replace(delivery / "block.yaml", "block_id: CASE", f"block_id: {block_id}")
+    _refused(blockqc, delivery, tmp_path / "out", "block.yaml, line 1: block_id: ", why)
+    assert not (tmp_path / "x").exists() and not Path("/tmp/abs").exists()
+
+
+def test_block_id_within_the_contract_is_accepted(blockqc, delivery: Path, tmp_path) -> None:
+    _replace(delivery / "block.yaml", "block_id: CASE", "block_id: F1-B01_v2.1")
+    p = blockqc("inspect", delivery, "--out", tmp_path / "out", "--no-pdf")
+    assert p.returncode == 0, p.stderr
+    assert (tmp_path / "out" / "F1-B01_v2.1" / "results.json").is_file()
+
+
+def test_report_refuses_an_unsafe_block_id(blockqc, delivery: Path, tmp_path: Path) -> None:
+    p = blockqc("inspect", delivery, "--out", tmp_path / "out", "--no-pdf")
+    assert p.returncode == 0, p.stderr
+    f = tmp_path / "out" / "CASE" / "results.json"
+    doc = json.loads(f.read_text())
+    doc["block_id"] = "../../escaped"
+    f.write_text(json.dumps(doc))
+    p = blockqc("report", f, "--out", tmp_path / "re", "--no-pdf")
+    assert p.returncode == 2
+    _no_traceback(p)
+    assert f"{f}, line 1: block_id: the block id '../../escaped' holds '/'" in p.stderr
+    assert not (tmp_path / "escaped").exists()
+
+
+def test_safe_child(tmp_path: Path) -> None:
+    from blockqc.errors import InputError
+    from blockqc.outputs import safe_child
+
+    assert safe_child(tmp_path, "F1-B01") == tmp_path / "F1-B01"
+    (tmp_path / "link").symlink_to(tmp_path.parent)
+    for name in ("..", "../x", "/etc", "a/b", "a\0b", "", "x" * 300, "link", ".hidden"):
+        with pytest.raises(InputError):
+            safe_child(tmp_path, name)
+
+
+# ------------------------------------------------------------------------ verdicts file
+def _verdicts(tmp_path: Path, text: str) -> Path:
+    v = tmp_path / "verdicts.yaml"
+    v.write_text(text)
+    return v
+
+
+VERDICT_CASES = [
+    ("verdicts:\n  CP-2: {status: pass}\n", "line 3: rule CP-2 is judged from the delivery"),
+    (
+        "verdicts:\n  DOC-4: {status: pass}\n",
+        "line 3: a verdict for rule 'DOC-4', which the rule pack does not hold; did you mean "
+        "'DOC-3'?",
+    ),
+    (
+        "blocks:\n  CAS:\n    verdicts: {DOC-3: {status: pass}}\n",
+        "line 3: block 'CAS' is not one of the blocks inspected (CASE); did you mean 'CASE'?",
+    ),
+    ("date: 2026-11-21\n", "line 2: date: unknown key"),
+    ("waivers:\n  RO-3: {reason: sea}\n", "line 3: rule RO-3 is not waivable"),
+    ("waivers:\n  CP-4: {reason: x}\n", "line 3: rule CP-4 is not waivable"),
+    ("waivers:\n  CP-5: {reason: x}\n", "line 3: rule CP-5 is not waivable"),
+    (
+        "waivers:\n  TP-4:\n    reason: sea\n    scenes: [S1, S7]\n",
+        "line 5: a waiver for scene 'S7', which is not a scene of any block inspected",
+    ),
+    (
+        "blocks:\n  CASE:\n    waivers:\n      TP-5: {reason: sea, scenes: [S22]}\n",
+        "line 5: a waiver for scene 'S22', which is not a scene of block CASE; did you mean",
+    ),
+    (
+        "waivers:\n  TP-4: {reason: x, pairs: [[S1, Q2]]}\n",
+        "line 3: a waiver for scene 'Q2', which is not a scene of any block inspected",
+    ),
+    ("verdicts:\n  DOC-3: {status: conditional_pass}\n", "line 3: verdicts.DOC-3: a conditional"),
+    (
+        "verdicts:\n  DOC-3: {status: maybe}\n",
+        "line 3: verdicts.DOC-3.status: Input should be 'pass', 'conditional_pass', 'rework' "
+        "or 'fail'",
+    ),
+]
+
+
+@pytest.mark.parametrize("text, message", VERDICT_CASES)
+def test_verdicts_file_nothing_dropped(blockqc, delivery, tmp_path, text, message) -> None:
+    v = _verdicts(tmp_path, "inspector: A\n" + text)
+    _refused(blockqc, delivery, tmp_path / "out", f"{v}, {message}", extra=("--verdicts", v))
+
+
+def _doc3(tmp_path: Path, blockqc, delivery: Path, status: str) -> tuple[int, dict]:
+    v = _verdicts(tmp_path, f"verdicts:\n  DOC-3: {{status: {status}, note: 'fix table 3'}}\n")
+    out = tmp_path / f"out-{status}"
+    p = blockqc("inspect", delivery, "--verdicts", v, "--out", out, "--no-pdf")
+    _no_traceback(p)
+    doc = json.loads((out / "CASE" / "results.json").read_text())
+    return p.returncode, next(r for r in doc["results"] if r["rule"] == "DOC-3") | {
+        "verdict": doc["verdict"]
+    }
+
+
+@pytest.mark.parametrize(
+    "status, rc, rule_status, verdict",
+    [
+        ("pass", 0, "pass", "pass"),
+        ("conditional_pass", 0, "pass", "pass"),
+        ("rework", 1, "fail", "fail"),
+        ("fail", 1, "fail", "fail"),
+    ],
+)
+def test_verdict_statuses(blockqc, delivery, tmp_path, status, rc, rule_status, verdict) -> None:
+    got_rc, res = _doc3(tmp_path, blockqc, delivery, status)
+    assert (got_rc, res["status"], res["value"], res["verdict"]) == (
+        rc,
+        rule_status,
+        status,
+        verdict,
+    )
+    assert res["detail"]["note"] == "fix table 3"
+    if status == "conditional_pass":
+        assert res["detail"]["condition"] == "fix table 3"
+
+
+def test_whole_rule_waiver_covers_every_unit(blockqc, tmp_path: Path) -> None:
+    drop = {"tie_points": [{"where": {"scene_id": "S2"}, "keep_first": 50}]}
+    d = write_delivery(tmp_path / "block", {"drop": drop})
+    v = _verdicts(tmp_path, "waivers:\n  TP-4: {reason: open sea}\n")
+    p = blockqc("inspect", d, "--verdicts", v, "--out", tmp_path / "out", "--no-pdf")
+    _no_traceback(p)
+    doc = json.loads((tmp_path / "out" / "CASE" / "results.json").read_text())
+    tp4 = next(r for r in doc["results"] if r["rule"] == "TP-4")
+    assert tp4["status"] == "waived"
+    assert tp4["detail"]["waived"] == ["S2"] and tp4["detail"]["waiver_reason"] == "open sea"
+
+
+# ---------------------------------------------------------------------- exports and plots
+def test_formula_cells_neutralised_in_exports(blockqc, delivery: Path, tmp_path: Path) -> None:
+    text = (delivery / "checkpoints.csv").read_text()
+    text = text.replace("\nC00,", '\n"=HYPERLINK(""http://x"",""y"")",', 1)
+    text = text.replace("\nC01,", "\n@SUM(A1),", 1).replace("\nC02,", "\n+cmd|' /C calc'!A0,", 1)
+    (delivery / "checkpoints.csv").write_text(text)
+    p = blockqc("inspect", delivery, "--out", tmp_path / "out", "--no-pdf")
+    assert p.returncode == 0, p.stderr
+    rows = pd.read_csv(tmp_path / "out" / "CASE" / "checkpoints.csv", encoding="utf-8-sig")
+    ids = set(rows["point_id"])
+    assert {'\'=HYPERLINK("http://x","y")', "'@SUM(A1)", "'+cmd|' /C calc'!A0"} <= ids
+    assert not any(str(i).startswith(("=", "+", "@")) for i in ids)
+    assert rows["dx_m"].dtype.kind == "f"  # numbers stay numbers
+
+
+@pytest.mark.parametrize(
+    "text, expected",
+    [
+        ("=1+2", "'=1+2"),
+        ("-3.2", "-3.2"),
+        ("+1e5", "+1e5"),
+        ("-cmd", "'-cmd"),
+        ("@x", "'@x"),
+        ("\tx", "'\tx"),
+        ("\r=x", "'\r=x"),
+        ("S1", "S1"),
+    ],
+)
+def test_neutralise(text: str, expected: str) -> None:
+    from blockqc.report.exports import neutralise
+
+    assert neutralise(text) == expected
+
+
+def test_huge_residual_and_mathtext_point_id(blockqc, delivery: Path, tmp_path: Path) -> None:
+    _cell(delivery / "tie_points.csv", 1, "v_line", "1000000.0")
+    _cell(delivery / "tie_points.csv", 2, "point_id", "$\\alpha^{$")
+    text = (delivery / "checkpoints.csv").read_text().replace("\nC00,", "\n$x_{1$,", 1)
+    (delivery / "checkpoints.csv").write_text(text)
+    p = blockqc("inspect", delivery, "--out", tmp_path / "out", "--no-pdf")
+    assert p.returncode == 1, p.stderr  # TP-2 fails: the 1e6 px residual
+    _no_traceback(p)
+    doc = json.loads((tmp_path / "out" / "CASE" / "results.json").read_text())
+    hist = doc["measurements"]["tie_point_errors"]["detail"]["histogram"]
+    assert len(hist["edges_px"]) == 202  # 0..10 px by 0.05, then one bin up to 1e6 px
+    assert hist["edges_px"][-1] == pytest.approx(1e6, rel=1e-6)
+    assert sum(hist["counts"]) == 484 and hist["counts"][-1] == 1
+    assert "$x_{1$" in (tmp_path / "out" / "CASE" / "report.html").read_text()
+
+
+def test_histogram_edges_bounded() -> None:
+    from blockqc.metrics.tiepoints import histogram_edges
+
+    assert len(histogram_edges(0.3)) == 41  # [0, 2] px in 0.05 px bins
+    assert histogram_edges(3.04)[-1] == pytest.approx(3.1)
+    e = histogram_edges(1e9)
+    assert len(e) == 202 and e[-2] == pytest.approx(10.0) and e[-1] == 1e9
+
+
+def test_misspelt_manifest_key(blockqc, delivery: Path, tmp_path: Path) -> None:
+    _replace(delivery / "block.yaml", "reported: {}", "reportd: {tie_point_error_px: 0.3}")
+    _replace(delivery / "block.yaml", "  height_datum:", "  hieght_datum:")
+    _refused(
+        blockqc,
+        delivery,
+        tmp_path / "out",
+        "block.yaml, line 17: reportd: unknown key; did you mean 'reported'?",
+        "block.yaml, line 8: spatial_reference.hieght_datum: unknown key; did you mean",
+    )
