@@ -306,7 +306,7 @@ def test_summary_lists_sampled_blocks_and_links(tmp_path, results_doc):
         "unreadable": [],
     }
     written = write_summary_report(tmp_path, summary, pdf=False)
-    assert [p.name for p in written] == ["summary.html"]
+    assert [p.name for p in written] == ["summary.html", "summary.csv", "summary.parquet"]
     html = written[0].read_text(encoding="utf-8")
     assert 'href="T-B01/report.html"' in html and 'href="T-B02/report.html"' in html
     sampled = html[html.index('id="sampled-table"') : html.index('id="rules"')]
