@@ -219,6 +219,7 @@ def write_delivery(folder: Path, case: dict[str, Any] | None = None) -> Path:
         if content is None:
             path.unlink(missing_ok=True)
         else:
+            path.parent.mkdir(parents=True, exist_ok=True)
             path.write_text(content)
     return folder
 

@@ -13,6 +13,7 @@ import pyarrow.parquet as pq
 from pydantic import BaseModel, ConfigDict, Field, PositiveFloat, ValidationError, model_validator
 
 from blockqc.errors import InputError, Problem
+from blockqc.geometry_inputs import BlockGeometry, load_geometry, residual_column_problems
 from blockqc.schema import TABLES, TableSchema, report_rows, validate_table
 from blockqc.yamlio import load_yaml, pydantic_problems
 
@@ -64,6 +65,11 @@ class Delivery:
     edges: pd.DataFrame | None = None
     checkpoints: pd.DataFrame | None = None
     files: dict[str, Path] = field(default_factory=dict)
+    # contract v1.1: the producer's adjustment table, the geometry read from rpc/ (and
+    # rpc_adjusted/), and what blockqc computed from it (blockqc.verification)
+    adjustment: pd.DataFrame | None = None
+    geometry: BlockGeometry | None = None
+    process_data: dict[str, Any] = field(default_factory=dict)
 
     @property
     def block_id(self) -> str:
@@ -207,10 +213,15 @@ def load_delivery(path: Path) -> Delivery:
         tables[name] = df
 
     problems.extend(_check_references(tables, files))
+    geometry, found = load_geometry(path, tables, files)  # contract v1.1
+    problems.extend(found)
+    problems.extend(
+        residual_column_problems(tables.get("tie_points"), files.get("tie_points"), geometry)
+    )
     if problems:
         raise InputError(problems)
     assert manifest is not None
-    return Delivery(path=path, manifest=manifest, files=files, **tables)
+    return Delivery(path=path, manifest=manifest, files=files, geometry=geometry, **tables)
 
 
 def _check_references(tables: dict[str, pd.DataFrame], files: dict[str, Path]) -> list[Problem]:

@@ -18,6 +18,7 @@ from blockqc.inspector import BlockInput, Waiver
 from blockqc.metrics import REGISTRY, Measurement, Table
 from blockqc.rules.expr import ExpressionError, evaluate, resolve_params
 from blockqc.rules.model import Pack, Rule, Threshold
+from blockqc.verification import annotate, prepare
 
 STATUSES = ("pass", "fail", "warn", "waived", "manual", "not_applicable", "error")
 #: tables up to this many rows are kept in results.json for the report
@@ -349,6 +350,7 @@ def inspect_delivery(
 ) -> dict[str, Any]:
     """Judge every rule of the pack on one delivery; the results document of contract v1."""
     block_input = block_input or BlockInput()
+    process_data = prepare(delivery)  # contract v1.1: residuals/overlaps from the geometry
     ctx = Context(delivery, names_for(delivery, pack))
     results: list[dict[str, Any]] = []
     for rule in pack.rules:
@@ -358,6 +360,7 @@ def inspect_delivery(
             judge = Judge.__new__(Judge)
             judge.rule, judge.th, judge.lo, judge.hi = rule, None, None, None
             results.append(judge.result({}, "error", None, {"reason": str(exc).strip("'\"")}))
+    annotate(results, {r.id: r.metric for r in pack.rules if not r.manual}, process_data)
     counts = {s: 0 for s in STATUSES}
     for res in results:
         counts[res["status"]] += 1
@@ -378,6 +381,7 @@ def inspect_delivery(
         "pending_manual": pending,
         "counts": counts,
         "summary": summary(delivery),
+        "process_data": jsonable(process_data),
         "results": results,
         "measurements": _measurements(ctx, pack, results),
     }

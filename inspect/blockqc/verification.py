@@ -1,0 +1,144 @@
+"""Verification of process data from the delivered geometry (§RC-1, §RC-2).
+
+With each scene's RPC and the producer's adjustment, every tie point's rays are intersected and
+back-projected: the residuals so computed (computed − measured, pixels) are compared with the
+delivered ones, or stand in for them when the delivery gives none; when `overlaps.csv` is absent,
+each observation intersected alone at its point's adjusted height gives the adjacent-image
+discrepancies. `prepare` runs once per delivery, before any metric.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from blockqc.delivery import Delivery
+from blockqc.geometry_check import Rays, intersect, radii
+
+#: what the results say about inputs blockqc computed itself, by the metrics that use them
+COMPUTED_RESIDUALS = "tie-point residuals computed by blockqc from the delivered geometry (§RC-1)"
+DERIVED_OVERLAPS = (
+    "adjacent-image discrepancies derived by blockqc from the delivered geometry (§RC-2)"
+)
+SOURCES = {
+    "tie_point_errors": "tie_point_residuals",
+    "reported_figures": "tie_point_residuals",
+    "overlap_discrepancy": "overlaps",
+}
+
+
+@dataclass
+class ProcessData:
+    """What the geometry gave: per-observation residuals, ground points, derived overlaps."""
+
+    observations: pd.DataFrame
+    points: pd.DataFrame
+    overlaps: pd.DataFrame | None
+    notes: dict[str, Any] = field(default_factory=dict)
+
+
+def compute(d: Delivery) -> ProcessData:
+    """Intersect every tie point with the producer's adjusted models and back-project (§RC-1)."""
+    geo = d.geometry
+    assert geo is not None and geo.adjusted is not None
+    tp = d.tie_points
+    scene_ids = list(geo.adjusted)
+    scene = pd.Index(scene_ids).get_indexer(tp["scene_id"])
+    point, point_ids = pd.factorize(tp["point_id"])
+    line = tp["line"].to_numpy(dtype=float)
+    sample = tp["sample"].to_numpy(dtype=float)
+    rays = Rays.of([geo.adjusted[s] for s in scene_ids], scene)
+    x = intersect(rays, point, len(point_ids), line, sample)
+    l_c, s_c = rays.project(x.lon[point], x.lat[point], x.h[point])
+    single = x.n_rays[point] < 2
+    obs = tp[["point_id", "scene_id", "line", "sample"]].copy()
+    # a point seen once reproduces its observation exactly: residual 0 (nothing to intersect)
+    obs["v_line_computed"] = np.where(single, 0.0, l_c - line)
+    obs["v_sample_computed"] = np.where(single, 0.0, s_c - sample)
+    obs["n_rays"] = x.n_rays[point]
+    points = pd.DataFrame(
+        {"point_id": point_ids, "lon": x.lon, "lat": x.lat, "h": x.h, "n_rays": x.n_rays}
+    )
+    notes = {
+        "geometry": geo.source,
+        "n_points": int(len(point_ids)),
+        "n_points_single_ray": int((x.n_rays < 2).sum()),
+        "n_points_not_intersected": int(((x.n_rays >= 2) & ~x.converged).sum()),
+        "iterations": int(x.iterations),
+    }
+    overlaps = None if d.overlaps is not None else derive_overlaps(rays, obs, point, x.h)
+    return ProcessData(obs, points, overlaps, notes)
+
+
+def derive_overlaps(
+    rays: Rays, obs: pd.DataFrame, point: np.ndarray, h: np.ndarray
+) -> pd.DataFrame:
+    """Each observation alone at its point's adjusted height; differences per scene pair (§RC-2).
+
+    dx_m, dy_m are east and north differences (scene_b − scene_a) in metres on the WGS-84
+    ellipsoid at the point; pairs are every two scenes seeing the same point.
+    """
+    lon, lat = rays.at_height(obs["line"].to_numpy(float), obs["sample"].to_numpy(float), h[point])
+    e_m, n_m = radii(lat, h[point])
+    one = pd.DataFrame(
+        {
+            "point_id": obs["point_id"].to_numpy(),
+            "scene_id": obs["scene_id"].to_numpy(),
+            "order": rays.scene,
+            "lon": lon,
+            "lat": lat,
+            "e_m": e_m,
+            "n_m": n_m,
+        }
+    )
+    one = one[np.isfinite(h[point])]
+    pairs = one.merge(one, on="point_id", suffixes=("_a", "_b"))
+    pairs = pairs[pairs["order_a"] < pairs["order_b"]]
+    e_mid = 0.5 * (pairs["e_m_a"] + pairs["e_m_b"])
+    n_mid = 0.5 * (pairs["n_m_a"] + pairs["n_m_b"])
+    return pd.DataFrame(
+        {
+            "scene_a": pairs["scene_id_a"].to_numpy(),
+            "scene_b": pairs["scene_id_b"].to_numpy(),
+            "point_id": pairs["point_id"].to_numpy(),
+            "dx_m": np.radians(pairs["lon_b"] - pairs["lon_a"]).to_numpy() * e_mid.to_numpy(),
+            "dy_m": np.radians(pairs["lat_b"] - pairs["lat_a"]).to_numpy() * n_mid.to_numpy(),
+        }
+    ).reset_index(drop=True)
+
+
+def prepare(d: Delivery) -> dict[str, Any]:
+    """Compute the process data once; fill absent residuals and overlaps; say what was done."""
+    if d.process_data:
+        return d.process_data.get("notes", {})
+    geo = d.geometry
+    if geo is None or geo.adjusted is None:
+        d.process_data = {"notes": {}}
+        return {}
+    pdata = compute(d)
+    notes = dict(pdata.notes)
+    if "v_line" not in d.tie_points.columns:
+        d.tie_points = d.tie_points.assign(
+            v_line=pdata.observations["v_line_computed"].to_numpy(),
+            v_sample=pdata.observations["v_sample_computed"].to_numpy(),
+        )
+        notes["tie_point_residuals"] = COMPUTED_RESIDUALS
+    else:
+        notes["tie_point_residuals"] = "delivered; verified against the geometry (§RC-1)"
+    if pdata.overlaps is not None:
+        d.overlaps = pdata.overlaps
+        notes["overlaps"] = DERIVED_OVERLAPS
+    d.process_data = {"notes": notes, "data": pdata}
+    return notes
+
+
+def annotate(results: list[dict[str, Any]], metric_of: dict[str, str], notes: dict) -> None:
+    """Say in each result judged on inputs blockqc computed itself where they came from."""
+    computed = {k: v for k, v in notes.items() if v in (COMPUTED_RESIDUALS, DERIVED_OVERLAPS)}
+    for res in results:
+        source = SOURCES.get(metric_of.get(res["rule"], ""))
+        if source in computed:
+            res["detail"]["computed_by_blockqc"] = computed[source]
