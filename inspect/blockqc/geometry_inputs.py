@@ -10,13 +10,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Protocol
 
+import numpy as np
 import pandas as pd
-from numpy.typing import ArrayLike
 
 from blockqc.errors import InputError, Problem
-from blockqc.rfm.model import FloatArray, ImageAffine, RefinedRFM, RPCModel
+from blockqc.rfm.model import RPCModel
 from blockqc.rfm.readers import read_rpc
 
 RPC_DIR = "rpc"
@@ -24,39 +23,25 @@ ADJUSTED_DIR = "rpc_adjusted"
 AFFINE_KEYS = ("a0", "a1", "a2", "b0", "b1", "b2")
 
 
-class SceneModel(Protocol):
-    """What verification needs of a scene's adjusted model (RPCModel and RefinedRFM give it)."""
-
-    def ground_to_image(
-        self, lon: ArrayLike, lat: ArrayLike, h: ArrayLike
-    ) -> tuple[FloatArray, FloatArray]: ...
-
-    def image_to_ground(
-        self, row: ArrayLike, col: ArrayLike, height: float | ArrayLike
-    ) -> tuple[FloatArray, FloatArray, FloatArray]: ...
-
-
 @dataclass
 class BlockGeometry:
-    """The delivered geometry: original RPCs and, when given, the producer's adjusted models."""
+    """The delivered geometry: original RPCs and, when given, the producer's adjusted models.
+
+    `adjusted` lists, per observed scene (`scene_ids` order), the RPC the adjusted projection
+    starts from and `affine` its contract parameters (n, 6: a0 a1 a2 b0 b1 b2): the original RPC
+    with adjustment.csv's row, or the refined RPC of rpc_adjusted/ with zeros.
+    """
 
     original: dict[str, RPCModel] = field(default_factory=dict)
-    adjusted: dict[str, SceneModel] | None = None
+    scene_ids: list[str] = field(default_factory=list)
+    adjusted: list[RPCModel] | None = None
+    affine: np.ndarray | None = None
     source: str | None = None  # "adjustment.csv" or "rpc_adjusted/": where the adjustment is
 
     @property
     def complete(self) -> bool:
         """True when the producer's adjusted model of every observed scene is known."""
         return self.adjusted is not None
-
-
-def contract_affine(row: pd.Series | dict) -> ImageAffine:
-    """The contract's affine (observed = RFM + a0 + a1·s + a2·l) as an ImageAffine.
-
-    ImageAffine maps observed → RFM space by adding its deltas, so the contract's parameters
-    enter with the opposite sign; its exact 2×2 inversion then gives the observed position.
-    """
-    return ImageAffine(**{k: -float(row[k]) for k in AFFINE_KEYS})
 
 
 def _scan(folder: Path, scene_ids: set[str], problems: list[Problem]) -> dict[str, Path]:
@@ -110,23 +95,30 @@ def _read_models(
     return models
 
 
-def _affine_models(
-    original: dict[str, RPCModel], table: pd.DataFrame, file: Path, needed: list[str]
-) -> tuple[dict[str, SceneModel], list[Problem]]:
-    """RefinedRFM per scene from adjustment.csv; every observed scene must have its row."""
-    problems: list[Problem] = []
+def _with_affine(
+    geometry: BlockGeometry, table: pd.DataFrame, file: Path, needed: list[str]
+) -> list[Problem]:
+    """The adjusted models from rpc/ and adjustment.csv; every observed scene needs its row."""
     rows = table.set_index("scene_id")
-    for sid in needed:
-        if sid not in rows.index:
-            problems.append(
-                Problem(str(file), f"no row for scene '{sid}', which has tie-point observations")
-            )
-    models: dict[str, SceneModel] = {
-        sid: RefinedRFM(rpc, contract_affine(rows.loc[sid]))
-        for sid, rpc in original.items()
-        if sid in rows.index
-    }
-    return models, problems
+    problems = [
+        Problem(str(file), f"no row for scene '{sid}', which has tie-point observations")
+        for sid in needed
+        if sid not in rows.index
+    ]
+    if problems or any(sid not in geometry.original for sid in needed):
+        return problems  # the missing RPCs are reported by _read_models
+    geometry.scene_ids = list(needed)
+    geometry.adjusted = [geometry.original[sid] for sid in needed]
+    geometry.affine = rows.loc[needed, list(AFFINE_KEYS)].to_numpy(dtype=float)
+    return problems
+
+
+def _refined(geometry: BlockGeometry, models: dict[str, RPCModel], needed: list[str]) -> None:
+    """The adjusted models from rpc_adjusted/: refined RPCs, no affine on top."""
+    if all(sid in models for sid in needed):
+        geometry.scene_ids = list(needed)
+        geometry.adjusted = [models[sid] for sid in needed]
+        geometry.affine = np.zeros((len(needed), len(AFFINE_KEYS)))
 
 
 def load_geometry(
@@ -164,13 +156,10 @@ def load_geometry(
             )
         )
     if adj_dir.exists():
-        geometry.adjusted = dict(_read_models(adj_dir, needed, scene_ids, problems))
+        _refined(geometry, _read_models(adj_dir, needed, scene_ids, problems), needed)
         geometry.source = f"{ADJUSTED_DIR}/"
     elif adjustment is not None and rpc_dir.exists():
-        geometry.adjusted, found = _affine_models(
-            geometry.original, adjustment, files["adjustment"], needed
-        )
-        problems.extend(found)
+        problems.extend(_with_affine(geometry, adjustment, files["adjustment"], needed))
         geometry.source = files["adjustment"].name
     return geometry, problems
 

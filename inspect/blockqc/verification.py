@@ -15,8 +15,11 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from blockqc.adjust.geometry import RPCStack, intersect, intersect_at_height
 from blockqc.delivery import Delivery
-from blockqc.geometry_check import Rays, intersect, radii
+
+WGS84_A = 6378137.0
+WGS84_E2 = 6.69437999014e-3
 
 #: what the results say about inputs blockqc computed itself, by the metrics that use them
 COMPUTED_RESIDUALS = "tie-point residuals computed by blockqc from the delivered geometry (§RC-1)"
@@ -43,71 +46,87 @@ class ProcessData:
 def compute(d: Delivery) -> ProcessData:
     """Intersect every tie point with the producer's adjusted models and back-project (§RC-1)."""
     geo = d.geometry
-    assert geo is not None and geo.adjusted is not None
+    assert geo is not None and geo.adjusted is not None and geo.affine is not None
     tp = d.tie_points
-    scene_ids = list(geo.adjusted)
-    scene = pd.Index(scene_ids).get_indexer(tp["scene_id"])
+    stack = RPCStack.from_models(geo.adjusted)
+    scene = pd.Index(geo.scene_ids).get_indexer(tp["scene_id"])
     point, point_ids = pd.factorize(tp["point_id"])
     line = tp["line"].to_numpy(dtype=float)
     sample = tp["sample"].to_numpy(dtype=float)
-    rays = Rays.of([geo.adjusted[s] for s in scene_ids], scene)
-    x = intersect(rays, point, len(point_ids), line, sample)
-    l_c, s_c = rays.project(x.lon[point], x.lat[point], x.h[point])
-    single = x.n_rays[point] < 2
+    x = intersect(stack, geo.affine, scene, point, line, sample)
+    n_rays = np.bincount(point, minlength=len(point_ids))
+    ok = x.converged & (n_rays >= 2)
+    h = np.where(ok, x.h, np.nan)
     obs = tp[["point_id", "scene_id", "line", "sample"]].copy()
     # a point seen once reproduces its observation exactly: residual 0 (nothing to intersect)
-    obs["v_line_computed"] = np.where(single, 0.0, l_c - line)
-    obs["v_sample_computed"] = np.where(single, 0.0, s_c - sample)
-    obs["n_rays"] = x.n_rays[point]
+    single = n_rays[point] < 2
+    obs["v_line_computed"] = np.where(single, 0.0, np.where(ok[point], x.v_line, np.nan))
+    obs["v_sample_computed"] = np.where(single, 0.0, np.where(ok[point], x.v_sample, np.nan))
+    obs["n_rays"] = n_rays[point]
     points = pd.DataFrame(
-        {"point_id": point_ids, "lon": x.lon, "lat": x.lat, "h": x.h, "n_rays": x.n_rays}
+        {
+            "point_id": point_ids,
+            "lon": np.where(ok, x.lon, np.nan),
+            "lat": np.where(ok, x.lat, np.nan),
+            "h": h,
+            "n_rays": n_rays,
+        }
     )
     notes = {
         "geometry": geo.source,
         "n_points": int(len(point_ids)),
-        "n_points_single_ray": int((x.n_rays < 2).sum()),
-        "n_points_not_intersected": int(((x.n_rays >= 2) & ~x.converged).sum()),
+        "n_points_single_ray": int((n_rays < 2).sum()),
+        "n_points_not_intersected": int(((n_rays >= 2) & ~ok).sum()),
         "iterations": int(x.iterations),
     }
-    overlaps = None if d.overlaps is not None else derive_overlaps(rays, obs, point, x.h)
+    overlaps = None
+    if d.overlaps is None:
+        lon_a, lat_a, _ = intersect_at_height(stack, geo.affine, scene, line, sample, h[point])
+        overlaps = derive_overlaps(obs, scene, lon_a, lat_a, h[point])
     return ProcessData(obs, points, overlaps, notes)
 
 
 def derive_overlaps(
-    rays: Rays, obs: pd.DataFrame, point: np.ndarray, h: np.ndarray
+    obs: pd.DataFrame, scene: np.ndarray, lon: np.ndarray, lat: np.ndarray, h: np.ndarray
 ) -> pd.DataFrame:
-    """Each observation alone at its point's adjusted height; differences per scene pair (§RC-2).
+    """Differences between the scenes of each observation's position at its point's height.
 
-    dx_m, dy_m are east and north differences (scene_b − scene_a) in metres on the WGS-84
-    ellipsoid at the point; pairs are every two scenes seeing the same point.
+    Each observation is intersected alone at its point's adjusted height (§RC-2); dx_m, dy_m are
+    the east and north differences (scene_b − scene_a) in metres on the WGS-84 ellipsoid, for
+    every two scenes seeing the same point.
     """
-    lon, lat = rays.at_height(obs["line"].to_numpy(float), obs["sample"].to_numpy(float), h[point])
-    e_m, n_m = radii(lat, h[point])
+    e_m, n_m = radii(lat, h)
     one = pd.DataFrame(
         {
             "point_id": obs["point_id"].to_numpy(),
             "scene_id": obs["scene_id"].to_numpy(),
-            "order": rays.scene,
+            "order": scene,
             "lon": lon,
             "lat": lat,
             "e_m": e_m,
             "n_m": n_m,
         }
-    )
-    one = one[np.isfinite(h[point])]
+    )[np.isfinite(h)]
     pairs = one.merge(one, on="point_id", suffixes=("_a", "_b"))
     pairs = pairs[pairs["order_a"] < pairs["order_b"]]
-    e_mid = 0.5 * (pairs["e_m_a"] + pairs["e_m_b"])
-    n_mid = 0.5 * (pairs["n_m_a"] + pairs["n_m_b"])
+    e_mid = 0.5 * (pairs["e_m_a"].to_numpy() + pairs["e_m_b"].to_numpy())
+    n_mid = 0.5 * (pairs["n_m_a"].to_numpy() + pairs["n_m_b"].to_numpy())
     return pd.DataFrame(
         {
             "scene_a": pairs["scene_id_a"].to_numpy(),
             "scene_b": pairs["scene_id_b"].to_numpy(),
             "point_id": pairs["point_id"].to_numpy(),
-            "dx_m": np.radians(pairs["lon_b"] - pairs["lon_a"]).to_numpy() * e_mid.to_numpy(),
-            "dy_m": np.radians(pairs["lat_b"] - pairs["lat_a"]).to_numpy() * n_mid.to_numpy(),
+            "dx_m": np.radians((pairs["lon_b"] - pairs["lon_a"]).to_numpy()) * e_mid,
+            "dy_m": np.radians((pairs["lat_b"] - pairs["lat_a"]).to_numpy()) * n_mid,
         }
-    ).reset_index(drop=True)
+    )
+
+
+def radii(lat_deg: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Metres per radian of longitude and of latitude on the WGS-84 ellipsoid at height h."""
+    phi = np.radians(lat_deg)
+    w = np.sqrt(1.0 - WGS84_E2 * np.sin(phi) ** 2)
+    return (WGS84_A / w + h) * np.cos(phi), WGS84_A * (1.0 - WGS84_E2) / w**3 + h
 
 
 def prepare(d: Delivery) -> dict[str, Any]:
