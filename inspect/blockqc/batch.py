@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from blockqc import __version__
+from blockqc.checkpoint_inputs import InspectorCheckpoints, merge_checkpoints
 from blockqc.delivery import MANIFEST, find_deliveries, load_delivery, load_manifest
 from blockqc.engine import STATUSES, inspect_delivery
 from blockqc.errors import InputError, Problem
@@ -39,9 +40,17 @@ def collect(paths: Iterable[Path]) -> tuple[list[Path], bool]:
     return found, batch or len(found) > 1
 
 
-def inspect_one(path: Path, pack: Pack, inspector: InspectorInput | None) -> Outcome:
+def inspect_one(
+    path: Path,
+    pack: Pack,
+    inspector: InspectorInput | None,
+    checkpoints: InspectorCheckpoints | None = None,
+    single: bool = True,
+) -> Outcome:
     try:
         delivery = load_delivery(path)
+        if checkpoints is not None:  # contract v1.1: inspect --checkpoints FILE…
+            merge_checkpoints(delivery, checkpoints.for_block(delivery.block_id, single))
     except InputError as exc:
         return Outcome(path, problems=exc.problems)
     block_input = inspector.for_block(delivery.block_id) if inspector else None
@@ -96,9 +105,11 @@ class Job:
     templates: Path | None
     lang: str
     pdf: bool
+    checkpoints: InspectorCheckpoints | None = None
+    single: bool = True
 
     def __call__(self, path: Path) -> Outcome:
-        o = inspect_one(path, self.pack, self.inspector)
+        o = inspect_one(path, self.pack, self.inspector, self.checkpoints, self.single)
         if o.results is not None:
             write_block(self.out, o.results, templates=self.templates, lang=self.lang, pdf=self.pdf)
         return o
@@ -174,6 +185,7 @@ def run(
     pdf: bool = True,
     jobs: int = 1,
     progress: Callable[[Outcome], None] | None = None,
+    checkpoints: InspectorCheckpoints | None = None,
 ) -> tuple[list[Outcome], dict | None]:
     """Inspect every delivery named, writing its outputs as it goes; for a batch, the summary.
 
@@ -184,7 +196,7 @@ def run(
     refused = refuse_duplicates(deliveries)
     done = {p: Outcome(p, problems=[problem]) for p, problem in refused.items()}
     todo = [p for p in deliveries if p not in refused]
-    job = Job(pack, inspector, out, templates, lang, pdf)
+    job = Job(pack, inspector, out, templates, lang, pdf, checkpoints, len(deliveries) == 1)
 
     def finished(o: Outcome) -> None:
         done[o.path] = o

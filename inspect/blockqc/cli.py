@@ -100,6 +100,14 @@ def cli() -> None:
     default=None,
     help="Progress bar for batches (default: when stderr is a terminal).",
 )
+@click.option(
+    "--checkpoints",
+    "checkpoint_files",
+    multiple=True,
+    type=click.Path(path_type=Path),
+    help="The inspector's checkpoints (checkpoints.csv columns [+ block_id]), merged with the "
+    "delivered ones; repeat for several files.",
+)
 def inspect_cmd(
     paths: tuple[Path, ...],
     rules_ref: str,
@@ -110,6 +118,7 @@ def inspect_cmd(
     pdf: bool,
     jobs: int,
     progress: bool | None,
+    checkpoint_files: tuple[Path, ...],
 ) -> int:
     """Inspect one delivery or a batch (a folder of deliveries) with a rule pack."""
     from blockqc import batch
@@ -121,6 +130,12 @@ def inspect_cmd(
     pack = load_pack(rules_ref)
     inspector = load_inspector_input(verdicts) if verdicts else None
     deliveries, _ = batch.collect(paths)
+    checkpoints = None
+    if checkpoint_files:
+        from blockqc.checkpoint_inputs import check_blocks, load_checkpoint_files
+
+        checkpoints = load_checkpoint_files(list(checkpoint_files))
+        check_blocks(checkpoints, deliveries)
     show = sys.stderr.isatty() if progress is None else progress
     jobs = jobs or os.cpu_count() or 1
 
@@ -170,6 +185,7 @@ def inspect_cmd(
                 pdf=pdf,
                 jobs=jobs,
                 progress=tick,
+                checkpoints=checkpoints,
             )
     else:
         outcomes, summary = batch.run(
@@ -182,6 +198,7 @@ def inspect_cmd(
             pdf=pdf,
             jobs=jobs,
             progress=lambda o: click.echo(line(o)),
+            checkpoints=checkpoints,
         )
     for o in outcomes:
         for p in o.problems:

@@ -131,14 +131,14 @@ def radii(lat_deg: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def prepare(d: Delivery) -> dict[str, Any]:
     """Compute the process data once; fill absent residuals and overlaps; say what was done."""
-    if d.process_data:
-        return d.process_data.get("notes", {})
-    geo = d.geometry
-    if geo is None or geo.adjusted is None:
-        d.process_data = {"notes": {}}
-        return {}
+    if d.process_data.get("prepared"):
+        return d.process_data["notes"]
+    notes = d.process_data.setdefault("notes", {})
+    d.process_data["prepared"] = True
+    if d.geometry is None or d.geometry.adjusted is None:
+        return notes
     pdata = compute(d)
-    notes = dict(pdata.notes)
+    notes.update(pdata.notes)
     if "v_line" not in d.tie_points.columns:
         d.tie_points = d.tie_points.assign(
             v_line=pdata.observations["v_line_computed"].to_numpy(),
@@ -150,7 +150,7 @@ def prepare(d: Delivery) -> dict[str, Any]:
     if pdata.overlaps is not None:
         d.overlaps = pdata.overlaps
         notes["overlaps"] = DERIVED_OVERLAPS
-    d.process_data = {"notes": notes, "data": pdata}
+    d.process_data["data"] = pdata
     return notes
 
 
