@@ -92,10 +92,10 @@ def derive_overlaps(
     """Differences between the scenes of each observation's position at its point's height.
 
     Each observation is intersected alone at its point's adjusted height (§RC-2); dx_m, dy_m are
-    the east and north differences (scene_b − scene_a) in metres on the WGS-84 ellipsoid, for
-    every two scenes seeing the same point.
+    the east and north differences (scene_b − scene_a) in metres on the WGS-84 ellipsoid (as a
+    map projection measures them, heights aside), for every two scenes seeing the same point.
     """
-    e_m, n_m = radii(lat, h)
+    e_m, n_m = radii(lat)
     one = pd.DataFrame(
         {
             "point_id": obs["point_id"].to_numpy(),
@@ -122,11 +122,11 @@ def derive_overlaps(
     )
 
 
-def radii(lat_deg: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Metres per radian of longitude and of latitude on the WGS-84 ellipsoid at height h."""
+def radii(lat_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Metres per radian of longitude and of latitude on the WGS-84 ellipsoid."""
     phi = np.radians(lat_deg)
     w = np.sqrt(1.0 - WGS84_E2 * np.sin(phi) ** 2)
-    return (WGS84_A / w + h) * np.cos(phi), WGS84_A * (1.0 - WGS84_E2) / w**3 + h
+    return WGS84_A / w * np.cos(phi), WGS84_A * (1.0 - WGS84_E2) / w**3
 
 
 def prepare(d: Delivery) -> dict[str, Any]:
