@@ -105,6 +105,18 @@ def _with_affine(
         for sid in needed
         if sid not in rows.index
     ]
+    values = table[list(AFFINE_KEYS)].to_numpy(dtype=float)
+    for i, j in zip(*np.nonzero(np.isinf(values)), strict=True):  # NaN: reported as empty
+        csv = file.suffix.lower() == ".csv"
+        problems.append(
+            Problem(
+                str(file),
+                f"value is not finite, got {values[i, j]}",
+                row=int(i) + 1,
+                line=int(i) + 2 if csv else None,
+                column=AFFINE_KEYS[j],
+            )
+        )
     if problems or any(sid not in geometry.original for sid in needed):
         return problems  # the missing RPCs are reported by _read_models
     geometry.scene_ids = list(needed)
@@ -171,7 +183,8 @@ def residual_column_problems(
     if tie_points is None:
         return []
     have = [c for c in ("v_line", "v_sample") if c in tie_points.columns]
-    if len(have) == 2 or (not have and geometry is not None and geometry.complete):
+    # with an adjustment given, its own problems (if any) are what the user needs to read
+    if len(have) == 2 or (not have and geometry is not None and geometry.source is not None):
         return []
     missing = [c for c in ("v_line", "v_sample") if c not in have]
     why = (
