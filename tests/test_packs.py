@@ -23,6 +23,7 @@ CONTRACT_IDS = {
     "TP-3",
     "TP-4",
     "TP-5",
+    "RC-1",  # contract v1.1: verification of process data from geometry
     "RO-1",
     "RO-2",
     "RO-3",
@@ -134,7 +135,7 @@ def test_rules_cli(blockqc) -> None:
     p = blockqc("rules", "explain", "XX-1")
     assert p.returncode == 2 and "no rule XX-1" in p.stderr
     p = blockqc("rules", "lint")
-    assert p.returncode == 0 and "global-project: 20 rules, ok" in p.stdout
+    assert p.returncode == 0 and "global-project: 21 rules, ok" in p.stdout
 
 
 def test_rule_reference_is_generated_from_the_pack(blockqc) -> None:
