@@ -404,3 +404,52 @@ def _misclosure(
     """RFM-space misclosure f = RFM(X) − target (n, 2) and its partials in metres (n, 2, 3)."""
     pl, ps, jac = stack.project(idx, lon, lat, h, partials=True)
     return np.stack([pl - tl, ps - ts], axis=1), ground_jacobian_m(jac, lat)
+
+
+def normalization(lines: ArrayLike, samples: ArrayLike) -> tuple[FloatArray, ...]:
+    """Image centre (l_c, s_c) and half sizes (L, S) per scene for the normalized affine."""
+    lines = np.asarray(lines, np.float64)
+    samples = np.asarray(samples, np.float64)
+    return (lines - 1.0) / 2.0, (samples - 1.0) / 2.0, lines / 2.0, samples / 2.0
+
+
+def affine_from_normalized(p: ArrayLike, lines: ArrayLike, samples: ArrayLike) -> FloatArray:
+    """Normalized parameters → the contract's a0 a1 a2 b0 b1 b2 (n, 6).
+
+    Normalized: Δl = a0' + a1'·(s − s_c)/S + a2'·(l − l_c)/L (same for b), so a0' is the shift at
+    the image centre and a1', a2' the pixels the linear terms add at the image edges.
+    """
+    p = np.asarray(p, np.float64)
+    lc, sc, hl, hs = normalization(lines, samples)
+    out = np.empty_like(p)
+    for k in (0, 3):
+        out[:, k + 1] = p[:, k + 1] / hs
+        out[:, k + 2] = p[:, k + 2] / hl
+        out[:, k] = p[:, k] - out[:, k + 1] * sc - out[:, k + 2] * lc
+    return out
+
+
+def affine_to_normalized(a: ArrayLike, lines: ArrayLike, samples: ArrayLike) -> FloatArray:
+    """The contract's a0 … b2 (n, 6) → normalized parameters (inverse of the above)."""
+    a = np.asarray(a, np.float64)
+    lc, sc, hl, hs = normalization(lines, samples)
+    out = np.empty_like(a)
+    for k in (0, 3):
+        out[:, k + 1] = a[:, k + 1] * hs
+        out[:, k + 2] = a[:, k + 2] * hl
+        out[:, k] = a[:, k] + a[:, k + 1] * sc + a[:, k + 2] * lc
+    return out
+
+
+def normalized_jacobian(lines: ArrayLike, samples: ArrayLike) -> FloatArray:
+    """∂(contract a0 … b2)/∂(normalized a0' … b2') per scene (n, 6, 6), for covariances."""
+    lc, sc, hl, hs = normalization(lines, samples)
+    n = np.asarray(lc).size
+    jac = np.zeros((n, 6, 6))
+    for k in (0, 3):
+        jac[:, k, k] = 1.0
+        jac[:, k, k + 1] = -sc / hs
+        jac[:, k, k + 2] = -lc / hl
+        jac[:, k + 1, k + 1] = 1.0 / hs
+        jac[:, k + 2, k + 2] = 1.0 / hl
+    return jac
