@@ -135,7 +135,7 @@ def prepare(d: Delivery) -> dict[str, Any]:
         return d.process_data["notes"]
     notes = d.process_data.setdefault("notes", {})
     d.process_data["prepared"] = True
-    if d.geometry is None or d.geometry.adjusted is None:
+    if d.geometry is None or d.geometry.adjusted is None or d.tie_points.empty:
         return notes
     pdata = compute(d)
     notes.update(pdata.notes)
