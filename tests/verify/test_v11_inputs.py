@@ -141,3 +141,51 @@ def test_checkpoints_conflicts_and_blocks_exit_2(tmp_path, blockqc) -> None:
         and "no block 'NOPE'" in proc.stderr
         and f"{named}, row 1" in proc.stderr
     )
+
+
+def test_rpc_adjusted_equals_adjustment_csv(tmp_path) -> None:
+    """A shift-only adjustment (a0, b0) is the same model as RPCs with LINE_OFF + a0 and
+    SAMP_OFF + b0: rpc_adjusted/ and rpc/ + adjustment.csv give the same residuals."""
+    import dataclasses
+
+    from geokit import FILES
+
+    from blockqc.adjust.synthetic import rpc_json
+    from blockqc.engine import inspect_delivery
+    from blockqc.rfm.model import ImageAffine, RefinedRFM
+    from blockqc.rfm.readers import read_rpc
+    from blockqc.rules import load_pack
+
+    shift = {"L": (3.0, -1.5), "R": (-2.5, 0.75)}
+    ground = ground_points(20, seed=5)
+    rows = []
+    for sid, f in FILES.items():
+        model = RefinedRFM(read_rpc(f), ImageAffine(a0=-shift[sid][0], b0=-shift[sid][1]))
+        line, sample = model.ground_to_image(ground["lon"], ground["lat"], ground["h"])
+        rows.append(pd.DataFrame({"point_id": ground["point_id"], "scene_id": sid}))
+        rows[-1]["line"] = line + 4.0 * (sid == "L")  # one ray off: non-zero residuals
+        rows[-1]["sample"] = sample
+    obs = pd.concat(rows, ignore_index=True)
+    a = write_v11(tmp_path / "a", obs, adjustment=False)
+    (a / "adjustment.csv").write_text(
+        "scene_id,a0,a1,a2,b0,b1,b2\n"
+        + "".join(f"{s},{x},0,0,{y},0,0\n" for s, (x, y) in shift.items())
+    )
+    b = write_v11(tmp_path / "b", obs, adjustment=False)
+    (b / "rpc_adjusted").mkdir()
+    for sid, f in FILES.items():
+        rpc = read_rpc(f)
+        moved = dataclasses.replace(
+            rpc, line_off=rpc.line_off + shift[sid][0], samp_off=rpc.samp_off + shift[sid][1]
+        )
+        (b / "rpc_adjusted" / f"{sid}.json").write_text(rpc_json(moved))
+    got = {}
+    for name, folder in (("a", a), ("b", b)):
+        d = load_delivery(folder)
+        doc = inspect_delivery(d, load_pack("global-project"))
+        got[name] = d.tie_points[["v_line", "v_sample"]].to_numpy()
+        assert doc["process_data"]["geometry"] == (
+            "adjustment.csv" if name == "a" else "rpc_adjusted/"
+        )
+    assert abs(got["a"]).max() > 0.1
+    assert got["a"] == pytest.approx(got["b"], abs=1e-6)
