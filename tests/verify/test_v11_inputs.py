@@ -117,6 +117,8 @@ def test_checkpoints_merged_as_recalculation(tmp_path, blockqc) -> None:
     # beside the delivered high-precision method
     assert _cp(doc, "CP-2", "plane", "high_precision")["value"] == pytest.approx(5.0)
     assert doc["process_data"]["inspector_checkpoints"] == {str(extra): 25}
+    report = (out / "CASE" / "report.html").read_text()
+    assert "High-precision data / Recalculation with other software" in report
 
 
 def test_checkpoints_conflicts_and_blocks_exit_2(tmp_path, blockqc) -> None:
