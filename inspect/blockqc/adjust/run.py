@@ -151,34 +151,46 @@ def datum(block: Block, cfg: AdjustConfig) -> tuple[Priors, dict]:
     return priors, desc
 
 
-def producer_ground(block: Block, priors: Priors) -> tuple[np.ndarray, ...]:
-    """The producer's adjusted ground point per point: the delivered lon/lat/h, else the
-    intersection with the producer's adjusted geometry; NaN where neither is available."""
+def delivered_ground(block: Block) -> tuple[np.ndarray, ...] | None:
+    """The producer's ground point per point from tie_points lon/lat/h, if delivered."""
     obs, ties = block.obs, block.data.tie_points
-    n = obs.n_points
-    nan = np.full(n, np.nan)
-    if all(c in ties.columns for c in ("lon", "lat", "h")):
-        cols = [ties[c].to_numpy(np.float64)[block.rows] for c in ("lon", "lat", "h")]
-        out = []
-        for v in cols:
-            total = np.bincount(obs.point, np.nan_to_num(v), n)
-            count = np.bincount(obs.point, np.isfinite(v).astype(float), n)
-            with np.errstate(invalid="ignore", divide="ignore"):
-                out.append(np.where(count > 0, total / count, np.nan))
-        if np.isfinite(out[2]).any():
-            return out[0], out[1], out[2], "tie_points.csv lon, lat, h (delivered)"
-    data = block.data
-    if data.producer_models is None or data.producer_affine is None:
+    if not all(c in ties.columns for c in ("lon", "lat", "h")):
+        return None
+    out = []
+    for c in ("lon", "lat", "h"):
+        v = ties[c].to_numpy(np.float64)[block.rows]
+        total = np.bincount(obs.point, np.nan_to_num(v), obs.n_points)
+        count = np.bincount(obs.point, np.isfinite(v).astype(float), obs.n_points)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out.append(np.where(count > 0, total / count, np.nan))
+    return tuple(out) if np.isfinite(out[2]).any() else None
+
+
+def producer_ground(
+    block: Block, priors: Priors, points: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
+    """The producer's adjusted ground position of the given points: the delivered lon/lat/h,
+    else the intersection of their rays with the producer's adjusted geometry (NaN where
+    neither is available)."""
+    delivered = delivered_ground(block)
+    if delivered is not None:
+        lon, lat, h = (v[points] for v in delivered)
+        return lon, lat, h, "tie_points.csv lon, lat, h (delivered)"
+    data, obs = block.data, block.obs
+    nan = np.full(points.size, np.nan)
+    if data.producer_models is None or data.producer_affine is None or points.size == 0:
         return nan, nan, nan, "none (no lon/lat/h in tie_points and no producer adjustment)"
-    stack = RPCStack.from_models(data.producer_models)
+    local = np.full(obs.n_points, -1)
+    local[points] = np.arange(points.size)
+    sel = np.flatnonzero(local[obs.point] >= 0)
     res = intersect(
-        stack,
+        RPCStack.from_models(data.producer_models),
         data.producer_affine,
-        obs.scene,
-        obs.point,
-        obs.line,
-        obs.sample,
-        height_prior=(priors.height, priors.height_sigma),
+        obs.scene[sel],
+        local[obs.point[sel]],
+        obs.line[sel],
+        obs.sample[sel],
+        height_prior=(priors.height[points], priors.height_sigma[points]),
     )
     ok = res.converged
     lon, lat, h = (np.where(ok, v, np.nan) for v in (res.lon, res.lat, res.h))
@@ -224,17 +236,21 @@ def checkpoints(block: Block, sol: Solution, priors: Priors, n: int) -> tuple[pd
     """§CP-1/§RC-3: the producer's position against the recalculated one at n spread points."""
     from pyproj import Transformer
 
-    p_lon, p_lat, p_h, source = producer_ground(block, priors)
     nobs = np.bincount(block.obs.point, (~sol.outlier).astype(float), block.obs.n_points)
-    ok = sol.point_used & np.isfinite(p_lon) & np.isfinite(p_lat) & np.isfinite(p_h)
-    ok &= np.isfinite(sol.lon) & np.isfinite(sol.h)
+    ok = sol.point_used & np.isfinite(sol.lon) & np.isfinite(sol.h)
+    delivered = delivered_ground(block)
+    if delivered is not None:
+        ok &= np.isfinite(delivered[0]) & np.isfinite(delivered[2])
     epsg, crs_source = projected_crs(block, sol.lon[sol.point_used], sol.lat[sol.point_used])
-    info = {"producer_positions": source, "epsg": epsg, "crs_source": crs_source}
     cand = np.flatnonzero(ok)
     tr = Transformer.from_crs(4326, epsg, always_xy=True)
     x, y = tr.transform(sol.lon[cand], sol.lat[cand])
     pick = cand[spread_points(np.asarray(x), np.asarray(y), nobs[cand], n)]
-    px, py = tr.transform(p_lon[pick], p_lat[pick])
+    p_lon, p_lat, p_h, source = producer_ground(block, priors, pick)
+    good = np.isfinite(p_lon) & np.isfinite(p_lat) & np.isfinite(p_h)
+    pick, p_lon, p_lat, p_h = pick[good], p_lon[good], p_lat[good], p_h[good]
+    info = {"producer_positions": source, "epsg": epsg, "crs_source": crs_source}
+    px, py = tr.transform(p_lon, p_lat)
     rx, ry = tr.transform(sol.lon[pick], sol.lat[pick])
     table = pd.DataFrame(
         {
@@ -243,7 +259,7 @@ def checkpoints(block: Block, sol: Solution, priors: Priors, n: int) -> tuple[pd
             "reference_id": "blockqc-adjust",
             "x_m": np.round(px, 3),
             "y_m": np.round(py, 3),
-            "z_m": np.round(p_h[pick], 3),
+            "z_m": np.round(p_h, 3),
             "ref_x_m": np.round(rx, 3),
             "ref_y_m": np.round(ry, 3),
             "ref_z_m": np.round(sol.h[pick], 3),

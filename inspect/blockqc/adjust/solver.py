@@ -73,7 +73,7 @@ class Priors:
 @dataclass(frozen=True)
 class Settings:
     max_iterations: int = 20
-    huber_iterations: int = 3
+    huber_iterations: int = 2
     tol_px: float = 1e-3
     huber_k: float = 1.5
     reject_k: float = 4.0
