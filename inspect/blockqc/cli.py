@@ -21,6 +21,7 @@ class LazyGroup(click.Group):
         "rfm-accuracy": "blockqc.rfm.command",
         "factors": "blockqc.analysis.command",
         "report": "blockqc.report.command",
+        "adjust": "blockqc.adjust.command",
     }
 
     def list_commands(self, ctx: click.Context) -> list[str]:

@@ -24,7 +24,7 @@ M = [[1 − a2, −a1], [−b2, 1 − b1]] (`image_residuals`).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -42,20 +42,34 @@ CHUNK = 131072
 M_PER_DEG = np.pi * EARTH_RADIUS_M / 180.0
 
 
-def _monomials(ln: FloatArray, pn: FloatArray, hn: FloatArray, partials: bool) -> FloatArray:
-    """The 20 RPC00B terms at normalized points, (1, 20, n), or with their L, P, H partials
-    (4, 20, n): row 0 the terms, rows 1–3 their derivatives."""
-    pw = [[np.ones_like(x), x, x * x, x * x * x] for x in (ln, pn, hn)]
-    dp = [[np.zeros_like(x), np.ones_like(x), 2.0 * x, 3.0 * x * x] for x in (ln, pn, hn)]
-    out = np.empty((4 if partials else 1, 20, ln.size))
-    for j, (el, ep, eh) in enumerate(RPC00B_EXPONENTS):
-        lp = pw[0][el] * pw[1][ep]
-        np.multiply(lp, pw[2][eh], out=out[0, j])
-        if partials:
-            np.multiply(dp[0][el] * pw[1][ep], pw[2][eh], out=out[1, j])
-            np.multiply(pw[0][el] * dp[1][ep], pw[2][eh], out=out[2, j])
-            np.multiply(lp, dp[2][eh], out=out[3, j])
+def _monomials(ln: FloatArray, pn: FloatArray, hn: FloatArray) -> FloatArray:
+    """The 20 RPC00B terms at normalized points, (20, n)."""
+    pw = [[None, x, x * x, x * x * x] for x in (ln, pn, hn)]
+    out = np.empty((20, ln.size))
+    for j, e in enumerate(RPC00B_EXPONENTS):
+        factors = [pw[a][k] for a, k in enumerate(e) if k]
+        if not factors:
+            out[j] = 1.0
+        elif len(factors) == 1:
+            out[j] = factors[0]
+        else:
+            np.multiply(factors[0], factors[1], out=out[j])
+            if len(factors) == 3:
+                out[j] *= factors[2]
     return out
+
+
+def _derivative_map(axis: int) -> FloatArray:
+    """D (20×20) with ∂term_j/∂x_axis = Σ_k D[j, k]·term_k: the RPC00B terms are every monomial
+    of degree ≤ 3, so each derivative is a multiple of another term."""
+    index = {e: k for k, e in enumerate(RPC00B_EXPONENTS)}
+    d = np.zeros((20, 20))
+    for j, e in enumerate(RPC00B_EXPONENTS):
+        if e[axis]:
+            lower = list(e)
+            lower[axis] -= 1
+            d[j, index[tuple(lower)]] = e[axis]
+    return d
 
 
 @dataclass(frozen=True, eq=False)
@@ -70,6 +84,13 @@ class RPCStack:
     offsets: FloatArray
     scales: FloatArray
     sources: tuple[str, ...] = ()
+    with_partials: FloatArray = field(init=False, repr=False)
+    """(n, 16, 20): the 4 polynomials, then their L, P and H derivatives, as coefficients."""
+
+    def __post_init__(self) -> None:
+        maps = [np.eye(20)] + [_derivative_map(a) for a in range(3)]
+        stacked = np.concatenate([self.coeffs @ m for m in maps], axis=1)
+        object.__setattr__(self, "with_partials", stacked)
 
     @classmethod
     def from_models(cls, models: Sequence[RPCModel]) -> RPCStack:
@@ -122,14 +143,16 @@ class RPCStack:
             jac = None if jac is None else jac[inv]
         return line, samp, jac
 
-    def _polynomials(self, idx: IntArray, terms: FloatArray) -> FloatArray:
-        """(4 polynomials) × (terms rows) × n values; idx sorted, one product per scene."""
-        out = np.empty((terms.shape[0], 4, idx.size))
+    def _polynomials(self, idx: IntArray, terms: FloatArray, partials: bool) -> FloatArray:
+        """Values (1 or 4 groups) × 4 polynomials × n; idx sorted, one product per scene."""
+        coeffs = self.with_partials if partials else self.coeffs
+        k = coeffs.shape[1]
+        out = np.empty((k, idx.size))
         cuts = np.flatnonzero(np.diff(idx)) + 1
         bounds = np.concatenate([[0], cuts, [idx.size]])
         for a, b in zip(bounds[:-1], bounds[1:], strict=True):
-            out[:, :, a:b] = np.matmul(self.coeffs[idx[a]], terms[:, :, a:b])
-        return out
+            out[:, a:b] = coeffs[idx[a]] @ terms[:, a:b]
+        return out.reshape(k // 4, 4, idx.size)
 
     def _project_chunk(
         self, idx: IntArray, lon: FloatArray, lat: FloatArray, h: FloatArray, partials: bool
@@ -138,20 +161,19 @@ class RPCStack:
         ln = (lon - off[:, 3]) / sc[:, 3]
         pn = (lat - off[:, 2]) / sc[:, 2]
         hn = (h - off[:, 4]) / sc[:, 4]
-        p = self._polynomials(idx, _monomials(ln, pn, hn, partials))
+        p = self._polynomials(idx, _monomials(ln, pn, hn), partials)
         v = p[0]
-        line = v[0] / v[1] * sc[:, 0] + off[:, 0]
-        samp = v[2] / v[3] * sc[:, 1] + off[:, 1]
+        inv_l, inv_s = 1.0 / v[1], 1.0 / v[3]
+        r_l, r_s = v[0] * inv_l, v[2] * inv_s
+        line = r_l * sc[:, 0] + off[:, 0]
+        samp = r_s * sc[:, 1] + off[:, 1]
         if not partials:
             return line, samp, None
+        d = p[1:]  # (3 axes, 4 polynomials, n)
+        per_ground = 1.0 / sc[:, [3, 2, 4]].T  # lon, lat, h
         jac = np.empty((idx.size, 2, 3))
-        ground_scale = (sc[:, 3], sc[:, 2], sc[:, 4])  # lon, lat, h
-        for axis in range(3):
-            d = p[axis + 1]
-            d_line = (d[0] * v[1] - v[0] * d[1]) / v[1] ** 2
-            d_samp = (d[2] * v[3] - v[2] * d[3]) / v[3] ** 2
-            jac[:, 0, axis] = d_line * sc[:, 0] / ground_scale[axis]
-            jac[:, 1, axis] = d_samp * sc[:, 1] / ground_scale[axis]
+        jac[:, 0, :] = ((d[:, 0] - r_l * d[:, 1]) * (inv_l * sc[:, 0] * per_ground)).T
+        jac[:, 1, :] = ((d[:, 2] - r_s * d[:, 3]) * (inv_s * sc[:, 1] * per_ground)).T
         return line, samp, jac
 
 
@@ -325,7 +347,7 @@ def _start(
     h0: FloatArray,
 ) -> tuple[FloatArray, FloatArray]:
     """Starting lon/lat per point: the mean of its observations put on the ground at h0."""
-    lon, lat, ok = intersect_at_height(stack, a, idx, line, samp, h0[pidx])
+    lon, lat, ok = intersect_at_height(stack, a, idx, line, samp, h0[pidx], tol_px=1e-3)
     cnt = np.bincount(pidx, ok.astype(float), minlength=n_points)
     with np.errstate(invalid="ignore", divide="ignore"):
         lon0 = np.bincount(pidx, np.where(ok, lon, 0.0), minlength=n_points) / cnt

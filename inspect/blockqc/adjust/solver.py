@@ -73,7 +73,7 @@ class Priors:
 @dataclass(frozen=True)
 class Settings:
     max_iterations: int = 20
-    huber_iterations: int = 5
+    huber_iterations: int = 2
     tol_px: float = 1e-3
     huber_k: float = 1.5
     reject_k: float = 4.0
@@ -129,13 +129,17 @@ def prior_weights(priors: Priors, n_scenes: int) -> FloatArray:
 
 
 def linearize(
-    stack: RPCStack, obs: Observations, norm: tuple[FloatArray, ...], state: State
+    stack: RPCStack,
+    obs: Observations,
+    norm: tuple[FloatArray, ...],
+    state: State,
+    partials: bool = True,
 ) -> Linearization:
-    """Misclosures and partials of every observation at the current estimate."""
+    """Misclosures and (if asked) partials of every observation at the current estimate."""
     lc, sc, hl, hs = (x[obs.scene] for x in norm)
     g = np.stack([np.ones(obs.line.size), (obs.sample - sc) / hs, (obs.line - lc) / hl], 1)
     pt = obs.point
-    rl, rs, jac = stack.project(obs.scene, state.lon[pt], state.lat[pt], state.h[pt], True)
+    rl, rs, jac = stack.project(obs.scene, state.lon[pt], state.lat[pt], state.h[pt], partials)
     pa = state.p[obs.scene]
     f = np.stack(
         [
@@ -144,37 +148,62 @@ def linearize(
         ],
         axis=1,
     )
-    return Linearization(f, ground_jacobian_m(jac, state.lat[pt]), g)
+    jx = ground_jacobian_m(jac, state.lat[pt]) if jac is not None else np.zeros((0, 2, 3))
+    return Linearization(f, jx, g)
 
 
-def point_pairs(point: IntArray, n_points: int) -> tuple[IntArray, IntArray]:
-    """All unordered pairs (o, o') of distinct observations of the same point."""
-    order = np.argsort(point, kind="stable")
-    counts = np.bincount(point, minlength=n_points)
+@dataclass(frozen=True)
+class Pairs:
+    """Unordered pairs (o1, o2) of distinct observations of one point, and the scene-pair
+    blocks they fall in: `block` per pair, indexing (`rows`, `cols`) scene pairs."""
+
+    o1: IntArray
+    o2: IntArray
+    block: IntArray
+    rows: IntArray
+    cols: IntArray
+
+
+def point_pairs(obs: Observations) -> Pairs:
+    """All unordered pairs of distinct observations of the same point (a loop over the few
+    distinct numbers of observations per point, vectorized inside)."""
+    order = np.argsort(obs.point, kind="stable")
+    counts = np.bincount(obs.point, minlength=obs.n_points)
     starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    first, second = [], []
+    first, second = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
     for k in np.unique(counts[counts >= 2]):
         s = starts[counts == k]
         for i in range(k):
             for j in range(i + 1, k):
                 first.append(order[s + i])
                 second.append(order[s + j])
-    if not first:
-        return np.zeros(0, np.int64), np.zeros(0, np.int64)
-    return np.concatenate(first), np.concatenate(second)
+    o1, o2 = np.concatenate(first), np.concatenate(second)
+    ns = obs.n_scenes
+    key, block = np.unique(obs.scene[o1] * ns + obs.scene[o2], return_inverse=True)
+    return Pairs(o1, o2, block.ravel(), key // ns, key % ns)
 
 
 def _block_sums(
-    key: IntArray, n_keys: int, k: FloatArray, ga: FloatArray, gb: FloatArray
+    key: IntArray,
+    n_keys: int,
+    k: FloatArray,
+    ga: FloatArray,
+    gb: FloatArray,
+    symmetric: bool = False,
 ) -> FloatArray:
-    """Σ over rows with the same key of kron(K, ga·gbᵀ): (n_keys, 6, 6) with index c·3+i."""
+    """Σ over rows with the same key of kron(K, ga·gbᵀ): (n_keys, 6, 6) with index c·3+i.
+
+    With `symmetric` (K symmetric, ga = gb) only the upper triangle is summed and mirrored.
+    """
     out = np.empty((n_keys, 6, 6))
-    for c in range(2):
-        for d in range(2):
-            for i in range(3):
-                kg = k[:, c, d] * ga[:, i]
-                for j in range(3):
-                    out[:, c * 3 + i, d * 3 + j] = np.bincount(key, kg * gb[:, j], n_keys)
+    for r in range(6):
+        c, i = divmod(r, 3)
+        for q in range(r if symmetric else 0, 6):
+            d, j = divmod(q, 3)
+            kg = k[:, c, d] * ga[:, i]
+            out[:, r, q] = np.bincount(key, kg * gb[:, j], n_keys)
+            if symmetric:
+                out[:, q, r] = out[:, r, q]
     return out
 
 
@@ -192,7 +221,7 @@ def reduced_system(
     w: FloatArray,
     u_inv: FloatArray,
     gx: FloatArray,
-    pairs: tuple[IntArray, IntArray],
+    pairs: Pairs,
     prior_w: FloatArray,
     p: FloatArray,
 ) -> tuple[sp.csc_matrix, FloatArray]:
@@ -202,14 +231,12 @@ def reduced_system(
     k_diag = -(w**2)[:, None, None] * np.einsum("nci,nid->ncd", lin.jx, y)
     k_diag[:, 0, 0] += w
     k_diag[:, 1, 1] += w
-    diag = _block_sums(obs.scene, ns, k_diag, lin.g, lin.g)
+    diag = _block_sums(obs.scene, ns, k_diag, lin.g, lin.g, symmetric=True)
     diag[:, np.arange(6), np.arange(6)] += prior_w
-    o1, o2 = pairs
-    s1, s2 = obs.scene[o1], obs.scene[o2]
-    key, inverse = np.unique(s1 * ns + s2, return_inverse=True)
+    o1, o2 = pairs.o1, pairs.o2
     k_off = -(w[o1] * w[o2])[:, None, None] * np.einsum("nci,nid->ncd", lin.jx[o1], y[o2])
-    off = _block_sums(inverse.ravel(), key.size, k_off, lin.g[o1], lin.g[o2])
-    kr, kc = key // ns, key % ns
+    off = _block_sums(pairs.block, pairs.rows.size, k_off, lin.g[o1], lin.g[o2])
+    kr, kc = pairs.rows, pairs.cols
     parts = [
         _coo(np.arange(ns), np.arange(ns), diag),
         _coo(kr, kc, off),
@@ -299,7 +326,7 @@ def gauss_newton_step(
     state: State,
     weigh: Callable[[FloatArray], FloatArray],
     priors: Priors,
-    pairs: tuple[IntArray, IntArray],
+    pairs: Pairs,
     used: BoolArray,
 ) -> Step:
     """Linearize, weigh (`weigh(f)`), eliminate the points, solve the reduced system and
@@ -412,7 +439,7 @@ class Context:
     norm: tuple[FloatArray, ...]
     priors: Priors
     settings: Settings
-    pairs: tuple[IntArray, IntArray]
+    pairs: Pairs
     kept: BoolArray
     used: BoolArray
     history: list[dict] = field(default_factory=list)
@@ -439,8 +466,13 @@ def affine_covariance(s: sp.csc_matrix, lu: spla.SuperLU) -> tuple[FloatArray, F
     n = s.shape[0]
     ns = n // 6
     if n <= DENSE_LIMIT:
-        dense = s.toarray()
-        full = sla.cho_solve(sla.cho_factor(dense, lower=True), np.eye(n))
+        factor, info = sla.lapack.dpotrf(s.toarray(), lower=True, overwrite_a=True)
+        full, info2 = sla.lapack.dpotri(factor, lower=True, overwrite_c=True)
+        if info or info2:
+            raise InputError(
+                Problem("<block>", "the reduced normal matrix is not positive definite")
+            )
+        full = np.tril(full) + np.tril(full, -1).T
         blocks = full.reshape(ns, 6, ns, 6)[np.arange(ns), :, np.arange(ns), :]
         return blocks, full
     blocks = np.empty((ns, 6, 6))
@@ -455,7 +487,7 @@ def affine_covariance(s: sp.csc_matrix, lu: spla.SuperLU) -> tuple[FloatArray, F
 
 
 def point_covariance(
-    obs: Observations, step: Step, full: FloatArray | None, chunk: int = 400_000
+    obs: Observations, pairs: Pairs, step: Step, full: FloatArray | None, chunk: int = 400_000
 ) -> FloatArray:
     """Per point covariance factor (n_points, 3, 3) in (east, north, h) m: U⁻¹ + Σ Aᵀ·C·A'.
 
@@ -468,16 +500,16 @@ def point_covariance(
     y = np.einsum("nij,nkj->nik", step.u_inv[obs.point], step.lin.jx)  # (n, 3, 2)
     a = step.w[:, None, None, None] * np.einsum("ni,njc->ncij", step.lin.g, y)  # (n, 2, 3, 3)
     a = a.reshape(-1, 6, 3)
-    o1, o2 = point_pairs(obs.point, obs.n_points)
-    pairs = (
+    o1, o2 = pairs.o1, pairs.o2
+    both = (
         np.concatenate([np.arange(obs.point.size), o1, o2]),
         np.concatenate([np.arange(obs.point.size), o2, o1]),
     )
     ns = obs.n_scenes
     c4 = full.reshape(ns, 6, ns, 6)
-    for start in range(0, pairs[0].size, chunk):
-        p1 = pairs[0][start : start + chunk]
-        p2 = pairs[1][start : start + chunk]
+    for start in range(0, both[0].size, chunk):
+        p1 = both[0][start : start + chunk]
+        p2 = both[1][start : start + chunk]
         c = c4[obs.scene[p1], :, obs.scene[p2], :]  # (m, 6, 6)
         t = np.einsum("nai,nab,nbj->nij", a[p1], c, a[p2], optimize=True)
         for i in range(3):
@@ -534,7 +566,7 @@ def adjust(
         norm,
         priors,
         settings,
-        point_pairs(obs.point, obs.n_points),
+        point_pairs(obs),
         kept=np.ones(obs.point.size, bool),
         used=ok.copy(),
     )
@@ -572,21 +604,12 @@ def _solution(ctx: Context, state: State, last: Step, sig: float, converged: boo
     """Final residuals, σ0 and the precision of every parameter (σ0²·S⁻¹ and the points')."""
     obs, lines, samples = ctx.obs, *_sizes(ctx.norm)
     kept = ctx.kept.copy()
-    step = gauss_newton_step(
-        ctx.stack,
-        obs,
-        ctx.norm,
-        state,
-        fixed_weights(kept, sig),
-        ctx.priors,
-        ctx.pairs,
-        ctx.used,
-    )
-    lin = linearize(ctx.stack, obs, ctx.norm, state)
+    step = last
+    lin = linearize(ctx.stack, obs, ctx.norm, state, partials=False)
     q_affine, full = affine_covariance(step.s, step.lu)
     prior_w = prior_weights(ctx.priors, obs.n_scenes)
     share = np.where(prior_w > 0, prior_w * np.einsum("nii->ni", q_affine), 0.0)
-    q_ground = point_covariance(obs, step, full)
+    q_ground = point_covariance(obs, ctx.pairs, step, full)
     s0 = sigma0(lin.f, step.w, ctx.priors, ctx.used, q_ground[:, 2, 2], float(share.sum()))
     affine = affine_from_normalized(state.p, lines, samples)
     blocks = q_affine * s0**2
