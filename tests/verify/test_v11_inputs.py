@@ -191,3 +191,37 @@ def test_rpc_adjusted_equals_adjustment_csv(tmp_path) -> None:
         )
     assert abs(got["a"]).max() > 0.1
     assert got["a"] == pytest.approx(got["b"], abs=1e-6)
+
+
+def test_adjust_checkpoints_flow_into_inspect(tmp_path, blockqc) -> None:
+    """`blockqc adjust`'s checkpoints.csv (method recalculation) through `inspect --checkpoints`
+    into the results and the report, beside the delivered high-precision checkpoints."""
+    import yaml
+    from geokit import FILES
+
+    from blockqc.adjust.synthetic import SyntheticConfig, synthetic_block
+    from blockqc.rfm.readers import read_rpc
+
+    models = [read_rpc(f) for f in FILES.values()]
+    cfg = SyntheticConfig(scenes=6, observations_per_scene=400, checkpoints=25, seed=4)
+    _, folder = synthetic_block(models, cfg, tmp_path / "d")
+    manifest = yaml.safe_load((folder / "block.yaml").read_text())
+    manifest["gsd_m"]["ms"] = 4 * manifest["gsd_m"]["pan"]  # RO-1's threshold names gsd.ms
+    (folder / "block.yaml").write_text(yaml.safe_dump(manifest))
+    proc = blockqc("adjust", folder, "--out", tmp_path / "adj")
+    assert proc.returncode == 0, proc.stderr
+    recalc = tmp_path / "adj" / "checkpoints.csv"
+    out = tmp_path / "out"
+    proc = blockqc("inspect", folder, "--out", out, "--no-pdf", "--checkpoints", recalc)
+    assert proc.returncode in (0, 1), proc.stdout + proc.stderr
+    doc = json.loads((out / manifest["block_id"] / "results.json").read_text())
+    cp = pd.read_csv(recalc)
+    d_plane = ((cp["x_m"] - cp["ref_x_m"]) ** 2 + (cp["y_m"] - cp["ref_y_m"]) ** 2).to_numpy()
+    plane = _cp(doc, "CP-2", "plane", "recalculation")
+    assert plane["detail"]["statistic"] == "M2"
+    gross = d_plane > (2 * math.sqrt(2) * 10) ** 2
+    kept = d_plane[~gross]
+    assert plane["value"] == pytest.approx(math.sqrt(kept.sum() / (2 * kept.size)), rel=1e-9)
+    assert _cp(doc, "CP-2", "plane", "high_precision")["status"] in ("pass", "fail")
+    report = (out / manifest["block_id"] / "report.html").read_text()
+    assert "High-precision data / Recalculation with other software" in report
