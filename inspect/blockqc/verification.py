@@ -150,6 +150,7 @@ def prepare(d: Delivery) -> dict[str, Any]:
     if pdata.overlaps is not None:
         d.overlaps = pdata.overlaps
         notes["overlaps"] = DERIVED_OVERLAPS
+        notes["n_overlap_discrepancies"] = int(len(pdata.overlaps))
     d.process_data["data"] = pdata
     return notes
 
