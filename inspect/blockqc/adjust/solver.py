@@ -238,14 +238,14 @@ def reduced_system(
 ) -> tuple[sp.csc_matrix, FloatArray]:
     """The reduced camera system S·Δp = b after eliminating every point (Schur complement)."""
     ns = obs.n_scenes
-    y = np.einsum("nij,nkj->nik", u_inv[obs.point], lin.jx)  # U⁻¹·Jxᵀ (n, 3, 2)
-    k_diag = -(w**2)[:, None, None] * np.einsum("nci,nid->ncd", lin.jx, y)
+    y = np.matmul(u_inv[obs.point], lin.jx.transpose(0, 2, 1))  # U⁻¹·Jxᵀ (n, 3, 2)
+    k_diag = -(w**2)[:, None, None] * np.matmul(lin.jx, y)
     k_diag[:, 0, 0] += w
     k_diag[:, 1, 1] += w
     diag = _block_sums(obs.scene, ns, k_diag, lin.g, lin.g, symmetric=True)
     diag[:, np.arange(6), np.arange(6)] += prior_w
     o1, o2 = pairs.o1, pairs.o2
-    k_off = -(w[o1] * w[o2])[:, None, None] * np.einsum("nci,nid->ncd", lin.jx[o1], y[o2])
+    k_off = -(w[o1] * w[o2])[:, None, None] * np.matmul(lin.jx[o1], y[o2])
     off = _block_sums(pairs.block, pairs.rows.size, k_off, lin.g[o1], lin.g[o2])
     kr, kc = pairs.rows, pairs.cols
     parts = [
@@ -278,8 +278,8 @@ def _reduced_rhs(
 ) -> FloatArray:
     """b = −g_a + Σ W·U⁻¹·g_x (flattened, 6·n_scenes)."""
     ga = _scene_sum(obs, w, lin.g, lin.f) + prior_w * p
-    yx = np.einsum("nij,nj->ni", u_inv, gx)[obs.point]
-    q = np.einsum("nci,ni->nc", lin.jx, yx)
+    yx = np.matmul(u_inv, gx[:, :, None])[obs.point]
+    q = np.matmul(lin.jx, yx)[:, :, 0]
     return (-ga + _scene_sum(obs, w, lin.g, q)).ravel()
 
 
@@ -370,7 +370,7 @@ def gauss_newton_step(
     state.lon += dx[:, 0] * deg_e
     state.lat += dx[:, 1] * deg_n
     state.h += dx[:, 2]
-    moved = np.einsum("nci,ni->nc", lin.jx, dx[obs.point])
+    moved = np.matmul(lin.jx, dx[obs.point][:, :, None])[:, :, 0]
     return Step(
         lin,
         w,
