@@ -17,6 +17,7 @@ observations with |v| > k·σ0 and a final least-squares pass with the image pre
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -24,6 +25,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from numpy.typing import NDArray
+from threadpoolctl import threadpool_limits
 
 from blockqc.adjust.geometry import (
     RPCStack,
@@ -471,29 +473,35 @@ DENSE_LIMIT = 12000
 """Largest reduced system (6·n_scenes) inverted densely for the full affine covariance."""
 
 
+def _dense_covariance(s: sp.csc_matrix, fixed: BoolArray) -> tuple[FloatArray, FloatArray]:
+    """S⁻¹ by dense Cholesky (LAPACK potrf/potri); held parameters get zero rows/columns."""
+    import scipy.linalg as sla
+
+    n = s.shape[0]
+    ns = n // 6
+    factor, info = sla.lapack.dpotrf(s.toarray(), lower=True, overwrite_a=True)
+    full, info2 = sla.lapack.dpotri(factor, lower=True, overwrite_c=True)
+    if info or info2:
+        raise InputError(Problem("<block>", "the reduced normal matrix is not positive definite"))
+    full = np.tril(full) + np.tril(full, -1).T
+    hold = np.repeat(fixed, 6)
+    full[hold, :] = 0.0
+    full[:, hold] = 0.0
+    blocks = full.reshape(ns, 6, ns, 6)[np.arange(ns), :, np.arange(ns), :]
+    return blocks, full
+
+
 def affine_covariance(s: sp.csc_matrix, fixed: BoolArray) -> tuple[FloatArray, FloatArray | None]:
     """Diagonal 6×6 blocks of S⁻¹ (n_scenes, 6, 6) and, when small enough, the whole S⁻¹.
 
     Dense Cholesky inverse up to DENSE_LIMIT unknowns; beyond, the needed columns are solved
     from the sparse LU, 600 at a time, and only the diagonal blocks are kept.
     """
-    import scipy.linalg as sla
-
     n = s.shape[0]
     ns = n // 6
     if n <= DENSE_LIMIT:
-        factor, info = sla.lapack.dpotrf(s.toarray(), lower=True, overwrite_a=True)
-        full, info2 = sla.lapack.dpotri(factor, lower=True, overwrite_c=True)
-        if info or info2:
-            raise InputError(
-                Problem("<block>", "the reduced normal matrix is not positive definite")
-            )
-        full = np.tril(full) + np.tril(full, -1).T
-        hold = np.repeat(fixed, 6)
-        full[hold, :] = 0.0
-        full[:, hold] = 0.0
-        blocks = full.reshape(ns, 6, ns, 6)[np.arange(ns), :, np.arange(ns), :]
-        return blocks, full
+        with threadpool_limits(os.cpu_count() or 1, user_api="blas"):
+            return _dense_covariance(s, fixed)
     blocks = np.empty((ns, 6, 6))
     lu = spla.splu(s)
     for start in range(0, ns, 100):
@@ -571,6 +579,23 @@ def initial_state(
 
 
 def adjust(
+    stack: RPCStack,
+    obs: Observations,
+    lines: FloatArray,
+    samples: FloatArray,
+    priors: Priors,
+    settings: Settings,
+) -> tuple[Solution, FloatArray, FloatArray]:
+    """Run the block adjustment; returns the solution and the residuals before (v_l, v_s).
+
+    BLAS runs single-threaded in the iterations (many small products, where threads only
+    contend); the dense covariance may use every core.
+    """
+    with threadpool_limits(1, user_api="blas"):
+        return _adjust(stack, obs, lines, samples, priors, settings)
+
+
+def _adjust(
     stack: RPCStack,
     obs: Observations,
     lines: FloatArray,
