@@ -81,7 +81,8 @@ def main() -> None:
     p = coverage(delivery, out)
     print(f"noise {NOISE_PX} px, outliers rejected {r['n_outliers']}, converged {r['converged']}")
     print(
-        f"adjust: {r['n_scenes']} scenes, {r['n_observations_in_delivery']} observations, {seconds:.1f} s, "
+        f"adjust: {r['n_scenes']} scenes, {r['n_observations_in_delivery']} observations, "
+        f"{seconds:.1f} s, "
         f"peak {peak_gb:.2f} GB, rms_after {r['rms_px_after']:.3f} px, "
         f"sigma0 {r['sigma0_px']:.3f} px, within 2 sigma {p:.1f} %"
     )

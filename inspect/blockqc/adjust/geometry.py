@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from threadpoolctl import threadpool_limits
 
 from blockqc.errors import InputError, Problem
 from blockqc.rfm.model import RPC00B_EXPONENTS, RPCModel
@@ -130,12 +131,14 @@ class RPCStack:
             idx, lon, lat, h = idx[order], lon[order], lat[order], h[order]
         line, samp = np.empty(n), np.empty(n)
         jac = np.empty((n, 2, 3)) if partials else None
-        for start in range(0, n, CHUNK):
-            sl = slice(start, min(n, start + CHUNK))
-            out = self._project_chunk(idx[sl], lon[sl], lat[sl], h[sl], partials)
-            line[sl], samp[sl] = out[0], out[1]
-            if jac is not None:
-                jac[sl] = out[2]
+        # many small products: BLAS threads only contend (measured 2–3× slower with two)
+        with threadpool_limits(1, user_api="blas"):
+            for start in range(0, n, CHUNK):
+                sl = slice(start, min(n, start + CHUNK))
+                out = self._project_chunk(idx[sl], lon[sl], lat[sl], h[sl], partials)
+                line[sl], samp[sl] = out[0], out[1]
+                if jac is not None:
+                    jac[sl] = out[2]
         if order is not None:
             inv = np.empty_like(order)
             inv[order] = np.arange(n)

@@ -276,16 +276,38 @@ def run_adjust(cfg: AdjustConfig) -> dict:
     from blockqc.adjust.outputs import write_outputs
 
     t0 = time.perf_counter()
+    clock = Clock()
     block = index_block(load_adjust_input(cfg.delivery))
+    clock.lap("read")
     priors, datum_desc = datum(block, cfg)
+    clock.lap("datum")
     sol, v0l, v0s = adjust(block.stack, block.obs, block.lines, block.samples, priors, cfg.settings)
+    clock.lap("adjust")
     cps, cp_info = checkpoints(block, sol, priors, cfg.checkpoints)
+    clock.lap("checkpoints")
     summary = summarize(block, sol, v0l, v0s, datum_desc, cp_info)
     summary["settings"] = dataclasses.asdict(cfg.settings)
     summary["settings"]["sigma_image_px_estimated"] = sol.sigma_image_px
     summary["seconds"] = round(time.perf_counter() - t0, 2)
+    summary["timings"] = clock.laps
     write_outputs(cfg.out, block, sol, cps, summary, np.hypot(v0l, v0s))
     return summary
+
+
+class Clock:
+    """Wall and processor seconds of each phase (the machine may be shared)."""
+
+    def __init__(self) -> None:
+        self.laps: dict[str, dict[str, float]] = {}
+        self._wall, self._cpu = time.perf_counter(), time.process_time()
+
+    def lap(self, name: str) -> None:
+        wall, cpu = time.perf_counter(), time.process_time()
+        self.laps[name] = {
+            "wall_s": round(wall - self._wall, 2),
+            "cpu_s": round(cpu - self._cpu, 2),
+        }
+        self._wall, self._cpu = wall, cpu
 
 
 def _rms(vl: np.ndarray, vs: np.ndarray, mask: np.ndarray) -> float | None:

@@ -17,6 +17,7 @@ observations with |v| > k·σ0 and a final least-squares pass with the image pre
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -24,6 +25,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from numpy.typing import NDArray
+from threadpoolctl import threadpool_limits
 
 from blockqc.adjust.geometry import (
     RPCStack,
@@ -41,9 +43,6 @@ from blockqc.errors import InputError, Problem
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 BoolArray = NDArray[np.bool_]
-
-FIXED_WEIGHT = 1e12
-"""Prior weight (px⁻²) that holds a `--fix` scene's affine at zero."""
 
 
 @dataclass(frozen=True)
@@ -78,6 +77,8 @@ class Settings:
     huber_k: float = 1.5
     reject_k: float = 4.0
     sigma_image_px: float = 0.5
+    min_sigma_px: float = 0.01
+    """Floor of the image precision used for weights and rejection (exact data)."""
 
 
 @dataclass
@@ -124,8 +125,20 @@ def prior_weights(priors: Priors, n_scenes: int) -> FloatArray:
     sig = np.array([priors.sigma_shift_px, priors.sigma_linear_px, priors.sigma_linear_px] * 2)
     with np.errstate(divide="ignore"):
         w = np.broadcast_to(1.0 / sig**2, (n_scenes, 6)).copy()
-    w[priors.fixed] = FIXED_WEIGHT
+    w[priors.fixed] = 0.0  # held by `hold_fixed` instead
     return w
+
+
+def hold_fixed(
+    s: sp.csc_matrix, b: FloatArray, fixed: BoolArray
+) -> tuple[sp.csc_matrix, FloatArray]:
+    """Hold the fixed scenes' parameters: their rows and columns become identity, Δp = 0."""
+    if not fixed.any():
+        return s, b
+    hold = np.repeat(fixed, 6)
+    keep = sp.diags((~hold).astype(float))
+    s = (keep @ s @ keep + sp.diags(hold.astype(float))).tocsc()
+    return s, np.where(hold, 0.0, b)
 
 
 def linearize(
@@ -227,14 +240,14 @@ def reduced_system(
 ) -> tuple[sp.csc_matrix, FloatArray]:
     """The reduced camera system S·Δp = b after eliminating every point (Schur complement)."""
     ns = obs.n_scenes
-    y = np.einsum("nij,nkj->nik", u_inv[obs.point], lin.jx)  # U⁻¹·Jxᵀ (n, 3, 2)
-    k_diag = -(w**2)[:, None, None] * np.einsum("nci,nid->ncd", lin.jx, y)
+    y = np.matmul(u_inv[obs.point], lin.jx.transpose(0, 2, 1))  # U⁻¹·Jxᵀ (n, 3, 2)
+    k_diag = -(w**2)[:, None, None] * np.matmul(lin.jx, y)
     k_diag[:, 0, 0] += w
     k_diag[:, 1, 1] += w
     diag = _block_sums(obs.scene, ns, k_diag, lin.g, lin.g, symmetric=True)
     diag[:, np.arange(6), np.arange(6)] += prior_w
     o1, o2 = pairs.o1, pairs.o2
-    k_off = -(w[o1] * w[o2])[:, None, None] * np.einsum("nci,nid->ncd", lin.jx[o1], y[o2])
+    k_off = -(w[o1] * w[o2])[:, None, None] * np.matmul(lin.jx[o1], y[o2])
     off = _block_sums(pairs.block, pairs.rows.size, k_off, lin.g[o1], lin.g[o2])
     kr, kc = pairs.rows, pairs.cols
     parts = [
@@ -267,8 +280,8 @@ def _reduced_rhs(
 ) -> FloatArray:
     """b = −g_a + Σ W·U⁻¹·g_x (flattened, 6·n_scenes)."""
     ga = _scene_sum(obs, w, lin.g, lin.f) + prior_w * p
-    yx = np.einsum("nij,nj->ni", u_inv, gx)[obs.point]
-    q = np.einsum("nci,ni->nc", lin.jx, yx)
+    yx = np.matmul(u_inv, gx[:, :, None])[obs.point]
+    q = np.matmul(lin.jx, yx)[:, :, 0]
     return (-ga + _scene_sum(obs, w, lin.g, q)).ravel()
 
 
@@ -278,14 +291,18 @@ def solve_reduced(s: sp.csc_matrix, b: FloatArray) -> tuple[FloatArray, spla.Sup
         "the block adjustment is singular: the datum is not fixed (give finite a-priori "
         "affine σ, --fix a scene or --dem) or some scene has too few tie observations"
     )
+    diag = s.diagonal()
+    if not np.all(np.isfinite(diag)) or diag.min() <= 0:
+        raise InputError(Problem("<block>", message))
+    scale = sp.diags(1.0 / np.sqrt(diag))
     try:
-        lu = spla.splu(s)
+        lu = spla.splu((scale @ s @ scale).tocsc())  # unit diagonal: pivots comparable
     except RuntimeError:
         raise InputError(Problem("<block>", message)) from None
     d = np.abs(lu.U.diagonal())
-    if not np.all(np.isfinite(d)) or d.min() <= 1e-12 * d.max():
+    if not np.all(np.isfinite(d)) or d.min() <= 1e-13:
         raise InputError(Problem("<block>", message))
-    return lu.solve(b), lu
+    return scale @ lu.solve(scale @ b), lu
 
 
 def back_substitute(
@@ -347,6 +364,7 @@ def gauss_newton_step(
     u_inv[~used] = 0.0
     prior_w = prior_weights(priors, obs.n_scenes)
     s_mat, b = reduced_system(obs, lin, w, u_inv, gx, pairs, prior_w, state.p)
+    s_mat, b = hold_fixed(s_mat, b, priors.fixed)
     dp, lu = solve_reduced(s_mat, b)
     dx = back_substitute(obs, lin, w, u_inv, gx, dp)
     state.p += dp.reshape(-1, 6)
@@ -354,7 +372,7 @@ def gauss_newton_step(
     state.lon += dx[:, 0] * deg_e
     state.lat += dx[:, 1] * deg_n
     state.h += dx[:, 2]
-    moved = np.einsum("nci,ni->nc", lin.jx, dx[obs.point])
+    moved = np.matmul(lin.jx, dx[obs.point][:, :, None])[:, :, 0]
     return Step(
         lin,
         w,
@@ -455,27 +473,37 @@ DENSE_LIMIT = 12000
 """Largest reduced system (6·n_scenes) inverted densely for the full affine covariance."""
 
 
-def affine_covariance(s: sp.csc_matrix, lu: spla.SuperLU) -> tuple[FloatArray, FloatArray | None]:
+def _dense_covariance(s: sp.csc_matrix, fixed: BoolArray) -> tuple[FloatArray, FloatArray]:
+    """S⁻¹ by dense Cholesky (LAPACK potrf/potri); held parameters get zero rows/columns."""
+    import scipy.linalg as sla
+
+    n = s.shape[0]
+    ns = n // 6
+    factor, info = sla.lapack.dpotrf(s.toarray(), lower=True, overwrite_a=True)
+    full, info2 = sla.lapack.dpotri(factor, lower=True, overwrite_c=True)
+    if info or info2:
+        raise InputError(Problem("<block>", "the reduced normal matrix is not positive definite"))
+    full = np.tril(full) + np.tril(full, -1).T
+    hold = np.repeat(fixed, 6)
+    full[hold, :] = 0.0
+    full[:, hold] = 0.0
+    blocks = full.reshape(ns, 6, ns, 6)[np.arange(ns), :, np.arange(ns), :]
+    return blocks, full
+
+
+def affine_covariance(s: sp.csc_matrix, fixed: BoolArray) -> tuple[FloatArray, FloatArray | None]:
     """Diagonal 6×6 blocks of S⁻¹ (n_scenes, 6, 6) and, when small enough, the whole S⁻¹.
 
     Dense Cholesky inverse up to DENSE_LIMIT unknowns; beyond, the needed columns are solved
     from the sparse LU, 600 at a time, and only the diagonal blocks are kept.
     """
-    import scipy.linalg as sla
-
     n = s.shape[0]
     ns = n // 6
     if n <= DENSE_LIMIT:
-        factor, info = sla.lapack.dpotrf(s.toarray(), lower=True, overwrite_a=True)
-        full, info2 = sla.lapack.dpotri(factor, lower=True, overwrite_c=True)
-        if info or info2:
-            raise InputError(
-                Problem("<block>", "the reduced normal matrix is not positive definite")
-            )
-        full = np.tril(full) + np.tril(full, -1).T
-        blocks = full.reshape(ns, 6, ns, 6)[np.arange(ns), :, np.arange(ns), :]
-        return blocks, full
+        with threadpool_limits(os.cpu_count() or 1, user_api="blas"):
+            return _dense_covariance(s, fixed)
     blocks = np.empty((ns, 6, 6))
+    lu = spla.splu(s)
     for start in range(0, ns, 100):
         stop = min(ns, start + 100)
         rhs = np.zeros((n, 6 * (stop - start)))
@@ -483,6 +511,7 @@ def affine_covariance(s: sp.csc_matrix, lu: spla.SuperLU) -> tuple[FloatArray, F
         cols = lu.solve(rhs)[6 * start : 6 * stop, :]
         k = stop - start
         blocks[start:stop] = cols.reshape(k, 6, k, 6)[np.arange(k), :, np.arange(k), :]
+    blocks[fixed] = 0.0
     return blocks, None
 
 
@@ -557,6 +586,23 @@ def adjust(
     priors: Priors,
     settings: Settings,
 ) -> tuple[Solution, FloatArray, FloatArray]:
+    """Run the block adjustment; returns the solution and the residuals before (v_l, v_s).
+
+    BLAS runs single-threaded in the iterations (many small products, where threads only
+    contend); the dense covariance may use every core.
+    """
+    with threadpool_limits(1, user_api="blas"):
+        return _adjust(stack, obs, lines, samples, priors, settings)
+
+
+def _adjust(
+    stack: RPCStack,
+    obs: Observations,
+    lines: FloatArray,
+    samples: FloatArray,
+    priors: Priors,
+    settings: Settings,
+) -> tuple[Solution, FloatArray, FloatArray]:
     """Run the block adjustment; returns the solution and the residuals before (v_l, v_s)."""
     norm = normalization(lines, samples)
     state, ok, v0l, v0s = initial_state(stack, obs, priors)
@@ -586,11 +632,12 @@ def adjust(
         vl, vs = image_residuals(
             affine_from_normalized(state.p, lines, samples), obs.scene, *step.lin.f.T
         )
+        s0 = max(s0, settings.min_sigma_px) if np.isfinite(s0) else sig
         new = ctx.kept & (np.hypot(vl, vs) > settings.reject_k * s0)
         ctx.kept &= ~new
         ctx.drop_weak_points()
         changed = abs(s0 / sig - 1.0) > 0.02 or bool(new.any())
-        sig = s0 if np.isfinite(s0) and s0 > 0 else sig
+        sig = s0
         if not changed and converged:
             break
         budget = settings.max_iterations - sum(h["phase"] == "ls" for h in ctx.history)
@@ -606,9 +653,10 @@ def _solution(ctx: Context, state: State, last: Step, sig: float, converged: boo
     kept = ctx.kept.copy()
     step = last
     lin = linearize(ctx.stack, obs, ctx.norm, state, partials=False)
-    q_affine, full = affine_covariance(step.s, step.lu)
+    q_affine, full = affine_covariance(step.s, ctx.priors.fixed)
     prior_w = prior_weights(ctx.priors, obs.n_scenes)
     share = np.where(prior_w > 0, prior_w * np.einsum("nii->ni", q_affine), 0.0)
+    share[ctx.priors.fixed] = 1.0  # held parameters take no image redundancy
     q_ground = point_covariance(obs, ctx.pairs, step, full)
     s0 = sigma0(lin.f, step.w, ctx.priors, ctx.used, q_ground[:, 2, 2], float(share.sum()))
     affine = affine_from_normalized(state.p, lines, samples)
