@@ -15,6 +15,7 @@ from pathlib import Path
 
 from blockqc import __version__
 from blockqc.cache import Cached, delivery_fingerprint, read_cached, write_cached
+from blockqc.checkpoint_inputs import InspectorCheckpoints, merge_checkpoints
 from blockqc.delivery import MANIFEST, Manifest, find_deliveries, load_delivery, load_manifest
 from blockqc.engine import inspect_delivery
 from blockqc.errors import InputError, Problem
@@ -83,11 +84,26 @@ def collect(paths: Iterable[Path]) -> Collected:
     return got
 
 
+@dataclass(frozen=True)
+class Extra:
+    """The inspector's checkpoints (contract v1.1, `--checkpoints FILE…`), merged per block;
+    `single` when one delivery is inspected (its file then needs no block_id column)."""
+
+    checkpoints: InspectorCheckpoints | None = None
+    single: bool = True
+
+
 def inspect_one(
-    path: Path, pack: Pack, inspector: InspectorInput | None, manifest: Manifest | None = None
+    path: Path,
+    pack: Pack,
+    inspector: InspectorInput | None,
+    manifest: Manifest | None = None,
+    extra: Extra | None = None,
 ) -> BlockResults:
     """Read one delivery (InputError when it cannot be) and judge every rule of the pack."""
     delivery = load_delivery(path, manifest=manifest)
+    if extra is not None and extra.checkpoints is not None:
+        merge_checkpoints(delivery, extra.checkpoints.for_block(delivery.block_id, extra.single))
     block_input = inspector.for_block(delivery.block_id) if inspector else None
     return inspect_delivery(delivery, pack, block_input, inspector.inspector if inspector else None)
 
@@ -162,13 +178,14 @@ class Job:
     inspector: InspectorInput | None
     writer: Writer
     digest: str | None = None
+    extra: Extra | None = None
 
     def __call__(self, path: Path, manifest: Manifest | None = None) -> Outcome:
         try:
             key = self._key(path, manifest)
             if key and (hit := read_cached(safe_child(self.writer.out, manifest.block_id), key)):
                 return Outcome(path, hit.entry, hit.rules, cached=True)
-            results = inspect_one(path, self.pack, self.inspector, manifest)
+            results = inspect_one(path, self.pack, self.inspector, manifest, self.extra)
             pdf = self.writer.block(results)
             o = Outcome(path, block_entry(path, results, pdf), rule_counts(results))
             if key:
@@ -256,6 +273,7 @@ def run(
     runner: Runner | None = None,
     incremental: bool = False,
     progress: Callable[[Outcome], None] | None = None,
+    checkpoints: InspectorCheckpoints | None = None,
 ) -> tuple[list[Outcome], Summary | None]:
     """Inspect every delivery collected, writing its outputs as it goes; for a batch, the summary.
 
@@ -272,9 +290,10 @@ def run(
 
     for p, problem in got.refused.items():
         finished(Outcome(p, problems=[problem]))
-    digest = run_digest(pack, writer) if incremental else None
+    extra = Extra(checkpoints, len(got.deliveries) == 1)
+    digest = run_digest(pack, writer, checkpoints) if incremental else None
     todo = [(p, got.manifests.get(p)) for p in got.deliveries if p not in got.refused]
-    (runner or Runner()).run(Job(pack, inspector, writer, digest), todo, finished)
+    (runner or Runner()).run(Job(pack, inspector, writer, digest, extra), todo, finished)
     outcomes = [done[p] for p in got.deliveries]
     summary = None
     if got.is_batch:

@@ -58,8 +58,9 @@ def _tree(folder: Path) -> list[tuple[str, int, int]]:
     return out
 
 
-def run_digest(pack: Any, writer: Any) -> str:
-    """What every block of a run shares: the resolved pack, output options, blockqc's version."""
+def run_digest(pack: Any, writer: Any, checkpoints: Any = None) -> str:
+    """What every block of a run shares: the resolved pack, output options, the inspector's
+    checkpoint files (their rows), blockqc's version."""
     rules = [r.model_dump(mode="json") for r in pack.rules]
     elements = [e.model_dump(mode="json") for e in pack.elements]
     templates = _tree(writer.templates) if writer.templates else None
@@ -74,6 +75,7 @@ def run_digest(pack: Any, writer: Any) -> str:
         writer.pdf,
         str(writer.templates),
         templates,
+        None if checkpoints is None else checkpoints.rows.to_csv(index=False),
     )
 
 

@@ -114,6 +114,14 @@ def cli() -> None:
     default=None,
     help="Progress bar for batches (default: when stderr is a terminal).",
 )
+@click.option(
+    "--checkpoints",
+    "checkpoint_files",
+    multiple=True,
+    type=click.Path(path_type=Path),
+    help="The inspector's checkpoints (checkpoints.csv columns [+ block_id]), merged with the "
+    "delivered ones; repeat for several files.",
+)
 def inspect_cmd(
     paths: tuple[Path, ...],
     rules_ref: str,
@@ -127,6 +135,7 @@ def inspect_cmd(
     scheduler: str | None,
     jobs: int,
     progress: bool | None,
+    checkpoint_files: tuple[Path, ...],
 ) -> int:
     """Inspect one delivery or a batch (a folder of deliveries) with a rule pack."""
     from blockqc import batch
@@ -142,13 +151,20 @@ def inspect_cmd(
     if inspector is not None:
         scenes = block_scenes(got.deliveries, got.manifests)
         check_inspector_input(inspector, {r.id: r for r in pack.rules}, scenes)
+    checkpoints = None
+    if checkpoint_files:
+        from blockqc.checkpoint_inputs import check_blocks, load_checkpoint_files
+
+        checkpoints = load_checkpoint_files(list(checkpoint_files))
+        check_blocks(checkpoints, got.deliveries)
     writer = batch.Writer(out, templates, lang, "none" if no_pdf else pdf)
     runner = batch.Runner(jobs or os.cpu_count() or 1, scheduler)
     show = sys.stderr.isatty() if progress is None else progress
     with _progress(len(got.deliveries) if show else 0) as tick:
         outcomes, summary = batch.run(
-            got, pack, writer, inspector, runner=runner, incremental=incremental, progress=tick
-        )
+            got, pack, writer, inspector, runner=runner, incremental=incremental,
+            progress=tick, checkpoints=checkpoints,
+        )  # fmt: skip
     _closing_lines(outcomes, summary, out)
     return batch.exit_status(outcomes)
 

@@ -25,6 +25,7 @@ from pydantic import (
 )
 
 from blockqc.errors import InputError, Problem
+from blockqc.geometry_inputs import BlockGeometry, load_geometry, residual_column_problems
 from blockqc.outputs import block_id_problem
 from blockqc.schema import TABLES, TableSchema, did_you_mean, report_rows, validate_table
 from blockqc.textio import BOM, decode_utf8, read_bytes
@@ -94,6 +95,11 @@ class Delivery:
     edges: pd.DataFrame | None = None
     checkpoints: pd.DataFrame | None = None
     files: dict[str, Path] = field(default_factory=dict)
+    # contract v1.1: the producer's adjustment table, the geometry read from rpc/ (and
+    # rpc_adjusted/), and what blockqc computed from it (blockqc.verification)
+    adjustment: pd.DataFrame | None = None
+    geometry: BlockGeometry | None = None
+    process_data: dict[str, Any] = field(default_factory=dict)
 
     @property
     def block_id(self) -> str:
@@ -323,12 +329,17 @@ def load_delivery(path: Path, manifest: Manifest | None = None) -> Delivery:
 
     problems.extend(_check_references(tables, files))
     problems.extend(_check_consistency({k: tables[k] for k in clean}, files))
+    geometry, found = load_geometry(path, tables, files)  # contract v1.1
+    problems.extend(found)
+    problems.extend(
+        residual_column_problems(tables.get("tie_points"), files.get("tie_points"), geometry)
+    )
     if problems and manifest is not None:  # reported now too, not only once the tables are fixed
         problems.extend(_missing_documents(path, manifest))
     if problems:
         raise InputError(problems)
     assert manifest is not None
-    return Delivery(path=path, manifest=manifest, files=files, **tables)
+    return Delivery(path=path, manifest=manifest, files=files, geometry=geometry, **tables)
 
 
 def _check_references(tables: dict[str, pd.DataFrame], files: dict[str, Path]) -> list[Problem]:

@@ -19,6 +19,7 @@ from blockqc.outputs import jsonable, records
 from blockqc.results import STATUSES, BlockResults, MeasurementRecord, RuleResult
 from blockqc.rules.expr import ExpressionError, evaluate, resolve_params
 from blockqc.rules.model import Pack, Rule, Threshold
+from blockqc.verification import annotate, prepare
 
 #: tables up to this many rows are kept in results.json for the report
 MEASUREMENT_ROWS_KEPT = 5000
@@ -152,7 +153,6 @@ class Judge:
         self.verdict = block_input.verdicts.get(rule.id)
         self.cache_key: tuple[str, str] | None = None
         self.th, self.lo, self.hi = None, None, None
-        self.bind({})
 
     def bind(self, group: dict[str, Any]) -> None:
         """Select the threshold for a group (rules with `thresholds:` per group value)."""
@@ -213,8 +213,10 @@ class Judge:
             return [self._manual()]
         self.cache_key = self.ctx.cache_key(r.metric, r.params)
         m = self.ctx.measure(r.metric, r.params)
-        if m.not_applicable:
+        if m.not_applicable:  # judged on nothing: its threshold (which may name an absent
+            # delivery value, e.g. gsd.ms) is not evaluated
             return [self.result({}, "not_applicable", None, {"reason": m.not_applicable})]
+        self.bind({})
         table = m.tables[r.scope]
         df = _filter(table.df, r.where)
         group_cols = [c for c in table.group if c not in r.where]
@@ -381,8 +383,10 @@ def inspect_delivery(
     inspector: str | None = None,
 ) -> BlockResults:
     """Judge every rule of the pack on one delivery; the results document of contract v1."""
+    process_data = prepare(delivery)  # contract v1.1: residuals/overlaps from the geometry
     ctx = Context(delivery, names_for(delivery, pack))
     results = judge_all(ctx, pack, block_input or BlockInput())
+    annotate(results, {r.id: r.metric for r in pack.rules if not r.manual}, process_data)
     counts = dict.fromkeys(STATUSES, 0)
     for res in results:
         counts[res.status] += 1
@@ -403,6 +407,7 @@ def inspect_delivery(
         pending_manual=pending,
         counts=counts,
         summary=summary(delivery),
+        process_data=jsonable(process_data),
         elements=pack.elements,
         scenes=_scenes(delivery),
         results=results,

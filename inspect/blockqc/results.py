@@ -123,6 +123,8 @@ class BlockResults(_Model):
     pending_manual: list[str] = Field(default_factory=list)
     counts: dict[Status, int] = Field(default_factory=dict)
     summary: dict[str, Any] = Field(default_factory=dict)
+    # contract v1.1: what blockqc computed itself from the delivery's geometry (§RC-1, §RC-2)
+    process_data: dict[str, Any] = Field(default_factory=dict)
     elements: list[ElementDef] = Field(default_factory=list)
     scenes: list[dict[str, Any]] = Field(default_factory=list)
     results: list[RuleResult]

@@ -80,10 +80,13 @@ TIE_POINTS = TableSchema(
         Column("scene_id", "str"),
         Column("line", "float"),
         Column("sample", "float"),
-        Column("v_line", "float"),
-        Column("v_sample", "float"),
+        # contract v1.1: the residuals may be absent when the delivery gives its geometry
+        # (blockqc.geometry_inputs checks that); lon/lat/h is the producer's ground point
+        Column("v_line", "float", required=False),
+        Column("v_sample", "float", required=False),
         Column("lon", "float", required=False, nullable=True, min=-180.0, max=180.0),
         Column("lat", "float", required=False, nullable=True, min=-90.0, max=90.0),
+        Column("h", "float", required=False, nullable=True),
     ),
     unique=("point_id", "scene_id"),
     references=(Reference("scene_id", "scenes", "scene_id"),),
@@ -153,8 +156,19 @@ CHECKPOINTS = TableSchema(
     unique=("point_id", "method"),
 )
 
+# contract v1.1: the producer's adjustment per scene (blockqc.geometry_inputs gives its form)
+ADJUSTMENT = TableSchema(
+    "adjustment",
+    (
+        Column("scene_id", "str"),
+        *(Column(k, "float") for k in ("a0", "a1", "a2", "b0", "b1", "b2")),
+    ),
+    unique=("scene_id",),
+    references=(Reference("scene_id", "scenes", "scene_id"),),
+)
+
 TABLES: dict[str, TableSchema] = {
-    t.name: t for t in (SCENES, TIE_POINTS, PAN_MS, OVERLAPS, EDGES, CHECKPOINTS)
+    t.name: t for t in (SCENES, TIE_POINTS, PAN_MS, OVERLAPS, EDGES, CHECKPOINTS, ADJUSTMENT)
 }
 
 

@@ -17,13 +17,17 @@ from blockqc.analysis.terrain import DemSet
 from blockqc.delivery import find_deliveries, load_delivery
 from blockqc.errors import UsageError
 from blockqc.outputs import check_out_dir, write_bytes_atomic, write_json_atomic, write_text_atomic
+from blockqc.verification import prepare
 
 
 def build_table(batch: Path, dem_paths: list[Path], options: FactorOptions) -> pd.DataFrame:
     """Read every delivery under `batch` and compute its row of the experiments table."""
     paths = find_deliveries(batch)
     dems = DemSet(dem_paths)
-    return experiments_table([load_delivery(p) for p in paths], dems, options)
+    deliveries = [load_delivery(p) for p in paths]
+    for d in deliveries:  # contract v1.1: residuals computed where the delivery gives none
+        prepare(d)
+    return experiments_table(deliveries, dems, options)
 
 
 def write_outputs(

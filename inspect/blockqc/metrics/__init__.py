@@ -111,6 +111,7 @@ def _load_all() -> None:
         checkpoints,
         discrepancies,
         documents,
+        geometry,
         reported,
         spatial_ref,
         tiepoints,

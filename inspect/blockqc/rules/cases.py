@@ -85,6 +85,8 @@ class Case(BaseModel):
 class CaseFile(BaseModel):
     model_config = ConfigDict(extra="forbid")
     rule: str
+    # anything the cases share through YAML anchors (e.g. the files of a delivery's geometry)
+    shared: dict[str, Any] = Field(default_factory=dict)
     cases: list[Case] = Field(min_length=1)
     _lines: list[int | None] = PrivateAttr(default_factory=list)
 

@@ -1,0 +1,1 @@
+"""blockqc's own RFM-affine block adjustment: geometry, solver, synthetic block, outputs (§RC)."""

@@ -1,0 +1,92 @@
+"""`blockqc adjust`: the independent RFM-affine block adjustment of a delivery (§RC-3)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from blockqc.adjust.run import DEFAULT_DEM_SIGMA_M, AdjustConfig, run_adjust
+from blockqc.adjust.solver import Settings
+from blockqc.outputs import check_out_dir
+
+
+@click.command("adjust")
+@click.argument("delivery", type=click.Path(path_type=Path))
+@click.option("--out", required=True, type=click.Path(path_type=Path), help="Output folder.")
+@click.option("--dem", type=click.Path(path_type=Path), help="DEM for height priors.")
+@click.option("--geoid", type=click.Path(path_type=Path), help="Geoid grid (geoid-height DEM).")
+@click.option(
+    "--dem-vertical",
+    type=click.Choice(["geoid", "ellipsoid"]),
+    default="geoid",
+    show_default=True,
+    help="Heights of the DEM: above the geoid (SRTM; needs --geoid) or ellipsoidal.",
+)
+@click.option("--dem-sigma", default=DEFAULT_DEM_SIGMA_M, show_default=True, help="σ of DEM (m).")
+@click.option("--fix", multiple=True, help="Hold this scene's affine at zero (repeatable).")
+@click.option("--sigma-shift", default=10.0, show_default=True, help="A-priori σ of a0, b0 (px).")
+@click.option(
+    "--sigma-linear",
+    default=2.0,
+    show_default=True,
+    help="A-priori σ of the linear terms, in px at the image edge.",
+)
+@click.option("--sigma-image", default=0.5, show_default=True, help="Starting σ of a measurement.")
+@click.option("--reject", default=4.0, show_default=True, help="Reject |v| > k·σ0: this k.")
+@click.option("--max-iterations", default=20, show_default=True, type=click.IntRange(1, 1000))
+@click.option(
+    "--checkpoints",
+    "n_checkpoints",
+    default=30,
+    show_default=True,
+    type=click.IntRange(1, 1000),
+    help="Points compared with the producer's (§CP-1).",
+)
+def command(
+    delivery: Path,
+    out: Path,
+    dem: Path | None,
+    geoid: Path | None,
+    dem_vertical: str,
+    dem_sigma: float,
+    fix: tuple[str, ...],
+    sigma_shift: float,
+    sigma_linear: float,
+    sigma_image: float,
+    reject: float,
+    max_iterations: int,
+    n_checkpoints: int,
+) -> None:
+    """Adjust DELIVERY's block from its rpc/ and tie observations alone (§RC-3).
+
+    Writes adjustment.csv, tie_points.csv, ground_points.csv, checkpoints.csv (method
+    recalculation), adjust.json and adjust.html into --out. Exit status 0 when the adjustment
+    converged, 1 when it did not (the outputs say converged: false), 2 on unreadable input.
+    """
+    inputs = [p for p in (delivery, dem, geoid) if p is not None]
+    out_dir = check_out_dir(out, inputs)
+    settings = Settings(max_iterations=max_iterations, reject_k=reject, sigma_image_px=sigma_image)
+    cfg = AdjustConfig(
+        delivery=delivery,
+        out=out_dir,
+        dem=dem,
+        geoid=geoid,
+        dem_vertical=dem_vertical,
+        dem_sigma_m=dem_sigma,
+        fix=fix,
+        sigma_shift_px=sigma_shift,
+        sigma_linear_px=sigma_linear,
+        settings=settings,
+        checkpoints=n_checkpoints,
+    )
+    r = run_adjust(cfg)
+    click.echo(
+        f"{r['block_id']}: {r['n_scenes']} scenes, {r['n_observations']} observations, "
+        f"{r['iterations']} iterations, converged {'yes' if r['converged'] else 'NO'}; "
+        f"σ0 {r['sigma0_px']:.3f} px, RMS {r['rms_px_before']:.3f} → {r['rms_px_after']:.3f} px, "
+        f"{r['n_outliers']} outliers; results in {out_dir}"
+    )
+    if not r["converged"]:
+        click.echo("the adjustment did not converge: see adjust.json (history)", err=True)
+        click.get_current_context().exit(1)

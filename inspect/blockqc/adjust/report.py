@@ -1,0 +1,154 @@
+"""Figures and the HTML page of a block adjustment (one artist per figure layer, not per scene)."""
+
+from __future__ import annotations
+
+import io
+import math
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from blockqc.outputs import write_bytes_atomic
+
+if TYPE_CHECKING:
+    from blockqc.adjust.run import Block
+    from blockqc.adjust.solver import Solution
+
+MAX_VECTORS = 20000
+"""Residual vectors drawn at most (an even subsample of the kept observations)."""
+
+
+def _png(fig: object) -> bytes:
+    import matplotlib.pyplot as plt
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100, bbox_inches="tight")  # type: ignore[attr-defined]
+    plt.close(fig)  # type: ignore[arg-type]
+    return buf.getvalue()
+
+
+def _figure(w: float = 7.0, h: float = 4.0, ncols: int = 1) -> tuple:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt.subplots(1, ncols, figsize=(w, h))
+
+
+def plot_convergence(history: list[dict]) -> bytes:
+    fig, ax = _figure(7.0, 3.2)
+    it = [h["iteration"] for h in history]
+    ax.semilogy(it, [max(h["rms_px"], 1e-6) for h in history], "o-", label="RMS |f| (px)")
+    step = [max(h["max_affine_step_px"], h["max_ground_step_px"], 1e-9) for h in history]
+    ax.semilogy(it, step, "s--", label="largest update (px)")
+    for i, h in enumerate(history):
+        if i and h["phase"] != history[i - 1]["phase"]:
+            ax.axvline(h["iteration"] - 0.5, color="0.6", lw=0.8)
+    ax.set_xlabel("iteration (Huber, then least squares after rejection)")
+    ax.legend()
+    return _png(fig)
+
+
+def plot_histograms(v_before: np.ndarray, v_after: np.ndarray) -> bytes:
+    fig, axes = _figure(9.0, 3.2, ncols=2)
+    for ax, v, title in zip(axes, (v_before, v_after), ("before", "after"), strict=True):
+        v = v[np.isfinite(v)]
+        hi = float(np.percentile(v, 99.5)) if v.size else 1.0
+        ax.hist(np.clip(v, 0, hi), bins=60, range=(0, max(hi, 1e-6)), color="#4575b4")
+        ax.set_title(f"|v| {title} adjustment (px)")
+        ax.set_xlabel("px (clipped at the 99.5th percentile)")
+    return _png(fig)
+
+
+def plot_vectors(block: Block, sol: Solution, footprints: list) -> bytes:
+    """Every kept observation's residual vector at its ground point, scene outlines behind."""
+    from matplotlib.collections import LineCollection
+
+    fig, ax = _figure(8.0, 8.0)
+    if footprints:
+        ax.add_collection(LineCollection(footprints, colors="0.75", linewidths=0.5))
+    kept = np.flatnonzero(~sol.outlier)
+    kept = kept[:: max(1, kept.size // MAX_VECTORS)]
+    pt = block.obs.point[kept]
+    ax.quiver(
+        sol.lon[pt],
+        sol.lat[pt],
+        sol.v_sample[kept],
+        -sol.v_line[kept],
+        angles="uv",
+        color="#d73027",
+        width=0.0015,
+    )
+    ax.set_xlabel("longitude (°)")
+    ax.set_ylabel("latitude (°)")
+    ax.set_aspect(1.0 / max(math.cos(math.radians(float(np.nanmean(sol.lat)))), 0.1))
+    ax.autoscale_view()
+    ax.set_title("residual vectors (sample →, line ↓), scene outlines in grey")
+    return _png(fig)
+
+
+def plot_scene_precision(block: Block, sol: Solution, summary: dict) -> bytes:
+    fig, ax = _figure(8.0, 6.0)
+    obs = block.obs
+    n = np.maximum(np.bincount(obs.scene, None, obs.n_scenes), 1)
+    lon = np.bincount(obs.scene, np.nan_to_num(sol.lon[obs.point]), obs.n_scenes) / n
+    lat = np.bincount(obs.scene, np.nan_to_num(sol.lat[obs.point]), obs.n_scenes) / n
+    sig = np.array([s["sigma_shift_centre_px"] for s in summary["scenes"]])
+    art = ax.scatter(lon, lat, c=sig, cmap="viridis", s=30)
+    fig.colorbar(art, ax=ax, label="σ of the shift at the image centre (px)")
+    ax.set_xlabel("longitude (°)")
+    ax.set_ylabel("latitude (°)")
+    ax.set_title("per-scene precision (scene centre = mean of its tie points)")
+    return _png(fig)
+
+
+def _footprints(block: Block) -> list:
+    from shapely import wkt
+
+    out = []
+    for text in block.data.scenes["footprint_wkt"].astype(str):
+        try:
+            geom = wkt.loads(text)
+        except Exception:  # footprints were validated on reading; skip a shape shapely rejects
+            continue
+        if hasattr(geom, "exterior"):
+            out.append(np.asarray(geom.exterior.coords)[:, :2])
+    return out
+
+
+def write_figures(
+    out: Path, block: Block, sol: Solution, summary: dict, v_before: np.ndarray
+) -> dict[str, str]:
+    """The four PNG figures of the page (v_before: |v| per observation before adjustment)."""
+    kept = ~sol.outlier
+    v_after = np.hypot(sol.v_line, sol.v_sample)[kept]
+    v_before = v_before[kept]
+    files = {
+        "convergence": ("convergence.png", plot_convergence(summary["history"])),
+        "residual_histogram": ("residual_histogram.png", plot_histograms(v_before, v_after)),
+        "residual_vectors": ("residual_vectors.png", plot_vectors(block, sol, _footprints(block))),
+        "scene_precision": ("scene_precision.png", plot_scene_precision(block, sol, summary)),
+    }
+    for name, data in files.values():
+        write_bytes_atomic(out / name, data)
+    return {k: v[0] for k, v in files.items()}
+
+
+def _fmt(value: object, digits: int = 3) -> str:
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return "—"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, float):
+        return f"{value:.{digits}f}"
+    return str(value)
+
+
+def render_html(summary: dict, template_dir: Path | None = None) -> str:
+    """adjust.html from adjust.json's content; a user's `adjust.html.j2` may override."""
+    from blockqc.report.html import environment
+
+    template = environment(template_dir).get_template("adjust.html.j2")
+    return template.render(r=summary, fmt=_fmt)

@@ -1,0 +1,372 @@
+"""`blockqc adjust` end to end (§RC-3): read, fix the datum, adjust, compare, write.
+
+Every output is made from the solution; the HTML page is rendered from adjust.json and the
+tables written beside it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from blockqc.adjust.geometry import RPCStack, intersect
+from blockqc.adjust.inputs import AdjustInput, load_adjust_input
+from blockqc.adjust.solver import Observations, Priors, Settings, Solution, adjust
+from blockqc.errors import InputError, Problem
+
+DEFAULT_DEM_SIGMA_M = 10.0
+"""σ of a DEM height prior: SRTM's ~16 m absolute LE90 is ≈ 10 m at 1σ."""
+
+
+@dataclass
+class AdjustConfig:
+    delivery: Path
+    out: Path
+    dem: Path | None = None
+    geoid: Path | None = None
+    dem_vertical: str = "geoid"
+    dem_sigma_m: float = DEFAULT_DEM_SIGMA_M
+    fix: tuple[str, ...] = ()
+    sigma_shift_px: float = 10.0
+    sigma_linear_px: float = 2.0
+    settings: Settings = field(default_factory=Settings)
+    checkpoints: int = 30
+
+
+@dataclass
+class Block:
+    """The delivery read, observations indexed and sorted by scene."""
+
+    data: AdjustInput
+    stack: RPCStack
+    obs: Observations
+    rows: np.ndarray  # tie_points row of each (sorted) observation
+    point_ids: np.ndarray
+    lines: np.ndarray
+    samples: np.ndarray
+
+
+def index_block(data: AdjustInput) -> Block:
+    """Scene and point indices per observation, sorted by scene (stable)."""
+    ties = data.tie_points
+    scene_ids = [str(s) for s in data.scenes["scene_id"]]
+    scene_of = {s: i for i, s in enumerate(scene_ids)}
+    scene = ties["scene_id"].astype(str).map(scene_of).to_numpy(np.int64)
+    point, point_ids = pd.factorize(ties["point_id"].astype(str))
+    order = np.argsort(scene, kind="stable")
+    obs = Observations(
+        scene=scene[order],
+        point=point[order].astype(np.int64),
+        line=ties["line"].to_numpy(np.float64)[order],
+        sample=ties["sample"].to_numpy(np.float64)[order],
+        n_scenes=len(scene_ids),
+        n_points=len(point_ids),
+    )
+    lines = data.scenes["lines"].to_numpy(np.float64)
+    samples = data.scenes["samples"].to_numpy(np.float64)
+    stack = RPCStack.from_models(data.models)
+    return Block(data, stack, obs, order, np.asarray(point_ids), lines, samples)
+
+
+def _weak_height(stack: RPCStack, n_points: int) -> tuple[np.ndarray, np.ndarray, str]:
+    h0 = float(np.mean(stack.offsets[:, 4]))
+    sig = float(np.max(np.abs(stack.scales[:, 4])))
+    text = f"weak height prior {h0:.1f} ± {sig:.1f} m (mean HEIGHT_OFF ± largest HEIGHT_SCALE)"
+    return np.full(n_points, h0), np.full(n_points, sig), text
+
+
+def height_priors(block: Block, cfg: AdjustConfig) -> tuple[np.ndarray, np.ndarray, str]:
+    """Per point height prior: the DEM under the point (two passes of intersection on the
+    DEM), or the weak prior from the RPC height range where there is no DEM value."""
+    h, sig, text = _weak_height(block.stack, block.obs.n_points)
+    if cfg.dem is None:
+        return h, sig, text
+    from blockqc.rfm.dem import load_dem
+
+    obs = block.obs
+    lon = lat = None
+    for _ in range(2):
+        res = intersect(
+            block.stack,
+            np.zeros((obs.n_scenes, 6)),
+            obs.scene,
+            obs.point,
+            obs.line,
+            obs.sample,
+            height_prior=(h, sig),
+        )
+        lon, lat = res.lon, res.lat
+        ok = np.isfinite(lon) & np.isfinite(lat)
+        if not ok.any():
+            break
+        bounds = (
+            float(lon[ok].min()) - 0.05,
+            float(lat[ok].min()) - 0.05,
+            float(lon[ok].max()) + 0.05,
+            float(lat[ok].max()) + 0.05,
+        )
+        dem = load_dem(cfg.dem, geoid=cfg.geoid, vertical=cfg.dem_vertical, bounds=bounds)
+        dem_h = dem.height(np.where(ok, lon, 0.0), np.where(ok, lat, 0.0))
+        on = ok & np.isfinite(dem_h)
+        h = np.where(on, dem_h, h)
+        sig = np.where(on, cfg.dem_sigma_m, sig)
+    n_on = int(np.count_nonzero(sig == cfg.dem_sigma_m))
+    text = (
+        f"DEM height prior ± {cfg.dem_sigma_m:g} m from {Path(cfg.dem).name} ({dem.vertical}) "
+        f"at {n_on} of {obs.n_points} points; elsewhere {text}"
+    )
+    return h, sig, text
+
+
+def datum(block: Block, cfg: AdjustConfig) -> tuple[Priors, dict]:
+    """The priors that fix the datum without GCPs, and their description for adjust.json."""
+    scene_ids = [str(s) for s in block.data.scenes["scene_id"]]
+    unknown = [s for s in cfg.fix if s not in scene_ids]
+    if unknown:
+        raise InputError(
+            Problem(str(block.data.path / "scenes.csv"), f"--fix: unknown scene(s) {unknown}")
+        )
+    for name, value in (("shift", cfg.sigma_shift_px), ("linear", cfg.sigma_linear_px)):
+        if not value > 0:
+            raise InputError(Problem("<options>", f"--sigma-{name} must be > 0, got {value}"))
+    fixed = np.array([s in cfg.fix for s in scene_ids])
+    h, sig, text = height_priors(block, cfg)
+    priors = Priors(cfg.sigma_shift_px, cfg.sigma_linear_px, fixed, h, sig, text)
+    desc = {
+        "affine_priors": (
+            f"a-priori RPC accuracy: σ {cfg.sigma_shift_px:g} px for a0, b0 (shift at the image "
+            f"centre), σ {cfg.sigma_linear_px:g} px at the image edge for the linear terms"
+        ),
+        "sigma_shift_px": cfg.sigma_shift_px,
+        "sigma_linear_px": cfg.sigma_linear_px,
+        "fixed_scenes": list(cfg.fix),
+        "height_prior": text,
+        "ground_control_points": 0,
+    }
+    return priors, desc
+
+
+def delivered_ground(block: Block) -> tuple[np.ndarray, ...] | None:
+    """The producer's ground point per point from tie_points lon/lat/h, if delivered."""
+    obs, ties = block.obs, block.data.tie_points
+    if not all(c in ties.columns for c in ("lon", "lat", "h")):
+        return None
+    out = []
+    for c in ("lon", "lat", "h"):
+        v = ties[c].to_numpy(np.float64)[block.rows]
+        total = np.bincount(obs.point, np.nan_to_num(v), obs.n_points)
+        count = np.bincount(obs.point, np.isfinite(v).astype(float), obs.n_points)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out.append(np.where(count > 0, total / count, np.nan))
+    return tuple(out) if np.isfinite(out[2]).any() else None
+
+
+def producer_ground(
+    block: Block, priors: Priors, points: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
+    """The producer's adjusted ground position of the given points: the delivered lon/lat/h,
+    else the intersection of their rays with the producer's adjusted geometry (NaN where
+    neither is available)."""
+    delivered = delivered_ground(block)
+    if delivered is not None:
+        lon, lat, h = (v[points] for v in delivered)
+        return lon, lat, h, "tie_points.csv lon, lat, h (delivered)"
+    data, obs = block.data, block.obs
+    nan = np.full(points.size, np.nan)
+    if data.producer_models is None or data.producer_affine is None or points.size == 0:
+        return nan, nan, nan, "none (no lon/lat/h in tie_points and no producer adjustment)"
+    local = np.full(obs.n_points, -1)
+    local[points] = np.arange(points.size)
+    sel = np.flatnonzero(local[obs.point] >= 0)
+    res = intersect(
+        RPCStack.from_models(data.producer_models),
+        data.producer_affine,
+        obs.scene[sel],
+        local[obs.point[sel]],
+        obs.line[sel],
+        obs.sample[sel],
+        height_prior=(priors.height[points], priors.height_sigma[points]),
+    )
+    ok = res.converged
+    lon, lat, h = (np.where(ok, v, np.nan) for v in (res.lon, res.lat, res.h))
+    return lon, lat, h, f"intersection with the producer's adjustment ({data.producer_source})"
+
+
+def projected_crs(block: Block, lon: np.ndarray, lat: np.ndarray) -> tuple[int, str]:
+    """The block's projected CRS (block.yaml spatial_reference.epsg), else the UTM zone."""
+    from pyproj import CRS
+
+    from blockqc.rfm.ortho import utm_crs
+
+    sr = block.data.manifest.spatial_reference
+    if sr is not None and sr.epsg is not None:
+        crs = CRS.from_epsg(sr.epsg)
+        if crs.is_projected:
+            return int(sr.epsg), "block.yaml spatial_reference.epsg"
+    crs = utm_crs(float(np.nanmedian(lon)), float(np.nanmedian(lat)))
+    return int(crs.to_epsg()), "UTM zone of the block centre (block.yaml gives no projected EPSG)"
+
+
+def spread_points(x: np.ndarray, y: np.ndarray, weight: np.ndarray, n: int) -> np.ndarray:
+    """Indices of up to n well-spread points: a g×g grid over their extent, one per cell (the
+    highest weight, then the nearest the cell centre), the heaviest cells first (§CP-1)."""
+    if x.size == 0 or n <= 0:
+        return np.zeros(0, np.int64)
+    g = int(np.ceil(np.sqrt(n)))
+    x0, x1, y0, y1 = x.min(), x.max(), y.min(), y.max()
+    cx = np.minimum(((x - x0) / max(x1 - x0, 1e-9) * g).astype(int), g - 1)
+    cy = np.minimum(((y - y0) / max(y1 - y0, 1e-9) * g).astype(int), g - 1)
+    cell = cy * g + cx
+    centre_x = x0 + (cx + 0.5) * (x1 - x0) / g
+    centre_y = y0 + (cy + 0.5) * (y1 - y0) / g
+    dist = np.hypot(x - centre_x, y - centre_y)
+    order = np.lexsort((dist, -weight, cell))
+    _, first = np.unique(cell[order], return_index=True)
+    chosen = order[first]
+    chosen = chosen[np.lexsort((dist[chosen], -weight[chosen]))][:n]
+    return np.sort(chosen)
+
+
+def checkpoints(block: Block, sol: Solution, priors: Priors, n: int) -> tuple[pd.DataFrame, dict]:
+    """§CP-1/§RC-3: the producer's position against the recalculated one at n spread points."""
+    from pyproj import Transformer
+
+    nobs = np.bincount(block.obs.point, (~sol.outlier).astype(float), block.obs.n_points)
+    ok = sol.point_used & np.isfinite(sol.lon) & np.isfinite(sol.h)
+    delivered = delivered_ground(block)
+    if delivered is not None:
+        ok &= np.isfinite(delivered[0]) & np.isfinite(delivered[2])
+    epsg, crs_source = projected_crs(block, sol.lon[sol.point_used], sol.lat[sol.point_used])
+    cand = np.flatnonzero(ok)
+    tr = Transformer.from_crs(4326, epsg, always_xy=True)
+    x, y = tr.transform(sol.lon[cand], sol.lat[cand])
+    pick = cand[spread_points(np.asarray(x), np.asarray(y), nobs[cand], n)]
+    p_lon, p_lat, p_h, source = producer_ground(block, priors, pick)
+    good = np.isfinite(p_lon) & np.isfinite(p_lat) & np.isfinite(p_h)
+    pick, p_lon, p_lat, p_h = pick[good], p_lon[good], p_lat[good], p_h[good]
+    info = {"producer_positions": source, "epsg": epsg, "crs_source": crs_source}
+    px, py = tr.transform(p_lon, p_lat)
+    rx, ry = tr.transform(sol.lon[pick], sol.lat[pick])
+    table = pd.DataFrame(
+        {
+            "point_id": block.point_ids[pick],
+            "method": "recalculation",
+            "reference_id": "blockqc-adjust",
+            "x_m": np.round(px, 3),
+            "y_m": np.round(py, 3),
+            "z_m": np.round(p_h, 3),
+            "ref_x_m": np.round(rx, 3),
+            "ref_y_m": np.round(ry, 3),
+            "ref_z_m": np.round(sol.h[pick], 3),
+        }
+    )
+    info["n"] = int(len(table))
+    if len(table) < 20:
+        info["warning"] = f"only {len(table)} points could be compared (§CP-1 asks for 20–50)"
+    return table, info
+
+
+def run_adjust(cfg: AdjustConfig) -> dict:
+    """Read, adjust, compare and write every output; returns adjust.json's content."""
+    from blockqc.adjust.outputs import write_outputs
+
+    t0 = time.perf_counter()
+    clock = Clock()
+    block = index_block(load_adjust_input(cfg.delivery))
+    clock.lap("read")
+    priors, datum_desc = datum(block, cfg)
+    clock.lap("datum")
+    sol, v0l, v0s = adjust(block.stack, block.obs, block.lines, block.samples, priors, cfg.settings)
+    clock.lap("adjust")
+    cps, cp_info = checkpoints(block, sol, priors, cfg.checkpoints)
+    clock.lap("checkpoints")
+    summary = summarize(block, sol, v0l, v0s, datum_desc, cp_info)
+    summary["settings"] = dataclasses.asdict(cfg.settings)
+    summary["settings"]["sigma_image_px_estimated"] = sol.sigma_image_px
+    summary["seconds"] = round(time.perf_counter() - t0, 2)
+    summary["timings"] = clock.laps
+    write_outputs(cfg.out, block, sol, cps, summary, np.hypot(v0l, v0s))
+    return summary
+
+
+class Clock:
+    """Wall and processor seconds of each phase (the machine may be shared)."""
+
+    def __init__(self) -> None:
+        self.laps: dict[str, dict[str, float]] = {}
+        self._wall, self._cpu = time.perf_counter(), time.process_time()
+
+    def lap(self, name: str) -> None:
+        wall, cpu = time.perf_counter(), time.process_time()
+        self.laps[name] = {
+            "wall_s": round(wall - self._wall, 2),
+            "cpu_s": round(cpu - self._cpu, 2),
+        }
+        self._wall, self._cpu = wall, cpu
+
+
+def _rms(vl: np.ndarray, vs: np.ndarray, mask: np.ndarray) -> float | None:
+    v2 = (vl**2 + vs**2)[mask]
+    v2 = v2[np.isfinite(v2)]
+    return float(np.sqrt(v2.mean())) if v2.size else None
+
+
+def per_scene(block: Block, sol: Solution) -> list[dict]:
+    """Per scene: observations kept, outliers, residual RMS, the affine and its σ."""
+    obs, kept = block.obs, ~sol.outlier
+    ns = obs.n_scenes
+    n_kept = np.bincount(obs.scene, kept.astype(float), ns)
+    n_out = np.bincount(obs.scene, sol.outlier.astype(float), ns)
+    v2 = np.where(kept, sol.v_line**2 + sol.v_sample**2, 0.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rms = np.sqrt(np.bincount(obs.scene, v2, ns) / n_kept)
+    keys = ("a0", "a1", "a2", "b0", "b1", "b2")
+    rows = []
+    for k, sid in enumerate(block.data.scenes["scene_id"].astype(str)):
+        row = {"scene_id": sid, "n_observations": int(n_kept[k]), "n_outliers": int(n_out[k])}
+        row["rms_px"] = float(rms[k]) if np.isfinite(rms[k]) else None
+        row.update({key: float(sol.affine[k, i]) for i, key in enumerate(keys)})
+        row.update({f"sigma_{key}": float(sol.affine_sigma[k, i]) for i, key in enumerate(keys)})
+        row["sigma_shift_centre_px"] = float(np.hypot(*sol.normalized_sigma[k, [0, 3]]))
+        rows.append(row)
+    return rows
+
+
+def summarize(
+    block: Block,
+    sol: Solution,
+    v0l: np.ndarray,
+    v0s: np.ndarray,
+    datum_desc: dict,
+    cp_info: dict,
+) -> dict:
+    """adjust.json: the counts, convergence, σ0, residual RMS before/after and the datum."""
+    kept = ~sol.outlier
+    return {
+        "block_id": block.data.manifest.block_id,
+        "delivery": str(block.data.path),
+        "n_scenes": block.obs.n_scenes,
+        "n_points": int(sol.point_used.sum()),
+        "n_points_in_delivery": block.obs.n_points,
+        "n_observations": int(kept.sum()),
+        "n_observations_in_delivery": int(kept.size),
+        "iterations": sol.iterations,
+        "converged": bool(sol.converged),
+        "sigma0_px": sol.sigma0_px,
+        "rms_px_before": _rms(v0l, v0s, kept),
+        "rms_px_after": _rms(sol.v_line, sol.v_sample, kept),
+        "n_outliers": int(sol.outlier.sum()),
+        "outlier_rule": "|v| > k·σ0 after a Huber IRLS pass, and observations of points left "
+        "with fewer than two (k in settings)",
+        "datum": datum_desc,
+        "checkpoints": cp_info,
+        "producer_adjustment": block.data.producer_source,
+        "history": sol.history,
+        "scenes": per_scene(block, sol),
+        "residual_convention": "v = computed − measured, image pixels (contract v1.1)",
+    }

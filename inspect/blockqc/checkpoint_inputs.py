@@ -1,0 +1,148 @@
+"""The inspector's own checkpoints (`inspect --checkpoints FILE…`), merged with a delivery's.
+
+Contract v1.1: checkpoints may come from outside the delivery, like verdicts — e.g. the
+`checkpoints.csv` of a recalculation (method `recalculation`, §RC-3). Each file has the columns of
+checkpoints.csv and, when several blocks are inspected, a `block_id` column saying whose rows they
+are. A (point_id, method) given twice, in two files or in a file and the delivery, is refused.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pandas as pd
+
+from blockqc.delivery import MANIFEST, Delivery, load_manifest, read_table
+from blockqc.errors import InputError, Problem
+from blockqc.schema import CHECKPOINTS
+
+BLOCK = "block_id"
+
+
+@dataclass
+class InspectorCheckpoints:
+    """Rows of the inspector's checkpoint files, each with its file and row for messages."""
+
+    rows: pd.DataFrame
+    by_block: bool
+    files: list[str] = field(default_factory=list)
+
+    def block_ids(self) -> set[str]:
+        return set(self.rows[BLOCK]) if self.by_block else set()
+
+    def for_block(self, block_id: str, single: bool) -> pd.DataFrame:
+        """This block's rows; without a block_id column only a single delivery may be inspected."""
+        if self.by_block:
+            return self.rows[self.rows[BLOCK] == block_id]
+        if not single:
+            raise InputError(
+                Problem(
+                    self.files[0],
+                    f"several blocks are inspected: give a '{BLOCK}' column saying which block "
+                    "each checkpoint belongs to",
+                )
+            )
+        return self.rows
+
+
+def load_checkpoint_files(paths: list[Path]) -> InspectorCheckpoints:
+    """Read and validate every file (checkpoints.csv columns); list every problem at once."""
+    problems: list[Problem] = []
+    parts: list[pd.DataFrame] = []
+    with_block = []
+    for path in map(Path, paths):
+        if not path.is_file():
+            problems.append(Problem(str(path), "no such file (expected a checkpoints table)"))
+            continue
+        try:
+            df, found = read_table(path, CHECKPOINTS)
+        except InputError as exc:
+            problems.extend(exc.problems)
+            continue
+        problems.extend(found)
+        with_block.append(BLOCK in df.columns)
+        if BLOCK in df.columns:
+            df[BLOCK] = df[BLOCK].astype("string").str.strip().astype(object)
+        parts.append(df.assign(_file=str(path), _row=range(1, len(df) + 1)))
+    if problems:
+        raise InputError(problems)
+    if len(set(with_block)) > 1:
+        raise InputError(
+            Problem(str(paths[0]), f"give a '{BLOCK}' column in every checkpoint file or in none")
+        )
+    rows = pd.concat(parts, ignore_index=True)
+    problems.extend(_duplicates(rows, [BLOCK] if with_block[0] else []))
+    if problems:
+        raise InputError(problems)
+    return InspectorCheckpoints(rows, with_block[0], [str(p) for p in paths])
+
+
+def _duplicates(rows: pd.DataFrame, extra: list[str]) -> list[Problem]:
+    """A (point_id, method) given twice across the inspector's files."""
+    keys = [*extra, "point_id", "method"]
+    dup = rows.duplicated(keys, keep="first").to_numpy()
+    first = rows.drop_duplicates(keys).set_index(keys)
+    return [
+        Problem(
+            r["_file"],
+            f"checkpoint {r['point_id']} ({r['method']}) is also in "
+            f"{first.loc[tuple(r[k] for k in keys), '_file']}",
+            row=int(r["_row"]),
+        )
+        for _, r in rows[dup].head(10).iterrows()
+    ]
+
+
+def merge_checkpoints(d: Delivery, extra: pd.DataFrame) -> Delivery:
+    """The delivery with the inspector's rows added to its checkpoints (§CP-2, contract v1.1)."""
+    if extra.empty:
+        return d
+    cols = [c.name for c in CHECKPOINTS.columns]
+    if d.checkpoints is not None:
+        both = extra.merge(d.checkpoints[["point_id", "method"]], on=["point_id", "method"])
+        if not both.empty:
+            where = d.files.get("checkpoints", d.path / "checkpoints.csv")
+            raise InputError(
+                [
+                    Problem(
+                        r["_file"],
+                        f"checkpoint {r['point_id']} ({r['method']}) is also in {where}",
+                        row=int(r["_row"]),
+                    )
+                    for _, r in both.head(10).iterrows()
+                ]
+            )
+    mine = extra[cols].reset_index(drop=True)
+    d.checkpoints = mine if d.checkpoints is None else pd.concat([d.checkpoints, mine])
+    d.checkpoints = d.checkpoints.reset_index(drop=True)
+    counts = extra.groupby("_file").size()
+    d.process_data.setdefault("notes", {})["inspector_checkpoints"] = {
+        str(f): int(n) for f, n in counts.items()
+    }
+    return d
+
+
+def check_blocks(cp: InspectorCheckpoints, deliveries: list[Path]) -> None:
+    """Rows naming a block that is not inspected would be ignored: refuse them."""
+    if not cp.by_block:
+        return
+    known = set()
+    for path in deliveries:
+        try:
+            known.add(load_manifest(path / MANIFEST).block_id)
+        except InputError:
+            continue  # reported in full when the delivery is read
+    bad = cp.rows[~cp.rows[BLOCK].isin(known)]
+    if not bad.empty:
+        raise InputError(
+            [
+                Problem(
+                    r["_file"],
+                    f"no block '{r[BLOCK]}' among the deliveries inspected",
+                    row=int(r["_row"]),
+                    column=BLOCK,
+                )
+                for _, r in bad.head(10).iterrows()
+            ]
+        )

@@ -1,0 +1,201 @@
+"""Contract v1.1 geometry of a delivery: each scene's RPC and the producer's adjustment (§RC).
+
+`rpc/<scene_id>.<ext>` holds the original RPCs (any format `blockqc.rfm.readers` reads); the
+producer's adjustment is either `adjustment.csv` (a Grodecki–Dial affine per scene, in the
+contract's form `l = RFM_l + a0 + a1·s + a2·l`, `s = RFM_s + b0 + b1·s + b2·l`, pixels) or refined
+RPCs in `rpc_adjusted/<scene_id>.<ext>`. Nothing here writes to the delivery.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from blockqc.errors import InputError, Problem
+from blockqc.rfm.model import RPCModel
+from blockqc.rfm.readers import read_rpc
+
+RPC_DIR = "rpc"
+ADJUSTED_DIR = "rpc_adjusted"
+AFFINE_KEYS = ("a0", "a1", "a2", "b0", "b1", "b2")
+
+
+@dataclass
+class BlockGeometry:
+    """The delivered geometry: original RPCs and, when given, the producer's adjusted models.
+
+    `adjusted` lists, per observed scene (`scene_ids` order), the RPC the adjusted projection
+    starts from and `affine` its contract parameters (n, 6: a0 a1 a2 b0 b1 b2): the original RPC
+    with adjustment.csv's row, or the refined RPC of rpc_adjusted/ with zeros.
+    """
+
+    original: dict[str, RPCModel] = field(default_factory=dict)
+    scene_ids: list[str] = field(default_factory=list)
+    adjusted: list[RPCModel] | None = None
+    affine: np.ndarray | None = None
+    source: str | None = None  # "adjustment.csv" or "rpc_adjusted/": where the adjustment is
+
+    @property
+    def complete(self) -> bool:
+        """True when the producer's adjusted model of every observed scene is known."""
+        return self.adjusted is not None
+
+
+def _scan(folder: Path, scene_ids: set[str], problems: list[Problem]) -> dict[str, Path]:
+    """The RPC files of a folder by scene id; unknown names and doubles are problems."""
+    found: dict[str, Path] = {}
+    for f in sorted(p for p in folder.iterdir() if not p.name.startswith(".")):
+        sid = f.name.rsplit(".", 1)[0] if "." in f.name else f.name
+        if not f.is_file():
+            problems.append(Problem(str(f), "expected an RPC file named <scene_id>.<ext>"))
+        elif sid not in scene_ids:
+            problems.append(
+                Problem(str(f), f"no scene '{sid}' in the scenes table: expected <scene_id>.<ext>")
+            )
+        elif sid in found:
+            problems.append(
+                Problem(str(f), f"scene '{sid}' already has an RPC file here: {found[sid].name}")
+            )
+        else:
+            found[sid] = f
+    return found
+
+
+def _read_models(
+    folder: Path, needed: list[str], scene_ids: set[str], problems: list[Problem]
+) -> dict[str, RPCModel]:
+    """Read the RPC of every needed scene from a folder; list every missing or unreadable one."""
+    if not folder.is_dir():
+        problems.append(Problem(str(folder), "expected a folder of RPC files <scene_id>.<ext>"))
+        return {}
+    files = _scan(folder, scene_ids, problems)
+    models: dict[str, RPCModel] = {}
+    for sid in needed:
+        if sid not in files:
+            problems.append(
+                Problem(
+                    str(folder),
+                    f"no RPC for scene '{sid}', which has tie-point observations "
+                    f"(expected {folder.name}/{sid}.<ext>)",
+                )
+            )
+            continue
+        try:
+            models[sid] = read_rpc(files[sid])
+        except InputError as exc:
+            problems.extend(exc.problems)
+    for sid in sorted(set(files) - set(needed)):  # scenes without observations: still read
+        try:
+            models[sid] = read_rpc(files[sid])
+        except InputError as exc:
+            problems.extend(exc.problems)
+    return models
+
+
+def _with_affine(
+    geometry: BlockGeometry, table: pd.DataFrame, file: Path, needed: list[str]
+) -> list[Problem]:
+    """The adjusted models from rpc/ and adjustment.csv; every observed scene needs its row."""
+    rows = table.set_index("scene_id")
+    problems = [
+        Problem(str(file), f"no row for scene '{sid}', which has tie-point observations")
+        for sid in needed
+        if sid not in rows.index
+    ]
+    values = table[list(AFFINE_KEYS)].to_numpy(dtype=float)
+    for i, j in zip(*np.nonzero(np.isinf(values)), strict=True):  # NaN: reported as empty
+        csv = file.suffix.lower() == ".csv"
+        problems.append(
+            Problem(
+                str(file),
+                f"value is not finite, got {values[i, j]}",
+                row=int(i) + 1,
+                line=int(i) + 2 if csv else None,
+                column=AFFINE_KEYS[j],
+            )
+        )
+    if problems or any(sid not in geometry.original for sid in needed):
+        return problems  # the missing RPCs are reported by _read_models
+    geometry.scene_ids = list(needed)
+    geometry.adjusted = [geometry.original[sid] for sid in needed]
+    geometry.affine = rows.loc[needed, list(AFFINE_KEYS)].to_numpy(dtype=float)
+    return problems
+
+
+def _refined(geometry: BlockGeometry, models: dict[str, RPCModel], needed: list[str]) -> None:
+    """The adjusted models from rpc_adjusted/: refined RPCs, no affine on top."""
+    if all(sid in models for sid in needed):
+        geometry.scene_ids = list(needed)
+        geometry.adjusted = [models[sid] for sid in needed]
+        geometry.affine = np.zeros((len(needed), len(AFFINE_KEYS)))
+
+
+def load_geometry(
+    path: Path, tables: dict[str, pd.DataFrame], files: dict[str, Path]
+) -> tuple[BlockGeometry | None, list[Problem]]:
+    """Read rpc/, adjustment.csv and rpc_adjusted/ of a delivery (contract v1.1), if present."""
+    rpc_dir, adj_dir = path / RPC_DIR, path / ADJUSTED_DIR
+    adjustment = tables.get("adjustment")
+    if not rpc_dir.exists() and not adj_dir.exists() and adjustment is None:
+        return None, []
+    scenes = tables.get("scenes")
+    tie_points = tables.get("tie_points")
+    if scenes is None or tie_points is None or "scene_id" not in tie_points:
+        return None, []  # the tables' own problems are reported
+    problems: list[Problem] = []
+    scene_ids = set(scenes["scene_id"].dropna())
+    needed = [s for s in pd.unique(tie_points["scene_id"].dropna()) if s in scene_ids]
+    geometry = BlockGeometry()
+    if adjustment is not None and adj_dir.exists():
+        problems.append(
+            Problem(
+                str(path),
+                f"both {files['adjustment'].name} and {ADJUSTED_DIR}/ give the producer's "
+                "adjustment: give one",
+            )
+        )
+    if rpc_dir.exists():
+        geometry.original = _read_models(rpc_dir, needed, scene_ids, problems)
+    elif adjustment is not None:
+        problems.append(
+            Problem(
+                str(files["adjustment"]),
+                f"the adjustment refines the original RPCs, but {RPC_DIR}/ is missing "
+                f"(expected {RPC_DIR}/<scene_id>.<ext> for every scene)",
+            )
+        )
+    if adj_dir.exists():
+        _refined(geometry, _read_models(adj_dir, needed, scene_ids, problems), needed)
+        geometry.source = f"{ADJUSTED_DIR}/"
+    elif adjustment is not None and rpc_dir.exists():
+        problems.extend(_with_affine(geometry, adjustment, files["adjustment"], needed))
+        geometry.source = files["adjustment"].name
+    return geometry, problems
+
+
+def residual_column_problems(
+    tie_points: pd.DataFrame | None, file: Path | None, geometry: BlockGeometry | None
+) -> list[Problem]:
+    """v_line/v_sample: both given, or both absent with the producer's adjusted geometry."""
+    if tie_points is None:
+        return []
+    have = [c for c in ("v_line", "v_sample") if c in tie_points.columns]
+    # with an adjustment given, its own problems (if any) are what the user needs to read
+    if len(have) == 2 or (not have and geometry is not None and geometry.source is not None):
+        return []
+    missing = [c for c in ("v_line", "v_sample") if c not in have]
+    why = (
+        "give both residual columns"
+        if have
+        else "they may be absent only when the delivery gives its geometry: rpc/ with "
+        "adjustment.csv, or rpc_adjusted/"
+    )
+    return [
+        Problem(
+            str(file or "tie_points.csv"), f"missing column '{c}' (expected a float column; {why})"
+        )
+        for c in missing
+    ]

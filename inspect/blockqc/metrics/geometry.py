@@ -1,0 +1,89 @@
+"""Verification of process data from the delivered geometry: residuals reproduced (§RC-1)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from blockqc.delivery import Delivery
+from blockqc.metrics import Measure, Measurement, NoParams, Scope, Table, metric, not_applicable
+
+_BLOCK = {
+    "n": "observations",
+    "n_points": "points",
+    "rms_px": "px",
+    "max_px": "px",
+    "median_px": "px",
+}
+_OBSERVATION_COLUMNS = (
+    "line",
+    "sample",
+    "v_line",
+    "v_sample",
+    "v_line_computed",
+    "v_sample_computed",
+    "n_rays",
+)
+
+
+def _reason(d: Delivery) -> str | None:
+    """Why the delivered residuals cannot be verified, or None when they can."""
+    geo = d.geometry
+    if geo is None:
+        return "no geometry in the delivery (rpc/ with adjustment.csv, or rpc_adjusted/)"
+    if geo.adjusted is None:
+        return "rpc/ is given but not the producer's adjustment (adjustment.csv or rpc_adjusted/)"
+    if "data" not in d.process_data:
+        return "the process data were not computed"
+    return None
+
+
+@metric(
+    "residual_reproduction",
+    scopes={
+        "observation": Scope(
+            {"difference_px": "px"}, keys=("point_id", "scene_id"), columns=_OBSERVATION_COLUMNS
+        ),
+        "block": Scope(_BLOCK),
+    },
+)
+def residual_reproduction(d: Delivery, p: NoParams, measure: Measure) -> Measurement:
+    """Delivered tie-point residuals against those the delivered geometry gives (§RC-1)."""
+    reason = _reason(d)
+    if reason:
+        return not_applicable(reason)
+    notes = d.process_data["notes"]
+    if notes.get("tie_point_residuals", "").startswith("tie-point residuals computed"):
+        return not_applicable("the delivery gives no residuals: blockqc computed them (§RC-1)")
+    obs = d.process_data["data"].observations
+    tp = d.tie_points
+    table = obs[["point_id", "scene_id", "line", "sample"]].assign(
+        v_line=tp["v_line"].to_numpy(),
+        v_sample=tp["v_sample"].to_numpy(),
+        v_line_computed=obs["v_line_computed"].to_numpy(),
+        v_sample_computed=obs["v_sample_computed"].to_numpy(),
+        n_rays=obs["n_rays"].to_numpy(),
+    )
+    table["difference_px"] = np.hypot(
+        table["v_line"] - table["v_line_computed"], table["v_sample"] - table["v_sample_computed"]
+    )
+    table = table[table["n_rays"] >= 2].reset_index(drop=True)
+    if table.empty:
+        return not_applicable("no tie point is seen on two or more scenes")
+    diff = table["difference_px"]
+    block = pd.DataFrame(
+        {
+            "n": [len(table)],
+            "n_points": [table["point_id"].nunique()],
+            "rms_px": [float(np.sqrt(np.mean(diff**2)))],
+            "max_px": [diff.max()],
+            "median_px": [diff.median()],
+        }
+    )
+    return Measurement(
+        tables={
+            "observation": Table(table, keys=["point_id", "scene_id"], sort="difference_px"),
+            "block": Table(block),
+        },
+        detail={k: v for k, v in notes.items()},
+    )

@@ -1,0 +1,164 @@
+"""Verification of process data from the delivered geometry (§RC-1, §RC-2).
+
+With each scene's RPC and the producer's adjustment, every tie point's rays are intersected and
+back-projected: the residuals so computed (computed − measured, pixels) are compared with the
+delivered ones, or stand in for them when the delivery gives none; when `overlaps.csv` is absent,
+each observation intersected alone at its point's adjusted height gives the adjacent-image
+discrepancies. `prepare` runs once per delivery, before any metric.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from blockqc.adjust.geometry import RPCStack, intersect, intersect_at_height
+from blockqc.delivery import Delivery
+
+WGS84_A = 6378137.0
+WGS84_E2 = 6.69437999014e-3
+
+#: what the results say about inputs blockqc computed itself, by the metrics that use them
+COMPUTED_RESIDUALS = "tie-point residuals computed by blockqc from the delivered geometry (§RC-1)"
+DERIVED_OVERLAPS = (
+    "adjacent-image discrepancies derived by blockqc from the delivered geometry (§RC-2)"
+)
+SOURCES = {
+    "tie_point_errors": "tie_point_residuals",
+    "reported_figures": "tie_point_residuals",
+    "overlap_discrepancy": "overlaps",
+}
+
+
+@dataclass
+class ProcessData:
+    """What the geometry gave: per-observation residuals, ground points, derived overlaps."""
+
+    observations: pd.DataFrame
+    points: pd.DataFrame
+    overlaps: pd.DataFrame | None
+    notes: dict[str, Any] = field(default_factory=dict)
+
+
+def compute(d: Delivery) -> ProcessData:
+    """Intersect every tie point with the producer's adjusted models and back-project (§RC-1)."""
+    geo = d.geometry
+    assert geo is not None and geo.adjusted is not None and geo.affine is not None
+    tp = d.tie_points
+    stack = RPCStack.from_models(geo.adjusted)
+    scene = pd.Index(geo.scene_ids).get_indexer(tp["scene_id"])
+    point, point_ids = pd.factorize(tp["point_id"])
+    line = tp["line"].to_numpy(dtype=float)
+    sample = tp["sample"].to_numpy(dtype=float)
+    x = intersect(stack, geo.affine, scene, point, line, sample)
+    n_rays = np.bincount(point, minlength=len(point_ids))
+    ok = x.converged & (n_rays >= 2)
+    h = np.where(ok, x.h, np.nan)
+    obs = tp[["point_id", "scene_id", "line", "sample"]].copy()
+    # a point seen once reproduces its observation exactly: residual 0 (nothing to intersect)
+    single = n_rays[point] < 2
+    obs["v_line_computed"] = np.where(single, 0.0, np.where(ok[point], x.v_line, np.nan))
+    obs["v_sample_computed"] = np.where(single, 0.0, np.where(ok[point], x.v_sample, np.nan))
+    obs["n_rays"] = n_rays[point]
+    points = pd.DataFrame(
+        {
+            "point_id": point_ids,
+            "lon": np.where(ok, x.lon, np.nan),
+            "lat": np.where(ok, x.lat, np.nan),
+            "h": h,
+            "n_rays": n_rays,
+        }
+    )
+    notes = {
+        "geometry": geo.source,
+        "n_points": int(len(point_ids)),
+        "n_points_single_ray": int((n_rays < 2).sum()),
+        "n_points_not_intersected": int(((n_rays >= 2) & ~ok).sum()),
+        "iterations": int(x.iterations),
+    }
+    overlaps = None
+    if d.overlaps is None:
+        lon_a, lat_a, _ = intersect_at_height(stack, geo.affine, scene, line, sample, h[point])
+        overlaps = derive_overlaps(obs, scene, lon_a, lat_a, h[point])
+    return ProcessData(obs, points, overlaps, notes)
+
+
+def derive_overlaps(
+    obs: pd.DataFrame, scene: np.ndarray, lon: np.ndarray, lat: np.ndarray, h: np.ndarray
+) -> pd.DataFrame:
+    """Differences between the scenes of each observation's position at its point's height.
+
+    Each observation is intersected alone at its point's adjusted height (§RC-2); dx_m, dy_m are
+    the east and north differences (scene_b − scene_a) in metres on the WGS-84 ellipsoid (as a
+    map projection measures them, heights aside), for every two scenes seeing the same point.
+    """
+    e_m, n_m = radii(lat)
+    one = pd.DataFrame(
+        {
+            "point_id": obs["point_id"].to_numpy(),
+            "scene_id": obs["scene_id"].to_numpy(),
+            "order": scene,
+            "lon": lon,
+            "lat": lat,
+            "e_m": e_m,
+            "n_m": n_m,
+        }
+    )[np.isfinite(h)]
+    pairs = one.merge(one, on="point_id", suffixes=("_a", "_b"))
+    pairs = pairs[pairs["order_a"] < pairs["order_b"]]
+    e_mid = 0.5 * (pairs["e_m_a"].to_numpy() + pairs["e_m_b"].to_numpy())
+    n_mid = 0.5 * (pairs["n_m_a"].to_numpy() + pairs["n_m_b"].to_numpy())
+    return pd.DataFrame(
+        {
+            "scene_a": pairs["scene_id_a"].to_numpy(),
+            "scene_b": pairs["scene_id_b"].to_numpy(),
+            "point_id": pairs["point_id"].to_numpy(),
+            "dx_m": np.radians((pairs["lon_b"] - pairs["lon_a"]).to_numpy()) * e_mid,
+            "dy_m": np.radians((pairs["lat_b"] - pairs["lat_a"]).to_numpy()) * n_mid,
+        }
+    )
+
+
+def radii(lat_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Metres per radian of longitude and of latitude on the WGS-84 ellipsoid."""
+    phi = np.radians(lat_deg)
+    w = np.sqrt(1.0 - WGS84_E2 * np.sin(phi) ** 2)
+    return WGS84_A / w * np.cos(phi), WGS84_A * (1.0 - WGS84_E2) / w**3
+
+
+def prepare(d: Delivery) -> dict[str, Any]:
+    """Compute the process data once; fill absent residuals and overlaps; say what was done."""
+    if d.process_data.get("prepared"):
+        return d.process_data["notes"]
+    notes = d.process_data.setdefault("notes", {})
+    d.process_data["prepared"] = True
+    if d.geometry is None or d.geometry.adjusted is None or d.tie_points.empty:
+        return notes
+    pdata = compute(d)
+    notes.update(pdata.notes)
+    if "v_line" not in d.tie_points.columns:
+        d.tie_points = d.tie_points.assign(
+            v_line=pdata.observations["v_line_computed"].to_numpy(),
+            v_sample=pdata.observations["v_sample_computed"].to_numpy(),
+        )
+        notes["tie_point_residuals"] = COMPUTED_RESIDUALS
+    else:
+        notes["tie_point_residuals"] = "delivered; verified against the geometry (§RC-1)"
+    if pdata.overlaps is not None:
+        d.overlaps = pdata.overlaps
+        notes["overlaps"] = DERIVED_OVERLAPS
+        notes["n_overlap_discrepancies"] = int(len(pdata.overlaps))
+    d.process_data["data"] = pdata
+    return notes
+
+
+def annotate(results: list[Any], metric_of: dict[str, str], notes: dict) -> None:
+    """Say in each result judged on inputs blockqc computed itself where they came from."""
+    computed = {k: v for k, v in notes.items() if v in (COMPUTED_RESIDUALS, DERIVED_OVERLAPS)}
+    for res in results:
+        source = SOURCES.get(metric_of.get(res.rule, ""))
+        if source in computed:
+            res.detail["computed_by_blockqc"] = computed[source]

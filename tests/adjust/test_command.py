@@ -1,0 +1,134 @@
+"""`blockqc adjust` end to end: real Pléiades pair, synthetic delivery, and bad input."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from blockqc.adjust.stereo import match_pair, write_pair_delivery
+from blockqc.adjust.synthetic import SyntheticConfig, synthetic_block
+from blockqc.delivery import read_table
+from blockqc.rfm.dem import load_dem
+from blockqc.rfm.readers import read_rpc
+from blockqc.schema import CHECKPOINTS
+
+VENTOUX = Path(__file__).parents[1] / "data" / "rfm" / "phr_ventoux"
+MODELS = [read_rpc(VENTOUX / "left_image.geom"), read_rpc(VENTOUX / "right_image.geom")]
+
+
+@pytest.fixture(scope="module")
+def small_block(tmp_path_factory) -> Path:
+    cfg = SyntheticConfig(scenes=4, observations_per_scene=400, checkpoints=0, seed=21)
+    _, folder = synthetic_block(MODELS, cfg, tmp_path_factory.mktemp("syn") / "blk")
+    return folder
+
+
+def _copy(block: Path, tmp_path: Path) -> Path:
+    dst = tmp_path / "blk"
+    shutil.copytree(block, dst)
+    return dst
+
+
+def test_ventoux_pair_relative_error_goes_well_under_a_pixel(tmp_path, blockqc):
+    """Pléiades Ventoux stereo pair, tie points from blockqc's matcher, SRTM + EGM96 heights:
+    the pair's published ~5 px relative error (the misclosure between the two rays) goes to
+    well under 1 px."""
+    dem = load_dem(VENTOUX / "srtm_N44E005_crop.tif", geoid=VENTOUX / "egm96_15_crop.gtx")
+    matches = match_pair(
+        (VENTOUX / "left_image.tif", VENTOUX / "right_image.tif"), (MODELS[0], MODELS[1]), dem
+    )
+    assert len(matches) >= 40
+    folder = write_pair_delivery(
+        tmp_path / "pair", matches, (MODELS[0], MODELS[1]), ("left", "right"), "PHR-V", 0.5
+    )
+    out = tmp_path / "out"
+    r = blockqc(
+        "adjust", folder, "--out", out, "--dem", VENTOUX / "srtm_N44E005_crop.tif",
+        "--geoid", VENTOUX / "egm96_15_crop.gtx",
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    res = json.loads((out / "adjust.json").read_text())
+    assert res["converged"] and res["n_scenes"] == 2
+    # two rays: the misclosure splits evenly, |v| ≈ misclosure / 2 on each observation
+    assert 2.0 < res["rms_px_before"] < 3.5  # 4–7 px between the rays
+    assert res["rms_px_after"] < 0.3
+    assert "DEM height prior" in res["datum"]["height_prior"]
+    ties = pd.read_csv(out / "tie_points.csv")
+    assert len(ties) == 2 * len(matches)
+    assert {"v_line", "v_sample", "outlier"} <= set(ties.columns)
+    assert (out / "adjust.html").is_file() and (out / "residual_vectors.png").is_file()
+
+
+def test_synthetic_delivery_outputs(tmp_path, blockqc):
+    cfg = SyntheticConfig(scenes=6, observations_per_scene=600, checkpoints=25, seed=22)
+    _, folder = synthetic_block(MODELS, cfg, tmp_path / "blk")
+    out = tmp_path / "out"
+    r = blockqc("adjust", folder, "--out", out, "--checkpoints", 30)
+    assert r.returncode == 0, r.stderr
+    res = json.loads((out / "adjust.json").read_text())
+    for key in ("n_scenes", "n_points", "n_observations", "iterations", "converged",
+                "sigma0_px", "rms_px_before", "rms_px_after", "n_outliers", "datum"):  # fmt: skip
+        assert key in res
+    assert abs(res["sigma0_px"] - cfg.noise_px) < 0.05 * cfg.noise_px
+    cps, problems = read_table(out / "checkpoints.csv", CHECKPOINTS)
+    assert not problems and 20 <= len(cps) <= 30
+    assert set(cps["method"]) == {"recalculation"}
+    assert res["checkpoints"]["producer_positions"].startswith("tie_points.csv")
+    # well spread: the chosen points span most of the block
+    x, y = cps["ref_x_m"], cps["ref_y_m"]
+    ground = pd.read_csv(out / "ground_points.csv")
+    assert ground["used"].sum() == res["n_points"]
+    assert (x.max() - x.min()) > 0.6 * np.ptp(ground["lon"]) * 111e3 * np.cos(np.radians(44))
+    assert (y.max() - y.min()) > 0.6 * np.ptp(ground["lat"]) * 111e3
+    adj = pd.read_csv(out / "adjustment.csv")
+    assert list(adj.columns[:7]) == ["scene_id", "a0", "a1", "a2", "b0", "b1", "b2"]
+    assert (adj[[c for c in adj.columns if c.startswith("sigma_")]] > 0).all().all()
+
+
+def test_missing_rpc_names_the_scene_and_folder(small_block, tmp_path, blockqc):
+    blk = _copy(small_block, tmp_path)
+    (blk / "rpc" / "S0003.json").unlink()
+    r = blockqc("adjust", blk, "--out", tmp_path / "out")
+    assert r.returncode == 2
+    assert "S0003" in r.stderr and "rpc" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_unreadable_rpc_is_an_input_error(small_block, tmp_path, blockqc):
+    blk = _copy(small_block, tmp_path)
+    (blk / "rpc" / "S0002.json").write_text("{not json")
+    r = blockqc("adjust", blk, "--out", tmp_path / "out")
+    assert r.returncode == 2 and "S0002.json" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_free_datum_is_refused_as_singular(small_block, tmp_path, blockqc):
+    r = blockqc(
+        "adjust", small_block, "--out", tmp_path / "out", "--sigma-shift", "inf",
+        "--sigma-linear", "inf",
+    )  # fmt: skip
+    assert r.returncode == 2 and "singular" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_no_convergence_is_reported(small_block, tmp_path, blockqc):
+    out = tmp_path / "out"
+    r = blockqc("adjust", small_block, "--out", out, "--max-iterations", 1)
+    assert r.returncode == 1 and "did not converge" in r.stderr
+    assert json.loads((out / "adjust.json").read_text())["converged"] is False
+
+
+def test_unknown_scene_in_adjustment_csv(small_block, tmp_path, blockqc):
+    blk = _copy(small_block, tmp_path)
+    adj = pd.read_csv(blk / "adjustment.csv")
+    adj.loc[0, "scene_id"] = "S9999"
+    adj.to_csv(blk / "adjustment.csv", index=False)
+    r = blockqc("adjust", blk, "--out", tmp_path / "out")
+    assert r.returncode == 2 and "S9999" in r.stderr
+
+
+def test_output_inside_the_delivery_is_refused(small_block, blockqc):
+    r = blockqc("adjust", small_block, "--out", small_block / "out")
+    assert r.returncode == 2 and "never writes into a delivery" in r.stderr

@@ -1,0 +1,227 @@
+"""Contract v1.1 inputs: bad geometry refused with file and row; `inspect --checkpoints`."""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+from pathlib import Path
+
+import pandas as pd
+import pytest
+from geokit import ground_points, observe, write_v11
+
+from blockqc.delivery import load_delivery
+from blockqc.errors import InputError
+from casekit import base_tables, write_delivery
+
+
+@pytest.fixture(scope="module")
+def tie_points() -> pd.DataFrame:
+    return observe(ground_points(12, seed=3), noise_px=0.0, seed=3)
+
+
+def _problems(folder: Path) -> list[str]:
+    with pytest.raises(InputError) as exc:
+        load_delivery(folder)
+    return [str(p) for p in exc.value.problems]
+
+
+def test_missing_rpc_names_scene_and_folder(tmp_path, tie_points) -> None:
+    folder = write_v11(tmp_path / "d", tie_points)
+    (folder / "rpc" / "R.geom").unlink()
+    (msg,) = _problems(folder)
+    assert str(folder / "rpc") in msg and "no RPC for scene 'R'" in msg and "rpc/R.<ext>" in msg
+
+
+def test_unreadable_rpc_names_the_file(tmp_path, tie_points) -> None:
+    folder = write_v11(tmp_path / "d", tie_points)
+    (folder / "rpc" / "R.geom").write_text("this is not an RPC\n")
+    (msg,) = _problems(folder)
+    assert msg.startswith(str(folder / "rpc" / "R.geom"))
+
+
+def test_adjustment_row_for_unknown_scene(tmp_path, tie_points) -> None:
+    folder = write_v11(tmp_path / "d", tie_points)
+    with open(folder / "adjustment.csv", "a") as fh:
+        fh.write("X9,0,0,0,0,0,0\n")
+    (msg,) = _problems(folder)
+    assert "adjustment.csv, row 3 (line 4), column 'scene_id'" in msg and "'X9'" in msg
+
+
+def test_adjustment_non_finite_and_missing_row(tmp_path, tie_points) -> None:
+    folder = write_v11(tmp_path / "d", tie_points)
+    (folder / "adjustment.csv").write_text("scene_id,a0,a1,a2,b0,b1,b2\nL,0,inf,0,0,0,0\n")
+    msgs = _problems(folder)
+    assert any("row 1 (line 2), column 'a1'" in m and "not finite" in m for m in msgs)
+    assert any("no row for scene 'R'" in m for m in msgs)
+
+
+def test_adjustment_without_rpc_folder(tmp_path, tie_points) -> None:
+    folder = write_v11(tmp_path / "d", tie_points)
+    shutil.rmtree(folder / "rpc")
+    msgs = _problems(folder)
+    assert any("rpc/ is missing" in m for m in msgs)
+
+
+def test_rpc_for_unknown_scene_and_no_residuals_without_adjustment(tmp_path, tie_points) -> None:
+    folder = write_v11(tmp_path / "d", tie_points.drop(columns=[]), adjustment=False)
+    shutil.copy(folder / "rpc" / "L.geom", folder / "rpc" / "Z.geom")
+    msgs = _problems(folder)
+    assert any(m.startswith(str(folder / "rpc" / "Z.geom")) for m in msgs)
+    assert any("missing column 'v_line'" in m and "rpc_adjusted" in m for m in msgs)
+
+
+def test_bad_geometry_exits_2(tmp_path, tie_points, blockqc) -> None:
+    folder = write_v11(tmp_path / "d", tie_points)
+    (folder / "rpc" / "L.geom").unlink()
+    proc = blockqc("inspect", folder, "--out", tmp_path / "out", "--no-pdf")
+    assert proc.returncode == 2
+    assert "no RPC for scene 'L'" in proc.stderr and "Traceback" not in proc.stderr
+
+
+# ------------------------------------------------------------------ inspect --checkpoints
+def _recalculation(n: int = 25, gross_m: float = 25.0) -> pd.DataFrame:
+    """The delivered checkpoints' positions against a recalculation: Δ plane 5 m, height 2 m,
+    except the first point, 25 m off in plane (inside 2√2·m = 28.3 m, a gross error at 2·m)."""
+    cp = base_tables()["checkpoints"].head(n).copy()
+    cp["method"] = "recalculation"
+    cp["reference_id"] = "recalc"
+    cp.loc[0, ["ref_x_m", "ref_y_m"]] = cp.loc[0, ["x_m", "y_m"]].to_numpy() - [15.0, 20.0]
+    assert math.hypot(15.0, 20.0) == gross_m
+    return cp
+
+
+def _cp(doc: dict, rule: str, component: str, method: str) -> dict:
+    return next(
+        r
+        for r in doc["results"]
+        if r["rule"] == rule and r["group"] == {"component": component, "method": method}
+    )
+
+
+def test_checkpoints_merged_as_recalculation(tmp_path, blockqc) -> None:
+    folder = write_delivery(tmp_path / "d")
+    extra = tmp_path / "recalc.csv"
+    _recalculation().to_csv(extra, index=False)
+    out = tmp_path / "out"
+    proc = blockqc("inspect", folder, "--out", out, "--no-pdf", "--checkpoints", extra)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    doc = json.loads((out / "CASE" / "results.json").read_text())
+    plane = _cp(doc, "CP-2", "plane", "recalculation")
+    # M2 = √(ΣΔ²/(2n)) over 25 points: 24 at 5 m and one at 25 m (§CP-5)
+    assert plane["value"] == pytest.approx(math.sqrt((24 * 25 + 625) / 50))
+    assert plane["detail"]["n_gross"] == 0  # 25 m ≤ 2√2·10 m: not gross for recalculation
+    height = _cp(doc, "CP-3", "height", "recalculation")
+    assert height["value"] == pytest.approx(2 / math.sqrt(2))
+    # beside the delivered high-precision method
+    assert _cp(doc, "CP-2", "plane", "high_precision")["value"] == pytest.approx(5.0)
+    assert doc["process_data"]["inspector_checkpoints"] == {str(extra): 25}
+    report = (out / "CASE" / "report.html").read_text()
+    assert "High-precision data / Recalculation with other software" in report
+
+
+def test_checkpoints_conflicts_and_blocks_exit_2(tmp_path, blockqc) -> None:
+    batch = tmp_path / "batch"
+    write_delivery(batch / "a")
+    write_delivery(batch / "b", {"manifest": {"block_id": "CASE-B"}})
+    dup = tmp_path / "dup.csv"
+    base_tables()["checkpoints"].head(2).to_csv(dup, index=False)
+    args = ("--no-pdf", "--checkpoints")
+    proc = blockqc("inspect", batch / "a", "--out", tmp_path / "o1", *args, dup)
+    assert proc.returncode == 2
+    assert f"{dup}, row 1" in proc.stderr and "is also in" in proc.stderr
+    plain = tmp_path / "plain.csv"
+    _recalculation(3).to_csv(plain, index=False)
+    proc = blockqc("inspect", batch, "--out", tmp_path / "o2", *args, plain)
+    assert proc.returncode == 2 and "block_id" in proc.stderr
+    named = tmp_path / "named.csv"
+    _recalculation(3).assign(block_id="NOPE").to_csv(named, index=False)
+    proc = blockqc("inspect", batch, "--out", tmp_path / "o3", "--no-pdf", "--checkpoints", named)
+    assert (
+        proc.returncode == 2
+        and "no block 'NOPE'" in proc.stderr
+        and f"{named}, row 1" in proc.stderr
+    )
+
+
+def test_rpc_adjusted_equals_adjustment_csv(tmp_path) -> None:
+    """A shift-only adjustment (a0, b0) is the same model as RPCs with LINE_OFF + a0 and
+    SAMP_OFF + b0: rpc_adjusted/ and rpc/ + adjustment.csv give the same residuals."""
+    import dataclasses
+
+    from geokit import FILES
+
+    from blockqc.adjust.synthetic import rpc_json
+    from blockqc.engine import inspect_delivery
+    from blockqc.rfm.model import ImageAffine, RefinedRFM
+    from blockqc.rfm.readers import read_rpc
+    from blockqc.rules import load_pack
+
+    shift = {"L": (3.0, -1.5), "R": (-2.5, 0.75)}
+    ground = ground_points(20, seed=5)
+    rows = []
+    for sid, f in FILES.items():
+        model = RefinedRFM(read_rpc(f), ImageAffine(a0=-shift[sid][0], b0=-shift[sid][1]))
+        line, sample = model.ground_to_image(ground["lon"], ground["lat"], ground["h"])
+        rows.append(pd.DataFrame({"point_id": ground["point_id"], "scene_id": sid}))
+        rows[-1]["line"] = line + 4.0 * (sid == "L")  # one ray off: non-zero residuals
+        rows[-1]["sample"] = sample
+    obs = pd.concat(rows, ignore_index=True)
+    a = write_v11(tmp_path / "a", obs, adjustment=False)
+    (a / "adjustment.csv").write_text(
+        "scene_id,a0,a1,a2,b0,b1,b2\n"
+        + "".join(f"{s},{x},0,0,{y},0,0\n" for s, (x, y) in shift.items())
+    )
+    b = write_v11(tmp_path / "b", obs, adjustment=False)
+    (b / "rpc_adjusted").mkdir()
+    for sid, f in FILES.items():
+        rpc = read_rpc(f)
+        moved = dataclasses.replace(
+            rpc, line_off=rpc.line_off + shift[sid][0], samp_off=rpc.samp_off + shift[sid][1]
+        )
+        (b / "rpc_adjusted" / f"{sid}.json").write_text(rpc_json(moved))
+    got = {}
+    for name, folder in (("a", a), ("b", b)):
+        d = load_delivery(folder)
+        doc = inspect_delivery(d, load_pack("global-project"))
+        got[name] = d.tie_points[["v_line", "v_sample"]].to_numpy()
+        assert doc["process_data"]["geometry"] == (
+            "adjustment.csv" if name == "a" else "rpc_adjusted/"
+        )
+    assert abs(got["a"]).max() > 0.1
+    assert got["a"] == pytest.approx(got["b"], abs=1e-6)
+
+
+def test_adjust_checkpoints_flow_into_inspect(tmp_path, blockqc) -> None:
+    """`blockqc adjust`'s checkpoints.csv (method recalculation) through `inspect --checkpoints`
+    into the results and the report, beside the delivered high-precision checkpoints."""
+    import yaml
+    from geokit import FILES
+
+    from blockqc.adjust.synthetic import SyntheticConfig, synthetic_block
+    from blockqc.rfm.readers import read_rpc
+
+    models = [read_rpc(f) for f in FILES.values()]
+    cfg = SyntheticConfig(scenes=6, observations_per_scene=400, checkpoints=25, seed=4)
+    _, folder = synthetic_block(models, cfg, tmp_path / "d")
+    manifest = yaml.safe_load((folder / "block.yaml").read_text())
+    manifest["gsd_m"]["ms"] = 4 * manifest["gsd_m"]["pan"]  # RO-1's threshold names gsd.ms
+    (folder / "block.yaml").write_text(yaml.safe_dump(manifest))
+    proc = blockqc("adjust", folder, "--out", tmp_path / "adj")
+    assert proc.returncode == 0, proc.stderr
+    recalc = tmp_path / "adj" / "checkpoints.csv"
+    out = tmp_path / "out"
+    proc = blockqc("inspect", folder, "--out", out, "--no-pdf", "--checkpoints", recalc)
+    assert proc.returncode in (0, 1), proc.stdout + proc.stderr
+    doc = json.loads((out / manifest["block_id"] / "results.json").read_text())
+    cp = pd.read_csv(recalc)
+    d_plane = ((cp["x_m"] - cp["ref_x_m"]) ** 2 + (cp["y_m"] - cp["ref_y_m"]) ** 2).to_numpy()
+    plane = _cp(doc, "CP-2", "plane", "recalculation")
+    assert plane["detail"]["statistic"] == "M2"
+    gross = d_plane > (2 * math.sqrt(2) * 10) ** 2
+    kept = d_plane[~gross]
+    assert plane["value"] == pytest.approx(math.sqrt(kept.sum() / (2 * kept.size)), rel=1e-9)
+    assert _cp(doc, "CP-2", "plane", "high_precision")["status"] in ("pass", "fail")
+    report = (out / manifest["block_id"] / "report.html").read_text()
+    assert "High-precision data / Recalculation with other software" in report

@@ -1,0 +1,156 @@
+"""Verification of process data from delivered geometry (§RC-1, §RC-2), contract v1.1."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from geokit import adjusted_models, ground_points, observe, reference_residuals, write_v11
+from pyproj import Geod
+
+from blockqc.delivery import load_delivery
+from blockqc.engine import inspect_delivery
+from blockqc.rules import load_pack
+from blockqc.verification import COMPUTED_RESIDUALS, DERIVED_OVERLAPS
+
+N_POINTS = 60
+
+
+@pytest.fixture(scope="module")
+def observations() -> tuple[pd.DataFrame, pd.DataFrame]:
+    ground = ground_points(N_POINTS, seed=7)
+    obs = observe(ground, noise_px=0.3, seed=7)
+    return ground, reference_residuals(obs, ground)
+
+
+def _results(folder: Path) -> dict:
+    return inspect_delivery(load_delivery(folder), load_pack("global-project"))
+
+
+def _rule(doc: dict, rule_id: str) -> list[dict]:
+    return [r for r in doc["results"] if r["rule"] == rule_id]
+
+
+def test_residuals_computed_when_absent(tmp_path, observations) -> None:
+    """No v_line/v_sample: blockqc computes them, the TP rules judge them, results say so."""
+    _, ref = observations
+    folder = write_v11(tmp_path / "d", ref.drop(columns=["v_line", "v_sample"]))
+    d = load_delivery(folder)
+    doc = inspect_delivery(d, load_pack("global-project"))
+    got = d.tie_points.set_index(["point_id", "scene_id"])
+    want = ref.set_index(["point_id", "scene_id"]).loc[got.index]
+    # the independent solver (scipy, point by point) gives the same residuals
+    assert np.allclose(got["v_line"], want["v_line"], atol=2e-3)
+    assert np.allclose(got["v_sample"], want["v_sample"], atol=2e-3)
+    assert doc["process_data"]["tie_point_residuals"] == COMPUTED_RESIDUALS
+    tp1 = _rule(doc, "TP-1")[0]
+    assert tp1["detail"]["computed_by_blockqc"] == COMPUTED_RESIDUALS
+    err = np.hypot(want["v_line"], want["v_sample"])
+    assert tp1["value"] == pytest.approx(float(np.median(err)), abs=2e-3)
+    assert _rule(doc, "RC-1")[0]["status"] == "not_applicable"
+
+
+def test_delivered_residuals_reproduce(tmp_path, observations) -> None:
+    _, ref = observations
+    doc = _results(write_v11(tmp_path / "d", ref))
+    rc1 = _rule(doc, "RC-1")[0]
+    assert rc1["status"] == "pass"
+    assert rc1["value"] < 0.01
+    assert "computed_by_blockqc" not in _rule(doc, "TP-1")[0]["detail"]
+
+
+def test_doctored_residuals_fail_naming_the_worst(tmp_path, observations) -> None:
+    _, ref = observations
+    doctored = ref.copy()
+    first = doctored.index[:2]  # both observations of one point, halved
+    doctored.loc[first, ["v_line", "v_sample"]] *= 0.5
+    doctored.loc[doctored.index[10], "v_sample"] += 0.8  # one observation made up
+    doc = _results(write_v11(tmp_path / "d", doctored))
+    rc1 = _rule(doc, "RC-1")[0]
+    assert rc1["status"] == "fail"
+    worst = rc1["evidence"][0]
+    row = doctored.loc[doctored.index[10]]
+    assert (worst["point_id"], worst["scene_id"]) == (row["point_id"], row["scene_id"])
+    assert worst["difference_px"] == pytest.approx(0.8, abs=2e-3)
+    assert rc1["value"] == pytest.approx(0.8, abs=2e-3)
+    named = {(e["point_id"], e["scene_id"]) for e in rc1["evidence"]}
+    halved = ref.loc[first]
+    big = halved[np.hypot(halved["v_line"], halved["v_sample"]) * 0.5 > 0.1]
+    assert set(zip(big["point_id"], big["scene_id"], strict=True)) <= named
+
+
+def test_overlaps_derived_from_geometry(tmp_path, observations) -> None:
+    """RO-3/RO-4 run without overlaps.csv; values checked by an independent computation."""
+    ground, _ = observations
+    obs = observe(ground, noise_px=0.0, seed=7)
+    # move point G0003's observation on R by 30 px in line: the two single-ray positions differ
+    bad = (obs["point_id"] == "G0003") & (obs["scene_id"] == "R")
+    obs.loc[bad, "line"] += 30.0
+    d = load_delivery(write_v11(tmp_path / "d", obs.assign(v_line=0.0, v_sample=0.0)))
+    doc = inspect_delivery(d, load_pack("global-project"))
+    assert doc["process_data"]["overlaps"] == DERIVED_OVERLAPS
+    ro3 = [r for r in _rule(doc, "RO-3") if r["group"]["component"] == "plane"][0]
+    assert ro3["detail"]["computed_by_blockqc"] == DERIVED_OVERLAPS
+    ro4 = [r for r in _rule(doc, "RO-4") if r["group"]["component"] == "plane"][0]
+    assert ro4["status"] in ("pass", "fail")
+    # independent: each observation put on the ground alone (rfm.model's Newton) at the point's
+    # height, the geodesic distance between the two positions (pyproj)
+    h = d.process_data["data"].points.set_index("point_id")["h"]
+    models = adjusted_models()
+    pos = {}
+    for sid, g in obs.groupby("scene_id"):
+        lon, lat, _ = models[sid].image_to_ground(g["line"], g["sample"], h.loc[g["point_id"]])
+        pos[sid] = pd.DataFrame({"lon": lon, "lat": lat}, index=g["point_id"].to_numpy())
+    _, _, dist = Geod(ellps="WGS84").inv(
+        pos["L"]["lon"],
+        pos["L"]["lat"],
+        pos["R"].loc[pos["L"].index, "lon"],
+        pos["R"].loc[pos["L"].index, "lat"],
+    )
+    expected = pd.Series(dist, index=pos["L"].index)
+    table = d.overlaps.set_index("point_id")
+    plane = np.hypot(table["dx_m"], table["dy_m"])
+    assert np.allclose(plane, expected.loc[plane.index], rtol=1e-4, atol=1e-4)
+    assert ro3["status"] == ("fail" if expected.max() >= 20 * np.sqrt(2) else "pass")
+    assert ro3["value"] == pytest.approx(expected.max(), rel=1e-4)
+    rms = float(np.sqrt(np.mean(expected**2)))
+    assert ro4["value"] == pytest.approx(rms, rel=1e-4)
+
+
+def test_results_json_says_what_was_computed(tmp_path, observations, blockqc) -> None:
+    _, ref = observations
+    folder = write_v11(tmp_path / "d", ref.drop(columns=["v_line", "v_sample"]))
+    out = tmp_path / "out"
+    proc = blockqc("inspect", folder, "--out", out, "--no-pdf")
+    assert proc.returncode in (0, 1), proc.stderr
+    doc = json.loads((out / "CASE" / "results.json").read_text())
+    assert doc["process_data"]["tie_point_residuals"] == COMPUTED_RESIDUALS
+    assert doc["process_data"]["geometry"] == "adjustment.csv"
+
+
+def test_synthetic_v11_delivery(tmp_path) -> None:
+    """The synthetic block writer's delivery (rpc/ JSON, adjustment.csv) reads and verifies:
+    delivered residuals reproduce; without them the computed ones equal them; overlaps derived."""
+    from geokit import FILES
+
+    from blockqc.adjust.synthetic import SyntheticConfig, synthetic_block
+    from blockqc.rfm.readers import read_rpc
+
+    models = [read_rpc(f) for f in FILES.values()]
+    cfg = SyntheticConfig(scenes=4, observations_per_scene=300, outlier_rate=0.0, seed=3)
+    _, folder = synthetic_block(models, cfg, tmp_path / "with")
+    doc = _results(folder)
+    rc1 = _rule(doc, "RC-1")[0]
+    assert rc1["status"] == "pass" and rc1["value"] < 1e-3  # delivered rounded to 1e-4 px
+    assert doc["process_data"]["overlaps"] == DERIVED_OVERLAPS
+    delivered = load_delivery(folder).tie_points
+    bare = tmp_path / "without"
+    _, bare = synthetic_block(models, dataclasses.replace(cfg, producer_residuals=False), bare)
+    d = load_delivery(bare)
+    inspect_delivery(d, load_pack("global-project"))
+    assert np.allclose(d.tie_points["v_line"], delivered["v_line"], atol=1e-3)
+    assert np.allclose(d.tie_points["v_sample"], delivered["v_sample"], atol=1e-3)
