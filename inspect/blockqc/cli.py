@@ -23,6 +23,7 @@ class LazyGroup(click.Group):
         "factors": "blockqc.analysis.command",
         "report": "blockqc.report.command",
         "rules": "blockqc.rules.command",
+        "adjust": "blockqc.adjust.command",
     }
 
     def list_commands(self, ctx: click.Context) -> list[str]:
