@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+import yaml
 
 from blockqc.delivery import load_delivery
 from blockqc.engine import Context, names_for
@@ -12,18 +13,28 @@ from blockqc.errors import RuleError
 from blockqc.metrics import REGISTRY, MetricSpec, NoParams, Scope, Table, metric
 from blockqc.metrics import Measurement as M
 from blockqc.metrics.reference import markdown_reference
+from blockqc.resources import rules_dir
 from blockqc.rules import load_pack
 from blockqc.rules.casebase import write_delivery
+from blockqc.verification import prepare
 
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "metrics.md"
 
 
 @pytest.fixture(scope="module")
 def measured(tmp_path_factory) -> dict[str, M]:
-    """Every metric the stock pack uses, measured on the base delivery (a figure reported)."""
+    """Every metric the stock pack uses, measured on the base delivery (a figure reported) with
+    the contract v1.1 geometry of RC-1's cases and two tie points seen on three scenes."""
+    cases = yaml.safe_load((rules_dir() / "global-project.cases" / "RC-1.yaml").read_text("utf-8"))
     folder = tmp_path_factory.mktemp("base") / "CASE"
-    write_delivery(folder, {"manifest": {"reported": {"tie_point_error_px": 0.3}}})
+    edits = {
+        "manifest": {"reported": {"tie_point_error_px": 0.3}},
+        "files": cases["shared"]["geometry"],
+        "append": cases["cases"][0]["append"],
+    }
+    write_delivery(folder, edits)
     delivery = load_delivery(folder)
+    prepare(delivery)
     pack = load_pack("global-project")
     ctx = Context(delivery, names_for(delivery, pack))
     return {r.metric: ctx.measure(r.metric, r.params) for r in pack.rules if not r.manual}

@@ -154,6 +154,7 @@ def test_rpc_adjusted_equals_adjustment_csv(tmp_path) -> None:
 
     from blockqc.adjust.synthetic import rpc_json
     from blockqc.engine import inspect_delivery
+    from blockqc.results import dump
     from blockqc.rfm.model import ImageAffine, RefinedRFM
     from blockqc.rfm.readers import read_rpc
     from blockqc.rules import load_pack
@@ -184,7 +185,7 @@ def test_rpc_adjusted_equals_adjustment_csv(tmp_path) -> None:
     got = {}
     for name, folder in (("a", a), ("b", b)):
         d = load_delivery(folder)
-        doc = inspect_delivery(d, load_pack("global-project"))
+        doc = dump(inspect_delivery(d, load_pack("global-project")))
         got[name] = d.tie_points[["v_line", "v_sample"]].to_numpy()
         assert doc["process_data"]["geometry"] == (
             "adjustment.csv" if name == "a" else "rpc_adjusted/"

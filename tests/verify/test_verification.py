@@ -14,6 +14,7 @@ from pyproj import Geod
 
 from blockqc.delivery import load_delivery
 from blockqc.engine import inspect_delivery
+from blockqc.results import dump
 from blockqc.rules import load_pack
 from blockqc.verification import COMPUTED_RESIDUALS, DERIVED_OVERLAPS
 
@@ -28,7 +29,7 @@ def observations() -> tuple[pd.DataFrame, pd.DataFrame]:
 
 
 def _results(folder: Path) -> dict:
-    return inspect_delivery(load_delivery(folder), load_pack("global-project"))
+    return dump(inspect_delivery(load_delivery(folder), load_pack("global-project")))
 
 
 def _rule(doc: dict, rule_id: str) -> list[dict]:
@@ -40,7 +41,7 @@ def test_residuals_computed_when_absent(tmp_path, observations) -> None:
     _, ref = observations
     folder = write_v11(tmp_path / "d", ref.drop(columns=["v_line", "v_sample"]))
     d = load_delivery(folder)
-    doc = inspect_delivery(d, load_pack("global-project"))
+    doc = dump(inspect_delivery(d, load_pack("global-project")))
     got = d.tie_points.set_index(["point_id", "scene_id"])
     want = ref.set_index(["point_id", "scene_id"]).loc[got.index]
     # the independent solver (scipy, point by point) gives the same residuals
@@ -91,7 +92,7 @@ def test_overlaps_derived_from_geometry(tmp_path, observations) -> None:
     bad = (obs["point_id"] == "G0003") & (obs["scene_id"] == "R")
     obs.loc[bad, "line"] += 30.0
     d = load_delivery(write_v11(tmp_path / "d", obs.assign(v_line=0.0, v_sample=0.0)))
-    doc = inspect_delivery(d, load_pack("global-project"))
+    doc = dump(inspect_delivery(d, load_pack("global-project")))
     assert doc["process_data"]["overlaps"] == DERIVED_OVERLAPS
     ro3 = [r for r in _rule(doc, "RO-3") if r["group"]["component"] == "plane"][0]
     assert ro3["detail"]["computed_by_blockqc"] == DERIVED_OVERLAPS
