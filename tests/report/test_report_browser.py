@@ -52,7 +52,7 @@ def pages(tmp_path_factory):
     out = tmp_path_factory.mktemp("html")
     doc = make_results()
     write_block_report(out / "T-B01", doc, pdf=False)
-    other = {**doc, "block_id": "T-B02", "verdict": "pass", "results": [], "measurements": {}}
+    other = {**doc, "block_id": "T-B02", "verdict": "pass", "results": [], "measurements": []}
     write_block_report(out / "T-B02", other, pdf=False)
     summary = {
         "rule_pack": "global-project",
@@ -62,12 +62,13 @@ def pages(tmp_path_factory):
         "inspector": None,
         "verdict": "fail",
         "complete": True,
-        "counts": {"blocks": 2, "pass": 1, "fail": 1, "unreadable": 0},
+        "counts": {"blocks": 2, "pass": 1, "fail": 1, "error": 0, "unreadable": 0},
         "blocks": [
             {
                 "block_id": b,
                 "verdict": v,
                 "report": f"{b}/report.html",
+                "results": f"{b}/results.json",
                 "sampled": b == "T-B01",
                 "failed_rules": f,
                 "warned_rules": [],
@@ -78,7 +79,7 @@ def pages(tmp_path_factory):
         "rules": {},
         "unreadable": [],
     }
-    write_summary_report(out, summary, [doc, other], pdf=False)
+    write_summary_report(out, summary, pdf=False)
     return out
 
 
