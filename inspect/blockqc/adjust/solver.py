@@ -196,25 +196,46 @@ def point_pairs(obs: Observations) -> Pairs:
     return Pairs(o1, o2, block.ravel(), key // ns, key % ns)
 
 
+Cols = list[FloatArray]
+
+
+def _cols(a: FloatArray) -> Cols:
+    """The columns of an (n, k) array as contiguous 1-D arrays."""
+    return [np.ascontiguousarray(a[:, i]) for i in range(a.shape[1])]
+
+
+def _dot3(a: Cols, b: Cols) -> FloatArray:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _sym_apply(u: Cols, v: Cols) -> Cols:
+    """Symmetric 3×3 matrices (u00, u01, u02, u11, u12, u22 per row) times 3-vectors."""
+    return [
+        u[0] * v[0] + u[1] * v[1] + u[2] * v[2],
+        u[1] * v[0] + u[3] * v[1] + u[4] * v[2],
+        u[2] * v[0] + u[4] * v[1] + u[5] * v[2],
+    ]
+
+
 def _block_sums(
     key: IntArray,
     n_keys: int,
-    k: FloatArray,
-    ga: FloatArray,
-    gb: FloatArray,
+    k: list[list[FloatArray]],
+    ga: Cols,
+    gb: Cols,
     symmetric: bool = False,
 ) -> FloatArray:
     """Σ over rows with the same key of kron(K, ga·gbᵀ): (n_keys, 6, 6) with index c·3+i.
 
-    With `symmetric` (K symmetric, ga = gb) only the upper triangle is summed and mirrored.
+    K is given as k[c][d] (1-D per row). With `symmetric` (K symmetric, ga = gb) only the upper
+    triangle is summed and mirrored.
     """
     out = np.empty((n_keys, 6, 6))
     for r in range(6):
         c, i = divmod(r, 3)
         for q in range(r if symmetric else 0, 6):
             d, j = divmod(q, 3)
-            kg = k[:, c, d] * ga[:, i]
-            out[:, r, q] = np.bincount(key, kg * gb[:, j], n_keys)
+            out[:, r, q] = np.bincount(key, k[c][d] * ga[i] * gb[j], n_keys)
             if symmetric:
                 out[:, q, r] = out[:, r, q]
     return out
@@ -239,16 +260,25 @@ def reduced_system(
     p: FloatArray,
 ) -> tuple[sp.csc_matrix, FloatArray]:
     """The reduced camera system S·Δp = b after eliminating every point (Schur complement)."""
-    ns = obs.n_scenes
-    y = np.matmul(u_inv[obs.point], lin.jx.transpose(0, 2, 1))  # U⁻¹·Jxᵀ (n, 3, 2)
-    k_diag = -(w**2)[:, None, None] * np.matmul(lin.jx, y)
-    k_diag[:, 0, 0] += w
-    k_diag[:, 1, 1] += w
-    diag = _block_sums(obs.scene, ns, k_diag, lin.g, lin.g, symmetric=True)
+    ns, pt = obs.n_scenes, obs.point
+    u = [u_inv[:, i, j][pt] for i, j in ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))]
+    j0, j1 = _cols(lin.jx[:, 0, :]), _cols(lin.jx[:, 1, :])
+    y0, y1 = _sym_apply(u, j0), _sym_apply(u, j1)  # U⁻¹·Jxᵀ, line and sample columns
+    del u
+    w2 = w * w
+    k01 = -w2 * _dot3(j0, y1)
+    k_diag = [[w - w2 * _dot3(j0, y0), k01], [k01, w - w2 * _dot3(j1, y1)]]
+    g = _cols(lin.g)
+    diag = _block_sums(obs.scene, ns, k_diag, g, g, symmetric=True)
+    del k_diag, k01
     diag[:, np.arange(6), np.arange(6)] += prior_w
     o1, o2 = pairs.o1, pairs.o2
-    k_off = -(w[o1] * w[o2])[:, None, None] * np.matmul(lin.jx[o1], y[o2])
-    off = _block_sums(pairs.block, pairs.rows.size, k_off, lin.g[o1], lin.g[o2])
+    ww = -w[o1] * w[o2]
+    a = [[c[o1] for c in j0], [c[o1] for c in j1]]
+    b = [[c[o2] for c in y0], [c[o2] for c in y1]]
+    k_off = [[ww * _dot3(a[c], b[d]) for d in range(2)] for c in range(2)]
+    del a, b
+    off = _block_sums(pairs.block, pairs.rows.size, k_off, [c[o1] for c in g], [c[o2] for c in g])
     kr, kc = pairs.rows, pairs.cols
     parts = [
         _coo(np.arange(ns), np.arange(ns), diag),
@@ -483,7 +513,11 @@ def _dense_covariance(s: sp.csc_matrix, fixed: BoolArray) -> tuple[FloatArray, F
     full, info2 = sla.lapack.dpotri(factor, lower=True, overwrite_c=True)
     if info or info2:
         raise InputError(Problem("<block>", "the reduced normal matrix is not positive definite"))
-    full = np.tril(full) + np.tril(full, -1).T
+    for i0 in range(0, n, 512):  # mirror the lower triangle, a band at a time (no n² copies)
+        i1 = min(n, i0 + 512)
+        band = full[i0:i1, i0:i1]
+        band[np.triu_indices(i1 - i0, 1)] = band.T[np.triu_indices(i1 - i0, 1)]
+        full[i0:i1, i1:] = full[i1:, i0:i1].T
     hold = np.repeat(fixed, 6)
     full[hold, :] = 0.0
     full[:, hold] = 0.0
@@ -518,33 +552,41 @@ def affine_covariance(s: sp.csc_matrix, fixed: BoolArray) -> tuple[FloatArray, F
 def point_covariance(
     obs: Observations, pairs: Pairs, step: Step, full: FloatArray | None, chunk: int = 400_000
 ) -> FloatArray:
-    """Per point covariance factor (n_points, 3, 3) in (east, north, h) m: U⁻¹ + Σ Aᵀ·C·A'.
+    """Per point variance factors (n_points, 3) in (east, north, h) m: diag(U⁻¹ + Σ Aᵀ·C·A').
 
-    A_o = W_o·U⁻¹ couples observation o to its scene's affine; C the affine part of S⁻¹.
-    Without the full S⁻¹ (a very large block) only U⁻¹ is returned (affines held fixed).
+    A_o = W_o·U⁻¹ = w_o·[g_o ⊗ y_o,lineᵀ; g_o ⊗ y_o,sampleᵀ] (y = U⁻¹·Jxᵀ) couples observation o
+    to its scene's affine, C the affine part of S⁻¹, summed over the ordered pairs of the point's
+    observations: (Aᵀ·C·A')_ii = w·w'·Σ_cd (g_oᵀ·C_cd·g_o')·y_c,i·y'_d,i.
+    Without the full S⁻¹ (a very large block) only U⁻¹ is used (the affines held fixed).
     """
-    cov = step.u_inv.copy()
+    var = np.einsum("nii->ni", step.u_inv).copy()
     if full is None:
-        return cov
-    y = np.einsum("nij,nkj->nik", step.u_inv[obs.point], step.lin.jx)  # (n, 3, 2)
-    a = step.w[:, None, None, None] * np.einsum("ni,njc->ncij", step.lin.g, y)  # (n, 2, 3, 3)
-    a = a.reshape(-1, 6, 3)
-    o1, o2 = pairs.o1, pairs.o2
-    both = (
-        np.concatenate([np.arange(obs.point.size), o1, o2]),
-        np.concatenate([np.arange(obs.point.size), o2, o1]),
-    )
+        return var
+    pt = obs.point
+    u = [step.u_inv[:, i, j][pt] for i, j in ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))]
+    y = np.stack(
+        [np.stack(_sym_apply(u, _cols(step.lin.jx[:, c, :])), 1) for c in range(2)], 1
+    )  # (n, 2 rows, 3)
+    del u
+    n = pt.size
+    first = np.concatenate([np.arange(n), pairs.o1, pairs.o2])
+    second = np.concatenate([np.arange(n), pairs.o2, pairs.o1])
     ns = obs.n_scenes
     c4 = full.reshape(ns, 6, ns, 6)
-    for start in range(0, both[0].size, chunk):
-        p1 = both[0][start : start + chunk]
-        p2 = both[1][start : start + chunk]
+    for start in range(0, first.size, chunk):
+        p1, p2 = first[start : start + chunk], second[start : start + chunk]
         c = c4[obs.scene[p1], :, obs.scene[p2], :]  # (m, 6, 6)
-        t = np.einsum("nai,nab,nbj->nij", a[p1], c, a[p2], optimize=True)
+        g1, g2 = step.lin.g[p1], step.lin.g[p2]
+        ww = step.w[p1] * step.w[p2]
+        t = np.zeros((p1.size, 3))
+        for ci in range(2):
+            for di in range(2):
+                block = c[:, 3 * ci : 3 * ci + 3, 3 * di : 3 * di + 3]
+                m = np.einsum("ni,nij,nj->n", g1, block, g2)
+                t += (ww * m)[:, None] * y[p1, ci, :] * y[p2, di, :]
         for i in range(3):
-            for j in range(3):
-                cov[:, i, j] += np.bincount(obs.point[p1], t[:, i, j], obs.n_points)
-    return cov
+            var[:, i] += np.bincount(pt[p1], t[:, i], obs.n_points)
+    return var
 
 
 def fixed_weights(kept: BoolArray, sig: float) -> Callable[[FloatArray], FloatArray]:
@@ -658,7 +700,7 @@ def _solution(ctx: Context, state: State, last: Step, sig: float, converged: boo
     share = np.where(prior_w > 0, prior_w * np.einsum("nii->ni", q_affine), 0.0)
     share[ctx.priors.fixed] = 1.0  # held parameters take no image redundancy
     q_ground = point_covariance(obs, ctx.pairs, step, full)
-    s0 = sigma0(lin.f, step.w, ctx.priors, ctx.used, q_ground[:, 2, 2], float(share.sum()))
+    s0 = sigma0(lin.f, step.w, ctx.priors, ctx.used, q_ground[:, 2], float(share.sum()))
     affine = affine_from_normalized(state.p, lines, samples)
     blocks = q_affine * s0**2
     jac = normalized_jacobian(lines, samples)
@@ -673,7 +715,7 @@ def _solution(ctx: Context, state: State, last: Step, sig: float, converged: boo
         lon=state.lon,
         lat=state.lat,
         h=state.h,
-        ground_sigma=np.sqrt(np.einsum("nii->ni", ground)),
+        ground_sigma=np.sqrt(ground),
         v_line=vl,
         v_sample=vs,
         outlier=~kept,
