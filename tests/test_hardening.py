@@ -433,6 +433,10 @@ VERDICT_CASES = [
     ),
     ("verdicts:\n  DOC-3: {status: conditional_pass}\n", "line 3: verdicts.DOC-3: a conditional"),
     (
+        "waivers:\n  TP-5: {reason: x, points: [PS1-000]}\n",
+        "line 3: rule TP-5 is judged per scene: list the scenes to waive under 'scenes'",
+    ),
+    (
         "verdicts:\n  DOC-3: {status: maybe}\n",
         "line 3: verdicts.DOC-3.status: Input should be 'pass', 'conditional_pass', 'rework' "
         "or 'fail'",
