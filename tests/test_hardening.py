@@ -564,3 +564,16 @@ def test_misspelt_manifest_key(blockqc, delivery: Path, tmp_path: Path) -> None:
         "block.yaml, line 17: reportd: unknown key; did you mean 'reported'?",
         "block.yaml, line 8: spatial_reference.hieght_datum: unknown key; did you mean",
     )
+
+
+def test_tie_point_outside_its_scene(blockqc, delivery: Path, tmp_path: Path) -> None:
+    _cell(delivery / "tie_points.csv", 7, "line", "5000")
+    _cell(delivery / "tie_points.csv", 8, "sample", "-3")
+    _refused(
+        blockqc,
+        delivery,
+        tmp_path / "out",
+        "tie_points.csv, row 7 (line 8), column 'line': line lies outside its scene",
+        "tie_points.csv, row 8 (line 9), column 'sample': sample lies outside its scene (0 to "
+        "the scene's samples in scenes.csv), got -3",
+    )

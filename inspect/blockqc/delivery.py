@@ -352,6 +352,10 @@ def _check_references(tables: dict[str, pd.DataFrame], files: dict[str, Path]) -
     return problems
 
 
+#: image positions may use either pixel convention (corner or centre of the first pixel)
+PIXEL_SLACK = 0.5
+
+
 def _consistency_masks(
     tables: dict[str, pd.DataFrame],
 ) -> list[tuple[str, str | None, np.ndarray, str]]:
@@ -371,6 +375,16 @@ def _consistency_masks(
             ("checkpoints", None, rx & ry & rz,
              "the row compares nothing: give ref_x_m and ref_y_m, or ref_z_m"),
         ]  # fmt: skip
+    tp, sc = tables.get("tie_points"), tables.get("scenes")
+    if tp is not None and sc is not None:
+        size = sc.drop_duplicates("scene_id").set_index("scene_id")
+        for col, extent in (("line", "lines"), ("sample", "samples")):
+            limit = tp["scene_id"].map(size[extent]).to_numpy(dtype=float, na_value=np.nan)
+            v = tp[col].to_numpy(dtype=float)
+            with np.errstate(invalid="ignore"):
+                outside = (v < -PIXEL_SLACK) | (v > limit + PIXEL_SLACK)
+            msg = f"{col} lies outside its scene (0 to the scene's {extent} in scenes.csv)"
+            out.append(("tie_points", col, outside, msg))
     ov = tables.get("overlaps")
     if ov is not None and {"scene_a", "scene_b"} <= set(ov.columns):
         same = (ov["scene_a"] == ov["scene_b"]).to_numpy(dtype=bool)
@@ -383,7 +397,8 @@ def _check_consistency(tables: dict[str, pd.DataFrame], files: dict[str, Path]) 
     problems: list[Problem] = []
     for name, column, mask, message in _consistency_masks(tables):
         f = files[name]
-        report_rows(problems, str(f), column, mask, message, None, f.suffix == ".csv")
+        values = tables[name][column] if column == "line" or column == "sample" else None
+        report_rows(problems, str(f), column, mask, message, values, f.suffix == ".csv")
     return problems
 
 
