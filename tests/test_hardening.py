@@ -577,3 +577,29 @@ def test_tie_point_outside_its_scene(blockqc, delivery: Path, tmp_path: Path) ->
         "tie_points.csv, row 8 (line 9), column 'sample': sample lies outside its scene (0 to "
         "the scene's samples in scenes.csv), got -3",
     )
+
+
+def test_parquet_repeated_column_and_binary_text(blockqc, delivery: Path, tmp_path: Path) -> None:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    edges = pd.read_csv(delivery / "edges.csv", dtype=str)
+    (delivery / "edges.csv").unlink()
+    cols = [pa.array(edges[c]) for c in edges] + [pa.array(edges["dx_m"])]
+    pq.write_table(pa.Table.from_arrays(cols, names=[*edges.columns, "dx_m"]), delivery / "e.pq")
+    (delivery / "e.pq").rename(delivery / "edges.parquet")
+    _refused(
+        blockqc,
+        delivery,
+        tmp_path / "out",
+        "edges.parquet: column 'dx_m' appears more than once",
+    )
+    ids = pa.array([s.encode() for s in edges["point_id"]], pa.binary())
+    table = pa.table({**{c: pa.array(edges[c].astype(float)) for c in ("dx_m", "dy_m", "dz_m")}})
+    table = table.append_column("neighbour_block", pa.array(edges["neighbour_block"]))
+    pq.write_table(table.append_column("point_id", ids), delivery / "edges.parquet")
+    p = blockqc("inspect", delivery, "--out", tmp_path / "ok", "--no-pdf")
+    assert p.returncode == 0, p.stderr
+    doc = json.loads((tmp_path / "ok" / "CASE" / "results.json").read_text())
+    points = doc["measurements"]["edge_discrepancy"]["point"]
+    assert {r["point_id"] for r in points} == {"E0", "E1", "E2", "E3", "E4"}

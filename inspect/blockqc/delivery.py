@@ -215,11 +215,21 @@ def _parser_problem(path: Path, message: str) -> Problem:
 def _read_parquet(path: Path, schema: TableSchema) -> pd.DataFrame:
     """Read a Parquet table; columns of the contract must hold plain values, not lists."""
     try:
+        given = pq.read_schema(path).names
+        repeated = [n for n in dict.fromkeys(given) if given.count(n) > 1]
+        if repeated:
+            raise InputError(
+                [
+                    Problem(str(path), f"column '{n}' appears more than once; give each once")
+                    for n in repeated
+                ]
+            )
         table = pq.read_table(path)
     except (pa.ArrowException, OSError) as exc:
         raise InputError(Problem(str(path), f"not a readable Parquet table: {exc}")) from None
     names = {c.name for c in schema.columns}
-    nested = [
+    problems = []
+    problems += [
         Problem(
             str(path),
             f"a column of type {f.type} (lists or records): expected one "
@@ -229,9 +239,12 @@ def _read_parquet(path: Path, schema: TableSchema) -> pd.DataFrame:
         for f in table.schema
         if f.name in names and pa.types.is_nested(f.type)
     ]
-    if nested:
-        raise InputError(nested)
+    if problems:
+        raise InputError(problems)
     try:
+        for i, f in enumerate(table.schema):  # text stored as bytes: read as UTF-8 text
+            if f.name in names and (pa.types.is_binary(f.type) or pa.types.is_large_binary(f.type)):
+                table = table.set_column(i, f.name, table.column(i).cast(pa.string()))
         return table.to_pandas()
     except (pa.ArrowException, ValueError, OverflowError) as exc:
         raise InputError(Problem(str(path), f"not a readable Parquet table: {exc}")) from None
