@@ -221,11 +221,21 @@ def _parser_problem(path: Path, message: str) -> Problem:
 def _read_parquet(path: Path, schema: TableSchema) -> pd.DataFrame:
     """Read a Parquet table; columns of the contract must hold plain values, not lists."""
     try:
+        given = pq.read_schema(path).names
+        repeated = [n for n in dict.fromkeys(given) if given.count(n) > 1]
+        if repeated:
+            raise InputError(
+                [
+                    Problem(str(path), f"column '{n}' appears more than once; give each once")
+                    for n in repeated
+                ]
+            )
         table = pq.read_table(path)
     except (pa.ArrowException, OSError) as exc:
         raise InputError(Problem(str(path), f"not a readable Parquet table: {exc}")) from None
     names = {c.name for c in schema.columns}
-    nested = [
+    problems = []
+    problems += [
         Problem(
             str(path),
             f"a column of type {f.type} (lists or records): expected one "
@@ -235,9 +245,12 @@ def _read_parquet(path: Path, schema: TableSchema) -> pd.DataFrame:
         for f in table.schema
         if f.name in names and pa.types.is_nested(f.type)
     ]
-    if nested:
-        raise InputError(nested)
+    if problems:
+        raise InputError(problems)
     try:
+        for i, f in enumerate(table.schema):  # text stored as bytes: read as UTF-8 text
+            if f.name in names and (pa.types.is_binary(f.type) or pa.types.is_large_binary(f.type)):
+                table = table.set_column(i, f.name, table.column(i).cast(pa.string()))
         return table.to_pandas()
     except (pa.ArrowException, ValueError, OverflowError) as exc:
         raise InputError(Problem(str(path), f"not a readable Parquet table: {exc}")) from None
@@ -365,6 +378,10 @@ def _check_references(tables: dict[str, pd.DataFrame], files: dict[str, Path]) -
     return problems
 
 
+#: image positions may use either pixel convention (corner or centre of the first pixel)
+PIXEL_SLACK = 0.5
+
+
 def _consistency_masks(
     tables: dict[str, pd.DataFrame],
 ) -> list[tuple[str, str | None, np.ndarray, str]]:
@@ -384,6 +401,16 @@ def _consistency_masks(
             ("checkpoints", None, rx & ry & rz,
              "the row compares nothing: give ref_x_m and ref_y_m, or ref_z_m"),
         ]  # fmt: skip
+    tp, sc = tables.get("tie_points"), tables.get("scenes")
+    if tp is not None and sc is not None:
+        size = sc.drop_duplicates("scene_id").set_index("scene_id")
+        for col, extent in (("line", "lines"), ("sample", "samples")):
+            limit = tp["scene_id"].map(size[extent]).to_numpy(dtype=float, na_value=np.nan)
+            v = tp[col].to_numpy(dtype=float)
+            with np.errstate(invalid="ignore"):
+                outside = (v < -PIXEL_SLACK) | (v > limit + PIXEL_SLACK)
+            msg = f"{col} lies outside its scene (0 to the scene's {extent} in scenes.csv)"
+            out.append(("tie_points", col, outside, msg))
     ov = tables.get("overlaps")
     if ov is not None and {"scene_a", "scene_b"} <= set(ov.columns):
         same = (ov["scene_a"] == ov["scene_b"]).to_numpy(dtype=bool)
@@ -396,7 +423,8 @@ def _check_consistency(tables: dict[str, pd.DataFrame], files: dict[str, Path]) 
     problems: list[Problem] = []
     for name, column, mask, message in _consistency_masks(tables):
         f = files[name]
-        report_rows(problems, str(f), column, mask, message, None, f.suffix == ".csv")
+        values = tables[name][column] if column == "line" or column == "sample" else None
+        report_rows(problems, str(f), column, mask, message, values, f.suffix == ".csv")
     return problems
 
 

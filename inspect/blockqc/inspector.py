@@ -121,6 +121,23 @@ def _rule_problems(
     return []
 
 
+def _unit_kind_problems(
+    inp: InspectorInput, loc: tuple[Any, ...], waiver: Waiver, rule: Any
+) -> list[Problem]:
+    """A rule judged per scene is waived for scenes: pairs, points or units would match none."""
+    if rule is None or getattr(rule, "scope", None) != "scene":
+        return []
+    return [
+        inp.problem(
+            (*loc, kind),
+            f"rule {rule.id} is judged per scene: list the scenes to waive under 'scenes' "
+            f"('{kind}' would match none)",
+        )
+        for kind in ("pairs", "points", "units")
+        if getattr(waiver, kind)
+    ]
+
+
 def _scene_problems(
     inp: InspectorInput, loc: tuple[Any, ...], waiver: Waiver, scenes: set[str], where: str
 ) -> list[Problem]:
@@ -157,6 +174,7 @@ def check_inspector_input(
         for rid, waiver in waivers.items():
             at = (*loc, "waivers", rid)
             problems += _rule_problems(inp, at, rid, rules, True)
+            problems += _unit_kind_problems(inp, at, waiver, rules.get(rid))
             if scenes is not None:
                 problems += _scene_problems(inp, at, waiver, scenes, where)
     if problems:
