@@ -10,6 +10,10 @@ from pathlib import Path
 from typing import Any
 
 from blockqc import __version__
+from blockqc.acceptance.decision import decide
+from blockqc.acceptance.evaluate import evaluate_results
+from blockqc.acceptance.model import BatchDecision, BlockGrade
+from blockqc.acceptance.plan import Plan, apply_plan
 from blockqc.delivery import MANIFEST, Manifest, find_deliveries, load_delivery, load_manifest
 from blockqc.engine import inspect_delivery
 from blockqc.errors import InputError, Problem
@@ -74,7 +78,11 @@ def collect(paths: Iterable[Path]) -> Collected:
 
 
 def inspect_one(
-    path: Path, pack: Pack, inspector: InspectorInput | None, manifest: Manifest | None = None
+    path: Path,
+    pack: Pack,
+    inspector: InspectorInput | None,
+    manifest: Manifest | None = None,
+    plan: Plan | None = None,
 ) -> Outcome:
     try:
         delivery = load_delivery(path, manifest=manifest)
@@ -84,6 +92,9 @@ def inspect_one(
     results = inspect_delivery(
         delivery, pack, block_input, inspector.inspector if inspector else None
     )
+    if plan is not None:
+        apply_plan(results, results.block_id in plan.sampled)
+    results.evaluation = evaluate_results(results, pack)
     return Outcome(path, results)
 
 
@@ -117,10 +128,11 @@ class Job:
     pack: Pack
     inspector: InspectorInput | None
     writer: Writer
+    plan: Plan | None = None
 
     def __call__(self, path: Path, manifest: Manifest | None = None) -> Outcome:
         try:
-            o = inspect_one(path, self.pack, self.inspector, manifest)
+            o = inspect_one(path, self.pack, self.inspector, manifest, self.plan)
             if o.results is not None:
                 self.writer.block(o.results)
             return o
@@ -140,16 +152,59 @@ def block_entry(o: Outcome) -> BlockEntry:
         path=str(o.path),
         results=f"{r.block_id}/results.json",
         report=f"{r.block_id}/report.html",
-        sampled=r.summary.get("checkpoints", 0) > 0,
+        sampled=_sampled(r),
         failed_rules=sorted({x.rule for x in r.results if x.status in ("fail", "error")}),
         warned_rules=sorted({x.rule for x in r.results if x.status == "warn"}),
         pending_manual=r.pending_manual,
         counts=r.counts,
         checkpoints=cps,
+        **_evaluation_fields(r),
     )
 
 
-def summarize(outcomes: list[Outcome], pack: Pack, inspector: InspectorInput | None) -> Summary:
+def _evaluation_fields(r: BlockResults) -> dict[str, Any]:
+    ev = r.evaluation
+    if ev is None:
+        return {}
+    return {
+        "score": ev.score,
+        "grade": ev.grade,
+        "evaluation_fails": ev.fails,
+        "evaluation_reasons": ev.reasons,
+    }
+
+
+def _sampled(r: BlockResults) -> bool:
+    """Sampled by the plan; without a plan, a block that carries checkpoints."""
+    return r.sampled if r.sampled is not None else r.summary.get("checkpoints", 0) > 0
+
+
+def decision(outcomes: list[Outcome], pack: Pack, plan: Plan | None) -> BatchDecision | None:
+    """§QE-5: the batch decision over the blocks inspected (None without acceptance)."""
+    if pack.acceptance is None:
+        return None
+    grades = [
+        BlockGrade(
+            block_id=r.block_id,
+            sampled=_sampled(r),
+            score=r.evaluation.score,
+            grade=r.evaluation.grade,
+            fails=r.evaluation.fails,
+            complete=r.evaluation.complete,
+            reasons=r.evaluation.reasons,
+        )
+        for o in outcomes
+        if (r := o.results) is not None and r.evaluation is not None
+    ]
+    return decide(grades, pack.acceptance, "plan" if plan else "checkpoints")
+
+
+def summarize(
+    outcomes: list[Outcome],
+    pack: Pack,
+    inspector: InspectorInput | None,
+    plan: Plan | None = None,
+) -> Summary:
     """summary.json of a batch: one entry per block, counts per rule, rejected deliveries."""
     blocks: list[BlockEntry] = []
     rejected: list[Rejected] = []
@@ -181,6 +236,8 @@ def summarize(outcomes: list[Outcome], pack: Pack, inspector: InspectorInput | N
         blocks=blocks,
         rules=rules,
         unreadable=rejected,
+        acceptance=decision(outcomes, pack, plan),
+        sampling=plan.model_dump(mode="json") if plan else None,
     )
 
 
@@ -204,6 +261,7 @@ def run(
     *,
     jobs: int = 1,
     progress: Callable[[Outcome], None] | None = None,
+    plan: Plan | None = None,
 ) -> tuple[list[Outcome], Summary | None]:
     """Inspect every delivery collected, writing its outputs as it goes; for a batch, the summary.
 
@@ -219,11 +277,11 @@ def run(
 
     for p, problem in got.refused.items():
         finished(Outcome(p, problems=[problem]))
-    _inspect_all(got, Job(pack, inspector, writer), jobs, finished)
+    _inspect_all(got, Job(pack, inspector, writer, plan), jobs, finished)
     outcomes = [done[p] for p in got.deliveries]
     summary = None
     if got.is_batch:
-        summary = summarize(outcomes, pack, inspector)
+        summary = summarize(outcomes, pack, inspector, plan)
         writer.summary(summary)
     return outcomes, summary
 

@@ -22,6 +22,7 @@ class LazyGroup(click.Group):
         "rfm-accuracy": "blockqc.rfm.command",
         "factors": "blockqc.analysis.command",
         "report": "blockqc.report.command",
+        "sample": "blockqc.acceptance.command",
     }
 
     def list_commands(self, ctx: click.Context) -> list[str]:
@@ -101,6 +102,12 @@ def cli() -> None:
     default=None,
     help="Progress bar for batches (default: when stderr is a terminal).",
 )
+@click.option(
+    "--plan",
+    "plan_file",
+    type=click.Path(path_type=Path),
+    help="Sampling plan (blockqc sample): detailed inspection on its sampled blocks only.",
+)
 def inspect_cmd(
     paths: tuple[Path, ...],
     rules_ref: str,
@@ -111,9 +118,11 @@ def inspect_cmd(
     pdf: bool,
     jobs: int,
     progress: bool | None,
+    plan_file: Path | None,
 ) -> int:
     """Inspect one delivery or a batch (a folder of deliveries) with a rule pack."""
     from blockqc import batch
+    from blockqc.acceptance.plan import check_blocks, load_plan
     from blockqc.inspector import load_inspector_input
     from blockqc.outputs import check_out_dir
     from blockqc.rules import load_pack
@@ -122,11 +131,21 @@ def inspect_cmd(
     pack = load_pack(rules_ref)
     inspector = load_inspector_input(verdicts) if verdicts else None
     got = batch.collect(paths)
+    plan = load_plan(plan_file) if plan_file else None
+    if plan is not None:
+        ids = [m.block_id for m in got.manifests.values()]
+        check_blocks(plan, plan_file, ids, got.is_batch)
     writer = batch.Writer(out, templates, lang, pdf)
     show = sys.stderr.isatty() if progress is None else progress
     with _progress(len(got.deliveries) if show else 0) as tick:
         outcomes, summary = batch.run(
-            got, pack, writer, inspector, jobs=jobs or os.cpu_count() or 1, progress=tick
+            got,
+            pack,
+            writer,
+            inspector,
+            jobs=jobs or os.cpu_count() or 1,
+            progress=tick,
+            plan=plan,
         )
     _closing_lines(outcomes, summary, out)
     return batch.exit_status(outcomes)

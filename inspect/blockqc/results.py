@@ -11,6 +11,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from blockqc.acceptance.model import BatchDecision, Evaluation
 from blockqc.errors import InputError, Problem
 from blockqc.rules.model import ElementDef
 
@@ -119,6 +120,9 @@ class BlockResults(_Model):
     scenes: list[dict[str, Any]] = Field(default_factory=list)
     results: list[RuleResult]
     measurements: list[MeasurementRecord] = Field(default_factory=list)
+    # §QE: whether a sampling plan picked the block for detailed inspection (None: no plan)
+    sampled: bool | None = None
+    evaluation: Evaluation | None = None  # §QE score and grade, when the pack has acceptance
 
     def measurement(self, key: str | None) -> MeasurementRecord | None:
         return next((m for m in self.measurements if m.key == key), None) if key else None
@@ -146,6 +150,10 @@ class BlockEntry(_Model):
     counts: dict[Status, int] = Field(default_factory=dict)
     # a sampled block's checkpoint statistics per component and method, with their status
     checkpoints: list[dict[str, Any]] = Field(default_factory=list)
+    score: float | None = None  # §QE evaluation of the block, when the pack has acceptance
+    grade: str | None = None
+    evaluation_fails: bool | None = None
+    evaluation_reasons: list[str] = Field(default_factory=list)
 
 
 class Rejected(_Model):
@@ -179,6 +187,8 @@ class Summary(_Model):
     blocks: list[BlockEntry] = Field(default_factory=list)
     rules: dict[str, dict[Status, int]] = Field(default_factory=dict)
     unreadable: list[Rejected] = Field(default_factory=list)
+    acceptance: BatchDecision | None = None  # §QE-5 batch decision
+    sampling: dict[str, Any] | None = None  # the sampling plan used, as read (§QE-1)
 
 
 def dump(model: BaseModel) -> dict[str, Any]:

@@ -12,6 +12,7 @@ from typing import Any
 
 from pydantic import ValidationError
 
+from blockqc.acceptance.model import Acceptance
 from blockqc.errors import Problem, RuleError
 from blockqc.metrics import REGISTRY
 from blockqc.resources import rules_dir
@@ -161,7 +162,7 @@ def load_pack(ref: str | Path) -> Pack:
     path = resolve_pack_path(ref)
     pf, constants, raw_rules, chain, disabled = _load_raw(path, ())
     elements = _elements(chain)
-    problems: list[Problem] = []
+    acceptance, problems = _acceptance(chain, elements, constants)
     rules: list[Rule] = []
     names = {**constants, **DELIVERY_NAMES}
     for rid, raw in raw_rules.items():
@@ -189,6 +190,7 @@ def load_pack(ref: str | Path) -> Pack:
         chain=chain,
         disabled=disabled,
         origin={rid: (r.file, r.line) for rid, r in raw_rules.items()},
+        acceptance=acceptance,
     )
 
 
@@ -226,6 +228,33 @@ def _elements(chain: list[str]) -> list[ElementDef]:
     return out
 
 
+def _acceptance(
+    chain: list[str], elements: list[ElementDef], constants: dict[str, Any]
+) -> tuple[Acceptance | None, list[Problem]]:
+    """§QE: each file's `acceptance:` merged from the root pack down, validated, weights checked."""
+    merged: dict[str, Any] | None = None
+    where, src = "", None
+    for file in reversed(chain):
+        data = load_yaml(Path(file), RuleError)
+        own = data.get("acceptance") if isinstance(data, dict) else None
+        if own is not None:
+            merged = _deep_merge(merged or {}, own)
+            where, src = file, data
+    if merged is None:
+        return None, []
+    try:
+        acc = Acceptance.model_validate(merged)
+    except ValidationError as exc:
+        return None, pydantic_problems(exc, Path(where), src, ("acceptance",))
+    known = {e.id for e in elements} | {i.id for e in elements for i in e.items}
+    problems = [
+        Problem(where, f"acceptance.weights: '{k}' is no element or item (known: {sorted(known)})")
+        for k in [*acc.weights.elements, *acc.weights.items]
+        if k not in known
+    ]
+    return acc, problems
+
+
 def _line(raw: _Raw, *loc: Any) -> int | None:
     if isinstance(raw.src, LineDict):
         return line_of(raw.src, loc) or raw.line
@@ -248,6 +277,11 @@ def _check_rule(rule: Rule, names: dict[str, Any], raw: _Raw) -> list[Problem]:
                     evaluate(expr, names)
                 except ExpressionError as exc:
                     bad(f"{'.'.join(loc)}.{key}: {exc}", *loc, key)
+    if rule.score is not None and isinstance(rule.score.norm, str):
+        try:
+            evaluate(rule.score.norm, names)
+        except ExpressionError as exc:
+            bad(f"score.norm: {exc}", "score", "norm")
     if rule.manual:
         return out
     spec = REGISTRY.get(rule.metric or "")
