@@ -14,6 +14,7 @@ from blockqc.acceptance.decision import decide
 from blockqc.acceptance.evaluate import evaluate_results
 from blockqc.acceptance.model import BatchDecision, BlockGrade
 from blockqc.acceptance.plan import Plan, apply_plan
+from blockqc.acceptance.scoring import a_class_errors
 from blockqc.delivery import MANIFEST, Manifest, find_deliveries, load_delivery, load_manifest
 from blockqc.engine import inspect_delivery
 from blockqc.errors import InputError, Problem
@@ -192,6 +193,12 @@ def decision(outcomes: list[Outcome], pack: Pack, plan: Plan | None) -> BatchDec
             fails=r.evaluation.fails,
             complete=r.evaluation.complete,
             reasons=r.evaluation.reasons,
+            a_errors=a_class_errors(r.evaluation),
+            low_elements=[
+                e.model_dump(include={"id", "title", "title_zh", "score"})
+                for e in r.evaluation.elements
+                if e.score is not None and e.score < pack.acceptance.element_fail_below
+            ],
         )
         for o in outcomes
         if (r := o.results) is not None and r.evaluation is not None

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
@@ -198,6 +198,8 @@ class BlockGrade(_M):
     fails: bool = False
     complete: bool = True
     reasons: list[str] = Field(default_factory=list)
+    a_errors: list[ErrorRecord] = Field(default_factory=list)  # the A-class errors, named
+    low_elements: list[dict[str, Any]] = Field(default_factory=list)  # id, titles, score
 
 
 class BatchDecision(_M):

@@ -179,6 +179,12 @@ def evaluate_block(
     return ev
 
 
+def a_class_errors(ev: Evaluation) -> list[ErrorRecord]:
+    """The block's A-class errors, each (rule, group) once."""
+    errors = [x for e in ev.elements for i in e.items for x in i.errors]
+    return [x for x in _unique(errors) if x.error_class == "A"]
+
+
 def _unique(errors: list[ErrorRecord]) -> list[ErrorRecord]:
     seen, out = set(), []
     for x in errors:

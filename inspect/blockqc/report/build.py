@@ -9,6 +9,14 @@ from __future__ import annotations
 
 from typing import Any
 
+from blockqc.report.acceptance import (
+    decision_context,
+    evaluation_context,
+    failed_items,
+    grade_text,
+    local_time,
+    name_only,
+)
 from blockqc.report.checkpoints import checkpoint_measurement, checkpoint_points, checkpoint_rows
 from blockqc.report.contents import content_rows
 from blockqc.report.figures import block_figures, scene_statuses
@@ -243,7 +251,7 @@ def _header(results: BlockResults, f: Formatter) -> dict[str, Any]:
         "verdict": results.verdict,
         "verdict_text": f.verdict(results.verdict),
         "inspector": results.inspector or t("not_given"),
-        "date": results.generated_at.replace("T", " ").replace("Z", " UTC"),
+        "date": local_time(results.generated_at),
         "counts_text": t(
             "counts_line",
             pass_=c.get("pass", 0),
@@ -290,6 +298,10 @@ def block_context(
         "failures": _failures(results, f),
         "figures": block_figures(results, f, scene_statuses(results)) if figures else NO_FIGURES,
         "pending": results.pending_manual,
+        "evaluation": evaluation_context(results.evaluation, f),
+        "failed_items": failed_items(results, f),
+        "delivery_name": name_only(results.delivery),
+        "pack_files": ", ".join(name_only(p) for p in results.rule_pack_files) or "–",
     }
 
 
@@ -299,6 +311,8 @@ def _summary_block(b: Any, f: Formatter, pdf: bool) -> dict[str, Any]:
         "verdict_text": f.verdict(b.verdict),
         "pdf": b.report[: -len(".html")] + ".pdf" if pdf and b.report.endswith(".html") else None,
         "sampled_text": f.num(b.sampled),
+        "score_text": f.num(b.score, 1) if b.score is not None else "–",
+        "grade_text": grade_text(f, b.grade),
         "failed": ", ".join(b.failed_rules),
         "warned": ", ".join(b.warned_rules),
         "pending": ", ".join(b.pending_manual),
@@ -340,7 +354,7 @@ def summary_context(
         "verdict": summary.verdict,
         "verdict_text": f.verdict(summary.verdict),
         "inspector": summary.inspector or t("not_given"),
-        "date": summary.generated_at.replace("T", " ").replace("Z", " UTC"),
+        "date": local_time(summary.generated_at),
         "counts_text": t(
             "batch_counts",
             blocks=c.blocks,
@@ -357,6 +371,7 @@ def summary_context(
             for rid, cnt in summary.rules.items()
         ],
         "unreadable": [u.model_dump() for u in summary.unreadable],
+        "acceptance": decision_context(summary, f),
     }
 
 

@@ -281,6 +281,75 @@ MESSAGES: dict[str, tuple[str, str]] = {
 }
 
 
+# --- quality evaluation and acceptance (§QE)
+MESSAGES.update(
+    {
+        "sec_evaluation": ("Quality evaluation", "质量评价"),
+        "sec_evaluation_intro": (
+            "Scores after {standard}: mathematical accuracy against its norm, other items by "
+            "deduction for their errors of classes B, C and D, rolled up by the pack's weights.",
+            "依据 {standard} 评分：数学精度按规定中误差计分，其余质量子元素按 B、C、D 类错漏扣分，"
+            "按规则包权重汇总。",
+        ),
+        "score": ("Score", "得分"),
+        "grade": ("Grade", "质量等级"),
+        "score_grade": ("Quality score and grade", "质量得分与等级"),
+        "weight": ("Weight", "权"),
+        "errors_by_class": ("Errors by class", "错漏统计"),
+        "error_class": ("Class", "错漏类别"),
+        "deduction": ("Deduction", "扣分"),
+        "accuracy_scores": ("Accuracy m/m0 → score", "精度 m/m0 → 得分"),
+        "element_item": ("Quality element / item", "质量元素 / 子元素"),
+        "not_inspected": ("not inspected", "未检查"),
+        "err_beyond_norm": ("beyond the norm", "超过规定中误差"),
+        "err_fails": ("fails its threshold", "超出限值"),
+        "err_beyond_norm_p": ("(beyond the norm)", "（超过规定中误差）"),
+        "err_fails_p": ("(fails its threshold)", "（超出限值）"),
+        "a_class_error": ("A-class error", "A 类错漏"),
+        "plan_no_cps": (
+            "sampled for detailed inspection, but the delivery has no checkpoints: "
+            "the detailed inspection is incomplete",
+            "已抽为详查样本，但成果中没有检查点：详查不完整",
+        ),
+        "awaiting_on": ("awaiting the inspector's verdict on", "等待检查员判定："),
+        "element_below": ("{name} scores {score} (below 60)", "{name}得分 {score}（低于 60 分）"),
+        "evaluation_fails": ("The block fails", "单位成果不合格"),
+        "evaluation_incomplete": ("The evaluation is not final", "评价尚不完整"),
+        "grade_excellent": ("Excellent", "优"),
+        "grade_good": ("Good", "良"),
+        "grade_pass": ("Pass", "合格"),
+        "grade_fail": ("Fail", "不合格"),
+        "decision_pass": ("Accepted (pass)", "批成果合格"),
+        "decision_fail": ("Rejected (fail)", "批成果不合格"),
+        "decision_incomplete": ("Not decided: the sample is incomplete", "未判定：样本检查不完整"),
+        "sec_decision": ("Batch decision", "批成果质量判定"),
+        "decision": ("Decision", "判定结论"),
+        "sample": ("Sample", "样本"),
+        "sample_by_plan": ("drawn by the sampling plan", "按抽样方案抽取"),
+        "sample_by_cps": (
+            "the blocks that carry checkpoints (no sampling plan given)",
+            "带检查点的区域网（未给出抽样方案）",
+        ),
+        "mean_score": ("Mean score of the sample", "样本平均得分"),
+        "sample_grade": ("Grade of the sample", "样本质量等级"),
+        "batch_grade": ("Batch grade", "批成果质量等级"),
+        "shares": (
+            "{better} % good or better, {top} % excellent",
+            "良级及以上 {better}%，优级 {top}%",
+        ),
+        "failing_sampled": ("Sampled blocks that fail", "不合格的样本单位"),
+        "returned": (
+            "Blocks failing the general inspection, returned for correction",
+            "概查不合格、退回修改的区域网",
+        ),
+        "incomplete_blocks": ("Sampled blocks not fully evaluated", "评价不完整的样本单位"),
+        "reasons": ("Reasons", "原因"),
+        "failed_items": ("Failed items", "不合格项"),
+        "failed_items_none": ("No item failed.", "无不合格项。"),
+    }
+)
+
+
 def translator(lang: str) -> Callable[..., str]:
     """`t(key, **values)`: the label in `lang`, formatted; unknown keys are a defect, loudly."""
     if lang not in LANGUAGES:
