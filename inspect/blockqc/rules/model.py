@@ -20,6 +20,7 @@ SCOPES = (
     "observation",
     "component",
     "component_method",
+    "axis",
     "reference",
     "document",
     "figure",
