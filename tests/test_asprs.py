@@ -67,4 +67,4 @@ def test_asprs_pack_on_sample_delivery() -> None:
     assert comp["vertical"]["accuracy95_m"] == pytest.approx(h["acc_v95"], rel=1e-12)
     assert comp["horizontal"]["ce90_m"] == pytest.approx(h["ce90"], rel=1e-12)
     assert comp["horizontal"]["axis_ratio"] == pytest.approx(h["ratio"], rel=1e-12)
-    assert res.verdict == "pass" and res.evaluation is None  # ASPRS grades no blocks
+    assert res.verdict == "pass" and pack.acceptance is None  # ASPRS grades no blocks

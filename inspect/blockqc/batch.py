@@ -12,7 +12,7 @@ from typing import Any
 from blockqc import __version__
 from blockqc.acceptance.decision import decide
 from blockqc.acceptance.evaluate import evaluate_results
-from blockqc.acceptance.model import BatchDecision, BlockGrade
+from blockqc.acceptance.model import BatchDecision, BlockGrade, ReportMeta
 from blockqc.acceptance.plan import Plan, apply_plan
 from blockqc.acceptance.scoring import a_class_errors
 from blockqc.delivery import MANIFEST, Manifest, find_deliveries, load_delivery, load_manifest
@@ -211,6 +211,7 @@ def summarize(
     pack: Pack,
     inspector: InspectorInput | None,
     plan: Plan | None = None,
+    meta: ReportMeta | None = None,
 ) -> Summary:
     """summary.json of a batch: one entry per block, counts per rule, rejected deliveries."""
     blocks: list[BlockEntry] = []
@@ -245,7 +246,23 @@ def summarize(
         unreadable=rejected,
         acceptance=decision(outcomes, pack, plan),
         sampling=plan.model_dump(mode="json") if plan else None,
+        meta=_meta(meta, pack),
+        elements=pack.elements,
+        sampling_table=[r.model_dump() for r in pack.acceptance.sampling.table]
+        if pack.acceptance
+        else [],
     )
+
+
+def _meta(meta: ReportMeta | None, pack: Pack) -> ReportMeta | None:
+    """The report's particulars with the pack's inspection basis where the file gives none."""
+    if pack.acceptance is None and meta is None:
+        return None
+    meta = (meta or ReportMeta()).model_copy()
+    if pack.acceptance is not None:
+        meta.basis = meta.basis or list(pack.acceptance.basis)
+        meta.basis_zh = meta.basis_zh or list(pack.acceptance.basis_zh)
+    return meta
 
 
 def _inspect_all(got: Collected, job: Job, jobs: int, finished: Callable[[Outcome], None]) -> None:
@@ -269,6 +286,7 @@ def run(
     jobs: int = 1,
     progress: Callable[[Outcome], None] | None = None,
     plan: Plan | None = None,
+    meta: ReportMeta | None = None,
 ) -> tuple[list[Outcome], Summary | None]:
     """Inspect every delivery collected, writing its outputs as it goes; for a batch, the summary.
 
@@ -288,7 +306,7 @@ def run(
     outcomes = [done[p] for p in got.deliveries]
     summary = None
     if got.is_batch:
-        summary = summarize(outcomes, pack, inspector, plan)
+        summary = summarize(outcomes, pack, inspector, plan, meta)
         writer.summary(summary)
     return outcomes, summary
 

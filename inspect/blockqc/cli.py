@@ -108,6 +108,12 @@ def cli() -> None:
     type=click.Path(path_type=Path),
     help="Sampling plan (blockqc sample): detailed inspection on its sampled blocks only.",
 )
+@click.option(
+    "--meta",
+    "meta_file",
+    type=click.Path(path_type=Path),
+    help="The filed report's particulars: report number, project, producer, basis, signatures.",
+)
 def inspect_cmd(
     paths: tuple[Path, ...],
     rules_ref: str,
@@ -119,10 +125,11 @@ def inspect_cmd(
     jobs: int,
     progress: bool | None,
     plan_file: Path | None,
+    meta_file: Path | None,
 ) -> int:
     """Inspect one delivery or a batch (a folder of deliveries) with a rule pack."""
     from blockqc import batch
-    from blockqc.acceptance.plan import check_blocks, load_plan
+    from blockqc.acceptance.plan import check_blocks, load_meta, load_plan
     from blockqc.inspector import load_inspector_input
     from blockqc.outputs import check_out_dir
     from blockqc.rules import load_pack
@@ -132,6 +139,7 @@ def inspect_cmd(
     inspector = load_inspector_input(verdicts) if verdicts else None
     got = batch.collect(paths)
     plan = load_plan(plan_file) if plan_file else None
+    meta = load_meta(meta_file) if meta_file else None
     if plan is not None:
         ids = [m.block_id for m in got.manifests.values()]
         check_blocks(plan, plan_file, ids, got.is_batch)
@@ -146,6 +154,7 @@ def inspect_cmd(
             jobs=jobs or os.cpu_count() or 1,
             progress=tick,
             plan=plan,
+            meta=meta,
         )
     _closing_lines(outcomes, summary, out)
     return batch.exit_status(outcomes)

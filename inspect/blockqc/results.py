@@ -11,7 +11,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from blockqc.acceptance.model import BatchDecision, Evaluation
+from blockqc.acceptance.model import BatchDecision, Evaluation, ReportMeta
 from blockqc.errors import InputError, Problem
 from blockqc.rules.model import ElementDef
 
@@ -189,6 +189,9 @@ class Summary(_Model):
     unreadable: list[Rejected] = Field(default_factory=list)
     acceptance: BatchDecision | None = None  # §QE-5 batch decision
     sampling: dict[str, Any] | None = None  # the sampling plan used, as read (§QE-1)
+    meta: ReportMeta | None = None  # the filed report's particulars (--meta), basis filled in
+    elements: list[ElementDef] = Field(default_factory=list)  # the pack's inspection contents
+    sampling_table: list[dict[str, int]] = Field(default_factory=list)  # the pack's §QE-1 table
 
 
 def dump(model: BaseModel) -> dict[str, Any]:

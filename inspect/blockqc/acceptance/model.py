@@ -218,3 +218,23 @@ class BatchDecision(_M):
     decision: Literal["pass", "fail", "incomplete"] = "incomplete"
     returned: list[BlockGrade] = Field(default_factory=list)  # unsampled blocks that fail
     blocks: list[BlockGrade] = Field(default_factory=list)
+
+
+class ReportMeta(_M):
+    """The filed report's particulars (§QE-6) from `--meta FILE`; basis: the pack's by default."""
+
+    report_number: str = ""
+    project: str = ""
+    project_zh: str = ""
+    producer: str = ""
+    producer_zh: str = ""
+    inspection_unit: str = ""  # who inspects (the inspection centre)
+    inspection_unit_zh: str = ""
+    basis: list[str] = Field(default_factory=list)
+    basis_zh: list[str] = Field(default_factory=list)
+    handling: str = ""  # how the main problems were handled
+    handling_zh: str = ""
+    prepared: str = ""
+    reviewed: str = ""
+    approved: str = ""
+    annexes: list[str] = Field(default_factory=list)

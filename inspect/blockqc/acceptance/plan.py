@@ -12,6 +12,7 @@ from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from blockqc.acceptance.model import ReportMeta
 from blockqc.acceptance.sampling import Lot
 from blockqc.errors import InputError, Problem
 from blockqc.results import STATUSES, BlockResults
@@ -149,3 +150,16 @@ def _recount(results: BlockResults) -> None:
         counts[r.status] += 1
     results.counts = counts
     results.verdict = "error" if counts["error"] else "fail" if counts["fail"] else "pass"
+
+
+def load_meta(path: Path) -> ReportMeta:
+    """Read the filed report's particulars; InputError names the file, line and key."""
+    data = load_yaml(path)
+    if not isinstance(data, dict):
+        raise InputError(
+            Problem(str(path), "expected a mapping (report_number, project, …)", line=1)
+        )
+    try:
+        return ReportMeta.model_validate(data)
+    except ValidationError as exc:
+        raise InputError(pydantic_problems(exc, path, data)) from None

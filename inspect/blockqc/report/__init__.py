@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from blockqc.outputs import write_bytes_atomic, write_text_atomic
+from blockqc.report.acceptance import filed_context
 from blockqc.report.build import block_context, summary_context
 from blockqc.report.checkpoints import checkpoint_rows
 from blockqc.report.exports import checkpoints_csv, evidence_csv
@@ -62,14 +63,19 @@ def write_summary_report(
     summary = Summary.model_validate(summary)
     env = environment(templates)
     ctx = summary_context(summary, lang, pdf=pdf)
-    write_text_atomic(out / "summary.html", render_page("summary.html.j2", ctx, env))
-    written = [out / "summary.html"]
-    if pdf:
-        from blockqc.report.pdf import html_to_pdf
+    pages = [("summary", "summary.html.j2", ctx)]
+    if summary.acceptance is not None:
+        pages.append(("acceptance", "acceptance.html.j2", filed_context(summary, lang)))
+    written = []
+    for name, template, context in pages:
+        write_text_atomic(out / f"{name}.html", render_page(template, context, env))
+        written.append(out / f"{name}.html")
+        if pdf:
+            from blockqc.report.pdf import html_to_pdf
 
-        data = html_to_pdf(render_page("summary.html.j2", ctx, env, for_pdf=True), out)
-        write_bytes_atomic(out / "summary.pdf", data)
-        written.append(out / "summary.pdf")
+            data = html_to_pdf(render_page(template, context, env, for_pdf=True), out)
+            write_bytes_atomic(out / f"{name}.pdf", data)
+            written.append(out / f"{name}.pdf")
     return written
 
 

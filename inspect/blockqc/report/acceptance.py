@@ -208,3 +208,82 @@ def reason_text(reason: str, f: Formatter) -> str:
     ):
         reason = reason.replace(en, f.t(key))
     return reason
+
+
+def _sampling_rows(s: Summary, f: Formatter) -> list[dict[str, Any]]:
+    """The plan's lots and strata (§QE-1), one row per stratum."""
+    plan = s.sampling or {}
+    rows = []
+    for i, lot in enumerate(plan.get("lots", []), 1):
+        for st in lot["strata"]:
+            rows.append(
+                {
+                    "lot": i,
+                    "lot_size": lot["size"],
+                    "lot_sample": lot["sample_size"],
+                    "census": f.num(bool(lot["census"])),
+                    "stratum": st["value"] or "–",
+                    "size": st["size"],
+                    "sample": st["sample"],
+                    "sampled": ", ".join(st["sampled"]) or "–",
+                }
+            )
+    return rows
+
+
+def _contents(s: Summary, f: Formatter) -> list[dict[str, Any]]:
+    """Inspection contents and methods: the pack's elements, items and how each is checked."""
+    return [
+        {
+            "element": f.pick(e.title, e.title_zh),
+            "item": f.pick(i.title, i.title_zh),
+            "contents": "、".join(f.pick(c.title, c.title_zh) for c in i.contents)
+            if f.lang == "zh"
+            else "; ".join(c.title for c in i.contents),
+            "method": f.pick(i.method, i.method_zh),
+        }
+        for e in s.elements
+        for i in e.items
+    ]
+
+
+def _grade_counts(s: Summary, f: Formatter) -> str:
+    counts: dict[str, int] = {}
+    for b in s.blocks:
+        if b.grade:
+            counts[b.grade] = counts.get(b.grade, 0) + 1
+    sep = "，" if f.lang == "zh" else ", "
+    return sep.join(f"{grade_text(f, g)} {n}" for g, n in counts.items()) or "–"
+
+
+def filed_context(s: Summary, lang: str) -> dict[str, Any]:
+    """Everything acceptance.html.j2 shows: the batch acceptance report as a filed document."""
+    f = Formatter(lang)
+    meta = s.meta
+    d = decision_context(s, f)
+    return {
+        "t": f.t,
+        "f": f,
+        "lang": lang,
+        "s": s,
+        "m": meta,
+        "project": f.pick(meta.project, meta.project_zh) if meta else "",
+        "producer": f.pick(meta.producer, meta.producer_zh) if meta else "",
+        "unit": f.pick(meta.inspection_unit, meta.inspection_unit_zh) if meta else "",
+        "basis": (meta.basis_zh or meta.basis)
+        if meta and lang == "zh"
+        else (meta.basis if meta else []),
+        "handling": (f.pick(meta.handling, meta.handling_zh) if meta else "")
+        or f.t("handling_default"),
+        "date": local_time(s.generated_at),
+        "inspector": s.inspector or f.t("not_given"),
+        "colon": "：" if lang == "zh" else ": ",
+        "method": f._key("sampling_method", (s.sampling or {}).get("method", "").replace(" ", "_")),
+        "d": d,
+        "sampling_rows": _sampling_rows(s, f),
+        "plan": s.sampling,
+        "table": s.sampling_table,
+        "contents": _contents(s, f),
+        "grade_counts": _grade_counts(s, f),
+        "annexes": [f"{b.block_id}/report.html" for b in s.blocks] + (meta.annexes if meta else []),
+    }
