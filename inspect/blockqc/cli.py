@@ -271,15 +271,21 @@ def rules_list(rules_ref: str, markdown: bool) -> None:
     pack = load_pack(rules_ref)
     if markdown:
         click.echo(f"# Rule pack `{pack.name}` {pack.version}\n\n{pack.description.strip()}\n")
-        click.echo("| id | clause | title | measured | threshold | severity |")
-        click.echo("| --- | --- | --- | --- | --- | --- |")
+        click.echo("| id | clause | title | measured | threshold | unit | severity | waivable |")
+        click.echo("| --- | --- | --- | --- | --- | --- | --- | --- |")
     for r in pack.rules:
         what = f"{r.metric}.{r.scope}.{r.statistic}" if not r.manual else "manual"
         th = _threshold_text(r, pack.constants)
+        waive = "waivable" if r.waivable else ""
         if markdown:
-            click.echo(f"| {r.id} | {r.clause} | {r.title} | `{what}` | {th} | {r.severity} |")
+            click.echo(
+                f"| {r.id} | {r.clause} | {r.title} | `{what}` | {th} | {r.unit} | {r.severity} "
+                f"| {'yes' if r.waivable else 'no'} |"
+            )
         else:
-            click.echo(f"{r.id:7} {r.clause:8} {r.severity:5} {th:28} {r.title}")
+            click.echo(
+                f"{r.id:7} {r.clause:10} {r.severity:5} {th:28} {r.unit:9} {waive:8} {r.title}"
+            )
     if pack.disabled and not markdown:
         click.echo(f"disabled: {', '.join(pack.disabled)}")
 
@@ -295,8 +301,8 @@ def rules_explain(rule_id: str, rules_ref: str) -> None:
 
     pack = load_pack(rules_ref)
     try:
-        r = pack.rule(rule_id)
-    except KeyError:
+        r = next(x for x in pack.rules if x.id.lower() == rule_id.lower())
+    except StopIteration:
         raise RuleError(
             f"no rule {rule_id} in pack {pack.name} (rules: {', '.join(x.id for x in pack.rules)})",
             file=rules_ref,
@@ -304,7 +310,15 @@ def rules_explain(rule_id: str, rules_ref: str) -> None:
     file, line = pack.origin.get(r.id, ("", None))
     click.echo(f"{r.id} — {r.title}  ({r.clause})")
     click.echo(f"  pack:      {pack.name} {pack.version}; defined in {file}, line {line}")
+    click.echo(f"  implements clause {r.clause} of the domain reference (rule id {r.id})")
     click.echo(f"  severity:  {r.severity}{'; waivable' if r.waivable else ''}")
+    if pack.acceptance is not None:
+        cls = r.error_class or pack.acceptance.default_error_class
+        acc = r.score is not None and r.score.kind == "accuracy"
+        click.echo(
+            f"  class:     {cls}"
+            + (f"; scored as accuracy against {r.score.norm or 'its threshold'}" if acc else "")
+        )
     if r.manual:
         click.echo("  judged by: the inspector's verdict (--verdicts file)")
     else:
