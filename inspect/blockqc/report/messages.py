@@ -284,6 +284,8 @@ MESSAGES: dict[str, tuple[str, str]] = {
 # --- quality evaluation and acceptance (§QE)
 MESSAGES.update(
     {
+        "val_ellipsoidal": ("ellipsoidal", "椭球高"),
+        "val_WGS84": ("WGS84", "WGS-84"),
         "sec_evaluation": ("Quality evaluation", "质量评价"),
         "sec_evaluation_intro": (
             "Scores after {standard}: mathematical accuracy against its norm, other items by "
