@@ -177,6 +177,7 @@ class Evaluation(_M):
     """A block's quality evaluation (§QE-2..5): score, grade, and why it fails."""
 
     standard: str = ""
+    standard_zh: str = ""
     score: float | None = None
     grade: str | None = None  # a grade id of the pack (e.g. excellent … fail)
     grade_title: str = ""

@@ -166,6 +166,7 @@ def evaluate_block(
     grade = acc.fail_grade if fails else acc.grade(score) if score is not None else None
     ev = Evaluation(
         standard=acc.standard,
+        standard_zh=acc.standard_zh,
         score=None if score is None else round(score, 6),
         grade=grade.id if grade else None,
         grade_title=grade.title if grade else "",

@@ -94,7 +94,7 @@ def evaluation_context(ev: Evaluation | None, f: Formatter) -> dict[str, Any] | 
             and e.score < 60
         ],
         "notes": [r for r in ev.reasons if not r.startswith(("A-class", "element "))],
-        "standard": ev.standard,
+        "standard": f.pick(ev.standard, ev.standard_zh),
     }
 
 

@@ -17,7 +17,13 @@ from blockqc.report.acceptance import (
     local_time,
     name_only,
 )
-from blockqc.report.checkpoints import checkpoint_measurement, checkpoint_points, checkpoint_rows
+from blockqc.report.checkpoints import (
+    axis_statistics,
+    checkpoint_measurement,
+    checkpoint_points,
+    checkpoint_rows,
+    failed_criteria,
+)
 from blockqc.report.contents import content_rows
 from blockqc.report.figures import block_figures, scene_statuses
 from blockqc.report.format import Formatter
@@ -115,6 +121,24 @@ def _cp_stat_rows(f: Formatter, cols: list[dict[str, Any]]) -> list[tuple[str, l
     ]
 
 
+def _axis_rows(
+    f: Formatter, cols: list[dict[str, Any]], axes: dict, failed: dict
+) -> list[tuple[str, list[str]]]:
+    """Mean (bias), standard deviation and RMS per axis, and the criterion that failed."""
+    names = {"dx_m": "dx", "dy_m": "dy", "dz_m": "dz"}
+    out = []
+    for axis in ("dx_m", "dy_m", "dz_m"):
+        got = [axes.get((s["component"], s["method"]), {}).get(axis) for s in cols]
+        if not any(got):
+            continue
+        for stat in ("mean", "std", "rms"):
+            label = f"{f.t('axis_' + stat)} {names[axis]} (m)"
+            out.append((label, [f.num(g[stat], 2) if g else "–" for g in got]))
+    crit = [failed.get((s["component"], s["method"]), []) for s in cols]
+    out.append((f.t("failed_criterion"), [", ".join(f.column(c) for c in x) or "–" for x in crit]))
+    return out
+
+
 def _agreement(f: Formatter, a: dict[str, Any]) -> dict[str, Any]:
     return {
         "methods": " / ".join(f.method(m) for m in a.get("methods", [])),
@@ -129,6 +153,7 @@ def _checkpoint_tables(results: BlockResults, f: Formatter) -> list[dict[str, An
     """The published layout: one column per method, statistics in rows, per component."""
     stats = checkpoint_rows(results)
     m = checkpoint_measurement(results)
+    axes, failed = axis_statistics(results), failed_criteria(results)
     agreement = (m.detail.get("agreement") if m else None) or []
     tables = []
     for component in dict.fromkeys(s["component"] for s in stats):
@@ -138,7 +163,7 @@ def _checkpoint_tables(results: BlockResults, f: Formatter) -> list[dict[str, An
                 "component": f.component(component),
                 "key": component,
                 "methods": [f.method(s["method"]) for s in cols],
-                "rows": _cp_stat_rows(f, cols),
+                "rows": _cp_stat_rows(f, cols) + _axis_rows(f, cols, axes, failed),
                 "statuses": [(s["status"], f.status(s["status"])) for s in cols],
                 "any_mean": any(bool(s.get("used_mean")) for s in cols),
                 "agreement": [
@@ -299,6 +324,8 @@ def block_context(
         "figures": block_figures(results, f, scene_statuses(results)) if figures else NO_FIGURES,
         "pending": results.pending_manual,
         "evaluation": evaluation_context(results.evaluation, f),
+        "colon": "：" if lang == "zh" else ": ",
+        "sep": "；" if lang == "zh" else "; ",
         "failed_items": failed_items(results, f),
         "delivery_name": name_only(results.delivery),
         "pack_files": ", ".join(name_only(p) for p in results.rule_pack_files) or "–",

@@ -285,6 +285,23 @@ MESSAGES: dict[str, tuple[str, str]] = {
 MESSAGES.update(
     {
         "val_ellipsoidal": ("ellipsoidal", "椭球高"),
+        "col_x_m": ("Easting x (m)", "东坐标 x（m）"),
+        "col_y_m": ("Northing y (m)", "北坐标 y（m）"),
+        "col_z_m": ("Height z (m)", "高程 z（m）"),
+        "col_line": ("Line (px)", "行（像素）"),
+        "col_sample": ("Sample (px)", "列（像素）"),
+        "col_v_line": ("v line (px)", "行残差（像素）"),
+        "col_v_sample": ("v sample (px)", "列残差（像素）"),
+        "col_error_px": ("Error (px)", "误差（像素）"),
+        "agreement_rule": (
+            "Criterion: the methods agree when their medium errors are on the same side of the "
+            "norm (all within it, or all beyond it).",
+            "判据：各方法的中误差均不超过或均超过规定中误差时，视为一致。",
+        ),
+        "axis_mean": ("Mean (bias)", "平均值（系统偏差）"),
+        "axis_std": ("Standard deviation", "标准差"),
+        "axis_rms": ("RMS", "均方根"),
+        "failed_criterion": ("Criterion failed", "不合格的指标"),
         "val_WGS84": ("WGS84", "WGS-84"),
         "sec_evaluation": ("Quality evaluation", "质量评价"),
         "sec_evaluation_intro": (
