@@ -1,4 +1,4 @@
-"""rules list shows units and waivable rules; rules explain is case-insensitive and names clauses."""
+"""rules list: units, waivable rules; rules explain: case-insensitive, names its clause."""
 
 from __future__ import annotations
 
