@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import pytest
 import yaml
 
 from casekit import run_blockqc, write_delivery
@@ -111,3 +112,46 @@ def test_inspect_plan_refuses_a_block_outside_it(tmp_path: Path) -> None:
     (tmp_path / "plan.yaml").write_text(yaml.safe_dump(plan))
     r = run_blockqc("inspect", batch, "--plan", tmp_path / "plan.yaml", "--out", tmp_path / "o")
     assert r.returncode == 2 and "block B01 is not in the plan's batch" in r.stderr
+
+
+def _manifests(root: Path, n: int) -> Path:
+    """n block folders holding a block.yaml only (all `blockqc sample` reads); 3 producers."""
+    for i in range(n):
+        d = root / f"G{i:04d}"
+        d.mkdir(parents=True)
+        doc = {"block_id": f"G{i:04d}", "gsd_m": {"pan": 1.0}, "producer": f"P{i % 3}"}
+        (d / "block.yaml").write_text(yaml.safe_dump(doc))
+    return root
+
+
+@pytest.mark.parametrize(("n", "expected"), [(8, 3), (150, 13), (700, 56)])
+def test_sample_generated_batches(tmp_path: Path, n: int, expected: int) -> None:
+    batch = _manifests(tmp_path / "b", n)
+    plans = []
+    for name in ("a", "b"):
+        r = run_blockqc(
+            "sample",
+            batch,
+            "--seed",
+            2026,
+            "--strata",
+            "producer",
+            "--out",
+            tmp_path / f"{name}.yaml",
+        )
+        assert r.returncode == 0, r.stderr
+        plans.append(yaml.safe_load((tmp_path / f"{name}.yaml").read_text()))
+    assert plans[0]["sampled"] == plans[1]["sampled"]  # one seed, one sample
+    assert len(plans[0]["sampled"]) == expected
+    strata = plans[0]["lots"][0]["strata"]
+    for s in strata:  # proportional: within one unit of n·N_h/N
+        assert abs(s["sample"] - expected * s["size"] / n) < 1
+        assert all(u in s["units"] for u in s["sampled"])
+
+
+def test_bad_plan_file_is_named(tmp_path: Path) -> None:
+    batch = _batch(tmp_path / "batch", 1)
+    (tmp_path / "plan.yaml").write_text("seed: x\nunits: 1\n")
+    r = run_blockqc("inspect", batch, "--plan", tmp_path / "plan.yaml", "--out", tmp_path / "o")
+    assert r.returncode == 2
+    assert "plan.yaml" in r.stderr and "seed" in r.stderr and "Traceback" not in r.stderr
