@@ -285,6 +285,11 @@ MESSAGES: dict[str, tuple[str, str]] = {
 MESSAGES.update(
     {
         "val_ellipsoidal": ("ellipsoidal", "椭球高"),
+        "fig_overlap_map": (
+            "Adjacent-image discrepancies per scene pair\n"
+            "mean vector (longest {m} m), RMS in m; red: a discrepancy fails",
+            "相邻影像各像对接边差\n平均差值矢量（最长 {m} m），旁注均方根（m）；红色：存在超限",
+        ),
         "col_x_m": ("Easting x (m)", "东坐标 x（m）"),
         "col_y_m": ("Northing y (m)", "北坐标 y（m）"),
         "col_z_m": ("Height z (m)", "高程 z（m）"),
