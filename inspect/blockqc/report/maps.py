@@ -108,3 +108,70 @@ def overlap_map(results: BlockResults, f: Formatter) -> str | None:
     ax.ticklabel_format(useOffset=False, style="plain")
     ax.set_title(f.t("fig_overlap_map", m=f"{biggest:.1f}"))
     return plots._svg(fig, "overlap-map")
+
+
+def _corners(results: BlockResults) -> dict[str, np.ndarray]:
+    """Each scene's image corners (0,0), (0,S), (L,S), (L,0) in lon/lat: its footprint's first four
+    vertices (contract v1 extension)."""
+    from shapely import wkt
+    from shapely.errors import ShapelyError
+
+    out = {}
+    for s in results.scenes:
+        try:
+            xy = np.asarray(wkt.loads(s["footprint_wkt"]).exterior.coords)[:4, :2]
+        except (ShapelyError, TypeError, KeyError, ValueError, AttributeError):
+            continue
+        if xy.shape == (4, 2):
+            out[str(s["scene_id"])] = xy
+    return out
+
+
+def residual_vectors(cells: list[dict[str, Any]], corners: dict[str, np.ndarray]) -> np.ndarray:
+    """Per cell: position (lon, lat) and mean residual direction on the ground (dlon, dlat),
+    by the bilinear map of the image corners: P(u, w) = Σ corner weights; d = ∂P/∂u·v_l/L + …
+    (only the direction is drawn, so L and S cancel to the fractions used here)."""
+    rows = [c for c in cells if str(c["scene_id"]) in corners]
+    if not rows:
+        return np.empty((0, 4))
+    c = np.stack([corners[str(r["scene_id"])] for r in rows])  # (n, 4, 2)
+    u = np.array([r["u"] for r in rows])[:, None]
+    w = np.array([r["w"] for r in rows])[:, None]
+    p = (
+        (1 - u) * (1 - w) * c[:, 0]
+        + (1 - u) * w * c[:, 1]
+        + u * w * c[:, 2]
+        + u * (1 - w) * c[:, 3]
+    )
+    du = (1 - w) * (c[:, 3] - c[:, 0]) + w * (c[:, 2] - c[:, 1])
+    dw = (1 - u) * (c[:, 1] - c[:, 0]) + u * (c[:, 2] - c[:, 3])
+    vl = np.array([r["v_line"] for r in rows])[:, None]
+    vs = np.array([r["v_sample"] for r in rows])[:, None]
+    size = np.hypot(vl, vs)
+    d = du * vl + dw * vs
+    norm = np.hypot(d[:, 0], d[:, 1])[:, None]
+    d = np.where(norm > 0, d / np.where(norm > 0, norm, 1) * size, 0.0)
+    return np.hstack([p, d])
+
+
+def residual_map(results: BlockResults, f: Formatter) -> str | None:
+    """Mean tie-point residual vectors per scene cell over the block's footprints (SVG)."""
+    m = next((x for x in results.measurements if x.metric == "tie_point_errors"), None)
+    cells = (m.detail.get("residual_cells") if m else None) or []
+    v = residual_vectors(cells, _corners(results))
+    if not len(v):
+        return None
+    fig, ax = plots._figure(4.4, 5.6)
+    span = max(float(np.ptp(v[:, 0])), float(np.ptp(v[:, 1])), 1e-3)
+    biggest = float(np.max(np.hypot(v[:, 2], v[:, 3]))) or 1.0
+    scale = 0.04 * span / biggest
+    ax.quiver(
+        v[:, 0], v[:, 1], v[:, 2] * scale, v[:, 3] * scale, angles="xy", scale_units="xy",
+        scale=1, width=0.003, color="#1f4e99",
+    )  # fmt: skip
+    ax.set_aspect(1 / max(math.cos(math.radians(float(v[:, 1].mean()))), 0.05))
+    ax.set_xlabel(f.t("ax_lon"))
+    ax.set_ylabel(f.t("ax_lat"))
+    ax.ticklabel_format(useOffset=False, style="plain")
+    ax.set_title(f.t("fig_residual_map", px=f"{biggest:.2f}"))
+    return plots._svg(fig, "residual-map")

@@ -285,6 +285,11 @@ MESSAGES: dict[str, tuple[str, str]] = {
 MESSAGES.update(
     {
         "val_ellipsoidal": ("ellipsoidal", "椭球高"),
+        "fig_residual_map": (
+            "Tie-point residuals: mean vector per scene and cell of a 4×4 grid\n"
+            "(longest {px} px; direction on the ground)",
+            "连接点残差：各影像 4×4 格网内平均残差矢量\n（最长 {px} 像素；地面方向）",
+        ),
         "fig_overlap_map": (
             "Adjacent-image discrepancies per scene pair\n"
             "mean vector (longest {m} m), RMS in m; red: a discrepancy fails",
