@@ -84,6 +84,7 @@ def inspect_one(
     inspector: InspectorInput | None,
     manifest: Manifest | None = None,
     plan: Plan | None = None,
+    meta: ReportMeta | None = None,
 ) -> Outcome:
     try:
         delivery = load_delivery(path, manifest=manifest)
@@ -96,6 +97,7 @@ def inspect_one(
     if plan is not None:
         apply_plan(results, results.block_id in plan.sampled)
     results.evaluation = evaluate_results(results, pack)
+    results.meta = _meta(meta, pack) if meta is not None else None
     return Outcome(path, results)
 
 
@@ -130,10 +132,11 @@ class Job:
     inspector: InspectorInput | None
     writer: Writer
     plan: Plan | None = None
+    meta: ReportMeta | None = None
 
     def __call__(self, path: Path, manifest: Manifest | None = None) -> Outcome:
         try:
-            o = inspect_one(path, self.pack, self.inspector, manifest, self.plan)
+            o = inspect_one(path, self.pack, self.inspector, manifest, self.plan, self.meta)
             if o.results is not None:
                 self.writer.block(o.results)
             return o
@@ -302,7 +305,7 @@ def run(
 
     for p, problem in got.refused.items():
         finished(Outcome(p, problems=[problem]))
-    _inspect_all(got, Job(pack, inspector, writer, plan), jobs, finished)
+    _inspect_all(got, Job(pack, inspector, writer, plan, meta), jobs, finished)
     outcomes = [done[p] for p in got.deliveries]
     summary = None
     if got.is_batch:

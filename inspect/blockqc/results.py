@@ -123,6 +123,7 @@ class BlockResults(_Model):
     # §QE: whether a sampling plan picked the block for detailed inspection (None: no plan)
     sampled: bool | None = None
     evaluation: Evaluation | None = None  # §QE score and grade, when the pack has acceptance
+    meta: ReportMeta | None = None  # the filed report's particulars (--meta)
 
     def measurement(self, key: str | None) -> MeasurementRecord | None:
         return next((m for m in self.measurements if m.key == key), None) if key else None

@@ -155,3 +155,21 @@ def test_bad_plan_file_is_named(tmp_path: Path) -> None:
     r = run_blockqc("inspect", batch, "--plan", tmp_path / "plan.yaml", "--out", tmp_path / "o")
     assert r.returncode == 2
     assert "plan.yaml" in r.stderr and "seed" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_meta_in_block_report_and_filed_report(tmp_path: Path) -> None:
+    batch = _batch(tmp_path / "batch", 2, with_cps={0})
+    meta = tmp_path / "meta.yaml"
+    meta.write_text("report_number: QC-7\nproject: P\nproducer: Q\nprepared: A\napproved: C\n")
+    out = tmp_path / "out"
+    r = run_blockqc("inspect", batch, "--meta", meta, "--out", out, "--no-pdf")
+    assert r.returncode == 0, r.stderr
+    block = (out / "B00" / "report.html").read_text()
+    assert "QC-7" in block and "Prepared by: A" in block
+    assert str(tmp_path) not in block  # the delivery is named, not placed on this machine
+    filed = (out / "acceptance.html").read_text()
+    assert "QC-7" in filed and "GB/T 24356-2023" in filed  # basis from the pack
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("report_numbr: 1\n")
+    r = run_blockqc("inspect", batch, "--meta", bad, "--out", tmp_path / "o2", "--no-pdf")
+    assert r.returncode == 2 and "bad.yaml" in r.stderr and "report_numbr" in r.stderr

@@ -83,7 +83,7 @@ class Formatter:
         if comp is None or th is None:
             return res.threshold_text or MISSING
         if comp in SYMBOLS:
-            text = f"{SYMBOLS[comp]} {bound(th)}"
+            text = f"{SYMBOLS[comp]} {self.num(th) if isinstance(th, bool) else bound(th)}"
         elif comp in ("between", "strictly_between") and isinstance(th, list) and len(th) == 2:
             text = f"{bound(th[0])} … {bound(th[1])}"
         elif comp == "in":
