@@ -12,8 +12,14 @@ from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from blockqc import __version__
+from blockqc.acceptance.decision import decide
+from blockqc.acceptance.evaluate import evaluate_results
+from blockqc.acceptance.model import BatchDecision, BlockGrade, ReportMeta
+from blockqc.acceptance.plan import Plan, apply_plan
+from blockqc.acceptance.scoring import a_class_errors
 from blockqc.cache import Cached, delivery_fingerprint, read_cached, write_cached
 from blockqc.checkpoint_inputs import InspectorCheckpoints, merge_checkpoints
 from blockqc.delivery import MANIFEST, Manifest, find_deliveries, load_delivery, load_manifest
@@ -46,6 +52,7 @@ class Outcome:
     rules: dict[str, dict[str, int]] = field(default_factory=dict)
     problems: list[Problem] = field(default_factory=list)
     cached: bool = False
+    grade: BlockGrade | None = None  # §QE, for the batch decision
 
 
 @dataclass
@@ -91,6 +98,8 @@ class Extra:
 
     checkpoints: InspectorCheckpoints | None = None
     single: bool = True
+    plan: Plan | None = None  # §QE-1: the sampled blocks get the detailed inspection
+    meta: ReportMeta | None = None  # the filed report's particulars
 
 
 def inspect_one(
@@ -105,7 +114,26 @@ def inspect_one(
     if extra is not None and extra.checkpoints is not None:
         merge_checkpoints(delivery, extra.checkpoints.for_block(delivery.block_id, extra.single))
     block_input = inspector.for_block(delivery.block_id) if inspector else None
-    return inspect_delivery(delivery, pack, block_input, inspector.inspector if inspector else None)
+    results = inspect_delivery(
+        delivery, pack, block_input, inspector.inspector if inspector else None
+    )
+    if extra is not None and extra.plan is not None:
+        apply_plan(results, results.block_id in extra.plan.sampled)
+    results.evaluation = evaluate_results(results, pack)
+    if extra is not None and extra.meta is not None:
+        results.meta = _meta(extra.meta, pack)
+    return results
+
+
+def _meta(meta: ReportMeta | None, pack: Pack) -> ReportMeta | None:
+    """The report's particulars with the pack's inspection basis where the file gives none."""
+    if pack.acceptance is None and meta is None:
+        return None
+    meta = (meta or ReportMeta()).model_copy()
+    if pack.acceptance is not None:
+        meta.basis = meta.basis or list(pack.acceptance.basis)
+        meta.basis_zh = meta.basis_zh or list(pack.acceptance.basis_zh)
+    return meta
 
 
 @dataclass(frozen=True)
@@ -151,7 +179,7 @@ def block_entry(path: Path, r: BlockResults, pdf: bool) -> BlockEntry:
         path=str(path),
         results=f"{r.block_id}/results.json",
         report=f"{r.block_id}/report.html",
-        sampled=r.summary.get("checkpoints", 0) > 0,
+        sampled=_sampled(r),
         failed_rules=sorted({x.rule for x in r.results if x.status in ("fail", "error")}),
         warned_rules=sorted({x.rule for x in r.results if x.status == "warn"}),
         pending_manual=r.pending_manual,
@@ -159,7 +187,41 @@ def block_entry(path: Path, r: BlockResults, pdf: bool) -> BlockEntry:
         checkpoints=checkpoint_rows(r),
         extent_wkt=block_extent(r.scenes),
         pdf=pdf,
+        **_evaluation_fields(r),
     )
+
+
+def _evaluation_fields(r: BlockResults) -> dict[str, Any]:
+    ev = r.evaluation
+    if ev is None:
+        return {}
+    return {
+        "score": ev.score,
+        "grade": ev.grade,
+        "evaluation_fails": ev.fails,
+        "evaluation_reasons": ev.reasons,
+    }
+
+
+def _sampled(r: BlockResults) -> bool:
+    """Sampled by the plan; without a plan, a block that carries checkpoints."""
+    return r.sampled if r.sampled is not None else r.summary.get("checkpoints", 0) > 0
+
+
+def block_grade(r: BlockResults, pack: Pack) -> BlockGrade | None:
+    """§QE: what the batch decision needs of one block."""
+    ev = r.evaluation
+    if ev is None or pack.acceptance is None:
+        return None
+    low = [
+        e.model_dump(include={"id", "title", "title_zh", "score"})
+        for e in ev.elements
+        if e.score is not None and e.score < pack.acceptance.element_fail_below
+    ]
+    return BlockGrade(
+        block_id=r.block_id, sampled=_sampled(r), score=ev.score, grade=ev.grade, fails=ev.fails,
+        complete=ev.complete, reasons=ev.reasons, a_errors=a_class_errors(ev), low_elements=low,
+    )  # fmt: skip
 
 
 def rule_counts(r: BlockResults) -> dict[str, dict[str, int]]:
@@ -184,13 +246,14 @@ class Job:
         try:
             key = self._key(path, manifest)
             if key and (hit := read_cached(safe_child(self.writer.out, manifest.block_id), key)):
-                return Outcome(path, hit.entry, hit.rules, cached=True)
+                return Outcome(path, hit.entry, hit.rules, cached=True, grade=hit.grade)
             results = inspect_one(path, self.pack, self.inspector, manifest, self.extra)
             pdf = self.writer.block(results)
-            o = Outcome(path, block_entry(path, results, pdf), rule_counts(results))
+            grade = block_grade(results, self.pack)
+            o = Outcome(path, block_entry(path, results, pdf), rule_counts(results), grade=grade)
             if key:
                 folder = safe_child(self.writer.out, results.block_id)
-                write_cached(folder, Cached(key, o.entry, o.rules))
+                write_cached(folder, Cached(key, o.entry, o.rules, grade))
             return o
         except InputError as exc:
             return Outcome(path, problems=exc.problems)
@@ -205,7 +268,20 @@ class Job:
         return delivery_fingerprint(path, self.digest, block_input)
 
 
-def summarize(outcomes: list[Outcome], pack: Pack, inspector: InspectorInput | None) -> Summary:
+def decision(outcomes: list[Outcome], pack: Pack, plan: Plan | None) -> BatchDecision | None:
+    """§QE-5: the batch decision over the blocks inspected (None without acceptance)."""
+    if pack.acceptance is None:
+        return None
+    grades = [o.grade for o in outcomes if o.grade is not None]
+    return decide(grades, pack.acceptance, "plan" if plan else "checkpoints")
+
+
+def summarize(
+    outcomes: list[Outcome],
+    pack: Pack,
+    inspector: InspectorInput | None,
+    extra: Extra | None = None,
+) -> Summary:
     """summary.json of a batch: one entry per block, counts per rule, rejected deliveries."""
     blocks: list[BlockEntry] = []
     rejected: list[Rejected] = []
@@ -239,7 +315,20 @@ def summarize(outcomes: list[Outcome], pack: Pack, inspector: InspectorInput | N
         blocks=blocks,
         rules=rules,
         unreadable=rejected,
+        **_acceptance_fields(outcomes, pack, extra or Extra()),
     )
+
+
+def _acceptance_fields(outcomes: list[Outcome], pack: Pack, extra: Extra) -> dict[str, Any]:
+    """§QE: the batch decision, the sampling plan, the report's particulars."""
+    table = pack.acceptance.sampling.table if pack.acceptance else []
+    return {
+        "acceptance": decision(outcomes, pack, extra.plan),
+        "sampling": extra.plan.model_dump(mode="json") if extra.plan else None,
+        "meta": _meta(extra.meta, pack),
+        "elements": pack.elements,
+        "sampling_table": [r.model_dump() for r in table],
+    }
 
 
 @dataclass(frozen=True)
@@ -274,6 +363,8 @@ def run(
     incremental: bool = False,
     progress: Callable[[Outcome], None] | None = None,
     checkpoints: InspectorCheckpoints | None = None,
+    plan: Plan | None = None,
+    meta: ReportMeta | None = None,
 ) -> tuple[list[Outcome], Summary | None]:
     """Inspect every delivery collected, writing its outputs as it goes; for a batch, the summary.
 
@@ -290,14 +381,14 @@ def run(
 
     for p, problem in got.refused.items():
         finished(Outcome(p, problems=[problem]))
-    extra = Extra(checkpoints, len(got.deliveries) == 1)
-    digest = run_digest(pack, writer, checkpoints) if incremental else None
+    extra = Extra(checkpoints, len(got.deliveries) == 1, plan, meta)
+    digest = run_digest(pack, writer, extra) if incremental else None
     todo = [(p, got.manifests.get(p)) for p in got.deliveries if p not in got.refused]
     (runner or Runner()).run(Job(pack, inspector, writer, digest, extra), todo, finished)
     outcomes = [done[p] for p in got.deliveries]
     summary = None
     if got.is_batch:
-        summary = summarize(outcomes, pack, inspector)
+        summary = summarize(outcomes, pack, inspector, extra)
         writer.summary(summary)
     return outcomes, summary
 

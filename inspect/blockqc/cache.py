@@ -32,6 +32,7 @@ class Cached:
     key: str
     entry: BlockEntry
     rules: dict[str, dict[str, int]]
+    grade: Any = None  # the block's §QE grade (BlockGrade), when the pack has acceptance
 
 
 def _sha(*parts: Any) -> str:
@@ -58,9 +59,12 @@ def _tree(folder: Path) -> list[tuple[str, int, int]]:
     return out
 
 
-def run_digest(pack: Any, writer: Any, checkpoints: Any = None) -> str:
+def run_digest(pack: Any, writer: Any, extra: Any = None) -> str:
     """What every block of a run shares: the resolved pack, output options, the inspector's
-    checkpoint files (their rows), blockqc's version."""
+    checkpoint files (their rows), the sampling plan and report particulars, blockqc's version."""
+    checkpoints = getattr(extra, "checkpoints", None)
+    plan, meta = getattr(extra, "plan", None), getattr(extra, "meta", None)
+    acceptance = getattr(pack, "acceptance", None)
     rules = [r.model_dump(mode="json") for r in pack.rules]
     elements = [e.model_dump(mode="json") for e in pack.elements]
     templates = _tree(writer.templates) if writer.templates else None
@@ -76,6 +80,9 @@ def run_digest(pack: Any, writer: Any, checkpoints: Any = None) -> str:
         str(writer.templates),
         templates,
         None if checkpoints is None else checkpoints.rows.to_csv(index=False),
+        None if plan is None else plan.model_dump(mode="json"),
+        None if meta is None else meta.model_dump(mode="json"),
+        None if acceptance is None else acceptance.model_dump(mode="json"),
     )
 
 
@@ -94,11 +101,14 @@ def read_cached(folder: Path, key: str) -> Cached | None:
         entry = BlockEntry.model_validate(doc["entry"])
         if entry.pdf and not (folder / "report.pdf").is_file():
             return None
-        return Cached(key, entry, doc["rules"])
+        from blockqc.acceptance.model import BlockGrade
+
+        grade = BlockGrade.model_validate(doc["grade"]) if doc.get("grade") else None
+        return Cached(key, entry, doc["rules"], grade)
     except (OSError, ValueError, KeyError, TypeError, ValidationError):
         return None  # no cache, or a broken one: inspect again
 
 
 def write_cached(folder: Path, cached: Cached) -> None:
-    doc = {"key": cached.key, "entry": cached.entry, "rules": cached.rules}
+    doc = {"key": cached.key, "entry": cached.entry, "rules": cached.rules, "grade": cached.grade}
     write_json_atomic(folder / CACHE_FILE, doc)

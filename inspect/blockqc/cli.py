@@ -24,6 +24,7 @@ class LazyGroup(click.Group):
         "report": "blockqc.report.command",
         "rules": "blockqc.rules.command",
         "adjust": "blockqc.adjust.command",
+        "sample": "blockqc.acceptance.command",
     }
 
     def list_commands(self, ctx: click.Context) -> list[str]:
@@ -123,6 +124,18 @@ def cli() -> None:
     help="The inspector's checkpoints (checkpoints.csv columns [+ block_id]), merged with the "
     "delivered ones; repeat for several files.",
 )
+@click.option(
+    "--plan",
+    "plan_file",
+    type=click.Path(path_type=Path),
+    help="Sampling plan (blockqc sample): detailed inspection on its sampled blocks only.",
+)
+@click.option(
+    "--meta",
+    "meta_file",
+    type=click.Path(path_type=Path),
+    help="The filed report's particulars: report number, project, producer, basis, signatures.",
+)
 def inspect_cmd(
     paths: tuple[Path, ...],
     rules_ref: str,
@@ -137,6 +150,8 @@ def inspect_cmd(
     jobs: int,
     progress: bool | None,
     checkpoint_files: tuple[Path, ...],
+    plan_file: Path | None,
+    meta_file: Path | None,
 ) -> int:
     """Inspect one delivery or a batch (a folder of deliveries) with a rule pack."""
     from blockqc import batch
@@ -158,16 +173,29 @@ def inspect_cmd(
 
         checkpoints = load_checkpoint_files(list(checkpoint_files))
         check_blocks(checkpoints, got.deliveries)
+    plan, meta = _acceptance_inputs(plan_file, meta_file, got)
     writer = batch.Writer(out, templates, lang, "none" if no_pdf else pdf)
     runner = batch.Runner(jobs or os.cpu_count() or 1, scheduler)
     show = sys.stderr.isatty() if progress is None else progress
     with _progress(len(got.deliveries) if show else 0) as tick:
         outcomes, summary = batch.run(
             got, pack, writer, inspector, runner=runner, incremental=incremental,
-            progress=tick, checkpoints=checkpoints,
+            progress=tick, checkpoints=checkpoints, plan=plan, meta=meta,
         )  # fmt: skip
     _closing_lines(outcomes, summary, out)
     return batch.exit_status(outcomes)
+
+
+def _acceptance_inputs(plan_file: Path | None, meta_file: Path | None, got):
+    """§QE: the sampling plan (its blocks checked against those inspected), report particulars."""
+    from blockqc.acceptance.plan import check_blocks, load_meta, load_plan
+
+    plan = load_plan(plan_file) if plan_file else None
+    meta = load_meta(meta_file) if meta_file else None
+    if plan is not None:
+        ids = [m.block_id for m in got.manifests.values()]
+        check_blocks(plan, plan_file, ids, got.is_batch)
+    return plan, meta
 
 
 def _outcome_line(o) -> str:

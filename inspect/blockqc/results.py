@@ -11,6 +11,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
+from blockqc.acceptance.model import BatchDecision, Evaluation, ReportMeta
 from blockqc.errors import InputError, Problem
 from blockqc.outputs import block_id_problem
 from blockqc.rules.model import ElementDef
@@ -129,6 +130,10 @@ class BlockResults(_Model):
     scenes: list[dict[str, Any]] = Field(default_factory=list)
     results: list[RuleResult]
     measurements: list[MeasurementRecord] = Field(default_factory=list)
+    # §QE: whether a sampling plan picked the block for detailed inspection (None: no plan)
+    sampled: bool | None = None
+    evaluation: Evaluation | None = None  # §QE score and grade, when the pack has acceptance
+    meta: ReportMeta | None = None  # the filed report's particulars (--meta)
 
     @field_validator("block_id")
     @classmethod
@@ -169,6 +174,10 @@ class BlockEntry(_Model):
     checkpoints: list[dict[str, Any]] = Field(default_factory=list)
     extent_wkt: str | None = None  # the block's footprint (lon/lat), for the overview map
     pdf: bool = False  # report.pdf written beside report.html
+    score: float | None = None  # §QE evaluation of the block, when the pack has acceptance
+    grade: str | None = None
+    evaluation_fails: bool | None = None
+    evaluation_reasons: list[str] = Field(default_factory=list)
 
 
 class Rejected(_Model):
@@ -202,6 +211,11 @@ class Summary(_Model):
     blocks: list[BlockEntry] = Field(default_factory=list)
     rules: dict[str, dict[Status, int]] = Field(default_factory=dict)
     unreadable: list[Rejected] = Field(default_factory=list)
+    acceptance: BatchDecision | None = None  # §QE-5 batch decision
+    sampling: dict[str, Any] | None = None  # the sampling plan used, as read (§QE-1)
+    meta: ReportMeta | None = None  # the filed report's particulars (--meta), basis filled in
+    elements: list[ElementDef] = Field(default_factory=list)  # the pack's inspection contents
+    sampling_table: list[dict[str, int]] = Field(default_factory=list)  # the pack's §QE-1 table
 
 
 def dump(model: BaseModel) -> dict[str, Any]:

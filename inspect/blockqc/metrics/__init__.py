@@ -108,6 +108,7 @@ def not_applicable(reason: str) -> Measurement:
 def _load_all() -> None:
     # importing the families registers their metrics
     from blockqc.metrics import (  # noqa: F401
+        asprs,
         checkpoints,
         discrepancies,
         documents,

@@ -96,6 +96,31 @@ def histogram_edges(largest: float) -> np.ndarray:
     return np.append(edges, largest) if largest > top else edges
 
 
+#: scenes above this many keep no residual cells in the results (they are for a map)
+MAX_SCENES_FOR_CELLS = 500
+
+
+def residual_cells(tp: pd.DataFrame, scenes: pd.DataFrame, k: int = 4) -> list[dict]:
+    """Mean residual (v_line, v_sample) per scene and cell of a k×k grid, for the vector map.
+
+    Cells are given by their centre as fractions of the scene's lines (u) and samples (w).
+    """
+    if scenes["scene_id"].nunique() > MAX_SCENES_FOR_CELLS:
+        return []
+    size = scenes.set_index("scene_id")[["lines", "samples"]].astype(float)
+    lines = tp["scene_id"].map(size["lines"]).to_numpy(dtype=float)
+    samples = tp["scene_id"].map(size["samples"]).to_numpy(dtype=float)
+    i = np.clip(np.floor(tp["line"].to_numpy(dtype=float) / lines * k), 0, k - 1)
+    j = np.clip(np.floor(tp["sample"].to_numpy(dtype=float) / samples * k), 0, k - 1)
+    frame = pd.DataFrame(
+        {"scene_id": tp["scene_id"].to_numpy(), "u": (i + 0.5) / k, "w": (j + 0.5) / k}
+    ).assign(v_line=tp["v_line"].to_numpy(), v_sample=tp["v_sample"].to_numpy())
+    frame = frame[np.isfinite(frame["u"]) & np.isfinite(frame["w"])]
+    g = frame.groupby(["scene_id", "u", "w"], sort=True)
+    out = g.agg(n=("v_line", "size"), v_line=("v_line", "mean"), v_sample=("v_sample", "mean"))
+    return out.reset_index().round(6).to_dict("records")
+
+
 @metric(
     "tie_point_errors",
     params=ErrorParams,
@@ -138,6 +163,7 @@ def tie_point_errors(d: Delivery, p: ErrorParams, measure: Measure) -> Measureme
         detail={
             "histogram": {"edges_px": hist_edges.round(4).tolist(), "counts": counts.tolist()},
             "interval_px": [lo, hi],
+            "residual_cells": residual_cells(tp, scenes),
         },
     )
 

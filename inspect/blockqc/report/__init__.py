@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from blockqc.outputs import write_bytes_atomic, write_text_atomic
+from blockqc.report.acceptance import filed_context
 from blockqc.report.build import block_context, summary_context
 from blockqc.report.checkpoints import checkpoint_rows
 from blockqc.report.exports import checkpoints_csv, evidence_csv, summary_csv, summary_parquet
@@ -68,19 +69,24 @@ def write_summary_report(
     env = environment(templates)
     token = FOR_PRINT.set(pdf)
     try:
-        ctx = summary_context(summary, lang, pdf=pdf)
+        pages = [("summary", "summary.html.j2", summary_context(summary, lang, pdf=pdf))]
+        if summary.acceptance is not None:
+            pages.append(("acceptance", "acceptance.html.j2", filed_context(summary, lang)))
     finally:
         FOR_PRINT.reset(token)
-    write_text_atomic(out / "summary.html", render_page("summary.html.j2", ctx, env))
+    written = []
+    for name, template, context in pages:
+        write_text_atomic(out / f"{name}.html", render_page(template, context, env))
+        written.append(out / f"{name}.html")
+        if pdf:
+            from blockqc.report.pdf import html_to_pdf
+
+            data = html_to_pdf(render_page(template, context, env, for_pdf=True), out)
+            write_bytes_atomic(out / f"{name}.pdf", data)
+            written.append(out / f"{name}.pdf")
     write_text_atomic(out / "summary.csv", summary_csv(summary))
     write_bytes_atomic(out / "summary.parquet", summary_parquet(summary))
-    written = [out / "summary.html", out / "summary.csv", out / "summary.parquet"]
-    if pdf:
-        from blockqc.report.pdf import html_to_pdf
-
-        data = html_to_pdf(render_page("summary.html.j2", ctx, env, for_pdf=True), out)
-        write_bytes_atomic(out / "summary.pdf", data)
-        written.append(out / "summary.pdf")
+    written += [out / "summary.csv", out / "summary.parquet"]
     return written
 
 

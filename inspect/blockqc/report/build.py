@@ -9,7 +9,21 @@ from __future__ import annotations
 
 from typing import Any
 
-from blockqc.report.checkpoints import checkpoint_measurement, checkpoint_points, checkpoint_rows
+from blockqc.report.acceptance import (
+    decision_context,
+    evaluation_context,
+    failed_items,
+    grade_text,
+    local_time,
+    name_only,
+)
+from blockqc.report.checkpoints import (
+    axis_statistics,
+    checkpoint_measurement,
+    checkpoint_points,
+    checkpoint_rows,
+    failed_criteria,
+)
 from blockqc.report.contents import content_rows
 from blockqc.report.figures import block_figures, scene_statuses
 from blockqc.report.format import Formatter
@@ -108,6 +122,24 @@ def _cp_stat_rows(f: Formatter, cols: list[dict[str, Any]]) -> list[tuple[str, l
     ]
 
 
+def _axis_rows(
+    f: Formatter, cols: list[dict[str, Any]], axes: dict, failed: dict
+) -> list[tuple[str, list[str]]]:
+    """Mean (bias), standard deviation and RMS per axis, and the criterion that failed."""
+    names = {"dx_m": "dx", "dy_m": "dy", "dz_m": "dz"}
+    out = []
+    for axis in ("dx_m", "dy_m", "dz_m"):
+        got = [axes.get((s["component"], s["method"]), {}).get(axis) for s in cols]
+        if not any(got):
+            continue
+        for stat in ("mean", "std", "rms"):
+            label = f"{f.t('axis_' + stat)} {names[axis]} (m)"
+            out.append((label, [f.num(g[stat], 2) if g else "–" for g in got]))
+    crit = [failed.get((s["component"], s["method"]), []) for s in cols]
+    out.append((f.t("failed_criterion"), [", ".join(f.column(c) for c in x) or "–" for x in crit]))
+    return out
+
+
 def _agreement(f: Formatter, a: dict[str, Any]) -> dict[str, Any]:
     return {
         "methods": " / ".join(f.method(m) for m in a.get("methods", [])),
@@ -122,6 +154,7 @@ def _checkpoint_tables(results: BlockResults, f: Formatter) -> list[dict[str, An
     """The published layout: one column per method, statistics in rows, per component."""
     stats = checkpoint_rows(results)
     m = checkpoint_measurement(results)
+    axes, failed = axis_statistics(results), failed_criteria(results)
     agreement = (m.detail.get("agreement") if m else None) or []
     tables = []
     for component in dict.fromkeys(s["component"] for s in stats):
@@ -131,7 +164,7 @@ def _checkpoint_tables(results: BlockResults, f: Formatter) -> list[dict[str, An
                 "component": f.component(component),
                 "key": component,
                 "methods": [f.method(s["method"]) for s in cols],
-                "rows": _cp_stat_rows(f, cols),
+                "rows": _cp_stat_rows(f, cols) + _axis_rows(f, cols, axes, failed),
                 "statuses": [(s["status"], f.status(s["status"])) for s in cols],
                 "any_mean": any(bool(s.get("used_mean")) for s in cols),
                 "agreement": [
@@ -244,7 +277,7 @@ def _header(results: BlockResults, f: Formatter) -> dict[str, Any]:
         "verdict": results.verdict,
         "verdict_text": f.verdict(results.verdict),
         "inspector": results.inspector or t("not_given"),
-        "date": results.generated_at.replace("T", " ").replace("Z", " UTC"),
+        "date": local_time(results.generated_at),
         "counts_text": t(
             "counts_line",
             pass_=c.get("pass", 0),
@@ -291,6 +324,12 @@ def block_context(
         "failures": _failures(results, f),
         "figures": block_figures(results, f, scene_statuses(results)) if figures else NO_FIGURES,
         "pending": results.pending_manual,
+        "evaluation": evaluation_context(results.evaluation, f),
+        "colon": "：" if lang == "zh" else ": ",
+        "sep": "；" if lang == "zh" else "; ",
+        "failed_items": failed_items(results, f),
+        "delivery_name": name_only(results.delivery),
+        "pack_files": ", ".join(name_only(p) for p in results.rule_pack_files) or "–",
     }
 
 
@@ -300,6 +339,8 @@ def _summary_block(b: Any, f: Formatter, pdf: bool) -> dict[str, Any]:
         "verdict_text": f.verdict(b.verdict),
         "pdf": b.report[: -len(".html")] + ".pdf" if b.pdf and b.report.endswith(".html") else None,
         "sampled_text": f.num(b.sampled),
+        "score_text": f.num(b.score, 1) if b.score is not None else "–",
+        "grade_text": grade_text(f, b.grade),
         "failed": ", ".join(b.failed_rules),
         "warned": ", ".join(b.warned_rules),
         "pending": ", ".join(b.pending_manual),
@@ -341,7 +382,7 @@ def summary_context(
         "verdict": summary.verdict,
         "verdict_text": f.verdict(summary.verdict),
         "inspector": summary.inspector or t("not_given"),
-        "date": summary.generated_at.replace("T", " ").replace("Z", " UTC"),
+        "date": local_time(summary.generated_at),
         "counts_text": t(
             "batch_counts",
             blocks=c.blocks,
@@ -359,6 +400,7 @@ def summary_context(
             for rid, cnt in summary.rules.items()
         ],
         "unreadable": [u.model_dump() for u in summary.unreadable],
+        "acceptance": decision_context(summary, f),
     }
 
 

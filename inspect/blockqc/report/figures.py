@@ -131,4 +131,9 @@ def block_figures(results: BlockResults, f: Formatter, statuses: dict[str, str])
     if any(s.get("footprint_wkt") for s in results.scenes):
         figs["general"].append(plots.footprints(results.scenes, statuses, f.t, "footprints"))
     _scene_maps(results, f, figs)
+    from blockqc.report.maps import overlap_map, residual_map
+
+    for draw in (residual_map, overlap_map):
+        if (svg := draw(results, f)) is not None:
+            figs["general"].append(svg)
     return figs

@@ -72,6 +72,8 @@ class Formatter:
     def value(self, res: RuleResult) -> str:
         if res.value is None:
             return MISSING
+        if isinstance(res.value, str):  # a named value: translated where the catalogue has it
+            return self._key("val", res.value, self._key("status", res.value, res.value))
         text = self.num(res.value)
         unit = self.unit(res.unit)
         return f"{text} {unit}".strip() if unit and not isinstance(res.value, str) else text
@@ -81,11 +83,12 @@ class Formatter:
         if comp is None or th is None:
             return res.threshold_text or MISSING
         if comp in SYMBOLS:
-            text = f"{SYMBOLS[comp]} {bound(th)}"
+            text = f"{SYMBOLS[comp]} {self.num(th) if isinstance(th, bool) else bound(th)}"
         elif comp in ("between", "strictly_between") and isinstance(th, list) and len(th) == 2:
             text = f"{bound(th[0])} … {bound(th[1])}"
         elif comp == "in":
-            text = "∈ {" + self.num(th) + "}"
+            names = th if isinstance(th, list) else [th]
+            text = "∈ {" + ", ".join(self._key("val", v, self.num(v)) for v in names) + "}"
         else:
             return res.threshold_text or MISSING
         numeric = isinstance(th, int | float | list) and not isinstance(th, bool)

@@ -283,6 +283,153 @@ MESSAGES: dict[str, tuple[str, str]] = {
 }
 
 
+# --- quality evaluation and acceptance (§QE)
+MESSAGES.update(
+    {
+        "val_ellipsoidal": ("ellipsoidal", "椭球高"),
+        "fig_residual_map": (
+            "Tie-point residuals: mean vector per scene and cell of a 4×4 grid\n"
+            "(longest {px} px; direction on the ground)",
+            "连接点残差：各影像 4×4 格网内平均残差矢量\n（最长 {px} 像素；地面方向）",
+        ),
+        "fig_overlap_map": (
+            "Adjacent-image discrepancies per scene pair\n"
+            "mean vector (longest {m} m), RMS in m; red: a discrepancy fails",
+            "相邻影像各像对接边差\n平均差值矢量（最长 {m} m），旁注均方根（m）；红色：存在超限",
+        ),
+        "col_x_m": ("Easting x (m)", "东坐标 x（m）"),
+        "col_y_m": ("Northing y (m)", "北坐标 y（m）"),
+        "col_z_m": ("Height z (m)", "高程 z（m）"),
+        "col_line": ("Line (px)", "行（像素）"),
+        "col_sample": ("Sample (px)", "列（像素）"),
+        "col_v_line": ("v line (px)", "行残差（像素）"),
+        "col_v_sample": ("v sample (px)", "列残差（像素）"),
+        "col_error_px": ("Error (px)", "误差（像素）"),
+        "agreement_rule": (
+            "Criterion: the methods agree when their medium errors are on the same side of the "
+            "norm (all within it, or all beyond it).",
+            "判据：各方法的中误差均不超过或均超过规定中误差时，视为一致。",
+        ),
+        "axis_mean": ("Mean (bias)", "平均值（系统偏差）"),
+        "axis_std": ("Standard deviation", "标准差"),
+        "axis_rms": ("RMS", "均方根"),
+        "failed_criterion": ("Criterion failed", "不合格的指标"),
+        "val_WGS84": ("WGS84", "WGS-84"),
+        "sec_evaluation": ("Quality evaluation", "质量评价"),
+        "sec_evaluation_intro": (
+            "Scores after {standard}: mathematical accuracy against its norm, other items by "
+            "deduction for their errors of classes B, C and D, rolled up by the pack's weights.",
+            "依据 {standard} 评分：数学精度按规定中误差计分，其余质量子元素按 B、C、D 类错漏扣分，"
+            "按规则包权重汇总。",
+        ),
+        "score": ("Score", "得分"),
+        "grade": ("Grade", "质量等级"),
+        "score_grade": ("Quality score and grade", "质量得分与等级"),
+        "weight": ("Weight", "权"),
+        "errors_by_class": ("Errors by class", "错漏统计"),
+        "error_class": ("Class", "错漏类别"),
+        "deduction": ("Deduction", "扣分"),
+        "accuracy_scores": ("Accuracy m/m0 → score", "精度 m/m0 → 得分"),
+        "element_item": ("Quality element / item", "质量元素 / 子元素"),
+        "not_inspected": ("not inspected", "未检查"),
+        "err_beyond_norm": ("beyond the norm", "超过规定中误差"),
+        "err_fails": ("fails its threshold", "超出限值"),
+        "err_beyond_norm_p": ("(beyond the norm)", "（超过规定中误差）"),
+        "err_fails_p": ("(fails its threshold)", "（超出限值）"),
+        "a_class_error": ("A-class error", "A 类错漏"),
+        "plan_no_cps": (
+            "sampled for detailed inspection, but the delivery has no checkpoints: "
+            "the detailed inspection is incomplete",
+            "已抽为详查样本，但成果中没有检查点：详查不完整",
+        ),
+        "awaiting_on": ("awaiting the inspector's verdict on", "等待检查员判定："),
+        "element_below": ("{name} scores {score} (below 60)", "{name}得分 {score}（低于 60 分）"),
+        "evaluation_fails": ("The block fails", "单位成果不合格"),
+        "evaluation_incomplete": ("The evaluation is not final", "评价尚不完整"),
+        "grade_excellent": ("Excellent", "优"),
+        "grade_good": ("Good", "良"),
+        "grade_pass": ("Pass", "合格"),
+        "grade_fail": ("Fail", "不合格"),
+        "decision_pass": ("Accepted (pass)", "批成果合格"),
+        "decision_fail": ("Rejected (fail)", "批成果不合格"),
+        "decision_incomplete": ("Not decided: the sample is incomplete", "未判定：样本检查不完整"),
+        "sec_decision": ("Batch decision", "批成果质量判定"),
+        "decision": ("Decision", "判定结论"),
+        "sample": ("Sample", "样本"),
+        "sample_by_plan": ("drawn by the sampling plan", "按抽样方案抽取"),
+        "sample_by_cps": (
+            "the blocks that carry checkpoints (no sampling plan given)",
+            "带检查点的区域网（未给出抽样方案）",
+        ),
+        "mean_score": ("Mean score of the sample", "样本平均得分"),
+        "sample_grade": ("Grade of the sample", "样本质量等级"),
+        "batch_grade": ("Batch grade", "批成果质量等级"),
+        "shares": (
+            "{better} % good or better, {top} % excellent",
+            "良级及以上 {better}%，优级 {top}%",
+        ),
+        "failing_sampled": ("Sampled blocks that fail", "不合格的样本单位"),
+        "returned": (
+            "Blocks failing the general inspection, returned for correction",
+            "概查不合格、退回修改的区域网",
+        ),
+        "incomplete_blocks": ("Sampled blocks not fully evaluated", "评价不完整的样本单位"),
+        "reasons": ("Reasons", "原因"),
+        "failed_items": ("Failed items", "不合格项"),
+        "failed_items_none": ("No item failed.", "无不合格项。"),
+        "filed_title": ("Inspection and acceptance report", "检查验收报告"),
+        "report_number": ("Report number", "报告编号"),
+        "project": ("Project", "项目名称"),
+        "producer": ("Producer", "生产单位"),
+        "inspection_unit": ("Inspected by", "检查单位"),
+        "sec_basis": ("Inspection basis", "检查依据"),
+        "sec_sampling": ("Sampling", "抽样情况"),
+        "sampling_text": (
+            "{n} of {units} blocks drawn by {method} sampling (seed {seed}).",
+            "采用{method}从 {units} 个区域网中抽取 {n} 个（随机种子 {seed}）。",
+        ),
+        "strata_by": ("Strata by block.yaml key '{name}'.", "按 block.yaml 的“{name}”分层。"),
+        "sampling_none": (
+            "No sampling plan was given: the sample is the blocks with checkpoints ({sample}).",
+            "未给出抽样方案：样本为带检查点的区域网（{sample}）。",
+        ),
+        "sampling_table": (
+            "Sample size by batch size (the pack's table)",
+            "批量与样本量（规则包中的表）",
+        ),
+        "sampling_method_simple_random": ("simple random", "简单随机抽样"),
+        "sampling_method_stratified_proportional_random": (
+            "stratified proportional random",
+            "分层按比例随机抽样",
+        ),
+        "lot": ("Lot", "批"),
+        "lot_size": ("Batch size", "批量"),
+        "sample_size": ("Sample size", "样本量"),
+        "census": ("Every unit", "全数检查"),
+        "stratum": ("Stratum", "层"),
+        "stratum_size": ("Units", "单位数"),
+        "sampled_blocks": ("Sampled blocks", "样本区域网"),
+        "sec_methods": ("Inspection contents and methods", "检查内容与方法"),
+        "element": ("Quality element", "质量元素"),
+        "item": ("Quality item", "质量子元素"),
+        "sec_problems": ("Main quality problems and their handling", "主要质量问题及处理情况"),
+        "handling": ("Handling", "处理情况"),
+        "handling_default": (
+            "Returned to the producer for correction; re-inspected after correction.",
+            "退回生产单位修改，修改后重新检查。",
+        ),
+        "no_problems": ("No quality problem was found.", "未发现质量问题。"),
+        "sec_statistics": ("Quality statistics and evaluation", "质量统计与评价"),
+        "grade_distribution": ("Grades", "等级分布"),
+        "sec_conclusion": ("Conclusion", "检验结论"),
+        "prepared": ("Prepared by", "编写"),
+        "reviewed": ("Reviewed by", "审核"),
+        "approved": ("Approved by", "批准"),
+        "sec_annexes": ("Annexes", "附件"),
+    }
+)
+
+
 def translator(lang: str) -> Callable[..., str]:
     """`t(key, **values)`: the label in `lang`, formatted; unknown keys are a defect, loudly."""
     if lang not in LANGUAGES:

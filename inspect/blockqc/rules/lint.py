@@ -171,6 +171,12 @@ def check_rule(rule: Rule, names: Mapping[str, Any], file: str, line: LineFn) ->
     if not rule.title.strip():
         bad("a rule needs a title", "title")
     _check_thresholds(rule, names, bad)
+    score = getattr(rule, "score", None)
+    if score is not None and isinstance(score.norm, str):
+        try:
+            evaluate(score.norm, names)
+        except ExpressionError as exc:
+            bad(f"score.norm: {exc}", "score", "norm")
     if rule.manual:
         return out
     spec = REGISTRY.get(rule.metric or "")

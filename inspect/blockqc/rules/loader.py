@@ -14,6 +14,7 @@ from typing import Any
 
 from pydantic import ValidationError
 
+from blockqc.acceptance.model import Acceptance
 from blockqc.errors import Problem, RuleError
 from blockqc.resources import rules_dir
 from blockqc.rules.lint import (
@@ -219,6 +220,8 @@ def read_pack(ref: str | Path) -> tuple[Pack | None, list[Problem]]:
     loaded = _load_raw(path, ())
     problems = list(loaded.problems)
     elements = _elements(loaded.chain)
+    acceptance, found = _acceptance(loaded.chain, elements, loaded.constants)
+    problems.extend(found)
     rules: list[Rule] = []
     names = {**loaded.constants, **DELIVERY_NAMES}
     for rid, raw in loaded.rules.items():
@@ -246,6 +249,7 @@ def read_pack(ref: str | Path) -> tuple[Pack | None, list[Problem]]:
         disabled=loaded.disabled,
         origin={rid: (r.file, r.line) for rid, r in loaded.rules.items()},
         history={rid: r.history for rid, r in loaded.rules.items()},
+        acceptance=acceptance,
     )
     return pack, problems
 
@@ -290,6 +294,33 @@ def _elements(chain: list[str]) -> list[ElementDef]:
         data = load_yaml(Path(file), RuleError)
         out = merge_elements(out, PackFile.model_validate(data).elements)
     return out
+
+
+def _acceptance(
+    chain: list[str], elements: list[ElementDef], constants: dict[str, Any]
+) -> tuple[Acceptance | None, list[Problem]]:
+    """§QE: each file's `acceptance:` merged from the root pack down, validated, weights checked."""
+    merged: dict[str, Any] | None = None
+    where, src = "", None
+    for file in reversed(chain):
+        data = load_yaml(Path(file), RuleError)
+        own = data.get("acceptance") if isinstance(data, dict) else None
+        if own is not None:
+            merged = _deep_merge(merged or {}, own)
+            where, src = file, data
+    if merged is None:
+        return None, []
+    try:
+        acc = Acceptance.model_validate(merged)
+    except ValidationError as exc:
+        return None, pydantic_problems(exc, Path(where), src, ("acceptance",))
+    known = {e.id for e in elements} | {i.id for e in elements for i in e.items}
+    problems = [
+        Problem(where, f"acceptance.weights: '{k}' is no element or item (known: {sorted(known)})")
+        for k in [*acc.weights.elements, *acc.weights.items]
+        if k not in known
+    ]
+    return acc, problems
 
 
 def _line(raw: _Raw, *loc: Any) -> int | None:

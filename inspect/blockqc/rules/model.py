@@ -7,6 +7,8 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
+from blockqc.acceptance.model import Acceptance, ErrorClass, ScoreDef
+
 #: a number, or an arithmetic expression over the pack's constants, e.g. "2*sqrt(2)*norm.plane_m"
 Expr = float | int | str
 
@@ -133,6 +135,8 @@ class Rule(BaseModel):
     evidence_from: str | None = None  # another scope of the metric listing the offending units
     evidence_where: dict[str, str | float | bool] = Field(default_factory=dict)
     evidence_limit: int = Field(default=50, ge=0)
+    error_class: ErrorClass | None = None  # §QE-2 class of its failure (default: the pack's)
+    score: ScoreDef | None = None  # §QE-3 mathematical accuracy, or deduction (the default)
 
     @field_validator("content", mode="before")
     @classmethod
@@ -182,6 +186,7 @@ class PackFile(BaseModel):
     description: str = ""
     extends: str | None = None
     elements: list[ElementDef] = Field(default_factory=list)
+    acceptance: dict[str, Any] | None = None  # §QE mechanics, merged down the extends chain
     constants: dict[str, Any] = Field(default_factory=dict)
     rules: list[dict[str, Any]] = Field(default_factory=list)
     overrides: dict[str, dict[str, Any]] = Field(default_factory=dict)
@@ -204,6 +209,7 @@ class Pack:
     origin: dict[str, tuple[str, int | None]] = field(default_factory=dict)  # id -> (file, line)
     # id -> [(file, line, fields written)]: the definition first, then each override
     history: dict[str, list[tuple[str, int | None, dict[str, Any]]]] = field(default_factory=dict)
+    acceptance: Acceptance | None = None  # §QE: sampling, classes, scores, grades
 
     def rule(self, rule_id: str) -> Rule:
         """The rule of that id, compared case-insensitively (`tp-1` is TP-1)."""

@@ -1,0 +1,100 @@
+"""`blockqc sample`: draw the sample of a batch for detailed inspection (§QE-1)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import click
+import yaml
+
+from blockqc.acceptance.plan import Plan, make_plan
+from blockqc.acceptance.sampling import draw
+from blockqc.errors import InputError, Problem, RuleError, UsageError
+
+
+def _lookup(data: dict[str, Any], key: str) -> Any:
+    """A dotted key of block.yaml (e.g. `producer` or `terrain.class`); KeyError when absent."""
+    value: Any = data
+    for part in key.split("."):
+        if not isinstance(value, dict) or part not in value:
+            raise KeyError(key)
+        value = value[part]
+    return value
+
+
+def read_units(batch: Path, key: str | None) -> tuple[list[str], dict[str, str] | None]:
+    """The batch's block ids and, with a key, each block's stratum; every problem at once."""
+    from blockqc.batch import collect
+    from blockqc.delivery import MANIFEST, load_manifest
+
+    got = collect([batch])
+    problems = list(got.refused.values())
+    strata: dict[str, str] = {}
+    for path in got.deliveries:
+        if path not in got.manifests:
+            try:
+                load_manifest(path / MANIFEST)
+            except InputError as exc:
+                problems += exc.problems
+            continue
+        m = got.manifests[path]
+        if key:
+            try:
+                strata[m.block_id] = str(_lookup(m.model_dump(mode="json"), key))
+            except KeyError:
+                problems.append(
+                    Problem(str(path / MANIFEST), f"no key '{key}' to stratify by", column=key)
+                )
+    if problems:
+        raise InputError(problems)
+    ids = [got.manifests[p].block_id for p in got.deliveries]
+    return ids, strata if key else None
+
+
+def _echo_plan(plan: Plan, out: Path) -> None:
+    click.echo(
+        f"{plan.units} blocks, {len(plan.lots)} lot(s), {plan.method}: "
+        f"sample of {plan.sample_size} — {out}"
+    )
+    for i, lot in enumerate(plan.lots, 1):
+        census = " (every unit)" if lot.census else ""
+        click.echo(f"  lot {i}: {lot.size} units → {lot.sample_size}{census}")
+        for s in lot.strata:
+            label = f"{plan.strata_key}={s.value}: " if plan.strata_key else ""
+            click.echo(f"    {label}{s.size} → {s.sample}: {', '.join(s.sampled) or '-'}")
+
+
+@click.command("sample")
+@click.argument("batch", type=click.Path(path_type=Path))
+@click.option("--seed", required=True, type=int, help="Seed of the random generator.")
+@click.option("--strata", "key", help="block.yaml key to stratify by (e.g. test_field).")
+@click.option(
+    "--rules", "rules_ref", default="global-project", show_default=True, help="Rule pack."
+)
+@click.option("--out", required=True, type=click.Path(path_type=Path), help="Plan file (YAML).")
+def command(batch: Path, seed: int, key: str | None, rules_ref: str, out: Path) -> None:
+    """Draw the blocks of a batch to inspect in detail (§QE-1) and write the plan."""
+    from blockqc.outputs import check_out_dir, write_text_atomic
+    from blockqc.rules import load_pack
+
+    pack = load_pack(rules_ref)
+    if pack.acceptance is None:
+        raise RuleError(f"pack {pack.name} has no acceptance section (sampling table)", rules_ref)
+    check_out_dir(out.parent, [batch])
+    if out.suffix not in (".yaml", ".yml"):
+        raise UsageError(f"--out {out}: the plan is a YAML file (.yaml)")
+    ids, strata = read_units(batch, key)
+    lots = draw(ids, pack.acceptance.sampling, seed, strata)
+    plan = make_plan(
+        lots,
+        seed,
+        key,
+        standard=pack.acceptance.standard,
+        rule_pack=f"{pack.name} {pack.version}",
+        batch=batch.resolve().name,
+    )
+    text = "# blockqc sampling plan (§QE-1): inspect with `blockqc inspect BATCH --plan FILE`\n"
+    text += yaml.safe_dump(plan.model_dump(mode="json"), sort_keys=False, allow_unicode=True)
+    write_text_atomic(out, text)
+    _echo_plan(plan, out)

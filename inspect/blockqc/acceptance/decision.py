@@ -1,0 +1,54 @@
+"""The batch decision (§QE-5): the sample judged, its mean score and grade, the batch grade.
+
+Readings (docs/acceptance.md): the sample is the plan's sampled blocks (without a plan, the
+blocks that carry checkpoints); the batch grade's shares are taken over the sampled units;
+unsampled blocks that fail their general inspection are listed to be returned for correction
+and do not change the decision; a sampled block whose evaluation is incomplete leaves the
+decision incomplete unless some sampled block already fails.
+"""
+
+from __future__ import annotations
+
+from blockqc.acceptance.model import Acceptance, BatchDecision, BlockGrade
+
+
+def rank(acc: Acceptance, grade: str | None) -> int:
+    """Position of a grade, best first (the fail grade and unknown last)."""
+    ids = [g.id for g in acc.grades]
+    return ids.index(grade) if grade in ids else len(ids)
+
+
+def batch_grade(acc: Acceptance, grades: list[str]) -> tuple[str, float, float]:
+    """§QE-5: the first batch grade whose shares hold (good or better %, top %), else default."""
+    n = len(grades)
+    better = 100.0 * sum(rank(acc, g) <= rank(acc, acc.better_than) for g in grades) / n
+    top = 100.0 * sum(rank(acc, g) == 0 for g in grades) / n
+    for bg in acc.batch_grades:
+        if better >= bg.better_pct and top >= bg.top_pct:
+            return bg.grade, better, top
+    return acc.batch_default, better, top
+
+
+def decide(blocks: list[BlockGrade], acc: Acceptance, source: str) -> BatchDecision:
+    """A sample fails with any failing sampled block; else its mean score, grade, batch grade."""
+    sample = [b for b in blocks if b.sampled]
+    out = BatchDecision(
+        standard=acc.standard,
+        sample_source=source,
+        sample=[b.block_id for b in sample],
+        failing=[b for b in sample if b.fails],
+        incomplete=[b.block_id for b in sample if not b.complete or b.score is None],
+        returned=[b for b in blocks if not b.sampled and b.fails],
+        blocks=blocks,
+    )
+    if out.failing:
+        out.decision = "fail"
+        out.sample_grade = out.batch_grade = acc.fail_grade.id
+        return out
+    if not sample or out.incomplete:
+        return out
+    out.mean_score = sum(b.score for b in sample) / len(sample)
+    out.sample_grade = acc.grade(out.mean_score).id
+    out.batch_grade, out.better_pct, out.top_pct = batch_grade(acc, [b.grade for b in sample])
+    out.decision = "pass"
+    return out

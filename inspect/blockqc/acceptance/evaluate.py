@@ -1,0 +1,75 @@
+"""From a block's results to its §QE findings and evaluation, with the pack that judged them."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from blockqc.acceptance.model import Evaluation
+from blockqc.acceptance.scoring import Finding, evaluate_block
+from blockqc.results import BlockResults, RuleResult
+from blockqc.rules.expr import evaluate
+from blockqc.rules.model import Pack, Rule
+
+
+def _places(res: RuleResult, tree: dict[str, tuple[str, str]]) -> tuple[tuple[str, str], ...]:
+    """(element, item) of every content the result decides; its element alone otherwise."""
+    got = {tree[c] for c in res.content if c in tree}
+    if not got and res.quality_element:
+        got = {(res.quality_element, res.quality_element)}
+    return tuple(sorted(got))
+
+
+def _norm(rule: Rule, res: RuleResult, constants: dict[str, Any]) -> float | None:
+    """The norm m0 of a mathematical-accuracy result: the rule's `score.norm`, else its bound."""
+    if rule.score is None or rule.score.kind != "accuracy":
+        return None
+    if rule.score.norm is not None:
+        return float(evaluate(rule.score.norm, constants))
+    th = res.threshold
+    return float(th) if isinstance(th, (int, float)) and not isinstance(th, bool) else None
+
+
+def findings(results: BlockResults, pack: Pack) -> list[Finding]:
+    """Every result of the block as scoring sees it: places, class, norm."""
+    assert pack.acceptance is not None
+    tree = {c.id: (e.id, i.id) for e in results.elements for i in e.items for c in i.contents}
+    rules = {r.id: r for r in pack.rules}
+    out = []
+    for res in results.results:
+        rule = rules.get(res.rule)
+        if rule is None:
+            continue  # a result of a rule the pack no longer has cannot be classed
+        out.append(
+            Finding(
+                rule=res.rule,
+                status=res.status,
+                places=_places(res, tree),
+                error_class=rule.error_class or pack.acceptance.default_error_class,
+                value=res.value,
+                threshold=res.threshold,
+                norm=_norm(rule, res, pack.constants),
+                group=res.group,
+            )
+        )
+    return out
+
+
+def incomplete_reasons(results: BlockResults) -> list[str]:
+    """Why an evaluation cannot be final: rules not judged, verdicts awaited, plan notes."""
+    out = [f"rule {r.rule} could not be judged" for r in results.results if r.status == "error"]
+    out += [f"awaiting the inspector's verdict on {rid}" for rid in results.pending_manual]
+    out += [
+        f"{r.rule}: {r.detail['plan']}"
+        for r in results.results
+        if r.detail.get("plan_incomplete") and "plan" in r.detail
+    ][:1]
+    return out
+
+
+def evaluate_results(results: BlockResults, pack: Pack) -> Evaluation | None:
+    """§QE-2..5 for one block (None when the pack has no acceptance section)."""
+    if pack.acceptance is None:
+        return None
+    return evaluate_block(
+        results.elements, findings(results, pack), pack.acceptance, incomplete_reasons(results)
+    )

@@ -1,0 +1,241 @@
+"""The `acceptance:` section of a rule pack: the standard's mechanics as data (§QE-1..6)."""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+ErrorClass = Literal["A", "B", "C", "D"]
+
+
+class _M(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class ScoreDef(_M):
+    """How a rule's results are scored: `accuracy` against a norm (§QE-3), else by deduction."""
+
+    kind: Literal["accuracy", "deduction"] = "deduction"
+    # the norm m0 (an expression over the pack's constants); none: the result's upper bound
+    norm: float | int | str | None = None
+
+
+class SampleRow(_M):
+    """One line of the sampling table: batches of up to `batch` units give `sample` units."""
+
+    batch: int = Field(gt=0)
+    sample: int = Field(gt=0)
+
+
+class Sampling(_M):
+    """§QE-1: the sample size by batch size; larger batches split into the fewest even batches."""
+
+    table: list[SampleRow] = Field(min_length=1)
+
+    @model_validator(mode="after")
+    def _ascending(self) -> Sampling:
+        sizes = [r.batch for r in self.table]
+        if sizes != sorted(set(sizes)):
+            raise ValueError("sampling.table: batch sizes must be strictly ascending")
+        return self
+
+    @property
+    def max_batch(self) -> int:
+        return self.table[-1].batch
+
+
+class Deduction(_M):
+    """§QE-4: score = 100 − (B·nB + C·nC + D·nD)/t."""
+
+    B: float = Field(default=12, ge=0)
+    C: float = Field(default=4, ge=0)
+    D: float = Field(default=1, ge=0)
+    t: float = Field(default=1, gt=0)
+
+
+class AccuracyScore(_M):
+    """§QE-3: 100 for m ≤ full·m0, else floor + span·(m0 − m)/((1 − full)·m0) up to m0."""
+
+    full: float = Field(default=0.3, gt=0, lt=1)
+    floor: float = 60
+    span: float = 40
+
+
+class Grade(_M):
+    """A grade and its lowest score (inclusive)."""
+
+    id: str
+    min: float
+    title: str
+    title_zh: str = ""
+
+
+class BatchGrade(_M):
+    """§QE-5: a batch grade when enough of the sample's units are good or better and excellent."""
+
+    grade: str
+    better_pct: float = Field(ge=0, le=100)  # units graded `better_than` or above, in %
+    top_pct: float = Field(ge=0, le=100)  # units of the top grade, in %
+
+
+class Weights(_M):
+    """§QE-4: weights of the quality elements and, within each element, of its items."""
+
+    elements: dict[str, float] = Field(default_factory=dict)
+    items: dict[str, float] = Field(default_factory=dict)
+
+
+class Acceptance(_M):
+    """Everything §QE needs, as a pack states it."""
+
+    standard: str = ""
+    standard_zh: str = ""
+    basis: list[str] = Field(default_factory=list)  # inspection basis (standards, design)
+    basis_zh: list[str] = Field(default_factory=list)
+    sampling: Sampling
+    default_error_class: ErrorClass = "C"
+    deduction: Deduction = Field(default_factory=Deduction)
+    accuracy: AccuracyScore = Field(default_factory=AccuracyScore)
+    element_fail_below: float = 60  # §QE-2: a unit fails with any element below this
+    grades: list[Grade] = Field(min_length=1)  # best first; below the last: the fail grade
+    fail_grade: Grade
+    better_than: str = "good"  # §QE-5 "good or better"
+    batch_grades: list[BatchGrade] = Field(default_factory=list)  # best first
+    batch_default: str = "pass"
+    weights: Weights = Field(default_factory=Weights)
+
+    @model_validator(mode="after")
+    def _grades(self) -> Acceptance:
+        mins = [g.min for g in self.grades]
+        if mins != sorted(mins, reverse=True):
+            raise ValueError("grades: list them best first, lowest scores descending")
+        ids = {g.id for g in self.grades}
+        for ref in [self.better_than, self.batch_default, *(b.grade for b in self.batch_grades)]:
+            if ref not in ids:
+                raise ValueError(f"grade '{ref}' is not one of the grades ({', '.join(ids)})")
+        return self
+
+    def grade(self, score: float) -> Grade:
+        """The grade of a score that has not failed otherwise (§QE-5)."""
+        return next((g for g in self.grades if score >= g.min), self.fail_grade)
+
+    def grade_by_id(self, gid: str) -> Grade:
+        return next((g for g in [*self.grades, self.fail_grade] if g.id == gid), self.fail_grade)
+
+
+# ------------------------------------------------------------------ what results.json records
+class ErrorRecord(_M):
+    """One error found: the rule (and group) that failed, its class, value and threshold."""
+
+    rule: str
+    error_class: ErrorClass
+    group: dict[str, object] = Field(default_factory=dict)
+    value: object = None
+    threshold: object = None
+    reason: str = ""  # e.g. "medium error beyond the norm"
+
+
+class AccuracyRecord(_M):
+    """A mathematical-accuracy result scored against its norm (§QE-3)."""
+
+    rule: str
+    group: dict[str, object] = Field(default_factory=dict)
+    value: float
+    norm: float
+    score: float | None  # None: beyond the norm, an A-class error
+
+
+class ItemScore(_M):
+    """A quality item (sub-element): its score, weight, errors and accuracy scores."""
+
+    id: str
+    title: str = ""
+    title_zh: str = ""
+    weight: float
+    inspected: bool
+    score: float | None = None
+    counts: dict[str, int] = Field(default_factory=dict)  # errors by class
+    deduction: float = 0.0  # (B·nB + C·nC + D·nD)/t
+    accuracy: list[AccuracyRecord] = Field(default_factory=list)
+    errors: list[ErrorRecord] = Field(default_factory=list)
+
+
+class ElementScore(_M):
+    """A quality element: the weighted mean of its inspected items."""
+
+    id: str
+    title: str = ""
+    title_zh: str = ""
+    weight: float
+    inspected: bool
+    score: float | None = None
+    items: list[ItemScore] = Field(default_factory=list)
+
+
+class Evaluation(_M):
+    """A block's quality evaluation (§QE-2..5): score, grade, and why it fails."""
+
+    standard: str = ""
+    standard_zh: str = ""
+    score: float | None = None
+    grade: str | None = None  # a grade id of the pack (e.g. excellent … fail)
+    grade_title: str = ""
+    grade_title_zh: str = ""
+    fails: bool = False
+    complete: bool = True
+    reasons: list[str] = Field(default_factory=list)  # why it fails or is incomplete
+    counts: dict[str, int] = Field(default_factory=dict)  # errors by class over the block
+    elements: list[ElementScore] = Field(default_factory=list)
+
+
+class BlockGrade(_M):
+    """One block's line of the batch decision."""
+
+    block_id: str
+    sampled: bool
+    score: float | None = None
+    grade: str | None = None
+    fails: bool = False
+    complete: bool = True
+    reasons: list[str] = Field(default_factory=list)
+    a_errors: list[ErrorRecord] = Field(default_factory=list)  # the A-class errors, named
+    low_elements: list[dict[str, Any]] = Field(default_factory=list)  # id, titles, score
+
+
+class BatchDecision(_M):
+    """§QE-5: the sample judged, its mean score and grade, the batch grade and the acceptance."""
+
+    standard: str = ""
+    sample_source: str = ""  # "plan" (a sampling plan) or "checkpoints" (blocks that have them)
+    sample: list[str] = Field(default_factory=list)
+    failing: list[BlockGrade] = Field(default_factory=list)  # sampled blocks that fail
+    incomplete: list[str] = Field(default_factory=list)  # sampled blocks not fully evaluated
+    mean_score: float | None = None
+    sample_grade: str | None = None
+    better_pct: float | None = None  # share of sampled units graded good or better
+    top_pct: float | None = None  # share graded excellent
+    batch_grade: str | None = None
+    decision: Literal["pass", "fail", "incomplete"] = "incomplete"
+    returned: list[BlockGrade] = Field(default_factory=list)  # unsampled blocks that fail
+    blocks: list[BlockGrade] = Field(default_factory=list)
+
+
+class ReportMeta(_M):
+    """The filed report's particulars (§QE-6) from `--meta FILE`; basis: the pack's by default."""
+
+    report_number: str = ""
+    project: str = ""
+    project_zh: str = ""
+    producer: str = ""
+    producer_zh: str = ""
+    inspection_unit: str = ""  # who inspects (the inspection centre)
+    inspection_unit_zh: str = ""
+    basis: list[str] = Field(default_factory=list)
+    basis_zh: list[str] = Field(default_factory=list)
+    handling: str = ""  # how the main problems were handled
+    handling_zh: str = ""
+    prepared: str = ""
+    reviewed: str = ""
+    approved: str = ""
+    annexes: list[str] = Field(default_factory=list)

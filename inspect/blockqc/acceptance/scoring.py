@@ -1,0 +1,204 @@
+"""A block's score and grade from its rule results (§QE-2..5), as the pack's acceptance says.
+
+Readings (docs/acceptance.md): one error per failing result (rule × group), counted in every
+item whose content it decides; only `fail` results are errors (warnings, waivers and pending
+manual items are not); an item with an A-class error scores 0; an item's score is the lowest
+accuracy score of its accuracy results less the deduction of its other errors; items and
+elements with nothing judged are left out and the weights re-normalised over the rest.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from typing import Any
+
+from blockqc.acceptance.model import (
+    Acceptance,
+    AccuracyRecord,
+    AccuracyScore,
+    ElementScore,
+    ErrorClass,
+    ErrorRecord,
+    Evaluation,
+    ItemScore,
+)
+
+JUDGED = ("pass", "fail", "warn", "waived")
+CLASSES: tuple[ErrorClass, ...] = ("A", "B", "C", "D")
+
+
+@dataclass(frozen=True)
+class Finding:
+    """One judged rule result as scoring sees it."""
+
+    rule: str
+    status: str
+    places: tuple[tuple[str, str], ...]  # (element id, item id) it decides
+    error_class: ErrorClass
+    value: Any = None
+    threshold: Any = None
+    norm: float | None = None  # set for results scored as mathematical accuracy
+    group: dict[str, Any] = field(default_factory=dict)
+
+
+def accuracy_score(m: float, m0: float, acc: AccuracyScore | None = None) -> float | None:
+    """§QE-3: 100 for m ≤ 0.3·m0; 60 + 40·(m0 − m)/(0.7·m0) up to m0; None beyond (A-class)."""
+    acc = acc or AccuracyScore()
+    m = abs(m)
+    if m <= acc.full * m0:
+        return 100.0
+    if m <= m0:
+        return acc.floor + acc.span * (m0 - m) / ((1 - acc.full) * m0)
+    return None
+
+
+def deduction_score(counts: dict[str, int], acc: Acceptance) -> float:
+    """§QE-4: 100 − (12·nB + 4·nC + nD)/t, at least 0."""
+    return max(0.0, 100.0 - _deduction(counts, acc))
+
+
+def _deduction(counts: dict[str, int], acc: Acceptance) -> float:
+    d = acc.deduction
+    return (d.B * counts.get("B", 0) + d.C * counts.get("C", 0) + d.D * counts.get("D", 0)) / d.t
+
+
+def _error(f: Finding, cls: ErrorClass, reason: str) -> ErrorRecord:
+    return ErrorRecord(
+        rule=f.rule,
+        error_class=cls,
+        group=f.group,
+        value=f.value,
+        threshold=f.threshold,
+        reason=reason,
+    )
+
+
+def _judge_finding(f: Finding, acc: Acceptance) -> tuple[AccuracyRecord | None, ErrorRecord | None]:
+    """A finding's accuracy score and its error, if any."""
+    if f.norm is not None and isinstance(f.value, (int, float)) and f.status in JUDGED:
+        s = accuracy_score(float(f.value), f.norm, acc.accuracy)
+        rec = AccuracyRecord(rule=f.rule, group=f.group, value=f.value, norm=f.norm, score=s)
+        if s is None:
+            return rec, _error(f, "A", "beyond the norm")
+        if f.status == "fail":
+            return rec, _error(f, f.error_class, "fails its threshold")
+        return rec, None
+    if f.status == "fail":
+        return None, _error(f, f.error_class, "fails its threshold")
+    return None, None
+
+
+def score_item(findings: list[Finding], acc: Acceptance) -> ItemScore:
+    """One item: accuracy scores, errors by class, and the item's score (None: not inspected)."""
+    judged = [f for f in findings if f.status in JUDGED]
+    item = ItemScore(id="", weight=0.0, inspected=bool(judged))
+    for f in judged:
+        rec, err = _judge_finding(f, acc)
+        item.accuracy += [rec] if rec else []
+        item.errors += [err] if err else []
+    item.counts = {c: sum(e.error_class == c for e in item.errors) for c in CLASSES}
+    if not judged:
+        return item
+    scored = [r.score for r in item.accuracy if r.score is not None]
+    item.deduction = _deduction(item.counts, acc)
+    if item.counts["A"]:
+        item.score = 0.0
+    else:
+        item.score = max(0.0, (min(scored) if scored else 100.0) - item.deduction)
+    return item
+
+
+def weighted(parts: Iterable[tuple[float, float | None]]) -> float | None:
+    """Σ wᵢ·sᵢ / Σ wᵢ over the parts that were scored (§QE-4, re-weighted); None when none."""
+    got = [(w, s) for w, s in parts if s is not None]
+    total = sum(w for w, _ in got)
+    if not got:
+        return None
+    if total <= 0:
+        return sum(s for _, s in got) / len(got)
+    return sum(w * s for w, s in got) / total
+
+
+def _items_of(findings: list[Finding], element: str, item: str) -> list[Finding]:
+    return [f for f in findings if (element, item) in f.places]
+
+
+def score_element(el: Any, findings: list[Finding], acc: Acceptance) -> ElementScore:
+    """An element of the pack's tree (ElementDef): its items scored and rolled up by weight."""
+    items = []
+    for it in el.items:
+        s = score_item(_items_of(findings, el.id, it.id), acc)
+        s.id, s.title, s.title_zh = it.id, it.title, it.title_zh
+        s.weight = acc.weights.items.get(it.id, 1.0)
+        items.append(s)
+    score = weighted((i.weight, i.score) for i in items)
+    return ElementScore(
+        id=el.id,
+        title=el.title,
+        title_zh=el.title_zh,
+        weight=acc.weights.elements.get(el.id, 1.0),
+        inspected=score is not None,
+        score=score,
+        items=items,
+    )
+
+
+def evaluate_block(
+    elements: list[Any], findings: list[Finding], acc: Acceptance, incomplete: list[str] = ()
+) -> Evaluation:
+    """§QE-2..5: the block's score (weighted over its elements), whether it fails, its grade."""
+    els = [score_element(e, findings, acc) for e in elements]
+    score = weighted((e.weight, e.score) for e in els)
+    errors = [x for e in els for i in e.items for x in i.errors]
+    counts = {c: sum(x.error_class == c for x in _unique(errors)) for c in CLASSES}
+    reasons = [
+        f"A-class error: {x.rule}{_group_text(x.group)} {_num(x.value)} ({x.reason})"
+        for x in _unique(errors)
+        if x.error_class == "A"
+    ]
+    reasons += [
+        f"element {e.id} scores {e.score:.1f} < {acc.element_fail_below:g}"
+        for e in els
+        if e.score is not None and e.score < acc.element_fail_below
+    ]
+    fails = bool(reasons)
+    grade = acc.fail_grade if fails else acc.grade(score) if score is not None else None
+    ev = Evaluation(
+        standard=acc.standard,
+        standard_zh=acc.standard_zh,
+        score=None if score is None else round(score, 6),
+        grade=grade.id if grade else None,
+        grade_title=grade.title if grade else "",
+        grade_title_zh=grade.title_zh if grade else "",
+        fails=fails,
+        complete=not incomplete and score is not None,
+        reasons=reasons + list(incomplete),
+        counts=counts,
+        elements=els,
+    )
+    return ev
+
+
+def a_class_errors(ev: Evaluation) -> list[ErrorRecord]:
+    """The block's A-class errors, each (rule, group) once."""
+    errors = [x for e in ev.elements for i in e.items for x in i.errors]
+    return [x for x in _unique(errors) if x.error_class == "A"]
+
+
+def _unique(errors: list[ErrorRecord]) -> list[ErrorRecord]:
+    seen, out = set(), []
+    for x in errors:
+        key = (x.rule, str(x.group))
+        if key not in seen:
+            seen.add(key)
+            out.append(x)
+    return out
+
+
+def _group_text(group: dict[str, Any]) -> str:
+    return f" ({', '.join(str(v) for v in group.values())})" if group else ""
+
+
+def _num(v: Any) -> str:
+    return f"{v:.2f}" if isinstance(v, float) else str(v)

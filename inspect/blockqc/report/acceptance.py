@@ -1,0 +1,289 @@
+"""What the pages show of §QE: a block's score and grade, the batch decision, the filed report.
+
+Built from results.json / summary.json alone, in the report's language.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+from pathlib import PurePath
+from typing import Any
+
+from blockqc.acceptance.model import BatchDecision, ErrorRecord, Evaluation
+from blockqc.report.format import Formatter
+from blockqc.results import BlockResults, Summary
+
+CLASSES = ("A", "B", "C", "D")
+
+
+def grade_text(f: Formatter, grade: str | None, en: str = "", zh: str = "") -> str:
+    """A grade in the page's language: the pack's titles, else the catalogue's, else its id."""
+    if grade is None:
+        return "–"
+    return f.pick(en, zh) or f._key("grade", grade, grade)
+
+
+def _why(x: ErrorRecord, f: Formatter) -> str:
+    return f.t("err_beyond_norm") if x.reason == "beyond the norm" else f.t("err_fails")
+
+
+def _error_row(x: ErrorRecord, f: Formatter) -> dict[str, Any]:
+    return {
+        "rule": x.rule,
+        "group": f.group(x.group),
+        "cls": x.error_class,
+        "value": f.num(x.value),
+        "threshold": f.num(x.threshold),
+        "why": _why(x, f),
+    }
+
+
+def _items(ev: Evaluation, f: Formatter) -> list[dict[str, Any]]:
+    rows = []
+    for e in ev.elements:
+        rows.append(_part(e, f, level="element"))
+        rows += [_part(i, f, level="item") for i in e.items]
+    return rows
+
+
+def _part(p: Any, f: Formatter, level: str) -> dict[str, Any]:
+    counts = getattr(p, "counts", {}) or {}
+    acc = getattr(p, "accuracy", [])
+    return {
+        "level": level,
+        "name": f.pick(p.title, p.title_zh) or p.id,
+        "weight": f.num(p.weight, 2),
+        "score": f.num(p.score, 1) if p.score is not None else f.t("not_inspected"),
+        "errors": " ".join(f"{c}{counts[c]}" for c in CLASSES if counts.get(c)) or "–",
+        "deduction": f.num(getattr(p, "deduction", 0.0), 1) if level == "item" else "",
+        "accuracy": "; ".join(
+            f"{a.rule}{(' ' + f.group(a.group)) if a.group else ''}: "
+            f"{f.num(a.value, 2)}/{f.num(a.norm, 2)} → "
+            f"{f.num(a.score, 1) if a.score is not None else 'A'}"
+            for a in acc
+        ),
+    }
+
+
+def evaluation_context(ev: Evaluation | None, f: Formatter) -> dict[str, Any] | None:
+    """A block's §QE evaluation for its report (None when the pack has no acceptance)."""
+    if ev is None:
+        return None
+    errors = [x for e in ev.elements for i in e.items for x in i.errors]
+    seen, unique = set(), []
+    for x in errors:
+        if (x.rule, str(x.group)) not in seen:
+            seen.add((x.rule, str(x.group)))
+            unique.append(x)
+    unique.sort(key=lambda x: x.error_class)
+    return {
+        "score": f.num(ev.score, 1) if ev.score is not None else "–",
+        "grade": ev.grade or "none",
+        "grade_text": grade_text(f, ev.grade, ev.grade_title, ev.grade_title_zh),
+        "fails": ev.fails,
+        "complete": ev.complete,
+        "counts": " · ".join(f"{c}: {ev.counts.get(c, 0)}" for c in CLASSES),
+        "errors": [_error_row(x, f) for x in unique],
+        "rows": _items(ev, f),
+        "low_elements": [
+            f.t("element_below", name=f.pick(e.title, e.title_zh), score=f.num(e.score, 1))
+            for e in ev.elements
+            if e.score is not None
+            and ev.fails
+            and not any(x.error_class == "A" for x in unique)
+            and e.score < 60
+        ],
+        "notes": [r for r in ev.reasons if not r.startswith(("A-class", "element "))],
+        "standard": f.pick(ev.standard, ev.standard_zh),
+    }
+
+
+def failed_items(results: BlockResults, f: Formatter) -> list[dict[str, Any]]:
+    """Page 1: every failing (or unjudged) result with its value, threshold and badge."""
+    return [
+        {
+            "rule": r.rule,
+            "title": f.title(r),
+            "group": f.group(r.group),
+            "status": r.status,
+            "status_text": f.status(r.status),
+            "value": f.value(r),
+            "threshold": f.threshold(r),
+        }
+        for r in results.results
+        if r.status in ("fail", "error")
+    ]
+
+
+def local_time(stamp: str) -> str:
+    """An ISO UTC stamp (…Z) in local time with its zone, e.g. 2026-11-22 20:05 CST."""
+    try:
+        t = dt.datetime.strptime(stamp, "%Y-%m-%dT%H:%M:%SZ").replace(tzinfo=dt.UTC)
+    except ValueError:
+        return stamp
+    local = t.astimezone()
+    return local.strftime("%Y-%m-%d %H:%M ") + (local.tzname() or local.strftime("%z"))
+
+
+def name_only(path: str) -> str:
+    """A path shown by its last part: reports never show where this machine keeps files."""
+    return PurePath(path).name if path else "–"
+
+
+def decision_context(s: Summary, f: Formatter) -> dict[str, Any] | None:
+    """The batch decision (§QE-5) for summary.html and the batch acceptance report."""
+    d: BatchDecision | None = s.acceptance
+    if d is None:
+        return None
+    grade = {b.block_id: b for b in s.blocks}
+    return {
+        "decision": d.decision,
+        "decision_text": f._key("decision", d.decision, d.decision),
+        "source": f.t("sample_by_plan") if d.sample_source == "plan" else f.t("sample_by_cps"),
+        "sample": ", ".join(d.sample) or "–",
+        "mean": f.num(d.mean_score, 1) if d.mean_score is not None else "–",
+        "sample_grade": grade_text(f, d.sample_grade),
+        "batch_grade": grade_text(f, d.batch_grade),
+        "shares": ""
+        if d.better_pct is None
+        else f.t("shares", better=f.num(d.better_pct, 1), top=f.num(d.top_pct, 1)),
+        "failing": [_block_line(b, f) for b in d.failing],
+        "returned": [_block_line(b, f) for b in d.returned],
+        "incomplete": ", ".join(d.incomplete),
+        "blocks": [
+            {
+                **_block_line(b, f),
+                "report": grade[b.block_id].report if b.block_id in grade else "",
+                "verdict": grade[b.block_id].verdict if b.block_id in grade else "",
+            }
+            for b in d.blocks
+        ],
+        "standard": d.standard,
+    }
+
+
+def _block_line(b: Any, f: Formatter) -> dict[str, Any]:
+    return {
+        "block_id": b.block_id,
+        "sampled": f.num(b.sampled),
+        "score": f.num(b.score, 1) if b.score is not None else "–",
+        "grade": b.grade or "none",
+        "grade_text": grade_text(f, b.grade),
+        "fails": b.fails,
+        "complete": b.complete,
+        "reasons": ("；" if f.lang == "zh" else "; ").join(_reasons(b, f)),
+    }
+
+
+def _reasons(b: Any, f: Formatter) -> list[str]:
+    """Why a block fails or is incomplete, in the page's language, from the structured record."""
+    colon, (lp, rp) = ("：", "（）") if f.lang == "zh" else (": ", "()")
+    out = [
+        f"{f.t('a_class_error')}{colon}{x.rule}{(' ' + f.group(x.group)) if x.group else ''} "
+        f"{f.num(x.value)} {lp}{_why(x, f)}{rp}"
+        for x in b.a_errors
+    ]
+    out += [
+        f.t("element_below", name=f.pick(e["title"], e["title_zh"]), score=f.num(e["score"], 1))
+        for e in b.low_elements
+    ]
+    out += [reason_text(r, f) for r in b.reasons if not r.startswith(("A-class error", "element "))]
+    return out
+
+
+def reason_text(reason: str, f: Formatter) -> str:
+    """An evaluation's reason (recorded in English) in the page's language."""
+    if f.lang == "en":
+        return reason
+    for en, key in (
+        ("A-class error", "a_class_error"),
+        ("(fails its threshold)", "err_fails_p"),
+        ("(beyond the norm)", "err_beyond_norm_p"),
+        (
+            "sampled for detailed inspection, but the delivery has no checkpoints: "
+            "the detailed inspection is incomplete",
+            "plan_no_cps",
+        ),
+        ("awaiting the inspector's verdict on", "awaiting_on"),
+    ):
+        reason = reason.replace(en, f.t(key))
+    return reason
+
+
+def _sampling_rows(s: Summary, f: Formatter) -> list[dict[str, Any]]:
+    """The plan's lots and strata (§QE-1), one row per stratum."""
+    plan = s.sampling or {}
+    rows = []
+    for i, lot in enumerate(plan.get("lots", []), 1):
+        for st in lot["strata"]:
+            rows.append(
+                {
+                    "lot": i,
+                    "lot_size": lot["size"],
+                    "lot_sample": lot["sample_size"],
+                    "census": f.num(bool(lot["census"])),
+                    "stratum": st["value"] or "–",
+                    "size": st["size"],
+                    "sample": st["sample"],
+                    "sampled": ", ".join(st["sampled"]) or "–",
+                }
+            )
+    return rows
+
+
+def _contents(s: Summary, f: Formatter) -> list[dict[str, Any]]:
+    """Inspection contents and methods: the pack's elements, items and how each is checked."""
+    return [
+        {
+            "element": f.pick(e.title, e.title_zh),
+            "item": f.pick(i.title, i.title_zh),
+            "contents": "、".join(f.pick(c.title, c.title_zh) for c in i.contents)
+            if f.lang == "zh"
+            else "; ".join(c.title for c in i.contents),
+            "method": f.pick(i.method, i.method_zh),
+        }
+        for e in s.elements
+        for i in e.items
+    ]
+
+
+def _grade_counts(s: Summary, f: Formatter) -> str:
+    counts: dict[str, int] = {}
+    for b in s.blocks:
+        if b.grade:
+            counts[b.grade] = counts.get(b.grade, 0) + 1
+    sep = "，" if f.lang == "zh" else ", "
+    return sep.join(f"{grade_text(f, g)} {n}" for g, n in counts.items()) or "–"
+
+
+def filed_context(s: Summary, lang: str) -> dict[str, Any]:
+    """Everything acceptance.html.j2 shows: the batch acceptance report as a filed document."""
+    f = Formatter(lang)
+    meta = s.meta
+    d = decision_context(s, f)
+    return {
+        "t": f.t,
+        "f": f,
+        "lang": lang,
+        "s": s,
+        "m": meta,
+        "project": f.pick(meta.project, meta.project_zh) if meta else "",
+        "producer": f.pick(meta.producer, meta.producer_zh) if meta else "",
+        "unit": f.pick(meta.inspection_unit, meta.inspection_unit_zh) if meta else "",
+        "basis": (meta.basis_zh or meta.basis)
+        if meta and lang == "zh"
+        else (meta.basis if meta else []),
+        "handling": (f.pick(meta.handling, meta.handling_zh) if meta else "")
+        or f.t("handling_default"),
+        "date": local_time(s.generated_at),
+        "inspector": s.inspector or f.t("not_given"),
+        "colon": "：" if lang == "zh" else ": ",
+        "method": f._key("sampling_method", (s.sampling or {}).get("method", "").replace(" ", "_")),
+        "d": d,
+        "sampling_rows": _sampling_rows(s, f),
+        "plan": s.sampling,
+        "table": s.sampling_table,
+        "contents": _contents(s, f),
+        "grade_counts": _grade_counts(s, f),
+        "annexes": [f"{b.block_id}/report.html" for b in s.blocks] + (meta.annexes if meta else []),
+    }

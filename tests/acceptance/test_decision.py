@@ -1,0 +1,58 @@
+"""§QE-5 batch decision: the sample fails with any failing block, else mean score and grades."""
+
+from __future__ import annotations
+
+import pytest
+
+from blockqc.acceptance.decision import batch_grade, decide
+from blockqc.acceptance.model import BlockGrade
+from blockqc.rules import load_pack
+
+ACC = load_pack("global-project").acceptance
+
+
+def blk(i: int, score: float, grade: str, sampled: bool = True, fails: bool = False) -> BlockGrade:
+    return BlockGrade(block_id=f"B{i}", sampled=sampled, score=score, grade=grade, fails=fails)
+
+
+def test_excellent_batch() -> None:
+    # mean (95 + 92 + 80)/3 = 89 → sample good; good or better 3/3 = 100 %, excellent 2/3 = 66.7 %
+    d = decide([blk(1, 95, "excellent"), blk(2, 92, "excellent"), blk(3, 80, "good")], ACC, "plan")
+    assert d.decision == "pass"
+    assert d.mean_score == pytest.approx(89)
+    assert d.sample_grade == "good"
+    assert (d.better_pct, d.top_pct) == (pytest.approx(100), pytest.approx(200 / 3))
+    assert d.batch_grade == "excellent"
+
+
+def test_good_and_pass_batches() -> None:
+    # 4 of 5 good or better (80 %), 2 of 5 excellent (40 %) → good
+    assert batch_grade(ACC, ["excellent", "excellent", "good", "good", "pass"])[0] == "good"
+    # 80 % but 1 of 5 excellent (20 % < 30 %) → pass
+    assert batch_grade(ACC, ["excellent", "good", "good", "good", "pass"]) == ("pass", 80, 20)
+    # 9 of 10 good or better, 5 excellent → excellent
+    assert batch_grade(ACC, ["excellent"] * 5 + ["good"] * 4 + ["pass"])[0] == "excellent"
+
+
+def test_a_failing_sampled_block_fails_the_batch() -> None:
+    blocks = [
+        blk(1, 99, "excellent"),
+        blk(2, 82, "fail", fails=True),
+        blk(3, 70, "fail", sampled=False, fails=True),
+    ]
+    d = decide(blocks, ACC, "checkpoints")
+    assert d.decision == "fail" and d.batch_grade == "fail"
+    assert [b.block_id for b in d.failing] == ["B2"]
+    assert [b.block_id for b in d.returned] == ["B3"]  # unsampled: returned for correction
+
+
+def test_unsampled_failures_do_not_decide() -> None:
+    d = decide([blk(1, 91, "excellent"), blk(2, 50, "fail", False, True)], ACC, "plan")
+    assert (
+        d.decision == "pass" and d.mean_score == 91 and [b.block_id for b in d.returned] == ["B2"]
+    )
+
+
+def test_no_sample_is_incomplete() -> None:
+    d = decide([blk(1, 91, "excellent", sampled=False)], ACC, "checkpoints")
+    assert d.decision == "incomplete" and d.mean_score is None

@@ -1,0 +1,72 @@
+"""The overlap-discrepancy map: per scene pair mean vector, RMS and largest discrepancy."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from blockqc.delivery import load_delivery
+from blockqc.engine import inspect_delivery
+from blockqc.report.format import Formatter
+from blockqc.report.maps import _overlap_points, _pairs, overlap_map
+from blockqc.rules import load_pack
+from casekit import write_delivery
+
+
+def test_pairs_by_hand() -> None:
+    rows = [
+        {"scene_a": "A", "scene_b": "B", "dx_m": 3.0, "dy_m": 4.0},
+        {"scene_a": "A", "scene_b": "B", "dx_m": -3.0, "dy_m": 4.0},
+    ]
+    (p,) = _pairs(rows).values()
+    # mean (0, 4); both discrepancies 5 m: RMS 5, max 5
+    assert (p["dx"], p["dy"], p["rms"], p["max"]) == (0.0, 4.0, 5.0, 5.0)
+
+
+def test_map_of_a_delivery(tmp_path) -> None:
+    # the case delivery: 5 overlap points S1/S2 with dx 3, dy 4 → one pair, RMS 5 m
+    res = inspect_delivery(
+        load_delivery(write_delivery(tmp_path / "d")), load_pack("global-project")
+    )
+    rows, bound = _overlap_points(res)
+    assert len(rows) == 5 and math.isclose(bound, 2 * math.sqrt(2) * 10)
+    svg = overlap_map(res, Formatter("en"))
+    assert svg is not None and svg.startswith("<svg")
+
+
+def test_residual_vectors_by_hand() -> None:
+    from blockqc.report.maps import residual_vectors
+
+    # image corners (0,0) (0,S) (L,S) (L,0) at lon/lat (0,1) (1,1) (1,0) (0,0): samples run
+    # east, lines run south; a residual along the samples points east, along the lines south
+    corners = {"S": np.array([[0, 1], [1, 1], [1, 0], [0, 0]], dtype=float)}
+    cells = [
+        {"scene_id": "S", "u": 0.5, "w": 0.5, "v_line": 0.0, "v_sample": 0.3},
+        {"scene_id": "S", "u": 0.25, "w": 0.75, "v_line": 0.4, "v_sample": 0.0},
+    ]
+    v = residual_vectors(cells, corners)
+    np.testing.assert_allclose(v[0], [0.5, 0.5, 0.3, 0.0], atol=1e-12)
+    np.testing.assert_allclose(v[1], [0.75, 0.75, 0.0, -0.4], atol=1e-12)
+
+
+def test_residual_cells_by_hand() -> None:
+    import pandas as pd
+
+    from blockqc.metrics.tiepoints import residual_cells
+
+    scenes = pd.DataFrame({"scene_id": ["S"], "lines": [100], "samples": [100]})
+    tp = pd.DataFrame(
+        {
+            "scene_id": ["S", "S", "S"],
+            "line": [10.0, 20.0, 99.0],  # cells (0, 0), (0, 0), (3, 3) of a 4×4 grid
+            "sample": [5.0, 24.0, 80.0],
+            "v_line": [0.1, 0.3, -0.2],
+            "v_sample": [0.0, 0.2, 0.4],
+        }
+    )
+    got = residual_cells(tp, scenes)
+    assert got == [
+        {"scene_id": "S", "u": 0.125, "w": 0.125, "n": 2, "v_line": 0.2, "v_sample": 0.1},
+        {"scene_id": "S", "u": 0.875, "w": 0.875, "n": 1, "v_line": -0.2, "v_sample": 0.4},
+    ]

@@ -1,0 +1,175 @@
+"""`blockqc sample` and `inspect --plan` on real command lines."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+import yaml
+
+from casekit import run_blockqc, write_delivery
+
+
+def _batch(root: Path, n: int, with_cps: set[int] = frozenset()) -> Path:
+    """n tiny deliveries (ids B00…); strata by a `terrain` key: 'flat' for even i, else 'hilly'."""
+    for i in range(n):
+        case = {"manifest": {"block_id": f"B{i:02d}", "terrain": "flat" if i % 2 == 0 else "hilly"}}
+        if i not in with_cps:
+            case["remove_tables"] = ["checkpoints"]
+        write_delivery(root / f"B{i:02d}", case)
+    return root
+
+
+def test_sample_command_reproducible_and_stratified(tmp_path: Path) -> None:
+    batch = _batch(tmp_path / "batch", 5)
+    a = run_blockqc(
+        "sample", batch, "--seed", 4, "--strata", "terrain", "--out", tmp_path / "a.yaml"
+    )
+    b = run_blockqc(
+        "sample", batch, "--seed", 4, "--strata", "terrain", "--out", tmp_path / "b.yaml"
+    )
+    assert a.returncode == 0 == b.returncode, a.stderr
+    pa, pb = (yaml.safe_load((tmp_path / f).read_text()) for f in ("a.yaml", "b.yaml"))
+    assert pa["sampled"] == pb["sampled"] and len(pa["sampled"]) == 3
+    # 3 flat, 2 hilly: quotas 1.8 and 1.2 → 1 + 1, the seat left to the larger remainder (.8)
+    per = {s["value"]: s["sample"] for s in pa["lots"][0]["strata"]}
+    assert per == {"flat": 2, "hilly": 1}
+    assert pa["batch"] == "batch"  # the folder's name, never a path of this machine
+
+
+def test_sample_command_names_a_missing_key(tmp_path: Path) -> None:
+    batch = _batch(tmp_path / "batch", 2)
+    r = run_blockqc(
+        "sample", batch, "--seed", 1, "--strata", "producer", "--out", tmp_path / "p.yaml"
+    )
+    assert r.returncode == 2
+    assert "block.yaml" in r.stderr and "no key 'producer'" in r.stderr
+    assert not (tmp_path / "p.yaml").exists()
+
+
+def test_inspect_with_plan(tmp_path: Path) -> None:
+    batch = _batch(tmp_path / "batch", 4, with_cps={0, 1})
+    plan = {
+        "seed": 0,
+        "units": 4,
+        "sample_size": 2,
+        "lots": [
+            {
+                "size": 4,
+                "sample_size": 2,
+                "census": False,
+                "strata": [
+                    {
+                        "value": "",
+                        "size": 4,
+                        "sample": 2,
+                        "units": ["B00", "B01", "B02", "B03"],
+                        "sampled": ["B00", "B02"],
+                    }
+                ],
+                "sampled": ["B00", "B02"],
+            }
+        ],
+        "sampled": ["B00", "B02"],
+    }
+    (tmp_path / "plan.yaml").write_text(yaml.safe_dump(plan))
+    out = tmp_path / "out"
+    r = run_blockqc("inspect", batch, "--plan", tmp_path / "plan.yaml", "--out", out, "--no-pdf")
+    assert r.returncode == 0, r.stderr
+    res = {b: json.loads((out / b / "results.json").read_text()) for b in ("B00", "B01", "B02")}
+    cp2 = {b: next(x for x in d["results"] if x["rule"] == "CP-2") for b, d in res.items()}
+    assert cp2["B00"]["status"] == "pass"  # sampled, with checkpoints
+    assert cp2["B01"]["status"] == "not_applicable"  # has checkpoints, not sampled
+    assert "not sampled" in cp2["B01"]["detail"]["reason"]
+    assert res["B02"]["complete"] is False  # sampled without checkpoints: incomplete, said so
+    assert "no checkpoints" in cp2["B02"]["detail"]["plan"]
+    assert res["B02"]["evaluation"]["complete"] is False
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["acceptance"]["sample"] == ["B00", "B02"]
+    assert summary["acceptance"]["decision"] == "incomplete"
+
+
+def test_inspect_plan_refuses_a_block_outside_it(tmp_path: Path) -> None:
+    batch = _batch(tmp_path / "batch", 2)
+    plan = {
+        "seed": 0,
+        "units": 1,
+        "sample_size": 1,
+        "sampled": ["B00"],
+        "lots": [
+            {
+                "size": 1,
+                "sample_size": 1,
+                "census": True,
+                "sampled": ["B00"],
+                "strata": [
+                    {"value": "", "size": 1, "sample": 1, "units": ["B00"], "sampled": ["B00"]}
+                ],
+            }
+        ],
+    }
+    (tmp_path / "plan.yaml").write_text(yaml.safe_dump(plan))
+    r = run_blockqc("inspect", batch, "--plan", tmp_path / "plan.yaml", "--out", tmp_path / "o")
+    assert r.returncode == 2 and "block B01 is not in the plan's batch" in r.stderr
+
+
+def _manifests(root: Path, n: int) -> Path:
+    """n block folders holding a block.yaml only (all `blockqc sample` reads); 3 producers."""
+    for i in range(n):
+        d = root / f"G{i:04d}"
+        d.mkdir(parents=True)
+        doc = {"block_id": f"G{i:04d}", "gsd_m": {"pan": 1.0}, "producer": f"P{i % 3}"}
+        (d / "block.yaml").write_text(yaml.safe_dump(doc))
+    return root
+
+
+@pytest.mark.parametrize(("n", "expected"), [(8, 3), (150, 13), (700, 56)])
+def test_sample_generated_batches(tmp_path: Path, n: int, expected: int) -> None:
+    batch = _manifests(tmp_path / "b", n)
+    plans = []
+    for name in ("a", "b"):
+        r = run_blockqc(
+            "sample",
+            batch,
+            "--seed",
+            2026,
+            "--strata",
+            "producer",
+            "--out",
+            tmp_path / f"{name}.yaml",
+        )
+        assert r.returncode == 0, r.stderr
+        plans.append(yaml.safe_load((tmp_path / f"{name}.yaml").read_text()))
+    assert plans[0]["sampled"] == plans[1]["sampled"]  # one seed, one sample
+    assert len(plans[0]["sampled"]) == expected
+    strata = plans[0]["lots"][0]["strata"]
+    for s in strata:  # proportional: within one unit of n·N_h/N
+        assert abs(s["sample"] - expected * s["size"] / n) < 1
+        assert all(u in s["units"] for u in s["sampled"])
+
+
+def test_bad_plan_file_is_named(tmp_path: Path) -> None:
+    batch = _batch(tmp_path / "batch", 1)
+    (tmp_path / "plan.yaml").write_text("seed: x\nunits: 1\n")
+    r = run_blockqc("inspect", batch, "--plan", tmp_path / "plan.yaml", "--out", tmp_path / "o")
+    assert r.returncode == 2
+    assert "plan.yaml" in r.stderr and "seed" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_meta_in_block_report_and_filed_report(tmp_path: Path) -> None:
+    batch = _batch(tmp_path / "batch", 2, with_cps={0})
+    meta = tmp_path / "meta.yaml"
+    meta.write_text("report_number: QC-7\nproject: P\nproducer: Q\nprepared: A\napproved: C\n")
+    out = tmp_path / "out"
+    r = run_blockqc("inspect", batch, "--meta", meta, "--out", out, "--no-pdf")
+    assert r.returncode == 0, r.stderr
+    block = (out / "B00" / "report.html").read_text()
+    assert "QC-7" in block and "Prepared by: A" in block
+    assert str(tmp_path) not in block  # the delivery is named, not placed on this machine
+    filed = (out / "acceptance.html").read_text()
+    assert "QC-7" in filed and "GB/T 24356-2023" in filed  # basis from the pack
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("report_numbr: 1\n")
+    r = run_blockqc("inspect", batch, "--meta", bad, "--out", tmp_path / "o2", "--no-pdf")
+    assert r.returncode == 2 and "bad.yaml" in r.stderr and "report_numbr" in r.stderr

@@ -1,0 +1,69 @@
+"""The sample batch: per-block scores and grades, the batch decision, in both languages.
+
+F3-B01 (sampled: it carries checkpoints) and F3-B02 fail on A-class errors. Their scores by hand,
+stock weights (data .6, layout .2, attachment .2; in data: basis .2, plane .3, height .3, edge .2):
+- F3-B01: plane (CP-2 beyond the norm), height (CP-4 gross rate) and edge (RO-3) hold A-class
+  errors and score 0: data .2·100 = 20; block .6·20 + .2·100 + .2·100 = 52.
+- F3-B02 (no checkpoints: height not inspected): edge 0 (RO-3); data re-weighted
+  (.2·100 + .3·100 + .2·0)/.7 = 71.4286; block .6·71.4286 + 20 + 20 = 82.8571, yet it fails.
+"""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from blockqc.report import write_summary_report
+from casekit import SAMPLES, run_blockqc
+
+
+@pytest.fixture(scope="module")
+def out(tmp_path_factory):
+    out = tmp_path_factory.mktemp("accept")
+    proc = run_blockqc(
+        "inspect", SAMPLES / "batch", "--verdicts", SAMPLES / "verdicts.yaml", "--out", out,
+        "--no-pdf",
+    )  # fmt: skip
+    assert proc.returncode == 1, proc.stderr
+    return out
+
+
+def test_scores_grades_and_decision(out) -> None:
+    s = json.loads((out / "summary.json").read_text())
+    blocks = {b["block_id"]: b for b in s["blocks"]}
+    assert blocks["F3-B01"]["score"] == pytest.approx(52.0)
+    assert blocks["F3-B02"]["score"] == pytest.approx(0.6 * 50 / 0.7 + 40)
+    assert blocks["F3-B01"]["grade"] == blocks["F3-B02"]["grade"] == "fail"
+    assert all(b["grade"] == "excellent" for k, b in blocks.items() if not k.startswith("F3"))
+    a = s["acceptance"]
+    assert a["sample_source"] == "checkpoints"
+    assert a["sample"] == ["F1-B01", "F2-B01", "F3-B01", "F4-B01"]
+    assert a["decision"] == "fail" and a["batch_grade"] == "fail"
+    (failing,) = a["failing"]
+    assert failing["block_id"] == "F3-B01"
+    named = {(e["rule"], tuple(e["group"].values())) for e in failing["a_errors"]}
+    assert {("CP-2", ("plane", "high_precision")), ("RO-3", ("plane",))} <= named
+    assert [(b["block_id"], [e["rule"] for e in b["a_errors"]]) for b in a["returned"]] == [
+        ("F3-B02", ["RO-3"])
+    ]
+    r = json.loads((out / "F3-B01" / "results.json").read_text())
+    assert r["evaluation"]["counts"]["A"] == len(named)
+
+
+@pytest.mark.parametrize(
+    ("lang", "words"),
+    [
+        ("en", ["Batch decision", "Rejected (fail)", "A-class error: CP-2", "Excellent"]),
+        ("zh", ["批成果质量判定", "批成果不合格", "A 类错漏：CP-2", "优"]),
+    ],
+)
+def test_summary_and_filed_report_in_both_languages(out, tmp_path, lang, words) -> None:
+    doc = json.loads((out / "summary.json").read_text())
+    write_summary_report(tmp_path, doc, lang=lang, pdf=False)
+    html = (tmp_path / "summary.html").read_text()
+    for w in words:
+        assert w in html, w
+    filed = (tmp_path / "acceptance.html").read_text()
+    assert 'data-decision="fail"' in filed and "F3-B02" in filed
+    assert str(SAMPLES) not in filed and str(out) not in filed  # no paths of this machine

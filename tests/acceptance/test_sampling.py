@@ -1,0 +1,102 @@
+"""§QE-1 sampling: the table, splitting, largest-remainder allocation, reproducible draws."""
+
+from __future__ import annotations
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from blockqc.acceptance.sampling import allocate, draw, sample_size, split_sizes
+from blockqc.rules import load_pack
+
+SAMPLING = load_pack("global-project").acceptance.sampling
+
+
+@pytest.mark.parametrize(
+    ("n", "expected"),
+    [
+        (1, 1),  # the sample (3) reaches the batch: every unit
+        (2, 2),
+        (3, 3),
+        (8, 3),
+        (20, 3),
+        (21, 5),
+        (100, 10),
+        (150, 13),
+        (200, 15),
+        (201, 17),
+        (232, 17),
+        (233, 20),
+        (487, 30),
+        (488, 40),
+        (686, 40),
+        (687, 56),
+        (700, 56),
+        (1000, 56),
+    ],
+)
+def test_sample_size_by_the_table(n: int, expected: int) -> None:
+    assert sample_size(n, SAMPLING) == expected
+
+
+def test_sample_size_outside_the_table() -> None:
+    with pytest.raises(ValueError, match="outside the table"):
+        sample_size(1001, SAMPLING)
+
+
+def test_split_into_fewest_even_batches() -> None:
+    # 2500 > 1000: ⌈2500/1000⌉ = 3 lots, 2500 = 834 + 833 + 833
+    assert split_sizes(2500, 1000) == [834, 833, 833]
+    assert split_sizes(1001, 1000) == [501, 500]
+    assert split_sizes(1000, 1000) == [1000]
+
+
+def test_allocate_largest_remainder() -> None:
+    # n = 13 over 50/30/20 of 100: quotas 6.5, 3.9, 2.6 → floors 6, 3, 2 (11); the two seats
+    # left go to the largest remainders .9 (b) and .6 (c)
+    assert allocate({"a": 50, "b": 30, "c": 20}, 13) == {"a": 6, "b": 4, "c": 3}
+    # equal remainders and sizes: the strata listed first
+    assert allocate({"a": 1, "b": 1, "c": 1}, 2) == {"a": 1, "b": 1, "c": 0}
+    # equal remainders (.5 each): the larger stratum first
+    assert allocate({"a": 2, "b": 6}, 1) == {"a": 0, "b": 1}
+
+
+@given(st.lists(st.integers(1, 200), min_size=1, max_size=8), st.data())
+def test_allocate_is_proportional(sizes: list[int], data: st.DataObject) -> None:
+    total = sum(sizes)
+    n = data.draw(st.integers(0, total))
+    got = allocate({f"s{i}": s for i, s in enumerate(sizes)}, n)
+    assert sum(got.values()) == n
+    for i, s in enumerate(sizes):
+        assert abs(got[f"s{i}"] - n * s / total) < 1
+        assert 0 <= got[f"s{i}"] <= s
+
+
+@pytest.mark.parametrize(("n", "expected"), [(8, 3), (150, 13), (700, 56), (2500, 3 * 56)])
+def test_draw_sizes_and_reproducible(n: int, expected: int) -> None:
+    ids = [f"B{i:04d}" for i in range(n)]
+    lots = draw(ids, SAMPLING, seed=11)
+    sampled = [u for lot in lots for u in lot.sampled]
+    assert len(sampled) == expected == len(set(sampled))
+    assert set(sampled) <= set(ids)
+    again = draw(list(reversed(ids)), SAMPLING, seed=11)  # listing order does not matter
+    assert [lot.sampled for lot in again] == [lot.sampled for lot in lots]
+    assert [lot.sampled for lot in draw(ids, SAMPLING, seed=12)] != [lot.sampled for lot in lots]
+
+
+def test_draw_stratified_proportional() -> None:
+    # 150 blocks: 75 hilly, 45 flat, 30 mountain; n = 13 → 6.5, 3.9, 2.6 → 6, 4, 3 (as above)
+    ids = [f"B{i:03d}" for i in range(150)]
+    strata = {
+        u: "hilly" if i < 75 else "flat" if i < 120 else "mountain" for i, u in enumerate(ids)
+    }
+    (lot,) = draw(ids, SAMPLING, seed=3, strata=strata)
+    got = {s.value: len(s.sampled) for s in lot.strata}
+    assert got == {"flat": 4, "hilly": 6, "mountain": 3}
+    for s in lot.strata:
+        assert all(strata[u] == s.value for u in s.sampled)
+
+
+def test_census_when_the_sample_reaches_the_batch() -> None:
+    (lot,) = draw(["A", "B"], SAMPLING, seed=1)
+    assert lot.census and lot.sampled == ["A", "B"]

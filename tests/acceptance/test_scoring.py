@@ -1,0 +1,192 @@
+"""§QE-2..5 block scores and grades against hand computation, with the stock pack's weights.
+
+Stock weights: elements data .6, layout .2, attachment .2; items in data: mathematical basis .2,
+plane .3, height .3, edge .2; layout: points distribution 1; attachment: report .5, documents .5.
+Deduction 100 − (12·nB + 4·nC + nD); accuracy 100 for m ≤ 0.3·m0, 60 + 40·(m0 − m)/(0.7·m0)
+up to m0. Rule ids below are the stock ones where they matter, free labels elsewhere.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from blockqc.acceptance.scoring import Finding, accuracy_score, deduction_score, evaluate_block
+from blockqc.rules import load_pack
+
+PACK = load_pack("global-project")
+ACC = PACK.acceptance
+TREE = {c.id: (e.id, i.id) for e in PACK.elements for i in e.items for c in i.contents}
+
+
+def ok(rule: str, content: str, **kw) -> Finding:
+    return Finding(rule=rule, status="pass", places=(TREE[content],), error_class="C", **kw)
+
+
+def bad(rule: str, content: str, cls: str, **kw) -> Finding:
+    return Finding(rule=rule, status="fail", places=(TREE[content],), error_class=cls, **kw)
+
+
+def acc(rule: str, content: str, m: float, m0: float, status: str = "pass") -> Finding:
+    return Finding(
+        rule=rule, status=status, places=(TREE[content],), error_class="C", value=m, norm=m0
+    )
+
+
+def base() -> list[Finding]:
+    """Every item inspected and clean (scores 100)."""
+    return [
+        ok("MB-1", "coordinate_system"),
+        ok("RO-1", "pan_ms"),
+        ok("RO-3", "within_block"),
+        ok("TP-4", "tp_number"),
+        ok("TP-1", "ro_report"),
+        ok("DOC-1", "documents"),
+    ]
+
+
+def run(findings: list[Finding]):
+    return evaluate_block(PACK.elements, findings, ACC)
+
+
+def scores(ev) -> dict[str, float]:
+    out = {e.id: e.score for e in ev.elements}
+    out.update({i.id: i.score for e in ev.elements for i in e.items})
+    return out
+
+
+def test_accuracy_score_formula() -> None:
+    assert accuracy_score(3.0, 10.0) == 100.0  # 0.3·m0 itself scores 100
+    assert accuracy_score(6.5, 10.0) == pytest.approx(80.0)  # 60 + 40·3.5/7
+    assert accuracy_score(10.0, 10.0) == pytest.approx(60.0)  # the norm itself scores 60
+    assert accuracy_score(10.0001, 10.0) is None  # beyond the norm: A-class
+    assert deduction_score({"B": 1, "C": 2, "D": 3}, ACC) == 100 - (12 + 8 + 3)
+
+
+def test_grade_excellent() -> None:
+    # plane 2.5 ≤ 3 → 100; height 1.5 ≤ 1.8 → 100; DOC-3 a D error: documents 99
+    # attachment .5·100 + .5·99 = 99.5; block .6·100 + .2·100 + .2·99.5 = 99.9
+    ev = run(
+        base()
+        + [
+            acc("CP-2", "cp_plane", 2.5, 10),
+            acc("CP-3", "cp_height", 1.5, 6),
+            bad("DOC-3", "documents", "D"),
+        ]
+    )
+    assert scores(ev)["documents"] == 99
+    assert ev.score == pytest.approx(99.9)
+    assert (ev.grade, ev.fails, ev.counts) == ("excellent", False, {"A": 0, "B": 0, "C": 0, "D": 1})
+
+
+def test_grade_good() -> None:
+    # plane 8.6: 60 + 40·1.4/7 = 68; height 5.3: 60 + 40·0.7/4.2 = 66.667
+    # data .2·100 + .3·68 + .3·66.667 + .2·100 = 80.4
+    # layout: TP-4 C, TP-5 D → 95; attachment: TP-1 B in report → 88, documents 100 → 94
+    # block .6·80.4 + .2·95 + .2·94 = 48.24 + 19 + 18.8 = 86.04
+    f = [x for x in base() if x.rule not in ("TP-4", "TP-1")]
+    f += [
+        acc("CP-2", "cp_plane", 8.6, 10),
+        acc("CP-3", "cp_height", 5.3, 6),
+        bad("TP-4", "tp_number", "C"),
+        bad("TP-5", "tp_distribution", "D"),
+        bad("TP-1", "ro_report", "B"),
+    ]
+    ev = run(f)
+    s = scores(ev)
+    assert s["plane_accuracy"] == pytest.approx(68)
+    assert s["height_accuracy"] == pytest.approx(200 / 3)
+    assert s["data"] == pytest.approx(80.4)
+    assert (s["layout"], s["attachment"]) == (95, 94)
+    assert ev.score == pytest.approx(86.04)
+    assert ev.grade == "good" and not ev.fails
+
+
+def test_grade_pass() -> None:
+    # plane 9.3 and height 5.58: 60 + 40·0.7/7 = 64 and 60 + 40·0.42/4.2 = 64
+    # data .2·100 + .3·64 + .3·64 + .2·100 = 78.4
+    # layout: three B errors → 100 − 36 = 64
+    # report: 2 B, 2 C, 1 D → 100 − (24 + 8 + 1) = 67; documents: 3 B, 3 D → 61; attachment 64
+    # block .6·78.4 + .2·64 + .2·64 = 72.64
+    f = base() + [acc("CP-2", "cp_plane", 9.3, 10), acc("CP-3", "cp_height", 5.58, 6)]
+    f += [bad(f"L-{i}", "tp_number", "B") for i in range(3)]
+    f += [
+        bad(f"R-{c}{i}", "ro_report", c)
+        for c, n in (("B", 2), ("C", 2), ("D", 1))
+        for i in range(n)
+    ]
+    f += [bad(f"D-{c}{i}", "documents", c) for c in "BD" for i in range(3)]
+    ev = run(f)
+    s = scores(ev)
+    assert (s["layout"], s["report"], s["documents"], s["attachment"]) == (64, 67, 61, 64)
+    assert s["data"] == pytest.approx(78.4)
+    assert ev.score == pytest.approx(72.64)
+    assert ev.grade == "pass" and not ev.fails
+    assert ev.counts == {"A": 0, "B": 3 + 2 + 3, "C": 2, "D": 1 + 3}
+
+
+def test_fail_element_below_60() -> None:
+    # layout: four B errors → 100 − 48 = 52 < 60: the block fails though it scores
+    # .6·100 + .2·52 + .2·100 = 90.4
+    ev = run(base() + [bad(f"L-{i}", "tp_number", "B") for i in range(4)])
+    assert ev.score == pytest.approx(90.4)
+    assert ev.fails and ev.grade == "fail"
+    assert ev.reasons == ["element layout scores 52.0 < 60"]
+
+
+def test_fail_a_class_error() -> None:
+    # plane 15.7 > 10: an A-class error, the item scores 0
+    # data .2·100 + .3·0 + .3·100 + .2·100 = 70; block .6·70 + .2·100 + .2·100 = 82, but fails
+    f = base() + [
+        acc("CP-2", "cp_plane", 15.7, 10, status="fail"),
+        acc("CP-3", "cp_height", 1.0, 6),
+    ]
+    ev = run(f)
+    assert scores(ev)["plane_accuracy"] == 0
+    assert ev.score == pytest.approx(82)
+    assert ev.fails and ev.grade == "fail"
+    assert ev.counts["A"] == 1
+    assert ev.reasons[0].startswith("A-class error: CP-2 15.70")
+
+
+def test_several_b_c_d_reweighted() -> None:
+    # height not inspected (not applicable): data re-weighted over .2 + .3 + .2 = .7
+    # plane: accuracy 6.5 → 80, less RO-1 (B) 12 → 68; edge: one C, one D → 95
+    # data (.2·100 + .3·68 + .2·95)/.7 = 59.4/.7 = 84.857143
+    # layout: TP-4 C, TP-5 D → 95; report: DOC-2 C → 96; documents: DOC-1 B, DOC-3 D → 87
+    # attachment .5·96 + .5·87 = 91.5; block .6·84.857143 + .2·95 + .2·91.5 = 88.214286
+    f = [
+        ok("MB-1", "coordinate_system"),
+        acc("CP-2", "cp_plane", 6.5, 10),
+        Finding("CP-3", "not_applicable", (TREE["cp_height"],), "C"),
+        bad("RO-1", "pan_ms", "B"),
+        bad("RO-2", "between_blocks", "C"),
+        bad("RO-9", "within_block", "D"),
+        bad("TP-4", "tp_number", "C"),
+        bad("TP-5", "tp_distribution", "D"),
+        bad("DOC-2", "ro_report", "C"),
+        bad("DOC-1", "documents", "B"),
+        bad("DOC-3", "documents", "D"),
+    ]
+    ev = run(f)
+    s = scores(ev)
+    assert s["height_accuracy"] is None
+    assert (s["plane_accuracy"], s["edge_accuracy"], s["report"], s["documents"]) == (
+        68,
+        95,
+        96,
+        87,
+    )
+    assert s["data"] == pytest.approx(59.4 / 0.7)
+    assert ev.score == pytest.approx(0.6 * 59.4 / 0.7 + 19 + 18.3)
+    assert ev.grade == "good" and not ev.fails
+    assert ev.counts == {"A": 0, "B": 2, "C": 3, "D": 3}
+
+
+def test_warnings_waivers_and_manual_are_not_errors() -> None:
+    f = base() + [
+        Finding("CP-5", "warn", (TREE["cp_plane"],), "D"),
+        Finding("TP-4", "waived", (TREE["tp_number"],), "C"),
+        Finding("DOC-3", "manual", (TREE["documents"],), "D"),
+    ]
+    ev = run(f)
+    assert ev.score == 100 and ev.counts == {"A": 0, "B": 0, "C": 0, "D": 0}
