@@ -108,3 +108,20 @@ def test_dask_local_cluster_gives_the_same_results(tmp_path: Path):
             for p in sorted(out.glob("*/results.json"))
         }
     assert len(docs["dask"]) == 8 and docs["dask"] == docs["local"]
+
+
+def test_out_that_is_a_file_or_under_one_is_refused(tmp_path: Path):
+    file = tmp_path / "a-file"
+    file.write_text("x", encoding="utf-8")
+    delivery = SAMPLES / "batch" / "F1-B02"
+    for out, said in ((file, "is a file"), (file / "sub", "lies under the file")):
+        proc = run_blockqc("inspect", delivery, "--out", out, "--no-pdf")
+        assert proc.returncode == 2 and said in proc.stderr, proc.stderr
+        assert "Traceback" not in proc.stderr
+    locked = tmp_path / "locked"
+    locked.mkdir(mode=0o500)
+    proc = run_blockqc("inspect", delivery, "--out", locked / "new", "--no-pdf")
+    import os
+
+    if os.geteuid() != 0:  # root may write anywhere
+        assert proc.returncode == 2 and "cannot be created" in proc.stderr

@@ -80,13 +80,37 @@ def check_out_dir(out: Path, inputs: Iterable[Path]) -> Path:
                 f"--out {out} lies inside the input {p}: blockqc never writes into a delivery; "
                 "choose an output folder outside it"
             )
+    return make_out_dir(out, out_r)
+
+
+def make_out_dir(out: Path, out_r: Path) -> Path:
+    """The output folder, created when absent; a file in its place, or one it cannot be
+    created or written in, is refused (exit 2) before anything is inspected."""
+    blocker = next((p for p in (out_r, *out_r.parents) if p.exists() and not p.is_dir()), None)
+    if blocker is not None:
+        where = "is a file" if blocker == out_r else f"lies under the file {blocker}"
+        raise UsageError(f"--out {out} {where}: give a folder")
+    try:
+        out_r.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UsageError(f"--out {out} cannot be created: {exc.strerror or exc}") from None
+    if not os.access(out_r, os.W_OK | os.X_OK):
+        raise UsageError(f"--out {out}: this folder cannot be written in")
     return out_r
 
 
 #: block ids are also folder names of the outputs (contract v1.1)
 BLOCK_ID_MAX = 100
 #: files a batch writes beside the block folders: no block id may take their names
-BATCH_OUTPUTS = ("summary.json", "summary.html", "summary.pdf")
+BATCH_OUTPUTS = (
+    "summary.json",
+    "summary.html",
+    "summary.pdf",
+    "summary.csv",
+    "summary.parquet",
+    "acceptance.html",
+    "acceptance.pdf",
+)
 
 
 def block_id_problem(value: str) -> str | None:

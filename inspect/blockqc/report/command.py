@@ -142,10 +142,11 @@ def command(
 
     A batch folder (or its summary.json) re-renders the batch summary as well.
     """
-    from blockqc.outputs import safe_child, write_bytes_atomic
+    from blockqc.outputs import make_out_dir, safe_child, write_bytes_atomic
     from blockqc.report import write_block_report, write_summary_report
 
     docs, summary = gather(list(results))
+    make_out_dir(out, out.resolve())
     written: list[Path] = []
     for path, doc, raw in docs:
         folder = safe_child(out, doc.block_id, source=path)
