@@ -603,5 +603,6 @@ def test_parquet_repeated_column_and_binary_text(blockqc, delivery: Path, tmp_pa
     p = blockqc("inspect", delivery, "--out", tmp_path / "ok", "--no-pdf")
     assert p.returncode == 0, p.stderr
     doc = json.loads((tmp_path / "ok" / "CASE" / "results.json").read_text())
-    points = doc["measurements"]["edge_discrepancy"]["point"]
+    edges_m = next(m for m in doc["measurements"] if m["metric"] == "edge_discrepancy")
+    points = edges_m["tables"]["point"]
     assert {r["point_id"] for r in points} == {"E0", "E1", "E2", "E3", "E4"}

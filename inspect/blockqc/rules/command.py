@@ -135,6 +135,12 @@ def rules_explain(rule_id: str, rules_ref: str) -> None:
     effect = "a failure fails the block" if r.severity == "fail" else "a failure only warns"
     waiv = "the inspector may waive it" if r.waivable else "not waivable"
     click.echo(f"  severity:  {r.severity} ({effect}); {waiv}")
+    if pack.acceptance is not None:
+        cls = r.error_class or pack.acceptance.default_error_class
+        scored = "by deduction"
+        if r.score is not None and r.score.kind == "accuracy":
+            scored = f"as accuracy against {r.score.norm or 'its upper bound'} (§QE-3)"
+        click.echo(f"  class:     {cls} (§QE-2), scored {scored}")
     if r.manual:
         click.echo("  judged by: the inspector's verdict (--verdicts file)")
     else:
