@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from typing import Any
 
@@ -44,16 +43,7 @@ def overview_map(blocks: list[Any], t: Callable[..., str], name: str) -> str | N
     if len(blocks) <= plots.MAX_FOOTPRINT_LABELS:  # few blocks: name them
         ids = [b.block_id for b in blocks]
         plots._label_footprints(ax, rings, owner, ids, np.ones(len(rings), dtype=bool))
-    allxy = np.concatenate(rings)
-    (x0, y0), (x1, y1) = allxy.min(axis=0), allxy.max(axis=0)
-    pad = 0.03 * max(x1 - x0, y1 - y0, 1e-3)
-    ax.set_xlim(x0 - pad, x1 + pad)
-    ax.set_ylim(y0 - pad, y1 + pad)
-    ax.set_aspect(1 / max(math.cos(math.radians((y0 + y1) / 2)), 0.05))
-    ax.set_xlabel(t("ax_lon"))
-    ax.set_ylabel(t("ax_lat"))
-    ax.ticklabel_format(useOffset=False, style="plain")
-    ax.set_title(t("fig_overview"))
+    plots.lonlat_axes(ax, rings, t, t("fig_overview"))
     present = set(verdict)
     handles = [
         plots.Patch(fc=plots.STATUS_COLOURS[k], alpha=0.6, label=t(f"verdict_{k}"))

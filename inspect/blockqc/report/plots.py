@@ -493,6 +493,14 @@ def footprints(
         for x in ("pass", "fail", "warn", "waived", "exempt")
         if x in shown
     ]
+    lonlat_axes(ax, rings, t, t("fig_footprints"))
+    if handles:
+        ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
+    return _svg(fig, name)
+
+
+def lonlat_axes(ax: Any, rings: list[np.ndarray], t: Callable[..., str], title: str) -> None:
+    """A lon/lat map framed on the rings, with equal ground scale at their mean latitude."""
     if rings:
         allxy = np.concatenate(rings)
         (lon_lo, lat_lo), (lon_hi, lat_hi) = allxy.min(axis=0), allxy.max(axis=0)
@@ -503,10 +511,7 @@ def footprints(
     ax.set_xlabel(t("ax_lon"))
     ax.set_ylabel(t("ax_lat"))
     ax.ticklabel_format(useOffset=False, style="plain")
-    ax.set_title(t("fig_footprints"))
-    if handles:
-        ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
-    return _svg(fig, name)
+    ax.set_title(title)
 
 
 MAX_FOOTPRINT_LABELS = 40
