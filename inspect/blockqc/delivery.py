@@ -302,10 +302,14 @@ def _misspelt_keys(path: Path, data: dict) -> list[Problem]:
     return problems
 
 
-def load_delivery(path: Path, manifest: Manifest | None = None) -> Delivery:
+def load_delivery(
+    path: Path, manifest: Manifest | None = None, *, residuals: bool = True
+) -> Delivery:
     """Read a delivery folder; raise InputError listing every problem found (file, row, column).
 
-    `manifest`: block.yaml when already read (a batch reads each manifest once).
+    `manifest`: block.yaml when already read (a batch reads each manifest once). `residuals`:
+    the tie points' v_line/v_sample are needed (inspection) unless the producer's adjusted
+    geometry gives them; a recalculation reads the observations alone (False).
     """
     path = Path(path)
     problems: list[Problem] = []
@@ -344,9 +348,10 @@ def load_delivery(path: Path, manifest: Manifest | None = None) -> Delivery:
     problems.extend(_check_consistency({k: tables[k] for k in clean}, files))
     geometry, found = load_geometry(path, tables, files)  # contract v1.1
     problems.extend(found)
-    problems.extend(
-        residual_column_problems(tables.get("tie_points"), files.get("tie_points"), geometry)
-    )
+    if residuals:
+        problems.extend(
+            residual_column_problems(tables.get("tie_points"), files.get("tie_points"), geometry)
+        )
     if problems and manifest is not None:  # reported now too, not only once the tables are fixed
         problems.extend(_missing_documents(path, manifest))
     if problems:
