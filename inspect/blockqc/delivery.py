@@ -459,9 +459,12 @@ def summary(d: Delivery) -> dict[str, Any]:
 def block_scenes(
     paths: list[Path], manifests: dict[Path, Manifest] | None = None
 ) -> dict[str, set[str] | None]:
-    """Block id -> scene ids of each delivery, read lightly for checking the inspector's file;
-    None where the scenes cannot be read (a placeholder key where the manifest cannot).
-    `manifests`: those already read."""
+    """Block id -> scene ids of each delivery, read lightly for checking the inspector's file.
+
+    The value is None where the scenes cannot be read; a delivery whose block.yaml cannot be
+    read is keyed "(unreadable: <path>)", so that its problems are reported when it is read.
+    `manifests`: the manifests already read.
+    """
     out: dict[str, set[str] | None] = {}
     manifests = manifests or {}
     for path in paths:  # a handful of small files per delivery

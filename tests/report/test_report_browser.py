@@ -47,38 +47,19 @@ def chromium(url: str, tmp_path: Path, *extra: str) -> tuple[str, list[str]]:
 
 @pytest.fixture(scope="module")
 def pages(tmp_path_factory):
-    from report_helpers import make_results
+    from report_helpers import make_results, make_summary, summary_entry
 
     out = tmp_path_factory.mktemp("html")
     doc = make_results()
     write_block_report(out / "T-B01", doc, pdf=False)
     other = {**doc, "block_id": "T-B02", "verdict": "pass", "results": [], "measurements": []}
     write_block_report(out / "T-B02", other, pdf=False)
-    summary = {
-        "rule_pack": "global-project",
-        "rule_pack_version": "1.0",
-        "blockqc_version": "0.1.0",
-        "generated_at": "2026-11-20T08:00:00Z",
-        "inspector": None,
-        "verdict": "fail",
-        "complete": True,
-        "counts": {"blocks": 2, "pass": 1, "fail": 1, "error": 0, "unreadable": 0},
-        "blocks": [
-            {
-                "block_id": b,
-                "verdict": v,
-                "report": f"{b}/report.html",
-                "results": f"{b}/results.json",
-                "sampled": b == "T-B01",
-                "failed_rules": f,
-                "warned_rules": [],
-                "pending_manual": [],
-            }
-            for b, v, f in (("T-B02", "pass", []), ("T-B01", "fail", ["TP-4"]))
-        ],
-        "rules": {},
-        "unreadable": [],
-    }
+    summary = make_summary(
+        [
+            summary_entry("T-B02", "pass"),
+            summary_entry("T-B01", "fail", sampled=True, failed_rules=["TP-4"]),
+        ]
+    )
     write_summary_report(out, summary, pdf=False)
     return out
 

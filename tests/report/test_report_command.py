@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from report_helpers import make_summary, summary_entry
 
 from blockqc.cli import main
 from blockqc.report import write_block_report
@@ -57,30 +58,7 @@ def test_report_command_rerenders_a_batch_summary(tmp_path, results_doc):
     batch = tmp_path / "batch"
     (batch / "T-B01").mkdir(parents=True)
     (batch / "T-B01" / "results.json").write_text(json.dumps(results_doc), encoding="utf-8")
-    summary = {
-        "rule_pack": "global-project",
-        "rule_pack_version": "1.0",
-        "blockqc_version": "0.1.0",
-        "generated_at": "2026-11-20T08:00:00Z",
-        "inspector": None,
-        "verdict": "fail",
-        "complete": True,
-        "counts": {"blocks": 1, "pass": 0, "fail": 1, "unreadable": 0},
-        "blocks": [
-            {
-                "block_id": "T-B01",
-                "verdict": "fail",
-                "report": "T-B01/report.html",
-                "results": "T-B01/results.json",
-                "sampled": True,
-                "failed_rules": ["TP-4"],
-                "warned_rules": [],
-                "pending_manual": [],
-            }
-        ],
-        "rules": {},
-        "unreadable": [],
-    }
+    summary = make_summary([summary_entry("T-B01", "fail", sampled=True, failed_rules=["TP-4"])])
     (batch / "summary.json").write_text(json.dumps(summary), encoding="utf-8")
     assert run("report", str(batch / "summary.json"), "--out", str(tmp_path / "o"), "--no-pdf") == 0
     assert (tmp_path / "o" / "summary.html").is_file()

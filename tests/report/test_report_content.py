@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 from fontTools.ttLib import TTFont
+from report_helpers import make_summary, summary_entry
 
 from blockqc.report import write_block_report, write_summary_report
 from blockqc.report.build import Formatter, block_context
@@ -260,51 +261,16 @@ def test_user_templates_take_precedence(tmp_path, results_doc):
 def test_summary_lists_sampled_blocks_and_links(tmp_path, results_doc):
     from blockqc.report import checkpoint_rows
 
-    summary = {
-        "rule_pack": "global-project",
-        "rule_pack_version": "1.0",
-        "blockqc_version": "0.1.0",
-        "generated_at": "2026-11-20T08:00:00Z",
-        "inspector": None,
-        "verdict": "fail",
-        "complete": True,
-        "counts": {"blocks": 2, "pass": 1, "fail": 1, "error": 0, "unreadable": 0},
-        "blocks": [
-            {
-                "block_id": "T-B01",
-                "verdict": "fail",
-                "report": "T-B01/report.html",
-                "sampled": True,
-                "results": "T-B01/results.json",
-                "failed_rules": ["CP-2", "TP-4"],
-                "warned_rules": [],
-                "pending_manual": [],
-                "checkpoints": checkpoint_rows(BlockResults.model_validate(results_doc)),
-            },
-            {
-                "block_id": "T-B02",
-                "verdict": "pass",
-                "report": "T-B02/report.html",
-                "results": "T-B02/results.json",
-                "sampled": False,
-                "failed_rules": [],
-                "warned_rules": [],
-                "pending_manual": ["DOC-3"],
-            },
+    cps = checkpoint_rows(BlockResults.model_validate(results_doc))
+    counts = dict.fromkeys(("pass", "fail", "warn", "waived", "manual", "not_applicable"), 0)
+    summary = make_summary(
+        [
+            summary_entry("T-B01", "fail", sampled=True, failed_rules=["CP-2", "TP-4"],
+                          checkpoints=cps),
+            summary_entry("T-B02", "pass", pending_manual=["DOC-3"]),
         ],
-        "rules": {
-            "CP-2": {
-                "pass": 1,
-                "fail": 1,
-                "warn": 0,
-                "waived": 0,
-                "manual": 0,
-                "not_applicable": 0,
-                "error": 0,
-            }
-        },
-        "unreadable": [],
-    }
+        {"CP-2": {**counts, "pass": 1, "fail": 1, "error": 0}},
+    )  # fmt: skip
     written = write_summary_report(tmp_path, summary, pdf=False)
     assert [p.name for p in written] == ["summary.html", "summary.csv", "summary.parquet"]
     html = written[0].read_text(encoding="utf-8")
