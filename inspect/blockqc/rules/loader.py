@@ -107,6 +107,8 @@ class _Loaded:
     chain: list[str] = field(default_factory=list)
     disabled: list[str] = field(default_factory=list)
     problems: list[Problem] = field(default_factory=list)
+    # every file of the chain as read, the root pack first: (file, its YAML, its model)
+    sources: list[tuple[str, Any, PackFile]] = field(default_factory=list)
 
 
 def _read_file(path: Path, seen: tuple[Path, ...]) -> tuple[PackFile, Any]:
@@ -141,6 +143,7 @@ def _load_raw(path: Path, seen: tuple[Path, ...]) -> _Loaded:
     # an invalid constant is reported once, at its own line; its uses evaluate a stand-in
     out.constants = _deep_merge(out.constants, stand_in_invalid(pf.constants, out.constants))
     out.chain.insert(0, str(path))
+    out.sources.append((str(path), data, pf))
     _add_rules(out, pf, data, path)
     _apply_overrides(out, pf, data, path)
     _apply_disable(out, pf, data, path)
@@ -219,8 +222,8 @@ def read_pack(ref: str | Path) -> tuple[Pack | None, list[Problem]]:
     path = resolve_pack_path(ref)
     loaded = _load_raw(path, ())
     problems = list(loaded.problems)
-    elements = _elements(loaded.chain)
-    acceptance, found = _acceptance(loaded.chain, elements, loaded.constants)
+    elements = _elements(loaded.sources)
+    acceptance, found = _acceptance(loaded.sources, elements, loaded.constants)
     problems.extend(found)
     rules: list[Rule] = []
     names = {**loaded.constants, **DELIVERY_NAMES}
@@ -287,23 +290,21 @@ def _check_contents(rule: Rule, elements: list[ElementDef], raw: _Raw) -> list[P
     return out
 
 
-def _elements(chain: list[str]) -> list[ElementDef]:
+def _elements(sources: list[tuple[str, Any, PackFile]]) -> list[ElementDef]:
     """The pack's inspection contents: each file's `elements:` merged from the root pack down."""
     out: list[ElementDef] = []
-    for file in reversed(chain):
-        data = load_yaml(Path(file), RuleError)
-        out = merge_elements(out, PackFile.model_validate(data).elements)
+    for _, _, pf in sources:
+        out = merge_elements(out, pf.elements)
     return out
 
 
 def _acceptance(
-    chain: list[str], elements: list[ElementDef], constants: dict[str, Any]
+    sources: list[tuple[str, Any, PackFile]], elements: list[ElementDef], constants: dict[str, Any]
 ) -> tuple[Acceptance | None, list[Problem]]:
     """§QE: each file's `acceptance:` merged from the root pack down, validated, weights checked."""
     merged: dict[str, Any] | None = None
     where, src = "", None
-    for file in reversed(chain):
-        data = load_yaml(Path(file), RuleError)
+    for file, data, _ in sources:
         own = data.get("acceptance") if isinstance(data, dict) else None
         if own is not None:
             merged = _deep_merge(merged or {}, own)
