@@ -19,8 +19,11 @@ def test_pairs_by_hand() -> None:
         {"scene_a": "A", "scene_b": "B", "dx_m": 3.0, "dy_m": 4.0},
         {"scene_a": "A", "scene_b": "B", "dx_m": -3.0, "dy_m": 4.0},
     ]
-    (p,) = _pairs(rows).values()
+    table = _pairs(rows)
+    assert len(table) == 1
+    p = table.iloc[0]
     # mean (0, 4); both discrepancies 5 m: RMS 5, max 5
+    assert (p["scene_a"], p["scene_b"]) == ("A", "B")
     assert (p["dx"], p["dy"], p["rms"], p["max"]) == (0.0, 4.0, 5.0, 5.0)
 
 

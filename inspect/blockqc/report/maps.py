@@ -11,6 +11,7 @@ import math
 from typing import Any
 
 import numpy as np
+import pandas as pd
 
 from blockqc.report import plots
 from blockqc.report.format import Formatter
@@ -40,91 +41,81 @@ def _overlap_points(results: BlockResults) -> tuple[list[dict[str, Any]], float 
     return [], None
 
 
-def _pair_places(results: BlockResults) -> dict[str, Any]:
-    from shapely import wkt
-    from shapely.errors import ShapelyError
+def _footprints(results: BlockResults) -> tuple[list[str], np.ndarray]:
+    """Scene ids and their footprint geometries (None where unreadable), parsed in one call."""
+    import shapely
 
-    out = {}
-    for s in results.scenes:
-        try:
-            out[str(s["scene_id"])] = wkt.loads(s["footprint_wkt"])
-        except (ShapelyError, TypeError, KeyError, ValueError):
-            continue
-    return out
+    ids = [str(sc["scene_id"]) for sc in results.scenes]
+    wkts = np.array([sc.get("footprint_wkt") for sc in results.scenes], dtype=object)
+    wkts[[not isinstance(w, str) for w in wkts]] = None
+    return ids, shapely.from_wkt(wkts, on_invalid="ignore")
 
 
-def _pairs(rows: list[dict[str, Any]]) -> dict[tuple[str, str], dict[str, float]]:
-    """Per scene pair: mean dx, mean dy, RMS and largest discrepancy (a handful of pairs)."""
-    keys = sorted({(str(r["scene_a"]), str(r["scene_b"])) for r in rows})
-    out = {}
-    for a, b in keys:
-        sel = [r for r in rows if (str(r["scene_a"]), str(r["scene_b"])) == (a, b)]
-        dx = np.array([r.get("dx_m") for r in sel], dtype=float)
-        dy = np.array([r.get("dy_m") for r in sel], dtype=float)
-        v = np.hypot(dx, dy)
-        out[(a, b)] = {
-            "dx": float(np.nanmean(dx)),
-            "dy": float(np.nanmean(dy)),
-            "rms": float(np.sqrt(np.nanmean(v**2))),
-            "max": float(np.nanmax(v)),
-        }
-    return out
+def _pairs(rows: list[dict[str, Any]]) -> pd.DataFrame:
+    """Per scene pair: mean dx, mean dy, RMS and largest plane discrepancy (one groupby)."""
+    df = pd.DataFrame(rows, columns=["scene_a", "scene_b", "dx_m", "dy_m"])
+    df = df.astype({"scene_a": str, "scene_b": str, "dx_m": float, "dy_m": float})
+    df["v2"] = df["dx_m"] ** 2 + df["dy_m"] ** 2
+    g = df.groupby(["scene_a", "scene_b"], sort=True)
+    out = g.agg(dx=("dx_m", "mean"), dy=("dy_m", "mean"), ms=("v2", "mean"), mx=("v2", "max"))
+    out["rms"], out["max"] = np.sqrt(out.pop("ms")), np.sqrt(out.pop("mx"))
+    return out.reset_index()
+
+
+MAX_PAIR_LABELS = 60
 
 
 def overlap_map(results: BlockResults, f: Formatter) -> str | None:
     """The map as SVG, or None when the results keep no overlap points or footprints."""
+    import shapely
+
     rows, bound = _overlap_points(results)
-    places = _pair_places(results)
-    pairs = {k: v for k, v in _pairs(rows).items() if k[0] in places and k[1] in places}
-    if not pairs:
+    ids, geoms = _footprints(results)
+    at = {sid: k for k, sid in enumerate(ids) if geoms[k] is not None}
+    pairs = _pairs(rows)
+    pairs = pairs[pairs["scene_a"].isin(at.keys()) & pairs["scene_b"].isin(at.keys())]
+    if pairs.empty:
         return None
+    ga = geoms[pairs["scene_a"].map(at).to_numpy()]
+    gb = geoms[pairs["scene_b"].map(at).to_numpy()]
+    meet = shapely.intersection(shapely.make_valid(ga), shapely.make_valid(gb))
+    meet = np.where(shapely.is_empty(meet), shapely.union(ga, gb), meet)
+    xy = shapely.get_coordinates(shapely.centroid(meet))
     fig, ax = plots._figure(4.4, 5.6)
-    for geom in places.values():
-        for poly in getattr(geom, "geoms", [geom]):
-            if hasattr(poly, "exterior"):
-                xy = np.asarray(poly.exterior.coords)[:, :2]
-                ax.plot(xy[:, 0], xy[:, 1], color="#9e9e9e", lw=0.5, zorder=1)
-    lon = np.array([g.centroid.x for g in places.values()])
-    lat = np.array([g.centroid.y for g in places.values()])
-    span = max(float(np.ptp(lon)), float(np.ptp(lat)), 1e-3)
-    biggest = max(math.hypot(p["dx"], p["dy"]) for p in pairs.values()) or 1.0
+    rings, _ = plots._rings([sc.get("footprint_wkt") for sc in results.scenes])
+    outlines = plots.PolyCollection(rings, facecolors="none", edgecolors="#9e9e9e", lw=0.5)
+    outlines.set_rasterized(len(rings) > plots.RASTER_ABOVE)
+    ax.add_collection(outlines)
+    vec = pairs[["dx", "dy"]].to_numpy()
+    biggest = float(np.hypot(vec[:, 0], vec[:, 1]).max()) or 1.0
+    span = max(float(np.ptp(xy[:, 0])), float(np.ptp(xy[:, 1])), 1e-3)
     scale = 0.15 * span / biggest  # degrees per metre of mean discrepancy
-    for (a, b), p in pairs.items():
-        inter = places[a].intersection(places[b])
-        c = inter.centroid if not inter.is_empty else places[a].union(places[b]).centroid
-        bad = bound is not None and p["max"] >= bound
-        colour = plots.STATUS_COLOURS["fail" if bad else "pass"]
-        ax.annotate(
-            "",
-            xy=(c.x + p["dx"] * scale, c.y + p["dy"] * scale),
-            xytext=(c.x, c.y),
-            arrowprops={"arrowstyle": "->", "color": colour, "lw": 1.2},
-            zorder=3,
-        )
-        ax.text(c.x, c.y, f" {p['rms']:.1f}", fontsize=6, color=colour, zorder=4)
-    ax.set_aspect(1 / max(math.cos(math.radians(float(lat.mean()))), 0.05))
-    ax.set_xlabel(f.t("ax_lon"))
-    ax.set_ylabel(f.t("ax_lat"))
-    ax.ticklabel_format(useOffset=False, style="plain")
-    ax.set_title(f.t("fig_overlap_map", m=f"{biggest:.1f}"))
+    bad = (pairs["max"] >= bound).to_numpy() if bound is not None else np.zeros(len(pairs), bool)
+    colours = np.where(bad, plots.STATUS_COLOURS["fail"], plots.STATUS_COLOURS["pass"])
+    ax.quiver(
+        xy[:, 0], xy[:, 1], vec[:, 0] * scale, vec[:, 1] * scale, color=colours,
+        angles="xy", scale_units="xy", scale=1, width=0.004, zorder=3,
+    )  # fmt: skip
+    for k in range(min(len(pairs), MAX_PAIR_LABELS)):  # the RMS beside a few pairs
+        text = f" {pairs['rms'].iloc[k]:.1f}"
+        ax.text(xy[k, 0], xy[k, 1], text, fontsize=6, color=colours[k], zorder=4)
+    plots.lonlat_axes(ax, rings, f.t, f.t("fig_overlap_map", m=f"{biggest:.1f}"))
     return plots._svg(fig, "overlap-map")
 
 
 def _corners(results: BlockResults) -> dict[str, np.ndarray]:
     """Each scene's image corners (0,0), (0,S), (L,S), (L,0) in lon/lat: its footprint's first four
     vertices (contract v1 extension)."""
-    from shapely import wkt
-    from shapely.errors import ShapelyError
+    import shapely
 
-    out = {}
-    for s in results.scenes:
-        try:
-            xy = np.asarray(wkt.loads(s["footprint_wkt"]).exterior.coords)[:4, :2]
-        except (ShapelyError, TypeError, KeyError, ValueError, AttributeError):
-            continue
-        if xy.shape == (4, 2):
-            out[str(s["scene_id"])] = xy
-    return out
+    ids, geoms = _footprints(results)
+    ok = shapely.get_type_id(geoms) == 3  # polygons
+    rings = shapely.get_exterior_ring(geoms[ok])
+    coords, owner = shapely.get_coordinates(rings, return_index=True)
+    first = np.searchsorted(owner, np.arange(len(rings)))
+    enough = np.bincount(owner, minlength=len(rings)) >= 4
+    kept = np.asarray(ids, dtype=object)[ok]
+    return {kept[k]: coords[first[k] : first[k] + 4, :2] for k in np.flatnonzero(enough)}
 
 
 def residual_vectors(cells: list[dict[str, Any]], corners: dict[str, np.ndarray]) -> np.ndarray:
