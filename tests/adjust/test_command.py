@@ -62,6 +62,7 @@ def test_ventoux_pair_relative_error_goes_well_under_a_pixel(tmp_path, blockqc):
     assert len(ties) == 2 * len(matches)
     assert {"v_line", "v_sample", "outlier"} <= set(ties.columns)
     assert (out / "adjust.html").is_file() and (out / "residual_vectors.png").is_file()
+    assert (out / "scene_vectors.png").is_file()
 
 
 def test_synthetic_delivery_outputs(tmp_path, blockqc):

@@ -18,6 +18,11 @@ if TYPE_CHECKING:
 MAX_VECTORS = 20000
 """Residual vectors drawn at most (an even subsample of the kept observations)."""
 
+SCENE_MAPS = 16
+"""Scenes given a residual vector map of their own (largest RMS after adjustment first)."""
+SCENE_CELLS = 8
+"""Cells per side of a scene's map: each arrow is the mean residual of one cell."""
+
 
 def _png(fig: object) -> bytes:
     import matplotlib.pyplot as plt
@@ -89,6 +94,54 @@ def plot_vectors(block: Block, sol: Solution, footprints: list) -> bytes:
     return _png(fig)
 
 
+def scene_cell_means(block: Block, sol: Solution, k: int = SCENE_CELLS) -> tuple[np.ndarray, ...]:
+    """Mean kept residual (v_line, v_sample) and count per scene and k×k image cell (ns, k, k)."""
+    obs, kept = block.obs, ~sol.outlier
+    row = np.clip((obs.line / block.lines[obs.scene] * k).astype(int), 0, k - 1)
+    col = np.clip((obs.sample / block.samples[obs.scene] * k).astype(int), 0, k - 1)
+    code = (obs.scene * k + row) * k + col
+    size = obs.n_scenes * k * k
+    n = np.bincount(code, kept.astype(float), size)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        vl = np.bincount(code, np.where(kept, sol.v_line, 0.0), size) / n
+        vs = np.bincount(code, np.where(kept, sol.v_sample, 0.0), size) / n
+    shape = (obs.n_scenes, k, k)
+    return vl.reshape(shape), vs.reshape(shape), n.reshape(shape)
+
+
+def plot_scene_vectors(block: Block, sol: Solution, summary: dict) -> bytes:
+    """Residual vector maps of the scenes with the largest RMS: cell means in image space."""
+    rms = np.array([np.nan if s["rms_px"] is None else s["rms_px"] for s in summary["scenes"]])
+    order = np.argsort(-np.nan_to_num(rms, nan=-1.0), kind="stable")[:SCENE_MAPS]
+    vl, vs, n = scene_cell_means(block, sol)
+    k = SCENE_CELLS
+    cols = min(4, order.size)
+    rows = math.ceil(order.size / cols)
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(rows, cols, figsize=(2.4 * cols, 2.5 * rows), squeeze=False)
+    ref = float(np.nanmax(np.hypot(vl[order], vs[order]), initial=0.0)) or 1.0
+    centre = (np.arange(k) + 0.5) / k
+    u, w = np.meshgrid(centre, centre, indexing="ij")  # u: line fraction, w: sample fraction
+    for ax, s in zip(axes.ravel(), order, strict=False):
+        ok = n[s] > 0
+        ax.quiver(w[ok], u[ok], vs[s][ok], -vl[s][ok], angles="uv", scale=ref * k * 0.9,
+                  scale_units="width", color="#d73027", width=0.012)  # fmt: skip
+        ax.set(xlim=(0, 1), ylim=(1, 0), xticks=[], yticks=[], aspect="equal")
+        ax.set_title(f"{summary['scenes'][s]['scene_id']}  {_fmt(rms[s])} px", fontsize=8)
+    for ax in axes.ravel()[order.size :]:
+        ax.axis("off")
+    fig.suptitle(
+        f"mean residual per {k}×{k} cell of the {order.size} scenes of largest RMS "
+        f"(image space; longest arrow {ref:.3f} px)",
+        fontsize=9,
+    )
+    return _png(fig)
+
+
 def plot_scene_precision(block: Block, sol: Solution, summary: dict) -> bytes:
     fig, ax = _figure(8.0, 6.0)
     obs = block.obs
@@ -121,7 +174,7 @@ def _footprints(block: Block) -> list:
 def write_figures(
     out: Path, block: Block, sol: Solution, summary: dict, v_before: np.ndarray
 ) -> dict[str, str]:
-    """The four PNG figures of the page (v_before: |v| per observation before adjustment)."""
+    """The five PNG figures of the page (v_before: |v| per observation before adjustment)."""
     kept = ~sol.outlier
     v_after = np.hypot(sol.v_line, sol.v_sample)[kept]
     v_before = v_before[kept]
@@ -129,6 +182,7 @@ def write_figures(
         "convergence": ("convergence.png", plot_convergence(summary["history"])),
         "residual_histogram": ("residual_histogram.png", plot_histograms(v_before, v_after)),
         "residual_vectors": ("residual_vectors.png", plot_vectors(block, sol, _footprints(block))),
+        "scene_vectors": ("scene_vectors.png", plot_scene_vectors(block, sol, summary)),
         "scene_precision": ("scene_precision.png", plot_scene_precision(block, sol, summary)),
     }
     for name, data in files.values():

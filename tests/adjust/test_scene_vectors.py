@@ -1,0 +1,46 @@
+"""The per-scene residual vector map's cell means, by hand."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+
+from blockqc.adjust.report import plot_scene_vectors, scene_cell_means
+
+
+def _block_and_solution() -> tuple[SimpleNamespace, SimpleNamespace]:
+    # two scenes of 100 × 200 px; 2×2 cells: scene 0 has two observations in its top-left
+    # cell and one in its bottom-right; scene 1 one observation, an outlier (left out)
+    obs = SimpleNamespace(
+        scene=np.array([0, 0, 0, 1]),
+        line=np.array([10.0, 40.0, 90.0, 5.0]),
+        sample=np.array([20.0, 90.0, 150.0, 5.0]),
+        n_scenes=2,
+    )
+    block = SimpleNamespace(
+        obs=obs, lines=np.array([100.0, 100.0]), samples=np.array([200.0, 200.0])
+    )
+    sol = SimpleNamespace(
+        v_line=np.array([0.2, 0.4, -1.0, 9.0]),
+        v_sample=np.array([0.0, 0.2, 0.5, 9.0]),
+        outlier=np.array([False, False, False, True]),
+    )
+    return block, sol
+
+
+def test_cell_means_by_hand() -> None:
+    block, sol = _block_and_solution()
+    vl, vs, n = scene_cell_means(block, sol, k=2)
+    assert n[0].tolist() == [[2.0, 0.0], [0.0, 1.0]]
+    assert np.isclose(vl[0, 0, 0], 0.3)
+    assert np.isclose(vs[0, 0, 0], 0.1)
+    assert np.isclose(vl[0, 1, 1], -1.0) and np.isclose(vs[0, 1, 1], 0.5)
+    assert n[1].sum() == 0 and np.isnan(vl[1]).all()  # the outlier is not drawn
+
+
+def test_scene_maps_render_worst_first() -> None:
+    block, sol = _block_and_solution()
+    summary = {"scenes": [{"scene_id": "A", "rms_px": 0.6}, {"scene_id": "B", "rms_px": None}]}
+    png = plot_scene_vectors(block, sol, summary)
+    assert png[:8] == b"\x89PNG\r\n\x1a\n"
