@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 import pyarrow as pa
+import pyarrow.compute as pc
 import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 from pydantic import (
@@ -182,7 +183,44 @@ def _read_csv(path: Path, schema: TableSchema) -> pd.DataFrame:
         )
     except pa.ArrowInvalid as exc:
         return _read_csv_slow(path, data, str(exc))
-    return table.to_pandas(types_mapper=None)
+    return _to_pandas(table, schema)
+
+
+def _to_pandas(table: pa.Table, schema: TableSchema) -> pd.DataFrame:
+    """Arrow to pandas; the schema's key columns (ids repeated over millions of rows) become
+    Categoricals made in Arrow, so no Python string is made per row."""
+    keys = {c.name for c in schema.columns if c.category}
+    names = table.column_names
+    text = (pa.types.is_string, pa.types.is_large_string)
+    special = [
+        i
+        for i, f in enumerate(table.schema)
+        if f.name in keys and names.count(f.name) == 1 and any(t(f.type) for t in text)
+    ]
+    df = table.drop_columns([names[i] for i in special]).to_pandas()
+    for i in special:
+        df.insert(i, names[i], _categorical(table.column(i)))
+    return df
+
+
+def _categorical(col: pa.ChunkedArray) -> pd.Categorical:
+    """Text as a Categorical of values stripped of surrounding white space; blank → missing.
+
+    One dictionary encoding in Arrow; the values are stripped once per distinct value.
+    """
+    enc = pc.dictionary_encode(col.combine_chunks())
+    words = pc.utf8_trim_whitespace(enc.dictionary)
+    if not words.equals(enc.dictionary):  # some ids carried spaces: encode the stripped ones
+        enc = pc.dictionary_encode(pc.take(words, enc.indices))
+        words = enc.dictionary
+    codes = enc.indices.fill_null(-1).to_numpy(zero_copy_only=False).astype(np.int64)
+    values = words.to_numpy(zero_copy_only=False)
+    empty = values == ""
+    if empty.any():
+        remap = np.where(empty, -1, np.cumsum(~empty) - 1)
+        codes = np.where(codes >= 0, remap[np.maximum(codes, 0)], -1)
+        values = values[~empty]
+    return pd.Categorical.from_codes(codes, pd.Index(values, dtype=object))
 
 
 def _read_csv_slow(path: Path, data: bytes, reason: str) -> pd.DataFrame:
@@ -221,7 +259,8 @@ def _parser_problem(path: Path, message: str) -> Problem:
 def _read_parquet(path: Path, schema: TableSchema) -> pd.DataFrame:
     """Read a Parquet table; columns of the contract must hold plain values, not lists."""
     try:
-        given = pq.read_schema(path).names
+        found = pq.read_schema(path)
+        given = found.names
         repeated = [n for n in dict.fromkeys(given) if given.count(n) > 1]
         if repeated:
             raise InputError(
@@ -251,7 +290,7 @@ def _read_parquet(path: Path, schema: TableSchema) -> pd.DataFrame:
         for i, f in enumerate(table.schema):  # text stored as bytes: read as UTF-8 text
             if f.name in names and (pa.types.is_binary(f.type) or pa.types.is_large_binary(f.type)):
                 table = table.set_column(i, f.name, table.column(i).cast(pa.string()))
-        return table.to_pandas()
+        return _to_pandas(table, schema)
     except (pa.ArrowException, ValueError, OverflowError) as exc:
         raise InputError(Problem(str(path), f"not a readable Parquet table: {exc}")) from None
 

@@ -33,6 +33,9 @@ class Column:
     min: float | None = None
     max: float | None = None
     choices: tuple[str, ...] = ()
+    category: bool = False
+    """Text held as a pandas Categorical: the keys of tables of millions of rows (tie points),
+    so that grouping, counting and joining work on integer codes."""
 
 
 @dataclass(frozen=True)
@@ -76,8 +79,8 @@ SCENES = TableSchema(
 TIE_POINTS = TableSchema(
     "tie_points",
     (
-        Column("point_id", "str"),
-        Column("scene_id", "str"),
+        Column("point_id", "str", category=True),
+        Column("scene_id", "str", category=True),
         Column("line", "float"),
         Column("sample", "float"),
         # contract v1.1: the residuals may be absent when the delivery gives its geometry
@@ -228,6 +231,8 @@ def _show(value: object) -> str:
 
 def _blank(s: pd.Series) -> np.ndarray:
     """Cells that are missing or hold only white space."""
+    if isinstance(s.dtype, pd.CategoricalDtype):  # made by the readers: stripped, blank missing
+        return s.cat.codes.to_numpy() < 0
     if pd.api.types.is_numeric_dtype(s.dtype) or pd.api.types.is_datetime64_any_dtype(s.dtype):
         return s.isna().to_numpy()
     return (s.isna() | (s.astype("string").str.strip() == "")).to_numpy(dtype=bool)
@@ -350,7 +355,11 @@ def _check_unique(
     bad_keys = any(p.column in schema.unique for p in problems)
     if not schema.unique or bad_keys or not all(k in table.columns for k in schema.unique):
         return
-    dup = table.duplicated(list(schema.unique), keep=False).to_numpy()
+    cols = list(schema.unique)
+    if any(isinstance(table[c].dtype, pd.CategoricalDtype) for c in cols):
+        dup = pd.Series(_key_codes(table, cols)).duplicated(keep=False).to_numpy()
+    else:
+        dup = table.duplicated(cols, keep=False).to_numpy()
     if dup.any():
         key = ", ".join(schema.unique)
         report_rows(
@@ -362,6 +371,32 @@ def _check_unique(
             _labels(table, list(schema.unique)),
             csv,
         )
+
+
+def _stripped_category(raw: pd.Series, blank: np.ndarray) -> pd.Series:
+    """Text as a Categorical of stripped values, blank cells missing. A Categorical comes from
+    the readers (`blockqc.delivery`), already stripped; other text is stripped here."""
+    if isinstance(raw.dtype, pd.CategoricalDtype):
+        return raw
+    text = raw.astype("string").str.strip().where(~blank)
+    return text.astype(object).astype("category")
+
+
+def _key_codes(table: pd.DataFrame, cols: list[str]) -> np.ndarray:
+    """One int64 per row for a key of several columns (codes of each column, combined)."""
+    key, span = np.zeros(len(table), dtype=np.int64), 1
+    for c in cols:
+        s = table[c]
+        codes = s.cat.codes.to_numpy() if isinstance(s.dtype, pd.CategoricalDtype) else None
+        if codes is None:
+            codes = pd.factorize(s)[0]
+        size = int(codes.max(initial=-1)) + 2
+        span *= size
+        if span >= 2**62:  # too many combinations for one int64: combine again by factorizing
+            key, span = pd.factorize(key)[0].astype(np.int64), int(key.size) + 1
+            span *= size
+        key = key * size + (codes.astype(np.int64) + 1)
+    return key
 
 
 def _expected(col: Column) -> str:
@@ -377,6 +412,8 @@ def _expected(col: Column) -> str:
 
 def _convert(raw: pd.Series, col: Column, blank: np.ndarray) -> tuple[pd.Series, np.ndarray | None]:
     """Convert one column to its kind; return the converted series and the unconvertible cells."""
+    if col.kind == "str" and col.category:
+        return _stripped_category(raw, blank), None
     if col.kind == "str":
         s = raw.astype("string").str.strip()
         return s.astype(object).where(~blank, None), None

@@ -50,16 +50,26 @@ def _select(d: Delivery, bands: list[str] | None) -> tuple[pd.DataFrame, pd.Data
 
 
 def _stats(err: pd.Series, by: pd.Series | None, lo: float, hi: float) -> pd.DataFrame:
-    """n, median, RMS, mean, max and share (%) in (lo, hi], overall or per group."""
+    """n, median, RMS, mean, max and share (%) in (lo, hi], overall or per group.
+
+    Groups by integer codes (a Categorical's own, else factorized), so a key of millions of
+    rows is never turned into Python strings; the index holds the groups' labels.
+    """
+    if by is None:
+        codes, labels = np.zeros(len(err), dtype=np.int64), pd.Index([0])
+    elif isinstance(by.dtype, pd.CategoricalDtype):
+        codes, labels = by.cat.codes.to_numpy(), pd.Index(by.cat.categories, dtype=object)
+    else:
+        codes, labels = pd.factorize(by, sort=False)
     frame = pd.DataFrame(
         {
             "e": err.to_numpy(),
             "e2": err.to_numpy() ** 2,
             "inside": ((err > lo) & (err <= hi)).to_numpy(),
-            "g": by.to_numpy() if by is not None else 0,
+            "g": codes,
         }
     )
-    g = frame.groupby("g", sort=False)
+    g = frame[frame["g"] >= 0].groupby("g", sort=False)
     out = pd.DataFrame(
         {
             "n": g["e"].size(),
@@ -70,6 +80,7 @@ def _stats(err: pd.Series, by: pd.Series | None, lo: float, hi: float) -> pd.Dat
             "n_in_interval": g["inside"].sum(),
         }
     )
+    out.index = pd.Index(np.asarray(labels, dtype=object)[out.index.to_numpy()])
     out["share_in_interval"] = 100.0 * out["n_in_interval"] / out["n"]
     return out
 
