@@ -22,6 +22,7 @@ from __future__ import annotations
 import json
 import sys
 from pathlib import Path
+from typing import Any
 
 import great_expectations as gx
 import great_expectations.expectations as gxe
@@ -72,7 +73,7 @@ def suites() -> tuple[gx.ExpectationSuite, gx.ExpectationSuite]:
     return errors, counts
 
 
-def validate(context, name: str, suite: gx.ExpectationSuite, frame: pd.DataFrame):
+def validate(context: Any, name: str, suite: gx.ExpectationSuite, frame: pd.DataFrame) -> Any:
     """One dataframe asset, a whole-dataframe batch definition, a validation definition, run."""
     asset = context.data_sources.add_pandas(name).add_dataframe_asset(name=name)
     batch = asset.add_batch_definition_whole_dataframe(name)

@@ -152,6 +152,8 @@ def main() -> None:
     args = ap.parse_args()
     if (args.delivery is None) == (args.generate is None) or (args.generate and not args.out):
         ap.error("give DELIVERY, or --generate N with --out FOLDER")
+    if args.repeat < 1:
+        ap.error("--repeat must be at least 1")
     block = generate(args.generate, args.scenes, args.out) if args.generate else args.delivery
     if not (block / "tie_points.parquet").is_file():
         ap.error(
