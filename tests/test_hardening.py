@@ -606,3 +606,69 @@ def test_parquet_repeated_column_and_binary_text(blockqc, delivery: Path, tmp_pa
     edges_m = next(m for m in doc["measurements"] if m["metric"] == "edge_discrepancy")
     points = edges_m["tables"]["point"]
     assert {r["point_id"] for r in points} == {"E0", "E1", "E2", "E3", "E4"}
+
+
+# ------------------------------------------------ tie-point keys held as Categoricals
+def test_categorical_keys_by_hand() -> None:
+    import pyarrow as pa
+
+    from blockqc.delivery import _categorical
+
+    col = pa.chunked_array([pa.array([" P1", "P2 ", "", None, "P1"]), pa.array(["  ", "P3"])])
+    cat = _categorical(col)
+    assert list(cat.categories) == ["P1", "P2", "P3"]
+    assert cat.codes.tolist() == [0, 1, -1, -1, 0, -1, 2]  # blank and missing cells: missing
+
+
+def _tie_points_as_parquet(delivery: Path, edit=None) -> None:
+    tp = pd.read_csv(delivery / "tie_points.csv", dtype={"point_id": str, "scene_id": str})
+    if edit is not None:
+        edit(tp)
+    (delivery / "tie_points.csv").unlink()
+    tp.to_parquet(delivery / "tie_points.parquet", index=False)
+
+
+def test_parquet_tie_points_with_padded_ids_judge_as_csv(
+    blockqc, delivery: Path, tmp_path: Path
+) -> None:
+    first = blockqc("inspect", delivery, "--out", tmp_path / "csv", "--no-pdf")
+
+    def pad(tp: pd.DataFrame) -> None:  # ids padded with spaces: the same ids once stripped
+        tp["point_id"] = " " + tp["point_id"]
+        tp["scene_id"] = tp["scene_id"] + "  "
+
+    _tie_points_as_parquet(delivery, pad)
+    second = blockqc("inspect", delivery, "--out", tmp_path / "pq", "--no-pdf")
+    assert first.returncode == second.returncode, second.stderr
+    a, b = (json.loads((tmp_path / d / "CASE" / "results.json").read_text()) for d in ("csv", "pq"))
+    assert [(r["rule"], r["status"], r["value"]) for r in a["results"]] == [
+        (r["rule"], r["status"], r["value"]) for r in b["results"]
+    ]
+
+
+def test_parquet_tie_points_duplicated_key(blockqc, delivery: Path, tmp_path: Path) -> None:
+    def damage(tp: pd.DataFrame) -> None:  # row 4 repeats row 3 once its id is stripped
+        tp.loc[3, ["point_id", "scene_id"]] = [tp.loc[2, "point_id"] + " ", tp.loc[2, "scene_id"]]
+
+    _tie_points_as_parquet(delivery, damage)
+    _refused(
+        blockqc,
+        delivery,
+        tmp_path / "out",
+        "tie_points.parquet, row 3: duplicated key (point_id, scene_id)",
+        "tie_points.parquet, row 4: duplicated key (point_id, scene_id)",
+    )
+
+
+def test_parquet_tie_points_blank_scene(blockqc, delivery: Path, tmp_path: Path) -> None:
+    def damage(tp: pd.DataFrame) -> None:
+        tp.loc[5, "scene_id"] = "   "
+
+    _tie_points_as_parquet(delivery, damage)
+    err = _refused(
+        blockqc,
+        delivery,
+        tmp_path / "out",
+        "tie_points.parquet, row 6, column 'scene_id': empty value where one is required",
+    )
+    assert "unknown scene_id" not in err

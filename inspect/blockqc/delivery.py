@@ -407,7 +407,8 @@ def _check_references(tables: dict[str, pd.DataFrame], files: dict[str, Path]) -
             target = tables.get(ref.table)
             if target is None or ref.column not in df.columns or ref.key not in target.columns:
                 continue
-            missing = ~df[ref.column].isin(target[ref.key]).to_numpy(dtype=bool)
+            given = df[ref.column].notna().to_numpy(dtype=bool)  # a blank cell is reported as such
+            missing = given & ~df[ref.column].isin(target[ref.key]).to_numpy(dtype=bool)
             f = files[name]
             report_rows(
                 problems,
