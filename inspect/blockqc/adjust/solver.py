@@ -32,7 +32,6 @@ from blockqc.adjust.geometry import (
     accumulate_points,
     affine_from_normalized,
     ground_jacobian_m,
-    image_residuals,
     inv3,
     metres_to_degrees,
     normalization,
@@ -93,9 +92,9 @@ class State:
 
 @dataclass
 class Linearization:
-    f: FloatArray  # (n, 2) RFM-space misclosure, px
+    f: FloatArray  # (n, 2) residual in image space, computed − measured, px
     jx: FloatArray  # (n, 2, 3) ∂f/∂(east, north, h) px/m
-    g: FloatArray  # (n, 3) [1, ŝ, l̂]: ∂f_line/∂(a0', a1', a2') (same for the sample row)
+    g: FloatArray  # (n, 3) [1, ŝ, l̂] at the computed position: ∂f_line/∂(a0', a1', a2')
 
 
 @dataclass
@@ -148,21 +147,34 @@ def linearize(
     state: State,
     partials: bool = True,
 ) -> Linearization:
-    """Misclosures and (if asked) partials of every observation at the current estimate."""
+    """Residuals in image space (computed − measured) and their partials at the estimate.
+
+    The residual is v = M⁻¹·f, f the misclosure in RFM space with the measured (l, s) in the
+    affine terms and M = [[1 − a2, −a1], [−b2, 1 − b1]]; the affine's partials are taken at the
+    computed position (measured + v). Minimizing f instead would weigh the noise by M, and the
+    noise in the measured (l, s) would pull the scale terms a2, b1 of every scene the same way
+    (a bias of the datum the priors alone fix).
+    """
     lc, sc, hl, hs = (x[obs.scene] for x in norm)
     g = np.stack([np.ones(obs.line.size), (obs.sample - sc) / hs, (obs.line - lc) / hl], 1)
     pt = obs.point
     rl, rs, jac = stack.project(obs.scene, state.lon[pt], state.lat[pt], state.h[pt], partials)
     pa = state.p[obs.scene]
-    f = np.stack(
-        [
-            rl - obs.line + np.einsum("ij,ij->i", g, pa[:, :3]),
-            rs - obs.sample + np.einsum("ij,ij->i", g, pa[:, 3:]),
-        ],
-        axis=1,
-    )
-    jx = ground_jacobian_m(jac, state.lat[pt]) if jac is not None else np.zeros((0, 2, 3))
-    return Linearization(f, jx, g)
+    f_line = rl - obs.line + np.einsum("ij,ij->i", g, pa[:, :3])
+    f_samp = rs - obs.sample + np.einsum("ij,ij->i", g, pa[:, 3:])
+    m11, m12 = 1.0 - pa[:, 2] / hl, -pa[:, 1] / hs
+    m21, m22 = -pa[:, 5] / hl, 1.0 - pa[:, 4] / hs
+    det = m11 * m22 - m12 * m21
+    v = np.stack([(m22 * f_line - m12 * f_samp) / det, (m11 * f_samp - m21 * f_line) / det], 1)
+    g[:, 1] += v[:, 1] / hs
+    g[:, 2] += v[:, 0] / hl
+    if jac is None:
+        return Linearization(v, np.zeros((0, 2, 3)), g)
+    jx = ground_jacobian_m(jac, state.lat[pt])
+    jl, js = jx[:, 0, :].copy(), jx[:, 1, :]
+    jx[:, 0, :] = (m22[:, None] * jl - m12[:, None] * js) / det[:, None]
+    jx[:, 1, :] = (m11[:, None] * js - m21[:, None] * jl) / det[:, None]
+    return Linearization(v, jx, g)
 
 
 @dataclass(frozen=True)
@@ -315,12 +327,24 @@ def _reduced_rhs(
     return (-ga + _scene_sum(obs, w, lin.g, q)).ravel()
 
 
+SINGULAR = (
+    "the block adjustment is singular: the datum is not fixed (give finite a-priori "
+    "affine σ, --fix a scene or --dem) or some scene has too few tie observations"
+)
+
+
+def check_datum(priors: Priors) -> None:
+    """Without a fixed scene, infinite a-priori σ leave the block's common shift and linear
+    terms free: no tie observation fixes them, so the system is singular (refused up front,
+    as the image noise would hide the defect from the factorization)."""
+    free = not np.isfinite(priors.sigma_shift_px) or not np.isfinite(priors.sigma_linear_px)
+    if free and not priors.fixed.any():
+        raise InputError(Problem("<block>", SINGULAR))
+
+
 def solve_reduced(s: sp.csc_matrix, b: FloatArray) -> tuple[FloatArray, spla.SuperLU]:
     """Sparse LU of the reduced system; a singular one is an InputError saying why."""
-    message = (
-        "the block adjustment is singular: the datum is not fixed (give finite a-priori "
-        "affine σ, --fix a scene or --dem) or some scene has too few tie observations"
-    )
+    message = SINGULAR
     diag = s.diagonal()
     if not np.all(np.isfinite(diag)) or diag.min() <= 0:
         raise InputError(Problem("<block>", message))
@@ -646,6 +670,7 @@ def _adjust(
     settings: Settings,
 ) -> tuple[Solution, FloatArray, FloatArray]:
     """Run the block adjustment; returns the solution and the residuals before (v_l, v_s)."""
+    check_datum(priors)
     norm = normalization(lines, samples)
     state, ok, v0l, v0s = initial_state(stack, obs, priors)
     ctx = Context(
@@ -671,9 +696,7 @@ def _adjust(
     converged = False
     for _ in range(4):
         s0 = sigma0(step.lin.f, step.w, priors, ctx.used, step.u_inv[:, 2, 2]) * sig
-        vl, vs = image_residuals(
-            affine_from_normalized(state.p, lines, samples), obs.scene, *step.lin.f.T
-        )
+        vl, vs = step.lin.f.T
         s0 = max(s0, settings.min_sigma_px) if np.isfinite(s0) else sig
         new = ctx.kept & (np.hypot(vl, vs) > settings.reject_k * s0)
         ctx.kept &= ~new
@@ -706,7 +729,7 @@ def _solution(ctx: Context, state: State, last: Step, sig: float, converged: boo
     jac = normalized_jacobian(lines, samples)
     contract = np.einsum("nij,njk,nlk->nil", jac, blocks, jac)
     ground = q_ground * s0**2
-    vl, vs = image_residuals(affine, obs.scene, lin.f[:, 0], lin.f[:, 1])
+    vl, vs = lin.f[:, 0].copy(), lin.f[:, 1].copy()
     return Solution(
         affine=affine,
         affine_sigma=np.sqrt(np.einsum("nii->ni", contract)),
