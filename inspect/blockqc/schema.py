@@ -357,7 +357,7 @@ def _check_unique(
         return
     cols = list(schema.unique)
     if any(isinstance(table[c].dtype, pd.CategoricalDtype) for c in cols):
-        dup = pd.Series(_key_codes(table, cols)).duplicated(keep=False).to_numpy()
+        dup = _repeated(_key_codes(table, cols))
     else:
         dup = table.duplicated(cols, keep=False).to_numpy()
     if dup.any():
@@ -380,6 +380,15 @@ def _stripped_category(raw: pd.Series, blank: np.ndarray) -> pd.Series:
         return raw
     text = raw.astype("string").str.strip().where(~blank)
     return text.astype(object).astype("category")
+
+
+def _repeated(key: np.ndarray) -> np.ndarray:
+    """Rows whose int64 key occurs more than once: one sort; the rows are found only when
+    some key repeats (the usual clean table costs the sort alone)."""
+    ordered = np.sort(key)
+    if not (ordered[1:] == ordered[:-1]).any():
+        return np.zeros(key.size, dtype=bool)
+    return pd.Series(key).duplicated(keep=False).to_numpy()
 
 
 def _key_codes(table: pd.DataFrame, cols: list[str]) -> np.ndarray:
