@@ -206,15 +206,20 @@ def _to_pandas(table: pa.Table, schema: TableSchema) -> pd.DataFrame:
 def _categorical(col: pa.ChunkedArray) -> pd.Categorical:
     """Text as a Categorical of values stripped of surrounding white space; blank → missing.
 
-    One dictionary encoding in Arrow; the values are stripped once per distinct value.
+    One dictionary encoding in Arrow over every chunk (the chunks' indices all refer to the
+    last chunk's dictionary); the values are stripped once per distinct value.
     """
-    enc = pc.dictionary_encode(col.combine_chunks())
-    words = pc.utf8_trim_whitespace(enc.dictionary)
-    if not words.equals(enc.dictionary):  # some ids carried spaces: encode the stripped ones
-        enc = pc.dictionary_encode(pc.take(words, enc.indices))
-        words = enc.dictionary
-    codes = enc.indices.fill_null(-1).to_numpy(zero_copy_only=False).astype(np.int64)
-    values = words.to_numpy(zero_copy_only=False)
+    if col.num_chunks == 0:
+        return pd.Categorical([], categories=pd.Index([], dtype=object))
+    enc = pc.dictionary_encode(col)
+    words = enc.chunk(enc.num_chunks - 1).dictionary
+    indices = pa.chunked_array([c.indices for c in enc.chunks], enc.type.index_type)
+    stripped = pc.utf8_trim_whitespace(words)
+    if not stripped.equals(words):  # some ids carried spaces: encode the stripped ones
+        enc = pc.dictionary_encode(pc.take(stripped, indices)).combine_chunks()
+        stripped, indices = enc.dictionary, enc.indices
+    codes = indices.fill_null(-1).to_numpy().astype(np.int64)
+    values = stripped.to_numpy(zero_copy_only=False)
     empty = values == ""
     if empty.any():
         remap = np.where(empty, -1, np.cumsum(~empty) - 1)
