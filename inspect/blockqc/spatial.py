@@ -24,21 +24,39 @@ _SLACK = 1e-12  # relative allowance for round-off in the cell assignment
 
 @dataclass(frozen=True)
 class _Grid:
-    """One uniform grid per pattern, and the points sorted by cell."""
+    """One uniform grid per pattern (arrays indexed by pattern code)."""
 
-    x0: np.ndarray  # per pattern: origin, cell side, columns, rows, first cell, round-off margin
+    x0: np.ndarray  # origin
     y0: np.ndarray
-    side: np.ndarray
-    nx: np.ndarray
+    side: np.ndarray  # cell side
+    nx: np.ndarray  # columns and rows covering the pattern
     ny: np.ndarray
-    base: np.ndarray
-    margin: np.ndarray
+    width: np.ndarray  # columns with the empty border
+    base: np.ndarray  # first cell (one more entry than patterns)
+    margin: np.ndarray  # allowance for round-off in the cell assignment
+
+    def cells(self, x: np.ndarray, y: np.ndarray, g: np.ndarray):
+        """Column and row of each point, and its distance to its cell's nearest edge in cells."""
+        side = self.side[g]
+        u, v = (x - self.x0[g]) / side, (y - self.y0[g]) / side
+        cx = np.minimum(u.astype(np.int64), self.nx[g] - 1)
+        cy = np.minimum(v.astype(np.int64), self.ny[g] - 1)
+        u -= cx
+        v -= cy
+        edge = np.minimum(np.minimum(u, 1.0 - u), np.minimum(v, 1.0 - v))
+        return cx, cy, np.maximum(edge, 0.0)
+
+
+@dataclass(frozen=True)
+class _Sorted:
+    """The points sorted by cell, with the grids."""
+
+    grid: _Grid
     starts: np.ndarray  # first sorted point of each cell (one more entry than cells)
-    xs: np.ndarray  # the points sorted by cell, and their pattern codes
-    ys: np.ndarray
-    gs: np.ndarray
+    zs: np.ndarray  # the points as x + iy
+    gs: np.ndarray  # pattern codes
     cell: np.ndarray
-    order: np.ndarray  # sorted position → input position
+    order: np.ndarray  # sorted position → position in the input
 
 
 def nearest_neighbour_distances(
@@ -48,109 +66,150 @@ def nearest_neighbour_distances(
 
     Exact; NaN for a point alone in its pattern; coincident points are at distance 0.
     """
-    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     group = np.asarray(group, dtype=np.int64)
-    if not (np.isfinite(x).all() and np.isfinite(y).all()):
-        raise ValueError("point coordinates must be finite")
     k = int(group.max(initial=-1)) + 1 if k is None else k
-    n = np.bincount(group, minlength=k)
-    out = np.full(len(x), np.nan)
-    keep = np.flatnonzero(n[group] >= 2)
-    if len(keep) == 0:
-        return out
-    grid = _make_grid(x[keep], y[keep], group[keep], k)
-    d2 = np.full(len(keep), np.inf)
-    dense = _dense_patterns(grid, n)
-    todo = np.flatnonzero(~dense[grid.gs])
-    for ring in range(1, _MAX_RING + 1):
-        if len(todo) == 0:
-            break
-        d2[todo], settled = _search_block(grid, todo, ring)
-        todo = todo[~settled]
-    tree = dense[grid.gs]
-    tree[todo] = True
-    if tree.any():
-        d2[tree] = _tree_nearest(grid, np.flatnonzero(tree)) ** 2
-    out[keep[grid.order]] = np.sqrt(d2)
+    out = np.full(len(group), np.nan)
+    pts, dist = _nearest_sorted(x, y, group, k)
+    if pts is not None:
+        out[pts.order] = dist
     return out
 
 
-def _make_grid(x: np.ndarray, y: np.ndarray, g: np.ndarray, k: int) -> _Grid:
-    """A grid over each pattern's bounding box, `_OCCUPANCY` points per cell; points sorted."""
+def _nearest_sorted(
+    x: np.ndarray, y: np.ndarray, group: np.ndarray, k: int
+) -> tuple[_Sorted | None, np.ndarray]:
+    """The points of the patterns of ≥ 2 points, sorted by cell, and their nearest distances."""
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    if not (np.isfinite(x).all() and np.isfinite(y).all()):
+        raise ValueError("point coordinates must be finite")
+    n = np.bincount(group, minlength=k)
+    keep = None if n.min(initial=2) >= 2 else np.flatnonzero(n[group] >= 2)
+    if keep is not None:
+        if len(keep) == 0:
+            return None, np.empty(0)
+        x, y, group = x[keep], y[keep], group[keep]
+    pts = _make_grid(x, y, group, k, keep)
+    d2 = np.full(len(x), np.inf)
+    dense = _dense_patterns(pts, n)[pts.gs]
+    todo = np.flatnonzero(~dense)
+    _search_neighbours(pts, todo, d2)
+    for ring in range(1, _MAX_RING + 1):
+        if ring > 1:
+            _search_block(pts, todo, ring, d2)
+        todo = todo[~_settled(pts, todo, ring, d2)]
+        if len(todo) == 0:
+            break
+    dense[todo] = True
+    if dense.any():
+        d2[dense] = _tree_nearest(pts, np.flatnonzero(dense)) ** 2
+    return pts, np.sqrt(d2)
+
+
+def _make_grid(x: np.ndarray, y: np.ndarray, g: np.ndarray, k: int, index=None) -> _Sorted:
+    """A grid over each pattern's bounding box, `_OCCUPANCY` points per cell; points sorted.
+
+    Each grid has a border of `_MAX_RING` empty cells, so that a block of cells never leaves it.
+    """
     x0, x1 = _group_extremes(x, g, k)
     y0, y1 = _group_extremes(y, g, k)
-    wx, wy = np.nan_to_num(x1 - x0, posinf=0.0), np.nan_to_num(y1 - y0, posinf=0.0)
-    x0, y0 = np.nan_to_num(x0, posinf=0.0), np.nan_to_num(y0, posinf=0.0)
+    wx, wy = x1 - x0, y1 - y0
     n = np.maximum(np.bincount(g, minlength=k), 1)
     side = np.maximum(np.sqrt(_OCCUPANCY * wx * wy / n), (wx + wy) / n)
     side = np.where(side > 0, side, 1.0)
     nx = (wx / side).astype(np.int64) + 1
     ny = (wy / side).astype(np.int64) + 1
-    base = np.concatenate([[0], np.cumsum(nx * ny)])
-    cx = np.minimum(((x - x0[g]) / side[g]).astype(np.int64), nx[g] - 1)
-    cy = np.minimum(((y - y0[g]) / side[g]).astype(np.int64), ny[g] - 1)
-    cell = base[g] + cy * nx[g] + cx
-    order = np.argsort(cell)
+    width = nx + 2 * _MAX_RING
+    base = np.concatenate([[0], np.cumsum(width * (ny + 2 * _MAX_RING))])
+    grid = _Grid(x0, y0, side, nx, ny, width, base, _SLACK * (wx + wy + side))
+    cx, cy, _ = grid.cells(x, y, g)
+    cell = base[g] + (cy + _MAX_RING) * width[g] + (cx + _MAX_RING)
+    order = _cell_order(cell, int(base[-1]), bool(np.all(g[1:] >= g[:-1])))
     starts = np.concatenate([[0], np.cumsum(np.bincount(cell, minlength=base[-1]))])
-    margin = _SLACK * (wx + wy + side)
-    return _Grid(
-        x0, y0, side, nx, ny, base, margin, starts, x[order], y[order], g[order], cell[order], order
+    zs = np.empty(len(x), dtype=complex)
+    zs.real, zs.imag = x[order], y[order]
+    return _Sorted(
+        grid, starts, zs, g[order], cell[order], order if index is None else index[order]
     )
 
 
+def _cell_order(cell: np.ndarray, cells: int, grouped: bool) -> np.ndarray:
+    """The order sorting the points by cell (the fastest sort for patterns given one by one, or
+    for patterns mixed: the cells and positions packed into one integer)."""
+    bits = (len(cell) - 1).bit_length()
+    if grouped or cells.bit_length() + bits > 62:
+        return np.argsort(cell, kind="stable")
+    return np.sort((cell << bits) | np.arange(len(cell))) & ((1 << bits) - 1)
+
+
 def _group_extremes(v: np.ndarray, g: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-    """Smallest and largest value of each group (±inf for an empty group)."""
+    """Smallest and largest value of each group (0 for an empty group)."""
     lo, hi = np.full(k, np.inf), np.full(k, -np.inf)
     np.minimum.at(lo, g, v)
     np.maximum.at(hi, g, v)
+    empty = lo > hi
+    lo[empty] = hi[empty] = 0.0
     return lo, hi
 
 
-def _dense_patterns(grid: _Grid, n: np.ndarray) -> np.ndarray:
+def _dense_patterns(pts: _Sorted, n: np.ndarray) -> np.ndarray:
     """Patterns whose points share their cell with more than `_DENSE` points on average."""
-    counts = np.diff(grid.starts).astype(float)
-    shared = np.add.reduceat(counts * counts, grid.base[:-1])
+    counts = np.diff(pts.starts).astype(float)
+    shared = np.add.reduceat(counts * counts, pts.grid.base[:-1])
     return shared > _DENSE * np.maximum(n, 1)
 
 
-def _search_block(grid: _Grid, todo: np.ndarray, ring: int) -> tuple[np.ndarray, np.ndarray]:
-    """Nearest squared distance in the (2·ring+1)² cells around each point, and whether final."""
-    d2 = np.empty(len(todo))
+def _search_neighbours(pts: _Sorted, todo: np.ndarray, d2: np.ndarray) -> None:
+    """Lower d2 by every pair of points in the same or adjacent cells (each pair measured once).
+
+    A point meets the rest of its own cell, the cell on its right and the three cells above;
+    the other neighbouring cells meet it from their side.
+    """
+    for lo in range(0, len(todo), _CHUNK):
+        p = todo[lo : lo + _CHUNK]
+        cell = pts.cell[p]
+        above = cell + pts.grid.width[pts.gs[p]]
+        a = np.column_stack([p + 1, pts.starts[above - 1]])
+        b = np.column_stack([pts.starts[cell + 2], pts.starts[above + 2]])
+        _measure(pts, p, a, b, d2, both=True)
+
+
+def _search_block(pts: _Sorted, todo: np.ndarray, ring: int, d2: np.ndarray) -> None:
+    """Lower d2 of the points `todo` by the points in the (2·ring+1)² cells around each."""
+    for lo in range(0, len(todo), _CHUNK):
+        p = todo[lo : lo + _CHUNK]
+        rows = pts.cell[p][:, None] + np.arange(-ring, ring + 1) * pts.grid.width[pts.gs[p], None]
+        a, b = pts.starts[rows - ring], pts.starts[rows + ring + 1]
+        a = np.column_stack([a, p + 1])  # the own row in two ranges, around the point itself
+        b = np.column_stack([b, b[:, ring]])
+        b[:, ring] = p
+        _measure(pts, p, a, b, d2, both=False)
+
+
+def _settled(pts: _Sorted, todo: np.ndarray, ring: int, d2: np.ndarray) -> np.ndarray:
+    """Whether each point's nearest distance so far is final after searching `ring` rings.
+
+    It is when no farther than the cells outside the block, or when the block covers the whole
+    pattern.
+    """
+    grid = pts.grid
     settled = np.empty(len(todo), dtype=bool)
     for lo in range(0, len(todo), _CHUNK):
         p = todo[lo : lo + _CHUNK]
-        g = grid.gs[p]
-        local = grid.cell[p] - grid.base[g]
-        cy, cx = np.divmod(local, grid.nx[g])
-        a, b = _block_runs(grid, g, cx, cy, ring)
-        d2[lo : lo + len(p)] = _nearest_in_runs(grid, p, a, b)
-        fx = (grid.xs[p] - grid.x0[g]) / grid.side[g] - cx
-        fy = (grid.ys[p] - grid.y0[g]) / grid.side[g] - cy
-        edge = np.clip(np.minimum(np.minimum(fx, 1 - fx), np.minimum(fy, 1 - fy)), 0.0, 1.0)
+        g = pts.gs[p]
+        cx, cy, edge = grid.cells(pts.zs.real[p], pts.zs.imag[p], g)
         reach = (ring + edge) * grid.side[g] - grid.margin[g]
         whole = (cx <= ring) & (cx + ring >= grid.nx[g] - 1)
         whole &= (cy <= ring) & (cy + ring >= grid.ny[g] - 1)
-        settled[lo : lo + len(p)] = whole | (d2[lo : lo + len(p)] <= reach * reach)
-    return d2, settled
+        settled[lo : lo + len(p)] = whole | (d2[p] <= reach * reach)
+    return settled
 
 
-def _block_runs(grid: _Grid, g: np.ndarray, cx: np.ndarray, cy: np.ndarray, ring: int):
-    """Sorted-point ranges [a, b) of each row of the block of cells around each point."""
-    nx = grid.nx[g][:, None]
-    rows = cy[:, None] + np.arange(-ring, ring + 1)
-    inside = (rows >= 0) & (rows < grid.ny[g][:, None])
-    row0 = grid.base[g][:, None] + rows * nx
-    first = np.where(inside, row0 + np.maximum(cx - ring, 0)[:, None], 0)
-    last = np.where(inside, row0 + np.minimum(cx + ring + 1, nx[:, 0])[:, None], 0)
-    return grid.starts[first], grid.starts[last]
-
-
-def _nearest_in_runs(grid: _Grid, p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Smallest squared distance from each sorted point p to the others in its runs [a, b)."""
+def _measure(pts: _Sorted, p: np.ndarray, a: np.ndarray, b: np.ndarray, d2, both: bool) -> None:
+    """Lower d2 of each sorted point p (with `both`, also of the other) by its pairs with the
+    points in its ranges [a, b), in pieces of at most `_PAIR_BUDGET` pairs."""
     count = b - a
     per_point = count.sum(axis=1)
     ends = np.cumsum(per_point)
-    d2 = np.empty(len(p))
     lo = 0
     while lo < len(p):
         done = ends[lo - 1] if lo else 0
@@ -158,26 +217,28 @@ def _nearest_in_runs(grid: _Grid, p: np.ndarray, a: np.ndarray, b: np.ndarray) -
         c = count[lo:hi].ravel()
         j = np.repeat(a[lo:hi].ravel() - (np.cumsum(c) - c), c) + np.arange(c.sum())
         i = np.repeat(p[lo:hi], per_point[lo:hi])
-        pair = (grid.xs[j] - grid.xs[i]) ** 2 + (grid.ys[j] - grid.ys[i]) ** 2
-        pair[j == i] = np.inf
-        d2[lo:hi] = np.minimum.reduceat(pair, ends[lo:hi] - per_point[lo:hi] - done)
+        dz = pts.zs[j] - pts.zs[i]
+        dist = dz.real * dz.real + dz.imag * dz.imag
+        np.minimum.at(d2, i, dist)
+        if both:
+            np.minimum.at(d2, j, dist)
         lo = hi
-    return d2
 
 
-def _tree_nearest(grid: _Grid, query: np.ndarray) -> np.ndarray:
+def _tree_nearest(pts: _Sorted, query: np.ndarray) -> np.ndarray:
     """Nearest-neighbour distance of the sorted points `query` by a k-d tree over their patterns.
 
     The pattern code, times a gap wider than any pattern, is a third coordinate: distances within
     a pattern are untouched and every other pattern lies farther than its own points.
     """
+    grid = pts.grid
     member = np.zeros(len(grid.base) - 1, dtype=bool)
-    member[grid.gs[query]] = True
-    keep = member[grid.gs]
-    gap = 2.0 * float(np.max(grid.nx * grid.side + grid.ny * grid.side)) + 1.0
-    pts = np.column_stack([grid.xs, grid.ys, grid.gs * gap])
-    tree = cKDTree(pts[keep], balanced_tree=False)
-    dist, _ = tree.query(pts[query], k=2, workers=-1)
+    member[pts.gs[query]] = True
+    keep = member[pts.gs]
+    gap = 2.0 * float(np.max((grid.nx + grid.ny) * grid.side)) + 1.0
+    xyz = np.column_stack([pts.zs.real, pts.zs.imag, pts.gs * gap])
+    tree = cKDTree(xyz[keep], balanced_tree=False)
+    dist, _ = tree.query(xyz[query], k=2, workers=-1)
     return dist[:, 1]
 
 
@@ -239,9 +300,8 @@ def clark_evans_grouped(
     ok = n >= 2
     if not ok.any():
         return r
-    dist = nearest_neighbour_distances(x, y, group, k)
-    seen = n[group] >= 2
-    observed = np.bincount(group[seen], weights=dist[seen], minlength=k) / np.maximum(n, 1)
+    pts, dist = _nearest_sorted(x, y, group, k)
+    observed = np.bincount(pts.gs, weights=dist, minlength=k) / np.maximum(n, 1)
     per = None if perimeter is None else np.asarray(perimeter, dtype=float)[ok]
     r[ok] = observed[ok] / expected_nearest_neighbour_distance(n[ok], np.asarray(area)[ok], per)
     return r
