@@ -9,6 +9,7 @@ resolved with a k-d tree over those patterns only.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -19,6 +20,7 @@ _MAX_RING = 3  # rings of cells searched before the k-d tree takes over
 _DENSE = 8.0  # a pattern whose points share their cell with more points on average → k-d tree
 _CHUNK = 1 << 16  # points whose blocks of cells are laid out at once
 _PAIR_BUDGET = 1 << 18  # candidate pairs measured at once (small enough to stay in cache)
+_BATCH = 1 << 18  # points of whole patterns searched at once
 _SLACK = 1e-12  # relative allowance for round-off in the cell assignment
 
 
@@ -35,16 +37,19 @@ class _Grid:
     base: np.ndarray  # first cell (one more entry than patterns)
     margin: np.ndarray  # allowance for round-off in the cell assignment
 
-    def cells(self, x: np.ndarray, y: np.ndarray, g: np.ndarray):
-        """Column and row of each point, and its distance to its cell's nearest edge in cells."""
+    def cells(self, x: np.ndarray, y: np.ndarray, g: np.ndarray, edge: bool = False):
+        """Column and row of each point (with `edge`, also its distance to its cell's nearest
+        edge, in cells)."""
         side = self.side[g]
         u, v = (x - self.x0[g]) / side, (y - self.y0[g]) / side
         cx = np.minimum(u.astype(np.int64), self.nx[g] - 1)
         cy = np.minimum(v.astype(np.int64), self.ny[g] - 1)
+        if not edge:
+            return cx, cy
         u -= cx
         v -= cy
-        edge = np.minimum(np.minimum(u, 1.0 - u), np.minimum(v, 1.0 - v))
-        return cx, cy, np.maximum(edge, 0.0)
+        near = np.minimum(np.minimum(u, 1.0 - u), np.minimum(v, 1.0 - v))
+        return cx, cy, np.maximum(near, 0.0)
 
 
 @dataclass(frozen=True)
@@ -56,7 +61,7 @@ class _Sorted:
     zs: np.ndarray  # the points as x + iy
     gs: np.ndarray  # pattern codes
     cell: np.ndarray
-    order: np.ndarray  # sorted position → position in the input
+    order: np.ndarray  # sorted position → position among the points given
 
 
 def nearest_neighbour_distances(
@@ -69,26 +74,48 @@ def nearest_neighbour_distances(
     group = np.asarray(group, dtype=np.int64)
     k = int(group.max(initial=-1)) + 1 if k is None else k
     out = np.full(len(group), np.nan)
-    pts, dist = _nearest_sorted(x, y, group, k)
-    if pts is not None:
-        out[pts.order] = dist
+    for pos, _, dist in _nearest_by_batch(x, y, group, k):
+        out[pos] = dist
     return out
 
 
-def _nearest_sorted(
-    x: np.ndarray, y: np.ndarray, group: np.ndarray, k: int
-) -> tuple[_Sorted | None, np.ndarray]:
-    """The points of the patterns of ≥ 2 points, sorted by cell, and their nearest distances."""
+def _nearest_by_batch(x: np.ndarray, y: np.ndarray, group: np.ndarray, k: int) -> Iterator:
+    """Positions, pattern codes and nearest distances of the points of patterns of ≥ 2 points,
+    for batches of whole patterns of about `_BATCH` points (bounds the memory used)."""
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     if not (np.isfinite(x).all() and np.isfinite(y).all()):
         raise ValueError("point coordinates must be finite")
     n = np.bincount(group, minlength=k)
-    keep = None if n.min(initial=2) >= 2 else np.flatnonzero(n[group] >= 2)
-    if keep is not None:
-        if len(keep) == 0:
-            return None, np.empty(0)
-        x, y, group = x[keep], y[keep], group[keep]
-    pts = _make_grid(x, y, group, k, keep)
+    if len(n) > k:
+        raise ValueError(f"group codes must be below {k}")
+    n[n < 2] = 0
+    ends = np.cumsum(n)
+    grouped = bool(np.all(group[1:] >= group[:-1]))
+    first = 0
+    while first < k:
+        done = ends[first - 1] if first else 0
+        last = max(first + 1, int(np.searchsorted(ends, done + _BATCH, side="right")))
+        if ends[last - 1] > done:
+            pos = _batch_positions(group, n, first, last, grouped)
+            order, dist = _nearest_sorted(x[pos], y[pos], group[pos] - first, n[first:last])
+            yield pos[order], group[pos[order]], dist
+        first = last
+
+
+def _batch_positions(group: np.ndarray, n: np.ndarray, first: int, last: int, grouped: bool):
+    """Positions of the points with codes first..last−1 in patterns of ≥ 2 points."""
+    if grouped:
+        lo, hi = np.searchsorted(group, [first, last])
+        pos = np.arange(lo, hi)
+    else:
+        pos = np.flatnonzero((group >= first) & (group < last))
+    return pos if n[first:last].all() else pos[n[group[pos]] >= 2]
+
+
+def _nearest_sorted(x: np.ndarray, y: np.ndarray, g: np.ndarray, n: np.ndarray):
+    """Sorted order of the points (patterns 0..k−1 of n ≥ 2 points or none) and their nearest
+    distances in that order."""
+    pts = _make_grid(x, y, g, len(n))
     d2 = np.full(len(x), np.inf)
     dense = _dense_patterns(pts, n)[pts.gs]
     todo = np.flatnonzero(~dense)
@@ -102,18 +129,20 @@ def _nearest_sorted(
     dense[todo] = True
     if dense.any():
         d2[dense] = _tree_nearest(pts, np.flatnonzero(dense)) ** 2
-    return pts, np.sqrt(d2)
+    return pts.order, np.sqrt(d2)
 
 
-def _make_grid(x: np.ndarray, y: np.ndarray, g: np.ndarray, k: int, index=None) -> _Sorted:
+def _make_grid(x: np.ndarray, y: np.ndarray, g: np.ndarray, k: int) -> _Sorted:
     """A grid over each pattern's bounding box, `_OCCUPANCY` points per cell; points sorted.
 
     Each grid has a border of `_MAX_RING` empty cells, so that a block of cells never leaves it.
     """
-    x0, x1 = _group_extremes(x, g, k)
-    y0, y1 = _group_extremes(y, g, k)
+    n = np.bincount(g, minlength=k)
+    grouped = bool(np.all(g[1:] >= g[:-1]))
+    x0, x1 = _group_extremes(x, g, n, grouped)
+    y0, y1 = _group_extremes(y, g, n, grouped)
     wx, wy = x1 - x0, y1 - y0
-    n = np.maximum(np.bincount(g, minlength=k), 1)
+    n = np.maximum(n, 1)
     side = np.maximum(np.sqrt(_OCCUPANCY * wx * wy / n), (wx + wy) / n)
     side = np.where(side > 0, side, 1.0)
     nx = (wx / side).astype(np.int64) + 1
@@ -121,15 +150,13 @@ def _make_grid(x: np.ndarray, y: np.ndarray, g: np.ndarray, k: int, index=None) 
     width = nx + 2 * _MAX_RING
     base = np.concatenate([[0], np.cumsum(width * (ny + 2 * _MAX_RING))])
     grid = _Grid(x0, y0, side, nx, ny, width, base, _SLACK * (wx + wy + side))
-    cx, cy, _ = grid.cells(x, y, g)
+    cx, cy = grid.cells(x, y, g)
     cell = base[g] + (cy + _MAX_RING) * width[g] + (cx + _MAX_RING)
-    order = _cell_order(cell, int(base[-1]), bool(np.all(g[1:] >= g[:-1])))
+    order = _cell_order(cell, int(base[-1]), grouped)
     starts = np.concatenate([[0], np.cumsum(np.bincount(cell, minlength=base[-1]))])
     zs = np.empty(len(x), dtype=complex)
     zs.real, zs.imag = x[order], y[order]
-    return _Sorted(
-        grid, starts, zs, g[order], cell[order], order if index is None else index[order]
-    )
+    return _Sorted(grid, starts, zs, g[order], cell[order], order)
 
 
 def _cell_order(cell: np.ndarray, cells: int, grouped: bool) -> np.ndarray:
@@ -141,13 +168,17 @@ def _cell_order(cell: np.ndarray, cells: int, grouped: bool) -> np.ndarray:
     return np.sort((cell << bits) | np.arange(len(cell))) & ((1 << bits) - 1)
 
 
-def _group_extremes(v: np.ndarray, g: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-    """Smallest and largest value of each group (0 for an empty group)."""
-    lo, hi = np.full(k, np.inf), np.full(k, -np.inf)
-    np.minimum.at(lo, g, v)
-    np.maximum.at(hi, g, v)
-    empty = lo > hi
-    lo[empty] = hi[empty] = 0.0
+def _group_extremes(v: np.ndarray, g: np.ndarray, n: np.ndarray, grouped: bool):
+    """Smallest and largest value of each group of n points (0 for an empty group)."""
+    lo, hi = np.zeros(len(n)), np.zeros(len(n))
+    some = n > 0
+    if grouped:  # the groups one after the other: reduce each run
+        first = (np.cumsum(n) - n)[some]
+        lo[some], hi[some] = np.minimum.reduceat(v, first), np.maximum.reduceat(v, first)
+    else:
+        lo[some], hi[some] = np.inf, -np.inf
+        np.minimum.at(lo, g, v)
+        np.maximum.at(hi, g, v)
     return lo, hi
 
 
@@ -196,7 +227,7 @@ def _settled(pts: _Sorted, todo: np.ndarray, ring: int, d2: np.ndarray) -> np.nd
     for lo in range(0, len(todo), _CHUNK):
         p = todo[lo : lo + _CHUNK]
         g = pts.gs[p]
-        cx, cy, edge = grid.cells(pts.zs.real[p], pts.zs.imag[p], g)
+        cx, cy, edge = grid.cells(pts.zs.real[p], pts.zs.imag[p], g, edge=True)
         reach = (ring + edge) * grid.side[g] - grid.margin[g]
         whole = (cx <= ring) & (cx + ring >= grid.nx[g] - 1)
         whole &= (cy <= ring) & (cy + ring >= grid.ny[g] - 1)
@@ -300,8 +331,10 @@ def clark_evans_grouped(
     ok = n >= 2
     if not ok.any():
         return r
-    pts, dist = _nearest_sorted(x, y, group, k)
-    observed = np.bincount(pts.gs, weights=dist, minlength=k) / np.maximum(n, 1)
+    total = np.zeros(k)
+    for _, codes, dist in _nearest_by_batch(x, y, group, k):
+        total += np.bincount(codes, weights=dist, minlength=k)
+    observed = total / np.maximum(n, 1)
     per = None if perimeter is None else np.asarray(perimeter, dtype=float)[ok]
     r[ok] = observed[ok] / expected_nearest_neighbour_distance(n[ok], np.asarray(area)[ok], per)
     return r
