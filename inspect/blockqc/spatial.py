@@ -20,7 +20,7 @@ _MAX_RING = 3  # rings of cells searched before the k-d tree takes over
 _DENSE = 8.0  # a pattern whose points share their cell with more points on average → k-d tree
 _CHUNK = 1 << 16  # points whose blocks of cells are laid out at once
 _PAIR_BUDGET = 1 << 18  # candidate pairs measured at once (small enough to stay in cache)
-_BATCH = 1 << 18  # points of whole patterns searched at once
+_BATCH = 1 << 17  # points of whole patterns searched at once
 _SLACK = 1e-12  # relative allowance for round-off in the cell assignment
 
 
@@ -58,7 +58,8 @@ class _Sorted:
 
     grid: _Grid
     starts: np.ndarray  # first sorted point of each cell (one more entry than cells)
-    zs: np.ndarray  # the points as x + iy
+    xs: np.ndarray
+    ys: np.ndarray
     gs: np.ndarray  # pattern codes
     cell: np.ndarray
     order: np.ndarray  # sorted position → position among the points given
@@ -154,9 +155,7 @@ def _make_grid(x: np.ndarray, y: np.ndarray, g: np.ndarray, k: int) -> _Sorted:
     cell = base[g] + (cy + _MAX_RING) * width[g] + (cx + _MAX_RING)
     order = _cell_order(cell, int(base[-1]), grouped)
     starts = np.concatenate([[0], np.cumsum(np.bincount(cell, minlength=base[-1]))])
-    zs = np.empty(len(x), dtype=complex)
-    zs.real, zs.imag = x[order], y[order]
-    return _Sorted(grid, starts, zs, g[order], cell[order], order)
+    return _Sorted(grid, starts, x[order], y[order], g[order], cell[order], order)
 
 
 def _cell_order(cell: np.ndarray, cells: int, grouped: bool) -> np.ndarray:
@@ -219,19 +218,23 @@ def _search_block(pts: _Sorted, todo: np.ndarray, ring: int, d2: np.ndarray) -> 
 def _settled(pts: _Sorted, todo: np.ndarray, ring: int, d2: np.ndarray) -> np.ndarray:
     """Whether each point's nearest distance so far is final after searching `ring` rings.
 
-    It is when no farther than the cells outside the block, or when the block covers the whole
+    It is when no farther than the cells outside the block (at least `ring` cell sides away,
+    more by the point's distance to its cell's edges), or when the block covers the whole
     pattern.
     """
     grid = pts.grid
-    settled = np.empty(len(todo), dtype=bool)
-    for lo in range(0, len(todo), _CHUNK):
-        p = todo[lo : lo + _CHUNK]
+    close = ((ring * grid.side - grid.margin) ** 2)[pts.gs[todo]]
+    settled = d2[todo] <= close
+    rest = np.flatnonzero(~settled)
+    for lo in range(0, len(rest), _CHUNK):
+        r = rest[lo : lo + _CHUNK]
+        p = todo[r]
         g = pts.gs[p]
-        cx, cy, edge = grid.cells(pts.zs.real[p], pts.zs.imag[p], g, edge=True)
+        cx, cy, edge = grid.cells(pts.xs[p], pts.ys[p], g, edge=True)
         reach = (ring + edge) * grid.side[g] - grid.margin[g]
         whole = (cx <= ring) & (cx + ring >= grid.nx[g] - 1)
         whole &= (cy <= ring) & (cy + ring >= grid.ny[g] - 1)
-        settled[lo : lo + len(p)] = whole | (d2[p] <= reach * reach)
+        settled[r] = whole | (d2[p] <= reach * reach)
     return settled
 
 
@@ -246,14 +249,26 @@ def _measure(pts: _Sorted, p: np.ndarray, a: np.ndarray, b: np.ndarray, d2, both
         done = ends[lo - 1] if lo else 0
         hi = max(lo + 1, int(np.searchsorted(ends, done + _PAIR_BUDGET, side="right")))
         c = count[lo:hi].ravel()
-        j = np.repeat(a[lo:hi].ravel() - (np.cumsum(c) - c), c) + np.arange(c.sum())
+        j = np.repeat(a[lo:hi].ravel() - (np.cumsum(c) - c), c)
+        j += np.arange(len(j))
         i = np.repeat(p[lo:hi], per_point[lo:hi])
-        dz = pts.zs[j] - pts.zs[i]
-        dist = dz.real * dz.real + dz.imag * dz.imag
+        dist = _squared_distances(pts, i, j)
         np.minimum.at(d2, i, dist)
         if both:
             np.minimum.at(d2, j, dist)
         lo = hi
+
+
+def _squared_distances(pts: _Sorted, i: np.ndarray, j: np.ndarray) -> np.ndarray:
+    """Squared distance between the sorted points i and j (in place, to spare memory traffic)."""
+    dx = pts.xs[j]
+    dx -= pts.xs[i]
+    dx *= dx
+    dy = pts.ys[j]
+    dy -= pts.ys[i]
+    dy *= dy
+    dx += dy
+    return dx
 
 
 def _tree_nearest(pts: _Sorted, query: np.ndarray) -> np.ndarray:
@@ -267,7 +282,7 @@ def _tree_nearest(pts: _Sorted, query: np.ndarray) -> np.ndarray:
     member[pts.gs[query]] = True
     keep = member[pts.gs]
     gap = 2.0 * float(np.max((grid.nx + grid.ny) * grid.side)) + 1.0
-    xyz = np.column_stack([pts.zs.real, pts.zs.imag, pts.gs * gap])
+    xyz = np.column_stack([pts.xs, pts.ys, pts.gs * gap])
     tree = cKDTree(xyz[keep], balanced_tree=False)
     dist, _ = tree.query(xyz[query], k=2, workers=-1)
     return dist[:, 1]
