@@ -18,9 +18,9 @@ from scipy.spatial import cKDTree
 _OCCUPANCY = 1.0  # mean points per grid cell over a pattern's bounding box
 _MAX_RING = 3  # rings of cells searched before the k-d tree takes over
 _DENSE = 8.0  # a pattern whose points share their cell with more points on average → k-d tree
-_CHUNK = 1 << 16  # points whose blocks of cells are laid out at once
-_PAIR_BUDGET = 1 << 18  # candidate pairs measured at once (small enough to stay in cache)
-_BATCH = 1 << 17  # points of whole patterns searched at once
+_CHUNK = 1 << 13  # points whose blocks of cells are laid out at once
+_PAIR_BUDGET = 1 << 15  # candidate pairs measured at once (small enough to stay in cache)
+_BATCH = 1 << 15  # points of whole patterns searched at once
 _SLACK = 1e-12  # relative allowance for round-off in the cell assignment
 
 
@@ -82,35 +82,32 @@ def nearest_neighbour_distances(
 
 def _nearest_by_batch(x: np.ndarray, y: np.ndarray, group: np.ndarray, k: int) -> Iterator:
     """Positions, pattern codes and nearest distances of the points of patterns of ≥ 2 points,
-    for batches of whole patterns of about `_BATCH` points (bounds the memory used)."""
+    for batches of whole patterns of about `_BATCH` points (small enough to stay in cache)."""
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     if not (np.isfinite(x).all() and np.isfinite(y).all()):
         raise ValueError("point coordinates must be finite")
-    n = np.bincount(group, minlength=k)
-    if len(n) > k:
+    count = np.bincount(group, minlength=k)
+    if len(count) > k:
         raise ValueError(f"group codes must be below {k}")
-    n[n < 2] = 0
+    index = None
+    if not np.all(group[1:] >= group[:-1]):  # patterns mixed: bring each one's points together
+        index = np.argsort(group.astype(np.uint16) if k <= 1 << 16 else group, kind="stable")
+        x, y, group = x[index], y[index], group[index]
+    begin = np.concatenate([[0], np.cumsum(count)])
+    n = np.where(count >= 2, count, 0)
     ends = np.cumsum(n)
-    grouped = bool(np.all(group[1:] >= group[:-1]))
     first = 0
     while first < k:
         done = ends[first - 1] if first else 0
         last = max(first + 1, int(np.searchsorted(ends, done + _BATCH, side="right")))
         if ends[last - 1] > done:
-            pos = _batch_positions(group, n, first, last, grouped)
+            pos = np.arange(begin[first], begin[last])
+            if (count[first:last] == 1).any():
+                pos = pos[count[group[pos]] >= 2]
             order, dist = _nearest_sorted(x[pos], y[pos], group[pos] - first, n[first:last])
-            yield pos[order], group[pos[order]], dist
+            pos = pos[order]
+            yield (pos if index is None else index[pos]), group[pos], dist
         first = last
-
-
-def _batch_positions(group: np.ndarray, n: np.ndarray, first: int, last: int, grouped: bool):
-    """Positions of the points with codes first..last−1 in patterns of ≥ 2 points."""
-    if grouped:
-        lo, hi = np.searchsorted(group, [first, last])
-        pos = np.arange(lo, hi)
-    else:
-        pos = np.flatnonzero((group >= first) & (group < last))
-    return pos if n[first:last].all() else pos[n[group[pos]] >= 2]
 
 
 def _nearest_sorted(x: np.ndarray, y: np.ndarray, g: np.ndarray, n: np.ndarray):
@@ -134,14 +131,14 @@ def _nearest_sorted(x: np.ndarray, y: np.ndarray, g: np.ndarray, n: np.ndarray):
 
 
 def _make_grid(x: np.ndarray, y: np.ndarray, g: np.ndarray, k: int) -> _Sorted:
-    """A grid over each pattern's bounding box, `_OCCUPANCY` points per cell; points sorted.
+    """A grid over each pattern's bounding box, `_OCCUPANCY` points per cell; points (given
+    pattern after pattern) sorted by cell.
 
     Each grid has a border of `_MAX_RING` empty cells, so that a block of cells never leaves it.
     """
     n = np.bincount(g, minlength=k)
-    grouped = bool(np.all(g[1:] >= g[:-1]))
-    x0, x1 = _group_extremes(x, g, n, grouped)
-    y0, y1 = _group_extremes(y, g, n, grouped)
+    x0, x1 = _group_extremes(x, n)
+    y0, y1 = _group_extremes(y, n)
     wx, wy = x1 - x0, y1 - y0
     n = np.maximum(n, 1)
     side = np.maximum(np.sqrt(_OCCUPANCY * wx * wy / n), (wx + wy) / n)
@@ -153,31 +150,17 @@ def _make_grid(x: np.ndarray, y: np.ndarray, g: np.ndarray, k: int) -> _Sorted:
     grid = _Grid(x0, y0, side, nx, ny, width, base, _SLACK * (wx + wy + side))
     cx, cy = grid.cells(x, y, g)
     cell = base[g] + (cy + _MAX_RING) * width[g] + (cx + _MAX_RING)
-    order = _cell_order(cell, int(base[-1]), grouped)
+    order = np.argsort(cell, kind="stable")  # the fastest here: the patterns come in order
     starts = np.concatenate([[0], np.cumsum(np.bincount(cell, minlength=base[-1]))])
     return _Sorted(grid, starts, x[order], y[order], g[order], cell[order], order)
 
 
-def _cell_order(cell: np.ndarray, cells: int, grouped: bool) -> np.ndarray:
-    """The order sorting the points by cell (the fastest sort for patterns given one by one, or
-    for patterns mixed: the cells and positions packed into one integer)."""
-    bits = (len(cell) - 1).bit_length()
-    if grouped or cells.bit_length() + bits > 62:
-        return np.argsort(cell, kind="stable")
-    return np.sort((cell << bits) | np.arange(len(cell))) & ((1 << bits) - 1)
-
-
-def _group_extremes(v: np.ndarray, g: np.ndarray, n: np.ndarray, grouped: bool):
-    """Smallest and largest value of each group of n points (0 for an empty group)."""
+def _group_extremes(v: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Smallest and largest value of each group, given one after the other (0 when empty)."""
     lo, hi = np.zeros(len(n)), np.zeros(len(n))
     some = n > 0
-    if grouped:  # the groups one after the other: reduce each run
-        first = (np.cumsum(n) - n)[some]
-        lo[some], hi[some] = np.minimum.reduceat(v, first), np.maximum.reduceat(v, first)
-    else:
-        lo[some], hi[some] = np.inf, -np.inf
-        np.minimum.at(lo, g, v)
-        np.maximum.at(hi, g, v)
+    first = (np.cumsum(n) - n)[some]
+    lo[some], hi[some] = np.minimum.reduceat(v, first), np.maximum.reduceat(v, first)
     return lo, hi
 
 
@@ -348,7 +331,7 @@ def clark_evans_grouped(
         return r
     total = np.zeros(k)
     for _, codes, dist in _nearest_by_batch(x, y, group, k):
-        total += np.bincount(codes, weights=dist, minlength=k)
+        np.add.at(total, codes, dist)
     observed = total / np.maximum(n, 1)
     per = None if perimeter is None else np.asarray(perimeter, dtype=float)[ok]
     r[ok] = observed[ok] / expected_nearest_neighbour_distance(n[ok], np.asarray(area)[ok], per)
