@@ -150,6 +150,23 @@ def test_matches_kd_tree_on_200k_points():
     np.testing.assert_allclose(r, want, rtol=1e-12)
 
 
+def test_patterns_larger_than_a_batch():
+    """A pattern of 150 000 points (more cells than one 16-bit digit) and a long line of 40 000
+    points, rows mixed: the same distances as one k-d tree per pattern."""
+    rng = np.random.default_rng(17)
+    big = rng.uniform(0, 45_000.0, (150_000, 2))
+    line = np.column_stack([rng.uniform(0, 45_000.0, 40_000), np.full(40_000, 7.0)])
+    pts = np.vstack([big, line])
+    g = np.repeat([1, 0], [len(big), len(line)])
+    order = rng.permutation(len(g))
+    pts, g = pts[order], g[order]
+    got = nearest_neighbour_distances(pts[:, 0], pts[:, 1], g, 2)
+    for code in (0, 1):
+        idx = np.flatnonzero(g == code)
+        want = cKDTree(pts[idx]).query(pts[idx], k=2)[0][:, 1]
+        np.testing.assert_allclose(got[idx], want, rtol=1e-12, atol=0)
+
+
 def test_hand_example():
     """A 1×2 rectangle's corners (nearest 1), three points on a line at 0, 2 and 5 (nearest 2, 2,
     3), a lone point (NaN) and an empty group, rows interleaved."""

@@ -150,9 +150,19 @@ def _make_grid(x: np.ndarray, y: np.ndarray, g: np.ndarray, k: int) -> _Sorted:
     grid = _Grid(x0, y0, side, nx, ny, width, base, _SLACK * (wx + wy + side))
     cx, cy = grid.cells(x, y, g)
     cell = base[g] + (cy + _MAX_RING) * width[g] + (cx + _MAX_RING)
-    order = np.argsort(cell, kind="stable")  # the fastest here: the patterns come in order
+    order = _cell_order(cell, int(base[-1]))
     starts = np.concatenate([[0], np.cumsum(np.bincount(cell, minlength=base[-1]))])
     return _Sorted(grid, starts, x[order], y[order], g[order], cell[order], order)
+
+
+def _cell_order(cell: np.ndarray, cells: int) -> np.ndarray:
+    """The order sorting the points by cell: a radix sort on one or two 16-bit digits."""
+    if cells <= 1 << 16:
+        return np.argsort(cell.astype(np.uint16), kind="stable")
+    if cells > 1 << 32:
+        return np.argsort(cell, kind="stable")
+    order = np.argsort((cell & 0xFFFF).astype(np.uint16), kind="stable")
+    return order[np.argsort((cell[order] >> 16).astype(np.uint16), kind="stable")]
 
 
 def _group_extremes(v: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
