@@ -1,10 +1,12 @@
 """Point-pattern measures: the Clark–Evans nearest-neighbour coefficient R (§AF-10, §TP-4).
 
 Nearest neighbours are found exactly on a uniform grid laid over each pattern (cell side from the
-pattern's mean spacing): each point searches the block of cells around its own, ring by ring, and
-a neighbour at distance d is final once d is no more than the distance to the unsearched cells.
-The few points not settled after a few rings, and patterns too clustered for their grid, are
-resolved with a k-d tree over those patterns only.
+pattern's mean spacing, about one point per cell). Every pair of points in the same or adjacent
+cells is measured once; a nearest distance d so found is final when no cell farther out can hold
+a nearer point (d ≤ the distance to the cells not searched). The few points not settled are
+searched again ring by ring, and those still unsettled after a few rings, with the patterns too
+clustered for their grid, are measured with a k-d tree over those patterns only. Patterns are
+handled in batches of about `_BATCH` points, so that the work stays in cache and memory bounded.
 """
 
 from __future__ import annotations
@@ -37,7 +39,7 @@ class _Grid:
     base: np.ndarray  # first cell (one more entry than patterns)
     margin: np.ndarray  # allowance for round-off in the cell assignment
 
-    def cells(self, x: np.ndarray, y: np.ndarray, g: np.ndarray, edge: bool = False):
+    def cells(self, x: np.ndarray, y: np.ndarray, g: np.ndarray, edge: bool = False) -> tuple:
         """Column and row of each point (with `edge`, also its distance to its cell's nearest
         edge, in cells)."""
         side = self.side[g]
@@ -110,7 +112,7 @@ def _nearest_by_batch(x: np.ndarray, y: np.ndarray, group: np.ndarray, k: int) -
         first = last
 
 
-def _nearest_sorted(x: np.ndarray, y: np.ndarray, g: np.ndarray, n: np.ndarray):
+def _nearest_sorted(x: np.ndarray, y: np.ndarray, g: np.ndarray, n: np.ndarray) -> tuple:
     """Sorted order of the points (patterns 0..k−1 of n ≥ 2 points or none) and their nearest
     distances in that order."""
     pts = _make_grid(x, y, g, len(n))
@@ -197,7 +199,8 @@ def _search_neighbours(pts: _Sorted, todo: np.ndarray, d2: np.ndarray) -> None:
 
 
 def _search_block(pts: _Sorted, todo: np.ndarray, ring: int, d2: np.ndarray) -> None:
-    """Lower d2 of the points `todo` by the points in the (2·ring+1)² cells around each."""
+    """Lower d2 of the points `todo` by the points in the (2·ring+1)² cells around each (one
+    range of sorted points per row of cells)."""
     for lo in range(0, len(todo), _CHUNK):
         p = todo[lo : lo + _CHUNK]
         rows = pts.cell[p][:, None] + np.arange(-ring, ring + 1) * pts.grid.width[pts.gs[p], None]
