@@ -1,19 +1,296 @@
-"""Point-pattern measures: the Clark–Evans nearest-neighbour coefficient R (§AF-10, §TP-4)."""
+"""Point-pattern measures: the Clark–Evans nearest-neighbour coefficient R (§AF-10, §TP-4).
+
+Nearest neighbours are found exactly on a uniform grid laid over each pattern (cell side from the
+pattern's mean spacing, about one point per cell). Every pair of points in the same or adjacent
+cells is measured once; a nearest distance d so found is final when no cell farther out can hold
+a nearer point (d ≤ the distance to the cells not searched). The few points not settled are
+searched again ring by ring, and those still unsettled after a few rings, with the patterns too
+clustered for their grid, are measured with a k-d tree over those patterns only. Patterns are
+handled in batches of about `_BATCH` points, so that the work stays in cache and memory bounded.
+"""
 
 from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial import cKDTree
 
+_OCCUPANCY = 1.0  # mean points per grid cell over a pattern's bounding box
+_MAX_RING = 3  # rings of cells searched before the k-d tree takes over
+_DENSE = 8.0  # a pattern whose points share their cell with more points on average → k-d tree
+_CHUNK = 1 << 13  # points whose blocks of cells are laid out at once
+_PAIR_BUDGET = 1 << 15  # candidate pairs measured at once (small enough to stay in cache)
+_BATCH = 1 << 15  # points of whole patterns searched at once
+_SLACK = 1e-12  # relative allowance for round-off in the cell assignment
+
+
+@dataclass(frozen=True)
+class _Grid:
+    """One uniform grid per pattern (arrays indexed by pattern code)."""
+
+    x0: np.ndarray  # origin
+    y0: np.ndarray
+    side: np.ndarray  # cell side
+    nx: np.ndarray  # columns and rows covering the pattern
+    ny: np.ndarray
+    width: np.ndarray  # columns with the empty border
+    base: np.ndarray  # first cell (one more entry than patterns)
+    margin: np.ndarray  # allowance for round-off in the cell assignment
+
+    def cells(self, x: np.ndarray, y: np.ndarray, g: np.ndarray, edge: bool = False) -> tuple:
+        """Column and row of each point (with `edge`, also its distance to its cell's nearest
+        edge, in cells)."""
+        side = self.side[g]
+        u, v = (x - self.x0[g]) / side, (y - self.y0[g]) / side
+        cx = np.minimum(u.astype(np.int64), self.nx[g] - 1)
+        cy = np.minimum(v.astype(np.int64), self.ny[g] - 1)
+        if not edge:
+            return cx, cy
+        u -= cx
+        v -= cy
+        near = np.minimum(np.minimum(u, 1.0 - u), np.minimum(v, 1.0 - v))
+        return cx, cy, np.maximum(near, 0.0)
+
+
+@dataclass(frozen=True)
+class _Sorted:
+    """The points sorted by cell, with the grids."""
+
+    grid: _Grid
+    starts: np.ndarray  # first sorted point of each cell (one more entry than cells)
+    xs: np.ndarray
+    ys: np.ndarray
+    gs: np.ndarray  # pattern codes
+    cell: np.ndarray
+    order: np.ndarray  # sorted position → position among the points given
+
+
+def nearest_neighbour_distances(
+    x: np.ndarray, y: np.ndarray, group: np.ndarray, k: int | None = None
+) -> np.ndarray:
+    """Each point's distance to the nearest other point of its pattern (group code 0..k−1).
+
+    Exact; NaN for a point alone in its pattern; coincident points are at distance 0.
+    """
+    group = np.asarray(group, dtype=np.int64)
+    k = int(group.max(initial=-1)) + 1 if k is None else k
+    out = np.full(len(group), np.nan)
+    for pos, _, dist in _nearest_by_batch(x, y, group, k):
+        out[pos] = dist
+    return out
+
+
+def _nearest_by_batch(x: np.ndarray, y: np.ndarray, group: np.ndarray, k: int) -> Iterator:
+    """Positions, pattern codes and nearest distances of the points of patterns of ≥ 2 points,
+    for batches of whole patterns of about `_BATCH` points (small enough to stay in cache)."""
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    if not (np.isfinite(x).all() and np.isfinite(y).all()):
+        raise ValueError("point coordinates must be finite")
+    count = np.bincount(group, minlength=k)
+    if len(count) > k:
+        raise ValueError(f"group codes must be below {k}")
+    index = None
+    if not np.all(group[1:] >= group[:-1]):  # patterns mixed: bring each one's points together
+        index = np.argsort(group.astype(np.uint16) if k <= 1 << 16 else group, kind="stable")
+        x, y, group = x[index], y[index], group[index]
+    begin = np.concatenate([[0], np.cumsum(count)])
+    n = np.where(count >= 2, count, 0)
+    ends = np.cumsum(n)
+    first = 0
+    while first < k:
+        done = ends[first - 1] if first else 0
+        last = max(first + 1, int(np.searchsorted(ends, done + _BATCH, side="right")))
+        if ends[last - 1] > done:
+            pos = np.arange(begin[first], begin[last])
+            if (count[first:last] == 1).any():
+                pos = pos[count[group[pos]] >= 2]
+            order, dist = _nearest_sorted(x[pos], y[pos], group[pos] - first, n[first:last])
+            pos = pos[order]
+            yield (pos if index is None else index[pos]), group[pos], dist
+        first = last
+
+
+def _nearest_sorted(x: np.ndarray, y: np.ndarray, g: np.ndarray, n: np.ndarray) -> tuple:
+    """Sorted order of the points (patterns 0..k−1 of n ≥ 2 points or none) and their nearest
+    distances in that order."""
+    pts = _make_grid(x, y, g, len(n))
+    d2 = np.full(len(x), np.inf)
+    dense = _dense_patterns(pts, n)[pts.gs]
+    todo = np.flatnonzero(~dense)
+    _search_neighbours(pts, todo, d2)
+    for ring in range(1, _MAX_RING + 1):
+        if ring > 1:
+            _search_block(pts, todo, ring, d2)
+        todo = todo[~_settled(pts, todo, ring, d2)]
+        if len(todo) == 0:
+            break
+    dense[todo] = True
+    if dense.any():
+        d2[dense] = _tree_nearest(pts, np.flatnonzero(dense)) ** 2
+    return pts.order, np.sqrt(d2)
+
+
+def _make_grid(x: np.ndarray, y: np.ndarray, g: np.ndarray, k: int) -> _Sorted:
+    """A grid over each pattern's bounding box, `_OCCUPANCY` points per cell; points (given
+    pattern after pattern) sorted by cell.
+
+    Each grid has a border of `_MAX_RING` empty cells, so that a block of cells never leaves it.
+    """
+    n = np.bincount(g, minlength=k)
+    x0, x1 = _group_extremes(x, n)
+    y0, y1 = _group_extremes(y, n)
+    wx, wy = x1 - x0, y1 - y0
+    n = np.maximum(n, 1)
+    side = np.maximum(np.sqrt(_OCCUPANCY * wx * wy / n), (wx + wy) / n)
+    side = np.where(side > 0, side, 1.0)
+    nx = (wx / side).astype(np.int64) + 1
+    ny = (wy / side).astype(np.int64) + 1
+    width = nx + 2 * _MAX_RING
+    base = np.concatenate([[0], np.cumsum(width * (ny + 2 * _MAX_RING))])
+    grid = _Grid(x0, y0, side, nx, ny, width, base, _SLACK * (wx + wy + side))
+    cx, cy = grid.cells(x, y, g)
+    cell = base[g] + (cy + _MAX_RING) * width[g] + (cx + _MAX_RING)
+    order = _cell_order(cell, int(base[-1]))
+    starts = np.concatenate([[0], np.cumsum(np.bincount(cell, minlength=base[-1]))])
+    return _Sorted(grid, starts, x[order], y[order], g[order], cell[order], order)
+
+
+def _cell_order(cell: np.ndarray, cells: int) -> np.ndarray:
+    """The order sorting the points by cell: a radix sort on one or two 16-bit digits."""
+    if cells <= 1 << 16:
+        return np.argsort(cell.astype(np.uint16), kind="stable")
+    if cells > 1 << 32:
+        return np.argsort(cell, kind="stable")
+    order = np.argsort((cell & 0xFFFF).astype(np.uint16), kind="stable")
+    return order[np.argsort((cell[order] >> 16).astype(np.uint16), kind="stable")]
+
+
+def _group_extremes(v: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Smallest and largest value of each group, given one after the other (0 when empty)."""
+    lo, hi = np.zeros(len(n)), np.zeros(len(n))
+    some = n > 0
+    first = (np.cumsum(n) - n)[some]
+    lo[some], hi[some] = np.minimum.reduceat(v, first), np.maximum.reduceat(v, first)
+    return lo, hi
+
+
+def _dense_patterns(pts: _Sorted, n: np.ndarray) -> np.ndarray:
+    """Patterns whose points share their cell with more than `_DENSE` points on average."""
+    counts = np.diff(pts.starts).astype(float)
+    shared = np.add.reduceat(counts * counts, pts.grid.base[:-1])
+    return shared > _DENSE * np.maximum(n, 1)
+
+
+def _search_neighbours(pts: _Sorted, todo: np.ndarray, d2: np.ndarray) -> None:
+    """Lower d2 by every pair of points in the same or adjacent cells (each pair measured once).
+
+    A point meets the rest of its own cell, the cell on its right and the three cells above;
+    the other neighbouring cells meet it from their side.
+    """
+    for lo in range(0, len(todo), _CHUNK):
+        p = todo[lo : lo + _CHUNK]
+        cell = pts.cell[p]
+        above = cell + pts.grid.width[pts.gs[p]]
+        a = np.column_stack([p + 1, pts.starts[above - 1]])
+        b = np.column_stack([pts.starts[cell + 2], pts.starts[above + 2]])
+        _measure(pts, p, a, b, d2, both=True)
+
+
+def _search_block(pts: _Sorted, todo: np.ndarray, ring: int, d2: np.ndarray) -> None:
+    """Lower d2 of the points `todo` by the points in the (2·ring+1)² cells around each (one
+    range of sorted points per row of cells)."""
+    for lo in range(0, len(todo), _CHUNK):
+        p = todo[lo : lo + _CHUNK]
+        rows = pts.cell[p][:, None] + np.arange(-ring, ring + 1) * pts.grid.width[pts.gs[p], None]
+        a, b = pts.starts[rows - ring], pts.starts[rows + ring + 1]
+        a = np.column_stack([a, p + 1])  # the own row in two ranges, around the point itself
+        b = np.column_stack([b, b[:, ring]])
+        b[:, ring] = p
+        _measure(pts, p, a, b, d2, both=False)
+
+
+def _settled(pts: _Sorted, todo: np.ndarray, ring: int, d2: np.ndarray) -> np.ndarray:
+    """Whether each point's nearest distance so far is final after searching `ring` rings.
+
+    It is when no farther than the cells outside the block (at least `ring` cell sides away,
+    more by the point's distance to its cell's edges), or when the block covers the whole
+    pattern.
+    """
+    grid = pts.grid
+    close = ((ring * grid.side - grid.margin) ** 2)[pts.gs[todo]]
+    settled = d2[todo] <= close
+    rest = np.flatnonzero(~settled)
+    for lo in range(0, len(rest), _CHUNK):
+        r = rest[lo : lo + _CHUNK]
+        p = todo[r]
+        g = pts.gs[p]
+        cx, cy, edge = grid.cells(pts.xs[p], pts.ys[p], g, edge=True)
+        reach = (ring + edge) * grid.side[g] - grid.margin[g]
+        whole = (cx <= ring) & (cx + ring >= grid.nx[g] - 1)
+        whole &= (cy <= ring) & (cy + ring >= grid.ny[g] - 1)
+        settled[r] = whole | (d2[p] <= reach * reach)
+    return settled
+
+
+def _measure(pts: _Sorted, p: np.ndarray, a: np.ndarray, b: np.ndarray, d2, both: bool) -> None:
+    """Lower d2 of each sorted point p (with `both`, also of the other) by its pairs with the
+    points in its ranges [a, b), in pieces of at most `_PAIR_BUDGET` pairs."""
+    count = b - a
+    per_point = count.sum(axis=1)
+    ends = np.cumsum(per_point)
+    lo = 0
+    while lo < len(p):
+        done = ends[lo - 1] if lo else 0
+        hi = max(lo + 1, int(np.searchsorted(ends, done + _PAIR_BUDGET, side="right")))
+        c = count[lo:hi].ravel()
+        j = np.repeat(a[lo:hi].ravel() - (np.cumsum(c) - c), c)
+        j += np.arange(len(j))
+        i = np.repeat(p[lo:hi], per_point[lo:hi])
+        dist = _squared_distances(pts, i, j)
+        np.minimum.at(d2, i, dist)
+        if both:
+            np.minimum.at(d2, j, dist)
+        lo = hi
+
+
+def _squared_distances(pts: _Sorted, i: np.ndarray, j: np.ndarray) -> np.ndarray:
+    """Squared distance between the sorted points i and j (in place, to spare memory traffic)."""
+    dx = pts.xs[j]
+    dx -= pts.xs[i]
+    dx *= dx
+    dy = pts.ys[j]
+    dy -= pts.ys[i]
+    dy *= dy
+    dx += dy
+    return dx
+
+
+def _tree_nearest(pts: _Sorted, query: np.ndarray) -> np.ndarray:
+    """Nearest-neighbour distance of the sorted points `query` by a k-d tree over their patterns.
+
+    The pattern code, times a gap wider than any pattern, is a third coordinate: distances within
+    a pattern are untouched and every other pattern lies farther than its own points.
+    """
+    grid = pts.grid
+    member = np.zeros(len(grid.base) - 1, dtype=bool)
+    member[pts.gs[query]] = True
+    keep = member[pts.gs]
+    gap = 2.0 * float(np.max((grid.nx + grid.ny) * grid.side)) + 1.0
+    xyz = np.column_stack([pts.xs, pts.ys, pts.gs * gap])
+    tree = cKDTree(xyz[keep], balanced_tree=False)
+    dist, _ = tree.query(xyz[query], k=2, workers=-1)
+    return dist[:, 1]
+
 
 def mean_nearest_neighbour_distance(x: np.ndarray, y: np.ndarray) -> float:
-    """Mean distance from each point to its nearest other point (k-d tree); NaN with < 2 points."""
-    pts = np.column_stack([np.asarray(x, dtype=float), np.asarray(y, dtype=float)])
-    pts = pts[np.isfinite(pts).all(axis=1)]
-    if len(pts) < 2:
+    """Mean distance from each point to its nearest other point; NaN with < 2 points."""
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    ok = np.isfinite(x) & np.isfinite(y)
+    if ok.sum() < 2:
         return float("nan")
-    dist, _ = cKDTree(pts).query(pts, k=2)
-    return float(dist[:, 1].mean())
+    return float(nearest_neighbour_distances(x[ok], y[ok], np.zeros(int(ok.sum()), int)).mean())
 
 
 def clark_evans(x: np.ndarray, y: np.ndarray, area: float, perimeter: float | None = None) -> float:
@@ -53,26 +330,22 @@ def clark_evans_grouped(
     area: np.ndarray,
     perimeter: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Clark–Evans R of many patterns at once (one per group code 0..k−1), with one k-d tree.
+    """Clark–Evans R of many patterns at once (one per group code 0..k−1).
 
-    Each pattern is shifted far from the others, so that every point's nearest neighbour lies
-    in its own pattern; groups with fewer than 2 points give NaN.
+    Nearest neighbours are exact (`nearest_neighbour_distances`); groups with fewer than 2
+    points give NaN.
     """
-    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     group = np.asarray(group, dtype=np.int64)
     k = len(area)
     n = np.bincount(group, minlength=k)
     r = np.full(k, np.nan)
-    keep = n[group] >= 2
-    if not keep.any():
-        return r
-    x, y, g = x[keep], y[keep], group[keep]
-    span = 4.0 * (max(np.ptp(x), np.ptp(y)) + 1.0)
-    m = int(np.ceil(np.sqrt(k)))  # patterns on an m×m grid of cells, `span` apart
-    pts = np.column_stack([x - x.min() + (g % m) * span, y - y.min() + (g // m) * span])
-    dist, _ = cKDTree(pts, balanced_tree=False).query(pts, k=2, workers=-1)
-    observed = np.bincount(g, weights=dist[:, 1], minlength=k) / np.maximum(n, 1)
     ok = n >= 2
+    if not ok.any():
+        return r
+    total = np.zeros(k)
+    for _, codes, dist in _nearest_by_batch(x, y, group, k):
+        np.add.at(total, codes, dist)
+    observed = total / np.maximum(n, 1)
     per = None if perimeter is None else np.asarray(perimeter, dtype=float)[ok]
     r[ok] = observed[ok] / expected_nearest_neighbour_distance(n[ok], np.asarray(area)[ok], per)
     return r
