@@ -672,3 +672,21 @@ def test_parquet_tie_points_blank_scene(blockqc, delivery: Path, tmp_path: Path)
         "tie_points.parquet, row 6, column 'scene_id': empty value where one is required",
     )
     assert "unknown scene_id" not in err
+
+
+def test_parquet_tie_points_written_from_categoricals(blockqc, delivery: Path, tmp_path: Path):
+    """Ids stored as Parquet dictionaries (a pandas Categorical written out) are stripped and
+    checked like plain text: a blank one is refused."""
+
+    def damage(tp: pd.DataFrame) -> None:
+        tp.loc[4, "point_id"] = " "
+        tp["point_id"] = tp["point_id"].astype("category")
+        tp["scene_id"] = (tp["scene_id"] + " ").astype("category")
+
+    _tie_points_as_parquet(delivery, damage)
+    _refused(
+        blockqc,
+        delivery,
+        tmp_path / "out",
+        "tie_points.parquet, row 5, column 'point_id': empty value where one is required",
+    )

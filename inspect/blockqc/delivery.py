@@ -191,16 +191,25 @@ def _to_pandas(table: pa.Table, schema: TableSchema) -> pd.DataFrame:
     Categoricals made in Arrow, so no Python string is made per row."""
     keys = {c.name for c in schema.columns if c.category}
     names = table.column_names
-    text = (pa.types.is_string, pa.types.is_large_string)
     special = [
         i
         for i, f in enumerate(table.schema)
-        if f.name in keys and names.count(f.name) == 1 and any(t(f.type) for t in text)
+        if f.name in keys and names.count(f.name) == 1 and _is_text(f.type)
     ]
     df = table.drop_columns([names[i] for i in special]).to_pandas()
     for i in special:
-        df.insert(i, names[i], _categorical(table.column(i)))
+        col = table.column(i)
+        if pa.types.is_dictionary(col.type):  # e.g. written from a pandas Categorical
+            col = col.cast(col.type.value_type)
+        df.insert(i, names[i], _categorical(col))
     return df
+
+
+def _is_text(t: pa.DataType) -> bool:
+    """Arrow text, plain or dictionary-encoded."""
+    if pa.types.is_dictionary(t):
+        t = t.value_type
+    return pa.types.is_string(t) or pa.types.is_large_string(t)
 
 
 def _categorical(col: pa.ChunkedArray) -> pd.Categorical:
