@@ -96,9 +96,22 @@ SVG_RASTER_DPI = 150
 
 
 def _png(fig: plt.Figure, bbox: Any) -> bytes:
+    """The print PNG framed on `bbox`: RGB (the figure is opaque), quickly compressed, so the
+    PDF writer takes it without splitting off an alpha mask."""
+    from PIL import Image
+
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=PRINT_DPI, bbox_inches=bbox)
-    return buf.getvalue()
+    fig.savefig(buf, format="rgba", dpi=PRINT_DPI, bbox_inches=bbox)
+    size = (int(bbox.width * PRINT_DPI), int(bbox.height * PRINT_DPI))
+    raw = buf.getvalue()
+    if len(raw) != size[0] * size[1] * 4:  # not the frame expected: let matplotlib encode it
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", dpi=PRINT_DPI, bbox_inches=bbox)
+        return buf.getvalue()
+    out = io.BytesIO()
+    image = Image.frombuffer("RGBA", size, raw, "raw", "RGBA", 0, 1).convert("RGB")
+    image.save(out, format="PNG", compress_level=1, dpi=(PRINT_DPI, PRINT_DPI))
+    return out.getvalue()
 
 
 _SVG_FRAME = re.compile(r'width="[0-9.]+pt" height="[0-9.]+pt" viewBox="[^"]*"')
