@@ -33,14 +33,19 @@ def test_incremental_rerun_recomputes_only_the_changed_block(small_batch: Path, 
     first = run_blockqc(*args)
     assert first.returncode == 1, first.stderr  # F3-B02 fails RO-3
     before = _mtimes(out)
+    written = {p.name: p.stat().st_mtime_ns for p in out.glob("summary.*")}
+    assert set(written) == {"summary.json", "summary.html", "summary.csv", "summary.parquet"}
     again = run_blockqc(*args)
     assert again.returncode == 1 and again.stdout.count("outputs reused") == 3
     assert _mtimes(out) == before
+    # nothing changed: the summary outputs are the ones already written
+    assert {p.name: p.stat().st_mtime_ns for p in out.glob("summary.*")} == written
     overlaps = small_batch / "F4-B02" / "overlaps.csv"
     overlaps.write_text(overlaps.read_text(encoding="utf-8") + "\n", encoding="utf-8")
     third = run_blockqc(*args)
     assert third.stdout.count("outputs reused") == 2, third.stdout
     after = _mtimes(out)
+    assert (out / "summary.json").stat().st_mtime_ns != written["summary.json"]
     assert after["F4-B02"] != before["F4-B02"]
     assert {k: v for k, v in after.items() if k != "F4-B02"} == {
         k: v for k, v in before.items() if k != "F4-B02"

@@ -53,6 +53,7 @@ class Outcome:
     problems: list[Problem] = field(default_factory=list)
     cached: bool = False
     grade: BlockGrade | None = None  # §QE, for the batch decision
+    key: str | None = None  # incremental mode: the key its outputs were reused or written under
 
 
 @dataclass
@@ -246,11 +247,12 @@ class Job:
         try:
             key = self._key(path, manifest)
             if key and (hit := read_cached(safe_child(self.writer.out, manifest.block_id), key)):
-                return Outcome(path, hit.entry, hit.rules, cached=True, grade=hit.grade)
+                return Outcome(path, hit.entry, hit.rules, cached=True, grade=hit.grade, key=key)
             results = inspect_one(path, self.pack, self.inspector, manifest, self.extra)
             pdf = self.writer.block(results)
             grade = block_grade(results, self.pack)
             o = Outcome(path, block_entry(path, results, pdf), rule_counts(results), grade=grade)
+            o.key = key
             if key:
                 folder = safe_child(self.writer.out, results.block_id)
                 write_cached(folder, Cached(key, o.entry, o.rules, grade))
@@ -389,8 +391,25 @@ def run(
     summary = None
     if got.is_batch:
         summary = summarize(outcomes, pack, inspector, extra)
-        writer.summary(summary)
+        _write_summary(writer, summary, outcomes, digest)
     return outcomes, summary
+
+
+def _write_summary(
+    writer: Writer, summary: Summary, outcomes: list[Outcome], digest: str | None
+) -> None:
+    """The summary outputs; in incremental mode kept as they are when every block's line is the
+    one they were written from (an unchanged batch of a thousand blocks rewrites nothing)."""
+    from blockqc.cache import forget_summary, remember_summary, summary_key, summary_unchanged
+
+    key = None
+    if digest is not None:
+        key = summary_key(digest, [o.key for o in outcomes], summary.inspector)
+        if summary_unchanged(writer.out, key, writer.pdf != "none"):
+            return
+    forget_summary(writer.out)
+    writer.summary(summary)
+    remember_summary(writer.out, key)
 
 
 def exit_status(outcomes: list[Outcome]) -> int:

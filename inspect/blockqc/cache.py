@@ -23,6 +23,9 @@ from blockqc.outputs import write_json_atomic
 from blockqc.results import BlockEntry
 
 CACHE_FILE = ".blockqc-cache.json"
+#: beside the batch summary: the key of the blocks' lines it was written from
+SUMMARY_CACHE_FILE = ".blockqc-summary-cache.json"
+SUMMARY_OUTPUTS = ("summary.json", "summary.html", "summary.csv", "summary.parquet")
 #: outputs that must still be there for a block's outputs to be reused
 OUTPUTS = ("results.json", "report.html")
 
@@ -112,3 +115,35 @@ def read_cached(folder: Path, key: str) -> Cached | None:
 def write_cached(folder: Path, cached: Cached) -> None:
     doc = {"key": cached.key, "entry": cached.entry, "rules": cached.rules, "grade": cached.grade}
     write_json_atomic(folder / CACHE_FILE, doc)
+
+
+def summary_key(digest: str, block_keys: list[str | None], inspector: str | None) -> str | None:
+    """The key of a batch summary: the run's digest, the inspector and the key of every block
+    in order; None when some block has none (inspected without a key, or unreadable)."""
+    if any(k is None for k in block_keys):
+        return None
+    return _sha(digest, inspector, block_keys)
+
+
+def summary_unchanged(out: Path, key: str | None, pdf: bool) -> bool:
+    """Whether the summary outputs in `out` were written from the same blocks' lines and are
+    all still there: an unchanged batch then rewrites nothing."""
+    if key is None:
+        return False
+    try:
+        doc = json.loads((out / SUMMARY_CACHE_FILE).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    wanted = SUMMARY_OUTPUTS + (("summary.pdf",) if pdf else ())
+    return doc.get("key") == key and all((out / f).is_file() for f in wanted)
+
+
+def forget_summary(out: Path) -> None:
+    """Drop the summary's key before its outputs are rewritten (a run stopped half-way must not
+    leave a key that vouches for them)."""
+    (out / SUMMARY_CACHE_FILE).unlink(missing_ok=True)
+
+
+def remember_summary(out: Path, key: str | None) -> None:
+    if key is not None:
+        write_json_atomic(out / SUMMARY_CACHE_FILE, {"key": key})

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+from functools import lru_cache
 from pathlib import Path
+
+import jinja2
 
 from blockqc.outputs import write_bytes_atomic, write_text_atomic
 from blockqc.report.acceptance import filed_context
@@ -13,6 +16,13 @@ from blockqc.report.html import environment, render_page
 from blockqc.report.messages import LANGUAGES
 from blockqc.report.plots import FOR_PRINT
 from blockqc.results import BlockResults, Summary
+
+
+@lru_cache(maxsize=8)
+def _environment(templates: Path | None) -> jinja2.Environment:
+    """One template environment per templates folder and process: templates are compiled once
+    for a batch, not once per block (Jinja still reloads a template whose file changed)."""
+    return environment(templates)
 
 
 def write_block_report(
@@ -28,7 +38,7 @@ def write_block_report(
         raise ValueError(f"language {lang!r}: choose one of {', '.join(LANGUAGES)}")
     folder = Path(folder)
     results = BlockResults.model_validate(results)
-    env = environment(templates)
+    env = _environment(templates)
     token = FOR_PRINT.set(pdf)
     try:
         ctx = block_context(results, lang)
@@ -66,7 +76,7 @@ def write_summary_report(
         raise ValueError(f"language {lang!r}: choose one of {', '.join(LANGUAGES)}")
     out = Path(out)
     summary = Summary.model_validate(summary)
-    env = environment(templates)
+    env = _environment(templates)
     token = FOR_PRINT.set(pdf)
     try:
         pages = [("summary", "summary.html.j2", summary_context(summary, lang, pdf=pdf))]

@@ -92,10 +92,11 @@ def overlap_map(results: BlockResults, f: Formatter) -> str | None:
     scale = 0.15 * span / biggest  # degrees per metre of mean discrepancy
     bad = (pairs["max"] >= bound).to_numpy() if bound is not None else np.zeros(len(pairs), bool)
     colours = np.where(bad, plots.STATUS_COLOURS["fail"], plots.STATUS_COLOURS["pass"])
-    ax.quiver(
+    arrows = ax.quiver(
         xy[:, 0], xy[:, 1], vec[:, 0] * scale, vec[:, 1] * scale, color=colours,
         angles="xy", scale_units="xy", scale=1, width=0.004, zorder=3,
     )  # fmt: skip
+    arrows.set_rasterized(len(pairs) > plots.RASTER_ABOVE)
     for k in range(min(len(pairs), MAX_PAIR_LABELS)):  # the RMS beside a few pairs
         text = f" {pairs['rms'].iloc[k]:.1f}"
         ax.text(xy[k, 0], xy[k, 1], text, fontsize=6, color=colours[k], zorder=4)
@@ -156,10 +157,11 @@ def residual_map(results: BlockResults, f: Formatter) -> str | None:
     span = max(float(np.ptp(v[:, 0])), float(np.ptp(v[:, 1])), 1e-3)
     biggest = float(np.max(np.hypot(v[:, 2], v[:, 3]))) or 1.0
     scale = 0.04 * span / biggest
-    ax.quiver(
+    arrows = ax.quiver(
         v[:, 0], v[:, 1], v[:, 2] * scale, v[:, 3] * scale, angles="xy", scale_units="xy",
         scale=1, width=0.003, color="#1f4e99",
     )  # fmt: skip
+    arrows.set_rasterized(len(v) > plots.RASTER_ABOVE)
     ax.set_aspect(1 / max(math.cos(math.radians(float(v[:, 1].mean()))), 0.05))
     ax.set_xlabel(f.t("ax_lon"))
     ax.set_ylabel(f.t("ax_lat"))

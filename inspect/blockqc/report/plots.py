@@ -90,25 +90,53 @@ class Drawn(str):
     png: bytes | None = None
 
 
-def _png(fig: plt.Figure) -> bytes:
+PAD_IN = 0.04  # white margin around a figure's tight bounding box
+#: resolution of the layers rasterized inside an SVG (RASTER_ABOVE): sharp on a screen
+SVG_RASTER_DPI = 150
+
+
+def _png(fig: plt.Figure, bbox: Any) -> bytes:
+    """The print PNG framed on `bbox`: RGB (the figure is opaque), quickly compressed, so the
+    PDF writer takes it without splitting off an alpha mask."""
+    from PIL import Image
+
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=PRINT_DPI, bbox_inches="tight", pad_inches=0.04)
-    return buf.getvalue()
+    fig.savefig(buf, format="rgba", dpi=PRINT_DPI, bbox_inches=bbox)
+    size = (int(bbox.width * PRINT_DPI), int(bbox.height * PRINT_DPI))
+    raw = buf.getvalue()
+    if len(raw) != size[0] * size[1] * 4:  # not the frame expected: let matplotlib encode it
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", dpi=PRINT_DPI, bbox_inches=bbox)
+        return buf.getvalue()
+    out = io.BytesIO()
+    image = Image.frombuffer("RGBA", size, raw, "raw", "RGBA", 0, 1).convert("RGB")
+    image.save(out, format="PNG", compress_level=1, dpi=(PRINT_DPI, PRINT_DPI))
+    return out.getvalue()
+
+
+_SVG_FRAME = re.compile(r'width="[0-9.]+pt" height="[0-9.]+pt" viewBox="[^"]*"')
+
+
+def _crop(text: str, fig: plt.Figure, bbox: Any) -> str:
+    """The SVG framed on `bbox` (inches, figure coordinates from the bottom left) by its
+    viewBox: what bbox_inches="tight" frames, without laying the figure out a second time."""
+    x0, w, h = bbox.x0 * 72, bbox.width * 72, bbox.height * 72
+    y0 = (fig.get_figheight() - bbox.y1) * 72
+    frame = f'width="{w:f}pt" height="{h:f}pt" viewBox="{x0:f} {y0:f} {w:f} {h:f}"'
+    return _SVG_FRAME.sub(frame, text, count=1)
 
 
 def _svg(fig: plt.Figure, name: str) -> Drawn:
-    """The figure as an SVG element, ids prefixed with `name` so several can share a page."""
-    png = _png(fig) if FOR_PRINT.get() else None
+    """The figure as an SVG element, ids prefixed with `name` so several can share a page.
+
+    The figure is drawn once as SVG at full size and framed on its tight bounding box (taken
+    from that layout); the print PNG, when wanted, is drawn once on the same frame."""
     buf = io.StringIO()
-    fig.savefig(
-        buf,
-        format="svg",
-        metadata={"Date": None, "Creator": None},
-        bbox_inches="tight",
-        pad_inches=0.04,
-    )
+    fig.savefig(buf, format="svg", dpi=SVG_RASTER_DPI, metadata={"Date": None, "Creator": None})
+    bbox = fig.get_tightbbox().padded(PAD_IN)
+    png = _png(fig, bbox) if FOR_PRINT.get() else None
     plt.close(fig)
-    text = buf.getvalue()
+    text = _crop(buf.getvalue(), fig, bbox)
     text = text[text.index("<svg") :]
     text = re.sub(r"<!--.*?-->", "", text, flags=re.S)  # matplotlib echoes every label here
     text = re.sub(r'\bid="([^"]+)"', lambda m: f'id="{name}-{m.group(1)}"', text)
@@ -365,7 +393,8 @@ def residual_histogram(
     return _svg(fig, name)
 
 
-#: above this many scenes, the per-scene layers are rasterized inside the SVG (size and speed)
+#: above this many scenes (points, arrows), a layer drawing one mark per item is rasterized
+#: inside the SVG at SVG_RASTER_DPI (size and speed)
 RASTER_ABOVE = 400
 
 
@@ -539,9 +568,10 @@ def scene_points(
 ) -> str:
     """One scene's tie points on its image frame with the k×k uniformity grid (§TP-4, TP-5)."""
     fig, ax = _figure(2.6, 3.0)
-    ax.plot(
+    (points,) = ax.plot(
         np.asarray(sample, float), np.asarray(line, float), ".", color="#1f4e99", markersize=2.2
     )
+    points.set_rasterized(len(line) > RASTER_ABOVE)
     for k in range(1, grid):
         ax.axvline(samples * k / grid, color="#999", lw=0.7, ls="--")
         ax.axhline(lines * k / grid, color="#999", lw=0.7, ls="--")
