@@ -218,9 +218,9 @@ def _categorical(col: pa.ChunkedArray) -> pd.Categorical:
     One dictionary encoding in Arrow over every chunk (the chunks' indices all refer to the
     last chunk's dictionary); the values are stripped once per distinct value.
     """
-    if col.num_chunks == 0:
-        return pd.Categorical([], categories=pd.Index([], dtype=object))
     enc = pc.dictionary_encode(col)
+    if len(col) == 0 or enc.num_chunks == 0:
+        return pd.Categorical([], categories=pd.Index([], dtype=object))
     words = enc.chunk(enc.num_chunks - 1).dictionary
     indices = pa.chunked_array([c.indices for c in enc.chunks], enc.type.index_type)
     stripped = pc.utf8_trim_whitespace(words)
