@@ -146,8 +146,8 @@ class AccuracyRecord(_M):
     score: float | None  # None: beyond the norm, an A-class error
 
 
-class ItemScore(_M):
-    """A quality item (sub-element): its score, weight, errors and accuracy scores."""
+class _Scored(_M):
+    """What an element and an item share: id, titles, weight, whether inspected, score."""
 
     id: str
     title: str = ""
@@ -155,21 +155,20 @@ class ItemScore(_M):
     weight: float
     inspected: bool
     score: float | None = None
+
+
+class ItemScore(_Scored):
+    """A quality item (sub-element): its score, weight, errors and accuracy scores."""
+
     counts: dict[str, int] = Field(default_factory=dict)  # errors by class
     deduction: float = 0.0  # (B·nB + C·nC + D·nD)/t
     accuracy: list[AccuracyRecord] = Field(default_factory=list)
     errors: list[ErrorRecord] = Field(default_factory=list)
 
 
-class ElementScore(_M):
+class ElementScore(_Scored):
     """A quality element: the weighted mean of its inspected items."""
 
-    id: str
-    title: str = ""
-    title_zh: str = ""
-    weight: float
-    inspected: bool
-    score: float | None = None
     items: list[ItemScore] = Field(default_factory=list)
 
 

@@ -32,6 +32,7 @@ from blockqc.adjust.geometry import (
     accumulate_points,
     affine_from_normalized,
     ground_jacobian_m,
+    image_residuals,
     inv3,
     metres_to_degrees,
     normalization,
@@ -162,18 +163,15 @@ def linearize(
     pa = state.p[obs.scene]
     f_line = rl - obs.line + np.einsum("ij,ij->i", g, pa[:, :3])
     f_samp = rs - obs.sample + np.einsum("ij,ij->i", g, pa[:, 3:])
-    m11, m12 = 1.0 - pa[:, 2] / hl, -pa[:, 1] / hs
-    m21, m22 = -pa[:, 5] / hl, 1.0 - pa[:, 4] / hs
-    det = m11 * m22 - m12 * m21
-    v = np.stack([(m22 * f_line - m12 * f_samp) / det, (m11 * f_samp - m21 * f_line) / det], 1)
+    affine = affine_from_normalized(state.p, *_sizes(norm))  # the contract's M per scene
+    v = np.stack(image_residuals(affine, obs.scene, f_line, f_samp), 1)
     g[:, 1] += v[:, 1] / hs
     g[:, 2] += v[:, 0] / hl
     if jac is None:
         return Linearization(v, np.zeros((0, 2, 3)), g)
     jx = ground_jacobian_m(jac, state.lat[pt])
-    jl, js = jx[:, 0, :].copy(), jx[:, 1, :]
-    jx[:, 0, :] = (m22[:, None] * jl - m12[:, None] * js) / det[:, None]
-    jx[:, 1, :] = (m11[:, None] * js - m21[:, None] * jl) / det[:, None]
+    for k in range(3):  # the RPC partials of v: M⁻¹ applied to each ground direction
+        jx[:, 0, k], jx[:, 1, k] = image_residuals(affine, obs.scene, jx[:, 0, k], jx[:, 1, k])
     return Linearization(v, jx, g)
 
 
@@ -644,6 +642,7 @@ def initial_state(
     return state, ok, res.v_line, res.v_sample
 
 
+@threadpool_limits.wrap(limits=1, user_api="blas")
 def adjust(
     stack: RPCStack,
     obs: Observations,
@@ -657,19 +656,6 @@ def adjust(
     BLAS runs single-threaded in the iterations (many small products, where threads only
     contend); the dense covariance may use every core.
     """
-    with threadpool_limits(1, user_api="blas"):
-        return _adjust(stack, obs, lines, samples, priors, settings)
-
-
-def _adjust(
-    stack: RPCStack,
-    obs: Observations,
-    lines: FloatArray,
-    samples: FloatArray,
-    priors: Priors,
-    settings: Settings,
-) -> tuple[Solution, FloatArray, FloatArray]:
-    """Run the block adjustment; returns the solution and the residuals before (v_l, v_s)."""
     check_datum(priors)
     norm = normalization(lines, samples)
     state, ok, v0l, v0s = initial_state(stack, obs, priors)
