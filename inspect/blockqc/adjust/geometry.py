@@ -201,25 +201,35 @@ def to_rfm_space(
     )
 
 
+def m_inverse(affine: FloatArray, scene_index: IntArray) -> FloatArray:
+    """M⁻¹ per observation (n, 2, 2), M = [[1 − a2, −a1], [−b2, 1 − b1]] of its scene."""
+    a = affine[scene_index]
+    m11, m12, m21, m22 = 1.0 - a[:, 2], -a[:, 1], -a[:, 5], 1.0 - a[:, 4]
+    det = m11 * m22 - m12 * m21
+    return np.stack([np.stack([m22, -m12], 1), np.stack([-m21, m11], 1)], 1) / det[:, None, None]
+
+
+def apply_2x2(m: FloatArray, x_line: FloatArray, x_samp: FloatArray) -> tuple[FloatArray, ...]:
+    """m·(x_line, x_samp) per observation; x may carry trailing axes (e.g. 3 ground partials)."""
+    ex = (slice(None),) + (None,) * (np.ndim(x_line) - 1)
+    return m[:, 0, 0][ex] * x_line + m[:, 0, 1][ex] * x_samp, (
+        m[:, 1, 0][ex] * x_line + m[:, 1, 1][ex] * x_samp
+    )
+
+
 def from_rfm_space(
     affine: FloatArray, scene_index: IntArray, line_r: FloatArray, samp_r: FloatArray
 ) -> tuple[FloatArray, FloatArray]:
     """The RFM's (l_r, s_r) → image (l, s): solves the contract's 2×2 system exactly."""
     a = affine[scene_index]
-    m11, m12, m21, m22 = 1.0 - a[:, 2], -a[:, 1], -a[:, 5], 1.0 - a[:, 4]
-    rl, rs = line_r + a[:, 0], samp_r + a[:, 3]
-    det = m11 * m22 - m12 * m21
-    return (m22 * rl - m12 * rs) / det, (m11 * rs - m21 * rl) / det
+    return apply_2x2(m_inverse(affine, scene_index), line_r + a[:, 0], samp_r + a[:, 3])
 
 
 def image_residuals(
     affine: FloatArray, scene_index: IntArray, f_line: FloatArray, f_samp: FloatArray
 ) -> tuple[FloatArray, FloatArray]:
     """Residuals in RFM space f → computed − measured in image space, M⁻¹·f (exact)."""
-    a = affine[scene_index]
-    m11, m12, m21, m22 = 1.0 - a[:, 2], -a[:, 1], -a[:, 5], 1.0 - a[:, 4]
-    det = m11 * m22 - m12 * m21
-    return (m22 * f_line - m12 * f_samp) / det, (m11 * f_samp - m21 * f_line) / det
+    return apply_2x2(m_inverse(affine, scene_index), f_line, f_samp)
 
 
 def project_adjusted(

@@ -31,9 +31,10 @@ from blockqc.adjust.geometry import (
     RPCStack,
     accumulate_points,
     affine_from_normalized,
+    apply_2x2,
     ground_jacobian_m,
-    image_residuals,
     inv3,
+    m_inverse,
     metres_to_degrees,
     normalization,
     normalized_jacobian,
@@ -163,15 +164,14 @@ def linearize(
     pa = state.p[obs.scene]
     f_line = rl - obs.line + np.einsum("ij,ij->i", g, pa[:, :3])
     f_samp = rs - obs.sample + np.einsum("ij,ij->i", g, pa[:, 3:])
-    affine = affine_from_normalized(state.p, *_sizes(norm))  # the contract's M per scene
-    v = np.stack(image_residuals(affine, obs.scene, f_line, f_samp), 1)
+    m_inv = m_inverse(affine_from_normalized(state.p, *_sizes(norm)), obs.scene)
+    v = np.stack(apply_2x2(m_inv, f_line, f_samp), 1)
     g[:, 1] += v[:, 1] / hs
     g[:, 2] += v[:, 0] / hl
     if jac is None:
         return Linearization(v, np.zeros((0, 2, 3)), g)
-    jx = ground_jacobian_m(jac, state.lat[pt])
-    for k in range(3):  # the RPC partials of v: M⁻¹ applied to each ground direction
-        jx[:, 0, k], jx[:, 1, k] = image_residuals(affine, obs.scene, jx[:, 0, k], jx[:, 1, k])
+    jx = ground_jacobian_m(jac, state.lat[pt])  # the RPC partials of v: M⁻¹·J
+    jx[:, 0, :], jx[:, 1, :] = apply_2x2(m_inv, jx[:, 0, :], jx[:, 1, :])
     return Linearization(v, jx, g)
 
 
