@@ -620,6 +620,25 @@ def test_categorical_keys_by_hand() -> None:
     assert cat.codes.tolist() == [0, 1, -1, -1, 0, -1, 2]  # blank and missing cells: missing
 
 
+def test_categorical_keys_from_dictionaries_by_hand() -> None:
+    """Dictionary columns (Parquet's, one dictionary per chunk): unified, stripped, and right
+    even when a dictionary repeats a value (Arrow allows it)."""
+    import pyarrow as pa
+
+    from blockqc.delivery import _categorical
+
+    first = pa.DictionaryArray.from_arrays(pa.array([0, 1, 0, None], pa.int32()), ["S1", "S2 "])
+    second = pa.DictionaryArray.from_arrays(pa.array([1, 0], pa.int32()), ["S3", "S2"])
+    cat = _categorical(pa.chunked_array([first, second]))
+    assert sorted(cat.categories) == ["S1", "S2", "S3"]
+    assert [cat.categories[c] if c >= 0 else None for c in cat.codes] == [
+        "S1", "S2", "S1", None, "S2", "S3"
+    ]  # fmt: skip
+    repeated = pa.DictionaryArray.from_arrays(pa.array([0, 1, 2], pa.int32()), ["A", "B", "A"])
+    cat = _categorical(pa.chunked_array([repeated]))
+    assert list(cat.categories) == ["A", "B"] and cat.codes.tolist() == [0, 1, 0]
+
+
 def _tie_points_as_parquet(delivery: Path, edit=None) -> None:
     tp = pd.read_csv(delivery / "tie_points.csv", dtype={"point_id": str, "scene_id": str})
     if edit is not None:

@@ -198,10 +198,7 @@ def _to_pandas(table: pa.Table, schema: TableSchema) -> pd.DataFrame:
     ]
     df = table.drop_columns([names[i] for i in special]).to_pandas()
     for i in special:
-        col = table.column(i)
-        if pa.types.is_dictionary(col.type):  # e.g. written from a pandas Categorical
-            col = col.cast(col.type.value_type)
-        df.insert(i, names[i], _categorical(col))
+        df.insert(i, names[i], _categorical(table.column(i)))
     return df
 
 
@@ -216,9 +213,14 @@ def _categorical(col: pa.ChunkedArray) -> pd.Categorical:
     """Text as a Categorical of values stripped of surrounding white space; blank → missing.
 
     One dictionary encoding in Arrow over every chunk (the chunks' indices all refer to the
-    last chunk's dictionary); the values are stripped once per distinct value.
+    last chunk's dictionary), or the column's own dictionaries unified (Parquet's, a pandas
+    Categorical's); the values are stripped once per distinct value.
     """
-    enc = pc.dictionary_encode(col)
+    enc = _unified(col) if pa.types.is_dictionary(col.type) else None
+    if enc is False:
+        col = col.cast(col.type.value_type)
+    if not isinstance(enc, pa.ChunkedArray):
+        enc = pc.dictionary_encode(col)
     if len(col) == 0 or enc.num_chunks == 0:
         return pd.Categorical([], categories=pd.Index([], dtype=object))
     words = enc.chunk(enc.num_chunks - 1).dictionary
@@ -234,7 +236,27 @@ def _categorical(col: pa.ChunkedArray) -> pd.Categorical:
         remap = np.where(empty, -1, np.cumsum(~empty) - 1)
         codes = np.where(codes >= 0, remap[np.maximum(codes, 0)], -1)
         values = values[~empty]
-    return pd.Categorical.from_codes(codes, pd.Index(values, dtype=object))
+    return pd.Categorical.from_codes(codes, dtype=_distinct_categories(values), validate=False)
+
+
+def _unified(col: pa.ChunkedArray) -> pa.ChunkedArray | bool:
+    """A dictionary column's chunks over one dictionary of distinct values; False when it is
+    cheaper to decode and encode again (large dictionaries repeated per chunk) or when the
+    dictionary repeats a value."""
+    if sum(len(c.dictionary) for c in col.chunks) > max(1024, len(col) // 8):
+        return False
+    enc = col.unify_dictionaries()
+    words = enc.chunk(enc.num_chunks - 1).dictionary if enc.num_chunks else pa.array([])
+    return enc if pc.count_distinct(words).as_py() == len(words) else False
+
+
+def _distinct_categories(values: np.ndarray) -> pd.CategoricalDtype:
+    """The dtype of categories known to be distinct (a dictionary's values): pandas' own check
+    hashes every value again, seconds for millions of point ids, so it is skipped when the
+    installed pandas offers its fast path."""
+    index = pd.Index(values, dtype=object)
+    fast = getattr(pd.CategoricalDtype, "_from_fastpath", None)
+    return fast(index, ordered=False) if fast else pd.CategoricalDtype(index)
 
 
 def _read_csv_slow(path: Path, data: bytes, reason: str) -> pd.DataFrame:
@@ -283,7 +305,7 @@ def _read_parquet(path: Path, schema: TableSchema) -> pd.DataFrame:
                     for n in repeated
                 ]
             )
-        table = pq.read_table(path)
+        table = pq.read_table(path, read_dictionary=_bounded_keys(schema, found))
     except (pa.ArrowException, OSError) as exc:
         raise InputError(Problem(str(path), f"not a readable Parquet table: {exc}")) from None
     names = {c.name for c in schema.columns}
@@ -307,6 +329,13 @@ def _read_parquet(path: Path, schema: TableSchema) -> pd.DataFrame:
         return _to_pandas(table, schema)
     except (pa.ArrowException, ValueError, OverflowError) as exc:
         raise InputError(Problem(str(path), f"not a readable Parquet table: {exc}")) from None
+
+
+def _bounded_keys(schema: TableSchema, found: pa.Schema) -> list[str]:
+    """Text columns referring to another table's key (a tie point's scene_id): their values are
+    as few as that table's rows, so Parquet decodes them straight into a dictionary."""
+    refs = {r.column for r in schema.references}
+    return [f.name for f in found if f.name in refs and _is_text(f.type)]
 
 
 def read_table(path: Path, schema: TableSchema) -> tuple[pd.DataFrame, list[Problem]]:

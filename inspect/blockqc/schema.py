@@ -334,7 +334,7 @@ def validate_table(
     for c in df.columns:  # extra columns are kept, untouched
         if c not in out:
             out[c] = df[c]
-    table = pd.DataFrame(out, index=pd.RangeIndex(len(df)))
+    table = pd.DataFrame(out, index=pd.RangeIndex(len(df)), copy=False)  # copy on write
     _check_unique(table, schema, file, csv, problems)
     return table, problems
 
@@ -384,8 +384,9 @@ def _stripped_category(raw: pd.Series, blank: np.ndarray) -> pd.Series:
 
 def _repeated(key: np.ndarray) -> np.ndarray:
     """Rows whose int64 key occurs more than once: one sort; the rows are found only when
-    some key repeats (the usual clean table costs the sort alone)."""
-    ordered = np.sort(key)
+    some key repeats (the usual clean table costs the sort alone). The stable sort runs in
+    linear time over rows already in key order, as a table grouped by point is."""
+    ordered = np.sort(key, kind="stable")
     if not (ordered[1:] == ordered[:-1]).any():
         return np.zeros(key.size, dtype=bool)
     return pd.Series(key).duplicated(keep=False).to_numpy()

@@ -15,7 +15,6 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 _OCCUPANCY = 1.0  # mean points per grid cell over a pattern's bounding box
 _MAX_RING = 3  # rings of cells searched before the k-d tree takes over
@@ -273,6 +272,8 @@ def _tree_nearest(pts: _Sorted, query: np.ndarray) -> np.ndarray:
     The pattern code, times a gap wider than any pattern, is a third coordinate: distances within
     a pattern are untouched and every other pattern lies farther than its own points.
     """
+    from scipy.spatial import cKDTree  # only for the few points the grid leaves undecided
+
     grid = pts.grid
     member = np.zeros(len(grid.base) - 1, dtype=bool)
     member[pts.gs[query]] = True
