@@ -8,14 +8,15 @@ one delivery per published test field at the observations per block asked for, a
 of the batch is a copy of one of them (tables hard-linked, block.yaml rewritten with its own
 block id and the reported figures kept). The inspection runs as its own process; its wall time
 the peak resident memory of its largest process and the CPU time of all its processes are
-measured. The result line is:
-
-    batch: N blocks, M observations, T s, peak G GB, B blocks/s, cpu C s (c s/block)
-
-With --incremental the inspection runs with `--incremental`, then again on the unchanged batch,
-then again after one block's block.yaml got a new modification time; each re-run prints
+measured. The CPU time is printed as `cpu C s (c s/block)`. With --incremental the inspection
+runs with `--incremental`, then again on the unchanged batch, then again after one block's
+block.yaml got a new modification time; each re-run prints
 
     rerun (unchanged|one block changed): T s, K of N blocks inspected again
+
+The last line is always that of the first run, printed after any re-runs:
+
+    batch: N blocks, M observations, T s, peak G GB, B blocks/s
 """
 
 from __future__ import annotations
@@ -109,17 +110,16 @@ def main() -> None:
         wall, cpu, lines = inspect(root, args)
         peak_gb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024**2
         print(lines[-1])
-        print(
-            f"batch: {args.blocks} blocks, {n_obs} observations, {wall:.1f} s, "
-            f"peak {peak_gb:.2f} GB, {args.blocks / wall:.2f} blocks/s, "
-            f"cpu {cpu:.0f} s ({cpu / args.blocks:.2f} s/block)",
-            flush=True,
-        )
+        print(f"cpu {cpu:.0f} s ({cpu / args.blocks:.2f} s/block)", flush=True)
         if args.incremental:
             rerun(root, args, "unchanged")
             manifest = root / "batch" / f"B{args.blocks // 2:05d}" / "block.yaml"
             os.utime(manifest, ns=(time.time_ns(), manifest.stat().st_mtime_ns + 1_000_000_000))
             rerun(root, args, "one block changed")
+        print(
+            f"batch: {args.blocks} blocks, {n_obs} observations, {wall:.1f} s, "
+            f"peak {peak_gb:.2f} GB, {args.blocks / wall:.2f} blocks/s"
+        )  # the last line, whatever was re-run
 
 
 if __name__ == "__main__":

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import datetime as dt
-import json
 import math
 import os
 import tempfile
@@ -13,6 +12,7 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+import pydantic_core
 from pydantic import BaseModel
 
 from blockqc.errors import InputError, Problem, UsageError
@@ -40,8 +40,26 @@ def jsonable(value: Any) -> Any:
 
 
 def records(df: pd.DataFrame) -> list[dict[str, Any]]:
-    """A table as JSON rows."""
-    return jsonable(df.to_dict("records"))
+    """A table as JSON rows, the values of `jsonable`, converted column by column."""
+    if df.shape[1] == 0:
+        return [{} for _ in range(len(df))]
+    names = [str(c) for c in df.columns]
+    columns = [_column_values(df.iloc[:, i]) for i in range(df.shape[1])]
+    return [dict(zip(names, row, strict=True)) for row in zip(*columns, strict=True)]
+
+
+def _column_values(col: pd.Series) -> list[Any]:
+    """One column as plain values: numbers in one numpy pass (non-finite → None), anything
+    else value by value."""
+    kind = col.dtype.kind if isinstance(col.dtype, np.dtype) else ""
+    if kind and kind in "biu":
+        return col.to_numpy().tolist()
+    if kind == "f":
+        values = col.to_numpy()
+        out = values.astype(object)
+        out[~np.isfinite(values)] = None
+        return out.tolist()
+    return [jsonable(v) for v in col.to_numpy(dtype=object)]
 
 
 def write_bytes_atomic(path: Path, data: bytes) -> None:
@@ -65,9 +83,14 @@ def write_text_atomic(path: Path, text: str) -> None:
 
 
 def write_json_atomic(path: Path, obj: Any) -> None:
-    """JSON (numpy values, models and dates converted by `jsonable`), atomically."""
-    text = json.dumps(jsonable(obj), indent=2, ensure_ascii=False, allow_nan=False)
-    write_text_atomic(path, text + "\n")
+    """JSON (numpy values, models and dates converted by `jsonable`), atomically. A model is
+    written by its own serializer, anything else once made `jsonable`: both in compiled code,
+    non-finite numbers as null."""
+    if isinstance(obj, BaseModel):
+        data = obj.model_dump_json(indent=2, by_alias=True).encode("utf-8")
+    else:
+        data = pydantic_core.to_json(jsonable(obj), indent=2, inf_nan_mode="null")
+    write_bytes_atomic(path, data + b"\n")
 
 
 def check_out_dir(out: Path, inputs: Iterable[Path]) -> Path:

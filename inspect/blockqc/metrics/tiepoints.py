@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Literal
 
 import numpy as np
@@ -232,13 +233,13 @@ def tie_point_errors(d: Delivery, p: ErrorParams, measure: Measure) -> Measureme
 )
 def tie_point_distribution(d: Delivery, p: DistributionParams, measure: Measure) -> Measurement:
     """Per scene: tie-point count, k×k grid coverage of its land, Clark–Evans R (§TP-4)."""
+    if p.clark_evans:  # the counts and cells as measured without R (once for both), R added
+        return _with_clark_evans(d, p, measure(METRIC_DISTRIBUTION, p.model_dump() | NO_R))
     scenes, tp = _select(d, p.bands)
     if scenes.empty:
         return not_applicable("no scenes of the bands checked")
     geo = scenes.set_index("scene_id")[["lines", "samples"]].astype(float)
     out = _per_scene_cells(scenes, tp, p)
-    if p.clark_evans:
-        out["clark_evans"] = out["scene_id"].map(_clark_evans_per_scene(tp, geo)).astype(float)
     water = np.nan_to_num(out["water_fraction"].to_numpy(), nan=0.0)
     exempt = water >= p.exempt_water_fraction
     out["exempt"] = exempt
@@ -268,6 +269,24 @@ def tie_point_distribution(d: Delivery, p: DistributionParams, measure: Measure)
         detail={"grid": p.grid, "exempt_water_fraction": p.exempt_water_fraction},
         unit_points=scene_points,
     )
+
+
+METRIC_DISTRIBUTION = "tie_point_distribution"
+NO_R = {"clark_evans": False}
+
+
+def _with_clark_evans(d: Delivery, p: DistributionParams, base: Measurement) -> Measurement:
+    """The distribution measured without R, its scene table given each scene's Clark–Evans R
+    (placed after the coverage)."""
+    if base.not_applicable:
+        return base
+    table = base.tables["scene"]
+    scenes, tp = _select(d, p.bands)
+    geo = scenes.set_index("scene_id")[["lines", "samples"]].astype(float)
+    r = table.df["scene_id"].map(_clark_evans_per_scene(tp, geo)).astype(float)
+    out = table.df.copy()
+    out.insert(out.columns.get_loc("coverage") + 1, "clark_evans", r.to_numpy())
+    return replace(base, tables={"scene": replace(table, df=out)})
 
 
 def _per_scene_cells(scenes: pd.DataFrame, tp: pd.DataFrame, p: DistributionParams) -> pd.DataFrame:
