@@ -216,11 +216,10 @@ def _categorical(col: pa.ChunkedArray) -> pd.Categorical:
     last chunk's dictionary), or the column's own dictionaries unified (Parquet's, a pandas
     Categorical's); the values are stripped once per distinct value.
     """
-    enc = _unified(col) if pa.types.is_dictionary(col.type) else None
-    if enc is False:
-        col = col.cast(col.type.value_type)
-    if not isinstance(enc, pa.ChunkedArray):
-        enc = pc.dictionary_encode(col)
+    dictionary = pa.types.is_dictionary(col.type)
+    enc = _unified(col) if dictionary else None
+    if enc is None:
+        enc = pc.dictionary_encode(col.cast(col.type.value_type) if dictionary else col)
     if len(col) == 0 or enc.num_chunks == 0:
         return pd.Categorical([], categories=pd.Index([], dtype=object))
     words = enc.chunk(enc.num_chunks - 1).dictionary
@@ -239,15 +238,15 @@ def _categorical(col: pa.ChunkedArray) -> pd.Categorical:
     return pd.Categorical.from_codes(codes, dtype=_distinct_categories(values), validate=False)
 
 
-def _unified(col: pa.ChunkedArray) -> pa.ChunkedArray | bool:
-    """A dictionary column's chunks over one dictionary of distinct values; False when it is
+def _unified(col: pa.ChunkedArray) -> pa.ChunkedArray | None:
+    """A dictionary column's chunks over one dictionary of distinct values; None when it is
     cheaper to decode and encode again (large dictionaries repeated per chunk) or when the
     dictionary repeats a value."""
     if sum(len(c.dictionary) for c in col.chunks) > max(1024, len(col) // 8):
-        return False
+        return None
     enc = col.unify_dictionaries()
     words = enc.chunk(enc.num_chunks - 1).dictionary if enc.num_chunks else pa.array([])
-    return enc if pc.count_distinct(words).as_py() == len(words) else False
+    return enc if pc.count_distinct(words).as_py() == len(words) else None
 
 
 def _distinct_categories(values: np.ndarray) -> pd.CategoricalDtype:

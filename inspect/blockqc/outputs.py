@@ -89,7 +89,7 @@ def write_json_atomic(path: Path, obj: Any) -> None:
     if isinstance(obj, BaseModel):
         data = obj.model_dump_json(indent=2, by_alias=True).encode("utf-8")
     else:
-        data = pydantic_core.to_json(jsonable(obj), indent=2, inf_nan_mode="null")
+        data = pydantic_core.to_json(jsonable(obj), indent=2)  # jsonable: no NaN is left
     write_bytes_atomic(path, data + b"\n")
 
 

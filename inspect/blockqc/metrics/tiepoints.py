@@ -210,8 +210,12 @@ def tie_point_errors(d: Delivery, p: ErrorParams, measure: Measure) -> Measureme
     )
 
 
+METRIC_DISTRIBUTION = "tie_point_distribution"
+NO_R = {"clark_evans": False}
+
+
 @metric(
-    "tie_point_distribution",
+    METRIC_DISTRIBUTION,
     params=DistributionParams,
     scopes={
         "scene": Scope(
@@ -269,10 +273,6 @@ def tie_point_distribution(d: Delivery, p: DistributionParams, measure: Measure)
         detail={"grid": p.grid, "exempt_water_fraction": p.exempt_water_fraction},
         unit_points=scene_points,
     )
-
-
-METRIC_DISTRIBUTION = "tie_point_distribution"
-NO_R = {"clark_evans": False}
 
 
 def _with_clark_evans(d: Delivery, p: DistributionParams, base: Measurement) -> Measurement:
