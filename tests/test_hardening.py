@@ -637,6 +637,19 @@ def test_categorical_keys_from_dictionaries_by_hand() -> None:
     repeated = pa.DictionaryArray.from_arrays(pa.array([0, 1, 2], pa.int32()), ["A", "B", "A"])
     cat = _categorical(pa.chunked_array([repeated]))
     assert list(cat.categories) == ["A", "B"] and cat.codes.tolist() == [0, 1, 0]
+    empty = pa.chunked_array([], type=pa.dictionary(pa.int32(), pa.string()))  # no row group
+    assert len(_categorical(empty)) == 0
+
+
+def test_parquet_tie_points_empty_dictionary_ids(blockqc, delivery: Path, tmp_path: Path) -> None:
+    """An empty table whose ids are dictionaries (an empty Categorical written out) is refused
+    as an empty table, not as an unreadable file."""
+
+    tp = pd.read_csv(delivery / "tie_points.csv", dtype={"point_id": str, "scene_id": str})
+    (delivery / "tie_points.csv").unlink()
+    empty = tp.iloc[:0].astype({"scene_id": "category"})
+    empty.to_parquet(delivery / "tie_points.parquet", index=False)
+    _refused(blockqc, delivery, tmp_path / "out", "tie_points.parquet: the table has a header")
 
 
 def _tie_points_as_parquet(delivery: Path, edit=None) -> None:

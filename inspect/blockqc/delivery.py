@@ -216,12 +216,12 @@ def _categorical(col: pa.ChunkedArray) -> pd.Categorical:
     last chunk's dictionary), or the column's own dictionaries unified (Parquet's, a pandas
     Categorical's); the values are stripped once per distinct value.
     """
+    if len(col) == 0:
+        return pd.Categorical([], categories=pd.Index([], dtype=object))
     dictionary = pa.types.is_dictionary(col.type)
     enc = _unified(col) if dictionary else None
     if enc is None:
         enc = pc.dictionary_encode(col.cast(col.type.value_type) if dictionary else col)
-    if len(col) == 0 or enc.num_chunks == 0:
-        return pd.Categorical([], categories=pd.Index([], dtype=object))
     words = enc.chunk(enc.num_chunks - 1).dictionary
     indices = pa.chunked_array([c.indices for c in enc.chunks], enc.type.index_type)
     stripped = pc.utf8_trim_whitespace(words)
@@ -245,7 +245,7 @@ def _unified(col: pa.ChunkedArray) -> pa.ChunkedArray | None:
     if sum(len(c.dictionary) for c in col.chunks) > max(1024, len(col) // 8):
         return None
     enc = col.unify_dictionaries()
-    words = enc.chunk(enc.num_chunks - 1).dictionary if enc.num_chunks else pa.array([])
+    words = enc.chunk(enc.num_chunks - 1).dictionary
     return enc if pc.count_distinct(words).as_py() == len(words) else None
 
 
