@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 @given(
     st.lists(st.floats(0, 30, allow_nan=False), min_size=1, max_size=300),
-    st.sampled_from([0.0, 0.05, 0.1, 1.0, 2.0, 2.05, 9.95, 10.0]),
+    st.sampled_from([0.0, 0.05, 0.1, 1.0, 2.0, 2.05, 9.95, 10.0, 1e6, 1e300]),
 )
 @settings(max_examples=300, deadline=None)
 def test_histogram_counts_as_numpy(values: list[float], on_edge: float) -> None:

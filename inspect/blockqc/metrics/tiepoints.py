@@ -130,7 +130,7 @@ def histogram_counts(values: np.ndarray, edges: np.ndarray) -> np.ndarray:
     one where rounding put a value on the wrong side of an edge."""
     top = len(edges) - 1
     step = (edges[1] - edges[0]) if top else 1.0
-    i = np.clip(((values - edges[0]) / step).astype(np.int64), 0, top - 1)
+    i = np.clip((values - edges[0]) / step, 0, top - 1).astype(np.int64)  # clipped, then cast
     i -= values < edges[i]
     i += (values >= edges[np.minimum(i + 1, top)]) & (i < top - 1)
     i = np.minimum(i, top - 1)
