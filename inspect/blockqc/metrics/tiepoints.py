@@ -62,20 +62,23 @@ def _stats(err: pd.Series, by: pd.Series | None, lo: float, hi: float) -> pd.Dat
         codes, labels = by.cat.codes.to_numpy(), pd.Index(by.cat.categories, dtype=object)
     else:
         codes, labels = pd.factorize(by, sort=False)
+    e = err.to_numpy()
+    scale = _square_scale(e, codes)
     frame = pd.DataFrame(
         {
-            "e": err.to_numpy(),
-            "e2": err.to_numpy() ** 2,
+            "e": e,
+            "e2": (e / scale[np.maximum(codes, 0)]) ** 2 if scale.size else e**2,
             "inside": ((err > lo) & (err <= hi)).to_numpy(),
             "g": codes,
         }
     )
     g = (frame if codes.min(initial=0) >= 0 else frame[frame["g"] >= 0]).groupby("g", sort=False)
+    rms = np.sqrt(g["e2"].mean())
     out = pd.DataFrame(
         {
             "n": g["e"].size(),
             "median": g["e"].median(),
-            "rms": np.sqrt(g["e2"].mean()),
+            "rms": rms * scale[rms.index.to_numpy()] if scale.size else rms,
             "mean": g["e"].mean(),
             "max": g["e"].max(),
             "n_in_interval": g["inside"].sum(),
@@ -86,14 +89,31 @@ def _stats(err: pd.Series, by: pd.Series | None, lo: float, hi: float) -> pd.Dat
     return out
 
 
+#: errors above this overflow when squared: the RMS is then taken of errors divided by the
+#: largest of their group (only then, so that ordinary RMS values are computed as written)
+SQUARE_SAFE = 1e150
+
+
+def _square_scale(e: np.ndarray, codes: np.ndarray) -> np.ndarray:
+    """Per group code: the divisor that keeps its squared errors finite (1, or its largest
+    error); empty when no error needs one."""
+    if not e.size or e.max() <= SQUARE_SAFE:
+        return np.empty(0)
+    top = np.zeros(int(codes.max()) + 1)
+    np.maximum.at(top, codes[codes >= 0], e[codes >= 0])
+    return np.where(top > SQUARE_SAFE, top, 1.0)
+
+
 def _block_stats(e: np.ndarray, lo: float, hi: float) -> pd.DataFrame:
     """The statistics of `_stats` over every observation at once (numpy, no grouping)."""
     n = int(e.size)
     inside = int(np.count_nonzero((e > lo) & (e <= hi)))
+    scale = _square_scale(e, np.zeros(n, dtype=np.int64))
+    s = float(scale[0]) if scale.size else 1.0
     row = {
         "n": n,
         "median": float(np.median(e)),
-        "rms": float(np.sqrt(np.mean(e * e))),
+        "rms": float(s * np.sqrt(np.mean((e / s) ** 2))),
         "mean": float(e.mean()),
         "max": float(e.max()),
         "n_in_interval": inside,
