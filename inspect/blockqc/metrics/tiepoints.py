@@ -50,6 +50,11 @@ def _select(d: Delivery, bands: list[str] | None) -> tuple[pd.DataFrame, pd.Data
     return scenes, tp
 
 
+def _image_size(scenes: pd.DataFrame) -> pd.DataFrame:
+    """Each scene's lines and samples (floats), by scene id."""
+    return scenes.set_index("scene_id")[["lines", "samples"]].astype(float)
+
+
 def _stats(err: pd.Series, by: pd.Series | None, lo: float, hi: float) -> pd.DataFrame:
     """n, median, RMS, mean, max and share (%) in (lo, hi], overall or per group.
 
@@ -67,7 +72,7 @@ def _stats(err: pd.Series, by: pd.Series | None, lo: float, hi: float) -> pd.Dat
     frame = pd.DataFrame(
         {
             "e": e,
-            "e2": (e / scale[np.maximum(codes, 0)]) ** 2 if scale.size else e**2,
+            "e2": e**2 if scale is None else (e / scale[np.maximum(codes, 0)]) ** 2,
             "inside": ((err > lo) & (err <= hi)).to_numpy(),
             "g": codes,
         }
@@ -78,7 +83,7 @@ def _stats(err: pd.Series, by: pd.Series | None, lo: float, hi: float) -> pd.Dat
         {
             "n": g["e"].size(),
             "median": g["e"].median(),
-            "rms": rms * scale[rms.index.to_numpy()] if scale.size else rms,
+            "rms": rms if scale is None else rms * scale[rms.index.to_numpy()],
             "mean": g["e"].mean(),
             "max": g["e"].max(),
             "n_in_interval": g["inside"].sum(),
@@ -94,11 +99,11 @@ def _stats(err: pd.Series, by: pd.Series | None, lo: float, hi: float) -> pd.Dat
 SQUARE_SAFE = 1e150
 
 
-def _square_scale(e: np.ndarray, codes: np.ndarray) -> np.ndarray:
+def _square_scale(e: np.ndarray, codes: np.ndarray) -> np.ndarray | None:
     """Per group code: the divisor that keeps its squared errors finite (1, or its largest
-    error); empty when no error needs one."""
+    error); None when no error needs one."""
     if not e.size or e.max() <= SQUARE_SAFE:
-        return np.empty(0)
+        return None
     top = np.zeros(int(codes.max()) + 1)
     np.maximum.at(top, codes[codes >= 0], e[codes >= 0])
     return np.where(top > SQUARE_SAFE, top, 1.0)
@@ -108,14 +113,14 @@ def _block_stats(e: np.ndarray, lo: float, hi: float) -> pd.DataFrame:
     """The statistics of `_stats` over every observation at once (numpy, no grouping)."""
     n = int(e.size)
     inside = int(np.count_nonzero((e > lo) & (e <= hi)))
-    scale = _square_scale(e, np.zeros(n, dtype=np.int64))
-    s = float(scale[0]) if scale.size else 1.0
+    top = float(e.max())
+    s = top if top > SQUARE_SAFE else 1.0  # as _square_scale, for the one group
     row = {
         "n": n,
         "median": float(np.median(e)),
         "rms": float(s * np.sqrt(np.mean((e / s) ** 2))),
         "mean": float(e.mean()),
-        "max": float(e.max()),
+        "max": top,
         "n_in_interval": inside,
         "share_in_interval": 100.0 * inside / n,
     }
@@ -153,7 +158,6 @@ def histogram_counts(values: np.ndarray, edges: np.ndarray) -> np.ndarray:
     i = np.clip((values - edges[0]) / step, 0, top - 1).astype(np.int64)  # clipped, then cast
     i -= values < edges[i]
     i += (values >= edges[np.minimum(i + 1, top)]) & (i < top - 1)
-    i = np.minimum(i, top - 1)
     inside = (values >= edges[0]) & (values <= edges[-1])
     return np.bincount(i[inside], minlength=top)
 
@@ -169,7 +173,7 @@ def residual_cells(tp: pd.DataFrame, scenes: pd.DataFrame, k: int = 4) -> list[d
     """
     if scenes["scene_id"].nunique() > MAX_SCENES_FOR_CELLS:
         return []
-    size = scenes.set_index("scene_id")[["lines", "samples"]].astype(float)
+    size = _image_size(scenes)
     lines = tp["scene_id"].map(size["lines"]).to_numpy(dtype=float)
     samples = tp["scene_id"].map(size["samples"]).to_numpy(dtype=float)
     i = np.clip(np.floor(tp["line"].to_numpy(dtype=float) / lines * k), 0, k - 1)
@@ -262,7 +266,7 @@ def tie_point_distribution(d: Delivery, p: DistributionParams, measure: Measure)
     scenes, tp = _select(d, p.bands)
     if scenes.empty:
         return not_applicable("no scenes of the bands checked")
-    geo = scenes.set_index("scene_id")[["lines", "samples"]].astype(float)
+    geo = _image_size(scenes)
     out = _per_scene_cells(scenes, tp, p)
     water = np.nan_to_num(out["water_fraction"].to_numpy(), nan=0.0)
     exempt = water >= p.exempt_water_fraction
@@ -302,7 +306,7 @@ def _with_clark_evans(d: Delivery, p: DistributionParams, base: Measurement) -> 
         return base
     table = base.tables["scene"]
     scenes, tp = _select(d, p.bands)
-    geo = scenes.set_index("scene_id")[["lines", "samples"]].astype(float)
+    geo = _image_size(scenes)
     r = table.df["scene_id"].map(_clark_evans_per_scene(tp, geo)).astype(float)
     out = table.df.copy()
     out.insert(out.columns.get_loc("coverage") + 1, "clark_evans", r.to_numpy())
