@@ -163,10 +163,11 @@ class Writer:
             (folder / "report.pdf").unlink(missing_ok=True)  # never a stale PDF beside
         return pdf
 
-    def summary(self, summary: Summary) -> None:
+    def summary(self, summary: Summary, jobs: int = 1) -> None:
         write_json_atomic(self.out / "summary.json", summary)
+        pdf = self.pdf != "none"
         write_summary_report(
-            self.out, summary, lang=self.lang, templates=self.templates, pdf=self.pdf != "none"
+            self.out, summary, lang=self.lang, templates=self.templates, pdf=pdf, jobs=jobs
         )
 
 
@@ -391,12 +392,12 @@ def run(
     summary = None
     if got.is_batch:
         summary = summarize(outcomes, pack, inspector, extra)
-        _write_summary(writer, summary, outcomes, digest)
+        _write_summary(writer, summary, outcomes, digest, (runner or Runner()).jobs)
     return outcomes, summary
 
 
 def _write_summary(
-    writer: Writer, summary: Summary, outcomes: list[Outcome], digest: str | None
+    writer: Writer, summary: Summary, outcomes: list[Outcome], digest: str | None, jobs: int
 ) -> None:
     """The summary outputs; in incremental mode kept as they are when every block's line is the
     one they were written from (an unchanged batch of a thousand blocks rewrites nothing)."""
@@ -408,7 +409,7 @@ def _write_summary(
         if summary_unchanged(writer.out, key, writer.pdf != "none"):
             return
     forget_summary(writer.out)
-    writer.summary(summary)
+    writer.summary(summary, jobs)
     remember_summary(writer.out, key)
 
 

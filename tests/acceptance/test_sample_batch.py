@@ -67,3 +67,14 @@ def test_summary_and_filed_report_in_both_languages(out, tmp_path, lang, words) 
     filed = (tmp_path / "acceptance.html").read_text()
     assert 'data-decision="fail"' in filed and "F3-B02" in filed
     assert str(SAMPLES) not in filed and str(out) not in filed  # no paths of this machine
+
+
+def test_summary_and_filed_pdfs_side_by_side_are_the_same(out, tmp_path) -> None:
+    """With jobs > 1 the acceptance PDF is laid out in another process: the same files."""
+    doc = json.loads((out / "summary.json").read_text())
+    written = write_summary_report(tmp_path, doc, pdf=True, jobs=1)
+    assert {p.name for p in written} >= {"summary.pdf", "acceptance.pdf"}
+    first = {p: p.read_bytes() for p in written}
+    assert write_summary_report(tmp_path, doc, pdf=True, jobs=2) == written
+    for p in written:
+        assert p.read_bytes() == first[p], p.name

@@ -70,8 +70,10 @@ def write_summary_report(
     lang: str = "en",
     templates: Path | None = None,
     pdf: bool = True,
+    jobs: int = 1,
 ) -> list[Path]:
-    """summary.html and summary.pdf of a batch, linking each block's report."""
+    """summary.html and summary.pdf of a batch, linking each block's report; with an acceptance,
+    acceptance.html and .pdf too, laid out beside the summary's PDF when `jobs` > 1."""
     if lang not in LANGUAGES:
         raise ValueError(f"language {lang!r}: choose one of {', '.join(LANGUAGES)}")
     out = Path(out)
@@ -88,16 +90,30 @@ def write_summary_report(
     for name, template, context in pages:
         write_text_atomic(out / f"{name}.html", render_page(template, context, env))
         written.append(out / f"{name}.html")
-        if pdf:
-            from blockqc.report.pdf import html_to_pdf
-
-            data = html_to_pdf(render_page(template, context, env, for_pdf=True), out)
+    if pdf:
+        prints = [render_page(template, ctx, env, for_pdf=True) for _, template, ctx in pages]
+        for (name, _, _), data in zip(pages, _pdfs(prints, out, jobs), strict=True):
             write_bytes_atomic(out / f"{name}.pdf", data)
             written.append(out / f"{name}.pdf")
     write_text_atomic(out / "summary.csv", summary_csv(summary))
     write_bytes_atomic(out / "summary.parquet", summary_parquet(summary))
     written += [out / "summary.csv", out / "summary.parquet"]
     return written
+
+
+def _pdfs(pages: list[str], base_url: Path, jobs: int) -> list[bytes]:
+    """The PDF of each HTML page; with `jobs` > 1 the pages after the first are laid out in
+    other processes while this one lays out the first (a batch's summary and acceptance)."""
+    from blockqc.report.pdf import html_to_pdf
+
+    if jobs < 2 or len(pages) < 2:
+        return [html_to_pdf(page, base_url) for page in pages]
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(max_workers=min(jobs - 1, len(pages) - 1)) as pool:
+        others = [pool.submit(html_to_pdf, page, base_url) for page in pages[1:]]
+        first = html_to_pdf(pages[0], base_url)
+        return [first] + [f.result() for f in others]
 
 
 __all__ = ["LANGUAGES", "checkpoint_rows", "write_block_report", "write_summary_report"]
