@@ -79,45 +79,38 @@ def _setup() -> None:
     )
 
 
-#: set while a report for print is built: figures then also carry a JPEG at print resolution
+#: set while a report for print is built: figures then also carry a PNG at print resolution
 FOR_PRINT: contextvars.ContextVar[bool] = contextvars.ContextVar("for_print", default=False)
 PRINT_DPI = 200
 
 
 class Drawn(str):
-    """A figure's SVG element; `print_jpeg` holds the same figure at print resolution when
-    FOR_PRINT."""
+    """A figure's SVG element; `png` holds the same figure at print resolution when FOR_PRINT."""
 
-    print_jpeg: bytes | None = None
+    png: bytes | None = None
 
 
 PAD_IN = 0.04  # white margin around a figure's tight bounding box
 #: resolution of the layers rasterized inside an SVG (RASTER_ABOVE): sharp on a screen
 SVG_RASTER_DPI = 150
-#: JPEG quality of the print figures, chroma kept at full resolution so thin coloured lines
-#: and small text stay sharp
-PRINT_QUALITY = 92
 
 
-def _print_jpeg(fig: plt.Figure, bbox: Any) -> bytes:
-    """The print image framed on `bbox`, as JPEG: the PDF writer embeds a JPEG as it is, while
-    a PNG it would decode and compress again (0.3-0.4 s for a block report's figures)."""
+def _png(fig: plt.Figure, bbox: Any) -> bytes:
+    """The print PNG framed on `bbox`: RGB (the figure is opaque), quickly compressed, so the
+    PDF writer takes it without splitting off an alpha mask."""
     from PIL import Image
 
     buf = io.BytesIO()
     fig.savefig(buf, format="rgba", dpi=PRINT_DPI, bbox_inches=bbox)
     size = (int(bbox.width * PRINT_DPI), int(bbox.height * PRINT_DPI))
     raw = buf.getvalue()
-    if len(raw) == size[0] * size[1] * 4:
-        image = Image.frombuffer("RGBA", size, raw, "raw", "RGBA", 0, 1)
-    else:  # not the frame expected: let matplotlib frame it
+    if len(raw) != size[0] * size[1] * 4:  # not the frame expected: let matplotlib encode it
         buf = io.BytesIO()
         fig.savefig(buf, format="png", dpi=PRINT_DPI, bbox_inches=bbox)
-        image = Image.open(buf)
+        return buf.getvalue()
     out = io.BytesIO()
-    image.convert("RGB").save(
-        out, format="JPEG", quality=PRINT_QUALITY, subsampling=0, dpi=(PRINT_DPI, PRINT_DPI)
-    )
+    image = Image.frombuffer("RGBA", size, raw, "raw", "RGBA", 0, 1).convert("RGB")
+    image.save(out, format="PNG", compress_level=1, dpi=(PRINT_DPI, PRINT_DPI))
     return out.getvalue()
 
 
@@ -137,11 +130,11 @@ def _svg(fig: plt.Figure, name: str) -> Drawn:
     """The figure as an SVG element, ids prefixed with `name` so several can share a page.
 
     The figure is drawn once as SVG at full size and framed on its tight bounding box (taken
-    from that layout); the print image, when wanted, is drawn once on the same frame."""
+    from that layout); the print PNG, when wanted, is drawn once on the same frame."""
     buf = io.StringIO()
     fig.savefig(buf, format="svg", dpi=SVG_RASTER_DPI, metadata={"Date": None, "Creator": None})
     bbox = fig.get_tightbbox().padded(PAD_IN)
-    jpeg = _print_jpeg(fig, bbox) if FOR_PRINT.get() else None
+    png = _png(fig, bbox) if FOR_PRINT.get() else None
     plt.close(fig)
     text = _crop(buf.getvalue(), fig, bbox)
     text = text[text.index("<svg") :]
@@ -152,7 +145,7 @@ def _svg(fig: plt.Figure, name: str) -> Drawn:
     )
     text = re.sub(r"url\(#([^)]+)\)", lambda m: f"url(#{name}-{m.group(1)})", text)
     drawn = Drawn(text.replace("<svg ", '<svg class="figure" role="img" ', 1))
-    drawn.print_jpeg = jpeg
+    drawn.png = png
     return drawn
 
 
