@@ -130,3 +130,90 @@ def test_out_that_is_a_file_or_under_one_is_refused(tmp_path: Path):
 
     if os.geteuid() != 0:  # root may write anywhere
         assert proc.returncode == 2 and "cannot be created" in proc.stderr
+
+
+def test_batch_folder_without_block_yaml_is_refused_by_name(small_batch: Path, tmp_path: Path):
+    """Every sub-folder of a batch is a delivery: one without block.yaml is reported, never
+    left out unseen; the others are inspected. A file beside them is named in a warning;
+    hidden folders are not part of the batch."""
+    forgot = small_batch / "F2-B02"
+    shutil.copytree(SAMPLES / "batch" / "F2-B02", forgot)
+    (forgot / "block.yaml").unlink()
+    (small_batch / ".cache").mkdir()
+    (small_batch / "transmittal.txt").write_text("3 blocks\n", encoding="utf-8")
+    out = tmp_path / "out"
+    proc = run_blockqc("inspect", small_batch, "--out", out, "--no-pdf")
+    assert proc.returncode == 2, proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert f"{forgot / 'block.yaml'}: missing: every sub-folder of a batch is a delivery" in (
+        proc.stderr
+    )
+    assert f"warning: {small_batch / 'transmittal.txt'}: a file beside the deliveries" in (
+        proc.stderr
+    )
+    assert ".cache" not in proc.stderr + proc.stdout
+    assert f"{forgot}  UNREADABLE" in proc.stdout
+    summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+    assert [b["block_id"] for b in summary["blocks"]] == ["F1-B02", "F3-B02", "F4-B02"]
+
+
+@pytest.mark.parametrize(
+    ("address", "says"),
+    [
+        ("bogus", "expected 'local' or tcp|tls|ws|wss|ucx://HOST:PORT"),
+        ("inproc://x", "expected 'local' or tcp|tls|ws|wss|ucx://HOST:PORT"),
+        ("tcp://", "expected HOST:PORT after the scheme"),
+        ("tcp://:8786", "expected HOST:PORT after the scheme"),
+        ("tcp://localhost:abc", "the port 'abc' is not a number from 1 to 65535"),
+        ("tcp://localhost:65536", "the port '65536' is not a number from 1 to 65535"),
+    ],
+)
+def test_scheduler_address_refused_before_anything_runs(
+    small_batch: Path, tmp_path: Path, address: str, says: str
+):
+    out = tmp_path / "out"
+    proc = run_blockqc("inspect", small_batch, "--out", out, "--no-pdf", "--scheduler", address)
+    assert proc.returncode == 2
+    assert f"--scheduler {address}: {says}" in proc.stderr and "Traceback" not in proc.stderr
+    assert not out.exists() or not any(out.iterdir())
+
+
+def test_scheduler_addresses_accepted():
+    from blockqc.distributed import check_scheduler
+
+    for address in ("local", "tcp://10.0.0.5:8786", "tls://[::1]:8786", "ws://host.example:1"):
+        assert check_scheduler(address) == address
+
+
+@pytest.mark.parametrize("broken", ["[1, 2]", "{", '{"key": 3}', '"text"', "\udcff"])
+def test_incremental_broken_caches_mean_inspect_again(
+    small_batch: Path, tmp_path: Path, broken: str
+):
+    """A block's or the summary's cache file that is not what blockqc wrote (any JSON, or none)
+    is no cache: the block is inspected and the summary written again, never a traceback."""
+    out = tmp_path / "out"
+    args = ("inspect", small_batch, "--out", out, "--no-pdf", "--incremental")
+    assert run_blockqc(*args).returncode == 1
+    data = broken.encode("utf-8", "surrogateescape")
+    (out / "F1-B02" / ".blockqc-cache.json").write_bytes(data)
+    (out / ".blockqc-summary-cache.json").write_bytes(data)
+    summary_before = (out / "summary.json").stat().st_mtime_ns
+    again = run_blockqc(*args)
+    assert again.returncode == 1 and "Traceback" not in again.stderr, again.stderr
+    assert again.stdout.count("outputs reused") == 2, again.stdout
+    assert "F1-B02       PASS" in again.stdout
+    assert (out / "summary.json").stat().st_mtime_ns != summary_before
+    assert run_blockqc(*args).stdout.count("outputs reused") == 3  # caches written afresh
+
+
+def test_incremental_summary_rewritten_when_an_acceptance_page_is_gone(
+    small_batch: Path, tmp_path: Path
+):
+    """The summary's cache vouches for every file written from it: the acceptance pages too."""
+    out = tmp_path / "out"
+    args = ("inspect", small_batch, "--out", out, "--no-pdf", "--incremental")
+    assert run_blockqc(*args).returncode == 1
+    assert (out / "acceptance.html").is_file()
+    (out / "acceptance.html").unlink()
+    assert run_blockqc(*args).stdout.count("outputs reused") == 3
+    assert (out / "acceptance.html").is_file()

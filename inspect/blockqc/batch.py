@@ -22,7 +22,15 @@ from blockqc.acceptance.plan import Plan, apply_plan
 from blockqc.acceptance.scoring import a_class_errors
 from blockqc.cache import Cached, delivery_fingerprint, read_cached, write_cached
 from blockqc.checkpoint_inputs import InspectorCheckpoints, merge_checkpoints
-from blockqc.delivery import MANIFEST, Manifest, find_deliveries, load_delivery, load_manifest
+from blockqc.delivery import (
+    MANIFEST,
+    Manifest,
+    batch_files,
+    find_deliveries,
+    is_delivery,
+    load_delivery,
+    load_manifest,
+)
 from blockqc.engine import inspect_delivery
 from blockqc.errors import InputError, Problem
 from blockqc.inspector import InspectorInput
@@ -64,6 +72,7 @@ class Collected:
     is_batch: bool
     manifests: dict[Path, Manifest] = field(default_factory=dict)
     refused: dict[Path, Problem] = field(default_factory=dict)
+    files: list[Path] = field(default_factory=list)  # lying beside a batch's deliveries, unread
 
 
 def collect(paths: Iterable[Path]) -> Collected:
@@ -74,9 +83,18 @@ def collect(paths: Iterable[Path]) -> Collected:
         ds = find_deliveries(Path(p))
         batch |= len(ds) > 1 or ds[0] != Path(p)
         found.extend(ds)
-    got = Collected(found, batch or len(found) > 1)
+    got = Collected(
+        found, batch or len(found) > 1, files=[f for p in paths for f in batch_files(p)]
+    )
     seen: dict[str, Path] = {}
     for path in found:
+        if not is_delivery(path):
+            got.refused[path] = Problem(
+                str(path / MANIFEST),
+                "missing: every sub-folder of a batch is a delivery and needs its block.yaml "
+                "(folders named '.…' are left out)",
+            )
+            continue
         try:
             manifest = got.manifests[path] = load_manifest(path / MANIFEST)
         except InputError:
@@ -163,10 +181,11 @@ class Writer:
             (folder / "report.pdf").unlink(missing_ok=True)  # never a stale PDF beside
         return pdf
 
-    def summary(self, summary: Summary, jobs: int = 1) -> None:
+    def summary(self, summary: Summary, jobs: int = 1) -> list[Path]:
+        """summary.json and the summary reports; the files written."""
         write_json_atomic(self.out / "summary.json", summary)
         pdf = self.pdf != "none"
-        write_summary_report(
+        return [self.out / "summary.json"] + write_summary_report(
             self.out, summary, lang=self.lang, templates=self.templates, pdf=pdf, jobs=jobs
         )
 
@@ -406,11 +425,10 @@ def _write_summary(
     key = None
     if digest is not None:
         key = summary_key(digest, [o.key for o in outcomes], summary.inspector)
-        if summary_unchanged(writer.out, key, writer.pdf != "none"):
+        if summary_unchanged(writer.out, key):
             return
     forget_summary(writer.out)
-    writer.summary(summary, jobs)
-    remember_summary(writer.out, key)
+    remember_summary(writer.out, key, writer.summary(summary, jobs))
 
 
 def exit_status(outcomes: list[Outcome]) -> int:

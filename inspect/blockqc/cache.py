@@ -108,7 +108,7 @@ def read_cached(folder: Path, key: str) -> Cached | None:
 
         grade = BlockGrade.model_validate(doc["grade"]) if doc.get("grade") else None
         return Cached(key, entry, doc["rules"], grade)
-    except (OSError, ValueError, KeyError, TypeError, ValidationError):
+    except (OSError, ValueError, KeyError, TypeError, AttributeError, ValidationError):
         return None  # no cache, or a broken one: inspect again
 
 
@@ -125,17 +125,17 @@ def summary_key(digest: str, block_keys: list[str | None], inspector: str | None
     return _sha(digest, inspector, block_keys)
 
 
-def summary_unchanged(out: Path, key: str | None, pdf: bool) -> bool:
+def summary_unchanged(out: Path, key: str | None) -> bool:
     """Whether the summary outputs in `out` were written from the same blocks' lines and are
     all still there: an unchanged batch then rewrites nothing."""
     if key is None:
         return False
     try:
         doc = json.loads((out / SUMMARY_CACHE_FILE).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return False
-    wanted = SUMMARY_OUTPUTS + (("summary.pdf",) if pdf else ())
-    return doc.get("key") == key and all((out / f).is_file() for f in wanted)
+        files = [str(f) for f in doc["files"]]
+        return doc["key"] == key and all((out / f).is_file() for f in [*SUMMARY_OUTPUTS, *files])
+    except (OSError, ValueError, KeyError, TypeError):
+        return False  # none, or a broken one: write the summary again
 
 
 def forget_summary(out: Path) -> None:
@@ -144,6 +144,8 @@ def forget_summary(out: Path) -> None:
     (out / SUMMARY_CACHE_FILE).unlink(missing_ok=True)
 
 
-def remember_summary(out: Path, key: str | None) -> None:
+def remember_summary(out: Path, key: str | None, written: list[Path]) -> None:
+    """The summary's key and the files written from it (PDFs, the acceptance pages)."""
     if key is not None:
-        write_json_atomic(out / SUMMARY_CACHE_FILE, {"key": key})
+        files = sorted(p.name for p in written)
+        write_json_atomic(out / SUMMARY_CACHE_FILE, {"key": key, "files": files})

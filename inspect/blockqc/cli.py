@@ -160,10 +160,16 @@ def inspect_cmd(
     from blockqc.outputs import check_out_dir
     from blockqc.rules import load_pack
 
+    if scheduler:
+        from blockqc.distributed import check_scheduler
+
+        check_scheduler(scheduler)
     out = check_out_dir(out, paths)
     pack = load_pack(rules_ref)
     inspector = load_inspector_input(verdicts) if verdicts else None
     got = batch.collect(paths)
+    for f in got.files:
+        click.echo(f"warning: {f}: a file beside the deliveries of a batch, not read", err=True)
     if inspector is not None:
         scenes = block_scenes(got.deliveries, got.manifests)
         check_inspector_input(inspector, {r.id: r for r in pack.rules}, scenes)

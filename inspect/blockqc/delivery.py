@@ -112,7 +112,11 @@ def is_delivery(path: Path) -> bool:
 
 
 def find_deliveries(path: Path) -> list[Path]:
-    """A delivery folder gives itself; a batch folder gives its delivery sub-folders, sorted."""
+    """A delivery folder gives itself; a batch folder gives its sub-folders, sorted.
+
+    Every sub-folder of a batch is a delivery: one without block.yaml is given too, so that it
+    is refused by name when read rather than left out unseen. Hidden folders (a name starting
+    with '.') are not part of a batch."""
     path = Path(path)
     if not path.exists():
         raise InputError(Problem(str(path), "no such file or folder"))
@@ -125,8 +129,8 @@ def find_deliveries(path: Path) -> list[Path]:
         )
     if is_delivery(path):
         return [path]
-    found = sorted(p for p in path.iterdir() if p.is_dir() and is_delivery(p))
-    if not found:
+    found = sorted(p for p in path.iterdir() if p.is_dir() and not p.name.startswith("."))
+    if not any(is_delivery(p) for p in found):
         raise InputError(
             Problem(
                 str(path),
@@ -135,6 +139,14 @@ def find_deliveries(path: Path) -> list[Path]:
             )
         )
     return found
+
+
+def batch_files(path: Path) -> list[Path]:
+    """The files lying in a batch folder beside its deliveries (none of them is read)."""
+    path = Path(path)
+    if not path.is_dir() or is_delivery(path):
+        return []
+    return sorted(p for p in path.iterdir() if not p.is_dir() and not p.name.startswith("."))
 
 
 def _table_file(folder: Path, name: str) -> Path | None:

@@ -16,6 +16,26 @@ from typing import Any
 from blockqc.errors import UsageError
 
 RETRIES = 2
+#: the transports a dask scheduler listens on over a network
+SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")
+
+
+def check_scheduler(address: str) -> str:
+    """'local', or SCHEME://HOST:PORT of a running scheduler; UsageError naming what is wrong."""
+    if address == "local":
+        return address
+    scheme, sep, rest = address.partition("://")
+    host, colon, port = rest.rpartition(":")
+    problem = None
+    if not sep or scheme not in SCHEMES:
+        problem = f"expected 'local' or {'|'.join(SCHEMES)}://HOST:PORT (e.g. tcp://10.0.0.5:8786)"
+    elif not colon or not host.strip("[]"):
+        problem = "expected HOST:PORT after the scheme (e.g. tcp://10.0.0.5:8786)"
+    elif not (port.isdigit() and 0 < int(port) < 65536):
+        problem = f"the port {port!r} is not a number from 1 to 65535"
+    if problem:
+        raise UsageError(f"--scheduler {address}: {problem}")
+    return address
 
 
 @contextmanager
@@ -27,13 +47,13 @@ def client_for(scheduler: str):
         raise UsageError(
             "--scheduler needs dask.distributed: pip install 'blockqc[dask]'"
         ) from None
-    if scheduler == "local":
+    if check_scheduler(scheduler) == "local":
         with LocalCluster(processes=True, threads_per_worker=1) as cluster, Client(cluster) as c:
             yield c
         return
     try:
         client = Client(scheduler, timeout="20s")
-    except OSError as exc:
+    except (OSError, ValueError) as exc:
         raise UsageError(f"--scheduler {scheduler}: no scheduler answers there ({exc})") from None
     with client:
         yield client

@@ -32,6 +32,8 @@ def read_units(batch: Path, key: str | None) -> tuple[list[str], dict[str, str] 
     problems = list(got.refused.values())
     strata: dict[str, str] = {}
     for path in got.deliveries:
+        if path in got.refused:
+            continue
         if path not in got.manifests:
             try:
                 load_manifest(path / MANIFEST)
