@@ -165,10 +165,12 @@ class Writer:
     pdf: str = "all"
 
     def wants_pdf(self, results: BlockResults) -> bool:
+        """all; failing blocks; sampled ones (the plan's, or without a plan those with
+        checkpoints); none."""
         if self.pdf == "failing":
             return block_fails(results.verdict)
         if self.pdf == "sampled":
-            return results.summary.get("checkpoints", 0) > 0
+            return _sampled(results)
         return self.pdf == "all"
 
     def block(self, results: BlockResults) -> bool:

@@ -173,3 +173,42 @@ def test_meta_in_block_report_and_filed_report(tmp_path: Path) -> None:
     bad.write_text("report_numbr: 1\n")
     r = run_blockqc("inspect", batch, "--meta", bad, "--out", tmp_path / "o2", "--no-pdf")
     assert r.returncode == 2 and "bad.yaml" in r.stderr and "report_numbr" in r.stderr
+
+
+def test_pdf_sampled_follows_the_plan(tmp_path: Path) -> None:
+    """`--pdf sampled`: the plan's blocks (B00 with checkpoints, B02 without); without a plan,
+    the blocks that carry checkpoints (B00, B01)."""
+    batch = _batch(tmp_path / "batch", 4, with_cps={0, 1})
+    plan = {
+        "seed": 0,
+        "units": 4,
+        "sample_size": 2,
+        "lots": [
+            {
+                "size": 4,
+                "sample_size": 2,
+                "census": False,
+                "strata": [
+                    {
+                        "value": "",
+                        "size": 4,
+                        "sample": 2,
+                        "units": ["B00", "B01", "B02", "B03"],
+                        "sampled": ["B00", "B02"],
+                    }
+                ],
+                "sampled": ["B00", "B02"],
+            }
+        ],
+        "sampled": ["B00", "B02"],
+    }
+    (tmp_path / "plan.yaml").write_text(yaml.safe_dump(plan))
+    with_plan, without = tmp_path / "with", tmp_path / "without"
+    r = run_blockqc(
+        "inspect", batch, "--plan", tmp_path / "plan.yaml", "--out", with_plan, "--pdf", "sampled"
+    )
+    assert r.returncode == 0, r.stderr
+    assert sorted(p.parent.name for p in with_plan.glob("*/report.pdf")) == ["B00", "B02"]
+    r = run_blockqc("inspect", batch, "--out", without, "--pdf", "sampled")
+    assert r.returncode == 0, r.stderr
+    assert sorted(p.parent.name for p in without.glob("*/report.pdf")) == ["B00", "B01"]
