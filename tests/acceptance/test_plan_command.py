@@ -48,32 +48,19 @@ def test_sample_command_names_a_missing_key(tmp_path: Path) -> None:
     assert not (tmp_path / "p.yaml").exists()
 
 
+def _write_plan_b00_b02(path: Path) -> None:
+    """A plan over B00..B03 (one lot, one stratum) that samples B00 and B02."""
+    stratum = {"value": "", "size": 4, "sample": 2, "units": ["B00", "B01", "B02", "B03"]}
+    sampled = ["B00", "B02"]
+    lot = {"size": 4, "sample_size": 2, "census": False}
+    lot |= {"strata": [stratum | {"sampled": sampled}], "sampled": sampled}
+    plan = {"seed": 0, "units": 4, "sample_size": 2, "lots": [lot], "sampled": sampled}
+    path.write_text(yaml.safe_dump(plan))
+
+
 def test_inspect_with_plan(tmp_path: Path) -> None:
     batch = _batch(tmp_path / "batch", 4, with_cps={0, 1})
-    plan = {
-        "seed": 0,
-        "units": 4,
-        "sample_size": 2,
-        "lots": [
-            {
-                "size": 4,
-                "sample_size": 2,
-                "census": False,
-                "strata": [
-                    {
-                        "value": "",
-                        "size": 4,
-                        "sample": 2,
-                        "units": ["B00", "B01", "B02", "B03"],
-                        "sampled": ["B00", "B02"],
-                    }
-                ],
-                "sampled": ["B00", "B02"],
-            }
-        ],
-        "sampled": ["B00", "B02"],
-    }
-    (tmp_path / "plan.yaml").write_text(yaml.safe_dump(plan))
+    _write_plan_b00_b02(tmp_path / "plan.yaml")
     out = tmp_path / "out"
     r = run_blockqc("inspect", batch, "--plan", tmp_path / "plan.yaml", "--out", out, "--no-pdf")
     assert r.returncode == 0, r.stderr
@@ -179,30 +166,7 @@ def test_pdf_sampled_follows_the_plan(tmp_path: Path) -> None:
     """`--pdf sampled`: the plan's blocks (B00 with checkpoints, B02 without); without a plan,
     the blocks that carry checkpoints (B00, B01)."""
     batch = _batch(tmp_path / "batch", 4, with_cps={0, 1})
-    plan = {
-        "seed": 0,
-        "units": 4,
-        "sample_size": 2,
-        "lots": [
-            {
-                "size": 4,
-                "sample_size": 2,
-                "census": False,
-                "strata": [
-                    {
-                        "value": "",
-                        "size": 4,
-                        "sample": 2,
-                        "units": ["B00", "B01", "B02", "B03"],
-                        "sampled": ["B00", "B02"],
-                    }
-                ],
-                "sampled": ["B00", "B02"],
-            }
-        ],
-        "sampled": ["B00", "B02"],
-    }
-    (tmp_path / "plan.yaml").write_text(yaml.safe_dump(plan))
+    _write_plan_b00_b02(tmp_path / "plan.yaml")
     with_plan, without = tmp_path / "with", tmp_path / "without"
     r = run_blockqc(
         "inspect", batch, "--plan", tmp_path / "plan.yaml", "--out", with_plan, "--pdf", "sampled"
