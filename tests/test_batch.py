@@ -217,3 +217,40 @@ def test_incremental_summary_rewritten_when_an_acceptance_page_is_gone(
     (out / "acceptance.html").unlink()
     assert run_blockqc(*args).stdout.count("outputs reused") == 3
     assert (out / "acceptance.html").is_file()
+
+
+def test_dask_block_of_a_worker_that_dies_runs_again(tmp_path: Path):
+    """A worker process that dies in the middle of a block (killed, out of memory) takes no
+    block with it: the scheduler gives the block to a worker again, and every outcome arrives."""
+    from blockqc.distributed import run_on_dask
+
+    marker = tmp_path / "died-once"
+
+    def job(path: Path, manifest: object) -> str:
+        import os
+
+        if path.name == "B" and not marker.exists():
+            marker.write_text("the worker died here", encoding="utf-8")
+            os._exit(1)
+        return path.name
+
+    got: list[str] = []
+    run_on_dask("local", job, [(tmp_path / name, None) for name in "ABC"], got.append)
+    assert marker.exists() and sorted(got) == ["A", "B", "C"]
+
+
+def test_dask_block_that_raises_once_is_retried(tmp_path: Path):
+    """A task that raises (a file briefly unreachable on the shared disk) is retried."""
+    from blockqc.distributed import run_on_dask
+
+    marker = tmp_path / "raised-once"
+
+    def job(path: Path, manifest: object) -> str:
+        if not marker.exists():
+            marker.write_text("raised", encoding="utf-8")
+            raise OSError("the shared disk did not answer")
+        return path.name
+
+    got: list[str] = []
+    run_on_dask("local", job, [(tmp_path / "A", None)], got.append)
+    assert got == ["A"]
