@@ -195,6 +195,7 @@ def _read_csv(path: Path, schema: TableSchema) -> pd.DataFrame:
         )
     except pa.ArrowInvalid as exc:
         return _read_csv_slow(path, data, str(exc))
+    del data  # the file's bytes, parsed: not held while the frame is built
     return _to_pandas(table, schema)
 
 
