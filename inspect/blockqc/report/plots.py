@@ -60,6 +60,7 @@ def _setup() -> None:
             "font.family": ["DejaVu Sans", FONT_FAMILY],
             "font.size": 8,
             "axes.titlesize": 9,
+            "axes.titley": 1.0,  # titles sit above the axes; matplotlib need not measure overlaps
             "axes.labelsize": 8,
             "legend.fontsize": 7,
             "xtick.labelsize": 7,
