@@ -38,3 +38,15 @@ def test_nesting_of_any_depth_is_refused_not_crashing(depth: int) -> None:
             evaluate(text, NAMES)
         except ExpressionError:
             continue
+
+
+def test_what_python_only_warns_about_is_a_message_not_a_printed_warning(recwarn) -> None:
+    """`1if 1 else 2` parses in Python with a SyntaxWarning on stderr; an expression of a pack
+    is refused with the message instead, and nothing is printed."""
+    import pytest
+
+    with pytest.raises(
+        ExpressionError, match=r"malformed expression '1if 1 else 2': invalid decimal"
+    ):
+        evaluate("1if 1 else 2", {})
+    assert not [w for w in recwarn if issubclass(w.category, SyntaxWarning)]

@@ -10,6 +10,7 @@ import ast
 import difflib
 import math
 import operator
+import warnings
 from collections.abc import Callable, Mapping
 from typing import Any
 
@@ -124,6 +125,14 @@ def _depth(node: ast.AST) -> int:
     return deepest
 
 
+def syntax_tree(text: str) -> ast.Expression:
+    """`ast.parse` of an expression; what Python only warns about (`1if x else 2`, an invalid
+    escape) is refused as the SyntaxError it announces, never printed to the user."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", SyntaxWarning)
+        return ast.parse(text, mode="eval")
+
+
 def parse(expression: str) -> ast.Expression:
     """Parse an expression after bounding its length, then its size and depth."""
     text = expression.strip()
@@ -132,7 +141,7 @@ def parse(expression: str) -> ast.Expression:
             f"expression {_short(text)} is {len(text)} characters long (at most {MAX_LENGTH})"
         )
     try:
-        tree = ast.parse(text, mode="eval")
+        tree = syntax_tree(text)
     except (SyntaxError, ValueError) as exc:
         msg = getattr(exc, "msg", str(exc))
         raise ExpressionError(f"malformed expression {_short(text)}: {msg}") from None

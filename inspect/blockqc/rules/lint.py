@@ -20,7 +20,7 @@ from pydantic import BaseModel, ValidationError
 
 from blockqc.errors import Problem, RuleError
 from blockqc.metrics import REGISTRY, MetricSpec, Scope
-from blockqc.rules.expr import ExpressionError, evaluate, flatten, resolve_params
+from blockqc.rules.expr import ExpressionError, evaluate, flatten, resolve_params, syntax_tree
 from blockqc.rules.model import Pack, Rule
 from blockqc.yamlio import line_of
 
@@ -126,7 +126,7 @@ def referenced_names(value: Any) -> set[str]:
     if not isinstance(value, str) or len(value) > 500:
         return set()
     try:
-        tree = ast.parse(value.strip(), mode="eval")
+        tree = syntax_tree(value.strip())
     except (SyntaxError, ValueError, RecursionError, MemoryError):
         return set()
     out = set()
