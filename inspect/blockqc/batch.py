@@ -363,6 +363,12 @@ class Runner:
     jobs: int = 1
     scheduler: str | None = None
 
+    def __post_init__(self) -> None:
+        if self.scheduler:  # a wrong address is refused before anything is read or written
+            from blockqc.distributed import check_scheduler
+
+            check_scheduler(self.scheduler)
+
     def run(self, job: Job, todo: list[tuple[Path, Manifest | None]], done: Callable) -> None:
         if self.scheduler:
             from blockqc.distributed import run_on_dask
@@ -408,12 +414,13 @@ def run(
     extra = Extra(checkpoints, len(got.deliveries) == 1, plan, meta)
     digest = run_digest(pack, writer, extra) if incremental else None
     todo = [(p, got.manifests.get(p)) for p in got.deliveries if p not in got.refused]
-    (runner or Runner()).run(Job(pack, inspector, writer, digest, extra), todo, finished)
+    runner = runner or Runner()
+    runner.run(Job(pack, inspector, writer, digest, extra), todo, finished)
     outcomes = [done[p] for p in got.deliveries]
     summary = None
     if got.is_batch:
         summary = summarize(outcomes, pack, inspector, extra)
-        _write_summary(writer, summary, outcomes, digest, (runner or Runner()).jobs)
+        _write_summary(writer, summary, outcomes, digest, runner.jobs)
     return outcomes, summary
 
 

@@ -160,10 +160,7 @@ def inspect_cmd(
     from blockqc.outputs import check_out_dir
     from blockqc.rules import load_pack
 
-    if scheduler:
-        from blockqc.distributed import check_scheduler
-
-        check_scheduler(scheduler)
+    runner = batch.Runner(jobs or os.cpu_count() or 1, scheduler)  # its scheduler checked first
     out = check_out_dir(out, paths)
     pack = load_pack(rules_ref)
     inspector = load_inspector_input(verdicts) if verdicts else None
@@ -181,7 +178,6 @@ def inspect_cmd(
         check_blocks(checkpoints, got.deliveries)
     plan, meta = _acceptance_inputs(plan_file, meta_file, got)
     writer = batch.Writer(out, templates, lang, "none" if no_pdf else pdf)
-    runner = batch.Runner(jobs or os.cpu_count() or 1, scheduler)
     show = sys.stderr.isatty() if progress is None else progress
     with _progress(len(got.deliveries) if show else 0) as tick:
         outcomes, summary = batch.run(

@@ -129,7 +129,7 @@ def find_deliveries(path: Path) -> list[Path]:
         )
     if is_delivery(path):
         return [path]
-    found = sorted(p for p in path.iterdir() if p.is_dir() and not p.name.startswith("."))
+    found = [p for p in _members(path) if p.is_dir()]
     if not any(is_delivery(p) for p in found):
         raise InputError(
             Problem(
@@ -146,7 +146,12 @@ def batch_files(path: Path) -> list[Path]:
     path = Path(path)
     if not path.is_dir() or is_delivery(path):
         return []
-    return sorted(p for p in path.iterdir() if not p.is_dir() and not p.name.startswith("."))
+    return [p for p in _members(path) if not p.is_dir()]
+
+
+def _members(batch: Path) -> list[Path]:
+    """What a batch folder holds, sorted; names starting with '.' are not part of it."""
+    return sorted(p for p in batch.iterdir() if not p.name.startswith("."))
 
 
 def _table_file(folder: Path, name: str) -> Path | None:

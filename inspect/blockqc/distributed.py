@@ -47,7 +47,7 @@ def client_for(scheduler: str):
         raise UsageError(
             "--scheduler needs dask.distributed: pip install 'blockqc[dask]'"
         ) from None
-    if check_scheduler(scheduler) == "local":
+    if scheduler == "local":
         with LocalCluster(processes=True, threads_per_worker=1) as cluster, Client(cluster) as c:
             yield c
         return
