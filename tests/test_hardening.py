@@ -722,3 +722,20 @@ def test_parquet_tie_points_written_from_categoricals(blockqc, delivery: Path, t
         tmp_path / "out",
         "tie_points.parquet, row 5, column 'point_id': empty value where one is required",
     )
+
+
+def test_parquet_tie_points_with_a_pandas_index_judge_as_csv(
+    blockqc, delivery: Path, tmp_path: Path
+) -> None:
+    """Tie points written by pandas with their own index (rows renumbered from 1000): the index
+    is one more column, kept untouched, and the rows judge as the CSV's."""
+    first = blockqc("inspect", delivery, "--out", tmp_path / "csv", "--no-pdf")
+    tp = pd.read_csv(delivery / "tie_points.csv", dtype={"point_id": str, "scene_id": str})
+    (delivery / "tie_points.csv").unlink()
+    tp.set_axis(tp.index + 1000).to_parquet(delivery / "tie_points.parquet", index=True)
+    second = blockqc("inspect", delivery, "--out", tmp_path / "pq", "--no-pdf")
+    assert first.returncode == second.returncode, second.stderr
+    a, b = (json.loads((tmp_path / d / "CASE" / "results.json").read_text()) for d in ("csv", "pq"))
+    assert [(r["rule"], r["status"], r["value"]) for r in a["results"]] == [
+        (r["rule"], r["status"], r["value"]) for r in b["results"]
+    ]

@@ -41,3 +41,90 @@ def test_rms_of_errors_too_large_to_square_by_hand() -> None:
     assert per.loc["a", "rms"] == np.sqrt(12.5)  # √((9 + 16) / 2), unscaled
     assert per.loc["b", "rms"] == pytest.approx(1e300 / np.sqrt(2.0), rel=1e-12)
     assert per.loc["b", "max"] == 1e300 and per.loc["a", "n"] == 2
+
+
+@given(
+    st.lists(
+        st.tuples(st.sampled_from(["s1", "s2", "s3", None]), st.floats(0, 3, allow_nan=False)),
+        min_size=1,
+        max_size=200,
+    ),
+    st.booleans(),
+)
+@settings(max_examples=200, deadline=None)
+def test_per_scene_statistics_as_a_pandas_groupby(rows, categorical: bool) -> None:
+    """Per scene: n, median, RMS, mean, max and the share in (1.0, 1.5] as pandas computes them
+    from a frame grouped by scene (rows of no scene left out); ids as Categorical or text."""
+    import pandas as pd
+
+    from blockqc.metrics.tiepoints import _stats
+
+    frame = pd.DataFrame(rows, columns=["scene", "e"])
+    scene = frame["scene"].astype("category" if categorical else object)
+    got = _stats(frame["e"], scene, 1.0, 1.5)
+    g = frame.dropna(subset=["scene"]).groupby("scene")["e"]
+    assert sorted(got.index) == sorted(g.groups)
+    for sid, e in g:
+        row = got.loc[sid]
+        inside = int(((e > 1.0) & (e <= 1.5)).sum())
+        assert row["n"] == len(e) and row["n_in_interval"] == inside
+        assert row["median"] == pytest.approx(e.median(), abs=1e-12)
+        assert row["mean"] == pytest.approx(e.mean(), abs=1e-12)
+        assert row["max"] == e.max()
+        assert row["rms"] == pytest.approx(np.sqrt((e**2).mean()), abs=1e-12)
+        assert row["share_in_interval"] == pytest.approx(100.0 * inside / len(e))
+
+
+@given(st.lists(st.sampled_from(["a", "b", "c", "d", None]), max_size=100), st.booleans())
+@settings(max_examples=200, deadline=None)
+def test_distinct_count_as_nunique(values, categorical: bool) -> None:
+    """The count of distinct ids, missing ones aside, as pandas' nunique; a Categorical's
+    unused categories are not counted."""
+    import pandas as pd
+
+    from blockqc.delivery import distinct_count
+
+    s = pd.Series(values, dtype=object)
+    if categorical:
+        s = s.astype(pd.CategoricalDtype(["a", "b", "c", "d", "unused"]))
+    assert distinct_count(s) == len({v for v in values if v is not None})
+
+
+@given(
+    st.lists(st.sampled_from(["a", "b", "c", "x", None]), max_size=100),
+    st.lists(st.floats(-0.5, 2000.5, allow_nan=False), min_size=100, max_size=100),
+    st.integers(1, 7),
+)
+@settings(max_examples=200, deadline=None)
+def test_scene_positions_and_cells_as_written(ids, positions, k: int) -> None:
+    """Each row's scene position as a lookup per row (get_indexer), a Categorical's or not;
+    its cell along an axis as the formula min(max(trunc(position / extent × k), 0), k − 1)."""
+    import pandas as pd
+
+    from blockqc.metrics.tiepoints import _cell_along, scene_positions
+
+    scenes = pd.Series(["c", "a", "b"])
+    expected = [["c", "a", "b"].index(v) if v in ("a", "b", "c") else -1 for v in ids]
+    for s in (pd.Series(ids, dtype=object), pd.Series(ids, dtype="category")):
+        assert scene_positions(s, scenes).tolist() == expected
+    code = np.array([i for i in expected if i >= 0], dtype=np.int64)
+    extent = np.array([2000.0, 1000.0, 3.0])
+    pos = np.array(positions[: code.size])
+    want = [min(max(int(p / extent[c] * k), 0), k - 1) for p, c in zip(pos, code, strict=True)]
+    assert _cell_along(pos, extent, code, k).tolist() == want
+
+
+def test_tie_points_of_some_bands_taken_once_and_again_when_replaced(tmp_path) -> None:
+    """The PAN scenes' tie points are taken once for every measurement that asks; all scenes'
+    are the delivery's own frame; a replaced tie-point frame is taken again."""
+    from blockqc.delivery import load_delivery
+    from blockqc.metrics.tiepoints import _select
+    from casekit import write_delivery
+
+    d = load_delivery(write_delivery(tmp_path / "block"))
+    scenes, pan = _select(d, ["pan"])
+    assert set(scenes["band"]) == {"pan"} and _select(d, ["pan"])[1] is pan
+    assert set(pan["scene_id"]) == set(scenes["scene_id"]) & set(d.tie_points["scene_id"])
+    assert _select(d, None)[1] is d.tie_points
+    d.tie_points = d.tie_points.iloc[:10]
+    assert len(_select(d, ["pan"])[1]) <= 10

@@ -101,6 +101,11 @@ class Delivery:
     adjustment: pd.DataFrame | None = None
     geometry: BlockGeometry | None = None
     process_data: dict[str, Any] = field(default_factory=dict)
+    # subsets of the tie points that several measurements share (e.g. those on PAN scenes),
+    # made once: key -> ((the tie_points and scenes frames it was taken from), the subset)
+    selections: dict[Any, tuple[tuple[pd.DataFrame, pd.DataFrame], pd.DataFrame]] = field(
+        default_factory=dict, repr=False, compare=False
+    )
 
     @property
     def block_id(self) -> str:
@@ -201,23 +206,40 @@ def _read_csv(path: Path, schema: TableSchema) -> pd.DataFrame:
     except pa.ArrowInvalid as exc:
         return _read_csv_slow(path, data, str(exc))
     del data  # the file's bytes, parsed: not held while the frame is built
-    return _to_pandas(table, schema)
+    handed, table = [table], None
+    return _to_pandas(handed, schema)
 
 
-def _to_pandas(table: pa.Table, schema: TableSchema) -> pd.DataFrame:
-    """Arrow to pandas; the schema's key columns (ids repeated over millions of rows) become
-    Categoricals made in Arrow, so no Python string is made per row."""
+def _to_pandas(handed: list[pa.Table], schema: TableSchema) -> pd.DataFrame:
+    """Arrow to pandas column by column, each Arrow column let go once converted (the table is
+    handed over in a list, so that no caller keeps it alive). The schema's key columns (ids
+    repeated over millions of rows) become Categoricals made in Arrow, so no Python string is
+    made per row; floats become numpy arrays, copied once. The pandas metadata a Parquet file
+    may carry is not applied: an index written by pandas is one more column."""
+    table = handed.pop()
     keys = {c.name for c in schema.columns if c.category}
     names = table.column_names
-    special = [
-        i
-        for i, f in enumerate(table.schema)
-        if f.name in keys and names.count(f.name) == 1 and _is_text(f.type)
-    ]
-    df = table.drop_columns([names[i] for i in special]).to_pandas()
-    for i in special:
-        df.insert(i, names[i], _categorical(table.column(i)))
-    return df
+    converted: dict[str, Any] = {}
+    for f in table.schema:
+        text = f.name in keys and _is_text(f.type)
+        if names.count(f.name) == 1 and (text or pa.types.is_floating(f.type)):
+            col = table.column(f.name)
+            table = table.drop_columns([f.name])
+            converted[f.name] = _categorical(col) if text else col.to_numpy()
+            del col
+    rest = table.to_pandas(ignore_metadata=True)
+    del table
+    others = iter(range(rest.shape[1]))
+    frame = pd.DataFrame(
+        {
+            i: converted[n] if n in converted else rest.iloc[:, next(others)]
+            for i, n in enumerate(names)
+        },
+        index=rest.index,
+        copy=False,
+    )
+    frame.columns = pd.Index(names, dtype=object)
+    return frame
 
 
 def _is_text(t: pa.DataType) -> bool:
@@ -238,22 +260,22 @@ def _categorical(col: pa.ChunkedArray) -> pd.Categorical:
         return pd.Categorical([], categories=pd.Index([], dtype=object))
     dictionary = pa.types.is_dictionary(col.type)
     enc = _unified(col) if dictionary else None
-    if enc is None:
-        enc = pc.dictionary_encode(col.cast(col.type.value_type) if dictionary else col)
+    if enc is None:  # one chunk encodes faster than many
+        col = col.cast(col.type.value_type) if dictionary else col
+        enc = pa.chunked_array([pc.dictionary_encode(col.combine_chunks())])
     words = enc.chunk(enc.num_chunks - 1).dictionary
     indices = pa.chunked_array([c.indices for c in enc.chunks], enc.type.index_type)
     stripped = pc.utf8_trim_whitespace(words)
     if not stripped.equals(words):  # some ids carried spaces: encode the stripped ones
         enc = pc.dictionary_encode(pc.take(stripped, indices)).combine_chunks()
         stripped, indices = enc.dictionary, enc.indices
-    codes = indices.fill_null(-1).to_numpy().astype(np.int64)
-    values = stripped.to_numpy(zero_copy_only=False)
-    empty = values == ""
+    codes = indices.fill_null(-1).to_numpy()
+    empty = pc.equal(stripped, "").to_numpy(zero_copy_only=False)
     if empty.any():
         remap = np.where(empty, -1, np.cumsum(~empty) - 1)
         codes = np.where(codes >= 0, remap[np.maximum(codes, 0)], -1)
-        values = values[~empty]
-    return pd.Categorical.from_codes(codes, dtype=_distinct_categories(values), validate=False)
+        stripped = stripped.filter(pa.array(~empty))
+    return pd.Categorical.from_codes(codes, dtype=_distinct_categories(stripped), validate=False)
 
 
 def _unified(col: pa.ChunkedArray) -> pa.ChunkedArray | None:
@@ -267,11 +289,12 @@ def _unified(col: pa.ChunkedArray) -> pa.ChunkedArray | None:
     return enc if pc.count_distinct(words).as_py() == len(words) else None
 
 
-def _distinct_categories(values: np.ndarray) -> pd.CategoricalDtype:
-    """The dtype of categories known to be distinct (a dictionary's values): pandas' own check
+def _distinct_categories(values: pa.Array) -> pd.CategoricalDtype:
+    """The dtype of categories known to be distinct (a dictionary's values), as pandas holds
+    text (kept in Arrow where pandas does, no Python string per value): pandas' own check
     hashes every value again, seconds for millions of point ids, so it is skipped when the
     installed pandas offers its fast path."""
-    index = pd.Index(values, dtype=object)
+    index = pd.Index(values.to_pandas())
     fast = getattr(pd.CategoricalDtype, "_from_fastpath", None)
     return fast(index, ordered=False) if fast else pd.CategoricalDtype(index)
 
@@ -322,7 +345,7 @@ def _read_parquet(path: Path, schema: TableSchema) -> pd.DataFrame:
                     for n in repeated
                 ]
             )
-        table = pq.read_table(path, read_dictionary=_bounded_keys(schema, found))
+        table = _parquet_table(path, _bounded_keys(schema, found))
     except (pa.ArrowException, OSError) as exc:
         raise InputError(Problem(str(path), f"not a readable Parquet table: {exc}")) from None
     names = {c.name for c in schema.columns}
@@ -343,9 +366,19 @@ def _read_parquet(path: Path, schema: TableSchema) -> pd.DataFrame:
         for i, f in enumerate(table.schema):  # text stored as bytes: read as UTF-8 text
             if f.name in names and (pa.types.is_binary(f.type) or pa.types.is_large_binary(f.type)):
                 table = table.set_column(i, f.name, table.column(i).cast(pa.string()))
-        return _to_pandas(table, schema)
+        handed, table = [table], None
+        return _to_pandas(handed, schema)
     except (pa.ArrowException, ValueError, OverflowError) as exc:
         raise InputError(Problem(str(path), f"not a readable Parquet table: {exc}")) from None
+
+
+def _parquet_table(path: Path, dictionary: list[str]) -> pa.Table:
+    """A Parquet file's table with each column in one piece (so that a float column becomes a
+    numpy array without a copy) and without reading the file ahead into memory; a folder of
+    Parquet files is read as one dataset."""
+    if path.is_dir():
+        return pq.read_table(path, read_dictionary=dictionary)
+    return pq.ParquetFile(path, read_dictionary=dictionary, pre_buffer=False).read()
 
 
 def _bounded_keys(schema: TableSchema, found: pa.Schema) -> list[str]:
@@ -551,9 +584,19 @@ def summary(d: Delivery) -> dict[str, Any]:
     return {
         "scenes": len(d.scenes),
         "tie_point_observations": len(d.tie_points),
-        "tie_points": int(d.tie_points["point_id"].nunique()),
-        "checkpoints": 0 if d.checkpoints is None else int(d.checkpoints["point_id"].nunique()),
+        "tie_points": distinct_count(d.tie_points["point_id"]),
+        "checkpoints": 0 if d.checkpoints is None else distinct_count(d.checkpoints["point_id"]),
     }
+
+
+def distinct_count(values: pd.Series) -> int:
+    """How many distinct values, missing ones aside; a Categorical's counted by one bincount
+    of its codes (millions of point ids are not hashed again)."""
+    if not isinstance(values.dtype, pd.CategoricalDtype):
+        return int(values.nunique())
+    codes = values.cat.codes.to_numpy()
+    counts = np.bincount(codes + 1, minlength=len(values.cat.categories) + 1)
+    return int(np.count_nonzero(counts[1:]))
 
 
 def block_scenes(

@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from blockqc.delivery import Delivery
+from blockqc.delivery import Delivery, distinct_count
 from blockqc.metrics import Measure, Measurement, Scope, Table, metric, not_applicable
 from blockqc.spatial import clark_evans_grouped
 
@@ -45,8 +45,16 @@ def tie_point_error_px(v_line: np.ndarray, v_sample: np.ndarray) -> np.ndarray:
 
 
 def _select(d: Delivery, bands: list[str] | None) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The scenes of the bands given (None: all) and their tie points; the tie points are
+    taken once per delivery and bands (the same rows serve every measurement), and not copied
+    when they are all of them."""
     scenes = d.scenes if bands is None else d.scenes[d.scenes["band"].isin(bands)]
-    tp = d.tie_points[d.tie_points["scene_id"].isin(scenes["scene_id"])]
+    key = ("bands", None if bands is None else tuple(sorted(set(bands))))
+    (tie_points, all_scenes), tp = d.selections.get(key, ((None, None), None))
+    if tie_points is not d.tie_points or all_scenes is not d.scenes or tp is None:
+        on = d.tie_points["scene_id"].isin(scenes["scene_id"]).to_numpy()
+        tp = d.tie_points if on.all() else d.tie_points[on]
+        d.selections[key] = ((d.tie_points, d.scenes), tp)
     return scenes, tp
 
 
@@ -68,25 +76,24 @@ def _stats(err: pd.Series, by: pd.Series | None, lo: float, hi: float) -> pd.Dat
     else:
         codes, labels = pd.factorize(by, sort=False)
     e = err.to_numpy()
+    if codes.min(initial=0) < 0:  # rows of no group (a missing key) are left out
+        e, codes = e[codes >= 0], codes[codes >= 0]
     scale = _square_scale(e, codes)
-    frame = pd.DataFrame(
-        {
-            "e": e,
-            "e2": e**2 if scale is None else (e / scale[np.maximum(codes, 0)]) ** 2,
-            "inside": ((err > lo) & (err <= hi)).to_numpy(),
-            "g": codes,
-        }
-    )
-    g = (frame if codes.min(initial=0) >= 0 else frame[frame["g"] >= 0]).groupby("g", sort=False)
-    rms = np.sqrt(g["e2"].mean())
+    # one Series per statistic's input, grouped by the codes: no frame of them is stacked
+    g = pd.Series(e, copy=False).groupby(codes, sort=False)
+    e2 = e**2 if scale is None else (e / scale[codes]) ** 2
+    rms = np.sqrt(pd.Series(e2, copy=False).groupby(codes, sort=False).mean())
+    del e2
+    n = g.size()
+    inside = np.bincount(codes[(e > lo) & (e <= hi)], minlength=int(codes.max(initial=0)) + 1)
     out = pd.DataFrame(
         {
-            "n": g["e"].size(),
-            "median": g["e"].median(),
+            "n": n,
+            "median": g.median(),
             "rms": rms if scale is None else rms * scale[rms.index.to_numpy()],
-            "mean": g["e"].mean(),
-            "max": g["e"].max(),
-            "n_in_interval": g["inside"].sum(),
+            "mean": g.mean(),
+            "max": g.max(),
+            "n_in_interval": inside[n.index.to_numpy()],
         }
     )
     out.index = pd.Index(np.asarray(labels, dtype=object)[out.index.to_numpy()])
@@ -211,7 +218,7 @@ def tie_point_errors(d: Delivery, p: ErrorParams, measure: Measure) -> Measureme
         tie_point_error_px(tp["v_line"].to_numpy(), tp["v_sample"].to_numpy()), index=tp.index
     )
     block = _stats(err, None, lo, hi).reset_index(drop=True)
-    block.insert(0, "n_points", tp["point_id"].nunique())
+    block.insert(0, "n_points", distinct_count(tp["point_id"]))
     per_scene = _stats(err, tp["scene_id"], lo, hi).rename_axis("scene_id").reset_index()
     per_scene = scenes[["scene_id"]].merge(per_scene, on="scene_id", how="left")
     per_scene["n"] = per_scene["n"].fillna(0).astype(int)
@@ -321,13 +328,12 @@ def _per_scene_cells(scenes: pd.DataFrame, tp: pd.DataFrame, p: DistributionPara
     """
     k = p.grid
     out = scenes[["scene_id", "band", "lines", "samples"]].reset_index(drop=True)
-    code = pd.Index(out["scene_id"]).get_indexer(tp["scene_id"])
-    lines = out["lines"].to_numpy(dtype=float)[code]
-    samples = out["samples"].to_numpy(dtype=float)[code]
-    row = np.clip((tp["line"].to_numpy() / lines * k).astype(int), 0, k - 1)
-    col = np.clip((tp["sample"].to_numpy() / samples * k).astype(int), 0, k - 1)
+    code = scene_positions(tp["scene_id"], out["scene_id"])
+    cell = code * (k * k)  # the (scene, row, column) cell of each observation, summed in place
+    cell += k * _cell_along(tp["line"].to_numpy(), out["lines"].to_numpy(dtype=float), code, k)
+    cell += _cell_along(tp["sample"].to_numpy(), out["samples"].to_numpy(dtype=float), code, k)
     n_cells = len(out) * k * k
-    per_cell = np.bincount(code * k * k + row * k + col, minlength=n_cells).reshape(len(out), -1)
+    per_cell = np.bincount(cell, minlength=n_cells).reshape(len(out), -1)
     water = (
         scenes["water_fraction"].to_numpy(dtype=float)
         if "water_fraction" in scenes
@@ -341,6 +347,27 @@ def _per_scene_cells(scenes: pd.DataFrame, tp: pd.DataFrame, p: DistributionPara
     out["cells_expected"] = np.maximum(1, np.round(k * k * land)).astype(int)
     out["coverage"] = np.minimum(1.0, out["cells_covered"] / out["cells_expected"])
     return out
+
+
+def scene_positions(scene_id: pd.Series, scene_ids: pd.Series) -> np.ndarray:
+    """Each row's position in `scene_ids` (-1 when absent); a Categorical is looked up once per
+    distinct scene, its codes then taken, instead of once per row."""
+    index = pd.Index(scene_ids)
+    if not isinstance(scene_id.dtype, pd.CategoricalDtype):
+        return index.get_indexer(scene_id)
+    found = np.append(index.get_indexer(scene_id.cat.categories), -1)  # code -1: missing
+    return found[scene_id.cat.codes.to_numpy()]
+
+
+def _cell_along(position: np.ndarray, extent: np.ndarray, code: np.ndarray, k: int) -> np.ndarray:
+    """The cell (0..k-1) of each position along one image axis of k cells: position / its
+    scene's extent × k, truncated, clipped; computed in place over the rows."""
+    x = extent[code]
+    np.divide(position, x, out=x)
+    x *= k
+    i = x.astype(np.int64)
+    del x
+    return np.clip(i, 0, k - 1, out=i)
 
 
 def _clark_evans_per_scene(tp: pd.DataFrame, geo: pd.DataFrame) -> pd.Series:
