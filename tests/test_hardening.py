@@ -645,15 +645,21 @@ def test_parquet_tie_points_empty_dictionary_ids(blockqc, delivery: Path, tmp_pa
     """An empty table whose ids are dictionaries (an empty Categorical written out) is refused
     as an empty table, not as an unreadable file."""
 
-    tp = pd.read_csv(delivery / "tie_points.csv", dtype={"point_id": str, "scene_id": str})
+    tp = _read_tie_points(delivery)
     (delivery / "tie_points.csv").unlink()
     empty = tp.iloc[:0].astype({"scene_id": "category"})
     empty.to_parquet(delivery / "tie_points.parquet", index=False)
     _refused(blockqc, delivery, tmp_path / "out", "tie_points.parquet: the table has a header")
 
 
+def _read_tie_points(delivery: Path) -> pd.DataFrame:
+    """The delivery's tie points as written (ids as text, numbers parsed back exactly)."""
+    ids = {"point_id": str, "scene_id": str}
+    return pd.read_csv(delivery / "tie_points.csv", dtype=ids, engine="pyarrow")
+
+
 def _tie_points_as_parquet(delivery: Path, edit=None) -> None:
-    tp = pd.read_csv(delivery / "tie_points.csv", dtype={"point_id": str, "scene_id": str})
+    tp = _read_tie_points(delivery)
     if edit is not None:
         edit(tp)
     (delivery / "tie_points.csv").unlink()
@@ -730,7 +736,7 @@ def test_parquet_tie_points_with_a_pandas_index_judge_as_csv(
     """Tie points written by pandas with their own index (rows renumbered from 1000): the index
     is one more column, kept untouched, and the rows judge as the CSV's."""
     first = blockqc("inspect", delivery, "--out", tmp_path / "csv", "--no-pdf")
-    tp = pd.read_csv(delivery / "tie_points.csv", dtype={"point_id": str, "scene_id": str})
+    tp = _read_tie_points(delivery)
     (delivery / "tie_points.csv").unlink()
     tp.set_axis(tp.index + 1000).to_parquet(delivery / "tie_points.parquet", index=True)
     second = blockqc("inspect", delivery, "--out", tmp_path / "pq", "--no-pdf")

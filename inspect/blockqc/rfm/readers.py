@@ -22,15 +22,16 @@ import re
 import warnings
 from collections.abc import Callable, Mapping
 from pathlib import Path
+from typing import TYPE_CHECKING
 from xml.etree import ElementTree
 
 import numpy as np
-import rasterio
-from rasterio.errors import NotGeoreferencedWarning, RasterioIOError
-from rasterio.io import DatasetReader
 
 from blockqc.errors import InputError, Problem
 from blockqc.rfm.model import OFFSET_SCALE_KEYS, RPCModel
+
+if TYPE_CHECKING:
+    from rasterio.io import DatasetReader
 
 COEFF_KEYS = ("line_num", "line_den", "samp_num", "samp_den")
 
@@ -351,7 +352,11 @@ def read_rpc_json(path: Path, text: str | None = None) -> RPCModel:
 # -- GDAL (GeoTIFF / NITF tags, GDAL sidecars) ------------------------------------------------
 def open_raster(path: Path | str) -> DatasetReader:
     """`rasterio.open` without GDAL's 'no geotransform' warning, which every image in sensor
-    geometry would raise; an unreadable file is an InputError naming it."""
+    geometry would raise; an unreadable file is an InputError naming it. (rasterio is imported
+    here: a delivery's RPCs are mostly text, and GDAL takes a tenth of a second to load.)"""
+    import rasterio
+    from rasterio.errors import NotGeoreferencedWarning, RasterioIOError
+
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", NotGeoreferencedWarning)
         try:
