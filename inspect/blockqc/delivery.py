@@ -260,9 +260,11 @@ def _categorical(col: pa.ChunkedArray) -> pd.Categorical:
         return pd.Categorical([], categories=pd.Index([], dtype=object))
     dictionary = pa.types.is_dictionary(col.type)
     enc = _unified(col) if dictionary else None
-    if enc is None:  # one chunk encodes faster than many
+    if enc is None:
         col = col.cast(col.type.value_type) if dictionary else col
-        enc = pa.chunked_array([pc.dictionary_encode(col.combine_chunks())])
+        if col.nbytes < 2**31:  # one chunk encodes faster (its text must fit 32-bit offsets)
+            col = pa.chunked_array([col.combine_chunks()])
+        enc = pc.dictionary_encode(col)
     words = enc.chunk(enc.num_chunks - 1).dictionary
     indices = pa.chunked_array([c.indices for c in enc.chunks], enc.type.index_type)
     stripped = pc.utf8_trim_whitespace(words)

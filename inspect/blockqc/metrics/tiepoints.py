@@ -288,7 +288,7 @@ def tie_point_distribution(d: Delivery, p: DistributionParams, measure: Measure)
     def scene_points(scene_ids: list[str], cap: int = 2000) -> dict:
         """Tie-point positions of the scenes named (at most `cap` each), for maps."""
         sub = tp[tp["scene_id"].isin(scene_ids)]
-        sub = sub.groupby("scene_id", sort=False).head(cap)
+        sub = sub.groupby("scene_id", sort=False, observed=True).head(cap)
         return {
             sid: {
                 "lines": int(geo.loc[sid, "lines"]),
@@ -296,7 +296,7 @@ def tie_point_distribution(d: Delivery, p: DistributionParams, measure: Measure)
                 "line": g["line"].round(1).tolist(),
                 "sample": g["sample"].round(1).tolist(),
             }
-            for sid, g in sub.groupby("scene_id", sort=False)
+            for sid, g in sub.groupby("scene_id", sort=False, observed=True)
         }
 
     return Measurement(
