@@ -214,8 +214,9 @@ def _to_pandas(handed: list[pa.Table], schema: TableSchema) -> pd.DataFrame:
     """Arrow to pandas column by column, each Arrow column let go once converted (the table is
     handed over in a list, so that no caller keeps it alive). The schema's key columns (ids
     repeated over millions of rows) become Categoricals made in Arrow, so no Python string is
-    made per row; floats become numpy arrays, copied once. The pandas metadata a Parquet file
-    may carry is not applied: an index written by pandas is one more column."""
+    made per row; floats become numpy arrays (a column in one piece is not copied). The pandas
+    metadata a Parquet file may carry is not applied: an index written by pandas is one more
+    column."""
     table = handed.pop()
     keys = {c.name for c in schema.columns if c.category}
     names = table.column_names
