@@ -745,3 +745,41 @@ def test_parquet_tie_points_with_a_pandas_index_judge_as_csv(
     assert [(r["rule"], r["status"], r["value"]) for r in a["results"]] == [
         (r["rule"], r["status"], r["value"]) for r in b["results"]
     ]
+
+
+@pytest.mark.parametrize("blank", [False, True])
+def test_parquet_point_ids_encoded_while_reading_give_the_same(
+    delivery: Path, monkeypatch, blank: bool
+) -> None:
+    """Point ids encoded by a second thread while the other columns are read (a large file)
+    give the same tie points, or the same problems, as when they are encoded after the read."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from blockqc import delivery as reader
+    from blockqc.errors import InputError
+
+    def pad(tp: pd.DataFrame) -> None:
+        tp["point_id"] = " " + tp["point_id"]
+        if blank:
+            tp.loc[4, "point_id"] = " "
+
+    _tie_points_as_parquet(delivery, pad)
+
+    def read() -> pd.DataFrame | list[str]:
+        try:
+            return reader.load_delivery(delivery).tie_points
+        except InputError as exc:
+            return [str(p) for p in exc.problems]
+
+    after = read()
+    encoders = []
+    monkeypatch.setattr(reader, "EARLY_ROWS", 1)
+    monkeypatch.setattr(
+        reader, "ThreadPoolExecutor", lambda n: encoders.append(n) or ThreadPoolExecutor(n)
+    )
+    early = read()
+    assert encoders == [1]  # the tie points' ids, and no other table's
+    if blank:
+        assert early == after and any("row 5, column 'point_id'" in m for m in early)
+    else:
+        pd.testing.assert_frame_equal(early, after)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import difflib
 import io
 import re
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -210,14 +211,16 @@ def _read_csv(path: Path, schema: TableSchema) -> pd.DataFrame:
     return _to_pandas(handed, schema)
 
 
-def _to_pandas(handed: list[pa.Table], schema: TableSchema) -> pd.DataFrame:
+def _to_pandas(
+    handed: list[pa.Table], schema: TableSchema, early: dict[str, Future] | None = None
+) -> pd.DataFrame:
     """Arrow to pandas column by column, each Arrow column let go once converted (the table is
     handed over in a list, so that no caller keeps it alive). The schema's key columns (ids
     repeated over millions of rows) become Categoricals made in Arrow, so no Python string is
     made per row; floats become numpy arrays (a column in one piece is not copied). The pandas
     metadata a Parquet file may carry is not applied: an index written by pandas is one more
-    column."""
-    table = handed.pop()
+    column. `early`: key columns already being encoded (`_parquet_table`)."""
+    table, early = handed.pop(), early or {}
     keys = {c.name for c in schema.columns if c.category}
     names = table.column_names
     converted: dict[str, Any] = {}
@@ -226,7 +229,10 @@ def _to_pandas(handed: list[pa.Table], schema: TableSchema) -> pd.DataFrame:
         if names.count(f.name) == 1 and (text or pa.types.is_floating(f.type)):
             col = table.column(f.name)
             table = table.drop_columns([f.name])
-            converted[f.name] = _categorical(col) if text else col.to_numpy()
+            if f.name in early:
+                converted[f.name] = early[f.name].result()
+            else:
+                converted[f.name] = _categorical(col) if text else col.to_numpy()
             del col
     rest = table.to_pandas(ignore_metadata=True)
     del table
@@ -348,7 +354,7 @@ def _read_parquet(path: Path, schema: TableSchema) -> pd.DataFrame:
                     for n in repeated
                 ]
             )
-        table = _parquet_table(path, _bounded_keys(schema, found))
+        table, early = _parquet_table(path, schema, found)
     except (pa.ArrowException, OSError) as exc:
         raise InputError(Problem(str(path), f"not a readable Parquet table: {exc}")) from None
     names = {c.name for c in schema.columns}
@@ -370,18 +376,40 @@ def _read_parquet(path: Path, schema: TableSchema) -> pd.DataFrame:
             if f.name in names and (pa.types.is_binary(f.type) or pa.types.is_large_binary(f.type)):
                 table = table.set_column(i, f.name, table.column(i).cast(pa.string()))
         handed, table = [table], None
-        return _to_pandas(handed, schema)
+        return _to_pandas(handed, schema, early)
     except (pa.ArrowException, ValueError, OverflowError) as exc:
         raise InputError(Problem(str(path), f"not a readable Parquet table: {exc}")) from None
 
 
-def _parquet_table(path: Path, dictionary: list[str]) -> pa.Table:
+#: from this many rows, a Parquet table's text keys (point ids) are encoded by a second thread
+#: while its other columns are read
+EARLY_ROWS = 1_000_000
+
+
+def _parquet_table(
+    path: Path, schema: TableSchema, found: pa.Schema
+) -> tuple[pa.Table, dict[str, Future]]:
     """A Parquet file's table with each column in one piece (so that a float column becomes a
-    numpy array without a copy) and without reading the file ahead into memory; a folder of
-    Parquet files is read as one dataset."""
+    numpy array without a copy), not read ahead into memory; a folder of Parquet files is read
+    as one dataset. In a large file, the key columns that are not decoded into a dictionary
+    (point ids: millions of distinct values) are read first and encoded by a second thread
+    while the other columns are read (`_to_pandas` takes the encodings)."""
+    dictionary = _bounded_keys(schema, found)
     if path.is_dir():
-        return pq.read_table(path, read_dictionary=dictionary)
-    return pq.ParquetFile(path, read_dictionary=dictionary, pre_buffer=False).read()
+        return pq.read_table(path, read_dictionary=dictionary), {}
+    parquet = pq.ParquetFile(path, read_dictionary=dictionary, pre_buffer=False)
+    keys = {c.name for c in schema.columns if c.category}
+    first = [
+        f.name for f in found if f.name in keys and f.name not in dictionary and _is_text(f.type)
+    ]
+    if not first or parquet.metadata.num_rows < EARLY_ROWS:
+        return parquet.read(), {}
+    head = parquet.read(columns=first)
+    with ThreadPoolExecutor(1) as encoder:
+        early = {name: encoder.submit(_categorical, head.column(name)) for name in first}
+        rest = parquet.read(columns=[n for n in found.names if n not in first])
+    both = [head.column(n) if n in first else rest.column(n) for n in found.names]
+    return pa.table(both, names=found.names), early
 
 
 def _bounded_keys(schema: TableSchema, found: pa.Schema) -> list[str]:
