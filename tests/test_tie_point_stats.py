@@ -101,7 +101,8 @@ def test_scene_positions_and_cells_as_written(ids, positions, k: int) -> None:
     its cell along an axis as the formula min(max(trunc(position / extent × k), 0), k − 1)."""
     import pandas as pd
 
-    from blockqc.metrics.tiepoints import _cell_along, scene_positions
+    from blockqc.delivery import scene_positions
+    from blockqc.metrics.tiepoints import _cell_along
 
     scenes = pd.Series(["c", "a", "b"])
     expected = [["c", "a", "b"].index(v) if v in ("a", "b", "c") else -1 for v in ids]

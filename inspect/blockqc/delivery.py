@@ -221,12 +221,12 @@ def _to_pandas(
     metadata a Parquet file may carry is not applied: an index written by pandas is one more
     column. `early`: key columns already being encoded (`_parquet_table`)."""
     table, early = handed.pop(), early or {}
-    keys = {c.name for c in schema.columns if c.category}
+    keys = _text_keys(schema, table.schema)
     names = table.column_names
     converted: dict[str, Any] = {}
     for f in table.schema:
-        text = f.name in keys and _is_text(f.type)
-        if names.count(f.name) == 1 and (text or pa.types.is_floating(f.type)):
+        text = f.name in keys
+        if text or (names.count(f.name) == 1 and pa.types.is_floating(f.type)):
             col = table.column(f.name)
             table = table.drop_columns([f.name])
             if f.name in early:
@@ -247,6 +247,16 @@ def _to_pandas(
     )
     frame.columns = pd.Index(names, dtype=object)
     return frame
+
+
+def _text_keys(schema: TableSchema, found: pa.Schema) -> list[str]:
+    """The schema's key columns (`category`) that the table gives once, as text: they become
+    Categoricals."""
+    keys = {c.name for c in schema.columns if c.category}
+    names = found.names
+    return [
+        f.name for f in found if f.name in keys and names.count(f.name) == 1 and _is_text(f.type)
+    ]
 
 
 def _is_text(t: pa.DataType) -> bool:
@@ -398,10 +408,7 @@ def _parquet_table(
     if path.is_dir():
         return pq.read_table(path, read_dictionary=dictionary), {}
     parquet = pq.ParquetFile(path, read_dictionary=dictionary, pre_buffer=False)
-    keys = {c.name for c in schema.columns if c.category}
-    first = [
-        f.name for f in found if f.name in keys and f.name not in dictionary and _is_text(f.type)
-    ]
+    first = [name for name in _text_keys(schema, found) if name not in dictionary]
     if not first or parquet.metadata.num_rows < EARLY_ROWS:
         return parquet.read(), {}
     head = parquet.read(columns=first)
@@ -628,6 +635,16 @@ def distinct_count(values: pd.Series) -> int:
     codes = values.cat.codes.to_numpy()
     counts = np.bincount(codes + 1, minlength=len(values.cat.categories) + 1)
     return int(np.count_nonzero(counts[1:]))
+
+
+def scene_positions(scene_id: pd.Series, scene_ids: Any) -> np.ndarray:
+    """Each row's position in `scene_ids` (-1 when absent); a Categorical is looked up once per
+    distinct scene, its codes then taken, instead of once per row."""
+    index = pd.Index(scene_ids)
+    if not isinstance(scene_id.dtype, pd.CategoricalDtype):
+        return index.get_indexer(scene_id)
+    found = np.append(index.get_indexer(scene_id.cat.categories), -1)  # code -1: missing
+    return found[scene_id.cat.codes.to_numpy()]
 
 
 def block_scenes(

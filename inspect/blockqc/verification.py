@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 
 from blockqc.adjust.geometry import RPCStack, intersect, intersect_at_height
-from blockqc.delivery import Delivery
+from blockqc.delivery import Delivery, scene_positions
 
 WGS84_A = 6378137.0
 WGS84_E2 = 6.69437999014e-3
@@ -49,7 +49,7 @@ def compute(d: Delivery) -> ProcessData:
     assert geo is not None and geo.adjusted is not None and geo.affine is not None
     tp = d.tie_points
     stack = RPCStack.from_models(geo.adjusted)
-    scene = pd.Index(geo.scene_ids).get_indexer(tp["scene_id"])
+    scene = scene_positions(tp["scene_id"], geo.scene_ids)
     point, point_ids = pd.factorize(tp["point_id"])
     line = tp["line"].to_numpy(dtype=float)
     sample = tp["sample"].to_numpy(dtype=float)

@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from blockqc.delivery import Delivery, distinct_count
+from blockqc.delivery import Delivery, distinct_count, scene_positions
 from blockqc.metrics import Measure, Measurement, Scope, Table, metric, not_applicable
 from blockqc.spatial import clark_evans_grouped
 
@@ -49,7 +49,7 @@ def _select(d: Delivery, bands: list[str] | None) -> tuple[pd.DataFrame, pd.Data
     taken once per delivery and bands (the same rows serve every measurement), and not copied
     when they are all of them."""
     scenes = d.scenes if bands is None else d.scenes[d.scenes["band"].isin(bands)]
-    key = ("bands", None if bands is None else tuple(sorted(set(bands))))
+    key = None if bands is None else tuple(sorted(set(bands)))
     (tie_points, all_scenes), tp = d.selections.get(key, ((None, None), None))
     if tie_points is not d.tie_points or all_scenes is not d.scenes or tp is None:
         on = d.tie_points["scene_id"].isin(scenes["scene_id"]).to_numpy()
@@ -347,16 +347,6 @@ def _per_scene_cells(scenes: pd.DataFrame, tp: pd.DataFrame, p: DistributionPara
     out["cells_expected"] = np.maximum(1, np.round(k * k * land)).astype(int)
     out["coverage"] = np.minimum(1.0, out["cells_covered"] / out["cells_expected"])
     return out
-
-
-def scene_positions(scene_id: pd.Series, scene_ids: pd.Series) -> np.ndarray:
-    """Each row's position in `scene_ids` (-1 when absent); a Categorical is looked up once per
-    distinct scene, its codes then taken, instead of once per row."""
-    index = pd.Index(scene_ids)
-    if not isinstance(scene_id.dtype, pd.CategoricalDtype):
-        return index.get_indexer(scene_id)
-    found = np.append(index.get_indexer(scene_id.cat.categories), -1)  # code -1: missing
-    return found[scene_id.cat.codes.to_numpy()]
 
 
 def _cell_along(position: np.ndarray, extent: np.ndarray, code: np.ndarray, k: int) -> np.ndarray:
