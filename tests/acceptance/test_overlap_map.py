@@ -43,12 +43,16 @@ def test_residual_vectors_by_hand() -> None:
 
     # image corners (0,0) (0,S) (L,S) (L,0) at lon/lat (0,1) (1,1) (1,0) (0,0): samples run
     # east, lines run south; a residual along the samples points east, along the lines south
-    corners = {"S": np.array([[0, 1], [1, 1], [1, 0], [0, 0]], dtype=float)}
+    corners = np.array([[[0, 1], [1, 1], [1, 0], [0, 0]]], dtype=float)
     cells = [
         {"scene_id": "S", "u": 0.5, "w": 0.5, "v_line": 0.0, "v_sample": 0.3},
         {"scene_id": "S", "u": 0.25, "w": 0.75, "v_line": 0.4, "v_sample": 0.0},
     ]
-    v = residual_vectors(cells, corners)
+    cells.append(
+        {"scene_id": "T", "u": 0.5, "w": 0.5, "v_line": 1.0, "v_sample": 1.0}
+    )  # no corners
+    v = residual_vectors(cells, np.array(["S"], dtype=object), corners)
+    assert v.shape == (2, 4)
     np.testing.assert_allclose(v[0], [0.5, 0.5, 0.3, 0.0], atol=1e-12)
     np.testing.assert_allclose(v[1], [0.75, 0.75, 0.0, -0.4], atol=1e-12)
 

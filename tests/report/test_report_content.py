@@ -287,13 +287,17 @@ def test_unknown_language_is_refused(tmp_path, results_doc):
 
 
 def test_figures_carry_no_input_text_as_markup(results_doc):
-    """Labels in the figures are outlines; matplotlib's echo of them in comments is removed."""
+    """Labels in the figures are SVG text, escaped: an id is shown, never parsed as markup."""
     sneaky = "S-9--><script>alert(2)</script>"
     results_doc["scenes"][0]["scene_id"] = sneaky
     results_doc["results"][6]["evidence"][0]["scene_a"] = sneaky  # RO-3: the map marks it
     html = render_block(results_doc, lang="en")
     assert "<script>alert(2)</script>" not in html
     assert "<!--" not in html
+    figures = block_context(results_doc, "en")["figures"]["general"]
+    labelled = [svg for svg in figures if "alert(2)" in svg]
+    assert labelled, "the failing scene is named on the footprint map"
+    assert all("S-9--&gt;&lt;script&gt;alert(2)&lt;/script&gt;</text>" in svg for svg in labelled)
 
 
 def test_failing_scenes_get_a_distribution_map(results_doc):

@@ -14,7 +14,6 @@ from blockqc.report.checkpoints import checkpoint_rows
 from blockqc.report.exports import checkpoints_csv, evidence_csv, summary_csv, summary_parquet
 from blockqc.report.html import environment, render_page
 from blockqc.report.messages import LANGUAGES
-from blockqc.report.plots import FOR_PRINT
 from blockqc.results import BlockResults, Summary
 
 
@@ -39,11 +38,7 @@ def write_block_report(
     folder = Path(folder)
     results = BlockResults.model_validate(results)
     env = _environment(templates)
-    token = FOR_PRINT.set(pdf)
-    try:
-        ctx = block_context(results, lang)
-    finally:
-        FOR_PRINT.reset(token)
+    ctx = block_context(results, lang)
     written = []
     html = render_page("block.html.j2", ctx, env)
     write_text_atomic(folder / "report.html", html)
@@ -79,13 +74,9 @@ def write_summary_report(
     out = Path(out)
     summary = Summary.model_validate(summary)
     env = _environment(templates)
-    token = FOR_PRINT.set(pdf)
-    try:
-        pages = [("summary", "summary.html.j2", summary_context(summary, lang, pdf=pdf))]
-        if summary.acceptance is not None:
-            pages.append(("acceptance", "acceptance.html.j2", filed_context(summary, lang)))
-    finally:
-        FOR_PRINT.reset(token)
+    pages = [("summary", "summary.html.j2", summary_context(summary, lang, pdf=pdf))]
+    if summary.acceptance is not None:
+        pages.append(("acceptance", "acceptance.html.j2", filed_context(summary, lang)))
     written = []
     for name, template, context in pages:
         write_text_atomic(out / f"{name}.html", render_page(template, context, env))

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import base64
-import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -68,16 +67,9 @@ def _figure_inline(svg: str) -> Markup:
 
 
 def _figure_as_image(svg: str) -> Markup:
-    """The same figure as an image for print: its PNG at print resolution when drawn with one
-    (fast to lay out), else the SVG as an image."""
-    png = getattr(svg, "png", None)
-    if not png:
-        data = base64.b64encode(svg.encode("utf-8")).decode("ascii")
-        return Markup(f'<img class="figure" alt="" src="data:image/svg+xml;base64,{data}">')
-    width = re.search(r'<svg[^>]*\swidth="([0-9.]+pt)"', svg)
-    style = f' style="width:{width.group(1)}"' if width else ""
-    data = base64.b64encode(png).decode("ascii")
-    return Markup(f'<img class="figure" alt=""{style} src="data:image/png;base64,{data}">')
+    """The same figure for print, as an SVG image: WeasyPrint lays it out as one replaced box."""
+    data = base64.b64encode(svg.encode("utf-8")).decode("ascii")
+    return Markup(f'<img class="figure" alt="" src="data:image/svg+xml;base64,{data}">')
 
 
 def render_block(

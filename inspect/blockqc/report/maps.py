@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from blockqc.report import plots
+from blockqc.report import plots, svgplot
 from blockqc.report.format import Formatter
 from blockqc.results import BlockResults
 
@@ -81,32 +81,38 @@ def overlap_map(results: BlockResults, f: Formatter) -> str | None:
     meet = shapely.intersection(shapely.make_valid(ga), shapely.make_valid(gb))
     meet = np.where(shapely.is_empty(meet), shapely.union(ga, gb), meet)
     xy = shapely.get_coordinates(shapely.centroid(meet))
-    fig, ax = plots._figure(4.4, 5.6)
-    rings, _ = plots._rings([sc.get("footprint_wkt") for sc in results.scenes])
-    outlines = plots.PolyCollection(rings, facecolors="none", edgecolors="#9e9e9e", lw=0.5)
-    outlines.set_rasterized(len(rings) > plots.RASTER_ABOVE)
-    ax.add_collection(outlines)
+    rings = plots.rings_of([sc.get("footprint_wkt") for sc in results.scenes])
     vec = pairs[["dx", "dy"]].to_numpy()
     biggest = float(np.hypot(vec[:, 0], vec[:, 1]).max()) or 1.0
     span = max(float(np.ptp(xy[:, 0])), float(np.ptp(xy[:, 1])), 1e-3)
     scale = 0.15 * span / biggest  # degrees per metre of mean discrepancy
     bad = (pairs["max"] >= bound).to_numpy() if bound is not None else np.zeros(len(pairs), bool)
     colours = np.where(bad, plots.STATUS_COLOURS["fail"], plots.STATUS_COLOURS["pass"])
-    arrows = ax.quiver(
-        xy[:, 0], xy[:, 1], vec[:, 0] * scale, vec[:, 1] * scale, color=colours,
-        angles="xy", scale_units="xy", scale=1, width=0.004, zorder=3,
-    )  # fmt: skip
-    arrows.set_rasterized(len(pairs) > plots.RASTER_ABOVE)
-    for k in range(min(len(pairs), MAX_PAIR_LABELS)):  # the RMS beside a few pairs
-        text = f" {pairs['rms'].iloc[k]:.1f}"
-        ax.text(xy[k, 0], xy[k, 1], text, fontsize=6, color=colours[k], zorder=4)
-    plots.lonlat_axes(ax, rings, f.t, f.t("fig_overlap_map", m=f"{biggest:.1f}"))
-    return plots._svg(fig, "overlap-map")
+    plot = plots.lonlat_plot(rings, f.t, f.t("fig_overlap_map", m=f"{biggest:.1f}"))
+    outline = np.full(len(rings.owner), "#9e9e9e", dtype=object)
+    plot.add(svgplot.polygons(rings, outline, 0.0, 0.5))
+    plot.add(svgplot.arrows(xy, vec * scale, colours.astype(object), 0.8), z=3)
+    plot.add(_rms_labels(xy, pairs["rms"].to_numpy(), colours), z=4)
+    return plot.svg("overlap-map")
 
 
-def _corners(results: BlockResults) -> dict[str, np.ndarray]:
+def _rms_labels(xy: np.ndarray, rms: np.ndarray, colours: np.ndarray):
+    """The RMS beside the first MAX_PAIR_LABELS pairs."""
+    shown = min(len(rms), MAX_PAIR_LABELS)
+
+    def draw(fr: svgplot.Frame) -> str:
+        page = fr.xy(xy[:shown])
+        return "".join(
+            svgplot.text(x + 2, y, f"{v:.1f}", 6, colour=c)
+            for (x, y), v, c in zip(page.tolist(), rms[:shown], colours[:shown], strict=True)
+        )
+
+    return draw
+
+
+def _corners(results: BlockResults) -> tuple[np.ndarray, np.ndarray]:
     """Each scene's image corners (0,0), (0,S), (L,S), (L,0) in lon/lat: its footprint's first four
-    vertices (contract v1 extension)."""
+    vertices (contract v1 extension). The scene ids and their corners (k × 4 × 2)."""
     import shapely
 
     ids, geoms = _footprints(results)
@@ -114,21 +120,25 @@ def _corners(results: BlockResults) -> dict[str, np.ndarray]:
     rings = shapely.get_exterior_ring(geoms[ok])
     coords, owner = shapely.get_coordinates(rings, return_index=True)
     first = np.searchsorted(owner, np.arange(len(rings)))
-    enough = np.bincount(owner, minlength=len(rings)) >= 4
-    kept = np.asarray(ids, dtype=object)[ok]
-    return {kept[k]: coords[first[k] : first[k] + 4, :2] for k in np.flatnonzero(enough)}
+    enough = np.flatnonzero(np.bincount(owner, minlength=len(rings)) >= 4)
+    corners = coords[first[enough, None] + np.arange(4), :2]
+    return np.asarray(ids, dtype=object)[ok][enough], corners.reshape(-1, 4, 2)
 
 
-def residual_vectors(cells: list[dict[str, Any]], corners: dict[str, np.ndarray]) -> np.ndarray:
+def residual_vectors(
+    cells: list[dict[str, Any]], ids: np.ndarray, corners: np.ndarray
+) -> np.ndarray:
     """Per cell: position (lon, lat) and mean residual direction on the ground (dlon, dlat),
-    by the bilinear map of the image corners: P(u, w) = Σ corner weights; d = ∂P/∂u·v_l/L + …
-    (only the direction is drawn, so L and S cancel to the fractions used here)."""
-    rows = [c for c in cells if str(c["scene_id"]) in corners]
-    if not rows:
+    by the bilinear map of the image corners of its scene (`corners[k]` of `ids[k]`):
+    P(u, w) = Σ corner weights; d = ∂P/∂u·v_l/L + … (only the direction is drawn, so L and S
+    cancel to the fractions used here)."""
+    table = pd.DataFrame(cells, columns=["scene_id", "u", "w", "v_line", "v_sample"])
+    at = pd.Index(np.asarray(ids, dtype=object)).get_indexer(table["scene_id"].astype(str))
+    table, at = table[at >= 0], at[at >= 0]
+    if table.empty:
         return np.empty((0, 4))
-    c = np.stack([corners[str(r["scene_id"])] for r in rows])  # (n, 4, 2)
-    u = np.array([r["u"] for r in rows])[:, None]
-    w = np.array([r["w"] for r in rows])[:, None]
+    c = corners[at]  # (n, 4, 2)
+    u, w = (table[k].to_numpy(float)[:, None] for k in ("u", "w"))
     p = (
         (1 - u) * (1 - w) * c[:, 0]
         + (1 - u) * w * c[:, 1]
@@ -137,8 +147,7 @@ def residual_vectors(cells: list[dict[str, Any]], corners: dict[str, np.ndarray]
     )
     du = (1 - w) * (c[:, 3] - c[:, 0]) + w * (c[:, 2] - c[:, 1])
     dw = (1 - u) * (c[:, 1] - c[:, 0]) + u * (c[:, 2] - c[:, 3])
-    vl = np.array([r["v_line"] for r in rows])[:, None]
-    vs = np.array([r["v_sample"] for r in rows])[:, None]
+    vl, vs = (table[k].to_numpy(float)[:, None] for k in ("v_line", "v_sample"))
     size = np.hypot(vl, vs)
     d = du * vl + dw * vs
     norm = np.hypot(d[:, 0], d[:, 1])[:, None]
@@ -150,21 +159,18 @@ def residual_map(results: BlockResults, f: Formatter) -> str | None:
     """Mean tie-point residual vectors per scene cell over the block's footprints (SVG)."""
     m = next((x for x in results.measurements if x.metric == "tie_point_errors"), None)
     cells = (m.detail.get("residual_cells") if m else None) or []
-    v = residual_vectors(cells, _corners(results))
+    v = residual_vectors(cells, *_corners(results))
     if not len(v):
         return None
-    fig, ax = plots._figure(4.4, 5.6)
     span = max(float(np.ptp(v[:, 0])), float(np.ptp(v[:, 1])), 1e-3)
     biggest = float(np.max(np.hypot(v[:, 2], v[:, 3]))) or 1.0
     scale = 0.04 * span / biggest
-    arrows = ax.quiver(
-        v[:, 0], v[:, 1], v[:, 2] * scale, v[:, 3] * scale, angles="xy", scale_units="xy",
-        scale=1, width=0.003, color="#1f4e99",
-    )  # fmt: skip
-    arrows.set_rasterized(len(v) > plots.RASTER_ABOVE)
-    ax.set_aspect(1 / max(math.cos(math.radians(float(v[:, 1].mean()))), 0.05))
-    ax.set_xlabel(f.t("ax_lon"))
-    ax.set_ylabel(f.t("ax_lat"))
-    ax.ticklabel_format(useOffset=False, style="plain")
-    ax.set_title(f.t("fig_residual_map", px=f"{biggest:.2f}"))
-    return plots._svg(fig, "residual-map")
+    tail, vec = v[:, :2], v[:, 2:] * scale
+    plot = svgplot.Plot(4.4, 5.6, title=f.t("fig_residual_map", px=f"{biggest:.2f}"))
+    plot.xlabel, plot.ylabel, plot.grid = f.t("ax_lon"), f.t("ax_lat"), "xy"
+    plot.aspect = 1 / max(math.cos(math.radians(float(v[:, 1].mean()))), 0.05)
+    ends = np.concatenate([tail, tail + vec])
+    plot.xlim, plot.ylim = svgplot.data_range(ends[:, 0]), svgplot.data_range(ends[:, 1])
+    colours = np.full(len(v), "#1f4e99", dtype=object)
+    plot.add(svgplot.arrows(tail, vec, colours, 0.5))
+    return plot.svg("residual-map")

@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from blockqc.report import plots
+from blockqc.report import plots, svgplot
 
 #: a block's outline is simplified to about this many degrees (~100 m), enough for a map
 SIMPLIFY_DEG = 0.001
@@ -30,25 +30,22 @@ def block_extent(scenes: list[dict[str, Any]]) -> str | None:
 
 def overview_map(blocks: list[Any], t: Callable[..., str], name: str) -> str | None:
     """One map of the batch: block outlines filled by verdict (pass, fail, error)."""
-    wkts = [b.extent_wkt for b in blocks]
-    rings, owner = plots._rings(wkts)
-    if not rings:
+    rings = plots.rings_of([b.extent_wkt for b in blocks])
+    if not len(rings.owner):
         return None
-    verdict = np.array([blocks[i].verdict for i in owner], dtype=object)
-    fig, ax = plots._figure(4.8, 6.2)
-    colours = [plots.STATUS_COLOURS["fail" if v != "pass" else "pass"] for v in verdict]
-    col = plots.PolyCollection(rings, facecolors=colours, edgecolors=colours, alpha=0.45, lw=0.6)
-    col.set_rasterized(len(rings) > plots.RASTER_ABOVE)
-    ax.add_collection(col)
+    verdict = np.array([b.verdict for b in blocks], dtype=object)[rings.owner]
+    colours = np.where(
+        verdict == "pass", plots.STATUS_COLOURS["pass"], plots.STATUS_COLOURS["fail"]
+    )
+    plot = plots.lonlat_plot(rings, t, t("fig_overview"), 4.8, 6.2)
+    plot.add(svgplot.polygons(rings, colours.astype(object), 0.45, 0.6))
     if len(blocks) <= plots.MAX_FOOTPRINT_LABELS:  # few blocks: name them
-        ids = [b.block_id for b in blocks]
-        plots._label_footprints(ax, rings, owner, ids, np.ones(len(rings), dtype=bool))
-    plots.lonlat_axes(ax, rings, t, t("fig_overview"))
-    present = set(verdict)
-    handles = [
-        plots.Patch(fc=plots.STATUS_COLOURS[k], alpha=0.6, label=t(f"verdict_{k}"))
+        ids = np.array([b.block_id for b in blocks], dtype=object)
+        plot.add(plots.ring_labels(rings, ids, plots.MAX_FOOTPRINT_LABELS), z=4)
+    present = set(verdict.tolist())
+    plot.legend += [
+        svgplot.LegendEntry(t(f"verdict_{k}"), plots.STATUS_COLOURS[k], alpha=0.6)
         for k in ("pass", "fail")
         if k in present or (k == "fail" and "error" in present)
     ]
-    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
-    return plots._svg(fig, name)
+    return plot.svg(name)

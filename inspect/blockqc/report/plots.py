@@ -1,32 +1,38 @@
-"""The report's figures: matplotlib (Agg) drawn to SVG strings inlined in the HTML and the PDF.
+"""The report's figures, drawn as SVG by blockqc.report.svgplot: inline in the HTML, drawn as
+they are by WeasyPrint in the PDF.
 
-Text is drawn as paths with the packaged CJK font as fallback, so a figure looks the same in every
-browser and in the PDF, whatever fonts the reader's machine has.
+Each figure is a function of results.json alone; every mark of one kind and colour is one path,
+so a figure of a 3,000-scene block costs milliseconds.
 """
 
 from __future__ import annotations
 
-import contextvars
-import io
 import math
-import re
-from collections.abc import Callable, Iterable, Sequence
-from pathlib import Path
+from collections.abc import Callable, Sequence
 from typing import Any
 
-import matplotlib
+import numpy as np
+import pandas as pd
 
-matplotlib.use("Agg")
-
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-from matplotlib import font_manager  # noqa: E402
-from matplotlib.collections import PolyCollection  # noqa: E402
-from matplotlib.patches import Circle, Patch  # noqa: E402
-
-FONT_FILE = Path(__file__).resolve().parent / "fonts" / "BlockqcSansSC-Regular.otf"
-FONT_FAMILY = "Blockqc Sans SC"
+from blockqc.report.svgplot import (
+    Frame,
+    LegendEntry,
+    Plot,
+    Rings,
+    arrow_outlines,
+    arrows,
+    bars,
+    circle,
+    data_range,
+    hline,
+    label,
+    markers,
+    outlines_d,
+    polygons,
+    segments,
+    text,
+    vline,
+)
 
 STATUS_COLOURS = {
     "pass": "#2e7d32",
@@ -46,296 +52,12 @@ WIDTH_IN = 6.7  # the A4 text width (170 mm)
 #: residual histogram bars: 0.05 px wide, drawn up to 10 px (as the tie-point metric bins them)
 HIST_BIN_PX = 0.05
 HIST_MAX_PX = 10.0
-
-_registered = False
-
-
-def _setup() -> None:
-    global _registered
-    if not _registered:
-        font_manager.fontManager.addfont(str(FONT_FILE))
-        _registered = True
-    matplotlib.rcParams.update(
-        {
-            "font.family": ["DejaVu Sans", FONT_FAMILY],
-            "font.size": 8,
-            "axes.titlesize": 9,
-            "axes.titley": 1.0,  # titles sit above the axes; matplotlib need not measure overlaps
-            "axes.labelsize": 8,
-            "legend.fontsize": 7,
-            "xtick.labelsize": 7,
-            "ytick.labelsize": 7,
-            "svg.fonttype": "path",
-            "axes.spines.top": False,
-            "axes.spines.right": False,
-            "axes.grid": True,
-            "grid.color": "#e3e3e3",
-            "grid.linewidth": 0.6,
-            "axes.axisbelow": True,
-            "svg.hashsalt": "blockqc",
-            "axes.unicode_minus": True,
-            "text.parse_math": False,  # ids and labels are plain text: "$x$" is not mathtext
-            "text.usetex": False,
-        }
-    )
+DASHED, DOTTED = "3.7,1.6", "1,1.65"
+MAX_FOOTPRINT_LABELS = 40
 
 
-#: set while a report for print is built: figures then also carry a PNG at print resolution
-FOR_PRINT: contextvars.ContextVar[bool] = contextvars.ContextVar("for_print", default=False)
-PRINT_DPI = 200
-
-
-class Drawn(str):
-    """A figure's SVG element; `png` holds the same figure at print resolution when FOR_PRINT."""
-
-    png: bytes | None = None
-
-
-PAD_IN = 0.04  # white margin around a figure's tight bounding box
-#: resolution of the layers rasterized inside an SVG (RASTER_ABOVE): sharp on a screen
-SVG_RASTER_DPI = 150
-
-
-def _png(fig: plt.Figure, bbox: Any) -> bytes:
-    """The print PNG framed on `bbox`: RGB (the figure is opaque), quickly compressed, so the
-    PDF writer takes it without splitting off an alpha mask."""
-    from PIL import Image
-
-    buf = io.BytesIO()
-    fig.savefig(buf, format="rgba", dpi=PRINT_DPI, bbox_inches=bbox)
-    size = (int(bbox.width * PRINT_DPI), int(bbox.height * PRINT_DPI))
-    raw = buf.getvalue()
-    if len(raw) != size[0] * size[1] * 4:  # not the frame expected: let matplotlib encode it
-        buf = io.BytesIO()
-        fig.savefig(buf, format="png", dpi=PRINT_DPI, bbox_inches=bbox)
-        return buf.getvalue()
-    out = io.BytesIO()
-    image = Image.frombuffer("RGBA", size, raw, "raw", "RGBA", 0, 1).convert("RGB")
-    image.save(out, format="PNG", compress_level=1, dpi=(PRINT_DPI, PRINT_DPI))
-    return out.getvalue()
-
-
-_SVG_FRAME = re.compile(r'width="[0-9.]+pt" height="[0-9.]+pt" viewBox="[^"]*"')
-
-
-def _crop(text: str, fig: plt.Figure, bbox: Any) -> str:
-    """The SVG framed on `bbox` (inches, figure coordinates from the bottom left) by its
-    viewBox: what bbox_inches="tight" frames, without laying the figure out a second time."""
-    x0, w, h = bbox.x0 * 72, bbox.width * 72, bbox.height * 72
-    y0 = (fig.get_figheight() - bbox.y1) * 72
-    frame = f'width="{w:f}pt" height="{h:f}pt" viewBox="{x0:f} {y0:f} {w:f} {h:f}"'
-    return _SVG_FRAME.sub(frame, text, count=1)
-
-
-def _svg(fig: plt.Figure, name: str) -> Drawn:
-    """The figure as an SVG element, ids prefixed with `name` so several can share a page.
-
-    The figure is drawn once as SVG at full size and framed on its tight bounding box (taken
-    from that layout); the print PNG, when wanted, is drawn once on the same frame."""
-    buf = io.StringIO()
-    fig.savefig(buf, format="svg", dpi=SVG_RASTER_DPI, metadata={"Date": None, "Creator": None})
-    bbox = fig.get_tightbbox().padded(PAD_IN)
-    png = _png(fig, bbox) if FOR_PRINT.get() else None
-    plt.close(fig)
-    text = _crop(buf.getvalue(), fig, bbox)
-    text = text[text.index("<svg") :]
-    text = re.sub(r"<!--.*?-->", "", text, flags=re.S)  # matplotlib echoes every label here
-    text = re.sub(r'\bid="([^"]+)"', lambda m: f'id="{name}-{m.group(1)}"', text)
-    text = re.sub(
-        r'(xlink:href|href)="#([^"]+)"', lambda m: f'{m.group(1)}="#{name}-{m.group(2)}"', text
-    )
-    text = re.sub(r"url\(#([^)]+)\)", lambda m: f"url(#{name}-{m.group(1)})", text)
-    drawn = Drawn(text.replace("<svg ", '<svg class="figure" role="img" ', 1))
-    drawn.png = png
-    return drawn
-
-
-def _column_labels(ax: Any, xs: Iterable[float], labels: list[str]) -> None:
-    """A label under each column (a checkpoint's stem, a scene's bar), upright as tick labels
-    are, drawn as plain text: a tick per label would cost matplotlib five artists each."""
-    from matplotlib.transforms import ScaledTranslation
-
-    ax.set_xticks([])
-    below = ax.get_xaxis_transform() + ScaledTranslation(0, -3.5 / 72, ax.figure.dpi_scale_trans)
-    size = 5.5 if len(labels) > 40 else 6.5
-    for x, label in zip(xs, labels, strict=True):
-        ax.text(x, 0, label, transform=below, rotation=90, ha="center", va="top", fontsize=size)
-
-
-def _figure(height_in: float, width_in: float = WIDTH_IN) -> tuple[plt.Figure, Any]:
-    _setup()
-    fig, ax = plt.subplots(figsize=(width_in, height_in))
-    return fig, ax
-
-
-def checkpoint_errors(
-    points: list[dict[str, Any]],
-    stats: list[dict[str, Any]],
-    component: str,
-    t: Callable[..., str],
-    name: str,
-) -> str:
-    """Error of every checkpoint, norm ±m and tolerance drawn, like the published error figures."""
-    fig, ax = _figure(2.5)
-    rows = [p for p in points if p.get("component") == component and p.get("error_m") is not None]
-    methods = list(dict.fromkeys(p["method"] for p in rows))
-    x0 = 0
-    ticks, labels = [], []
-    for method in methods:
-        mine = [p for p in rows if p["method"] == method]
-        xs = np.arange(x0, x0 + len(mine))
-        err = np.array([p["error_m"] for p in mine], dtype=float)
-        gross = np.array([bool(p.get("gross")) for p in mine])
-        colour = METHOD_COLOURS.get(method, "#444")
-        ax.vlines(xs, 0, err, color=colour, linewidth=1.2)
-        ax.plot(
-            xs[~gross], err[~gross], "o", color=colour, markersize=3.2, label=_method(t, method)
-        )
-        if gross.any():
-            ax.plot(
-                xs[gross],
-                err[gross],
-                "x",
-                color=STATUS_COLOURS["fail"],
-                markersize=6,
-                markeredgewidth=1.5,
-            )
-        st = next((s for s in stats if s["component"] == component and s["method"] == method), None)
-        if st is not None:
-            span = (x0 - 0.5, x0 + len(mine) - 0.5)
-            for sign in (1, -1) if component == "height" else (1,):
-                if st.get("norm_m") is not None:
-                    ax.hlines(
-                        sign * st["norm_m"], *span, colors="#555", linestyles="--", linewidth=0.9
-                    )
-                if st.get("bound_m") is not None:
-                    ax.hlines(
-                        sign * st["bound_m"],
-                        *span,
-                        colors=STATUS_COLOURS["fail"],
-                        linestyles=":",
-                        linewidth=1.1,
-                    )
-        ticks += list(xs)
-        labels += [str(p["point_id"]) for p in mine]
-        x0 += len(mine) + 1
-    ax.axhline(0, color="#333", linewidth=0.6)
-    ax.plot([], [], "--", color="#555", linewidth=0.9, label=t("lg_norm"))
-    ax.plot([], [], ":", color=STATUS_COLOURS["fail"], linewidth=1.1, label=t("lg_tolerance"))
-    if any(p.get("gross") for p in rows):
-        ax.plot([], [], "x", color=STATUS_COLOURS["fail"], label=t("lg_gross"))
-    _column_labels(ax, ticks, labels)
-    ax.set_xlim(-0.8, max(x0 - 0.2, 1))
-    ax.set_ylabel(t("ax_error_m"))
-    ax.set_title(t("fig_cp_errors", component=t(f"component_{component}")))
-    ax.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
-    ax.grid(axis="x", visible=False)
-    return _svg(fig, name)
-
-
-def checkpoint_vectors(
-    points: list[dict[str, Any]], stats: list[dict[str, Any]], t: Callable[..., str], name: str
-) -> str:
-    """Plane error vectors at the checkpoints (or from one origin when positions are missing)."""
-    rows = [p for p in points if p.get("component") == "plane" and p.get("dx_m") is not None]
-    placed = [p for p in rows if p.get("x_m") is not None and p.get("y_m") is not None]
-    if placed:
-        fig, ax = _figure(4.2, 5.2)
-        x = np.array([p["x_m"] for p in placed], float)
-        y = np.array([p["y_m"] for p in placed], float)
-        dx = np.array([p["dx_m"] for p in placed], float)
-        dy = np.array([p["dy_m"] for p in placed], float)
-        extent = max(np.ptp(x), np.ptp(y), 1.0)
-        longest = max(float(np.max(np.hypot(dx, dy))), 1e-9)
-        scale = 0.12 * extent / longest  # the longest arrow is 12 % of the extent
-        for method in dict.fromkeys(p["method"] for p in placed):
-            sel = np.array([p["method"] == method for p in placed])
-            gross = np.array([bool(p.get("gross")) for p in placed]) & sel
-            ok = sel & ~gross
-            colour = METHOD_COLOURS.get(method, "#444")
-            q = ax.quiver(
-                x[ok],
-                y[ok],
-                dx[ok] * scale,
-                dy[ok] * scale,
-                angles="xy",
-                scale_units="xy",
-                scale=1,
-                color=colour,
-                width=0.004,
-                label=_method(t, method),
-            )
-            if gross.any():
-                ax.quiver(
-                    x[gross],
-                    y[gross],
-                    dx[gross] * scale,
-                    dy[gross] * scale,
-                    angles="xy",
-                    scale_units="xy",
-                    scale=1,
-                    color=STATUS_COLOURS["fail"],
-                    width=0.004,
-                )
-            ax.plot(x[sel], y[sel], "o", color=colour, markersize=2.5)
-        ref = _nice(longest / 2)
-        ax.quiverkey(
-            q,
-            0.06,
-            0.05,
-            ref * scale,
-            t("lg_vector_scale", m=_num(ref)),
-            labelpos="E",
-            coordinates="axes",
-            color="#333",
-            fontproperties={"size": 7},
-        )
-        ax.set_aspect("equal", adjustable="datalim")
-        ax.set_xlabel(t("ax_easting"))
-        ax.set_ylabel(t("ax_northing"))
-        ax.ticklabel_format(useOffset=False, style="plain")
-        ax.tick_params(axis="x", labelrotation=30)
-        ax.set_title(t("fig_cp_vectors"))
-        if any(p.get("gross") for p in placed):
-            ax.plot([], [], "-", color=STATUS_COLOURS["fail"], label=t("lg_gross"))
-        ax.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
-        return _svg(fig, name)
-    fig, ax = _figure(3.6, 4.6)
-    norm = next((s.get("norm_m") for s in stats if s["component"] == "plane"), None)
-    bounds = sorted(
-        {s["bound_m"] for s in stats if s["component"] == "plane" and s.get("bound_m") is not None}
-    )
-    lim = 1.0
-    for method in dict.fromkeys(p["method"] for p in rows):
-        mine = [p for p in rows if p["method"] == method]
-        dx = np.array([p["dx_m"] for p in mine], float)
-        dy = np.array([p["dy_m"] for p in mine], float)
-        gross = np.array([bool(p.get("gross")) for p in mine])
-        colour = METHOD_COLOURS.get(method, "#444")
-        ax.plot(dx[~gross], dy[~gross], "o", color=colour, markersize=3.5, label=_method(t, method))
-        if gross.any():
-            ax.plot(dx[gross], dy[gross], "x", color=STATUS_COLOURS["fail"], markersize=6)
-        lim = max(lim, float(np.max(np.abs(np.r_[dx, dy]))) * 1.1)
-    if norm is not None:
-        ax.add_patch(
-            Circle((0, 0), norm, fill=False, ls="--", ec="#555", lw=0.9, label=t("lg_norm"))
-        )
-        lim = max(lim, norm * 1.1)
-    for b in bounds:
-        ax.add_patch(Circle((0, 0), b, fill=False, ls=":", ec=STATUS_COLOURS["fail"], lw=1.1))
-        lim = max(lim, b * 1.1)
-    if bounds:
-        ax.plot([], [], ":", color=STATUS_COLOURS["fail"], label=t("lg_tolerance"))
-    ax.set_xlim(-lim, lim)
-    ax.set_ylim(-lim, lim)
-    ax.set_aspect("equal")
-    ax.axhline(0, color="#999", lw=0.5)
-    ax.axvline(0, color="#999", lw=0.5)
-    ax.set_xlabel(t("ax_dx"))
-    ax.set_ylabel(t("ax_dy"))
-    ax.set_title(t("fig_cp_scatter"))
-    ax.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
-    return _svg(fig, name)
+def _column_size(labels: list[str]) -> float:
+    return 5.5 if len(labels) > 40 else 6.5
 
 
 def _method(t: Callable[..., str], method: str) -> str:
@@ -368,76 +90,163 @@ def _bounded_bins(hist: dict[str, Any]) -> tuple[np.ndarray, np.ndarray, float]:
     return edges[: n + 1], counts[:n], float(counts[~inside].sum())
 
 
+def checkpoint_errors(
+    points: list[dict[str, Any]],
+    stats: list[dict[str, Any]],
+    component: str,
+    t: Callable[..., str],
+    name: str,
+) -> str:
+    """Error of every checkpoint, norm ±m and tolerance drawn, like the published error figures."""
+    rows = [p for p in points if p.get("component") == component and p.get("error_m") is not None]
+    methods = list(dict.fromkeys(p["method"] for p in rows))
+    plot = Plot(2.5, title=t("fig_cp_errors", component=t(f"component_{component}")))
+    plot.ylabel = t("ax_error_m")
+    x0, ticks, labels, reach = 0, [], [], [0.0]
+    for method in methods:
+        mine = [p for p in rows if p["method"] == method]
+        xs = np.arange(x0, x0 + len(mine), dtype=float)
+        err = np.array([p["error_m"] for p in mine], dtype=float)
+        gross = np.array([bool(p.get("gross")) for p in mine])
+        colour = METHOD_COLOURS.get(method, "#444")
+        plot.add(segments(np.column_stack([xs, xs * 0, xs, err]), colour, 1.2))
+        plot.add(markers(xs[~gross], err[~gross], "o", colour, 3.2), z=3)
+        plot.add(markers(xs[gross], err[gross], "x", STATUS_COLOURS["fail"], 6.0), z=3)
+        plot.legend.append(LegendEntry(_method(t, method), colour, "marker-o"))
+        reach += err.tolist()
+        st = next((s for s in stats if s["component"] == component and s["method"] == method), None)
+        span = (x0 - 0.5, x0 + len(mine) - 0.5)
+        for sign in (1, -1) if component == "height" else (1,):
+            for key, colour, width, dash in (
+                ("norm_m", "#555", 0.9, DASHED),
+                ("bound_m", STATUS_COLOURS["fail"], 1.1, DOTTED),
+            ):
+                if st is not None and st.get(key) is not None:
+                    plot.add(hline(sign * st[key], colour, width, dash, span))
+                    reach.append(sign * st[key])
+        ticks += xs.tolist()
+        labels += [str(p["point_id"]) for p in mine]
+        x0 += len(mine) + 1
+    plot.add(hline(0.0, "#333", 0.6))
+    plot.legend += [
+        LegendEntry(t("lg_norm"), "#555", "line", DASHED),
+        LegendEntry(t("lg_tolerance"), STATUS_COLOURS["fail"], "line", DOTTED),
+    ]
+    if any(p.get("gross") for p in rows):
+        plot.legend.append(LegendEntry(t("lg_gross"), STATUS_COLOURS["fail"], "marker-x"))
+    plot.column_labels = (np.asarray(ticks, float), labels, _column_size(labels))
+    plot.xlim, plot.ylim = (-0.8, max(x0 - 0.2, 1)), data_range(reach)
+    return plot.svg(name)
+
+
+def checkpoint_vectors(
+    points: list[dict[str, Any]], stats: list[dict[str, Any]], t: Callable[..., str], name: str
+) -> str:
+    """Plane error vectors at the checkpoints (or from one origin when positions are missing)."""
+    rows = [p for p in points if p.get("component") == "plane" and p.get("dx_m") is not None]
+    placed = [p for p in rows if p.get("x_m") is not None and p.get("y_m") is not None]
+    if placed:
+        return _placed_vectors(placed, t, name)
+    plot = Plot(3.6, 4.6, title=t("fig_cp_scatter"), xlabel=t("ax_dx"), ylabel=t("ax_dy"))
+    plot.aspect, plot.grid = 1.0, "xy"
+    norm = next((s.get("norm_m") for s in stats if s["component"] == "plane"), None)
+    bounds = sorted(
+        {s["bound_m"] for s in stats if s["component"] == "plane" and s.get("bound_m") is not None}
+    )
+    lim = 1.0
+    for method in dict.fromkeys(p["method"] for p in rows):
+        mine = [p for p in rows if p["method"] == method]
+        dx = np.array([p["dx_m"] for p in mine], float)
+        dy = np.array([p["dy_m"] for p in mine], float)
+        gross = np.array([bool(p.get("gross")) for p in mine])
+        colour = METHOD_COLOURS.get(method, "#444")
+        plot.add(markers(dx[~gross], dy[~gross], "o", colour, 3.5), z=3)
+        plot.add(markers(dx[gross], dy[gross], "x", STATUS_COLOURS["fail"], 6.0), z=3)
+        plot.legend.append(LegendEntry(_method(t, method), colour, "marker-o"))
+        lim = max(lim, float(np.max(np.abs(np.r_[dx, dy]))) * 1.1)
+    if norm is not None:
+        plot.add(circle(norm, "#555", 0.9, DASHED))
+        plot.legend.append(LegendEntry(t("lg_norm"), "#555", "line", DASHED))
+        lim = max(lim, norm * 1.1)
+    for b in bounds:
+        plot.add(circle(b, STATUS_COLOURS["fail"], 1.1, DOTTED))
+        lim = max(lim, b * 1.1)
+    if bounds:
+        plot.legend.append(LegendEntry(t("lg_tolerance"), STATUS_COLOURS["fail"], "line", DOTTED))
+    plot.add(hline(0.0, "#999", 0.5))
+    plot.add(vline(0.0, "#999", 0.5))
+    plot.xlim = plot.ylim = (-lim, lim)
+    return plot.svg(name)
+
+
+def _placed_vectors(placed: list[dict[str, Any]], t: Callable[..., str], name: str) -> str:
+    """The plane error vectors drawn at the checkpoints, the longest 12 % of the extent."""
+    plot = Plot(4.2, 5.2, title=t("fig_cp_vectors"), xlabel=t("ax_easting"))
+    plot.ylabel, plot.aspect, plot.grid, plot.xtick_rotation = t("ax_northing"), 1.0, "xy", 30.0
+    x = np.array([p["x_m"] for p in placed], float)
+    y = np.array([p["y_m"] for p in placed], float)
+    d = np.array([[p["dx_m"], p["dy_m"]] for p in placed], float)
+    extent = max(np.ptp(x), np.ptp(y), 1.0)
+    longest = max(float(np.max(np.hypot(d[:, 0], d[:, 1]))), 1e-9)
+    scale = 0.12 * extent / longest
+    xy, vec = np.column_stack([x, y]), d * scale
+    methods = np.array([p["method"] for p in placed], dtype=object)
+    gross = np.array([bool(p.get("gross")) for p in placed])
+    colours = np.array([METHOD_COLOURS.get(m, "#444") for m in methods], dtype=object)
+    colours[gross] = STATUS_COLOURS["fail"]
+    plot.add(arrows(xy, vec, colours, 1.3), z=3)
+    for method in dict.fromkeys(methods.tolist()):
+        colour = METHOD_COLOURS.get(method, "#444")
+        sel = methods == method
+        plot.add(markers(x[sel], y[sel], "o", colour, 2.5), z=4)
+        plot.legend.append(LegendEntry(_method(t, method), colour))
+    if gross.any():
+        plot.legend.append(LegendEntry(t("lg_gross"), STATUS_COLOURS["fail"], "line"))
+    ref = _nice(longest / 2)
+    plot.add(_key_arrow(ref * scale, t("lg_vector_scale", m=_num(ref))), z=5)
+    ends = np.r_[x, x + vec[:, 0]], np.r_[y, y + vec[:, 1]]
+    plot.xlim, plot.ylim = data_range(ends[0], 0.08), data_range(ends[1], 0.08)
+    return plot.svg(name)
+
+
+def _key_arrow(length: float, label: str) -> Callable[[Frame], str]:
+    """A reference arrow of `length` data units at the lower left of the frame, labelled."""
+
+    def draw(fr: Frame) -> str:
+        x0, y0 = fr.left + 0.06 * fr.width, fr.top + 0.95 * fr.height
+        w = float(fr.x(fr.xlim[0] + length) - fr.left)
+        tail, tip = np.array([[x0, y0]]), np.array([[x0 + w, y0]])
+        return f'<path d="{outlines_d(arrow_outlines(tail, tip, 1.3))}" fill="#333"/>' + text(
+            x0 + w + 4, y0 + 2.5, label, 7
+        )
+
+    return draw
+
+
 def residual_histogram(
     hist: dict[str, Any], marks: Sequence[float], t: Callable[..., str], name: str
 ) -> str:
     """Tie-point residual histogram with the 0.5 / 1.0 / 1.5 px marks (§TP-1..3)."""
-    fig, ax = _figure(2.3)
+    plot = Plot(2.3, title=t("fig_tp_hist"), xlabel=t("ax_residual_px"))
+    plot.ylabel = t("ax_observations")
     edges, counts, over = _bounded_bins(hist)
-    ax.bar(
-        edges[:-1],
-        counts,
-        width=np.diff(edges),
-        align="edge",
-        color="#7a9cc6",
-        edgecolor="#4f6f99",
-        linewidth=0.4,
-    )
+    blue = np.full(len(counts), "#7a9cc6", dtype=object)
+    edge = ' stroke="#4f6f99" stroke-width="0.4"'
+    plot.add(bars(edges[:-1], np.diff(edges), counts, blue, edge))
     top = max(counts.max() if counts.size else 1, over, 1)
-    if over:  # errors beyond the drawn range: one hatched bar at its end, with their count
-        ax.bar(edges[-1], over, width=HIST_BIN_PX, align="edge", color="#d9d9d9", hatch="//")
-        ax.text(edges[-1], over, f"> {edges[-1]:g} px: {over:g}", ha="right", va="bottom")
+    if over:  # errors beyond the drawn range: one grey bar at its end, with their count
+        grey = np.array(["#d9d9d9"], dtype=object)
+        plot.add(bars(edges[-1:], np.array([HIST_BIN_PX]), np.array([over]), grey, edge))
+        plot.add(label(edges[-1], over, f"> {edges[-1]:g} px: {over:g}", 7, anchor="end"), z=4)
         edges = np.append(edges, edges[-1] + HIST_BIN_PX)
     for m in marks:
-        ax.axvline(
-            m,
-            color=STATUS_COLOURS["fail"] if m >= 1.5 else "#555",
-            ls="--" if m < 1.5 else "-",
-            lw=0.9,
-        )
-        ax.text(m, top * 1.02, f"{m:g} px", ha="center", va="bottom", fontsize=7)
-    ax.set_ylim(0, top * 1.15)
-    ax.set_xlim(0, max(float(edges[-1]) if edges.size else 2.0, max(marks) + 0.1))
-    ax.set_xlabel(t("ax_residual_px"))
-    ax.set_ylabel(t("ax_observations"))
-    ax.set_title(t("fig_tp_hist"))
-    ax.grid(axis="x", visible=False)
-    return _svg(fig, name)
-
-
-#: above this many scenes (points, arrows), a layer drawing one mark per item is rasterized
-#: inside the SVG at SVG_RASTER_DPI (size and speed)
-RASTER_ABOVE = 400
-
-
-def _bars(ax: Any, heights: np.ndarray, colours: list[str], width: float = 0.8) -> None:
-    """Bars as one collection of rectangles (one artist, whatever the number of bars)."""
-    x0 = np.arange(len(heights)) - width / 2
-    verts = np.stack(
-        [
-            np.column_stack([x0, np.zeros_like(heights)]),
-            np.column_stack([x0, heights]),
-            np.column_stack([x0 + width, heights]),
-            np.column_stack([x0 + width, np.zeros_like(heights)]),
-        ],
-        axis=1,
-    )
-    bars = PolyCollection(verts, facecolors=colours, edgecolors="none")
-    bars.set_rasterized(len(heights) > RASTER_ABOVE)
-    ax.add_collection(bars)
-    ax.set_ylim(0, max(float(heights.max(initial=0)) * 1.08, 1.0))
-
-
-def _status_handles(t: Callable[..., str], present: set[str], minimum: Any = None) -> list[Any]:
-    handles: list[Any] = [minimum] if minimum is not None else []
-    for st, label in (
-        ("exempt", "lg_exempt"),
-        ("waived", "status_waived"),
-        ("fail", "status_fail"),
-    ):
-        if st in present or (st == "fail" and "error" in present):
-            handles.append(Patch(color=STATUS_COLOURS[st], label=t(label)))
-    return handles
+        red = m >= 1.5
+        colour = STATUS_COLOURS["fail"] if red else "#555"
+        plot.add(vline(m, colour, 0.9, "" if red else DASHED), z=3)
+        plot.add(label(m, top * 1.02, f"{m:g} px", 7, anchor="middle"), z=4)
+    plot.ylim = (0, top * 1.15)
+    plot.xlim = (0, max(float(edges[-1]) if edges.size else 2.0, max(marks) + 0.1))
+    return plot.svg(name)
 
 
 def scene_counts(
@@ -449,30 +258,34 @@ def scene_counts(
 ) -> str:
     """Tie points per scene, the minimum drawn; failing scenes red, exempt scenes blue."""
     n = len(scenes)
-    fig, ax = _figure(2.6 if n <= 60 else 3.0)
+    plot = Plot(2.6 if n <= 60 else 3.0, title=t("fig_tp_counts"), ylabel=t("ax_tie_points"))
     table = pd.DataFrame(scenes)
     ids = table["scene_id"].astype(str)
     counts = pd.to_numeric(table.get("n_points"), errors="coerce").fillna(0).to_numpy(float)
     marks = ids.map(status).astype(object)
-    colours = marks.map(STATUS_COLOURS).astype(object).fillna("#7a9cc6").tolist()
-    _bars(ax, counts, colours)
-    line = None
+    colours = marks.map(STATUS_COLOURS).astype(object).fillna("#7a9cc6").to_numpy(object)
+    plot.add(bars(np.arange(n) - 0.4, np.full(n, 0.8), counts, colours))
+    top = max(float(counts.max(initial=0)) * 1.08, 1.0)
     if minimum is not None:
-        label = t("lg_minimum", n=_num(minimum))
-        line = ax.axhline(minimum, color=STATUS_COLOURS["fail"], ls="--", lw=1, label=label)
-        ax.set_ylim(0, max(ax.get_ylim()[1], minimum * 1.15))
-    handles = _status_handles(t, set(marks.dropna()), line)
+        plot.add(hline(minimum, STATUS_COLOURS["fail"], 1.0, DASHED), z=3)
+        plot.legend.append(
+            LegendEntry(t("lg_minimum", n=_num(minimum)), STATUS_COLOURS["fail"], "line", DASHED)
+        )
+        top = max(top, minimum * 1.15)
+    present = set(marks.dropna())
+    for st, key in (
+        ("exempt", "lg_exempt"),
+        ("waived", "status_waived"),
+        ("fail", "status_fail"),
+    ):
+        if st in present or (st == "fail" and "error" in present):
+            plot.legend.append(LegendEntry(t(key), STATUS_COLOURS[st]))
     if n <= 60:
-        _column_labels(ax, range(n), ids.tolist())
+        plot.column_labels = (np.arange(n, dtype=float), ids.tolist(), _column_size(ids.tolist()))
     else:
-        ax.set_xlabel(t("ax_scene") + f" (1–{n})")
-    ax.set_xlim(-0.8, n - 0.2)
-    ax.set_ylabel(t("ax_tie_points"))
-    ax.set_title(t("fig_tp_counts"))
-    ax.grid(axis="x", visible=False)
-    if handles:
-        ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
-    return _svg(fig, name)
+        plot.xlabel = t("ax_scene") + f" (1–{n})"
+    plot.xlim, plot.ylim = (-0.8, n - 0.2), (0.0, top)
+    return plot.svg(name)
 
 
 FOOTPRINT_ORDER = {
@@ -486,8 +299,9 @@ FOOTPRINT_ORDER = {
 }
 
 
-def _rings(wkts: list[Any]) -> tuple[list[np.ndarray], np.ndarray]:
-    """Exterior rings of every footprint polygon (parts of multipolygons too) and their scene."""
+def rings_of(wkts: list[Any]) -> Rings:
+    """Exterior rings of every footprint polygon (parts of multipolygons too), each with the
+    position of its WKT in `wkts`."""
     import shapely
 
     geoms = shapely.from_wkt(
@@ -498,73 +312,61 @@ def _rings(wkts: list[Any]) -> tuple[list[np.ndarray], np.ndarray]:
     polygon = shapely.get_type_id(parts) == 3
     parts, owner = parts[polygon], owner[polygon]
     coords, ring = shapely.get_coordinates(shapely.get_exterior_ring(parts), return_index=True)
-    if len(coords) == 0:
-        return [], owner[:0]
-    cuts = np.flatnonzero(np.diff(ring)) + 1
-    return np.split(coords, cuts), owner[np.unique(ring)]
+    used = np.unique(ring)  # rings with vertices, renumbered 0..k-1
+    return Rings(coords, np.searchsorted(used, ring), owner[used])
 
 
 def footprints(
     scenes: list[dict[str, Any]], status: dict[str, str], t: Callable[..., str], name: str
 ) -> str:
     """A map of the scene footprints (lon/lat) coloured by the worst status found per scene."""
-    fig, ax = _figure(4.4, 5.6)
-    rings, owner = _rings([s.get("footprint_wkt") for s in scenes])
-    ids = [str(s["scene_id"]) for s in scenes]
-    st = pd.Series(np.asarray(ids, dtype=object)[owner]).map(status).astype(object).fillna("pass")
+    rings = rings_of([s.get("footprint_wkt") for s in scenes])
+    ids = np.asarray([str(s["scene_id"]) for s in scenes], dtype=object)
+    st = pd.Series(ids[rings.owner]).map(status).astype(object).fillna("pass")
     highlight = ~st.isin(["pass", "other"]).to_numpy()
+    colours = st.map(STATUS_COLOURS).fillna(STATUS_COLOURS["other"]).to_numpy(object)
+    plot = lonlat_plot(rings, t, t("fig_footprints"))
     for layer, alpha, lw, z in ((~highlight, 0.12, 0.6, 2), (highlight, 0.35, 1.3, 3)):
-        idx = np.flatnonzero(layer)
-        colours = st.iloc[idx].map(STATUS_COLOURS).fillna(STATUS_COLOURS["other"]).tolist()
-        col = PolyCollection(
-            [rings[i] for i in idx], facecolors=colours, edgecolors=colours, alpha=alpha, lw=lw
-        )
-        col.set_zorder(z)
-        col.set_rasterized(len(idx) > RASTER_ABOVE)
-        ax.add_collection(col)
-    _label_footprints(ax, rings, owner, ids, highlight)
+        plot.add(polygons(rings.select(layer), colours[layer], alpha, lw), z)
+    plot.add(ring_labels(rings.select(highlight), ids, MAX_FOOTPRINT_LABELS), z=4)
     shown = set(st)
-    handles = [
-        Patch(
-            fc=STATUS_COLOURS[x],
-            alpha=0.5,
-            label=t("lg_exempt") if x == "exempt" else t(f"status_{x}"),
+    plot.legend += [
+        LegendEntry(
+            t("lg_exempt") if x == "exempt" else t(f"status_{x}"), STATUS_COLOURS[x], alpha=0.5
         )
         for x in ("pass", "fail", "warn", "waived", "exempt")
         if x in shown
     ]
-    lonlat_axes(ax, rings, t, t("fig_footprints"))
-    if handles:
-        ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
-    return _svg(fig, name)
+    return plot.svg(name)
 
 
-def lonlat_axes(ax: Any, rings: list[np.ndarray], t: Callable[..., str], title: str) -> None:
+def lonlat_plot(
+    rings: Rings, t: Callable[..., str], title: str, height_in: float = 4.4, width_in: float = 5.6
+) -> Plot:
     """A lon/lat map framed on the rings, with equal ground scale at their mean latitude."""
-    if rings:
-        allxy = np.concatenate(rings)
-        (lon_lo, lat_lo), (lon_hi, lat_hi) = allxy.min(axis=0), allxy.max(axis=0)
+    plot = Plot(height_in, width_in, title=title, xlabel=t("ax_lon"), ylabel=t("ax_lat"))
+    plot.grid = "xy"
+    if len(rings.xy):
+        (lon_lo, lat_lo), (lon_hi, lat_hi) = rings.xy.min(axis=0), rings.xy.max(axis=0)
         pad = 0.03 * max(lon_hi - lon_lo, lat_hi - lat_lo, 1e-3)
-        ax.set_xlim(lon_lo - pad, lon_hi + pad)
-        ax.set_ylim(lat_lo - pad, lat_hi + pad)
-        ax.set_aspect(1 / max(math.cos(math.radians((lat_lo + lat_hi) / 2)), 0.05))
-    ax.set_xlabel(t("ax_lon"))
-    ax.set_ylabel(t("ax_lat"))
-    ax.ticklabel_format(useOffset=False, style="plain")
-    ax.set_title(title)
+        plot.xlim, plot.ylim = (lon_lo - pad, lon_hi + pad), (lat_lo - pad, lat_hi + pad)
+        plot.aspect = 1 / max(math.cos(math.radians((lat_lo + lat_hi) / 2)), 0.05)
+    return plot
 
 
-MAX_FOOTPRINT_LABELS = 40
+def ring_labels(rings: Rings, ids: np.ndarray, most: int) -> Callable[[Frame], str]:
+    """The ids of the first `most` rings' owners at their centres."""
+    centres = rings.centres()[:most]
+    names = ids[rings.owner[:most]].tolist()
 
+    def draw(fr: Frame) -> str:
+        page = fr.xy(centres)
+        return "".join(
+            text(x, y + 2, s, 6, anchor="middle", colour="#111")
+            for (x, y), s in zip(page.tolist(), names, strict=True)
+        )
 
-def _label_footprints(
-    ax: Any, rings: list, owner: np.ndarray, ids: list[str], mark: np.ndarray
-) -> None:
-    """The ids of the highlighted footprints at their centres (at most MAX_FOOTPRINT_LABELS)."""
-    for i in np.flatnonzero(mark)[:MAX_FOOTPRINT_LABELS]:
-        cx, cy = rings[i][:-1].mean(axis=0)
-        ax.text(cx, cy, ids[owner[i]], fontsize=6, ha="center", va="center", zorder=4,
-                color="#111", parse_math=False)  # fmt: skip
+    return draw
 
 
 def scene_points(
@@ -578,22 +380,12 @@ def scene_points(
     name: str,
 ) -> str:
     """One scene's tie points on its image frame with the k×k uniformity grid (§TP-4, TP-5)."""
-    fig, ax = _figure(2.6, 3.0)
-    (points,) = ax.plot(
-        np.asarray(sample, float), np.asarray(line, float), ".", color="#1f4e99", markersize=2.2
-    )
-    points.set_rasterized(len(line) > RASTER_ABOVE)
-    for k in range(1, grid):
-        ax.axvline(samples * k / grid, color="#999", lw=0.7, ls="--")
-        ax.axhline(lines * k / grid, color="#999", lw=0.7, ls="--")
-    ax.set_xlim(0, samples)
-    ax.set_ylim(lines, 0)
-    ax.set_aspect("equal")
-    ax.grid(False)
-    for side in ("top", "right"):
-        ax.spines[side].set_visible(True)
-    ax.set_xlabel(t("ax_sample"))
-    ax.set_ylabel(t("ax_line"))
-    ax.set_title(str(scene_id), fontsize=8)
-    ax.tick_params(labelsize=6)
-    return _svg(fig, name)
+    plot = Plot(2.6, 3.0, title=str(scene_id), xlabel=t("ax_sample"), ylabel=t("ax_line"))
+    plot.aspect, plot.invert_y, plot.grid, plot.box, plot.tick_size = 1.0, True, "", True, 6.0
+    plot.xlim, plot.ylim = (0.0, float(samples)), (0.0, float(lines))
+    plot.add(markers(np.asarray(sample, float), np.asarray(line, float), "o", "#1f4e99", 1.4))
+    k = np.arange(1, grid, dtype=float)
+    across = np.column_stack([k * 0 + np.nan, lines * k / grid, k * 0 + np.nan, lines * k / grid])
+    down = np.column_stack([samples * k / grid, k * 0 + np.nan, samples * k / grid, k * 0 + np.nan])
+    plot.add(segments(np.concatenate([across, down]), "#999", 0.7, DASHED), z=1)
+    return plot.svg(name)

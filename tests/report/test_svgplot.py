@@ -1,0 +1,168 @@
+"""The SVG canvas of the report figures: ticks, paths, rings, arrows and raster layers checked
+against hand values and plain per-item constructions."""
+
+from __future__ import annotations
+
+import base64
+import io
+import math
+import re
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from blockqc.report import svgplot
+from blockqc.report.svgplot import Frame, Plot
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.floats(-1e6, 1e6, allow_nan=False),
+    st.floats(1e-6, 1e6, allow_nan=False),
+)
+def test_nice_ticks_are_round_evenly_spaced_and_inside(lo, extent):
+    extent = max(extent, abs(lo) * 1e-6)  # a window wider than float rounding of its ends
+    hi = lo + extent
+    ticks = svgplot.nice_ticks(lo, hi)
+    assert 2 <= len(ticks) <= 7
+    step = ticks[1] - ticks[0]
+    assert np.allclose(np.diff(ticks), step, rtol=1e-6, atol=0)
+    mantissa = step / 10 ** math.floor(math.log10(step) + 1e-12)
+    assert min(abs(mantissa - m) for m in (1, 2, 2.5, 5, 10)) < 1e-6
+    tol = step * 1e-6
+    assert ticks[0] >= lo - tol and ticks[-1] <= hi + tol
+    assert ticks[0] - step < lo + tol and ticks[-1] + step > hi - tol  # none left out
+    labels = svgplot.tick_labels(ticks)
+    assert len(set(labels)) == len(labels)
+    assert np.allclose([float(s) for s in labels], ticks, rtol=0, atol=step * 0.01)
+
+
+def test_tick_labels_by_hand():
+    assert svgplot.tick_labels(np.array([0.0, 0.5, 1.0, 1.5])) == ["0.0", "0.5", "1.0", "1.5"]
+    assert svgplot.tick_labels(np.array([0.0, 2.5, 5.0])) == ["0.0", "2.5", "5.0"]
+    assert svgplot.tick_labels(np.array([-2000.0, 0.0, 2000.0])) == ["-2000", "0", "2000"]
+    assert svgplot.tick_labels(np.array([39.25, 39.5, 39.75])) == ["39.25", "39.50", "39.75"]
+
+
+def test_path_d_as_written_vertex_by_vertex():
+    rng = np.random.default_rng(1)
+    xy = rng.uniform(-50, 500, (11, 2))
+    starts = np.array([0, 4, 9])
+    expected = ""
+    for i, (x, y) in enumerate(xy):
+        expected += ("M" if i in starts else "L") + f"{x:.1f},{y:.1f}"
+        if i + 1 in (4, 9, 11):
+            expected += "Z"
+    assert svgplot.path_d(xy, starts, close=True) == expected
+    assert svgplot.path_d(xy, starts) == expected.replace("Z", "")
+    assert svgplot.path_d(np.zeros((0, 2)), np.zeros(0, int)) == ""
+
+
+def test_frame_maps_the_window_to_the_plot_area():
+    fr = Frame(10, 20, 100, 50, (0.0, 4.0), (-1.0, 1.0))
+    np.testing.assert_allclose(fr.x([0, 2, 4]), [10, 60, 110])
+    np.testing.assert_allclose(fr.y([-1, 0, 1]), [70, 45, 20])  # y up on the page
+    fr.invert_y = True
+    np.testing.assert_allclose(fr.y([-1, 1]), [20, 70])  # image lines down
+
+
+def test_rings_select_and_centres_as_per_ring():
+    import shapely
+
+    wkts = [
+        "POLYGON ((0 0, 2 0, 2 1, 0 1, 0 0))",
+        None,
+        "MULTIPOLYGON (((10 0, 11 0, 11 1, 10 0)), ((20 0, 24 0, 24 4, 20 4, 20 0)))",
+        "POINT (5 5)",
+    ]
+    from blockqc.report.plots import rings_of
+
+    rings = rings_of(wkts)
+    assert rings.owner.tolist() == [0, 2, 2]
+    parts = [
+        np.asarray(shapely.get_coordinates(shapely.from_wkt(w)))
+        for w in ("POLYGON ((0 0, 2 0, 2 1, 0 1, 0 0))",)
+    ]
+    expected = [parts[0][:-1].mean(axis=0), [32 / 3, 1 / 3], [22, 2]]
+    np.testing.assert_allclose(rings.centres(), expected)
+    kept = rings.select(np.array([False, True, True]))
+    assert kept.owner.tolist() == [2, 2] and kept.ring.tolist() == [0] * 4 + [1] * 5
+    np.testing.assert_allclose(kept.centres(), expected[1:])
+    empty = rings.select(np.zeros(3, bool))
+    assert empty.starts().size == 0 and empty.centres().shape == (0, 2)
+
+
+def test_arrow_outlines_by_hand():
+    out = svgplot.arrow_outlines(np.array([[0.0, 0.0]]), np.array([[20.0, 0.0]]), 2.0)[0]
+    # shaft 2 pt wide, head 9 pt long and 6 pt wide, tip at the end
+    np.testing.assert_allclose(
+        out, [[0, 1], [11, 1], [11, 3], [20, 0], [11, -3], [11, -1], [0, -1]], atol=1e-12
+    )
+    short = svgplot.arrow_outlines(np.array([[0.0, 0.0]]), np.array([[0.0, 4.5]]), 2.0)[0]
+    np.testing.assert_allclose(short[3], [0, 4.5])  # a short arrow keeps its tip
+    np.testing.assert_allclose(short[2], [-1.5, 0])  # and its head shrinks by half
+    assert svgplot.arrow_outlines(np.zeros((1, 2)), np.zeros((1, 2)), 1.0).shape == (0, 7, 2)
+
+
+def test_wrap_keeps_every_word_and_the_width():
+    title = "Tie-point residuals: mean vector per scene and cell of a 4×4 grid\n(longest 0.33 px)"
+    lines = svgplot.wrap(title, 9, 200)
+    assert " ".join(lines).replace("\n", " ").split() == title.replace("\n", " ").split()
+    assert lines[-1] == "(longest 0.33 px)"
+    assert all(svgplot.text_width(line, 9) <= 200 for line in lines if " " in line)
+
+
+def test_text_width_counts_wide_characters_one_em():
+    assert svgplot.text_width("连接点", 10) == pytest.approx(30)
+    assert 0 < svgplot.text_width("iii", 10) < svgplot.text_width("MMM", 10) < 30
+
+
+def _png_of(svg: str) -> np.ndarray:
+    from PIL import Image
+
+    data = re.search(r'href="data:image/png;base64,([^"]+)"', svg).group(1)
+    return np.asarray(Image.open(io.BytesIO(base64.b64decode(data))).convert("RGBA"))
+
+
+def test_raster_layer_covers_what_it_draws():
+    fr = Frame(0, 0, 72, 36, (0.0, 2.0), (0.0, 1.0))  # 1 in × 0.5 in: 150 × 75 pixels
+    square = np.array([[[18.0, 9.0], [54.0, 9.0], [54.0, 27.0], [18.0, 27.0]]])  # points
+    image = _png_of(svgplot.raster(fr, [("#c62828", square)]))
+    assert image.shape == (75, 150, 4)
+    inside, outside = image[25:50, 45:105], image[:15]
+    assert (inside[..., 3] == 255).all() and (inside[..., :3] == [0xC6, 0x28, 0x28]).all()
+    assert (outside[..., 3] == 0).all()
+    # half the width, half the height: 75 × 37.5 pixels; the antialiased edge adds less than a
+    # pixel on each side
+    covered = image[..., 3].sum() / 255
+    assert 75 * 37.5 <= covered <= 77 * 39.5
+
+
+def test_many_arrows_become_one_image_few_stay_paths():
+
+    def figure(n: int) -> str:
+        plot = Plot(2.0, 3.0, title="t")
+        tail = np.column_stack([np.arange(n) % 30, np.arange(n) // 30]).astype(float)
+        colours = np.full(n, "#1f4e99", dtype=object)
+        plot.add(svgplot.arrows(tail, np.full((n, 2), 0.4), colours, 0.6))
+        plot.xlim, plot.ylim = (-1.0, 31.0), (-1.0, n / 30 + 1)
+        return plot.svg("a")
+
+    few, many = figure(svgplot.RASTER_ABOVE), figure(svgplot.RASTER_ABOVE + 1)
+    assert "<image" not in few and few.count("Z") == svgplot.RASTER_ABOVE
+    assert "<image" in many and _png_of(many)[..., 3].any()
+
+
+def test_a_plot_is_well_formed_svg_with_escaped_text():
+    plot = Plot(2.0, title="<b>&title</b>", xlabel="x", ylabel="y")
+    plot.legend.append(svgplot.LegendEntry("a < b", "#000", "line", "3,1"))
+    plot.column_labels = (np.arange(3.0), ["S-1", "<script>", "S&3"], 6.5)
+    plot.xlim, plot.ylim = (-0.5, 2.5), (0.0, 10.0)
+    svg = plot.svg("p")
+    root = ET.fromstring(svg)
+    texts = ["".join(t.itertext()) for t in root.iter("{http://www.w3.org/2000/svg}text")]
+    assert "<b>&title</b>" in texts and "a < b" in texts and "<script>" in texts
+    assert root.get("width").endswith("pt") and root.get("viewBox").startswith("0 0 ")
