@@ -53,3 +53,52 @@ def test_written_json_has_no_non_finite_numbers(tmp_path) -> None:
         path.read_text(encoding="utf-8")
         == '{\n  "a": [\n    null,\n    3,\n    null\n  ],\n  "b": "λ"\n}\n'
     )
+
+
+def _plain(value):
+    """jsonable written as a plain chain of isinstance checks: the reference."""
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return [_plain(v) for v in value]
+    if isinstance(value, (np.bool_, bool)):
+        return bool(value)
+    if isinstance(value, (np.integer, int)):
+        return int(value)
+    if isinstance(value, (np.floating, float)):
+        return None if not math.isfinite(float(value)) else float(value)
+    return value
+
+
+_leaf = st.one_of(
+    st.none(),
+    st.booleans(),
+    st.integers(-(2**40), 2**40),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.text(max_size=3),
+    st.lists(st.floats(allow_nan=True, width=32), max_size=4).map(
+        lambda v: np.array(v, dtype=np.float32)
+    ),
+    st.lists(st.integers(-5, 5), max_size=4).map(np.array),
+    st.lists(st.booleans(), max_size=3).map(np.array),
+    st.floats(allow_nan=True).map(np.float64),
+    st.integers(-5, 5).map(np.int32),
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.recursive(
+        _leaf,
+        lambda inner: st.one_of(
+            st.lists(inner, max_size=4),
+            st.lists(inner, max_size=3).map(tuple),
+            st.dictionaries(st.one_of(st.text(max_size=2), st.integers(0, 9)), inner, max_size=3),
+        ),
+        max_leaves=20,
+    )
+)
+def test_jsonable_as_the_plain_chain(value) -> None:
+    got, expected = jsonable(value), _plain(value)
+    assert json.dumps(got, allow_nan=False) == json.dumps(expected, allow_nan=False)
+    assert type(got) is type(expected)

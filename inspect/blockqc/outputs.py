@@ -17,9 +17,38 @@ from pydantic import BaseModel
 
 from blockqc.errors import InputError, Problem, UsageError
 
+_PLAIN = frozenset({str, int, bool, type(None)})
+
 
 def jsonable(value: Any) -> Any:
-    """Plain JSON values: numpy scalars unwrapped, NaN/NaT as null, timestamps as ISO dates."""
+    """Plain JSON values: numpy scalars unwrapped, NaN/NaT as null, timestamps as ISO dates.
+
+    The plain Python types are dispatched on their exact type first and numeric arrays are
+    converted whole: measurement details hold lists of thousands of small rows."""
+    kind = type(value)
+    if kind in _PLAIN:
+        return value
+    if kind is float:
+        return value if math.isfinite(value) else None
+    if kind is dict:
+        return {str(k): jsonable(v) for k, v in value.items()}
+    if kind is list or kind is tuple:
+        return [jsonable(v) for v in value]
+    if kind is np.ndarray and value.ndim == 1 and value.dtype.kind in "biuf":
+        return _numbers(value)
+    return _jsonable_other(value)
+
+
+def _numbers(values: np.ndarray) -> list[Any]:
+    """A 1-D numeric array as plain numbers, non-finite floats as None."""
+    if values.dtype.kind != "f":
+        return values.tolist()
+    out = values.astype(object)
+    out[~np.isfinite(values)] = None
+    return out.tolist()
+
+
+def _jsonable_other(value: Any) -> Any:
     if isinstance(value, BaseModel):
         return value.model_dump(mode="json", by_alias=True)
     if isinstance(value, Mapping):
@@ -55,10 +84,7 @@ def _column_values(col: pd.Series) -> list[Any]:
     if kind and kind in "biu":
         return col.to_numpy().tolist()
     if kind == "f":
-        values = col.to_numpy()
-        out = values.astype(object)
-        out[~np.isfinite(values)] = None
-        return out.tolist()
+        return _numbers(col.to_numpy())
     return [jsonable(v) for v in col.to_numpy(dtype=object)]
 
 
