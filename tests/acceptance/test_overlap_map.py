@@ -5,6 +5,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from blockqc.delivery import load_delivery
 from blockqc.engine import inspect_delivery
@@ -77,3 +80,71 @@ def test_residual_cells_by_hand() -> None:
         {"scene_id": "S", "u": 0.125, "w": 0.125, "n": 2, "v_line": 0.2, "v_sample": 0.1},
         {"scene_id": "S", "u": 0.875, "w": 0.875, "n": 1, "v_line": -0.2, "v_sample": 0.4},
     ]
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(
+        st.tuples(
+            st.sampled_from(["S10", "S2", "a", "Z"]),
+            st.floats(0, 120, allow_nan=False),
+            st.floats(0, 80, allow_nan=False),
+            st.one_of(st.floats(-2, 2), st.just(float("nan"))),
+            st.floats(-2, 2),
+        ),
+        min_size=1,
+        max_size=60,
+    ),
+    st.booleans(),
+)
+def test_residual_cells_as_a_pandas_groupby(rows, categorical) -> None:
+    import pandas as pd
+
+    from blockqc.metrics.tiepoints import residual_cells
+
+    tp = pd.DataFrame(rows, columns=["scene_id", "line", "sample", "v_line", "v_sample"])
+    if categorical:
+        tp["scene_id"] = tp["scene_id"].astype(pd.CategoricalDtype(["Z", "a", "S2", "S10", "X"]))
+    scenes = pd.DataFrame(
+        {"scene_id": ["S10", "S2", "a", "Z"], "lines": [100, 100, 50, 200], "samples": [80] * 4}
+    )
+    size = scenes.set_index("scene_id")
+    k = 4
+    frame = pd.DataFrame(
+        {
+            "scene_id": tp["scene_id"].astype(str).to_numpy(dtype=object),
+            "u": (
+                np.clip(
+                    np.floor(tp["line"] / tp["scene_id"].astype(str).map(size["lines"]) * k),
+                    0,
+                    k - 1,
+                )
+                + 0.5
+            )
+            / k,
+            "w": (
+                np.clip(
+                    np.floor(tp["sample"] / tp["scene_id"].astype(str).map(size["samples"]) * k),
+                    0,
+                    k - 1,
+                )
+                + 0.5
+            )
+            / k,
+            "v_line": tp["v_line"],
+            "v_sample": tp["v_sample"],
+        }
+    )
+    g = frame.groupby(["scene_id", "u", "w"], sort=True)
+    out = g.agg(n=("v_line", "size"), v_line=("v_line", "mean"), v_sample=("v_sample", "mean"))
+    expected = out.reset_index().round(6).to_dict("records")
+    got = residual_cells(tp, scenes)
+    assert [(c["scene_id"], c["u"], c["w"], c["n"]) for c in got] == [
+        (c["scene_id"], c["u"], c["w"], c["n"]) for c in expected
+    ]
+    for a, b in zip(got, expected, strict=True):
+        for key in ("v_line", "v_sample"):
+            if b[key] != b[key]:  # NaN: a cell whose residuals are all missing
+                assert a[key] is None
+            else:
+                assert a[key] == pytest.approx(b[key], abs=2e-6)

@@ -11,6 +11,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from blockqc.delivery import Delivery, distinct_count, scene_positions
 from blockqc.metrics import Measure, Measurement, Scope, Table, metric, not_applicable
+from blockqc.outputs import records
 from blockqc.spatial import clark_evans_grouped
 
 Band = Literal["pan", "ms"]
@@ -176,7 +177,8 @@ MAX_SCENES_FOR_CELLS = 500
 def residual_cells(tp: pd.DataFrame, scenes: pd.DataFrame, k: int = 4) -> list[dict]:
     """Mean residual (v_line, v_sample) per scene and cell of a k×k grid, for the vector map.
 
-    Cells are given by their centre as fractions of the scene's lines (u) and samples (w).
+    Cells are given by their centre as fractions of the scene's lines (u) and samples (w), in
+    the order of scene id (as text), u and w. One bincount per sum over integer cell keys.
     """
     if scenes["scene_id"].nunique() > MAX_SCENES_FOR_CELLS:
         return []
@@ -185,13 +187,43 @@ def residual_cells(tp: pd.DataFrame, scenes: pd.DataFrame, k: int = 4) -> list[d
     samples = tp["scene_id"].map(size["samples"]).to_numpy(dtype=float)
     i = np.clip(np.floor(tp["line"].to_numpy(dtype=float) / lines * k), 0, k - 1)
     j = np.clip(np.floor(tp["sample"].to_numpy(dtype=float) / samples * k), 0, k - 1)
-    frame = pd.DataFrame(
-        {"scene_id": tp["scene_id"].to_numpy(), "u": (i + 0.5) / k, "w": (j + 0.5) / k}
-    ).assign(v_line=tp["v_line"].to_numpy(), v_sample=tp["v_sample"].to_numpy())
-    frame = frame[np.isfinite(frame["u"]) & np.isfinite(frame["w"])]
-    g = frame.groupby(["scene_id", "u", "w"], sort=True)
-    out = g.agg(n=("v_line", "size"), v_line=("v_line", "mean"), v_sample=("v_sample", "mean"))
-    return out.reset_index().round(6).to_dict("records")
+    sid = tp["scene_id"]
+    sid = sid if isinstance(sid.dtype, pd.CategoricalDtype) else sid.astype("category")
+    names = np.asarray(sid.cat.categories.astype(str), dtype=object)
+    order = np.argsort(names, kind="stable")
+    rank = np.empty(len(names), np.int64)
+    rank[order] = np.arange(len(names))
+    codes = sid.cat.codes.to_numpy()
+    valid = np.isfinite(i) & np.isfinite(j) & (codes >= 0)
+    codes = codes[valid]
+    key = (rank[codes] * k + i[valid].astype(np.int64)) * k + j[valid].astype(np.int64)
+    cells = len(names) * k * k
+    n = np.bincount(key, minlength=cells)
+    means = {
+        c: _cell_means(key, tp[c].to_numpy(dtype=float)[valid], cells)
+        for c in ("v_line", "v_sample")
+    }
+    used = np.flatnonzero(n)
+    table = pd.DataFrame(
+        {
+            "scene_id": names[order][used // (k * k)],
+            "u": ((used // k) % k + 0.5) / k,
+            "w": (used % k + 0.5) / k,
+            "n": n[used],
+            "v_line": means["v_line"][used],
+            "v_sample": means["v_sample"][used],
+        }
+    )
+    return records(table.round(6))
+
+
+def _cell_means(key: np.ndarray, values: np.ndarray, cells: int) -> np.ndarray:
+    """Mean of the finite values per cell key (NaN where a cell has none), as pandas' mean."""
+    ok = np.isfinite(values)
+    count = np.bincount(key[ok], minlength=cells)
+    total = np.bincount(key[ok], weights=values[ok], minlength=cells)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return total / count
 
 
 @metric(
