@@ -166,3 +166,15 @@ def test_a_plot_is_well_formed_svg_with_escaped_text():
     texts = ["".join(t.itertext()) for t in root.iter("{http://www.w3.org/2000/svg}text")]
     assert "<b>&title</b>" in texts and "a < b" in texts and "<script>" in texts
     assert root.get("width").endswith("pt") and root.get("viewBox").startswith("0 0 ")
+
+
+@pytest.mark.parametrize(
+    "window", [(3.0, 3.0), (5.0, 1.0), (float("nan"), 1.0), (0.0, float("inf"))]
+)
+def test_a_degenerate_window_still_draws(window):
+    plot = Plot(2.0, 3.0, title="one value", aspect=1.0)
+    plot.xlim = plot.ylim = window
+    plot.add(svgplot.markers([3.0], [3.0], "o", "#000", 3.0))
+    svg = plot.svg("d")
+    ET.fromstring(svg)
+    assert "nan" not in svg and "inf" not in svg

@@ -6,6 +6,8 @@ Built from results.json / summary.json alone, in the report's language.
 from __future__ import annotations
 
 import datetime as dt
+import re
+from collections.abc import Sequence
 from pathlib import PurePath
 from typing import Any
 
@@ -130,6 +132,27 @@ def name_only(path: str) -> str:
     return PurePath(path).name if path else "–"
 
 
+_NUMBERED = re.compile(r"^(.*?)(\d+)$")
+
+
+def id_list(ids: Sequence[str], empty: str = "–") -> str:
+    """Ids joined by commas, each run of three or more consecutive numbers with the same prefix
+    and width written first–last (B00001–B00250): a sample of a thousand blocks stays a line."""
+    out: list[str] = []
+    run: list[str] = []
+    last: tuple[str, int, int] | None = None
+    for block_id in ids:
+        m = _NUMBERED.match(block_id)
+        key = (m.group(1), len(m.group(2)), int(m.group(2))) if m else None
+        if not (run and key and last and key[:2] == last[:2] and key[2] == last[2] + 1):
+            out += [f"{run[0]}–{run[-1]}"] if len(run) >= 3 else run
+            run = []
+        run.append(block_id)
+        last = key
+    out += [f"{run[0]}–{run[-1]}"] if len(run) >= 3 else run
+    return ", ".join(out) or empty
+
+
 def decision_context(s: Summary, f: Formatter) -> dict[str, Any] | None:
     """The batch decision (§QE-5) for summary.html and the batch acceptance report."""
     d: BatchDecision | None = s.acceptance
@@ -140,7 +163,7 @@ def decision_context(s: Summary, f: Formatter) -> dict[str, Any] | None:
         "decision": d.decision,
         "decision_text": f._key("decision", d.decision, d.decision),
         "source": f.t("sample_by_plan") if d.sample_source == "plan" else f.t("sample_by_cps"),
-        "sample": ", ".join(d.sample) or "–",
+        "sample": id_list(d.sample),
         "mean": f.num(d.mean_score, 1) if d.mean_score is not None else "–",
         "sample_grade": grade_text(f, d.sample_grade),
         "batch_grade": grade_text(f, d.batch_grade),
@@ -149,7 +172,7 @@ def decision_context(s: Summary, f: Formatter) -> dict[str, Any] | None:
         else f.t("shares", better=f.num(d.better_pct, 1), top=f.num(d.top_pct, 1)),
         "failing": [_block_line(b, f) for b in d.failing],
         "returned": [_block_line(b, f) for b in d.returned],
-        "incomplete": ", ".join(d.incomplete),
+        "incomplete": id_list(d.incomplete, empty=""),
         "blocks": [
             {
                 **_block_line(b, f),
@@ -225,7 +248,7 @@ def _sampling_rows(s: Summary, f: Formatter) -> list[dict[str, Any]]:
                     "stratum": st["value"] or "–",
                     "size": st["size"],
                     "sample": st["sample"],
-                    "sampled": ", ".join(st["sampled"]) or "–",
+                    "sampled": id_list(st["sampled"]),
                 }
             )
     return rows

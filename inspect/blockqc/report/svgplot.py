@@ -2,7 +2,8 @@
 kind and colour in one path, text as text in the report's fonts.
 
 A figure of a block report costs milliseconds whatever its number of scenes, and WeasyPrint draws
-it in the PDF as it is (no raster). Coordinates are in points (1/72 in), y down, as in SVG.
+the same SVG in the PDF; only a layer of very many marks is an image (`raster`). Coordinates
+are in points (1/72 in), y down, as in SVG.
 """
 
 from __future__ import annotations
@@ -212,6 +213,8 @@ class Plot:
     # drawing ----------------------------------------------------------------------------------
 
     def svg(self, name: str) -> str:
+        """The figure as an SVG element; `name` prefixes its ids (several share a page)."""
+        self.xlim, self.ylim = _window(self.xlim), _window(self.ylim)
         xt, xl, yt, yl = self._ticks()
         fr, width, height = self._frame(xl, yl)
         clip = f"{name}-clip"
@@ -333,6 +336,17 @@ class Plot:
         return "".join(out)
 
 
+def _window(lim: tuple[float, float]) -> tuple[float, float]:
+    """A data window that can be drawn: finite, and wider than nothing."""
+    lo, hi = (float(v) for v in lim)
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        return 0.0, 1.0
+    if hi > lo:
+        return lo, hi
+    half = max(abs(lo), 1.0) * 0.5
+    return lo - half, lo + half
+
+
 def wrap(s: str, size: float, width: float) -> list[str]:
     """Lines of `s` (its own line breaks kept) no wider than `width` pt, broken at spaces."""
     lines: list[str] = []
@@ -360,9 +374,9 @@ def text(
 ) -> str:
     """One text element, its baseline at (x, y); the text escaped (ids come from deliveries)."""
     turn = f' transform="rotate({rotate:g} {x:.2f} {y:.2f})"' if rotate else ""
-    fill = f' fill="{colour}"' if colour != TEXT else f' fill="{TEXT}"'
     return (
-        f'<text x="{x:.2f}" y="{y:.2f}" font-size="{size:g}" text-anchor="{anchor}"{fill}{turn}>'
+        f'<text x="{x:.2f}" y="{y:.2f}" font-size="{size:g}" text-anchor="{anchor}" '
+        f'fill="{colour}"{turn}>'
         f"{escape(s, quote=False)}</text>"
     )
 
