@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from blockqc.report import plots, svgplot
+from blockqc.report import plots, svg, svgplot
 from blockqc.report.format import Formatter
 from blockqc.results import BlockResults
 
@@ -100,10 +100,10 @@ def _rms_labels(xy: np.ndarray, rms: np.ndarray, colours: np.ndarray):
     """The RMS beside the first MAX_PAIR_LABELS pairs."""
     shown = min(len(rms), MAX_PAIR_LABELS)
 
-    def draw(fr: svgplot.Frame) -> str:
+    def draw(fr: svg.Frame) -> str:
         page = fr.xy(xy[:shown])
         return "".join(
-            svgplot.text(x + 2, y, f"{v:.1f}", 6, colour=c)
+            svg.text(x + 2, y, f"{v:.1f}", 6, colour=c)
             for (x, y), v, c in zip(page.tolist(), rms[:shown], colours[:shown], strict=True)
         )
 

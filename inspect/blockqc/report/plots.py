@@ -14,12 +14,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from blockqc.report.svg import Frame, Rings, arrow_outlines, outlines_d, text
 from blockqc.report.svgplot import (
-    Frame,
     LegendEntry,
     Plot,
-    Rings,
-    arrow_outlines,
     arrows,
     bars,
     circle,
@@ -27,10 +25,8 @@ from blockqc.report.svgplot import (
     hline,
     label,
     markers,
-    outlines_d,
     polygons,
     segments,
-    text,
     vline,
 )
 

@@ -14,8 +14,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from blockqc.report import svgplot
-from blockqc.report.svgplot import Frame, Plot
+from blockqc.report import svg, svgplot
+from blockqc.report.svg import Frame
+from blockqc.report.svgplot import Plot
 
 
 @settings(max_examples=300, deadline=None)
@@ -56,9 +57,9 @@ def test_path_d_as_written_vertex_by_vertex():
         expected += ("M" if i in starts else "L") + f"{x:.1f},{y:.1f}"
         if i + 1 in (4, 9, 11):
             expected += "Z"
-    assert svgplot.path_d(xy, starts, close=True) == expected
-    assert svgplot.path_d(xy, starts) == expected.replace("Z", "")
-    assert svgplot.path_d(np.zeros((0, 2)), np.zeros(0, int)) == ""
+    assert svg.path_d(xy, starts, close=True) == expected
+    assert svg.path_d(xy, starts) == expected.replace("Z", "")
+    assert svg.path_d(np.zeros((0, 2)), np.zeros(0, int)) == ""
 
 
 def test_frame_maps_the_window_to_the_plot_area():
@@ -96,28 +97,28 @@ def test_rings_select_and_centres_as_per_ring():
 
 
 def test_arrow_outlines_by_hand():
-    out = svgplot.arrow_outlines(np.array([[0.0, 0.0]]), np.array([[20.0, 0.0]]), 2.0)[0]
+    out = svg.arrow_outlines(np.array([[0.0, 0.0]]), np.array([[20.0, 0.0]]), 2.0)[0]
     # shaft 2 pt wide, head 9 pt long and 6 pt wide, tip at the end
     np.testing.assert_allclose(
         out, [[0, 1], [11, 1], [11, 3], [20, 0], [11, -3], [11, -1], [0, -1]], atol=1e-12
     )
-    short = svgplot.arrow_outlines(np.array([[0.0, 0.0]]), np.array([[0.0, 4.5]]), 2.0)[0]
+    short = svg.arrow_outlines(np.array([[0.0, 0.0]]), np.array([[0.0, 4.5]]), 2.0)[0]
     np.testing.assert_allclose(short[3], [0, 4.5])  # a short arrow keeps its tip
     np.testing.assert_allclose(short[2], [-1.5, 0])  # and its head shrinks by half
-    assert svgplot.arrow_outlines(np.zeros((1, 2)), np.zeros((1, 2)), 1.0).shape == (0, 7, 2)
+    assert svg.arrow_outlines(np.zeros((1, 2)), np.zeros((1, 2)), 1.0).shape == (0, 7, 2)
 
 
 def test_wrap_keeps_every_word_and_the_width():
     title = "Tie-point residuals: mean vector per scene and cell of a 4×4 grid\n(longest 0.33 px)"
-    lines = svgplot.wrap(title, 9, 200)
+    lines = svg.wrap(title, 9, 200)
     assert " ".join(lines).replace("\n", " ").split() == title.replace("\n", " ").split()
     assert lines[-1] == "(longest 0.33 px)"
-    assert all(svgplot.text_width(line, 9) <= 200 for line in lines if " " in line)
+    assert all(svg.text_width(line, 9) <= 200 for line in lines if " " in line)
 
 
 def test_text_width_counts_wide_characters_one_em():
-    assert svgplot.text_width("连接点", 10) == pytest.approx(30)
-    assert 0 < svgplot.text_width("iii", 10) < svgplot.text_width("MMM", 10) < 30
+    assert svg.text_width("连接点", 10) == pytest.approx(30)
+    assert 0 < svg.text_width("iii", 10) < svg.text_width("MMM", 10) < 30
 
 
 def _png_of(svg: str) -> np.ndarray:
@@ -130,7 +131,7 @@ def _png_of(svg: str) -> np.ndarray:
 def test_raster_layer_covers_what_it_draws():
     fr = Frame(0, 0, 72, 36, (0.0, 2.0), (0.0, 1.0))  # 1 in × 0.5 in: 150 × 75 pixels
     square = np.array([[[18.0, 9.0], [54.0, 9.0], [54.0, 27.0], [18.0, 27.0]]])  # points
-    image = _png_of(svgplot.raster(fr, [("#c62828", square)]))
+    image = _png_of(svg.raster(fr, [("#c62828", square)]))
     assert image.shape == (75, 150, 4)
     inside, outside = image[25:50, 45:105], image[:15]
     assert (inside[..., 3] == 255).all() and (inside[..., :3] == [0xC6, 0x28, 0x28]).all()
@@ -151,8 +152,8 @@ def test_many_arrows_become_one_image_few_stay_paths():
         plot.xlim, plot.ylim = (-1.0, 31.0), (-1.0, n / 30 + 1)
         return plot.svg("a")
 
-    few, many = figure(svgplot.RASTER_ABOVE), figure(svgplot.RASTER_ABOVE + 1)
-    assert "<image" not in few and few.count("Z") == svgplot.RASTER_ABOVE
+    few, many = figure(svg.RASTER_ABOVE), figure(svg.RASTER_ABOVE + 1)
+    assert "<image" not in few and few.count("Z") == svg.RASTER_ABOVE
     assert "<image" in many and _png_of(many)[..., 3].any()
 
 
