@@ -14,7 +14,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from blockqc.report import svg, svgplot
+from blockqc.report import plots, svg, svgplot
 from blockqc.report.svg import Frame
 from blockqc.report.svgplot import Plot
 
@@ -179,3 +179,38 @@ def test_a_degenerate_window_still_draws(window):
     svg = plot.svg("d")
     ET.fromstring(svg)
     assert "nan" not in svg and "inf" not in svg
+
+
+def _t(key: str, **kw) -> str:
+    return key + "".join(f" {v}" for v in kw.values())
+
+
+@pytest.mark.parametrize(
+    "draw",
+    [
+        lambda: plots.footprints(
+            [{"scene_id": "A", "footprint_wkt": "not wkt"}, {"scene_id": "B"}], {}, _t, "f"
+        ),
+        lambda: plots.footprints(
+            [{"scene_id": "A", "footprint_wkt": "POLYGON ((1 1, 1 1, 1 1, 1 1))"}], {}, _t, "f"
+        ),
+        lambda: plots.scene_counts([], 100, {}, _t, "c"),
+        lambda: plots.scene_counts([{"scene_id": "A", "n_points": None}], None, {}, _t, "c"),
+        lambda: plots.residual_histogram({"edges_px": [0, 1], "counts": [1, 2]}, [], _t, "h"),
+        lambda: plots.residual_histogram({}, [1.5], _t, "h"),
+        lambda: plots.checkpoint_errors([], [], "plane", _t, "e"),
+        lambda: plots.checkpoint_vectors(
+            [{"component": "plane", "method": "m", "dx_m": 0.0, "dy_m": 0.0, "point_id": "P"}],
+            [],
+            _t,
+            "v",
+        ),
+        lambda: plots.scene_points("S", [], [], 100, 100, 3, _t, "s"),
+    ],
+)
+def test_figures_of_degenerate_results_are_well_formed(draw):
+    """Odd results.json content (no rows, unreadable or flat footprints, missing counts, one
+    zero vector) still gives a figure that parses, with no NaN or infinity written."""
+    svg_text = draw()
+    ET.fromstring(svg_text)
+    assert "nan" not in svg_text.lower() and "inf" not in svg_text.lower()

@@ -17,6 +17,7 @@ import pandas as pd
 from blockqc.report.svg import Frame, Rings, arrow_outlines, outlines_d, text
 from blockqc.report.svgplot import (
     LegendEntry,
+    Mark,
     Plot,
     arrows,
     bars,
@@ -205,16 +206,15 @@ def _placed_vectors(placed: list[dict[str, Any]], t: Callable[..., str], name: s
     return plot.svg(name)
 
 
-def _key_arrow(length: float, label: str) -> Callable[[Frame], str]:
-    """A reference arrow of `length` data units at the lower left of the frame, labelled."""
+def _key_arrow(length: float, caption: str) -> Mark:
+    """A reference arrow of `length` data units at the lower left of the frame, captioned."""
 
     def draw(fr: Frame) -> str:
         x0, y0 = fr.left + 0.06 * fr.width, fr.top + 0.95 * fr.height
         w = float(fr.x(fr.xlim[0] + length) - fr.left)
         tail, tip = np.array([[x0, y0]]), np.array([[x0 + w, y0]])
-        return f'<path d="{outlines_d(arrow_outlines(tail, tip, 1.3))}" fill="#333"/>' + text(
-            x0 + w + 4, y0 + 2.5, label, 7
-        )
+        arrow = f'<path d="{outlines_d(arrow_outlines(tail, tip, 1.3))}" fill="#333"/>'
+        return arrow + text(x0 + w + 4, y0 + 2.5, caption, 7)
 
     return draw
 
@@ -241,7 +241,7 @@ def residual_histogram(
         plot.add(vline(m, colour, 0.9, "" if red else DASHED), z=3)
         plot.add(label(m, top * 1.02, f"{m:g} px", 7, anchor="middle"), z=4)
     plot.ylim = (0, top * 1.15)
-    plot.xlim = (0, max(float(edges[-1]) if edges.size else 2.0, max(marks) + 0.1))
+    plot.xlim = (0, max(float(edges[-1]) if edges.size else 2.0, max(marks, default=0) + 0.1))
     return plot.svg(name)
 
 
@@ -255,9 +255,9 @@ def scene_counts(
     """Tie points per scene, the minimum drawn; failing scenes red, exempt scenes blue."""
     n = len(scenes)
     plot = Plot(2.6 if n <= 60 else 3.0, title=t("fig_tp_counts"), ylabel=t("ax_tie_points"))
-    table = pd.DataFrame(scenes)
+    table = pd.DataFrame(scenes).reindex(columns=["scene_id", "n_points"])
     ids = table["scene_id"].astype(str)
-    counts = pd.to_numeric(table.get("n_points"), errors="coerce").fillna(0).to_numpy(float)
+    counts = pd.to_numeric(table["n_points"], errors="coerce").fillna(0).to_numpy(float)
     marks = ids.map(status).astype(object)
     colours = marks.map(STATUS_COLOURS).astype(object).fillna("#7a9cc6").to_numpy(object)
     plot.add(bars(np.arange(n) - 0.4, np.full(n, 0.8), counts, colours))
@@ -350,7 +350,7 @@ def lonlat_plot(
     return plot
 
 
-def ring_labels(rings: Rings, ids: np.ndarray, most: int) -> Callable[[Frame], str]:
+def ring_labels(rings: Rings, ids: np.ndarray, most: int) -> Mark:
     """The ids of the first `most` rings' owners at their centres."""
     centres = rings.centres()[:most]
     names = ids[rings.owner[:most]].tolist()
