@@ -214,3 +214,25 @@ def test_figures_of_degenerate_results_are_well_formed(draw):
     svg_text = draw()
     ET.fromstring(svg_text)
     assert "nan" not in svg_text.lower() and "inf" not in svg_text.lower()
+
+
+def test_residual_map_leaves_out_cells_without_residuals() -> None:
+    """A cell whose residuals are all missing (null in results.json) has no arrow; the others
+    are drawn, with the longest one named in the title."""
+    from report_helpers import make_results
+
+    from blockqc.report.format import Formatter
+    from blockqc.report.maps import residual_map
+    from blockqc.results import BlockResults
+
+    doc = make_results()
+    sid = doc["scenes"][0]["scene_id"]
+    m = next(x for x in doc["measurements"] if x["metric"] == "tie_point_errors")
+    m["detail"]["residual_cells"] = [
+        {"scene_id": sid, "u": 0.125, "w": 0.125, "n": 3, "v_line": 0.3, "v_sample": 0.4},
+        {"scene_id": sid, "u": 0.375, "w": 0.125, "n": 2, "v_line": None, "v_sample": None},
+    ]
+    svg = residual_map(BlockResults.model_validate(doc), Formatter("en"))
+    assert svg is not None and "nan" not in svg.lower()
+    assert "0.50" in svg  # the longest arrow: √(0.3² + 0.4²) px
+    assert svg.count("Z") == 1  # one arrow outline

@@ -83,7 +83,7 @@ def overlap_map(results: BlockResults, f: Formatter) -> str | None:
     xy = shapely.get_coordinates(shapely.centroid(meet))
     rings = plots.rings_of([sc.get("footprint_wkt") for sc in results.scenes])
     vec = pairs[["dx", "dy"]].to_numpy()
-    biggest = float(np.hypot(vec[:, 0], vec[:, 1]).max()) or 1.0
+    biggest = float(np.nanmax(np.hypot(vec[:, 0], vec[:, 1]), initial=0.0)) or 1.0
     span = max(float(np.ptp(xy[:, 0])), float(np.ptp(xy[:, 1])), 1e-3)
     scale = 0.15 * span / biggest  # degrees per metre of mean discrepancy
     bad = (pairs["max"] >= bound).to_numpy() if bound is not None else np.zeros(len(pairs), bool)
@@ -160,6 +160,7 @@ def residual_map(results: BlockResults, f: Formatter) -> str | None:
     m = next((x for x in results.measurements if x.metric == "tie_point_errors"), None)
     cells = (m.detail.get("residual_cells") if m else None) or []
     v = residual_vectors(cells, *_corners(results))
+    v = v[np.isfinite(v).all(axis=1)]  # a cell whose residuals are all missing has no arrow
     if not len(v):
         return None
     span = max(float(np.ptp(v[:, 0])), float(np.ptp(v[:, 1])), 1e-3)
