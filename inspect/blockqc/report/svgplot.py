@@ -12,7 +12,7 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from html import escape
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -68,9 +68,11 @@ Mark = Callable[[Frame], str]
 
 @dataclass
 class LegendEntry:
+    """One line of a legend: a swatch (a patch, a line, a disc or a cross) and its label."""
+
     label: str
     colour: str
-    kind: str = "patch"  # patch | line | marker-o | marker-x
+    kind: Literal["patch", "line", "marker-o", "marker-x"] = "patch"
     dash: str = ""
     alpha: float = 1.0
 
@@ -272,7 +274,8 @@ class Plot:
                     f'stroke-width="1.1"{dash}/>'
                 )
             else:
-                out.append(markers_path(np.array([[x + 7, mid]]), e.kind[-1], e.colour, 5.0))
+                shape = "x" if e.kind == "marker-x" else "o"
+                out.append(markers_path(np.array([[x + 7, mid]]), shape, e.colour, 5.0))
             out.append(text(x + 18, y + LEGEND_PT * 0.35 + 0.5, e.label, LEGEND_PT))
         return "".join(out)
 
