@@ -236,3 +236,27 @@ def test_residual_map_leaves_out_cells_without_residuals() -> None:
     assert svg is not None and "nan" not in svg.lower()
     assert "0.50" in svg  # the longest arrow: √(0.3² + 0.4²) px
     assert svg.count("Z") == 1  # one arrow outline
+
+
+def test_points_without_a_position_are_left_out_as_paths_and_as_images():
+    for n in (3, svg.RASTER_ABOVE + 5):
+        plot = Plot(2.0, 3.0, title="p")
+        x = np.r_[np.linspace(0, 10, n - 2), np.nan, 1e30]
+        y = np.r_[np.linspace(0, 10, n - 2), 5.0, np.nan]
+        plot.add(svgplot.markers(x, y, "o", "#1f4e99", 2.0))
+        plot.xlim, plot.ylim = (0.0, 10.0), (0.0, 10.0)
+        text = plot.svg("n")
+        ET.fromstring(text)
+        assert "nan" not in text and "inf" not in text
+        if n > svg.RASTER_ABOVE:
+            assert _png_of(text)[..., 3].any()
+        else:
+            assert text.count("a1,1 0 1,0 2,0") == n - 2
+
+
+def test_a_raster_of_more_colours_than_a_palette_holds_keeps_the_first():
+    fr = Frame(0, 0, 36, 36, (0.0, 1.0), (0.0, 1.0))
+    square = np.array([[[5.0, 5.0], [30.0, 5.0], [30.0, 30.0], [5.0, 30.0]]])
+    layers = [(f"#{k:02x}0000", square) for k in range(20)]
+    image = _png_of(svg.raster(fr, layers))
+    assert image[37, 37, 3] == 255 and image[37, 37, 0] == 16  # the 17th colour, on top

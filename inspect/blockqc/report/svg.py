@@ -197,13 +197,16 @@ def raster(fr: Frame, layers: list[tuple[str, np.ndarray]]) -> str:
     import cv2
     from PIL import Image
 
+    layers = layers[: 255 // LEVELS]  # a palette holds 255 colours besides transparency
     px = RASTER_DPI / 72
     w, h = max(1, math.ceil(fr.width * px)), max(1, math.ceil(fr.height * px))
     index = np.zeros((h, w), np.uint8)
     origin = np.array([fr.left, fr.top])
-    for k, (_, outlines) in enumerate(layers[: 255 // LEVELS]):
+    for k, (_, outlines) in enumerate(layers):
+        outlines = outlines[np.isfinite(outlines).all(axis=(1, 2))]
         mask = np.zeros((h, w), np.uint8)
-        fixed = np.round((outlines - origin) * px * 16).astype(np.int32)  # 4 bits of subpixel
+        fixed = np.clip((outlines - origin) * px * 16, -(2**26), 2**26)  # 4 bits of subpixel
+        fixed = np.round(fixed).astype(np.int32)
         cv2.fillPoly(mask, list(fixed), 255, lineType=cv2.LINE_AA, shift=4)
         level = (mask.astype(np.uint16) * LEVELS + 127) // 255
         np.copyto(index, (k * LEVELS + level).astype(np.uint8), where=level > 0)

@@ -345,8 +345,10 @@ def vline(x: float, colour: str, width: float, dash: str = "") -> Mark:
 
 
 def markers(x: Any, y: Any, shape: str, colour: str, size: float) -> Mark:
-    """Markers ("o" discs, "x" crosses) `size` pt wide; many discs drawn as an image."""
+    """Markers ("o" discs, "x" crosses) `size` pt wide; many discs drawn as an image. A point
+    without a finite position is left out."""
     xy = np.column_stack([np.asarray(x, float), np.asarray(y, float)])
+    xy = xy[np.isfinite(xy).all(axis=1)]
     if shape == "o" and len(xy) > RASTER_ABOVE:
         return lambda fr: raster(fr, [(colour, disc_outlines(fr.xy(xy), size))])
     return lambda fr: markers_path(fr.xy(xy), shape, colour, size)
