@@ -114,12 +114,12 @@ def checkpoint_errors(
         st = next((s for s in stats if s["component"] == component and s["method"] == method), None)
         span = (x0 - 0.5, x0 + len(mine) - 0.5)
         for sign in (1, -1) if component == "height" else (1,):
-            for key, colour, width, dash in (
+            for key, line_colour, width, dash in (
                 ("norm_m", "#555", 0.9, DASHED),
                 ("bound_m", STATUS_COLOURS["fail"], 1.1, DOTTED),
             ):
                 if st is not None and st.get(key) is not None:
-                    plot.add(hline(sign * st[key], colour, width, dash, span))
+                    plot.add(hline(sign * st[key], line_colour, width, dash, span))
                     reach.append(sign * st[key])
         ticks += xs.tolist()
         labels += [str(p["point_id"]) for p in mine]
