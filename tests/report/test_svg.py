@@ -260,3 +260,12 @@ def test_a_raster_of_more_colours_than_a_palette_holds_keeps_the_first():
     layers = [(f"#{k:02x}0000", square) for k in range(20)]
     image = _png_of(svg.raster(fr, layers))
     assert image[37, 37, 3] == 255 and image[37, 37, 0] == 16  # the 17th colour, on top
+
+
+def test_labels_that_would_overlap_are_left_out():
+    from blockqc.report.plots import _apart
+
+    centre = np.array([[0.0, 0.0], [5.0, 2.0], [30.0, 0.0], [0.0, 20.0], [np.nan, 50.0]])
+    half = np.array([10.0, 10.0, 10.0, 10.0, 10.0])
+    # the second box meets the first (5 < 20 across, 2 < 9 down); the others meet no kept box
+    assert _apart(centre, half, 4.5) == [0, 2, 3]

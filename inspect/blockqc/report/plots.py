@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from blockqc.report.svg import Frame, Rings, arrow_outlines, outlines_d, text
+from blockqc.report.svg import Frame, Rings, arrow_outlines, outlines_d, text, text_width
 from blockqc.report.svgplot import (
     LegendEntry,
     Mark,
@@ -351,18 +351,34 @@ def lonlat_plot(
 
 
 def ring_labels(rings: Rings, ids: np.ndarray, most: int) -> Mark:
-    """The ids of the first `most` rings' owners at their centres."""
+    """The ids of the first `most` rings' owners at their centres, each left out where it would
+    overlap one already written (adjacent failing scenes)."""
     centres = rings.centres()[:most]
     names = ids[rings.owner[:most]].tolist()
 
     def draw(fr: Frame) -> str:
         page = fr.xy(centres)
+        half = np.array([text_width(s, 6) / 2 + 1 for s in names])
+        low, high = fr.left + half, np.maximum(fr.left + fr.width - half, fr.left + half)
+        page[:, 0] = np.clip(page[:, 0], low, high)  # a label stays inside the frame
+        kept = _apart(page, half, 4.5)
         return "".join(
-            text(x, y + 2, s, 6, anchor="middle", colour="#111")
-            for (x, y), s in zip(page.tolist(), names, strict=True)
+            text(x, y + 2, names[i], 6, anchor="middle", colour="#111")
+            for i, (x, y) in zip(kept, page[kept].tolist(), strict=True)
         )
 
     return draw
+
+
+def _apart(centre: np.ndarray, half_width: np.ndarray, half_height: float) -> list[int]:
+    """Greedily, the boxes (centre ± half sizes) that overlap none kept before them."""
+    kept: list[int] = []
+    for i in range(len(centre)):  # at most MAX_FOOTPRINT_LABELS
+        dx = np.abs(centre[kept, 0] - centre[i, 0]) < half_width[kept] + half_width[i]
+        dy = np.abs(centre[kept, 1] - centre[i, 1]) < 2 * half_height
+        if np.isfinite(centre[i]).all() and not (dx & dy).any():
+            kept.append(i)
+    return kept
 
 
 def scene_points(
