@@ -269,3 +269,11 @@ def test_labels_that_would_overlap_are_left_out():
     half = np.array([10.0, 10.0, 10.0, 10.0, 10.0])
     # the second box meets the first (5 < 20 across, 2 < 9 down); the others meet no kept box
     assert _apart(centre, half, 4.5) == [0, 2, 3]
+
+
+def test_wrap_cuts_a_run_wider_than_a_line():
+    title = "连接点残差各影像格网内平均残差矢量最长像素地面方向" * 2
+    lines = svg.wrap(title, 9, 100)
+    assert "".join(lines) == title and len(lines) > 1
+    assert all(svg.text_width(line, 9) <= 100 for line in lines)
+    assert svg.wrap("x" * 3, 9, 1) == ["x", "x", "x"]  # never an empty line, one character at least

@@ -91,7 +91,8 @@ class Frame:
 
 
 def wrap(s: str, size: float, width: float) -> list[str]:
-    """Lines of `s` (its own line breaks kept) no wider than `width` pt, broken at spaces."""
+    """Lines of `s` (its own line breaks kept) no wider than `width` pt, broken at spaces; a word
+    wider than a line (a run of Chinese, a long id) is cut where the line is full."""
     lines: list[str] = []
     for para in s.split("\n"):
         line = ""
@@ -101,8 +102,17 @@ def wrap(s: str, size: float, width: float) -> list[str]:
                 lines.append(line)
                 trial = word
             line = trial
+            while len(line) > 1 and text_width(line, size) > width:
+                cut = _fitting(line, size, width)
+                lines.append(line[:cut])
+                line = line[cut:]
         lines.append(line)
     return lines
+
+
+def _fitting(line: str, size: float, width: float) -> int:
+    """How many leading characters of `line` fit in `width` pt (one at least)."""
+    return next((k for k in range(len(line) - 1, 1, -1) if text_width(line[:k], size) <= width), 1)
 
 
 def text(
