@@ -277,3 +277,17 @@ def test_wrap_cuts_a_run_wider_than_a_line():
     assert "".join(lines) == title and len(lines) > 1
     assert all(svg.text_width(line, 9) <= 100 for line in lines)
     assert svg.wrap("x" * 3, 9, 1) == ["x", "x", "x"]  # never an empty line, one character at least
+
+
+def test_a_long_legend_label_is_cut_and_the_plot_keeps_its_frame():
+    plot = Plot(2.0, 4.0, title="t")
+    long = "recalculation with other software, " * 20
+    plot.legend.append(svgplot.LegendEntry(long, "#000"))
+    plot.xlim, plot.ylim = (0.0, 1.0), (0.0, 1.0)
+    root = ET.fromstring(plot.svg("l"))
+    texts = ["".join(t.itertext()) for t in root.iter("{http://www.w3.org/2000/svg}text")]
+    shown = next(t for t in texts if t.startswith("recalculation"))
+    assert shown.endswith("…") and long.startswith(shown[:-1])
+    assert svg.text_width(shown, 7) <= 4.0 * 72 / 3 + 1e-9
+    frame = root.find("{http://www.w3.org/2000/svg}clipPath")[0]
+    assert float(frame.get("width")) > 4.0 * 72 / 3  # the plot keeps most of the figure

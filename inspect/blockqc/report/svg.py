@@ -103,14 +103,14 @@ def wrap(s: str, size: float, width: float) -> list[str]:
                 trial = word
             line = trial
             while len(line) > 1 and text_width(line, size) > width:
-                cut = _fitting(line, size, width)
+                cut = fitting(line, size, width)
                 lines.append(line[:cut])
                 line = line[cut:]
         lines.append(line)
     return lines
 
 
-def _fitting(line: str, size: float, width: float) -> int:
+def fitting(line: str, size: float, width: float) -> int:
     """How many leading characters of `line` fit in `width` pt (one at least)."""
     return next((k for k in range(len(line) - 1, 1, -1) if text_width(line[:k], size) <= width), 1)
 
@@ -281,6 +281,7 @@ __all__ = [
     "Rings",
     "arrow_outlines",
     "disc_outlines",
+    "fitting",
     "markers_path",
     "outlines_d",
     "path_d",

@@ -23,6 +23,7 @@ from blockqc.report.svg import (
     Rings,
     arrow_outlines,
     disc_outlines,
+    fitting,
     markers_path,
     outlines_d,
     path_d,
@@ -114,7 +115,15 @@ class Plot:
     def _legend_width(self) -> float:
         if not self.legend:
             return PAD_PT * 2
-        return 8 + 18 + max(text_width(e.label, LEGEND_PT) for e in self.legend) + PAD_PT
+        labels = (text_width(self._legend_label(e), LEGEND_PT) for e in self.legend)
+        return 8 + 18 + max(labels) + PAD_PT
+
+    def _legend_label(self, e: LegendEntry) -> str:
+        """The label, cut with an ellipsis to a third of the figure's width."""
+        room = self.width_in * 72 / 3
+        if text_width(e.label, LEGEND_PT) <= room:
+            return e.label
+        return e.label[: fitting(e.label, LEGEND_PT, room - text_width("…", LEGEND_PT))] + "…"
 
     def _column_extent(self) -> float:
         """How far the column labels reach below the axes (the figure grows by it)."""
@@ -276,7 +285,7 @@ class Plot:
             else:
                 shape = "x" if e.kind == "marker-x" else "o"
                 out.append(markers_path(np.array([[x + 7, mid]]), shape, e.colour, 5.0))
-            out.append(text(x + 18, y + LEGEND_PT * 0.35 + 0.5, e.label, LEGEND_PT))
+            out.append(text(x + 18, y + LEGEND_PT * 0.35 + 0.5, self._legend_label(e), LEGEND_PT))
         return "".join(out)
 
 
