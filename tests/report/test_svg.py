@@ -291,3 +291,17 @@ def test_a_long_legend_label_is_cut_and_the_plot_keeps_its_frame():
     assert svg.text_width(shown, 7) <= 4.0 * 72 / 3 + 1e-9
     frame = root.find("{http://www.w3.org/2000/svg}clipPath")[0]
     assert float(frame.get("width")) > 4.0 * 72 / 3  # the plot keeps most of the figure
+
+
+def test_long_column_labels_are_cut_and_the_figure_stays_its_size():
+    plot = Plot(2.5, title="t")
+    labels = ["P-1", "a-point-id-far-longer-than-any-column-label-should-be-" * 3]
+    plot.column_labels = (np.arange(2.0), labels, 6.5)
+    plot.xlim, plot.ylim = (-0.5, 1.5), (0.0, 1.0)
+    root = ET.fromstring(plot.svg("c"))
+    texts = ["".join(t.itertext()) for t in root.iter("{http://www.w3.org/2000/svg}text")]
+    assert "P-1" in texts
+    shown = next(t for t in texts if t.startswith("a-point"))
+    assert shown.endswith("…") and svg.text_width(shown, 6.5) <= svgplot.COLUMN_LABEL_PT
+    assert float(root.get("height").removesuffix("pt")) <= 2.5 * 72 + svgplot.COLUMN_LABEL_PT + 4
+    assert svg.cut("short", 7, 100) == "short"

@@ -110,6 +110,13 @@ def wrap(s: str, size: float, width: float) -> list[str]:
     return lines
 
 
+def cut(s: str, size: float, width: float) -> str:
+    """`s`, or as much of it as fits in `width` pt followed by an ellipsis."""
+    if text_width(s, size) <= width:
+        return s
+    return s[: fitting(s, size, width - text_width("…", size))] + "…"
+
+
 def fitting(line: str, size: float, width: float) -> int:
     """How many leading characters of `line` fit in `width` pt (one at least)."""
     return next((k for k in range(len(line) - 1, 1, -1) if text_width(line[:k], size) <= width), 1)
@@ -280,6 +287,7 @@ __all__ = [
     "Frame",
     "Rings",
     "arrow_outlines",
+    "cut",
     "disc_outlines",
     "fitting",
     "markers_path",

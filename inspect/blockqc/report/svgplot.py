@@ -22,8 +22,8 @@ from blockqc.report.svg import (
     Frame,
     Rings,
     arrow_outlines,
+    cut,
     disc_outlines,
-    fitting,
     markers_path,
     outlines_d,
     path_d,
@@ -39,6 +39,7 @@ GRID = "#e3e3e3"
 TICK_PT = 3.5
 TITLE_PT, LABEL_PT, TICK_LABEL_PT, LEGEND_PT = 9.0, 8.0, 7.0, 7.0
 PAD_PT = 4.0
+COLUMN_LABEL_PT = 90.0  # the longest a column label may reach below the axes
 
 
 def nice_ticks(lo: float, hi: float, target: int = 6) -> np.ndarray:
@@ -120,17 +121,21 @@ class Plot:
 
     def _legend_label(self, e: LegendEntry) -> str:
         """The label, cut with an ellipsis to a third of the figure's width."""
-        room = self.width_in * 72 / 3
-        if text_width(e.label, LEGEND_PT) <= room:
-            return e.label
-        return e.label[: fitting(e.label, LEGEND_PT, room - text_width("…", LEGEND_PT))] + "…"
+        return cut(e.label, LEGEND_PT, self.width_in * 72 / 3)
+
+    def _column_texts(self) -> list[str]:
+        """The column labels, each cut with an ellipsis to COLUMN_LABEL_PT."""
+        if self.column_labels is None:
+            return []
+        _, labels, size = self.column_labels
+        return [cut(s, size, COLUMN_LABEL_PT) for s in labels]
 
     def _column_extent(self) -> float:
         """How far the column labels reach below the axes (the figure grows by it)."""
         if self.column_labels is None:
             return 0.0
-        _, labels, size = self.column_labels
-        return TICK_PT + max((text_width(s, size) for s in labels), default=0)
+        size = self.column_labels[2]
+        return TICK_PT + max((text_width(s, size) for s in self._column_texts()), default=0)
 
     def _bottom(self, xlabels: list[str]) -> float:
         below = PAD_PT + self._column_extent()
@@ -239,11 +244,11 @@ class Plot:
             for py, s in zip(fr.y(yt), yl, strict=True)
         ]
         if self.column_labels is not None:
-            xs, labels, lsize = self.column_labels
+            xs, _, lsize = self.column_labels
             px = fr.x(np.asarray(xs, float)) + lsize * 0.35
             out += [
                 text(p, y0 + TICK_PT, s, lsize, anchor="end", rotate=-90)
-                for p, s in zip(px, labels, strict=True)
+                for p, s in zip(px, self._column_texts(), strict=True)
                 if fr.left - 1 <= p <= fr.left + fr.width + 1
             ]
         return "".join(out)
