@@ -103,9 +103,9 @@ def wrap(s: str, size: float, width: float) -> list[str]:
                 trial = word
             line = trial
             while len(line) > 1 and text_width(line, size) > width:
-                cut = fitting(line, size, width)
-                lines.append(line[:cut])
-                line = line[cut:]
+                k = _fitting(line, size, width)
+                lines.append(line[:k])
+                line = line[k:]
         lines.append(line)
     return lines
 
@@ -114,10 +114,10 @@ def cut(s: str, size: float, width: float) -> str:
     """`s`, or as much of it as fits in `width` pt followed by an ellipsis."""
     if text_width(s, size) <= width:
         return s
-    return s[: fitting(s, size, width - text_width("…", size))] + "…"
+    return s[: _fitting(s, size, width - text_width("…", size))] + "…"
 
 
-def fitting(line: str, size: float, width: float) -> int:
+def _fitting(line: str, size: float, width: float) -> int:
     """How many leading characters of `line` fit in `width` pt (one at least)."""
     return next((k for k in range(len(line) - 1, 1, -1) if text_width(line[:k], size) <= width), 1)
 
@@ -289,7 +289,6 @@ __all__ = [
     "arrow_outlines",
     "cut",
     "disc_outlines",
-    "fitting",
     "markers_path",
     "outlines_d",
     "path_d",
