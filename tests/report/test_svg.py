@@ -79,9 +79,9 @@ def test_rings_select_and_centres_as_per_ring():
         "MULTIPOLYGON (((10 0, 11 0, 11 1, 10 0)), ((20 0, 24 0, 24 4, 20 4, 20 0)))",
         "POINT (5 5)",
     ]
-    from blockqc.report.plots import rings_of
+    from blockqc.report.plots import geometries, rings_of
 
-    rings = rings_of(wkts)
+    rings = rings_of(geometries(wkts))
     assert rings.owner.tolist() == [0, 2, 2]
     parts = [
         np.asarray(shapely.get_coordinates(shapely.from_wkt(w)))

@@ -180,24 +180,20 @@ def residual_cells(tp: pd.DataFrame, scenes: pd.DataFrame, k: int = 4) -> list[d
     Cells are given by their centre as fractions of the scene's lines (u) and samples (w), in
     the order of scene id (as text), u and w. One bincount per sum over integer cell keys.
     """
-    if scenes["scene_id"].nunique() > MAX_SCENES_FOR_CELLS:
+    if not 0 < scenes["scene_id"].nunique() <= MAX_SCENES_FOR_CELLS:
         return []
     size = _image_size(scenes)
-    lines = tp["scene_id"].map(size["lines"]).to_numpy(dtype=float)
-    samples = tp["scene_id"].map(size["samples"]).to_numpy(dtype=float)
+    names = np.asarray(size.index.astype(str), dtype=object)
+    order = np.argsort(names, kind="stable")
+    size, names = size.iloc[order], names[order]
+    at = scene_positions(tp["scene_id"], size.index)  # the scene's rank by its id as text
+    lines = size["lines"].to_numpy()[at]
+    samples = size["samples"].to_numpy()[at]
     i = np.clip(np.floor(tp["line"].to_numpy(dtype=float) / lines * k), 0, k - 1)
     j = np.clip(np.floor(tp["sample"].to_numpy(dtype=float) / samples * k), 0, k - 1)
-    sid = tp["scene_id"]
-    sid = sid if isinstance(sid.dtype, pd.CategoricalDtype) else sid.astype("category")
-    names = np.asarray(sid.cat.categories.astype(str), dtype=object)
-    order = np.argsort(names, kind="stable")
-    rank = np.empty(len(names), np.int64)
-    rank[order] = np.arange(len(names))
-    codes = sid.cat.codes.to_numpy()
-    valid = np.isfinite(i) & np.isfinite(j) & (codes >= 0)
-    codes = codes[valid]
-    key = (rank[codes] * k + i[valid].astype(np.int64)) * k + j[valid].astype(np.int64)
-    cells = len(names) * k * k
+    valid = (at >= 0) & np.isfinite(i) & np.isfinite(j)
+    key = (at[valid] * k + i[valid].astype(np.int64)) * k + j[valid].astype(np.int64)
+    cells = len(size) * k * k
     n = np.bincount(key, minlength=cells)
     means = {
         c: _cell_means(key, tp[c].to_numpy(dtype=float)[valid], cells)
@@ -206,7 +202,7 @@ def residual_cells(tp: pd.DataFrame, scenes: pd.DataFrame, k: int = 4) -> list[d
     used = np.flatnonzero(n)
     table = pd.DataFrame(
         {
-            "scene_id": names[order][used // (k * k)],
+            "scene_id": names[used // (k * k)],
             "u": ((used // k) % k + 0.5) / k,
             "w": (used % k + 0.5) / k,
             "n": n[used],

@@ -43,12 +43,8 @@ def _overlap_points(results: BlockResults) -> tuple[list[dict[str, Any]], float 
 
 def _footprints(results: BlockResults) -> tuple[list[str], np.ndarray]:
     """Scene ids and their footprint geometries (None where unreadable), parsed in one call."""
-    import shapely
-
     ids = [str(sc["scene_id"]) for sc in results.scenes]
-    wkts = np.array([sc.get("footprint_wkt") for sc in results.scenes], dtype=object)
-    wkts[[not isinstance(w, str) for w in wkts]] = None
-    return ids, shapely.from_wkt(wkts, on_invalid="ignore")
+    return ids, plots.geometries([sc.get("footprint_wkt") for sc in results.scenes])
 
 
 def _pairs(rows: list[dict[str, Any]]) -> pd.DataFrame:
@@ -81,7 +77,7 @@ def overlap_map(results: BlockResults, f: Formatter) -> str | None:
     meet = shapely.intersection(shapely.make_valid(ga), shapely.make_valid(gb))
     meet = np.where(shapely.is_empty(meet), shapely.union(ga, gb), meet)
     xy = shapely.get_coordinates(shapely.centroid(meet))
-    rings = plots.rings_of([sc.get("footprint_wkt") for sc in results.scenes])
+    rings = plots.rings_of(geoms)
     vec = pairs[["dx", "dy"]].to_numpy()
     biggest = float(np.nanmax(np.hypot(vec[:, 0], vec[:, 1]), initial=0.0)) or 1.0
     span = max(float(np.ptp(xy[:, 0])), float(np.ptp(xy[:, 1])), 1e-3)

@@ -17,9 +17,7 @@ def block_extent(scenes: list[dict[str, Any]]) -> str | None:
     """The union of a block's scene footprints (lon/lat) as WKT, simplified; None without any."""
     import shapely
 
-    wkts = np.array([s.get("footprint_wkt") for s in scenes], dtype=object)
-    wkts = np.where([isinstance(w, str) for w in wkts], wkts, None)
-    geoms = shapely.from_wkt(wkts, on_invalid="ignore")
+    geoms = plots.geometries([s.get("footprint_wkt") for s in scenes])
     geoms = geoms[~shapely.is_missing(geoms)]
     geoms = shapely.make_valid(geoms[shapely.get_type_id(geoms) >= 0])
     if len(geoms) == 0:
@@ -30,7 +28,7 @@ def block_extent(scenes: list[dict[str, Any]]) -> str | None:
 
 def overview_map(blocks: list[Any], t: Callable[..., str], name: str) -> str | None:
     """One map of the batch: block outlines filled by verdict (pass, fail, error)."""
-    rings = plots.rings_of([b.extent_wkt for b in blocks])
+    rings = plots.rings_of(plots.geometries([b.extent_wkt for b in blocks]))
     if not len(rings.owner):
         return None
     verdict = np.array([b.verdict for b in blocks], dtype=object)[rings.owner]

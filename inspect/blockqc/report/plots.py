@@ -295,15 +295,19 @@ FOOTPRINT_ORDER = {
 }
 
 
-def rings_of(wkts: list[Any]) -> Rings:
-    """Exterior rings of every footprint polygon (parts of multipolygons too), each with the
-    position of its WKT in `wkts`."""
+def geometries(wkts: list[Any]) -> np.ndarray:
+    """Footprint WKTs parsed in one call; None where a value is no text or cannot be read."""
     import shapely
 
-    geoms = shapely.from_wkt(
-        np.array([w if isinstance(w, str) else None for w in wkts], dtype=object),
-        on_invalid="ignore",
-    )
+    text = np.array([w if isinstance(w, str) else None for w in wkts], dtype=object)
+    return shapely.from_wkt(text, on_invalid="ignore")
+
+
+def rings_of(geoms: np.ndarray) -> Rings:
+    """Exterior rings of every polygon (parts of multipolygons too), each with the position of
+    its geometry in `geoms`."""
+    import shapely
+
     parts, owner = shapely.get_parts(geoms, return_index=True)
     polygon = shapely.get_type_id(parts) == 3
     parts, owner = parts[polygon], owner[polygon]
@@ -316,7 +320,7 @@ def footprints(
     scenes: list[dict[str, Any]], status: dict[str, str], t: Callable[..., str], name: str
 ) -> str:
     """A map of the scene footprints (lon/lat) coloured by the worst status found per scene."""
-    rings = rings_of([s.get("footprint_wkt") for s in scenes])
+    rings = rings_of(geometries([s.get("footprint_wkt") for s in scenes]))
     ids = np.asarray([str(s["scene_id"]) for s in scenes], dtype=object)
     st = pd.Series(ids[rings.owner]).map(status).astype(object).fillna("pass")
     highlight = ~st.isin(["pass", "other"]).to_numpy()
