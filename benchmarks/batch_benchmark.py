@@ -1,7 +1,7 @@
 """Times `blockqc inspect` over a generated batch: HTML per block, PDFs of failing blocks, summary.
 
     python benchmarks/batch_benchmark.py --blocks 1000 --observations 100000000 [--jobs 2]
-        [--incremental]
+        [--pdf-engine weasyprint|chromium] [--incremental]
 
 The batch is written to disk block by block, never held in memory: the sample generator makes
 one delivery per published test field at the observations per block asked for, and every block
@@ -67,8 +67,9 @@ def write_batch(batch: Path, blocks: int, sources: list[Path]) -> int:
 def inspect(root: Path, args: argparse.Namespace) -> tuple[float, float, list[str]]:
     """One `blockqc inspect` of the batch as its own process: wall time, CPU time, its lines."""
     cmd = [sys.executable, "-m", "blockqc", "inspect", str(root / "batch"),
-           "--out", str(root / "out"), "--pdf", args.pdf, "--jobs", str(args.jobs),
-           "--no-progress"] + (["--incremental"] if args.incremental else [])  # fmt: skip
+           "--out", str(root / "out"), "--pdf", args.pdf, "--pdf-engine", args.pdf_engine,
+           "--jobs", str(args.jobs), "--no-progress"]  # fmt: skip
+    cmd += ["--incremental"] if args.incremental else []
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, capture_output=True, text=True)
@@ -94,6 +95,7 @@ def main() -> None:
     ap.add_argument("--observations", type=int, default=10_000_000)
     ap.add_argument("--jobs", type=int, default=0, help="inspect --jobs (0: every core)")
     ap.add_argument("--pdf", default="failing", choices=["all", "failing", "sampled", "none"])
+    ap.add_argument("--pdf-engine", default="weasyprint", choices=["weasyprint", "chromium"])
     ap.add_argument("--seed", type=int, default=20231)
     ap.add_argument("--keep", type=Path, help="keep the batch and outputs in this folder")
     ap.add_argument("--incremental", action="store_true", help="then time unchanged re-runs")

@@ -157,12 +157,14 @@ def _meta(meta: ReportMeta | None, pack: Pack) -> ReportMeta | None:
 
 @dataclass(frozen=True)
 class Writer:
-    """Where and how the outputs are written; `pdf` is one of PDF_POLICIES."""
+    """Where and how the outputs are written; `pdf` is one of PDF_POLICIES, `pdf_engine` what
+    lays the PDFs out."""
 
     out: Path
     templates: Path | None = None
     lang: str = "en"
     pdf: str = "all"
+    pdf_engine: str = "weasyprint"
 
     def wants_pdf(self, results: BlockResults) -> bool:
         """all; failing blocks; sampled ones (the plan's, or without a plan those with
@@ -178,7 +180,10 @@ class Writer:
         folder = safe_child(self.out, results.block_id, source=results.delivery)
         write_json_atomic(folder / "results.json", results)
         pdf = self.wants_pdf(results)
-        write_block_report(folder, results, lang=self.lang, templates=self.templates, pdf=pdf)
+        write_block_report(
+            folder, results, lang=self.lang, templates=self.templates, pdf=pdf,
+            pdf_engine=self.pdf_engine,
+        )  # fmt: skip
         if not pdf:
             (folder / "report.pdf").unlink(missing_ok=True)  # never a stale PDF beside
         return pdf
@@ -188,8 +193,9 @@ class Writer:
         write_json_atomic(self.out / "summary.json", summary)
         pdf = self.pdf != "none"
         return [self.out / "summary.json"] + write_summary_report(
-            self.out, summary, lang=self.lang, templates=self.templates, pdf=pdf, jobs=jobs
-        )
+            self.out, summary, lang=self.lang, templates=self.templates, pdf=pdf, jobs=jobs,
+            pdf_engine=self.pdf_engine,
+        )  # fmt: skip
 
 
 def block_entry(path: Path, r: BlockResults, pdf: bool) -> BlockEntry:

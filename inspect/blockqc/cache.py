@@ -80,6 +80,7 @@ def run_digest(pack: Any, writer: Any, extra: Any = None) -> str:
         elements,
         writer.lang,
         writer.pdf,
+        writer.pdf_engine,
         str(writer.templates),
         templates,
         None if checkpoints is None else checkpoints.rows.to_csv(index=False),

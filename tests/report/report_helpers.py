@@ -553,3 +553,16 @@ def require_tool(name: str) -> str:
     if os.environ.get("BLOCKQC_REQUIRE_BROWSER"):
         pytest.fail(f"{name} is required (BLOCKQC_REQUIRE_BROWSER is set) but not installed")
     pytest.skip(f"{name} is not installed (apt-get install chromium poppler-utils)")
+
+
+def require_chromium() -> str:
+    """The Chromium that `--pdf-engine chromium` would use; skip when there is none, unless
+    BLOCKQC_REQUIRE_BROWSER is set."""
+    from blockqc.report.chromium import ChromiumProblem, find_chromium
+
+    try:
+        return find_chromium()
+    except ChromiumProblem as exc:
+        if os.environ.get("BLOCKQC_REQUIRE_BROWSER"):
+            pytest.fail(f"Chromium is required (BLOCKQC_REQUIRE_BROWSER is set): {exc}")
+        pytest.skip(str(exc))

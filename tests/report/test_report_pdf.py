@@ -1,4 +1,5 @@
-"""The PDF: its text holds the block, the verdict and the Chinese labels in the packaged font."""
+"""The PDF, by either engine: its text holds the block, the verdict and the Chinese labels in the
+packaged font; A4 pages with a running head and page numbers; the figures as vectors."""
 
 from __future__ import annotations
 
@@ -6,19 +7,25 @@ import re
 import subprocess
 
 import pytest
-from report_helpers import require_tool
+from report_helpers import require_chromium, require_tool
 
 from blockqc.report import write_block_report
 
 
-@pytest.fixture(scope="module")
-def zh_pdf(tmp_path_factory):
+@pytest.fixture(scope="module", params=["weasyprint", "chromium"])
+def zh_pdf(request, tmp_path_factory):
     from report_helpers import make_results
 
-    folder = tmp_path_factory.mktemp("pdf") / "T-B01"
-    written = write_block_report(folder, make_results(), lang="zh")
+    if request.param == "chromium":
+        require_chromium()
+    folder = tmp_path_factory.mktemp(f"pdf-{request.param}") / "T-B01"
+    written = write_block_report(folder, make_results(), lang="zh", pdf_engine=request.param)
     assert folder / "report.pdf" in written
     return folder / "report.pdf"
+
+
+def _engine(pdf) -> str:
+    return pdf.parent.parent.name.split("-")[1].rstrip("0123456789")
 
 
 def test_pdf_text_has_block_verdict_and_chinese_labels(zh_pdf):
@@ -49,11 +56,15 @@ def test_pdf_text_has_block_verdict_and_chinese_labels(zh_pdf):
 
 
 def test_pdf_embeds_the_packaged_cjk_font(zh_pdf):
+    """WeasyPrint embeds the font by name; Chromium (Skia) writes an OpenType CFF font as Type 3
+    glyphs without a name, whose text still reads back (the test above)."""
     pdffonts = require_tool("pdffonts")
     out = subprocess.run([pdffonts, str(zh_pdf)], capture_output=True, text=True, check=True).stdout
     rows = [line.split() for line in out.splitlines()[2:] if line.strip()]
-    ours = [r for r in rows if "Blockqc-Sans-SC" in r[0]]
-    assert ours, out
+    if _engine(zh_pdf) == "weasyprint":
+        assert [r for r in rows if "Blockqc-Sans-SC" in r[0]], out
+    else:
+        assert [r for r in rows if r[0] == "[none]" and r[1:3] == ["Type", "3"]], out
     # columns: name type… encoding emb sub uni: every font of the PDF is embedded
     assert all("yes" == r[-5] for r in rows), out
     assert not [r for r in rows if "CJK" in r[0]], "a system CJK font was used instead: " + out
@@ -62,7 +73,7 @@ def test_pdf_embeds_the_packaged_cjk_font(zh_pdf):
 def test_pdf_pages_are_a4_with_page_numbers(zh_pdf):
     pdfinfo = require_tool("pdfinfo")
     info = subprocess.run([pdfinfo, str(zh_pdf)], capture_output=True, text=True, check=True).stdout
-    assert re.search(r"Page size:\s+595\.\d+ x 841\.\d+ pts \(A4\)", info), info
+    assert re.search(r"Page size:\s+59[45]\.\d+ x 841\.\d+ pts \(A4\)", info), info
     pages = int(next(line.split()[-1] for line in info.splitlines() if line.startswith("Pages:")))
     assert pages >= 3
     last = subprocess.run(
@@ -76,10 +87,15 @@ def test_pdf_pages_are_a4_with_page_numbers(zh_pdf):
 
 def test_pdf_figures_are_vectors_with_their_text_in_the_packaged_font(zh_pdf):
     """The figures reach the PDF as drawn for the HTML: vector shapes and text (their Chinese
-    titles and axis labels are in the PDF's text), no picture of them, no missing glyph."""
+    titles and axis labels are in the PDF's text, read in content order: Chromium writes a
+    rotated label glyph by glyph), no picture of them, no missing glyph."""
     text = subprocess.run(
-        [require_tool("pdftotext"), str(zh_pdf), "-"], capture_output=True, text=True, check=True
+        [require_tool("pdftotext"), "-raw", str(zh_pdf), "-"],
+        capture_output=True,
+        text=True,
+        check=True,
     ).stdout
+    text = re.sub(r"\s", "", text)
     for label in (
         "连接点残差直方图",
         "每景影像连接点数量",
@@ -95,3 +111,14 @@ def test_pdf_figures_are_vectors_with_their_text_in_the_packaged_font(zh_pdf):
         check=True,
     ).stdout
     assert len([line for line in images.splitlines()[2:] if line.strip()]) == 0, images
+
+
+def test_pdf_pages_carry_the_title_and_verdict_as_running_head(zh_pdf):
+    page_two = subprocess.run(
+        [require_tool("pdftotext"), "-f", "2", "-l", "2", "-layout", str(zh_pdf), "-"],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
+    head = next(line for line in page_two.splitlines() if line.strip())
+    assert "T-B01" in head and "验收报告" in head and "不合格" in head, head

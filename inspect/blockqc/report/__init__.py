@@ -31,8 +31,10 @@ def write_block_report(
     lang: str = "en",
     templates: Path | None = None,
     pdf: bool = True,
+    pdf_engine: str = "weasyprint",
 ) -> list[Path]:
-    """report.html, report.pdf, checkpoints.csv and evidence.csv of one block, from its results."""
+    """report.html, report.pdf (made by `pdf_engine`), checkpoints.csv and evidence.csv of one
+    block, from its results."""
     if lang not in LANGUAGES:
         raise ValueError(f"language {lang!r}: choose one of {', '.join(LANGUAGES)}")
     folder = Path(folder)
@@ -46,7 +48,8 @@ def write_block_report(
     if pdf:
         from blockqc.report.pdf import html_to_pdf
 
-        data = html_to_pdf(render_page("block.html.j2", ctx, env, for_pdf=True), folder)
+        page = render_page("block.html.j2", ctx, env, for_pdf=pdf_engine)
+        data = html_to_pdf(page, folder, pdf_engine)
         write_bytes_atomic(folder / "report.pdf", data)
         written.append(folder / "report.pdf")
     for name, text in (
@@ -66,6 +69,7 @@ def write_summary_report(
     templates: Path | None = None,
     pdf: bool = True,
     jobs: int = 1,
+    pdf_engine: str = "weasyprint",
 ) -> list[Path]:
     """summary.html and summary.pdf of a batch, linking each block's report; with an acceptance,
     acceptance.html and .pdf too, laid out beside the summary's PDF when `jobs` > 1."""
@@ -82,8 +86,8 @@ def write_summary_report(
         write_text_atomic(out / f"{name}.html", render_page(template, context, env))
         written.append(out / f"{name}.html")
     if pdf:
-        prints = [render_page(template, ctx, env, for_pdf=True) for _, template, ctx in pages]
-        for (name, _, _), data in zip(pages, _pdfs(prints, out, jobs), strict=True):
+        prints = [render_page(t, ctx, env, for_pdf=pdf_engine) for _, t, ctx in pages]
+        for (name, _, _), data in zip(pages, _pdfs(prints, out, jobs, pdf_engine), strict=True):
             write_bytes_atomic(out / f"{name}.pdf", data)
             written.append(out / f"{name}.pdf")
     write_text_atomic(out / "summary.csv", summary_csv(summary))
@@ -92,13 +96,14 @@ def write_summary_report(
     return written
 
 
-def _pdfs(pages: list[str], base_url: Path, jobs: int) -> list[bytes]:
-    """The PDF of each HTML page; with `jobs` > 1 the pages after the first are laid out in
-    other processes while this one lays out the first (a batch's summary and acceptance)."""
+def _pdfs(pages: list[str], base_url: Path, jobs: int, engine: str) -> list[bytes]:
+    """The PDF of each HTML page; with WeasyPrint and `jobs` > 1 the pages after the first are
+    laid out in other processes while this one lays out the first (a batch's summary and
+    acceptance)."""
     from blockqc.report.pdf import html_to_pdf
 
-    if jobs < 2 or len(pages) < 2:
-        return [html_to_pdf(page, base_url) for page in pages]
+    if jobs < 2 or len(pages) < 2 or engine != "weasyprint":
+        return [html_to_pdf(page, base_url, engine) for page in pages]
     from concurrent.futures import ProcessPoolExecutor
 
     with ProcessPoolExecutor(max_workers=min(jobs - 1, len(pages) - 1)) as pool:

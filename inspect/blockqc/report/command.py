@@ -8,6 +8,7 @@ from typing import Any
 
 import click
 
+from blockqc.cli import check_pdf_engine, pdf_engine_option
 from blockqc.errors import InputError, Problem
 from blockqc.report.messages import LANGUAGES
 from blockqc.results import BlockResults, Summary, parse
@@ -135,8 +136,14 @@ def gather(
     help="Folder of templates that take precedence over the stock ones.",
 )
 @click.option("--pdf/--no-pdf", default=True, show_default=True, help="Also write the PDFs.")
+@pdf_engine_option
 def command(
-    results: tuple[Path, ...], out: Path, lang: str, templates: Path | None, pdf: bool
+    results: tuple[Path, ...],
+    out: Path,
+    lang: str,
+    templates: Path | None,
+    pdf: bool,
+    pdf_engine: str,
 ) -> int:
     """Re-render reports from results.json files (or folders holding them), not recomputing.
 
@@ -145,6 +152,7 @@ def command(
     from blockqc.outputs import make_out_dir, safe_child, write_bytes_atomic
     from blockqc.report import write_block_report, write_summary_report
 
+    check_pdf_engine(pdf_engine, pdf)
     docs, summary = gather(list(results))
     make_out_dir(out, out.resolve())
     written: list[Path] = []
@@ -152,13 +160,17 @@ def command(
         folder = safe_child(out, doc.block_id, source=path)
         if (folder / "results.json").resolve() != path.resolve():
             write_bytes_atomic(folder / "results.json", raw)
-        written += write_block_report(folder, doc, lang=lang, templates=templates, pdf=pdf)
+        written += write_block_report(
+            folder, doc, lang=lang, templates=templates, pdf=pdf, pdf_engine=pdf_engine
+        )
         click.echo(f"{doc.block_id:12} {doc.verdict.upper():5}  {folder}")
     if summary is not None:
         path, doc, raw = summary
         if (out / "summary.json").resolve() != path.resolve():
             write_bytes_atomic(out / "summary.json", raw)
-        written += write_summary_report(out, doc, lang=lang, templates=templates, pdf=pdf)
+        written += write_summary_report(
+            out, doc, lang=lang, templates=templates, pdf=pdf, pdf_engine=pdf_engine
+        )
         click.echo(f"summary      {out / 'summary.html'}")
     click.echo(f"{len(written)} files written in {out}")
     return 0

@@ -27,6 +27,16 @@ def _group(group: dict[str, Any]) -> str:
     return ", ".join(f"{v}".replace("_", "-") for v in group.values())
 
 
+def _css_string(value: Any) -> Markup:
+    """Text as a quoted CSS string inside a <style> element: quotes, backslashes, angle brackets
+    and control characters written as CSS escapes."""
+    text = "".join(
+        f"\\{ord(c):x} " if c in "\"\\<>&'" or ord(c) < 32 or ord(c) == 127 else c
+        for c in str(value)
+    )
+    return Markup(f'"{text}"')
+
+
 def environment(user_templates: Path | None = None) -> jinja2.Environment:
     """Templates from `user_templates` take precedence over the stock ones."""
     loaders: list[jinja2.BaseLoader] = []
@@ -42,6 +52,7 @@ def environment(user_templates: Path | None = None) -> jinja2.Environment:
     )
     env.filters["fmt"] = _fmt
     env.filters["group"] = _group
+    env.filters["css_string"] = _css_string
     return env
 
 
@@ -50,14 +61,16 @@ def render_page(
     ctx: dict[str, Any],
     env: jinja2.Environment | None = None,
     *,
-    for_pdf: bool = False,
+    for_pdf: str | None = None,
 ) -> str:
-    """One page from a prepared context; `for_pdf` adds the packaged CJK font for WeasyPrint."""
+    """One page from a prepared context; `for_pdf`, the PDF engine the page is for, adds the
+    packaged CJK font, and for WeasyPrint makes each figure an SVG image (in Chromium an SVG
+    image cannot use the page's fonts, so there the figures stay inline, as on screen)."""
     env = env or environment()
     return env.get_template(template).render(
         **ctx,
         font_url=FONT_FILE.as_uri() if for_pdf else "",
-        figure=_figure_as_image if for_pdf else _figure_inline,
+        figure=_figure_as_image if for_pdf == "weasyprint" else _figure_inline,
     )
 
 
@@ -77,7 +90,7 @@ def render_block(
     env: jinja2.Environment | None = None,
     *,
     lang: str = "en",
-    for_pdf: bool = False,
+    for_pdf: str | None = None,
 ) -> str:
     """The block report's HTML."""
     return render_page("block.html.j2", block_context(results, lang), env, for_pdf=for_pdf)

@@ -1,4 +1,5 @@
-"""HTML → PDF with WeasyPrint, embedding the packaged CJK font (never a silent fallback)."""
+"""HTML → PDF with WeasyPrint (the default) or Chromium, in the packaged CJK font (never a silent
+fallback)."""
 
 from __future__ import annotations
 
@@ -22,10 +23,21 @@ class _Collect(logging.Handler):
         self.messages.append(record.getMessage())
 
 
-def html_to_pdf(html: str, base_url: Path | None = None) -> bytes:
-    """The PDF of an HTML page whose CSS names the packaged font (print CSS: A4, page numbers)."""
+#: the PDF engines: WeasyPrint (installed with blockqc) or a Chromium installed on the machine
+ENGINES = ("weasyprint", "chromium")
+
+
+def html_to_pdf(html: str, base_url: Path | None = None, engine: str = "weasyprint") -> bytes:
+    """The PDF of an HTML page whose CSS names the packaged font (print CSS: A4, page numbers),
+    made for `engine` (`render_page(..., for_pdf=engine)`)."""
+    if engine not in ENGINES:
+        raise ValueError(f"PDF engine {engine!r}: choose one of {', '.join(ENGINES)}")
     if not FONT_FILE.is_file():
         raise FontProblem(f"the report font {FONT_FILE} is missing: reinstall blockqc")
+    if engine == "chromium":
+        from blockqc.report import chromium
+
+        return chromium.html_to_pdf(html, base_url)
     from weasyprint import HTML
     from weasyprint.text.fonts import FontConfiguration
 
@@ -49,4 +61,4 @@ def html_to_pdf(html: str, base_url: Path | None = None) -> bytes:
     return data
 
 
-__all__ = ["FontProblem", "html_to_pdf"]
+__all__ = ["ENGINES", "FontProblem", "html_to_pdf"]
