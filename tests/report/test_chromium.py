@@ -99,3 +99,33 @@ def test_cli_stops_before_inspecting_without_chromium(tmp_path, monkeypatch):
     assert not out.exists()
     ok = CliRunner().invoke(cli, [*args[:4], "--pdf", "none", "--pdf-engine", "chromium"])
     assert ok.exit_code == 0, ok.output  # without PDFs, no Chromium is needed
+
+
+def _browsers_of_blockqc() -> list[str]:
+    out = subprocess.run(["ps", "-eo", "args"], capture_output=True, text=True).stdout
+    return [line for line in out.splitlines() if "blockqc-chromium-" in line]
+
+
+def test_a_batch_in_worker_processes_prints_with_chromium_and_leaves_no_browser(tmp_path):
+    """Two worker processes, each with its own browser; the summary's PDF by the main process;
+    no browser left running once blockqc has exited."""
+    import os
+    import sys
+
+    require_chromium()
+    require_tool("ps")
+    batch = Path(__file__).parents[2] / "samples" / "batch"
+    out = tmp_path / "out"
+    before = _browsers_of_blockqc()
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    run = subprocess.run(
+        [sys.executable, "-m", "blockqc", "inspect", str(batch / "F3-B01"), str(batch / "F3-B02"),
+         str(batch / "F1-B01"), "--out", str(out), "--jobs", "2", "--pdf", "failing",
+         "--pdf-engine", "chromium", "--no-progress"],
+        capture_output=True, text=True, env=env,
+    )  # fmt: skip
+    assert run.returncode == 1, run.stderr  # F3-B01 and F3-B02 fail
+    for pdf in (out / "F3-B01" / "report.pdf", out / "F3-B02" / "report.pdf", out / "summary.pdf"):
+        assert b"Skia/PDF" in pdf.read_bytes()  # the producer Chromium names
+    assert not (out / "F1-B01" / "report.pdf").exists()
+    assert _browsers_of_blockqc() == before
