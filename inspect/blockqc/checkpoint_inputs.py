@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from blockqc.delivery import MANIFEST, Delivery, load_manifest, read_table
+from blockqc.delivery import MANIFEST, Delivery, _check_consistency, load_manifest, read_table
 from blockqc.errors import InputError, Problem
 from blockqc.schema import CHECKPOINTS
 
@@ -61,6 +61,8 @@ def load_checkpoint_files(paths: list[Path]) -> InspectorCheckpoints:
             problems.extend(exc.problems)
             continue
         problems.extend(found)
+        # the same row checks as a delivered checkpoints.csv (a row comparing nothing, ...)
+        problems.extend(_check_consistency({"checkpoints": df}, {"checkpoints": path}))
         with_block.append(BLOCK in df.columns)
         if BLOCK in df.columns:
             df[BLOCK] = df[BLOCK].astype("string").str.strip().astype(object)

@@ -294,7 +294,9 @@ def schema_cmd(kind: str) -> None:
 # ------------------------------------------------------------------------------ simulate
 @cli.command("simulate")
 @click.argument("out", type=click.Path(path_type=Path))
-@click.option("--seed", default=20231, show_default=True, help="Random seed.")
+@click.option(
+    "--seed", default=20231, show_default=True, type=click.IntRange(min=0), help="Random seed."
+)
 @click.option(
     "--fields",
     default="1,2,3,4",
@@ -353,6 +355,10 @@ def simulate_cmd(
         raise UsageError(
             "--grid is ROWSxCOLS (e.g. 4x4) and --fields a list like 1,2,3,4"
         ) from None
+    if not (1 <= rows <= MAX_GRID and 1 <= cols <= MAX_GRID):
+        raise UsageError(f"--grid {grid}: ROWS and COLS are 1 to {MAX_GRID} (e.g. 4x4)")
+    if len(set(chosen)) != len(chosen):
+        raise UsageError(f"--fields {fields}: a field is named twice")
     opts = Options(
         seed=seed,
         fields=chosen,
@@ -362,6 +368,10 @@ def simulate_cmd(
     )
     ids = simulate(out, opts, dem_dir)
     click.echo(f"wrote {len(ids)} deliveries to {out}: {', '.join(ids)}")
+
+
+#: footprints per side of a simulated block (3 scenes each): bounds memory and time
+MAX_GRID = 20
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -320,6 +320,18 @@ def _distinct_categories(values: pa.Array) -> pd.CategoricalDtype:
 
 def _read_csv_slow(path: Path, data: bytes, reason: str) -> pd.DataFrame:
     """Fallback reader whose errors carry the line number of a malformed row."""
+    short = _short_rows(data)
+    if short:
+        raise InputError(
+            [
+                Problem(
+                    str(path),
+                    f"not a readable CSV table: {got} fields where the header has {want}",
+                    line=line,
+                )
+                for line, got, want in short
+            ]
+        )
     try:
         raw = pd.read_csv(
             io.BytesIO(data), dtype=str, keep_default_na=False, skipinitialspace=True, header=None
@@ -331,6 +343,28 @@ def _read_csv_slow(path: Path, data: bytes, reason: str) -> pd.DataFrame:
         raise InputError(_parser_problem(path, str(exc))) from None
     except Exception:  # pragma: no cover - report the original reader's reason
         raise InputError(Problem(str(path), f"not a readable CSV table: {reason}")) from None
+
+
+def _short_rows(data: bytes, limit: int = 5) -> list[tuple[int, int, int]]:
+    """Rows with fewer fields than the header, as (line, fields, header's fields): pandas pads
+    them with empty cells, which would pass for cells left empty on purpose."""
+    import csv
+
+    text = data.decode("utf-8", errors="replace").replace("\r\n", "\n")
+    reader = csv.reader(io.StringIO(text, newline=""), skipinitialspace=True)
+    header = next(reader, None)
+    out: list[tuple[int, int, int]] = []
+    if not header:
+        return out
+    try:
+        for row in reader:
+            if row and len(row) < len(header):
+                out.append((reader.line_num, len(row), len(header)))
+                if len(out) >= limit:
+                    break
+    except csv.Error:  # e.g. a field beyond the csv module's limit: pandas reports it
+        pass
+    return out
 
 
 def _parser_problem(path: Path, message: str) -> Problem:
@@ -514,6 +548,7 @@ def load_delivery(
         if not found:
             clean.add(name)
 
+    problems.extend(_misnamed_tables(path))
     problems.extend(_check_references(tables, files))
     problems.extend(_check_consistency({k: tables[k] for k in clean}, files))
     geometry, found = load_geometry(path, tables, files)  # contract v1.1
@@ -528,6 +563,28 @@ def load_delivery(
         raise InputError(problems)
     assert manifest is not None
     return Delivery(path=path, manifest=manifest, files=files, geometry=geometry, **tables)
+
+
+def _misnamed_tables(path: Path) -> list[Problem]:
+    """Files that look like a table of the contract but are not named <table>.csv|.parquet
+    (checkpoints.CSV, checkpoints.csv.gz, checkpoint.csv): not read, so an optional table
+    would be left out unsaid (a sampled block judged without its checkpoints)."""
+    exact = {f"{n}.{ext}" for n in TABLES for ext in ("csv", "parquet")}
+    problems = []
+    for f in sorted(path.iterdir()):
+        if f.name in exact or f.name.startswith(".") or f.is_dir():
+            continue
+        stem = f.name.lower().split(".", 1)[0].replace("-", "_").replace(" ", "_")
+        close = difflib.get_close_matches(stem, list(TABLES), n=1, cutoff=0.9)
+        if close:
+            problems.append(
+                Problem(
+                    str(f),
+                    f"not read: a table is named {close[0]}.csv or {close[0]}.parquet "
+                    "(lower case, not compressed)",
+                )
+            )
+    return problems
 
 
 def _check_references(tables: dict[str, pd.DataFrame], files: dict[str, Path]) -> list[Problem]:
@@ -587,6 +644,14 @@ def _consistency_masks(
                 outside = (v < -PIXEL_SLACK) | (v > limit + PIXEL_SLACK)
             msg = f"{col} lies outside its scene (0 to the scene's {extent} in scenes.csv)"
             out.append(("tie_points", col, outside, msg))
+    pm = tables.get("pan_ms")
+    if pm is not None and sc is not None:
+        band = sc.drop_duplicates("scene_id").set_index("scene_id")["band"]
+        for col, want in (("pan_scene_id", "pan"), ("ms_scene_id", "ms")):
+            got = pm[col].astype(object).map(band)
+            wrong = (got.notna() & (got != want)).to_numpy(dtype=bool)
+            msg = f"{col} names a scene whose band in scenes.csv is not {want}"
+            out.append(("pan_ms", col, wrong, msg))
     ov = tables.get("overlaps")
     if ov is not None and {"scene_a", "scene_b"} <= set(ov.columns):
         same = (ov["scene_a"] == ov["scene_b"]).to_numpy(dtype=bool)
@@ -599,7 +664,8 @@ def _check_consistency(tables: dict[str, pd.DataFrame], files: dict[str, Path]) 
     problems: list[Problem] = []
     for name, column, mask, message in _consistency_masks(tables):
         f = files[name]
-        values = tables[name][column] if column == "line" or column == "sample" else None
+        shown = ("line", "sample", "pan_scene_id", "ms_scene_id")
+        values = tables[name][column] if column in shown else None
         report_rows(problems, str(f), column, mask, message, values, f.suffix == ".csv")
     return problems
 

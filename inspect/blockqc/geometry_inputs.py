@@ -171,6 +171,8 @@ def load_geometry(
         _refined(geometry, _read_models(adj_dir, needed, scene_ids, problems), needed)
         geometry.source = f"{ADJUSTED_DIR}/"
     elif adjustment is not None and rpc_dir.exists():
+        if not {"scene_id", *AFFINE_KEYS} <= set(adjustment.columns):
+            return geometry, problems  # the missing columns are reported with the table
         problems.extend(_with_affine(geometry, adjustment, files["adjustment"], needed))
         geometry.source = files["adjustment"].name
     return geometry, problems

@@ -467,7 +467,12 @@ def _convert(raw: pd.Series, col: Column, blank: np.ndarray) -> tuple[pd.Series,
     if col.kind == "date":
         if pd.api.types.is_datetime64_any_dtype(raw.dtype):
             return raw, None
-        d = pd.to_datetime(raw.astype("string").str.strip(), errors="coerce", format="ISO8601")
+        text = raw.astype("string").str.strip()
+        try:
+            d = pd.to_datetime(text, errors="coerce", format="ISO8601")
+        except (ValueError, TypeError):  # time zones mixed with naive dates: compared in UTC
+            d = pd.to_datetime(text, errors="coerce", format="ISO8601", utc=True)
+            d = d.dt.tz_localize(None)
         return d, ~blank & d.isna().to_numpy()
     if col.kind == "wkt":
         text = raw.astype("string").str.strip().fillna("").to_numpy(dtype=object)

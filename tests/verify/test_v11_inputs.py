@@ -226,3 +226,26 @@ def test_adjust_checkpoints_flow_into_inspect(tmp_path, blockqc) -> None:
     assert _cp(doc, "CP-2", "plane", "high_precision")["status"] in ("pass", "fail")
     report = (out / manifest["block_id"] / "report.html").read_text()
     assert "High-precision data / Recalculation with other software" in report
+
+
+def test_adjustment_missing_column_is_named_not_a_crash(tmp_path, tie_points) -> None:
+    folder = write_v11(tmp_path / "d", tie_points)
+    table = pd.read_csv(folder / "adjustment.csv").drop(columns=["b2"])
+    table.to_csv(folder / "adjustment.csv", index=False)
+    msgs = _problems(folder)
+    assert any("adjustment.csv" in m and "missing column 'b2'" in m for m in msgs), msgs
+
+
+def test_rpc_denominator_of_zeros_is_refused() -> None:
+    import dataclasses
+
+    from blockqc.rfm.model import RPCModel
+
+    fields = {f.name for f in dataclasses.fields(RPCModel)}
+    model = dict.fromkeys(fields & {f"{a}_{b}" for a in ("line", "samp", "lat", "lon", "height")
+                                    for b in ("off", "scale")}, 1.0)  # fmt: skip
+    model.update(line_num=[1.0] * 20, samp_num=[1.0] * 20, samp_den=[1.0] + [0.0] * 19)
+    model.update(line_den=[0.0] * 20, source="rpc/S1.json")
+    with pytest.raises(InputError) as exc:
+        RPCModel(**model)
+    assert "rpc/S1.json" in str(exc.value.problems[0]) and "LINE_DEN" in str(exc.value.problems[0])

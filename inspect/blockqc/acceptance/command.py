@@ -69,7 +69,9 @@ def _echo_plan(plan: Plan, out: Path) -> None:
 
 @click.command("sample")
 @click.argument("batch", type=click.Path(path_type=Path))
-@click.option("--seed", required=True, type=int, help="Seed of the random generator.")
+@click.option(
+    "--seed", required=True, type=click.IntRange(min=0), help="Seed of the random generator."
+)
 @click.option("--strata", "key", help="block.yaml key to stratify by (e.g. test_field).")
 @click.option(
     "--rules", "rules_ref", default="global-project", show_default=True, help="Rule pack."

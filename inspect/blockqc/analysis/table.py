@@ -62,13 +62,45 @@ def read_table(path: Path) -> pd.DataFrame:
     path = Path(path)
     name = str(path)
     try:
-        raw = pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=True)
+        _check_shape(path)
+        raw = pd.read_csv(
+            path, dtype=str, keep_default_na=False, skipinitialspace=True, index_col=False
+        )
     except FileNotFoundError:
         raise InputError(Problem(file=name, message="file not found")) from None
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
         raise InputError(Problem(file=name, message=f"not a readable CSV table: {exc}")) from None
     raw.columns = [str(c).strip() for c in raw.columns]
     return validate_table(raw, name)
+
+
+def _check_shape(path: Path) -> None:
+    """What pandas would silently repair: a column named twice (renamed `x.1`) and a row with
+    more fields than the header (which shifts every column of the table by one)."""
+    import csv
+
+    with path.open(newline="", encoding="utf-8-sig") as fh:
+        rows = csv.reader(fh)
+        header = [h.strip() for h in next(rows, [])]
+        problems = [
+            Problem(file=str(path), column=c, message="column named more than once")
+            for c in sorted({h for h in header if header.count(h) > 1})
+        ]
+        for i, row in enumerate(rows, start=1):
+            if len(row) > len(header):
+                problems.append(
+                    Problem(
+                        file=str(path),
+                        row=i,
+                        message=f"{len(row)} fields where the header names {len(header)}",
+                    )
+                )
+    if problems:
+        raise InputError(problems[:20])
+
+
+#: |value| beyond which a factor or indicator is refused (sums of squares must stay finite)
+MAX_MAGNITUDE = 1e12
 
 
 def validate_table(raw: pd.DataFrame, file: str) -> pd.DataFrame:
@@ -99,10 +131,15 @@ def validate_table(raw: pd.DataFrame, file: str) -> pd.DataFrame:
     for col in FACTOR_COLUMNS + INDICATOR_COLUMNS:
         text = raw[col].astype(str).str.strip()
         values = pd.to_numeric(text, errors="coerce").to_numpy(dtype=float)
-        bad = ~np.isfinite(values)
+        with np.errstate(invalid="ignore"):
+            bad = ~np.isfinite(values) | (np.abs(values) > MAX_MAGNITUDE)
         for i in np.flatnonzero(bad):
             shown = text.iloc[i]
-            what = "empty" if shown == "" else f"'{shown}' is not a finite number"
+            what = (
+                "empty"
+                if shown == ""
+                else f"'{shown}' is not a finite number of magnitude at most {MAX_MAGNITUDE:g}"
+            )
             problems.append(Problem(file=file, row=int(i) + 1, column=col, message=what))
         table[col] = values
     if problems:

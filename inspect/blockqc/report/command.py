@@ -20,7 +20,9 @@ def _read_json(path: Path) -> tuple[Any, bytes]:
     except OSError as exc:
         raise InputError(Problem(str(path), f"cannot be read: {exc.strerror or exc}")) from None
     try:
-        return json.loads(raw.decode("utf-8")), raw
+        return json.loads(raw.decode("utf-8"), object_pairs_hook=_no_duplicates), raw
+    except _DuplicateKey as exc:
+        raise InputError(Problem(str(path), f"is not accepted: key '{exc}' given twice")) from None
     except UnicodeDecodeError as exc:
         raise InputError(Problem(str(path), f"is not UTF-8 text (byte {exc.start})")) from None
     except RecursionError:
@@ -33,6 +35,21 @@ def _read_json(path: Path) -> tuple[Any, bytes]:
                 str(path), f"is not valid JSON: {exc.msg} (column {exc.colno})", line=exc.lineno
             )
         ) from None
+    except ValueError as exc:  # e.g. an integer of more than 4300 digits
+        raise InputError(Problem(str(path), f"is not accepted: {exc}")) from None
+
+
+class _DuplicateKey(Exception):
+    pass
+
+
+def _no_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for k, v in pairs:
+        if k in out:
+            raise _DuplicateKey(k)
+        out[k] = v
+    return out
 
 
 def _check_results(path: Path, doc: Any) -> BlockResults:

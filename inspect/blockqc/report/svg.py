@@ -35,9 +35,17 @@ def _font():
     return ImageFont.truetype(str(dejavu if dejavu.is_file() else packaged), 100)
 
 
+#: texts are measured on this many characters at most: wider than any figure already, and
+#: PIL refuses to lay out very long strings ("too many characters in string")
+MAX_MEASURED = 2000
+
+
 @lru_cache(maxsize=4096)
 def text_width(text: str, size: float) -> float:
-    """The advance of `text` at `size` pt, as DejaVu Sans sets it (CJK: one em per character)."""
+    """The advance of `text` at `size` pt, as DejaVu Sans sets it (CJK: one em per character).
+    Control characters (a newline or NUL inside a delivered id) count as spaces: raqm cannot
+    lay them out."""
+    text = "".join(c if c.isprintable() else " " for c in text[:MAX_MEASURED])
     wide = sum(unicodedata.east_asian_width(c) in "WF" for c in text)
     narrow = "".join(c for c in text if unicodedata.east_asian_width(c) not in "WF")
     return (_font().getlength(narrow) / 100 + wide) * size
@@ -119,7 +127,14 @@ def cut(s: str, size: float, width: float) -> str:
 
 def _fitting(line: str, size: float, width: float) -> int:
     """How many leading characters of `line` fit in `width` pt (one at least)."""
-    return next((k for k in range(len(line) - 1, 1, -1) if text_width(line[:k], size) <= width), 1)
+    lo, hi = 1, min(len(line) - 1, MAX_MEASURED)  # the width grows with k: bisect
+    while lo < hi:
+        mid = (lo + hi + 1) // 2
+        if text_width(line[:mid], size) <= width:
+            lo = mid
+        else:
+            hi = mid - 1
+    return lo
 
 
 def text(

@@ -53,6 +53,10 @@ def _geoid(value: str | None, offset: float | None) -> str | Path | None:
 _path = click.Path(exists=True, dir_okay=False, path_type=Path)
 
 
+def _bad_nan(param: click.Parameter) -> float:
+    raise click.BadParameter("expected a finite number, got nan", param=param)
+
+
 @click.command("rfm-accuracy")
 @click.argument("image", type=_path)
 @click.option(
@@ -138,7 +142,7 @@ _path = click.Path(exists=True, dir_okay=False, path_type=Path)
 )
 @click.option(
     "--margin",
-    type=int,
+    type=click.IntRange(min=0),
     default=32,
     show_default=True,
     help="Reference margin around the image grid (px).",
@@ -150,10 +154,21 @@ _path = click.Path(exists=True, dir_okay=False, path_type=Path)
     show_default=True,
     help="Numbers of CPs used to refine the RFM (§RA-6).",
 )
-@click.option("--repeats", type=int, default=100, show_default=True, help="Random draws per k.")
+@click.option(
+    "--repeats",
+    type=click.IntRange(min=1),
+    default=100,
+    show_default=True,
+    help="Random draws per k.",
+)
 @click.option("--seed", type=int, default=0, show_default=True)
 @click.option(
-    "--requirement", type=float, default=1.0, show_default=True, help="RMSE requirement in pixels."
+    "--requirement",
+    type=click.FloatRange(min=0, min_open=True, max=1e6),
+    callback=lambda ctx, param, v: v if v == v else _bad_nan(param),  # FloatRange lets nan pass
+    default=1.0,
+    show_default=True,
+    help="RMSE requirement in pixels.",
 )
 @click.option(
     "--method",

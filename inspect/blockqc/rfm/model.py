@@ -151,6 +151,14 @@ class RPCModel:
                         message=f"{name} must hold 20 finite numbers, got shape {arr.shape}",
                     )
                 )
+            if name.endswith("_den") and not np.any(arr):
+                raise InputError(
+                    Problem(
+                        file=self.source or "<rpc>",
+                        message=f"{name.upper()} holds 20 zeros: a denominator that is zero "
+                        "everywhere divides by zero (its constant term is normally 1)",
+                    )
+                )
             object.__setattr__(self, name, arr)
         for name in OFFSET_SCALE_KEYS:
             value = float(getattr(self, name))

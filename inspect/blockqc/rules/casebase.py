@@ -196,8 +196,15 @@ def _edit_rows(tables: dict[str, pd.DataFrame], case: dict[str, Any]) -> None:
         df = _table(tables, name)
         for op in ops:
             m = select(df, op, name)
+            if op.get("where") or op.get("any"):
+                if not m.any():
+                    raise EditError(f"set {name}: where/any matches no row")
             for col, val in op["values"].items():
-                df.loc[m, col] = val
+                _column(df, col, name)
+                try:
+                    df.loc[m, col] = val
+                except (TypeError, ValueError) as exc:
+                    raise EditError(f"set {name}.{col}: cannot write {val!r}: {exc}") from None
     for name, ops in (case.get("derive") or {}).items():
         df = _table(tables, name)
         for op in ops:
