@@ -129,3 +129,10 @@ def test_a_batch_in_worker_processes_prints_with_chromium_and_leaves_no_browser(
         assert b"Skia/PDF" in pdf.read_bytes()  # the producer Chromium names
     assert not (out / "F1-B01" / "report.pdf").exists()
     assert _browsers_of_blockqc() == before
+
+
+def test_a_program_that_cannot_start_is_a_clear_error(tmp_path):
+    program = tmp_path / "chromium"
+    program.write_text("not a program\n")  # not executable
+    with pytest.raises(chromium.ChromiumProblem, match="could not be started"):
+        chromium.Browser(str(program))

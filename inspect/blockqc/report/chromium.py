@@ -87,6 +87,9 @@ class Browser:
                 stdout=subprocess.DEVNULL,
                 stderr=subprocess.DEVNULL,
             )
+        except OSError as exc:
+            shutil.rmtree(self.folder, ignore_errors=True)
+            raise ChromiumProblem(f"{program} could not be started: {exc}") from None
         finally:
             os.close(to_browser)
             os.close(from_browser)
