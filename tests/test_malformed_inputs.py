@@ -141,3 +141,29 @@ def test_factor_table_rows_with_a_field_too_many_are_refused(blockqc, tmp_path):
     (tmp_path / "d.csv").write_text("\n".join(lines) + "\n")
     p = blockqc("factors", "--table", tmp_path / "d.csv", "--out", tmp_path / "out2")
     _refused(p, "d.csv", "column named more than once")
+
+
+def test_block_yaml_unknown_key_is_a_stated_warning(blockqc, block, tmp_path):
+    with open(block / "block.yaml", "a") as fh:
+        fh.write("colour: blue\n")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    assert p.returncode == 0, p.stderr
+    assert "warning:" in p.stderr and "block.yaml" in p.stderr
+    assert "unknown key 'colour': not read" in p.stderr
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "words"),
+    [
+        ("sampled: true", "sampeld: true", ("block.yaml", "did you mean 'sampled'")),
+        ("sampled: true", "sampled: maybe", ("block.yaml", "sampled")),
+        ("pan: 0.8", "pan: true", ("block.yaml", "expected a number of metres, got true")),
+        ("pan: 0.8", "pan: 1.0e+30", ("block.yaml", "gsd_m.pan")),
+    ],
+)
+def test_block_yaml_values_that_would_be_misread(blockqc, block, tmp_path, old, new, words):
+    text = (block / "block.yaml").read_text()
+    assert old in text, text
+    (block / "block.yaml").write_text(text.replace(old, new, 1))
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    _refused(p, *words)

@@ -194,6 +194,9 @@ def inspect_cmd(
     got = batch.collect(paths)
     for f in got.files:
         click.echo(f"warning: {f}: a file beside the deliveries of a batch, not read", err=True)
+    for manifest in got.manifests.values():
+        for w in manifest.unknown_keys:
+            click.echo(f"warning: {w}", err=True)
     if inspector is not None:
         scenes = block_scenes(got.deliveries, got.manifests)
         check_inspector_input(inspector, {r.id: r for r in pack.rules}, scenes)

@@ -36,10 +36,22 @@ from blockqc.yamlio import line_of, load_yaml, pydantic_problems
 MANIFEST = "block.yaml"
 
 
+#: a ground sample distance larger than this (metres) is no GSD: the rules' thresholds built on
+#: it would be beyond the range the rule expressions accept (1e12), or meaninglessly lax
+MAX_GSD_M = 1000.0
+
+
 class GSD(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
-    pan: PositiveFloat | None = None
-    ms: PositiveFloat | None = None
+    pan: PositiveFloat | None = Field(default=None, le=MAX_GSD_M)
+    ms: PositiveFloat | None = Field(default=None, le=MAX_GSD_M)
+
+    @field_validator("pan", "ms", mode="before")
+    @classmethod
+    def _not_bool(cls, value: Any) -> Any:
+        if isinstance(value, bool):  # YAML `true` would otherwise read as 1.0 m
+            raise ValueError(f"expected a number of metres, got {str(value).lower()}")
+        return value
 
     @model_validator(mode="after")
     def _one(self) -> GSD:
@@ -66,6 +78,12 @@ class Manifest(BaseModel):
     spatial_reference: SpatialReference | None = None
     documents: dict[str, str] = Field(default_factory=dict)
     reported: dict[str, float] = Field(default_factory=dict)
+    # keys the sample deliveries carry: typed, so that a wrong value is refused
+    test_field: int | None = Field(default=None, ge=1, le=2**31 - 1)
+    sampled: bool | None = None
+
+    #: keys block.yaml gives that no part of blockqc reads (stated as warnings)
+    unknown_keys: list[Problem] = Field(default_factory=list, exclude=True)
 
     @field_validator("block_id")
     @classmethod
@@ -480,6 +498,10 @@ def load_manifest(path: Path) -> Manifest:
         problems = pydantic_problems(exc, path, data) + problems
     if problems:
         raise InputError(problems)
+    manifest.unknown_keys = [
+        Problem(str(path), f"unknown key '{key}': not read", line=line_of(data, (key,)))
+        for key in (manifest.model_extra or {})
+    ]
     return manifest
 
 
