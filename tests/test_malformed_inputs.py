@@ -167,3 +167,43 @@ def test_block_yaml_values_that_would_be_misread(blockqc, block, tmp_path, old, 
     (block / "block.yaml").write_text(text.replace(old, new, 1))
     p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
     _refused(p, *words)
+
+
+@pytest.mark.parametrize(
+    ("model", "values"),
+    [
+        ("AccuracyScore", {"floor": float("nan")}),
+        ("AccuracyScore", {"span": float("inf")}),
+        ("AccuracyScore", {"span": 0}),
+        ("Weights", {"elements": {"data": -1.0}}),
+        ("SampleRow", {"batch": 5, "sample": 10}),
+    ],
+)
+def test_acceptance_settings_that_would_change_scores_silently(model, values):
+    from pydantic import ValidationError
+
+    from blockqc.acceptance import model as m
+
+    with pytest.raises(ValidationError):
+        getattr(m, model).model_validate(values)
+
+
+@pytest.mark.parametrize(
+    "threshold",
+    ["{min: 5, max: 1}", "{in: []}", "{equals: .nan}", "{equals: true}"],
+)
+def test_lint_refuses_a_threshold_nothing_can_pass(blockqc, tmp_path, threshold):
+    pack = tmp_path / "p.yaml"
+    pack.write_text(
+        'pack: p\nversion: "1.0"\nextends: global-project\n'
+        f"overrides:\n  TP-1: {{threshold: {threshold}}}\n"
+    )
+    _refused(blockqc("rules", "lint", pack), "TP-1")
+
+
+def test_acceptance_settings_in_range_are_kept():
+    from blockqc.acceptance import model as m
+
+    assert m.AccuracyScore.model_validate({"floor": 50, "span": 50}).floor == 50
+    assert m.Weights.model_validate({"elements": {"data": 0.0}}).elements == {"data": 0.0}
+    assert m.SampleRow.model_validate({"batch": 10, "sample": 10}).sample == 10

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
@@ -10,7 +10,7 @@ ErrorClass = Literal["A", "B", "C", "D"]
 
 
 class _M(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
 class ScoreDef(_M):
@@ -26,6 +26,12 @@ class SampleRow(_M):
 
     batch: int = Field(gt=0)
     sample: int = Field(gt=0)
+
+    @model_validator(mode="after")
+    def _not_more(self) -> SampleRow:
+        if self.sample > self.batch:
+            raise ValueError(f"sample {self.sample} is larger than its batch {self.batch}")
+        return self
 
 
 class Sampling(_M):
@@ -58,8 +64,8 @@ class AccuracyScore(_M):
     """§QE-3: 100 for m ≤ full·m0, else floor + span·(m0 − m)/((1 − full)·m0) up to m0."""
 
     full: float = Field(default=0.3, gt=0, lt=1)
-    floor: float = 60
-    span: float = 40
+    floor: float = Field(default=60, ge=0, le=100)
+    span: float = Field(default=40, gt=0, le=100)
 
 
 class Grade(_M):
@@ -82,8 +88,8 @@ class BatchGrade(_M):
 class Weights(_M):
     """§QE-4: weights of the quality elements and, within each element, of its items."""
 
-    elements: dict[str, float] = Field(default_factory=dict)
-    items: dict[str, float] = Field(default_factory=dict)
+    elements: dict[str, Annotated[float, Field(ge=0)]] = Field(default_factory=dict)
+    items: dict[str, Annotated[float, Field(ge=0)]] = Field(default_factory=dict)
 
 
 class Acceptance(_M):

@@ -199,6 +199,7 @@ def check_rule(rule: Rule, names: Mapping[str, Any], file: str, line: LineFn) ->
             f"'{rule.statistic}'{hint} (offers: {offers})",
             "statistic",
         )
+    _check_threshold_kinds(rule, scope, bad)
     _check_where(rule.where, scope, f"{spec.name} at scope {rule.scope}", "where", bad)
     _check_groups(rule, spec, scope, bad)
     _check_evidence(rule, spec, scope, bad)
@@ -217,6 +218,35 @@ def _check_thresholds(rule: Rule, names: Mapping[str, Any], bad: Callable[..., N
                 evaluate(expr, names)
             except ExpressionError as exc:
                 bad(f"{'.'.join(loc)}.{key}: {exc}", *loc, key)
+        if th.min is not None and th.max is not None:
+            try:
+                lo, hi = evaluate(th.min, names), evaluate(th.max, names)
+            except ExpressionError:
+                lo = hi = None  # reported above
+            if lo is not None and hi is not None and lo > hi:
+                bad(f"{'.'.join(loc)}: min {lo:g} is above max {hi:g}: nothing can pass", *loc)
+        if th.in_ is not None and not th.in_:
+            bad(f"{'.'.join(loc)}.in: an empty list: nothing can pass", *loc, "in")
+        if isinstance(th.equals, float) and not math.isfinite(th.equals):
+            bad(f"{'.'.join(loc)}.equals: expected a finite number, true/false or a text", *loc)
+
+
+#: units of statistics that are not numbers (booleans, names, codes)
+NON_NUMERIC_UNITS = {"", "true/false", "name", "EPSG code", "the figure's unit"}
+
+
+def _check_threshold_kinds(rule: Rule, scope: Scope, bad: Callable[..., None]) -> None:
+    """A statistic with a unit is a number: `equals: true`, a text, or `in` of texts never pass."""
+    if scope.statistics.get(rule.statistic or "", "") in NON_NUMERIC_UNITS:
+        return
+    for group, th in rule.all_thresholds().items():
+        loc = ("thresholds", group) if group else ("threshold",)
+        if isinstance(th.equals, (bool, str)) or any(isinstance(v, str) for v in th.in_ or []):
+            bad(
+                f"{'.'.join(loc)}: statistic {rule.statistic} is a number "
+                f"({scope.statistics[rule.statistic]}): compare it with min/max or numbers",
+                *loc,
+            )
 
 
 def _check_where(
