@@ -50,6 +50,13 @@ def test_batch_with_dem_folder(batch, data_dir, tmp_path):
     # F2-B01 spans lon 40.40–40.54; the DEM crop ends at 40.45
     assert table.loc[2, "dem_coverage"] == pytest.approx(0.05 / 0.14, abs=0.01)
     assert table.loc[0, "dem_coverage"] == pytest.approx(1.0)
+    # the blocks covered in part are named, the one covered in full is not:
+    # F1-B02 spans 40.30–40.48, covered to 40.45: 0.15 / 0.18 = 83 %
+    warnings = [x for x in res.output.splitlines() if x.startswith("warning:")]
+    assert warnings == [
+        "warning: F1-B02: the DEM covers 83 % of its footprint (terrain from that part)",
+        "warning: F2-B01: the DEM covers 36 % of its footprint (terrain from that part)",
+    ]
     assert (table["mean_slope_deg"] > 1).all() and (table["l_rmse_px"] < 1).all()
     results = json.loads((out / "factors.json").read_text(encoding="utf-8"))
     assert results["cca"] is None
@@ -142,3 +149,12 @@ def test_sample_batch_page(tmp_path):
     assert "svg" in parser.tags
     if results["cca"] is None:
         assert "CCA not computed" in page and "at least 17 rows" in page
+
+
+def test_a_dem_that_covers_no_block_is_refused(batch, dem_writer, tmp_path):
+    far = dem_writer(tmp_path / "far.tif", np.full((50, 50), 100.0), 10.0, 60.0, 0.01, "EPSG:4326")
+    out = tmp_path / "out"
+    with pytest.raises(UsageError, match="covers none of the blocks"):
+        args = [str(batch), "--dem", str(far), "--out", str(out)]
+        command.main(args, standalone_mode=False)
+    assert not (out / "experiments.csv").exists()

@@ -30,6 +30,30 @@ def build_table(batch: Path, dem_paths: list[Path], options: FactorOptions) -> p
     return experiments_table(deliveries, dems, options)
 
 
+#: a block whose footprint the DEM covers less than this share of is named in a warning
+DEM_COVERAGE_WARN = 0.99
+
+
+def _dem_coverage(table: pd.DataFrame, dems: list[Path]) -> None:
+    """A DEM that covers none of the blocks is refused; a block it covers only in part, or not
+    at all, is named in a warning (its terrain factors come from the part covered, or are
+    missing and the block is left out of the analysis)."""
+    share = table["dem_coverage"].to_numpy(dtype=float)
+    given = ", ".join(str(d) for d in dems)
+    if not (share > 0).any():
+        raise UsageError(
+            f"--dem {given}: covers none of the blocks' footprints (check its area and "
+            "coordinate reference system)"
+        )
+    for block, covered in zip(table["experiment"], share, strict=True):
+        if covered < DEM_COVERAGE_WARN:
+            what = "left out of the analysis" if covered == 0 else "terrain from that part"
+            click.echo(
+                f"warning: {block}: the DEM covers {100 * covered:.0f} % of its footprint ({what})",
+                err=True,
+            )
+
+
 def write_outputs(
     out: Path, table: pd.DataFrame, results: dict[str, Any], user_templates: Path | None = None
 ) -> list[Path]:
@@ -196,6 +220,7 @@ def command(
             raise UsageError("BATCH needs --dem: a DEM file or folder of tiles covering the blocks")
         out = check_out_dir(out, [batch])
         table = build_table(batch, list(dems), options)
+        _dem_coverage(table, list(dems))
         source = str(batch)
     else:
         assert table_path is not None
