@@ -48,6 +48,35 @@ def recompute(fig: Figure, measure: Measure) -> tuple[float, str]:
     return float(df[fig.statistic].iloc[0]), ""
 
 
+def _undefined(name: str, value: float, figures: dict, reported: dict) -> dict[str, Any]:
+    """A figure the pack defines no recomputation for: exempt, unless its name is one edit
+    from a defined figure that is not reported under its own name (a misspelling, e.g.
+    `tie_point_max_eror_px`), which does not agree: a figure is never left unchecked by a typo.
+    (`tie_point_mean_error_px` is two edits from `tie_point_max_error_px`: another figure.)"""
+    row = {"figure": name, "reported": value, "recomputed": np.nan, "difference": np.nan}
+    close = [f for f in figures if f not in reported and edit_distance(name, f) == 1]
+    if close:
+        note = f"no figure is named {name}: did you mean {close[0]}? (not recomputed)"
+        return row | {"agrees": False, "exempt": False, "exempt_reason": "", "note": note}
+    why = "no recomputation is defined for this figure"
+    return row | {"agrees": True, "exempt": True, "exempt_reason": why, "note": ""}
+
+
+def edit_distance(a: str, b: str) -> int:
+    """Edits (insert, delete, substitute, swap of neighbours) that turn `a` into `b`: the
+    optimal string alignment distance, row by row."""
+    before, row = None, list(range(len(b) + 1))
+    for i, ca in enumerate(a, 1):
+        now = [i]
+        for j, cb in enumerate(b, 1):
+            d = min(row[j] + 1, now[j - 1] + 1, row[j - 1] + (ca != cb))
+            if before is not None and j > 1 and ca == b[j - 2] and a[i - 2] == cb:
+                d = min(d, before[j - 2] + 1)
+            now.append(d)
+        before, row = row, now
+    return row[-1]
+
+
 @metric(
     "reported_figures",
     params=ReportedParams,
@@ -55,7 +84,7 @@ def recompute(fig: Figure, measure: Measure) -> tuple[float, str]:
         "figure": Scope(
             {"agrees": "true/false", "difference": "the figure's unit"},
             keys=("figure",),
-            columns=("reported", "recomputed", "exempt", "exempt_reason"),
+            columns=("reported", "recomputed", "exempt", "exempt_reason", "note"),
         )
     },
     param_units={"rel_tol": "fraction", "abs_tol": "the figure's unit"},
@@ -69,17 +98,7 @@ def reported_figures(d: Delivery, p: ReportedParams, measure: Measure) -> Measur
     for name, value in reported.items():
         fig = p.figures.get(name)
         if fig is None:
-            rows.append(
-                {
-                    "figure": name,
-                    "reported": value,
-                    "recomputed": np.nan,
-                    "difference": np.nan,
-                    "agrees": True,
-                    "exempt": True,
-                    "exempt_reason": "no recomputation is defined for this figure",
-                }
-            )
+            rows.append(_undefined(name, value, p.figures, reported))
             continue
         value_r, why = recompute(fig, measure)
         diff = value - value_r
@@ -93,6 +112,7 @@ def reported_figures(d: Delivery, p: ReportedParams, measure: Measure) -> Measur
                 "agrees": agrees,
                 "exempt": bool(why),
                 "exempt_reason": f"cannot be recomputed: {why}" if why else "",
+                "note": "",
             }
         )
     table = pd.DataFrame(rows)
