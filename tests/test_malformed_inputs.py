@@ -3,6 +3,7 @@ and line named (exit 2) or read correctly, never an internal error or a silent o
 
 from __future__ import annotations
 
+import json
 import shutil
 from pathlib import Path
 
@@ -207,3 +208,89 @@ def test_acceptance_settings_in_range_are_kept():
     assert m.AccuracyScore.model_validate({"floor": 50, "span": 50}).floor == 50
     assert m.Weights.model_validate({"elements": {"data": 0.0}}).elements == {"data": 0.0}
     assert m.SampleRow.model_validate({"batch": 10, "sample": 10}).sample == 10
+
+
+def _doc2(out: Path) -> dict:
+    results = json.loads((out / "F1-B01" / "results.json").read_text(encoding="utf-8"))
+    (doc2,) = [r for r in results["results"] if r["rule"] == "DOC-2"]
+    return doc2
+
+
+@pytest.mark.parametrize(
+    "old, new, status, note",
+    [
+        # a misspelt figure (one edit) is not left unchecked: it does not agree, and says why
+        ("tie_point_max_error_px: 1.14", "tie_point_max_eror_px: 1.14", "fail",
+         "did you mean tie_point_max_error_px"),
+        ("tie_point_error_px: 0.32", "tie_point_errro_px: 0.32", "fail",
+         "did you mean tie_point_error_px"),
+        # a figure two edits away is another figure, with no recomputation: exempt
+        ("tie_point_max_error_px: 1.14", "tie_point_mean_error_px: 1.14", "pass", None),
+        ("tie_point_max_error_px: 1.14", "tie_point_max_error_px: 1.14", "pass", None),
+    ],
+)  # fmt: skip
+def test_a_misspelt_reported_figure_fails_doc2(blockqc, block, tmp_path, old, new, status, note):
+    text = (block / "block.yaml").read_text(encoding="utf-8")
+    assert old in text
+    (block / "block.yaml").write_text(text.replace(old, new), encoding="utf-8")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    assert p.returncode in (0, 1), p.stderr
+    doc2 = _doc2(tmp_path / "out")
+    assert doc2["status"] == status
+    notes = [e.get("note") for e in doc2.get("evidence") or []]
+    if note:
+        assert any(note in (n or "") for n in notes), doc2
+
+
+@pytest.mark.parametrize(
+    "a, b, edits",
+    [("kitten", "sitting", 3), ("ab", "ba", 1), ("", "abc", 3), ("ca", "abc", 3),
+     ("tie_point_max_eror_px", "tie_point_max_error_px", 1), ("flaw", "lawn", 2)],
+)  # fmt: skip
+def test_edit_distance_by_hand(a, b, edits):
+    from blockqc.metrics.reported import edit_distance
+
+    assert edit_distance(a, b) == edits == edit_distance(b, a)
+
+
+def test_a_gsd_band_a_threshold_needs_is_named_in_block_yaml_terms(blockqc, block, tmp_path):
+    text = (block / "block.yaml").read_text(encoding="utf-8")
+    (block / "block.yaml").write_text(text.replace("  ms: 2.6\n", ""), encoding="utf-8")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    assert p.returncode == 2 and "Traceback" not in p.stderr
+    results = json.loads((tmp_path / "out" / "F1-B01" / "results.json").read_text("utf-8"))
+    errors = {
+        r["rule"]: r["detail"]["reason"] for r in results["results"] if r["status"] == "error"
+    }
+    assert list(errors) == ["RO-1"]  # the rules that need no MS GSD are judged
+    assert "block.yaml gives no gsd_m.ms" in errors["RO-1"]
+
+
+@pytest.mark.parametrize(
+    "zone, words",
+    [
+        ("38N", "zone 38N is EPSG:32638 but epsg is 32637"),
+        ("fifty", "expected a UTM zone 1-60 and N or S"),
+        ("37", "expected a UTM zone 1-60 and N or S"),
+        ("61N", "expected a UTM zone 1-60 and N or S"),
+    ],
+)
+def test_a_utm_zone_that_cannot_be_read_or_contradicts_the_epsg_is_refused(
+    blockqc, block, tmp_path, zone, words
+):
+    text = (block / "block.yaml").read_text(encoding="utf-8")
+    text = text.replace("  epsg: 32637\n", f"  epsg: 32637\n  zone: {zone}\n")
+    (block / "block.yaml").write_text(text, encoding="utf-8")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    _refused(p, "block.yaml", "line 6", words)
+
+
+def test_a_utm_zone_that_agrees_with_the_epsg_is_read(blockqc, block, tmp_path):
+    text = (block / "block.yaml").read_text(encoding="utf-8")
+    text = text.replace("  epsg: 32637\n", "  zone: 37N\n")  # the code from the zone alone
+    (block / "block.yaml").write_text(text, encoding="utf-8")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    assert p.returncode == 0, p.stderr
+    results = json.loads((tmp_path / "out" / "F1-B01" / "results.json").read_text("utf-8"))
+    (mb3,) = [r for r in results["results"] if r["rule"] == "MB-3"]
+    assert mb3["status"] == "pass"

@@ -60,12 +60,43 @@ class GSD(BaseModel):
         return self
 
 
+#: a UTM zone as block.yaml may state it beside `projection: UTM`: 1..60 and a hemisphere
+UTM_ZONE = re.compile(r"\s*(\d{1,2})\s*([NSns])\s*")
+
+
 class SpatialReference(BaseModel):
     model_config = ConfigDict(extra="allow", allow_inf_nan=False)
     geodetic_datum: str | None = None
     height_datum: str | None = None
     projection: str | None = None
     epsg: int | None = Field(default=None, ge=1, le=2**31 - 1)
+
+    def zone_epsg(self) -> int | None:
+        """The EPSG code of `projection: UTM` with `zone: 50N` (or UPS with N/S); None when the
+        projection is another or no zone is stated."""
+        zone = str((self.model_extra or {}).get("zone") or "").strip()
+        projection = re.sub(r"[\s_\-:.]", "", (self.projection or "").upper())
+        m = UTM_ZONE.fullmatch(zone)
+        if projection == "UTM" and m and 1 <= int(m.group(1)) <= 60:
+            return (32600 if m.group(2).upper() == "N" else 32700) + int(m.group(1))
+        if projection == "UPS" and zone.upper() in {"N", "S", "NORTH", "SOUTH"}:
+            return 32661 if zone.upper().startswith("N") else 32761
+        return None
+
+    @model_validator(mode="after")
+    def _zone(self) -> SpatialReference:
+        """A UTM zone is read (1..60 and N or S) and agrees with the EPSG code when both are
+        given: neither silently overrides the other."""
+        zone = (self.model_extra or {}).get("zone")
+        utm = re.sub(r"[\s_\-:.]", "", (self.projection or "").upper()) == "UTM"
+        code = self.zone_epsg()
+        if utm and zone is not None and code is None:
+            raise ValueError(f"zone {zone!r}: expected a UTM zone 1-60 and N or S, e.g. 50N")
+        if code is not None and self.epsg is not None and code != self.epsg:
+            raise ValueError(
+                f"zone {zone} is EPSG:{code} but epsg is {self.epsg}: give one, or make them agree"
+            )
+        return self
 
 
 class Manifest(BaseModel):

@@ -56,13 +56,27 @@ class Context:
         return out
 
 
+class _GSDs(dict):
+    """The delivery's GSD per band; a band block.yaml does not give is named as such when a
+    threshold needs it (not as an unknown constant)."""
+
+    BANDS = ("pan", "ms")
+
+    def __contains__(self, band: object) -> bool:
+        return band in self.BANDS or super().__contains__(band)
+
+    def __missing__(self, band: str) -> float:
+        raise ExpressionError(
+            f"block.yaml gives no gsd_m.{band}, which this rule's threshold (gsd.{band}) needs: "
+            f"add the {band.upper()} GSD in metres to gsd_m"
+        )
+
+
 def names_for(delivery: Delivery, pack: Pack) -> dict[str, Any]:
     """What threshold expressions may name: the pack's constants and the delivery's GSDs."""
     gsd = delivery.manifest.gsd_m
-    return {
-        **pack.constants,
-        "gsd": {k: v for k, v in (("pan", gsd.pan), ("ms", gsd.ms)) if v is not None},
-    }
+    given = {k: getattr(gsd, k) for k in _GSDs.BANDS if getattr(gsd, k) is not None}
+    return {**pack.constants, "gsd": _GSDs(given)}
 
 
 def bounds(th: Threshold, names: Mapping[str, Any]) -> tuple[float | None, float | None]:

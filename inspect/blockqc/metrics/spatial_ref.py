@@ -70,15 +70,7 @@ def delivered_epsg(sr) -> int | None:
     """The EPSG code stated in block.yaml, or one derived from `projection: UTM` + `zone: 50N`."""
     if sr is None:
         return None
-    if sr.epsg is not None:
-        return int(sr.epsg)
-    zone = str(getattr(sr, "zone", "") or "")
-    m = re.fullmatch(r"\s*(\d{1,2})\s*([NSns])\s*", zone)
-    if _key(sr.projection) == "UTM" and m:
-        return (32600 if m.group(2).upper() == "N" else 32700) + int(m.group(1))
-    if _key(sr.projection) == "UPS" and zone.upper() in {"N", "S", "NORTH", "SOUTH"}:
-        return 32661 if zone.upper().startswith("N") else 32761
-    return None
+    return int(sr.epsg) if sr.epsg is not None else sr.zone_epsg()
 
 
 def describe_epsg(code: int | None) -> str:
