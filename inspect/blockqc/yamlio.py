@@ -122,6 +122,14 @@ def load_yaml(path: Path, error: type[BlockqcError] = InputError) -> Any:
         mark = exc.problem_mark or exc.context_mark
         line = mark.line + 1 if mark else None
         what = exc.problem or str(exc)
+        if "nesting depth" in what:  # PyYAML's own limit (6.0.4 on), met before blockqc's
+            raise error(
+                Problem(
+                    str(path),
+                    f"not accepted: nested deeper than {MAX_YAML_DEPTH} levels",
+                    line=line,
+                )
+            ) from None
         if "could not determine a constructor" in what:
             what = f"{what}: tags that build objects are not allowed in blockqc files"
         raise error(Problem(str(path), f"not valid YAML: {what}", line=line)) from None
