@@ -127,5 +127,9 @@ def test_tie_points_of_some_bands_taken_once_and_again_when_replaced(tmp_path) -
     assert set(scenes["band"]) == {"pan"} and _select(d, ["pan"])[1] is pan
     assert set(pan["scene_id"]) == set(scenes["scene_id"]) & set(d.tie_points["scene_id"])
     assert _select(d, None)[1] is d.tie_points
+    two = _select(d, ["pan"], ["scene_id", "line"])[1]
+    assert list(two.columns) == ["scene_id", "line"] and two.index.equals(pan.index)
+    assert _select(d, ["pan"], ["scene_id", "line"])[1] is two
+    assert (two["line"] == d.tie_points["line"].iloc[two.index]).all()  # the index: positions
     d.tie_points = d.tie_points.iloc[:10]
     assert len(_select(d, ["pan"])[1]) <= 10

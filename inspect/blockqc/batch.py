@@ -31,7 +31,7 @@ from blockqc.delivery import (
     load_delivery,
     load_manifest,
 )
-from blockqc.engine import inspect_delivery
+from blockqc.engine import inspect_delivery, tie_point_columns
 from blockqc.errors import InputError, Problem
 from blockqc.inspector import InspectorInput
 from blockqc.outputs import safe_child, write_json_atomic
@@ -129,7 +129,7 @@ def inspect_one(
     extra: Extra | None = None,
 ) -> BlockResults:
     """Read one delivery (InputError when it cannot be) and judge every rule of the pack."""
-    delivery = load_delivery(path, manifest=manifest)
+    delivery = load_delivery(path, manifest=manifest, tie_point_columns=tie_point_columns(pack))
     if extra is not None and extra.checkpoints is not None:
         merge_checkpoints(delivery, extra.checkpoints.for_block(delivery.block_id, extra.single))
     block_input = inspector.for_block(delivery.block_id) if inspector else None

@@ -5,6 +5,7 @@ from __future__ import annotations
 import difflib
 import io
 import re
+from collections.abc import Collection
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -26,10 +27,24 @@ from pydantic import (
     model_validator,
 )
 
+from blockqc import grouped
 from blockqc.errors import InputError, Problem
-from blockqc.geometry_inputs import BlockGeometry, load_geometry, residual_column_problems
+from blockqc.geometry_inputs import (
+    ADJUSTED_DIR,
+    RPC_DIR,
+    BlockGeometry,
+    load_geometry,
+    residual_column_problems,
+)
 from blockqc.outputs import block_id_problem
-from blockqc.schema import TABLES, TableSchema, did_you_mean, report_rows, validate_table
+from blockqc.schema import (
+    TABLES,
+    TIE_POINTS,
+    TableSchema,
+    did_you_mean,
+    report_rows,
+    validate_table,
+)
 from blockqc.textio import BOM, decode_utf8, read_bytes
 from blockqc.yamlio import line_of, load_yaml, pydantic_problems
 
@@ -153,13 +168,29 @@ class Delivery:
     process_data: dict[str, Any] = field(default_factory=dict)
     # subsets of the tie points that several measurements share (e.g. those on PAN scenes),
     # made once: key -> ((the tie_points and scenes frames it was taken from), the subset)
-    selections: dict[Any, tuple[tuple[pd.DataFrame, pd.DataFrame], pd.DataFrame]] = field(
+    selections: dict[Any, tuple[tuple[pd.DataFrame, pd.DataFrame], Any]] = field(
         default_factory=dict, repr=False, compare=False
     )
+    # columns the files give that were not read (a pack with `columns: used`), by table
+    not_read: dict[str, list[str]] = field(default_factory=dict)
 
     @property
     def block_id(self) -> str:
         return self.manifest.block_id
+
+    def tie_point_values(self, column: str, rows: np.ndarray) -> pd.Series:
+        """One tie_points column at some rows (positions in the table), read from the file when
+        the column was not read with the delivery (text stripped, blank cells missing)."""
+        rows = np.asarray(rows, dtype=np.int64)
+        if column in self.tie_points.columns:
+            return self.tie_points[column].iloc[rows].reset_index(drop=True)
+        values = read_rows(self.files["tie_points"], column, rows)
+        schema = TIE_POINTS.column(column)
+        if schema.kind == "str":
+            values = pc.utf8_trim_whitespace(values.cast(pa.string()))
+            values = pc.if_else(pc.equal(values, ""), pa.scalar(None, pa.string()), values)
+            return pd.Series(values.to_pylist(), dtype=object)
+        return pd.Series(values.to_numpy(zero_copy_only=False), dtype=float)
 
 
 def is_delivery(path: Path) -> bool:
@@ -233,16 +264,22 @@ def _table_file(folder: Path, name: str) -> Path | None:
     return f
 
 
-def _read_csv(path: Path, schema: TableSchema) -> pd.DataFrame:
-    """Read a CSV fast with pyarrow; text-like columns stay text (ids keep leading zeros)."""
+def _read_csv(
+    path: Path, schema: TableSchema, columns: Collection[str] | None = None
+) -> tuple[pd.DataFrame, list[str]]:
+    """Read a CSV fast with pyarrow; text-like columns stay text (ids keep leading zeros).
+    Only the `columns` given are read (None: all); the header's names come back beside."""
     data = read_bytes(path, None)
     decode_utf8(path, data)  # the whole file is UTF-8, or the line that is not is named
     data = data.removeprefix(BOM)
     if not data.strip():
         raise InputError(Problem(str(path), "the file is empty: expected a header row"))
+    header = _csv_header(data)
+    include = None if columns is None else [h for h in header if h.strip() in columns]
     text_cols = {
         c.name: pa.string() for c in schema.columns if c.kind in ("str", "enum", "date", "wkt")
     }
+    text_cols |= {h: pa.string() for h in include or () if h.strip() in text_cols}
     try:
         table = pacsv.read_csv(
             pa.BufferReader(data),
@@ -251,13 +288,28 @@ def _read_csv(path: Path, schema: TableSchema) -> pd.DataFrame:
                 column_types=text_cols,
                 strings_can_be_null=False,
                 null_values=["", "NA", "NaN", "nan", "null"],
+                include_columns=include,
             ),
         )
-    except pa.ArrowInvalid as exc:
-        return _read_csv_slow(path, data, str(exc))
+    except (pa.ArrowInvalid, pa.ArrowKeyError) as exc:
+        raw = _read_csv_slow(path, data, str(exc))
+        keep = [i for i, h in enumerate(raw.columns) if columns is None or h.strip() in columns]
+        return raw.iloc[:, keep], header
     del data  # the file's bytes, parsed: not held while the frame is built
     handed, table = [table], None
-    return _to_pandas(handed, schema)
+    return _to_pandas(handed, schema), header
+
+
+def _csv_header(data: bytes) -> list[str]:
+    """The names of a CSV's header row (its first record, quotes read as CSV reads them)."""
+    import csv
+
+    first = data[: data.find(b"\n") + 1 or len(data)]
+    while first.count(b'"') % 2 and len(first) < len(data):  # a quoted name over lines
+        end = data.find(b"\n", len(first))
+        first = data[: end + 1 if end >= 0 else len(data)]
+    text = first.decode("utf-8", errors="replace").replace("\r\n", "\n")
+    return next(csv.reader(io.StringIO(text, newline="")), [])
 
 
 def _to_pandas(
@@ -434,8 +486,11 @@ def _parser_problem(path: Path, message: str) -> Problem:
     )
 
 
-def _read_parquet(path: Path, schema: TableSchema) -> pd.DataFrame:
-    """Read a Parquet table; columns of the contract must hold plain values, not lists."""
+def _read_parquet(
+    path: Path, schema: TableSchema, columns: Collection[str] | None = None
+) -> tuple[pd.DataFrame, list[str]]:
+    """Read a Parquet table (only the `columns` given; None: all), and its column names;
+    columns of the contract must hold plain values, not lists."""
     try:
         found = pq.read_schema(path)
         given = found.names
@@ -447,6 +502,8 @@ def _read_parquet(path: Path, schema: TableSchema) -> pd.DataFrame:
                     for n in repeated
                 ]
             )
+        if columns is not None:
+            found = pa.schema([f for f in found if f.name.strip() in columns])
         table, early = _parquet_table(path, schema, found)
     except (pa.ArrowException, OSError) as exc:
         raise InputError(Problem(str(path), f"not a readable Parquet table: {exc}")) from None
@@ -469,7 +526,7 @@ def _read_parquet(path: Path, schema: TableSchema) -> pd.DataFrame:
             if f.name in names and (pa.types.is_binary(f.type) or pa.types.is_large_binary(f.type)):
                 table = table.set_column(i, f.name, table.column(i).cast(pa.string()))
         handed, table = [table], None
-        return _to_pandas(handed, schema, early)
+        return _to_pandas(handed, schema, early), given
     except (pa.ArrowException, ValueError, OverflowError) as exc:
         raise InputError(Problem(str(path), f"not a readable Parquet table: {exc}")) from None
 
@@ -482,24 +539,53 @@ EARLY_ROWS = 1_000_000
 def _parquet_table(
     path: Path, schema: TableSchema, found: pa.Schema
 ) -> tuple[pa.Table, dict[str, Future]]:
-    """A Parquet file's table with each column in one piece (so that a float column becomes a
-    numpy array without a copy), not read ahead into memory; a folder of Parquet files is read
-    as one dataset. In a large file, the key columns that are not decoded into a dictionary
-    (point ids: millions of distinct values) are read first and encoded by a second thread
-    while the other columns are read (`_to_pandas` takes the encodings)."""
+    """The columns of `found` of a Parquet file, each column in one piece (so that a float
+    column becomes a numpy array without a copy), not read ahead into memory; a folder of
+    Parquet files is read as one dataset. In a large file, the key columns that are not decoded
+    into a dictionary (point ids: millions of distinct values) are read first and encoded by a
+    second thread while the other columns are read (`_to_pandas` takes the encodings)."""
     dictionary = _bounded_keys(schema, found)
     if path.is_dir():
-        return pq.read_table(path, read_dictionary=dictionary), {}
+        return pq.read_table(path, columns=found.names, read_dictionary=dictionary), {}
     parquet = pq.ParquetFile(path, read_dictionary=dictionary, pre_buffer=False)
     first = [name for name in _text_keys(schema, found) if name not in dictionary]
     if not first or parquet.metadata.num_rows < EARLY_ROWS:
-        return parquet.read(), {}
+        return parquet.read(columns=found.names), {}
     head = parquet.read(columns=first)
     with ThreadPoolExecutor(1) as encoder:
         early = {name: encoder.submit(_categorical, head.column(name)) for name in first}
         rest = parquet.read(columns=[n for n in found.names if n not in first])
     both = [head.column(n) if n in first else rest.column(n) for n in found.names]
     return pa.table(both, names=found.names), early
+
+
+def read_rows(path: Path, column: str, rows: np.ndarray) -> pa.Array:
+    """One column of a table file at the rows given (positions): from a Parquet file only
+    the row groups that hold them are read; a CSV file is parsed for that column alone."""
+    if path.suffix.lower() == ".csv":
+        data = read_bytes(path, None).removeprefix(BOM)
+        header = _csv_header(data)
+        name = next(h for h in header if h.strip() == column)
+        table = pacsv.read_csv(
+            pa.BufferReader(data),
+            convert_options=pacsv.ConvertOptions(
+                include_columns=[name], column_types={name: pa.string()}
+            ),
+        )
+        return table.column(0).take(pa.array(rows)).combine_chunks()
+    parquet = pq.ParquetFile(path) if not path.is_dir() else None
+    if parquet is None:
+        table = pq.read_table(path, columns=[column])
+        return table.column(0).take(pa.array(rows)).combine_chunks()
+    meta = parquet.metadata
+    ends = np.cumsum([meta.row_group(i).num_rows for i in range(meta.num_row_groups)])
+    group = np.searchsorted(ends, rows, side="right")  # the row group of each row
+    groups = np.unique(group)
+    table = parquet.read_row_groups(groups.tolist(), columns=[column])
+    starts = ends[groups] - np.array([meta.row_group(int(g)).num_rows for g in groups])
+    first = np.concatenate([[0], np.cumsum(ends[groups] - starts)])  # of each group read
+    k = np.searchsorted(groups, group)
+    return table.column(0).take(pa.array(first[k] + rows - starts[k])).combine_chunks()
 
 
 def _bounded_keys(schema: TableSchema, found: pa.Schema) -> list[str]:
@@ -511,9 +597,21 @@ def _bounded_keys(schema: TableSchema, found: pa.Schema) -> list[str]:
 
 def read_table(path: Path, schema: TableSchema) -> tuple[pd.DataFrame, list[Problem]]:
     """Read and validate one table file (CSV or Parquet) against its schema."""
+    df, problems, _ = read_columns(path, schema)
+    return df, problems
+
+
+def read_columns(
+    path: Path, schema: TableSchema, columns: Collection[str] | None = None
+) -> tuple[pd.DataFrame, list[Problem], list[str]]:
+    """Read and validate some columns of a table file (None: all), and the file's column
+    names: the checks of columns not read, and of keys over them, are not made."""
     csv = path.suffix.lower() == ".csv"
-    raw = _read_csv(path, schema) if csv else _read_parquet(path, schema)
-    return validate_table(raw, schema, str(path), csv=csv)
+    raw, header = _read_csv(path, schema, columns) if csv else _read_parquet(path, schema, columns)
+    df, problems = validate_table(
+        raw, schema, str(path), csv=csv, header=None if columns is None else header
+    )
+    return df, problems, [h.strip() for h in header]
 
 
 def load_manifest(path: Path) -> Manifest:
@@ -560,13 +658,20 @@ def _misspelt_keys(path: Path, data: dict) -> list[Problem]:
 
 
 def load_delivery(
-    path: Path, manifest: Manifest | None = None, *, residuals: bool = True
+    path: Path,
+    manifest: Manifest | None = None,
+    *,
+    residuals: bool = True,
+    tie_point_columns: Collection[str] | None = None,
 ) -> Delivery:
     """Read a delivery folder; raise InputError listing every problem found (file, row, column).
 
     `manifest`: block.yaml when already read (a batch reads each manifest once). `residuals`:
     the tie points' v_line/v_sample are needed (inspection) unless the producer's adjusted
     geometry gives them; a recalculation reads the observations alone (False).
+    `tie_point_columns`: read only these columns of the tie points (None: every column); the
+    others are listed in `Delivery.not_read`, and their checks are not made. A delivery that
+    gives its geometry (contract v1.1) is read whole: the verification needs every column.
     """
     path = Path(path)
     problems: list[Problem] = []
@@ -574,11 +679,14 @@ def load_delivery(
         manifest = manifest or load_manifest(path / MANIFEST)
     except InputError as exc:
         problems.extend(exc.problems)
-
+    if tie_point_columns is not None and has_geometry(path):
+        tie_point_columns = None
     tables: dict[str, pd.DataFrame] = {}
     files: dict[str, Path] = {}
+    headers: dict[str, list[str]] = {}
     clean: set[str] = set()  # tables read without a problem, checked row by row further
     for name, schema in TABLES.items():
+        columns = tie_point_columns if name == "tie_points" else None
         try:
             f = _table_file(path, name)
             if f is None:
@@ -592,7 +700,7 @@ def load_delivery(
                     )
                 continue
             files[name] = f
-            df, found = read_table(f, schema)
+            df, found, headers[name] = read_columns(f, schema, columns)
         except InputError as exc:
             problems.extend(exc.problems)
             continue
@@ -606,16 +714,36 @@ def load_delivery(
     problems.extend(_check_consistency({k: tables[k] for k in clean}, files))
     geometry, found = load_geometry(path, tables, files)  # contract v1.1
     problems.extend(found)
-    if residuals:
-        problems.extend(
-            residual_column_problems(tables.get("tie_points"), files.get("tie_points"), geometry)
-        )
+    if residuals and "tie_points" in tables:
+        tp_columns = headers["tie_points"]
+        problems.extend(residual_column_problems(tp_columns, files["tie_points"], geometry))
     if problems and manifest is not None:  # reported now too, not only once the tables are fixed
         problems.extend(_missing_documents(path, manifest))
     if problems:
         raise InputError(problems)
     assert manifest is not None
-    return Delivery(path=path, manifest=manifest, files=files, geometry=geometry, **tables)
+    not_read = {
+        name: [c for c in dict.fromkeys(headers[name]) if c and c not in tables[name].columns]
+        for name in tables
+    }
+    return Delivery(
+        path=path,
+        manifest=manifest,
+        files=files,
+        geometry=geometry,
+        not_read={k: v for k, v in not_read.items() if v},
+        **tables,
+    )
+
+
+def has_geometry(path: Path) -> bool:
+    """Whether a delivery gives its geometry (contract v1.1): rpc/, rpc_adjusted/ or an
+    adjustment table."""
+    return (
+        (path / RPC_DIR).exists()
+        or (path / ADJUSTED_DIR).exists()
+        or any((path / f"adjustment.{ext}").exists() for ext in ("csv", "parquet"))
+    )
 
 
 def _misnamed_tables(path: Path) -> list[Problem]:
@@ -648,8 +776,7 @@ def _check_references(tables: dict[str, pd.DataFrame], files: dict[str, Path]) -
             target = tables.get(ref.table)
             if target is None or ref.column not in df.columns or ref.key not in target.columns:
                 continue
-            given = df[ref.column].notna().to_numpy(dtype=bool)  # a blank cell is reported as such
-            missing = given & ~df[ref.column].isin(target[ref.key]).to_numpy(dtype=bool)
+            missing = _unknown(df[ref.column], target[ref.key])  # blank cells: reported apart
             f = files[name]
             report_rows(
                 problems,
@@ -662,6 +789,19 @@ def _check_references(tables: dict[str, pd.DataFrame], files: dict[str, Path]) -
                 did_you_mean(target[ref.key].dropna().unique()[:100_000]),
             )
     return problems
+
+
+def _unknown(values: pd.Series, keys: pd.Series) -> np.ndarray:
+    """Cells holding a value that is not one of `keys` (missing cells aside); a Categorical's
+    categories are looked up once each, its rows only when one is unknown."""
+    if isinstance(values.dtype, pd.CategoricalDtype):
+        codes = values.array.codes  # -1: a missing cell
+        bad = ~values.cat.categories.isin(keys)
+        if not (bad & (grouped.counts(codes, len(bad)) > 0)).any():
+            return np.zeros(len(values), dtype=bool)
+        return bad[codes] & (codes >= 0)
+    given = values.notna().to_numpy(dtype=bool)
+    return given & ~values.isin(keys).to_numpy(dtype=bool)
 
 
 #: image positions may use either pixel convention (corner or centre of the first pixel)
@@ -690,11 +830,13 @@ def _consistency_masks(
     tp, sc = tables.get("tie_points"), tables.get("scenes")
     if tp is not None and sc is not None:
         size = sc.drop_duplicates("scene_id").set_index("scene_id")
+        at = scene_positions(tp["scene_id"], size.index) + 1  # 0: no scene (reported apart)
         for col, extent in (("line", "lines"), ("sample", "samples")):
-            limit = tp["scene_id"].map(size[extent]).to_numpy(dtype=float, na_value=np.nan)
+            if col not in tp.columns:  # not read
+                continue
             v = tp[col].to_numpy(dtype=float)
-            with np.errstate(invalid="ignore"):
-                outside = (v < -PIXEL_SLACK) | (v > limit + PIXEL_SLACK)
+            top = np.append(np.nan, size[extent].to_numpy(dtype=float, na_value=np.nan))
+            outside = _outside(v, at, -PIXEL_SLACK, top + PIXEL_SLACK)
             msg = f"{col} lies outside its scene (0 to the scene's {extent} in scenes.csv)"
             out.append(("tie_points", col, outside, msg))
     pm = tables.get("pan_ms")
@@ -710,6 +852,17 @@ def _consistency_masks(
         same = (ov["scene_a"] == ov["scene_b"]).to_numpy(dtype=bool)
         out.append(("overlaps", "scene_b", same, "scene_b is scene_a: expected two scenes"))
     return out
+
+
+def _outside(v: np.ndarray, at: np.ndarray, low: float, high: np.ndarray) -> np.ndarray:
+    """Rows whose value lies below `low` or above its group's `high[at]` (NaN compares as
+    inside). The extremes of each group are found first, so that a table within its bounds
+    costs one grouped pass and no row-sized temporary."""
+    lo, hi = grouped.extremes(v, at, len(high))
+    with np.errstate(invalid="ignore"):
+        if not ((lo < low) | (hi > high)).any():
+            return np.zeros(len(v), dtype=bool)
+        return (v < low) | (v > high[at])
 
 
 def _check_consistency(tables: dict[str, pd.DataFrame], files: dict[str, Path]) -> list[Problem]:
@@ -741,7 +894,9 @@ def summary(d: Delivery) -> dict[str, Any]:
     return {
         "scenes": len(d.scenes),
         "tie_point_observations": len(d.tie_points),
-        "tie_points": distinct_count(d.tie_points["point_id"]),
+        "tie_points": (
+            distinct_count(d.tie_points["point_id"]) if "point_id" in d.tie_points else None
+        ),
         "checkpoints": 0 if d.checkpoints is None else distinct_count(d.checkpoints["point_id"]),
     }
 
@@ -751,19 +906,19 @@ def distinct_count(values: pd.Series) -> int:
     of its codes (millions of point ids are not hashed again)."""
     if not isinstance(values.dtype, pd.CategoricalDtype):
         return int(values.nunique())
-    codes = values.cat.codes.to_numpy()
+    codes = values.array.codes
     counts = np.bincount(codes + 1, minlength=len(values.cat.categories) + 1)
     return int(np.count_nonzero(counts[1:]))
 
 
 def scene_positions(scene_id: pd.Series, scene_ids: Any) -> np.ndarray:
-    """Each row's position in `scene_ids` (-1 when absent); a Categorical is looked up once per
-    distinct scene, its codes then taken, instead of once per row."""
+    """Each row's position in `scene_ids` (-1 when absent), as int32; a Categorical is looked
+    up once per distinct scene, its codes then taken, instead of once per row."""
     index = pd.Index(scene_ids)
     if not isinstance(scene_id.dtype, pd.CategoricalDtype):
-        return index.get_indexer(scene_id)
+        return index.get_indexer(scene_id).astype(np.int32)
     found = np.append(index.get_indexer(scene_id.cat.categories), -1)  # code -1: missing
-    return found[scene_id.cat.codes.to_numpy()]
+    return found.astype(np.int32)[scene_id.array.codes]
 
 
 def block_scenes(

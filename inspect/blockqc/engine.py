@@ -232,7 +232,7 @@ class Judge:
             return [self.result({}, "not_applicable", None, {"reason": m.not_applicable})]
         self.bind({})
         table = m.tables[r.scope]
-        df = _filter(table.df, r.where)
+        df = _filter(table.complete(table.df, r.where), r.where)
         group_cols = [c for c in table.group if c not in r.where]
         out = []
         fixed = {k: v for k, v in r.where.items() if k in table.group}
@@ -266,10 +266,12 @@ class Judge:
                 seen.append(g)
                 yield g, df.iloc[0:0]
 
-    def _waived(self, units: pd.DataFrame, keys: list[str]) -> tuple[np.ndarray, pd.Series]:
+    def _waived(self, units: pd.DataFrame, table: Table) -> tuple[np.ndarray, pd.Series]:
         """Units the inspector waived, and their labels ("A", "A/B", ...)."""
         if self.waiver is None or not self.rule.waivable:
             return np.zeros(len(units), dtype=bool), pd.Series([], dtype=object)
+        keys = table.keys
+        units = table.complete(units, keys)
         labels = units[keys[0]].astype(str)
         for k in keys[1:]:
             labels = labels + "/" + units[k].astype(str)
@@ -283,7 +285,7 @@ class Judge:
         exempt = sub["exempt"].to_numpy(dtype=bool) if "exempt" in sub else np.zeros(len(sub), bool)
         judged = sub[~exempt]
         ok = passes(judged[r.statistic], self.th, self.lo, self.hi)
-        waivable, labels = self._waived(judged, table.keys)
+        waivable, labels = self._waived(judged, table)
         waived = ~ok & waivable
         failing = ~ok & ~waived
         detail: dict[str, Any] = {"n_units": int(len(sub)), "n_offending": int((~ok).sum())}
@@ -304,9 +306,10 @@ class Judge:
         evidence = []
         if status != "pass":
             bad = _order(judged[~ok], r.statistic, table.sort, self.hi)
-            bad = _filter(bad, r.evidence_where)
+            bad = _filter(table.complete(bad, r.evidence_where), r.evidence_where)
+            shown = table.complete(bad.head(r.evidence_limit))
             evidence = records(
-                bad.head(r.evidence_limit).drop(
+                shown.drop(
                     columns=[c for c in ("exempt", "exempt_reason") if c in bad], errors="ignore"
                 )
             )
@@ -340,16 +343,16 @@ class Judge:
         for col, val in group.items():
             if col in df.columns:
                 df = df[df[col] == val]
-        df = _filter(
-            df, {**{k: v for k, v in r.where.items() if k in df.columns}, **r.evidence_where}
-        )
+        given = {*df.columns, *table.lazy}
+        where = {**{k: v for k, v in r.where.items() if k in given}, **r.evidence_where}
+        df = _filter(table.complete(df, where), where)
         if "exempt" in df.columns:
             df = df[~df["exempt"].to_numpy(dtype=bool)]
         if r.statistic in df.columns:
             df = df[~passes(df[r.statistic], self.th, self.lo, self.hi)]
         df = _order(df, r.statistic, table.sort, self.hi)
         more = max(0, len(df) - r.evidence_limit)
-        return records(df.head(r.evidence_limit)), more
+        return records(table.complete(df.head(r.evidence_limit))), more
 
     def _waiver_note(self) -> dict[str, Any]:
         if self.waiver is not None and not self.rule.waivable:
@@ -390,6 +393,27 @@ def judge_all(ctx: Context, pack: Pack, block_input: BlockInput) -> list[RuleRes
     return results
 
 
+def tie_point_columns(pack: Pack) -> set[str] | None:
+    """The tie_points columns to read for this pack: every column (None) unless the pack says
+    `columns: used`; then those its automatic rules' metrics read, and the scene id (checked
+    against the scenes)."""
+    if pack.columns != "used":
+        return None
+    from blockqc.rules.loader import DELIVERY_NAMES
+
+    names = {**pack.constants, **DELIVERY_NAMES}
+    out = {"scene_id"}
+    for rule in pack.rules:
+        if rule.manual or rule.metric not in REGISTRY:
+            continue
+        spec = REGISTRY[rule.metric]
+        cols = spec.tie_point_columns(resolve_params(spec.params, rule.params, names))
+        if cols is None:
+            return None
+        out |= cols
+    return out
+
+
 def inspect_delivery(
     delivery: Delivery,
     pack: Pack,
@@ -421,6 +445,7 @@ def inspect_delivery(
         pending_manual=pending,
         counts=counts,
         summary=summary(delivery),
+        not_read=delivery.not_read,
         process_data=jsonable(process_data),
         elements=pack.elements,
         scenes=_scenes(delivery),
@@ -467,7 +492,7 @@ def _measurements(ctx: Context, pack: Pack, results: list[RuleResult]) -> list[M
                 params=json.loads(cache_key[1]),
                 detail=jsonable(m.detail),
                 tables={
-                    scope: records(t.df)
+                    scope: records(t.complete(t.df))
                     for scope, t in m.tables.items()
                     if len(t.df) <= MEASUREMENT_ROWS_KEPT
                 },

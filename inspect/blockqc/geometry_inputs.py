@@ -8,6 +8,7 @@ RPCs in `rpc_adjusted/<scene_id>.<ext>`. Nothing here writes to the delivery.
 
 from __future__ import annotations
 
+from collections.abc import Collection
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -179,12 +180,13 @@ def load_geometry(
 
 
 def residual_column_problems(
-    tie_points: pd.DataFrame | None, file: Path | None, geometry: BlockGeometry | None
+    columns: Collection[str] | None, file: Path | None, geometry: BlockGeometry | None
 ) -> list[Problem]:
-    """v_line/v_sample: both given, or both absent with the producer's adjusted geometry."""
-    if tie_points is None:
+    """v_line/v_sample: both given, or both absent with the producer's adjusted geometry.
+    `columns`: the tie_points table's columns (read or not), None without the table."""
+    if columns is None:
         return []
-    have = [c for c in ("v_line", "v_sample") if c in tie_points.columns]
+    have = [c for c in ("v_line", "v_sample") if c in columns]
     # with an adjustment given, its own problems (if any) are what the user needs to read
     if len(have) == 2 or (not have and geometry is not None and geometry.source is not None):
         return []

@@ -124,6 +124,9 @@ class BlockResults(_Model):
     pending_manual: list[str] = Field(default_factory=list)
     counts: dict[Status, int] = Field(default_factory=dict)
     summary: dict[str, Any] = Field(default_factory=dict)
+    # columns of the delivery's tables not read (a pack with `columns: used`): their checks,
+    # and those of keys over them, were not made
+    not_read: dict[str, list[str]] = Field(default_factory=dict)
     # contract v1.1: what blockqc computed itself from the delivery's geometry (§RC-1, §RC-2)
     process_data: dict[str, Any] = Field(default_factory=dict)
     elements: list[ElementDef] = Field(default_factory=list)

@@ -232,26 +232,29 @@ def _show(value: object) -> str:
 def _blank(s: pd.Series) -> np.ndarray:
     """Cells that are missing or hold only white space."""
     if isinstance(s.dtype, pd.CategoricalDtype):  # made by the readers: stripped, blank missing
-        return s.cat.codes.to_numpy() < 0
+        return s.array.codes < 0
     if pd.api.types.is_numeric_dtype(s.dtype) or pd.api.types.is_datetime64_any_dtype(s.dtype):
         return s.isna().to_numpy()
     return (s.isna() | (s.astype("string").str.strip() == "")).to_numpy(dtype=bool)
 
 
-def _duplicate_headers(df: pd.DataFrame, file: str) -> tuple[pd.DataFrame, list[Problem]]:
-    """Columns named twice in the header: each repeat is a problem (the first one is kept)."""
-    dup = df.columns.duplicated()
+def _duplicate_headers(
+    df: pd.DataFrame, file: str, header: list[str] | None = None
+) -> tuple[pd.DataFrame, list[Problem]]:
+    """Columns named twice in the header (the file's, when only some columns were read): each
+    repeat is a problem (the first one is kept)."""
+    names = pd.Index(df.columns if header is None else [h.strip() for h in header])
     problems = [
         Problem(
             file,
             f"column '{name}' appears more than once in the header (columns "
-            f"{', '.join(str(i + 1) for i in np.flatnonzero(df.columns == name))}); "
+            f"{', '.join(str(i + 1) for i in np.flatnonzero(names == name))}); "
             "give each column once",
             line=1 if file.lower().endswith(".csv") else None,
         )
-        for name in dict.fromkeys(df.columns[dup])
+        for name in dict.fromkeys(names[names.duplicated()])
     ]
-    return df.loc[:, ~dup], problems
+    return df.loc[:, ~df.columns.duplicated()], problems
 
 
 def _check_column(
@@ -322,13 +325,21 @@ def _check_polygons(
 
 
 def validate_table(
-    df: pd.DataFrame, schema: TableSchema, file: str, csv: bool = True
+    df: pd.DataFrame,
+    schema: TableSchema,
+    file: str,
+    csv: bool = True,
+    header: list[str] | None = None,
 ) -> tuple[pd.DataFrame, list[Problem]]:
-    """Check and convert a raw table (strings or typed) column by column; list every problem."""
+    """Check and convert a raw table (strings or typed) column by column; list every problem.
+
+    `header`: the file's column names when only some of them were read into `df`: a column
+    it names is not missing, and the checks of the columns not read are not made."""
     df = df.rename(columns=lambda c: str(c).strip())
     unnamed = [i for i, c in enumerate(df.columns) if c == "" and _blank(df.iloc[:, i]).all()]
     df = df.iloc[:, [i for i in range(df.shape[1]) if i not in unnamed]]  # trailing commas
-    df, problems = _duplicate_headers(df, file)
+    df, problems = _duplicate_headers(df, file, header)
+    given = set(df.columns) | {h.strip() for h in header or ()}
     if len(df) == 0 and len(df.columns):
         problems.append(
             Problem(
@@ -341,12 +352,12 @@ def validate_table(
     for col in schema.columns:
         if col.name in df.columns:
             out[col.name] = _check_column(df[col.name], col, file, csv, problems)
-        elif col.required:
+        elif col.required and col.name not in given:
             problems.append(
                 Problem(
                     file,
                     f"missing column '{col.name}' (expected a {col.kind} column; "
-                    f"columns found: {', '.join(map(str, df.columns))})",
+                    f"columns found: {', '.join(map(str, header or df.columns))})",
                 )
             )
     for c in df.columns:  # extra columns are kept, untouched
@@ -415,7 +426,7 @@ def _key_codes(table: pd.DataFrame, cols: list[str]) -> np.ndarray:
     key, span = np.zeros(len(table), dtype=np.int64), 1
     for c in cols:
         s = table[c]
-        codes = s.cat.codes.to_numpy() if isinstance(s.dtype, pd.CategoricalDtype) else None
+        codes = s.array.codes if isinstance(s.dtype, pd.CategoricalDtype) else None
         if codes is None:
             codes = pd.factorize(s)[0]
         size = int(codes.max(initial=-1)) + 2

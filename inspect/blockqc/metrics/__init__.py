@@ -7,7 +7,7 @@ results (e.g. component, method); `keys` identify the units inside a group (scen
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -26,6 +26,17 @@ class Table:
     keys: list[str] = field(default_factory=list)
     sort: str | None = None  # default order of evidence rows (descending), e.g. "error_px"
     groups: list[dict[str, Any]] | None = None  # groups to report even when they hold no rows
+    # columns left out of `df` because the delivery's columns behind them were not read (a pack
+    # with `columns: used`), and how to add them to some of its rows (those shown as evidence)
+    lazy: tuple[str, ...] = ()
+    fill: Callable[[pd.DataFrame], pd.DataFrame] | None = None
+
+    def complete(self, rows: pd.DataFrame, columns: Iterable[str] | None = None) -> pd.DataFrame:
+        """`rows` of this table with its lazy columns added (those of `columns`, or all)."""
+        wanted = set(self.lazy if columns is None else columns) & set(self.lazy)
+        if self.fill is None or not wanted or wanted <= set(rows.columns):
+            return rows
+        return self.fill(rows)
 
 
 @dataclass
@@ -45,6 +56,9 @@ class NoParams(BaseModel):
 
 Measure = Callable[[str, Mapping[str, Any]], Measurement]
 MetricFunc = Callable[[Delivery, Any, Measure], Measurement]
+#: the tie_points columns a metric reads: a fixed list, one computed from its parameters, or
+#: None for every column of the table
+TiePointColumns = tuple[str, ...] | Callable[[Any], Iterable[str]] | None
 
 
 @dataclass(frozen=True)
@@ -74,6 +88,14 @@ class MetricSpec:
     scopes: Mapping[str, Scope]  # scope name -> what it offers
     description: str
     param_units: Mapping[str, str] = field(default_factory=dict)  # parameter -> unit
+    tie_points: TiePointColumns = None
+
+    def tie_point_columns(self, params: BaseModel) -> set[str] | None:
+        """The tie_points columns this metric reads with these parameters (None: all)."""
+        if self.tie_points is None:
+            return None
+        cols = self.tie_points(params) if callable(self.tie_points) else self.tie_points
+        return None if cols is None else set(cols)
 
 
 REGISTRY: dict[str, MetricSpec] = {}
@@ -85,8 +107,10 @@ def metric(
     params: type[BaseModel] = NoParams,
     scopes: Mapping[str, Scope],
     param_units: Mapping[str, str] | None = None,
+    tie_points: TiePointColumns = None,
 ) -> Callable[[MetricFunc], MetricFunc]:
-    """Register a measurement under `name`, declaring its parameters and the scopes it offers."""
+    """Register a measurement under `name`, declaring its parameters, the scopes it offers and
+    the tie_points columns it reads (None: every column; `()` for a metric that reads none)."""
 
     def register(func: MetricFunc) -> MetricFunc:
         doc = (func.__doc__ or "").strip().splitlines()
@@ -94,7 +118,13 @@ def metric(
         if unknown:
             raise TypeError(f"metric {name}: units for unknown parameters {sorted(unknown)}")
         REGISTRY[name] = MetricSpec(
-            name, func, params, dict(scopes), doc[0] if doc else "", dict(param_units or {})
+            name,
+            func,
+            params,
+            dict(scopes),
+            doc[0] if doc else "",
+            dict(param_units or {}),
+            tie_points,
         )
         return func
 

@@ -99,6 +99,7 @@ def component_table(axes: pd.DataFrame, p: AsprsParams) -> pd.DataFrame:
 
 @metric(
     "asprs_accuracy",
+    tie_points=(),
     params=AsprsParams,
     scopes={
         "component": Scope(

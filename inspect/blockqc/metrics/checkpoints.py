@@ -160,6 +160,7 @@ _GROUPS = {"component": ("plane", "height"), "method": METHODS}
 
 @metric(
     "checkpoint_accuracy",
+    tie_points=(),
     params=AccuracyParams,
     scopes={
         "block": Scope({"n_points": "points", "n_rows": "rows"}),
@@ -218,6 +219,7 @@ def checkpoint_accuracy(d: Delivery, p: AccuracyParams, measure: Measure) -> Mea
 
 @metric(
     "reference_coverage",
+    tie_points=(),
     params=CoverageParams,
     scopes={
         "block": Scope(

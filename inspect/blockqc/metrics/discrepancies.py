@@ -94,13 +94,13 @@ def _scopes(unit: tuple[str, ...]) -> dict[str, Scope]:
     }
 
 
-@metric("overlap_discrepancy", scopes=_scopes(("scene_a", "scene_b")))
+@metric("overlap_discrepancy", scopes=_scopes(("scene_a", "scene_b")), tie_points=())
 def overlap_discrepancy(d: Delivery, p: NoParams, measure: Measure) -> Measurement:
     """Discrepancies between adjacent overlapping images, per point and pair (§RO-3)."""
     return _measure(d.overlaps, ["scene_a", "scene_b"], "overlaps table (overlaps.csv)")
 
 
-@metric("edge_discrepancy", scopes=_scopes(("neighbour_block",)))
+@metric("edge_discrepancy", scopes=_scopes(("neighbour_block",)), tie_points=())
 def edge_discrepancy(d: Delivery, p: NoParams, measure: Measure) -> Measurement:
     """Discrepancies against adjacent blocks, per point and neighbour (§RO-2)."""
     return _measure(d.edges, ["neighbour_block"], "edges table (edges.csv)")
@@ -111,6 +111,7 @@ _PAN_MS = ("pan_scene_id", "ms_scene_id")
 
 @metric(
     "pan_ms_discrepancy",
+    tie_points=(),
     scopes={
         "point": Scope(
             {"value_m": "m"}, keys=(*_PAN_MS, "point_id"), columns=("component", "dx_m", "dy_m")

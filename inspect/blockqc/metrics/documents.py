@@ -65,6 +65,7 @@ def check_document(root: Path, rel: str | None) -> tuple[bool, bool, int, str]:
 
 @metric(
     "documents",
+    tie_points=(),
     params=DocumentParams,
     scopes={
         "document": Scope(

@@ -40,6 +40,7 @@ def _reason(d: Delivery) -> str | None:
 
 @metric(
     "residual_reproduction",
+    tie_points=(),  # it reads the process data; a delivery with geometry is read whole
     scopes={
         "observation": Scope(
             {"difference_px": "px"}, keys=("point_id", "scene_id"), columns=_OBSERVATION_COLUMNS

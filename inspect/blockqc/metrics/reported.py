@@ -9,7 +9,15 @@ import pandas as pd
 from pydantic import BaseModel, ConfigDict, Field
 
 from blockqc.delivery import Delivery
-from blockqc.metrics import Measure, Measurement, Scope, Table, metric, not_applicable
+from blockqc.metrics import (
+    REGISTRY,
+    Measure,
+    Measurement,
+    Scope,
+    Table,
+    metric,
+    not_applicable,
+)
 
 
 class Figure(BaseModel):
@@ -77,9 +85,21 @@ def edit_distance(a: str, b: str) -> int:
     return row[-1]
 
 
+def _tie_point_columns(p: ReportedParams) -> set[str] | None:
+    """The tie_points columns the figures' recomputations read (None: every column)."""
+    out: set[str] = set()
+    for fig in p.figures.values():
+        spec = REGISTRY.get(fig.metric)
+        if spec is None or callable(spec.tie_points) or spec.tie_points is None:
+            return None  # read whole rather than guess (an unknown metric is refused anyway)
+        out |= set(spec.tie_points)
+    return out
+
+
 @metric(
     "reported_figures",
     params=ReportedParams,
+    tie_points=_tie_point_columns,
     scopes={
         "figure": Scope(
             {"agrees": "true/false", "difference": "the figure's unit"},

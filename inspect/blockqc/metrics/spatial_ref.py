@@ -85,6 +85,7 @@ def describe_epsg(code: int | None) -> str:
 
 @metric(
     "spatial_reference",
+    tie_points=(),
     params=SpatialParams,
     scopes={
         "block": Scope(

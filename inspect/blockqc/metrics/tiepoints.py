@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
-from typing import Literal
+from functools import partial
+from typing import Any, Literal
 
 import numpy as np
 import pandas as pd
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from blockqc import grouped
 from blockqc.delivery import Delivery, distinct_count, scene_positions
 from blockqc.metrics import Measure, Measurement, Scope, Table, metric, not_applicable
 from blockqc.outputs import records
@@ -45,18 +48,68 @@ def tie_point_error_px(v_line: np.ndarray, v_sample: np.ndarray) -> np.ndarray:
     return np.hypot(v_line, v_sample)
 
 
-def _select(d: Delivery, bands: list[str] | None) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """The scenes of the bands given (None: all) and their tie points; the tie points are
-    taken once per delivery and bands (the same rows serve every measurement), and not copied
-    when they are all of them."""
+def _select(
+    d: Delivery, bands: list[str] | None, columns: list[str] | None = None
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The scenes of the bands given (None: all) and their tie points' `columns` (None: every
+    column read), taken once per delivery, bands and columns (the same rows serve every
+    measurement), and not copied when they are every row; the index keeps each row's position
+    in the delivery's table."""
     scenes = d.scenes if bands is None else d.scenes[d.scenes["band"].isin(bands)]
-    key = None if bands is None else tuple(sorted(set(bands)))
-    (tie_points, all_scenes), tp = d.selections.get(key, ((None, None), None))
-    if tie_points is not d.tie_points or all_scenes is not d.scenes or tp is None:
-        on = d.tie_points["scene_id"].isin(scenes["scene_id"]).to_numpy()
-        tp = d.tie_points if on.all() else d.tie_points[on]
-        d.selections[key] = ((d.tie_points, d.scenes), tp)
+    on = None if bands is None else tuple(sorted(set(bands)))
+    rows = _cached(d, (on, "rows"), lambda: _rows_on(d.tie_points, scenes))
+    tp = _cached(
+        d,
+        (on, columns and tuple(columns)),
+        lambda: _take(d.tie_points if columns is None else d.tie_points[columns], rows),
+    )
     return scenes, tp
+
+
+def _cached(d: Delivery, key: Any, make: Callable[[], Any]) -> Any:
+    """What `make` gives, kept in the delivery until its tie points or scenes are replaced."""
+    (tie_points, scenes), value = d.selections.get(key, ((None, None), None))
+    if tie_points is not d.tie_points or scenes is not d.scenes:
+        value = make()
+        d.selections[key] = ((d.tie_points, d.scenes), value)
+    return value
+
+
+def _rows_on(tie_points: pd.DataFrame, scenes: pd.DataFrame) -> np.ndarray | None:
+    """Positions of the tie points on these scenes; None when every one is."""
+    on = scene_positions(tie_points["scene_id"], scenes["scene_id"]) >= 0
+    return None if on.all() else np.flatnonzero(on)
+
+
+def _take(frame: pd.DataFrame, rows: np.ndarray | None) -> pd.DataFrame:
+    return frame if rows is None else frame.iloc[rows]
+
+
+#: rows worked through at once by the passes over every tie point: their temporaries stay a
+#: few megabytes, so that millions of rows cost no row-sized temporary besides the results
+CHUNK = 1 << 20
+
+
+def _on(d: Delivery, bands: list[str] | None) -> tuple[pd.DataFrame, np.ndarray | None]:
+    """The scenes of the bands given (None: all), and which tie points lie on them (None: every
+    one), found once per delivery and bands."""
+    scenes = d.scenes if bands is None else d.scenes[d.scenes["band"].isin(bands)]
+    key = (None if bands is None else tuple(sorted(set(bands))), "on")
+    return scenes, _cached(d, key, lambda: _mask_on(d.tie_points, scenes))
+
+
+def _mask_on(tie_points: pd.DataFrame, scenes: pd.DataFrame) -> np.ndarray | None:
+    on = scene_positions(tie_points["scene_id"], scenes["scene_id"]) >= 0
+    return None if on.all() else on
+
+
+def _chunks(n: int) -> range:
+    return range(0, n, CHUNK)
+
+
+def _rows(on: np.ndarray | None, labels: np.ndarray) -> np.ndarray:
+    """Positions in the delivery's tie points of the rows `labels` of a selection `on`."""
+    return labels if on is None else np.flatnonzero(on)[labels]
 
 
 def _image_size(scenes: pd.DataFrame) -> pd.DataFrame:
@@ -68,36 +121,37 @@ def _stats(err: pd.Series, by: pd.Series | None, lo: float, hi: float) -> pd.Dat
     """n, median, RMS, mean, max and share (%) in (lo, hi], overall or per group.
 
     Groups by integer codes (a Categorical's own, else factorized), so a key of millions of
-    rows is never turned into Python strings; the index holds the groups' labels.
+    rows is never turned into Python strings; each statistic is one grouped pass
+    (`blockqc.grouped`); the index holds the groups' labels.
     """
     if by is None:
         return _block_stats(err.to_numpy(), lo, hi)
     if isinstance(by.dtype, pd.CategoricalDtype):
-        codes, labels = by.cat.codes.to_numpy(), pd.Index(by.cat.categories, dtype=object)
+        codes, labels = by.array.codes, pd.Index(by.cat.categories, dtype=object)
     else:
         codes, labels = pd.factorize(by, sort=False)
     e = err.to_numpy()
-    if codes.min(initial=0) < 0:  # rows of no group (a missing key) are left out
-        e, codes = e[codes >= 0], codes[codes >= 0]
-    scale = _square_scale(e, codes)
-    # one Series per statistic's input, grouped by the codes: no frame of them is stacked
-    g = pd.Series(e, copy=False).groupby(codes, sort=False)
-    e2 = e**2 if scale is None else (e / scale[codes]) ** 2
-    rms = np.sqrt(pd.Series(e2, copy=False).groupby(codes, sort=False).mean())
-    del e2
-    n = g.size()
-    inside = np.bincount(codes[(e > lo) & (e <= hi)], minlength=int(codes.max(initial=0)) + 1)
+    k = len(labels)
+    n = grouped.counts(codes, k)
+    top = grouped.extremes(e, codes, k)[1]
+    big = top.max(initial=-np.inf) > SQUARE_SAFE
+    scale = np.where(top > SQUARE_SAFE, top, 1.0) if big else None
+    squares = np.square(e) if scale is None else np.square(e / scale[np.maximum(codes, 0)])
+    rms = np.sqrt(grouped.sums(squares, codes, k) / np.maximum(n, 1))
+    del squares
+    inside = grouped.counts(np.where((e > lo) & (e <= hi), codes, -1), k)
+    used = np.flatnonzero(n)
     out = pd.DataFrame(
         {
-            "n": n,
-            "median": g.median(),
-            "rms": rms if scale is None else rms * scale[rms.index.to_numpy()],
-            "mean": g.mean(),
-            "max": g.max(),
-            "n_in_interval": inside[n.index.to_numpy()],
-        }
+            "n": n[used],
+            "median": grouped.medians(e, codes, k)[used],
+            "rms": rms[used] if scale is None else rms[used] * scale[used],
+            "mean": grouped.sums(e, codes, k)[used] / n[used],
+            "max": top[used],
+            "n_in_interval": inside[used],
+        },
+        index=pd.Index(np.asarray(labels, dtype=object)[used]),
     )
-    out.index = pd.Index(np.asarray(labels, dtype=object)[out.index.to_numpy()])
     out["share_in_interval"] = 100.0 * out["n_in_interval"] / out["n"]
     return out
 
@@ -107,26 +161,16 @@ def _stats(err: pd.Series, by: pd.Series | None, lo: float, hi: float) -> pd.Dat
 SQUARE_SAFE = 1e150
 
 
-def _square_scale(e: np.ndarray, codes: np.ndarray) -> np.ndarray | None:
-    """Per group code: the divisor that keeps its squared errors finite (1, or its largest
-    error); None when no error needs one."""
-    if not e.size or e.max() <= SQUARE_SAFE:
-        return None
-    top = np.zeros(int(codes.max()) + 1)
-    np.maximum.at(top, codes[codes >= 0], e[codes >= 0])
-    return np.where(top > SQUARE_SAFE, top, 1.0)
-
-
 def _block_stats(e: np.ndarray, lo: float, hi: float) -> pd.DataFrame:
     """The statistics of `_stats` over every observation at once (numpy, no grouping)."""
     n = int(e.size)
     inside = int(np.count_nonzero((e > lo) & (e <= hi)))
     top = float(e.max())
-    s = top if top > SQUARE_SAFE else 1.0  # as _square_scale, for the one group
+    s = top if top > SQUARE_SAFE else 1.0  # as in _stats, for the one group
     row = {
         "n": n,
         "median": float(np.median(e)),
-        "rms": float(s * np.sqrt(np.mean((e / s) ** 2))),
+        "rms": float(s * np.sqrt(np.mean(np.square(e if s == 1.0 else e / s)))),
         "mean": float(e.mean()),
         "max": top,
         "n_in_interval": inside,
@@ -158,16 +202,30 @@ def histogram_edges(largest: float) -> np.ndarray:
 
 
 def histogram_counts(values: np.ndarray, edges: np.ndarray) -> np.ndarray:
-    """np.histogram's counts over `edges` (bins [a, b), the last one closed) of values inside
-    [edges[0], edges[-1]], in one pass: the uniform bins are found by division, then moved by
-    one where rounding put a value on the wrong side of an edge."""
-    top = len(edges) - 1
-    step = (edges[1] - edges[0]) if top else 1.0
-    i = np.clip((values - edges[0]) / step, 0, top - 1).astype(np.int64)  # clipped, then cast
-    i -= values < edges[i]
-    i += (values >= edges[np.minimum(i + 1, top)]) & (i < top - 1)
-    inside = (values >= edges[0]) & (values <= edges[-1])
-    return np.bincount(i[inside], minlength=top)
+    """np.histogram's counts over `edges` (bins [a, b), the last one closed) of the values.
+
+    The uniform bins (all but a last one gathering the largest errors) are counted by
+    np.histogram's own uniform path, which works through the values in pieces that stay in
+    cache, its edges being those of `histogram_edges`; the last bin is counted apart."""
+    uniform = len(edges) - 1
+    if uniform > 1 and not _uniform(edges[: uniform + 1]):
+        uniform -= 1  # the last bin, from the uniform bins' end to the largest error
+    if not _uniform(edges[: uniform + 1]):
+        return np.histogram(values, bins=edges)[0]
+    counts = np.histogram(values, bins=uniform, range=(edges[0], edges[uniform]))[0]
+    if uniform == len(edges) - 1:
+        return counts
+    end = edges[uniform]
+    on_end = np.count_nonzero(values == end)  # the uniform range's closed end: the next bin's
+    last = np.count_nonzero((values >= end) & (values <= edges[-1]))
+    counts[-1] -= on_end
+    return np.append(counts, last)
+
+
+def _uniform(edges: np.ndarray) -> bool:
+    """Whether the edges are those np.histogram lays over their range in equal bins."""
+    n = len(edges) - 1
+    return n >= 1 and np.array_equal(np.linspace(edges[0], edges[-1], n + 1), edges)
 
 
 #: scenes above this many keep no residual cells in the results (they are for a map)
@@ -213,6 +271,14 @@ def residual_cells(tp: pd.DataFrame, scenes: pd.DataFrame, k: int = 4) -> list[d
     return records(table.round(6))
 
 
+def _residual_cells(d: Delivery, bands: list[str] | None, scenes: pd.DataFrame) -> list[dict]:
+    """`residual_cells` of the tie points on the scenes of the bands given (none are taken from
+    the delivery when the scenes are too many for a map)."""
+    if not 0 < scenes["scene_id"].nunique() <= MAX_SCENES_FOR_CELLS:
+        return []
+    return residual_cells(_select(d, bands, list(ERROR_COLUMNS))[1], scenes)
+
+
 def _cell_means(key: np.ndarray, values: np.ndarray, cells: int) -> np.ndarray:
     """Mean of the finite values per cell key (NaN where a cell has none), as pandas' mean."""
     ok = np.isfinite(values)
@@ -220,6 +286,40 @@ def _cell_means(key: np.ndarray, values: np.ndarray, cells: int) -> np.ndarray:
     total = np.bincount(key[ok], weights=values[ok], minlength=cells)
     with np.errstate(invalid="ignore", divide="ignore"):
         return total / count
+
+
+#: the tie_points columns the error statistics read; the point ids are read when another rule
+#: needs them (or the pack reads every column), else only for the observations shown
+ERROR_COLUMNS = ("scene_id", "line", "sample", "v_line", "v_sample")
+OBSERVATION_COLUMNS = ("point_id", "scene_id", "line", "sample", "v_line", "v_sample")
+
+
+def _errors(tp: pd.DataFrame, on: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """The scene codes and errors of the tie points `on` (None: all), a piece at a time."""
+    codes = tp["scene_id"].array.codes
+    vl, vs = tp["v_line"].to_numpy(), tp["v_sample"].to_numpy()
+    if on is None:
+        return codes, tie_point_error_px(vl, vs)
+    err = np.empty(int(np.count_nonzero(on)))
+    at = 0
+    for a in _chunks(len(on)):
+        m = on[a : a + CHUNK]
+        k = int(np.count_nonzero(m))
+        err[at : at + k] = tie_point_error_px(vl[a : a + CHUNK][m], vs[a : a + CHUNK][m])
+        at += k
+    return codes[on], err
+
+
+def _fill_observations(
+    d: Delivery, on: np.ndarray | None, lazy: tuple[str, ...], rows: pd.DataFrame
+) -> pd.DataFrame:
+    """Observations (rows of the selection `on`) with their other columns added, from the
+    delivery's table (or its file, for a column not read), in the order of
+    OBSERVATION_COLUMNS."""
+    at = _rows(on, rows.index.to_numpy())
+    added = {c: d.tie_point_values(c, at).to_numpy() for c in lazy if c not in rows}
+    out = rows.assign(**added)
+    return out[[c for c in OBSERVATION_COLUMNS if c in out] + ["error_px"]]
 
 
 @metric(
@@ -235,41 +335,54 @@ def _cell_means(key: np.ndarray, values: np.ndarray, cells: int) -> np.ndarray:
         ),
     },
     param_units={"interval_px": "px"},
+    tie_points=ERROR_COLUMNS,
 )
 def tie_point_errors(d: Delivery, p: ErrorParams, measure: Measure) -> Measurement:
     """Tie-point error statistics: per observation, per scene and over the block (§TP-1..3)."""
-    scenes, tp = _select(d, p.bands)
-    if tp.empty:
+    scenes, on = _on(d, p.bands)
+    codes, err = _errors(d.tie_points, on)
+    if not err.size:
         return not_applicable("no tie-point observations on the scenes checked")
     lo, hi = p.interval_px
-    err = pd.Series(
-        tie_point_error_px(tp["v_line"].to_numpy(), tp["v_sample"].to_numpy()), index=tp.index
+    scene_id = pd.Categorical.from_codes(
+        codes, dtype=d.tie_points["scene_id"].dtype, validate=False
     )
-    block = _stats(err, None, lo, hi).reset_index(drop=True)
-    block.insert(0, "n_points", distinct_count(tp["point_id"]))
-    per_scene = _stats(err, tp["scene_id"], lo, hi).rename_axis("scene_id").reset_index()
+    block = _block_stats(err, lo, hi)
+    if "point_id" in d.tie_points:  # not when the pack reads only the columns its rules use
+        ids = d.tie_points["point_id"]
+        block.insert(0, "n_points", distinct_count(ids if on is None else ids[on]))
+    per_scene = _stats(pd.Series(err, copy=False), pd.Series(scene_id, copy=False), lo, hi)
+    per_scene = per_scene.rename_axis("scene_id").reset_index()
     per_scene = scenes[["scene_id"]].merge(per_scene, on="scene_id", how="left")
     per_scene["n"] = per_scene["n"].fillna(0).astype(int)
-    obs = tp[["point_id", "scene_id", "line", "sample", "v_line", "v_sample"]].assign(
-        error_px=err.to_numpy()
-    )
+    # the observations' other columns are taken from the delivery for the rows shown
+    obs = pd.DataFrame({"scene_id": scene_id, "error_px": err}, copy=False)
+    lazy = tuple(c for c in OBSERVATION_COLUMNS if c not in obs)
     hist_edges = histogram_edges(float(err.max()))
-    counts = histogram_counts(err.to_numpy(), hist_edges)
+    counts = histogram_counts(err, hist_edges)
     return Measurement(
         tables={
             "block": Table(block),
             "scene": Table(per_scene, keys=["scene_id"], sort="median"),
-            "observation": Table(obs, keys=["point_id", "scene_id"], sort="error_px"),
+            "observation": Table(
+                obs,
+                keys=["point_id", "scene_id"],
+                sort="error_px",
+                lazy=lazy,
+                fill=partial(_fill_observations, d, on, lazy),
+            ),
         },
         detail={
             "histogram": {"edges_px": hist_edges.round(4).tolist(), "counts": counts.tolist()},
             "interval_px": [lo, hi],
-            "residual_cells": residual_cells(tp, scenes),
+            "residual_cells": _residual_cells(d, p.bands, scenes),
         },
     )
 
 
 METRIC_DISTRIBUTION = "tie_point_distribution"
+DISTRIBUTION_COLUMNS = ("scene_id", "line", "sample")
+DIST = list(DISTRIBUTION_COLUMNS)
 NO_R = {"clark_evans": False}
 
 
@@ -293,15 +406,17 @@ NO_R = {"clark_evans": False}
         "min_points_per_cell": "points",
         "exempt_water_fraction": "fraction",
     },
+    tie_points=DISTRIBUTION_COLUMNS,
 )
 def tie_point_distribution(d: Delivery, p: DistributionParams, measure: Measure) -> Measurement:
     """Per scene: tie-point count, k×k grid coverage of its land, Clark–Evans R (§TP-4)."""
     if p.clark_evans:  # the counts and cells as measured without R (once for both), R added
         return _with_clark_evans(d, p, measure(METRIC_DISTRIBUTION, p.model_dump() | NO_R))
-    scenes, tp = _select(d, p.bands)
+    scenes, on = _on(d, p.bands)
     if scenes.empty:
         return not_applicable("no scenes of the bands checked")
     geo = _image_size(scenes)
+    tp = d.tie_points
     out = _per_scene_cells(scenes, tp, p)
     water = np.nan_to_num(out["water_fraction"].to_numpy(), nan=0.0)
     exempt = water >= p.exempt_water_fraction
@@ -315,7 +430,7 @@ def tie_point_distribution(d: Delivery, p: DistributionParams, measure: Measure)
 
     def scene_points(scene_ids: list[str], cap: int = 2000) -> dict:
         """Tie-point positions of the scenes named (at most `cap` each), for maps."""
-        sub = tp[tp["scene_id"].isin(scene_ids)]
+        sub = tp.loc[scene_positions(tp["scene_id"], pd.Index(scene_ids)) >= 0, DIST]
         sub = sub.groupby("scene_id", sort=False, observed=True).head(cap)
         return {
             sid: {
@@ -340,9 +455,9 @@ def _with_clark_evans(d: Delivery, p: DistributionParams, base: Measurement) -> 
     if base.not_applicable:
         return base
     table = base.tables["scene"]
-    scenes, tp = _select(d, p.bands)
+    scenes, on = _on(d, p.bands)
     geo = _image_size(scenes)
-    r = table.df["scene_id"].map(_clark_evans_per_scene(tp, geo)).astype(float)
+    r = table.df["scene_id"].map(_clark_evans_per_scene(d.tie_points, on, geo)).astype(float)
     out = table.df.copy()
     out.insert(out.columns.get_loc("coverage") + 1, "clark_evans", r.to_numpy())
     return replace(base, tables={"scene": replace(table, df=out)})
@@ -351,17 +466,26 @@ def _with_clark_evans(d: Delivery, p: DistributionParams, base: Measurement) -> 
 def _per_scene_cells(scenes: pd.DataFrame, tp: pd.DataFrame, p: DistributionParams) -> pd.DataFrame:
     """Per scene: observations, k×k cells holding at least the minimum, land cells expected.
 
-    One bincount over (scene, cell) codes; an observation is one tie point on one scene (the
-    contract's unique key), so the count of observations is the count of tie points.
+    Bincounts over (scene, cell) codes, a piece of the tie points at a time (those of other
+    scenes left out); an observation is one tie point on one scene (the contract's unique
+    key), so the count of observations is the count of tie points.
     """
     k = p.grid
     out = scenes[["scene_id", "band", "lines", "samples"]].reset_index(drop=True)
+    lines, samples = out["lines"].to_numpy(dtype=float), out["samples"].to_numpy(dtype=float)
     code = scene_positions(tp["scene_id"], out["scene_id"])
-    cell = code * (k * k)  # the (scene, row, column) cell of each observation, summed in place
-    cell += k * _cell_along(tp["line"].to_numpy(), out["lines"].to_numpy(dtype=float), code, k)
-    cell += _cell_along(tp["sample"].to_numpy(), out["samples"].to_numpy(dtype=float), code, k)
+    line, sample = tp["line"].to_numpy(), tp["sample"].to_numpy()
     n_cells = len(out) * k * k
-    per_cell = np.bincount(cell, minlength=n_cells).reshape(len(out), -1)
+    per_cell = np.zeros(n_cells, dtype=np.int64)
+    for a in _chunks(len(code)):
+        c = code[a : a + CHUNK]
+        on = c >= 0
+        c = c[on]
+        cell = c.astype(np.int64) * (k * k)  # the (scene, row, column) cell, summed in place
+        cell += k * _cell_along(line[a : a + CHUNK][on], lines, c, k)
+        cell += _cell_along(sample[a : a + CHUNK][on], samples, c, k)
+        per_cell += np.bincount(cell, minlength=n_cells)
+    per_cell = per_cell.reshape(len(out), -1)
     water = (
         scenes["water_fraction"].to_numpy(dtype=float)
         if "water_fraction" in scenes
@@ -388,14 +512,17 @@ def _cell_along(position: np.ndarray, extent: np.ndarray, code: np.ndarray, k: i
     return np.clip(i, 0, k - 1, out=i)
 
 
-def _clark_evans_per_scene(tp: pd.DataFrame, geo: pd.DataFrame) -> pd.Series:
-    """Clark–Evans R of each scene's observations in pixel space, Donnelly edge-corrected."""
-    codes, scene_ids = pd.factorize(tp["scene_id"])
+def _clark_evans_per_scene(tp: pd.DataFrame, on: np.ndarray | None, geo: pd.DataFrame) -> pd.Series:
+    """Clark–Evans R of each scene's observations (the tie points `on`, None: all) in pixel
+    space, Donnelly edge-corrected."""
+    scene_id = tp["scene_id"] if on is None else tp["scene_id"][on]
+    codes, scene_ids = pd.factorize(scene_id)
     g = geo.reindex(scene_ids)
     lines, samples = g["lines"].to_numpy(), g["samples"].to_numpy()
+    line, sample = tp["line"].to_numpy(), tp["sample"].to_numpy()
     r = clark_evans_grouped(
-        tp["sample"].to_numpy(),
-        tp["line"].to_numpy(),
+        sample if on is None else sample[on],
+        line if on is None else line[on],
         codes,
         area=lines * samples,
         perimeter=2 * (lines + samples),

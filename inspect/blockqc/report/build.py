@@ -291,11 +291,20 @@ def _header(results: BlockResults, f: Formatter) -> dict[str, Any]:
         "contents_text": t(
             "contents_text",
             scenes=s.get("scenes", "–"),
-            tie_points=s.get("tie_points", "–"),
+            tie_points=s.get("tie_points") if s.get("tie_points") is not None else "–",
             observations=s.get("tie_point_observations", "–"),
             checkpoints=s.get("checkpoints", "–"),
         ),
+        "not_read_text": _not_read(results, f),
     }
+
+
+def _not_read(results: BlockResults, f: Formatter) -> str:
+    """The columns the pack did not read, by table ("" when every column was read)."""
+    if not results.not_read:
+        return ""
+    columns = ", ".join(f"{table}.{c}" for table, cols in results.not_read.items() for c in cols)
+    return f.t("not_read_text", columns=columns)
 
 
 def block_context(

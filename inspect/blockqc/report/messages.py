@@ -38,6 +38,13 @@ MESSAGES: dict[str, tuple[str, str]] = {
         "影像 {scenes} 景，连接点 {tie_points} 个（观测 {observations} 个），"
         "检查点 {checkpoints} 个",
     ),
+    "not_read": ("Not read", "未读取"),
+    "not_read_text": (
+        "{columns}: no rule of the pack reads these columns (the pack reads only the columns "
+        "its rules use); their checks, and those of keys over them, were not made",
+        "{columns}：规则包中没有规则读取这些列（规则包只读取其规则所用的列），未对其及以其为键的"
+        "唯一性进行检查",
+    ),
     "complete": ("Complete", "检查完成"),
     "awaiting": ("Awaiting the inspector", "待检查员判定"),
     "not_given": ("not given", "未填写"),

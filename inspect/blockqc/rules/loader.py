@@ -253,6 +253,7 @@ def read_pack(ref: str | Path) -> tuple[Pack | None, list[Problem]]:
         origin={rid: (r.file, r.line) for rid, r in loaded.rules.items()},
         history={rid: r.history for rid, r in loaded.rules.items()},
         acceptance=acceptance,
+        columns=next((f.columns for _, _, f in reversed(loaded.sources) if f.columns), "all"),
     )
     return pack, problems
 

@@ -191,6 +191,9 @@ class PackFile(BaseModel):
     rules: list[dict[str, Any]] = Field(default_factory=list)
     overrides: dict[str, dict[str, Any]] = Field(default_factory=dict)
     disable: list[str] = Field(default_factory=list)
+    # which columns of the tie points are read: all (every column checked), or used (those the
+    # pack's rules read; the others, and the checks over them, are named as not made)
+    columns: Literal["all", "used"] | None = None
 
 
 @dataclass
@@ -210,6 +213,7 @@ class Pack:
     # id -> [(file, line, fields written)]: the definition first, then each override
     history: dict[str, list[tuple[str, int | None, dict[str, Any]]]] = field(default_factory=dict)
     acceptance: Acceptance | None = None  # §QE: sampling, classes, scores, grades
+    columns: Literal["all", "used"] = "all"  # the tie points' columns read (PackFile.columns)
 
     def rule(self, rule_id: str) -> Rule:
         """The rule of that id, compared case-insensitively (`tp-1` is TP-1)."""
