@@ -180,3 +180,33 @@ def test_results_and_report_state_what_was_not_read(tmp_path: Path, lang: str, l
     assert results["not_read"] == {"tie_points": ["point_id"]}
     html = (out / "CASE" / "report.html").read_text("utf-8")
     assert label in html and "tie_points.point_id" in html
+
+
+@pytest.mark.parametrize("form", ["csv", "parquet"])
+def test_every_stock_metric_reads_no_more_than_it_declares(tmp_path: Path, form: str) -> None:
+    """Each metric of the stock pack, measured on a delivery read with only the tie-point
+    columns it declares, gives the tables of a full read (its lazy columns filled in)."""
+    from blockqc.engine import Context, names_for
+    from blockqc.metrics import REGISTRY
+    from blockqc.rules.expr import resolve_params
+
+    folder = write_delivery(tmp_path / "block", FAILING)
+    if form == "parquet":
+        _to_parquet(folder, 50)
+    pack = load_pack("global-project")
+    full_delivery = load_delivery(folder)
+    names = names_for(full_delivery, pack)
+    for rule in (r for r in pack.rules if not r.manual):
+        spec = REGISTRY[rule.metric]
+        cols = spec.tie_point_columns(resolve_params(spec.params, rule.params, names))
+        part = load_delivery(
+            folder, tie_point_columns=None if cols is None else {"scene_id", *cols}
+        )
+        a = Context(full_delivery, names).measure(rule.metric, rule.params)
+        b = Context(part, names).measure(rule.metric, rule.params)
+        assert a.not_applicable == b.not_applicable
+        counted = ["n_points"] if rule.metric == "tie_point_errors" else []  # needs point ids
+        for scope, table in a.tables.items():
+            want = table.complete(table.df).drop(columns=counted, errors="ignore")
+            other = b.tables[scope]
+            pd.testing.assert_frame_equal(want, other.complete(other.df), obj=f"{rule.id} {scope}")

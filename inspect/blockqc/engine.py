@@ -283,7 +283,7 @@ class Judge:
         """Per scene/pair/point: value = worst case, evidence = the offending units."""
         r = self.rule
         exempt = sub["exempt"].to_numpy(dtype=bool) if "exempt" in sub else np.zeros(len(sub), bool)
-        judged = sub[~exempt]
+        judged = sub[~exempt] if exempt.any() else sub  # (millions of observations: no copy)
         ok = passes(judged[r.statistic], self.th, self.lo, self.hi)
         waivable, labels = self._waived(judged, table)
         waived = ~ok & waivable
