@@ -73,6 +73,10 @@ def test_the_columns_a_pack_reads(tmp_path: Path) -> None:
         f"extends: {used}\ndisable: [TP-1, TP-2, TP-3, TP-4, TP-5, DOC-2]\n",
     )
     assert tie_point_columns(load_pack(basis)) == {"scene_id"}
+    listed = run_blockqc("rules", "list", "--rules", used).stdout.splitlines()[-1]
+    assert (
+        listed == "tie-point columns read (columns: used): line, sample, scene_id, v_line, v_sample"
+    )
 
 
 @pytest.mark.parametrize("form", ["csv", "parquet"])

@@ -52,18 +52,31 @@ def _select(
     d: Delivery, bands: list[str] | None, columns: list[str] | None = None
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
     """The scenes of the bands given (None: all) and their tie points' `columns` (None: every
-    column read), taken once per delivery, bands and columns (the same rows serve every
-    measurement), and not copied when they are every row; the index keeps each row's position
-    in the delivery's table."""
+    column read), taken once per delivery, bands and columns, and not copied when they are
+    every row; the index keeps each row's position in the delivery's table."""
+    scenes, on = _on(d, bands)
+
+    def take() -> pd.DataFrame:
+        frame = d.tie_points if columns is None else d.tie_points[columns]
+        return frame if on is None else frame[on]
+
+    return scenes, _cached(d, (_bands(bands), columns and tuple(columns)), take)
+
+
+def _on(d: Delivery, bands: list[str] | None) -> tuple[pd.DataFrame, np.ndarray | None]:
+    """The scenes of the bands given (None: all), and which tie points lie on them (None: every
+    one), found once per delivery and bands."""
     scenes = d.scenes if bands is None else d.scenes[d.scenes["band"].isin(bands)]
-    on = None if bands is None else tuple(sorted(set(bands)))
-    rows = _cached(d, (on, "rows"), lambda: _rows_on(d.tie_points, scenes))
-    tp = _cached(
-        d,
-        (on, columns and tuple(columns)),
-        lambda: _take(d.tie_points if columns is None else d.tie_points[columns], rows),
-    )
-    return scenes, tp
+
+    def on() -> np.ndarray | None:
+        found = scene_positions(d.tie_points["scene_id"], scenes["scene_id"]) >= 0
+        return None if found.all() else found
+
+    return scenes, _cached(d, (_bands(bands), "on"), on)
+
+
+def _bands(bands: list[str] | None) -> tuple[str, ...] | None:
+    return None if bands is None else tuple(sorted(set(bands)))
 
 
 def _cached(d: Delivery, key: Any, make: Callable[[], Any]) -> Any:
@@ -75,32 +88,9 @@ def _cached(d: Delivery, key: Any, make: Callable[[], Any]) -> Any:
     return value
 
 
-def _rows_on(tie_points: pd.DataFrame, scenes: pd.DataFrame) -> np.ndarray | None:
-    """Positions of the tie points on these scenes; None when every one is."""
-    on = scene_positions(tie_points["scene_id"], scenes["scene_id"]) >= 0
-    return None if on.all() else np.flatnonzero(on)
-
-
-def _take(frame: pd.DataFrame, rows: np.ndarray | None) -> pd.DataFrame:
-    return frame if rows is None else frame.iloc[rows]
-
-
 #: rows worked through at once by the passes over every tie point: their temporaries stay a
 #: few megabytes, so that millions of rows cost no row-sized temporary besides the results
 CHUNK = 1 << 20
-
-
-def _on(d: Delivery, bands: list[str] | None) -> tuple[pd.DataFrame, np.ndarray | None]:
-    """The scenes of the bands given (None: all), and which tie points lie on them (None: every
-    one), found once per delivery and bands."""
-    scenes = d.scenes if bands is None else d.scenes[d.scenes["band"].isin(bands)]
-    key = (None if bands is None else tuple(sorted(set(bands))), "on")
-    return scenes, _cached(d, key, lambda: _mask_on(d.tie_points, scenes))
-
-
-def _mask_on(tie_points: pd.DataFrame, scenes: pd.DataFrame) -> np.ndarray | None:
-    on = scene_positions(tie_points["scene_id"], scenes["scene_id"]) >= 0
-    return None if on.all() else on
 
 
 def _chunks(n: int) -> range:

@@ -89,6 +89,11 @@ def rules_list(rules_ref: str, markdown: bool) -> None:
             click.echo(f"{r.id:7} {r.clause:8} {r.severity:5} {waiv:5} {th:34} {r.title}")
     if pack.disabled and not markdown:
         click.echo(f"disabled: {', '.join(pack.disabled)}")
+    if pack.columns == "used" and not markdown:
+        from blockqc.engine import tie_point_columns
+
+        read = ", ".join(sorted(tie_point_columns(pack) or ["every column"]))
+        click.echo(f"tie-point columns read (columns: used): {read}")
 
 
 def _find(pack: Pack, rule_id: str, rules_ref: str) -> Rule:
