@@ -274,8 +274,8 @@ def _read_csv(
     data = data.removeprefix(BOM)
     if not data.strip():
         raise InputError(Problem(str(path), "the file is empty: expected a header row"))
-    header = _csv_header(data)
-    include = None if columns is None else [h for h in header if h.strip() in columns]
+    header = None if columns is None else _csv_header(data)
+    include = None if header is None else [h for h in header if h.strip() in columns]
     text_cols = {
         c.name: pa.string() for c in schema.columns if c.kind in ("str", "enum", "date", "wkt")
     }
@@ -294,10 +294,11 @@ def _read_csv(
     except (pa.ArrowInvalid, pa.ArrowKeyError) as exc:
         raw = _read_csv_slow(path, data, str(exc))
         keep = [i for i, h in enumerate(raw.columns) if columns is None or h.strip() in columns]
-        return raw.iloc[:, keep], header
+        return raw.iloc[:, keep], header or [str(c) for c in raw.columns]
     del data  # the file's bytes, parsed: not held while the frame is built
     handed, table = [table], None
-    return _to_pandas(handed, schema), header
+    frame = _to_pandas(handed, schema)
+    return frame, header or [str(c) for c in frame.columns]
 
 
 def _csv_header(data: bytes) -> list[str]:
@@ -309,7 +310,10 @@ def _csv_header(data: bytes) -> list[str]:
         end = data.find(b"\n", len(first))
         first = data[: end + 1 if end >= 0 else len(data)]
     text = first.decode("utf-8", errors="replace").replace("\r\n", "\n")
-    return next(csv.reader(io.StringIO(text, newline="")), [])
+    try:
+        return next(csv.reader(io.StringIO(text, newline="")), [])
+    except csv.Error:  # e.g. a name beyond the csv module's limit: the reader reports it
+        return text.rstrip("\n").split(",")
 
 
 def _to_pandas(
