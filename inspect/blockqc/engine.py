@@ -407,7 +407,9 @@ def tie_point_columns(pack: Pack) -> set[str] | None:
         if rule.manual or rule.metric not in REGISTRY:
             continue
         spec = REGISTRY[rule.metric]
-        cols = spec.tie_point_columns(resolve_params(spec.params, rule.params, names))
+        by_params = callable(spec.tie_points)  # the parameters are read only when they matter
+        params = resolve_params(spec.params, rule.params, names) if by_params else None
+        cols = spec.tie_point_columns(params)
         if cols is None:
             return None
         out |= cols

@@ -90,7 +90,7 @@ class MetricSpec:
     param_units: Mapping[str, str] = field(default_factory=dict)  # parameter -> unit
     tie_points: TiePointColumns = None
 
-    def tie_point_columns(self, params: BaseModel) -> set[str] | None:
+    def tie_point_columns(self, params: BaseModel | None) -> set[str] | None:
         """The tie_points columns this metric reads with these parameters (None: all)."""
         if self.tie_points is None:
             return None
