@@ -62,7 +62,13 @@ def sums(values: np.ndarray, codes: np.ndarray, k: int) -> np.ndarray:
 
 def counts(codes: np.ndarray, k: int) -> np.ndarray:
     """How many rows each group holds."""
-    return np.bincount(codes[codes >= 0] if (codes < 0).any() else codes, minlength=k)
+    found = _few_runs(codes)
+    if found is None:
+        return np.bincount(codes[codes >= 0] if (codes < 0).any() else codes, minlength=k)
+    starts, run_codes = found
+    lengths = np.diff(starts, append=len(codes))
+    ok = run_codes >= 0
+    return np.bincount(run_codes[ok], weights=lengths[ok], minlength=k).astype(np.int64)
 
 
 def medians(values: np.ndarray, codes: np.ndarray, k: int) -> np.ndarray:
