@@ -185,11 +185,8 @@ class Delivery:
         if column in self.tie_points.columns:
             return self.tie_points[column].iloc[rows].reset_index(drop=True)
         values = read_rows(self.files["tie_points"], column, rows)
-        schema = TIE_POINTS.column(column)
-        if schema.kind == "str":
-            values = pc.utf8_trim_whitespace(values.cast(pa.string()))
-            values = pc.if_else(pc.equal(values, ""), pa.scalar(None, pa.string()), values)
-            return pd.Series(values.to_pylist(), dtype=object)
+        if TIE_POINTS.column(column).kind == "str":  # stripped, blank missing, as when read
+            return pd.Series(_categorical(pa.chunked_array([values.cast(pa.string())])))
         return pd.Series(values.to_numpy(zero_copy_only=False), dtype=float)
 
 

@@ -2,7 +2,8 @@
 whole columns: no loop over groups, and rows already grouped (runs of one code, as in a table
 ordered by scene) reduced run by run first.
 
-Codes are 0..k−1; a negative code belongs to no group.
+Codes are 0..k−1; a negative code belongs to no group. `Groups` finds the rows of no group and
+the runs once for every statistic taken over the same codes.
 """
 
 from __future__ import annotations
@@ -23,62 +24,78 @@ def runs(codes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return starts, codes[starts]
 
 
-def _few_runs(codes: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-    """The runs of the codes when they are few enough to be worth reducing first."""
-    found = runs(codes)
-    return found if len(found[0]) <= RUN_SHARE * len(codes) else None
+class Groups:
+    """k groups given by a code per row; its statistics take values row for row."""
 
+    def __init__(self, codes: np.ndarray, k: int):
+        self.k = k
+        ok = codes >= 0
+        self.ok = None if ok.all() else ok  # the rows that belong to a group (None: every row)
+        self.codes = codes if self.ok is None else codes[ok]
+        found = runs(self.codes)  # reduced run by run when the runs are few enough
+        self.runs = found if len(found[0]) <= RUN_SHARE * len(self.codes) else None
 
-def _in_groups(values: np.ndarray, codes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The values and codes of the rows that belong to a group."""
-    ok = codes >= 0
-    return (values, codes) if ok.all() else (values[ok], codes[ok])
+    def _in(self, values: np.ndarray) -> np.ndarray:
+        return values if self.ok is None else values[self.ok]
 
+    def counts(self) -> np.ndarray:
+        """How many rows each group holds."""
+        if self.runs is None:
+            return np.bincount(self.codes, minlength=self.k)
+        starts, codes = self.runs
+        lengths = np.diff(starts, append=len(self.codes))
+        return np.bincount(codes, weights=lengths, minlength=self.k).astype(np.int64)
 
-def extremes(values: np.ndarray, codes: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-    """Smallest and largest value of each group (+inf and −inf where it has none); NaN values
-    are passed over."""
-    values, codes = _in_groups(values, codes)
-    low, high = values, values
-    found = _few_runs(codes)
-    if found is not None:
-        starts, codes = found
-        low, high = np.fmin.reduceat(values, starts), np.fmax.reduceat(values, starts)
-    lo, hi = np.full(k, np.inf), np.full(k, -np.inf)
-    np.fmin.at(lo, codes, low)
-    np.fmax.at(hi, codes, high)
-    return lo, hi
+    def sums(self, values: np.ndarray) -> np.ndarray:
+        """The sum of each group's values."""
+        values, codes = self._in(values), self.codes
+        if self.runs is not None:
+            starts, codes = self.runs
+            values = np.add.reduceat(values, starts, dtype=np.float64)
+        return np.bincount(codes, weights=values, minlength=self.k)
 
+    def extremes(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Smallest and largest value of each group (+inf and −inf where it has none); NaN
+        values are passed over."""
+        low = high = values = self._in(values)
+        codes = self.codes
+        if self.runs is not None:
+            starts, codes = self.runs
+            low, high = np.fmin.reduceat(values, starts), np.fmax.reduceat(values, starts)
+        lo, hi = np.full(self.k, np.inf), np.full(self.k, -np.inf)
+        np.fmin.at(lo, codes, low)
+        np.fmax.at(hi, codes, high)
+        return lo, hi
 
-def sums(values: np.ndarray, codes: np.ndarray, k: int) -> np.ndarray:
-    """The sum of each group's values."""
-    values, codes = _in_groups(values, codes)
-    found = _few_runs(codes)
-    if found is not None:
-        starts, codes = found
-        values = np.add.reduceat(values, starts, dtype=np.float64)
-    return np.bincount(codes, weights=values, minlength=k)
+    def medians(self, values: np.ndarray) -> np.ndarray:
+        """The median of each group's values (NaN where it has none), as pandas gives it (the
+        mean of the two middle values of an even count), grouped by the codes as categories
+        (no hash of the codes)."""
+        groups = pd.Categorical.from_codes(
+            self.codes, categories=pd.RangeIndex(self.k), validate=False
+        )
+        found = pd.Series(self._in(values), copy=False).groupby(groups, observed=False).median()
+        return found.to_numpy(dtype=float)
 
 
 def counts(codes: np.ndarray, k: int) -> np.ndarray:
     """How many rows each group holds."""
-    found = _few_runs(codes)
-    if found is None:
-        return np.bincount(codes[codes >= 0] if (codes < 0).any() else codes, minlength=k)
-    starts, run_codes = found
-    lengths = np.diff(starts, append=len(codes))
-    ok = run_codes >= 0
-    return np.bincount(run_codes[ok], weights=lengths[ok], minlength=k).astype(np.int64)
+    return Groups(codes, k).counts()
+
+
+def sums(values: np.ndarray, codes: np.ndarray, k: int) -> np.ndarray:
+    """The sum of each group's values."""
+    return Groups(codes, k).sums(values)
+
+
+def extremes(values: np.ndarray, codes: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """Smallest and largest value of each group (+inf and −inf where it has none)."""
+    return Groups(codes, k).extremes(values)
 
 
 def medians(values: np.ndarray, codes: np.ndarray, k: int) -> np.ndarray:
-    """The median of each group's values (NaN where it has none), as pandas gives it (the mean
-    of the two middle values of an even count), grouped by the codes as categories (no hash
-    of the codes)."""
-    values, codes = _in_groups(values, codes)
-    groups = pd.Categorical.from_codes(codes, categories=pd.RangeIndex(k), validate=False)
-    found = pd.Series(values, copy=False).groupby(groups, observed=False).median()
-    return found.to_numpy(dtype=float)
+    """The median of each group's values (NaN where it has none)."""
+    return Groups(codes, k).medians(values)
 
 
-__all__ = ["counts", "extremes", "medians", "runs", "sums"]
+__all__ = ["Groups", "counts", "extremes", "medians", "runs", "sums"]

@@ -66,13 +66,18 @@ def _select(
 def _on(d: Delivery, bands: list[str] | None) -> tuple[pd.DataFrame, np.ndarray | None]:
     """The scenes of the bands given (None: all), and which tie points lie on them (None: every
     one), found once per delivery and bands."""
-    scenes = d.scenes if bands is None else d.scenes[d.scenes["band"].isin(bands)]
+    scenes = _scenes(d, bands)
 
     def on() -> np.ndarray | None:
         found = scene_positions(d.tie_points["scene_id"], scenes["scene_id"]) >= 0
         return None if found.all() else found
 
     return scenes, _cached(d, (_bands(bands), "on"), on)
+
+
+def _scenes(d: Delivery, bands: list[str] | None) -> pd.DataFrame:
+    """The delivery's scenes of the bands given (None: all)."""
+    return d.scenes if bands is None else d.scenes[d.scenes["band"].isin(bands)]
 
 
 def _bands(bands: list[str] | None) -> tuple[str, ...] | None:
@@ -121,22 +126,22 @@ def _stats(err: pd.Series, by: pd.Series | None, lo: float, hi: float) -> pd.Dat
     else:
         codes, labels = pd.factorize(by, sort=False)
     e = err.to_numpy()
-    k = len(labels)
-    n = grouped.counts(codes, k)
-    top = grouped.extremes(e, codes, k)[1]
+    g = grouped.Groups(codes, len(labels))
+    n = g.counts()
+    top = g.extremes(e)[1]
     big = top.max(initial=-np.inf) > SQUARE_SAFE
     scale = np.where(top > SQUARE_SAFE, top, 1.0) if big else None
     squares = np.square(e) if scale is None else np.square(e / scale[np.maximum(codes, 0)])
-    rms = np.sqrt(grouped.sums(squares, codes, k) / np.maximum(n, 1))
+    rms = np.sqrt(g.sums(squares) / np.maximum(n, 1))
     del squares
-    inside = grouped.counts(np.where((e > lo) & (e <= hi), codes, -1), k)
+    inside = g.sums((e > lo) & (e <= hi)).astype(np.int64)
     used = np.flatnonzero(n)
     out = pd.DataFrame(
         {
             "n": n[used],
-            "median": grouped.medians(e, codes, k)[used],
+            "median": g.medians(e)[used],
             "rms": rms[used] if scale is None else rms[used] * scale[used],
-            "mean": grouped.sums(e, codes, k)[used] / n[used],
+            "mean": g.sums(e)[used] / n[used],
             "max": top[used],
             "n_in_interval": inside[used],
         },
@@ -372,7 +377,6 @@ def tie_point_errors(d: Delivery, p: ErrorParams, measure: Measure) -> Measureme
 
 METRIC_DISTRIBUTION = "tie_point_distribution"
 DISTRIBUTION_COLUMNS = ("scene_id", "line", "sample")
-DIST = list(DISTRIBUTION_COLUMNS)
 NO_R = {"clark_evans": False}
 
 
@@ -402,7 +406,7 @@ def tie_point_distribution(d: Delivery, p: DistributionParams, measure: Measure)
     """Per scene: tie-point count, k×k grid coverage of its land, Clark–Evans R (§TP-4)."""
     if p.clark_evans:  # the counts and cells as measured without R (once for both), R added
         return _with_clark_evans(d, p, measure(METRIC_DISTRIBUTION, p.model_dump() | NO_R))
-    scenes, on = _on(d, p.bands)
+    scenes = _scenes(d, p.bands)
     if scenes.empty:
         return not_applicable("no scenes of the bands checked")
     geo = _image_size(scenes)
@@ -420,7 +424,8 @@ def tie_point_distribution(d: Delivery, p: DistributionParams, measure: Measure)
 
     def scene_points(scene_ids: list[str], cap: int = 2000) -> dict:
         """Tie-point positions of the scenes named (at most `cap` each), for maps."""
-        sub = tp.loc[scene_positions(tp["scene_id"], pd.Index(scene_ids)) >= 0, DIST]
+        on = scene_positions(tp["scene_id"], pd.Index(scene_ids)) >= 0
+        sub = tp.loc[on, list(DISTRIBUTION_COLUMNS)]
         sub = sub.groupby("scene_id", sort=False, observed=True).head(cap)
         return {
             sid: {
