@@ -54,6 +54,65 @@ def test_sums_counts_and_medians_as_pandas(case) -> None:
     assert np.array_equal(medians, g.median().reindex(groups).to_numpy(), equal_nan=True)
 
 
+@given(rows(nan=True), st.sampled_from([1, 3, 1 << 20]))
+@settings(max_examples=300, deadline=None)
+def test_medians_as_pandas(case, chunk: int) -> None:
+    """Medians with NaN values passed over, groups with none, the rows worked through a few
+    at a time or all at once."""
+    values, codes, k = case
+    g, groups = _frame(values, codes, k)
+    old, grouped.CHUNK = grouped.CHUNK, chunk
+    try:
+        medians = grouped.medians(values, codes, k)
+    finally:
+        grouped.CHUNK = old
+    assert np.array_equal(medians, g.median().reindex(groups).to_numpy(), equal_nan=True)
+
+
+@given(
+    st.lists(
+        st.floats(allow_nan=False) | st.sampled_from([1e-300, 1e300, -1e300, 0.25]),
+        min_size=1,
+        max_size=60,
+    ),
+    st.integers(1, 3),
+)
+@settings(max_examples=300, deadline=None)
+def test_medians_of_values_far_apart(values: list[float], k: int) -> None:
+    """Values from 1e−300 to ±1e300 and infinities: the bins outside the window gather the
+    tails, and the medians stay pandas' (the middle values may lie in an end bin)."""
+    v = np.array(values)
+    codes = np.arange(len(v)) % k
+    want = pd.Series(v).groupby(codes).median().reindex(np.arange(k)).to_numpy()
+    assert np.array_equal(grouped.medians(v, codes, k), want, equal_nan=True)
+
+
+def test_medians_by_hand() -> None:
+    """Group 0: 1, 2, 10, 40 → (2 + 10) / 2 = 6; group 1: 3 and a NaN → 3; group 2: none."""
+    v = np.array([10.0, 3.0, 1.0, np.nan, 40.0, 2.0])
+    codes = np.array([0, 1, 0, 1, 0, 0])
+    assert np.array_equal(grouped.medians(v, codes, 3), [6.0, 3.0, np.nan], equal_nan=True)
+
+
+@given(rows(), st.sampled_from([1, 2, 5, 1 << 20]))
+@settings(max_examples=300, deadline=None)
+def test_sums_of_a_function_a_piece_at_a_time(case, chunk: int) -> None:
+    """Sums of the squares and of a condition, taken a few rows at a time (runs of one group
+    cut between pieces), as pandas sums them over the whole frame."""
+    values, codes, k = case
+    g, groups = _frame(values, codes, k)
+    old, grouped.CHUNK = grouped.CHUNK, chunk
+    try:
+        squares = grouped.Groups(codes, k).sums(values, of=np.square)
+        positive = grouped.Groups(codes, k).sums(values, of=lambda v: v > 0)
+    finally:
+        grouped.CHUNK = old
+    want = (g.obj**2).groupby(g.keys).sum().reindex(groups, fill_value=0.0).to_numpy()
+    assert squares == pytest.approx(want, rel=1e-12)
+    want = (g.obj > 0).groupby(g.keys).sum().reindex(groups, fill_value=0).to_numpy()
+    assert positive.tolist() == want.tolist()
+
+
 def test_runs_by_hand() -> None:
     starts, codes = grouped.runs(np.array([2, 2, 0, 0, 0, 2, 1]))
     assert starts.tolist() == [0, 2, 5, 6] and codes.tolist() == [2, 0, 2, 1]

@@ -26,6 +26,39 @@ def test_histogram_counts_as_numpy(values: list[float], on_edge: float) -> None:
     assert histogram_counts(v, edges).tolist() == expected.tolist()
 
 
+@given(
+    st.lists(st.floats(0, 30, allow_nan=False), min_size=1, max_size=300),
+    st.sampled_from([0.0, 0.05, 0.5, 1.0, 2.0, 9.95, 10.0, 12.0, 1e6, 1e300]),
+    st.integers(0, 3),
+)
+@settings(max_examples=300, deadline=None)
+def test_histogram_median_as_numpy(values: list[float], extra: float, on_edges: int) -> None:
+    """The median found from the residual histogram is np.median's, to the last bit: odd and
+    even counts, middle values on bin edges, in the last bin that gathers the largest errors,
+    and in two different bins."""
+    from blockqc.metrics.tiepoints import histogram_counts, histogram_edges, histogram_median
+
+    v = np.array([*values, extra])
+    edges = histogram_edges(float(v.max()))
+    v = np.concatenate([v, np.repeat(edges[: on_edges * 7 : 3], on_edges)])
+    counts = histogram_counts(v, edges)
+    assert histogram_median(v, edges, counts) == np.median(v)
+
+
+def test_histogram_median_by_hand() -> None:
+    """Middle values 0.2 and 0.75 in bins apart: (0.2 + 0.75) / 2; one value more: 0.75;
+    a NaN (outside every bin): numpy's NaN."""
+    from blockqc.metrics.tiepoints import histogram_counts, histogram_edges, histogram_median
+
+    v = np.array([0.1, 0.2, 0.75, 3.0])
+    edges = histogram_edges(3.0)
+    assert histogram_median(v, edges, histogram_counts(v, edges)) == 0.475
+    w = np.append(v, 0.8)
+    assert histogram_median(w, edges, histogram_counts(w, edges)) == 0.75
+    x = np.append(v, np.nan)
+    assert np.isnan(histogram_median(x, edges, histogram_counts(x, edges)))
+
+
 def test_rms_of_errors_too_large_to_square_by_hand() -> None:
     """An error of 1e300 px: its scene's and the block's RMS stay finite (1e300/√n), the
     other scene's RMS is computed as usual."""

@@ -91,7 +91,7 @@ def passes(values: pd.Series, th: Threshold, lo: float | None, hi: float | None)
         return (values == th.equals).fillna(False).to_numpy(dtype=bool)
     if th.in_ is not None:
         return values.isin(th.in_).to_numpy(dtype=bool)
-    v = pd.to_numeric(values, errors="coerce").to_numpy(dtype=float)
+    v = _numbers(values)
     ok = np.isfinite(v)
     with np.errstate(invalid="ignore"):
         if hi is not None:
@@ -107,10 +107,21 @@ def worst(values: pd.Series, ok: np.ndarray, th: Threshold, hi: float | None) ->
         return None
     if th.equals is not None or th.in_ is not None:
         return values[~ok].iloc[0] if (~ok).any() else values.iloc[0]
-    v = pd.to_numeric(values, errors="coerce")
-    if v.isna().any():
+    v = values.to_numpy() if _floats(values) else pd.to_numeric(values, errors="coerce")
+    if pd.isna(v).any():  # a float column: not copied
         return None
     return v.max() if hi is not None else v.min()
+
+
+def _floats(values: pd.Series) -> bool:
+    return pd.api.types.is_float_dtype(values.dtype) and isinstance(values.dtype, np.dtype)
+
+
+def _numbers(values: pd.Series) -> np.ndarray:
+    """The values as floats (not a number: NaN); a float column is not copied."""
+    if _floats(values):
+        return values.to_numpy()
+    return pd.to_numeric(values, errors="coerce").to_numpy(dtype=float)
 
 
 def _severity_status(rule: Rule) -> str:

@@ -8,8 +8,9 @@ the runs once for every statistic taken over the same codes.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
-import pandas as pd
 
 #: runs of equal codes are reduced first when they are at most this share of the rows
 RUN_SHARE = 0.25
@@ -46,12 +47,26 @@ class Groups:
         lengths = np.diff(starts, append=len(self.codes))
         return np.bincount(codes, weights=lengths, minlength=self.k).astype(np.int64)
 
-    def sums(self, values: np.ndarray) -> np.ndarray:
-        """The sum of each group's values."""
-        values, codes = self._in(values), self.codes
-        if self.runs is not None:
-            starts, codes = self.runs
-            values = np.add.reduceat(values, starts, dtype=np.float64)
+    def sums(
+        self, values: np.ndarray, of: Callable[[np.ndarray], np.ndarray] | None = None
+    ) -> np.ndarray:
+        """The sum of each group's values, or of `of` (say np.square) of them: `of` is taken
+        of the rows a piece at a time, so that it makes no row-sized temporary."""
+        values = self._in(values)
+        out = np.zeros(self.k)
+        for a in range(0, len(values), CHUNK if of is not None else max(len(values), 1)):
+            piece = values[a : a + CHUNK] if of is not None else values
+            out += self._sums(of(piece) if of is not None else piece, a)
+        return out
+
+    def _sums(self, values: np.ndarray, at: int) -> np.ndarray:
+        """The sums per group of the values of rows at, at + 1, …"""
+        codes = self.codes[at : at + len(values)]
+        if self.runs is not None:  # the runs met in these rows, the first one maybe begun before
+            starts = self.runs[0]
+            starts = starts[(starts > at) & (starts < at + len(values))] - at
+            starts = np.concatenate([np.zeros(1, dtype=starts.dtype), starts])
+            values, codes = np.add.reduceat(values, starts, dtype=np.float64), codes[starts]
         return np.bincount(codes, weights=values, minlength=self.k)
 
     def extremes(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -68,14 +83,67 @@ class Groups:
         return lo, hi
 
     def medians(self, values: np.ndarray) -> np.ndarray:
-        """The median of each group's values (NaN where it has none), as pandas gives it (the
-        mean of the two middle values of an even count), grouped by the codes as categories
-        (no hash of the codes)."""
-        groups = pd.Categorical.from_codes(
-            self.codes, categories=pd.RangeIndex(self.k), validate=False
-        )
-        found = pd.Series(self._in(values), copy=False).groupby(groups, observed=False).median()
-        return found.to_numpy(dtype=float)
+        """The median of each group's values, NaN values passed over (NaN where it has none),
+        as pandas gives it (the mean of the two middle values of an even count).
+
+        Selection by bins, in two passes over the rows a piece at a time (no row-sized copy):
+        the values' bits ordered as integers give each value a bin (BIN_BITS per octave, in a
+        window of BINS bins about the values' middle, the tails gathered in its end bins); one
+        bincount per piece over (group, bin) tells each group the bins of its middle ranks, and
+        only the values of those bins are taken and sorted."""
+        values, codes, k = self._in(values), self.codes, self.k
+        sample = values[:: max(1, len(values) // 4096)]
+        low = _bins(np.array([np.nanmedian(sample)]) if np.isfinite(sample).any() else [0.0])
+        low = int(low[0]) - BINS // 2
+        table = np.zeros(k * BINS, dtype=np.int64)
+        for a in range(0, len(values), CHUNK):
+            v, c = values[a : a + CHUNK], codes[a : a + CHUNK]
+            key = _in_window(_bins(v), low)
+            key += c.astype(np.int64) * BINS
+            table += np.bincount(key[~np.isnan(v)], minlength=k * BINS)
+        cum = np.cumsum(table.reshape(k, BINS), axis=1)
+        n = cum[:, -1]
+        ranks = np.stack([(n - 1) // 2, n // 2])  # the middle ranks of each group
+        middle = (cum[None] <= ranks[..., None]).sum(axis=2)  # their bins
+        before = np.where(middle[0] > 0, cum[np.arange(k), np.maximum(middle[0] - 1, 0)], 0)
+        taken = []
+        for a in range(0, len(values), CHUNK):
+            v, c = values[a : a + CHUNK], codes[a : a + CHUNK]
+            b = _in_window(_bins(v), low)
+            pick = (b == middle[0][c]) | (b == middle[1][c])
+            pick &= ~np.isnan(v)
+            taken.append((v[pick], c[pick]))
+        v = np.concatenate([t[0] for t in taken]) if taken else values[:0]
+        c = np.concatenate([t[1] for t in taken]) if taken else codes[:0]
+        v = v[np.lexsort((v, c))]  # by group, then value
+        start = np.concatenate([[0], np.cumsum(np.bincount(c, minlength=k))[:-1]]) - before
+        has = n > 0
+        lower, upper = v[(start + ranks[0])[has]], v[(start + ranks[1])[has]]
+        out = np.full(k, np.nan)
+        with np.errstate(over="ignore"):  # as pandas: the sum of two middle values may overflow
+            out[has] = np.where(n[has] % 2, lower, (lower + upper) / 2)
+        return out
+
+
+#: rows worked through at once by the median's passes
+CHUNK = 1 << 20
+#: the median's bins: 2**BIN_BITS per octave of the values, BINS of them about their middle
+BIN_BITS = 5
+BINS = 512
+
+
+def _bins(values: np.ndarray) -> np.ndarray:
+    """Each float's bin: its bits as an integer that orders as the floats do (negative values
+    with their other bits flipped), shifted down to the exponent and BIN_BITS bits more."""
+    bits = np.asarray(values, dtype=np.float64).view(np.int64)
+    ordered = bits ^ ((bits >> 63) & np.int64(0x7FFF_FFFF_FFFF_FFFF))
+    return ordered >> (52 - BIN_BITS)
+
+
+def _in_window(bins: np.ndarray, low: int) -> np.ndarray:
+    """Bins counted from `low`, those outside the window gathered in its end bins."""
+    bins -= low
+    return np.clip(bins, 0, BINS - 1, out=bins)
 
 
 def counts(codes: np.ndarray, k: int) -> np.ndarray:

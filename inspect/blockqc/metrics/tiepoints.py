@@ -131,10 +131,12 @@ def _stats(err: pd.Series, by: pd.Series | None, lo: float, hi: float) -> pd.Dat
     top = g.extremes(e)[1]
     big = top.max(initial=-np.inf) > SQUARE_SAFE
     scale = np.where(top > SQUARE_SAFE, top, 1.0) if big else None
-    squares = np.square(e) if scale is None else np.square(e / scale[np.maximum(codes, 0)])
-    rms = np.sqrt(g.sums(squares) / np.maximum(n, 1))
-    del squares
-    inside = g.sums((e > lo) & (e <= hi)).astype(np.int64)
+    if scale is None:
+        squares = g.sums(e, of=np.square)
+    else:
+        squares = g.sums(np.square(e / scale[np.maximum(codes, 0)]))
+    rms = np.sqrt(squares / np.maximum(n, 1))
+    inside = g.sums(e, of=partial(_in_interval, lo=lo, hi=hi)).astype(np.int64)
     used = np.flatnonzero(n)
     out = pd.DataFrame(
         {
@@ -156,16 +158,29 @@ def _stats(err: pd.Series, by: pd.Series | None, lo: float, hi: float) -> pd.Dat
 SQUARE_SAFE = 1e150
 
 
-def _block_stats(e: np.ndarray, lo: float, hi: float) -> pd.DataFrame:
-    """The statistics of `_stats` over every observation at once (numpy, no grouping)."""
+def _in_interval(e: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """Whether each error lies in (lo, hi]."""
+    inside = e > lo
+    inside &= e <= hi
+    return inside
+
+
+def _block_stats(e: np.ndarray, lo: float, hi: float, median: float | None = None) -> pd.DataFrame:
+    """The statistics of `_stats` over every observation at once (numpy, no grouping, the rows
+    a piece at a time); the median when already known (`histogram_median`)."""
     n = int(e.size)
-    inside = int(np.count_nonzero((e > lo) & (e <= hi)))
     top = float(e.max())
     s = top if top > SQUARE_SAFE else 1.0  # as in _stats, for the one group
+    inside = squares = 0.0
+    for a in _chunks(n):
+        piece = e[a : a + CHUNK]
+        inside += np.count_nonzero(_in_interval(piece, lo, hi))
+        squares += np.sum(np.square(piece if s == 1.0 else piece / s))
+    inside = int(inside)
     row = {
         "n": n,
-        "median": float(np.median(e)),
-        "rms": float(s * np.sqrt(np.mean(np.square(e if s == 1.0 else e / s)))),
+        "median": float(np.median(e)) if median is None else median,
+        "rms": float(s * np.sqrt(squares / n)),
         "mean": float(e.mean()),
         "max": top,
         "n_in_interval": inside,
@@ -215,6 +230,23 @@ def histogram_counts(values: np.ndarray, edges: np.ndarray) -> np.ndarray:
     last = np.count_nonzero((values >= end) & (values <= edges[-1]))
     counts[-1] -= on_end
     return np.append(counts, last)
+
+
+def histogram_median(values: np.ndarray, edges: np.ndarray, counts: np.ndarray) -> float:
+    """The median of the values (np.median's: the mean of the two middle values of an even
+    count) found from their histogram over `edges`: the middle values are taken from the values
+    of the one or two bins that hold them, so only those are partitioned, not a copy of all."""
+    n = int(values.size)
+    if not n or int(counts.sum()) != n:  # values outside the edges (or NaN): numpy's own
+        return float(np.median(values))
+    ranks = np.array([(n - 1) // 2, n // 2])
+    cum = np.cumsum(counts)
+    first, last = np.searchsorted(cum, ranks, side="right")  # the bins of the middle ranks
+    before = int(cum[first - 1]) if first else 0
+    inside = values >= edges[first]
+    inside &= values <= edges[last + 1] if last + 1 == len(edges) - 1 else values < edges[last + 1]
+    middle = np.partition(values[inside], ranks - before)[ranks - before]
+    return float(middle[0]) if n % 2 else float((middle[0] + middle[1]) / 2)
 
 
 def _uniform(edges: np.ndarray) -> bool:
@@ -342,7 +374,9 @@ def tie_point_errors(d: Delivery, p: ErrorParams, measure: Measure) -> Measureme
     scene_id = pd.Categorical.from_codes(
         codes, dtype=d.tie_points["scene_id"].dtype, validate=False
     )
-    block = _block_stats(err, lo, hi)
+    hist_edges = histogram_edges(float(err.max()))
+    counts = histogram_counts(err, hist_edges)
+    block = _block_stats(err, lo, hi, histogram_median(err, hist_edges, counts))
     if "point_id" in d.tie_points:  # not when the pack reads only the columns its rules use
         ids = d.tie_points["point_id"]
         block.insert(0, "n_points", distinct_count(ids if on is None else ids[on]))
@@ -353,8 +387,6 @@ def tie_point_errors(d: Delivery, p: ErrorParams, measure: Measure) -> Measureme
     # the observations' other columns are taken from the delivery for the rows shown
     obs = pd.DataFrame({"scene_id": scene_id, "error_px": err}, copy=False)
     lazy = tuple(c for c in OBSERVATION_COLUMNS if c not in obs)
-    hist_edges = histogram_edges(float(err.max()))
-    counts = histogram_counts(err, hist_edges)
     return Measurement(
         tables={
             "block": Table(block),
