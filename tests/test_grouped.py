@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from blockqc import grouped
+from blockqc import grouped, pieces
 
 VALUES = st.floats(-1e6, 1e6, allow_nan=False) | st.sampled_from([0.0, -0.0, 1e-300, 5e-324])
 
@@ -61,11 +61,11 @@ def test_medians_as_pandas(case, chunk: int) -> None:
     at a time or all at once."""
     values, codes, k = case
     g, groups = _frame(values, codes, k)
-    old, grouped.CHUNK = grouped.CHUNK, chunk
+    old, pieces.CHUNK = pieces.CHUNK, chunk
     try:
         medians = grouped.medians(values, codes, k)
     finally:
-        grouped.CHUNK = old
+        pieces.CHUNK = old
     assert np.array_equal(medians, g.median().reindex(groups).to_numpy(), equal_nan=True)
 
 
@@ -101,12 +101,12 @@ def test_sums_of_a_function_a_piece_at_a_time(case, chunk: int) -> None:
     cut between pieces), as pandas sums them over the whole frame."""
     values, codes, k = case
     g, groups = _frame(values, codes, k)
-    old, grouped.CHUNK = grouped.CHUNK, chunk
+    old, pieces.CHUNK = pieces.CHUNK, chunk
     try:
         squares = grouped.Groups(codes, k).sums(values, of=np.square)
         positive = grouped.Groups(codes, k).sums(values, of=lambda v: v > 0)
     finally:
-        grouped.CHUNK = old
+        pieces.CHUNK = old
     want = (g.obj**2).groupby(g.keys).sum().reindex(groups, fill_value=0.0).to_numpy()
     assert squares == pytest.approx(want, rel=1e-12)
     want = (g.obj > 0).groupby(g.keys).sum().reindex(groups, fill_value=0).to_numpy()

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from blockqc import __version__
+from blockqc import __version__, pieces
 from blockqc.acceptance.decision import decide
 from blockqc.acceptance.evaluate import evaluate_results
 from blockqc.acceptance.model import BatchDecision, BlockGrade, ReportMeta
@@ -381,7 +381,8 @@ class Runner:
 
             run_on_dask(self.scheduler, job, todo, done)
         elif self.jobs > 1 and len(todo) > 1:
-            with ProcessPoolExecutor(max_workers=min(self.jobs, len(todo))) as pool:
+            workers = min(self.jobs, len(todo))  # one thread each: they share the cores
+            with ProcessPoolExecutor(workers, initializer=pieces.single_thread) as pool:
                 for future in as_completed([pool.submit(job, p, m) for p, m in todo]):
                     done(future.result())
         else:

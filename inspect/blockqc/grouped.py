@@ -12,6 +12,8 @@ from collections.abc import Callable
 
 import numpy as np
 
+from blockqc import pieces
+
 #: runs of equal codes are reduced first when they are at most this share of the rows
 RUN_SHARE = 0.25
 
@@ -51,18 +53,24 @@ class Groups:
         self, values: np.ndarray, of: Callable[[np.ndarray], np.ndarray] | None = None
     ) -> np.ndarray:
         """The sum of each group's values, or of `of` (say np.square) of them: `of` is taken
-        of the rows a piece at a time, so that it makes no row-sized temporary."""
+        of the rows a piece at a time (`blockqc.pieces`), so that it makes no row-sized
+        temporary."""
         values = self._in(values)
+        if of is None:
+            return self._sums(values, 0)
         out = np.zeros(self.k)
-        for a in range(0, len(values), CHUNK if of is not None else max(len(values), 1)):
-            piece = values[a : a + CHUNK] if of is not None else values
-            out += self._sums(of(piece) if of is not None else piece, a)
+        for part in pieces.each(
+            lambda a: self._sums(of(values[a : a + pieces.CHUNK]), a), len(values)
+        ):
+            out += part
         return out
 
     def _sums(self, values: np.ndarray, at: int) -> np.ndarray:
         """The sums per group of the values of rows at, at + 1, …"""
         codes = self.codes[at : at + len(values)]
-        if self.runs is not None:  # the runs met in these rows, the first one maybe begun before
+        if self.runs is not None and len(
+            values
+        ):  # the runs met in these rows, the first one maybe begun before
             starts = self.runs[0]
             starts = starts[(starts > at) & (starts < at + len(values))] - at
             starts = np.concatenate([np.zeros(1, dtype=starts.dtype), starts])
@@ -95,24 +103,30 @@ class Groups:
         sample = values[:: max(1, len(values) // 4096)]
         low = _bins(np.array([np.nanmedian(sample)]) if np.isfinite(sample).any() else [0.0])
         low = int(low[0]) - BINS // 2
-        table = np.zeros(k * BINS, dtype=np.int64)
-        for a in range(0, len(values), CHUNK):
-            v, c = values[a : a + CHUNK], codes[a : a + CHUNK]
+
+        def count(a: int) -> np.ndarray:  # per (group, bin)
+            v, c = values[a : a + pieces.CHUNK], codes[a : a + pieces.CHUNK]
             key = _in_window(_bins(v), low)
             key += c.astype(np.int64) * BINS
-            table += np.bincount(key[~np.isnan(v)], minlength=k * BINS)
+            return np.bincount(key[~np.isnan(v)], minlength=k * BINS)
+
+        table = np.zeros(k * BINS, dtype=np.int64)
+        for part in pieces.each(count, len(values)):
+            table += part
         cum = np.cumsum(table.reshape(k, BINS), axis=1)
         n = cum[:, -1]
         ranks = np.stack([(n - 1) // 2, n // 2])  # the middle ranks of each group
         middle = (cum[None] <= ranks[..., None]).sum(axis=2)  # their bins
         before = np.where(middle[0] > 0, cum[np.arange(k), np.maximum(middle[0] - 1, 0)], 0)
-        taken = []
-        for a in range(0, len(values), CHUNK):
-            v, c = values[a : a + CHUNK], codes[a : a + CHUNK]
+
+        def take(a: int) -> tuple[np.ndarray, np.ndarray]:  # the values of the middle bins
+            v, c = values[a : a + pieces.CHUNK], codes[a : a + pieces.CHUNK]
             b = _in_window(_bins(v), low)
             pick = (b == middle[0][c]) | (b == middle[1][c])
             pick &= ~np.isnan(v)
-            taken.append((v[pick], c[pick]))
+            return v[pick], c[pick]
+
+        taken = pieces.each(take, len(values))
         v = np.concatenate([t[0] for t in taken]) if taken else values[:0]
         c = np.concatenate([t[1] for t in taken]) if taken else codes[:0]
         v = v[np.lexsort((v, c))]  # by group, then value
@@ -125,8 +139,6 @@ class Groups:
         return out
 
 
-#: rows worked through at once by the median's passes
-CHUNK = 1 << 20
 #: the median's bins: 2**BIN_BITS per octave of the values, BINS of them about their middle
 BIN_BITS = 5
 BINS = 512

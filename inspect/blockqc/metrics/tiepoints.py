@@ -11,7 +11,7 @@ import numpy as np
 import pandas as pd
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from blockqc import grouped
+from blockqc import grouped, pieces
 from blockqc.delivery import Delivery, distinct_count, scene_positions
 from blockqc.metrics import Measure, Measurement, Scope, Table, metric, not_applicable
 from blockqc.outputs import records
@@ -43,9 +43,11 @@ class DistributionParams(BaseModel):
     clark_evans: bool = False
 
 
-def tie_point_error_px(v_line: np.ndarray, v_sample: np.ndarray) -> np.ndarray:
+def tie_point_error_px(
+    v_line: np.ndarray, v_sample: np.ndarray, out: np.ndarray | None = None
+) -> np.ndarray:
     """Error of one observation: √(v_l² + v_s²), in its scene's pixels (Reading of §TP)."""
-    return np.hypot(v_line, v_sample)
+    return np.hypot(v_line, v_sample, out=out)
 
 
 def _select(
@@ -93,13 +95,8 @@ def _cached(d: Delivery, key: Any, make: Callable[[], Any]) -> Any:
     return value
 
 
-#: rows worked through at once by the passes over every tie point: their temporaries stay a
-#: few megabytes, so that millions of rows cost no row-sized temporary besides the results
-CHUNK = 1 << 20
-
-
-def _chunks(n: int) -> range:
-    return range(0, n, CHUNK)
+#: the passes over every tie point work a piece of CHUNK rows at a time (`blockqc.pieces`)
+CHUNK = pieces.CHUNK
 
 
 def _rows(on: np.ndarray | None, labels: np.ndarray) -> np.ndarray:
@@ -171,12 +168,15 @@ def _block_stats(e: np.ndarray, lo: float, hi: float, median: float | None = Non
     n = int(e.size)
     top = float(e.max())
     s = top if top > SQUARE_SAFE else 1.0  # as in _stats, for the one group
-    inside = squares = 0.0
-    for a in _chunks(n):
+
+    def sums(a: int) -> tuple[int, float]:  # of the errors in (lo, hi] and of the squares
         piece = e[a : a + CHUNK]
-        inside += np.count_nonzero(_in_interval(piece, lo, hi))
-        squares += np.sum(np.square(piece if s == 1.0 else piece / s))
-    inside = int(inside)
+        squares = np.sum(np.square(piece if s == 1.0 else piece / s))
+        return np.count_nonzero(_in_interval(piece, lo, hi)), squares
+
+    inside = squares = 0
+    for k, q in pieces.each(sums, n):  # in the order of the pieces, whatever the threads
+        inside, squares = inside + k, squares + q
     row = {
         "n": n,
         "median": float(np.median(e)) if median is None else median,
@@ -325,16 +325,24 @@ def _errors(tp: pd.DataFrame, on: np.ndarray | None) -> tuple[np.ndarray, np.nda
     """The scene codes and errors of the tie points `on` (None: all), a piece at a time."""
     codes = tp["scene_id"].array.codes
     vl, vs = tp["v_line"].to_numpy(), tp["v_sample"].to_numpy()
-    if on is None:
-        return codes, tie_point_error_px(vl, vs)
-    err = np.empty(int(np.count_nonzero(on)))
-    at = 0
-    for a in _chunks(len(on)):
-        m = on[a : a + CHUNK]
-        k = int(np.count_nonzero(m))
-        err[at : at + k] = tie_point_error_px(vl[a : a + CHUNK][m], vs[a : a + CHUNK][m])
-        at += k
-    return codes[on], err
+    n = len(vl)
+    taken = (
+        [np.count_nonzero(on[a : a + CHUNK]) for a in pieces.starts(n)] if on is not None else []
+    )
+    at = np.cumsum([0, *taken])  # where each piece's errors go
+    err = np.empty(int(at[-1]) if on is not None else n)
+
+    def errors(a: int) -> None:
+        piece = slice(a, a + CHUNK)
+        if on is None:
+            tie_point_error_px(vl[piece], vs[piece], out=err[piece])
+        else:
+            i = a // CHUNK
+            m = on[piece]
+            err[at[i] : at[i + 1]] = tie_point_error_px(vl[piece][m], vs[piece][m])
+
+    pieces.each(errors, n)
+    return (codes if on is None else codes[on]), err
 
 
 def _fill_observations(
@@ -375,7 +383,7 @@ def tie_point_errors(d: Delivery, p: ErrorParams, measure: Measure) -> Measureme
         codes, dtype=d.tie_points["scene_id"].dtype, validate=False
     )
     hist_edges = histogram_edges(float(err.max()))
-    counts = histogram_counts(err, hist_edges)
+    counts = sum(pieces.each(lambda a: histogram_counts(err[a : a + CHUNK], hist_edges), err.size))
     block = _block_stats(err, lo, hi, histogram_median(err, hist_edges, counts))
     if "point_id" in d.tie_points:  # not when the pack reads only the columns its rules use
         ids = d.tie_points["point_id"]
@@ -503,15 +511,19 @@ def _per_scene_cells(scenes: pd.DataFrame, tp: pd.DataFrame, p: DistributionPara
     code = scene_positions(tp["scene_id"], out["scene_id"])
     line, sample = tp["line"].to_numpy(), tp["sample"].to_numpy()
     n_cells = len(out) * k * k
-    per_cell = np.zeros(n_cells, dtype=np.int64)
-    for a in _chunks(len(code)):
+
+    def count(a: int) -> np.ndarray:  # the observations per cell of these rows
         c = code[a : a + CHUNK]
         on = c >= 0
         c = c[on]
         cell = c.astype(np.int64) * (k * k)  # the (scene, row, column) cell, summed in place
         cell += k * _cell_along(line[a : a + CHUNK][on], lines, c, k)
         cell += _cell_along(sample[a : a + CHUNK][on], samples, c, k)
-        per_cell += np.bincount(cell, minlength=n_cells)
+        return np.bincount(cell, minlength=n_cells)
+
+    per_cell = np.zeros(n_cells, dtype=np.int64)
+    for part in pieces.each(count, len(code)):
+        per_cell += part
     per_cell = per_cell.reshape(len(out), -1)
     water = (
         scenes["water_fraction"].to_numpy(dtype=float)
