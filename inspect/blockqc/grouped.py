@@ -68,9 +68,7 @@ class Groups:
     def _sums(self, values: np.ndarray, at: int) -> np.ndarray:
         """The sums per group of the values of rows at, at + 1, …"""
         codes = self.codes[at : at + len(values)]
-        if self.runs is not None and len(
-            values
-        ):  # the runs met in these rows, the first one maybe begun before
+        if self.runs is not None and len(values):  # the runs met here, the first maybe begun before
             starts = self.runs[0]
             starts = starts[(starts > at) & (starts < at + len(values))] - at
             starts = np.concatenate([np.zeros(1, dtype=starts.dtype), starts])

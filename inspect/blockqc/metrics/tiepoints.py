@@ -95,10 +95,6 @@ def _cached(d: Delivery, key: Any, make: Callable[[], Any]) -> Any:
     return value
 
 
-#: the passes over every tie point work a piece of CHUNK rows at a time (`blockqc.pieces`)
-CHUNK = pieces.CHUNK
-
-
 def _rows(on: np.ndarray | None, labels: np.ndarray) -> np.ndarray:
     """Positions in the delivery's tie points of the rows `labels` of a selection `on`."""
     return labels if on is None else np.flatnonzero(on)[labels]
@@ -170,7 +166,7 @@ def _block_stats(e: np.ndarray, lo: float, hi: float, median: float | None = Non
     s = top if top > SQUARE_SAFE else 1.0  # as in _stats, for the one group
 
     def sums(a: int) -> tuple[int, float]:  # of the errors in (lo, hi] and of the squares
-        piece = e[a : a + CHUNK]
+        piece = e[a : a + pieces.CHUNK]
         squares = np.sum(np.square(piece if s == 1.0 else piece / s))
         return np.count_nonzero(_in_interval(piece, lo, hi)), squares
 
@@ -327,17 +323,19 @@ def _errors(tp: pd.DataFrame, on: np.ndarray | None) -> tuple[np.ndarray, np.nda
     vl, vs = tp["v_line"].to_numpy(), tp["v_sample"].to_numpy()
     n = len(vl)
     taken = (
-        [np.count_nonzero(on[a : a + CHUNK]) for a in pieces.starts(n)] if on is not None else []
+        [np.count_nonzero(on[a : a + pieces.CHUNK]) for a in pieces.starts(n)]
+        if on is not None
+        else []
     )
     at = np.cumsum([0, *taken])  # where each piece's errors go
     err = np.empty(int(at[-1]) if on is not None else n)
 
     def errors(a: int) -> None:
-        piece = slice(a, a + CHUNK)
+        piece = slice(a, a + pieces.CHUNK)
         if on is None:
             tie_point_error_px(vl[piece], vs[piece], out=err[piece])
         else:
-            i = a // CHUNK
+            i = a // pieces.CHUNK
             m = on[piece]
             err[at[i] : at[i + 1]] = tie_point_error_px(vl[piece][m], vs[piece][m])
 
@@ -383,7 +381,9 @@ def tie_point_errors(d: Delivery, p: ErrorParams, measure: Measure) -> Measureme
         codes, dtype=d.tie_points["scene_id"].dtype, validate=False
     )
     hist_edges = histogram_edges(float(err.max()))
-    counts = sum(pieces.each(lambda a: histogram_counts(err[a : a + CHUNK], hist_edges), err.size))
+    counts = sum(
+        pieces.each(lambda a: histogram_counts(err[a : a + pieces.CHUNK], hist_edges), err.size)
+    )
     block = _block_stats(err, lo, hi, histogram_median(err, hist_edges, counts))
     if "point_id" in d.tie_points:  # not when the pack reads only the columns its rules use
         ids = d.tie_points["point_id"]
@@ -513,12 +513,12 @@ def _per_scene_cells(scenes: pd.DataFrame, tp: pd.DataFrame, p: DistributionPara
     n_cells = len(out) * k * k
 
     def count(a: int) -> np.ndarray:  # the observations per cell of these rows
-        c = code[a : a + CHUNK]
+        c = code[a : a + pieces.CHUNK]
         on = c >= 0
         c = c[on]
         cell = c.astype(np.int64) * (k * k)  # the (scene, row, column) cell, summed in place
-        cell += k * _cell_along(line[a : a + CHUNK][on], lines, c, k)
-        cell += _cell_along(sample[a : a + CHUNK][on], samples, c, k)
+        cell += k * _cell_along(line[a : a + pieces.CHUNK][on], lines, c, k)
+        cell += _cell_along(sample[a : a + pieces.CHUNK][on], samples, c, k)
         return np.bincount(cell, minlength=n_cells)
 
     per_cell = np.zeros(n_cells, dtype=np.int64)
