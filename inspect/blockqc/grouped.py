@@ -99,7 +99,9 @@ class Groups:
         only the values of those bins are taken and sorted."""
         values, codes, k = self._in(values), self.codes, self.k
         sample = values[:: max(1, len(values) // 4096)]
-        low = _bins(np.array([np.nanmedian(sample)]) if np.isfinite(sample).any() else [0.0])
+        with np.errstate(over="ignore"):  # the middle of values near ±1e308 may overflow
+            centre = np.nanmedian(sample) if np.isfinite(sample).any() else 0.0
+        low = _bins(np.array([centre]))
         low = int(low[0]) - BINS // 2
 
         def count(a: int) -> np.ndarray:  # per (group, bin)
