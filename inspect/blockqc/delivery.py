@@ -30,9 +30,8 @@ from pydantic import (
 from blockqc import grouped
 from blockqc.errors import InputError, Problem
 from blockqc.geometry_inputs import (
-    ADJUSTED_DIR,
-    RPC_DIR,
     BlockGeometry,
+    has_geometry,
     load_geometry,
     residual_column_problems,
 )
@@ -579,14 +578,15 @@ def read_rows(path: Path, column: str, rows: np.ndarray) -> pa.Array:
         table = pq.read_table(path, columns=[column])
         return table.column(0).take(pa.array(rows)).combine_chunks()
     meta = parquet.metadata
-    ends = np.cumsum([meta.row_group(i).num_rows for i in range(meta.num_row_groups)])
+    sizes = np.array([meta.row_group(i).num_rows for i in range(meta.num_row_groups)])
+    ends = np.cumsum(sizes)
     group = np.searchsorted(ends, rows, side="right")  # the row group of each row
     groups = np.unique(group)
     table = parquet.read_row_groups(groups.tolist(), columns=[column])
-    starts = ends[groups] - np.array([meta.row_group(int(g)).num_rows for g in groups])
-    first = np.concatenate([[0], np.cumsum(ends[groups] - starts)])  # of each group read
+    first = np.cumsum(sizes[groups]) - sizes[groups]  # where each group read begins in table
     k = np.searchsorted(groups, group)
-    return table.column(0).take(pa.array(first[k] + rows - starts[k])).combine_chunks()
+    at = first[k] + rows - (ends - sizes)[group]
+    return table.column(0).take(pa.array(at)).combine_chunks()
 
 
 def _bounded_keys(schema: TableSchema, found: pa.Schema) -> list[str]:
@@ -734,16 +734,6 @@ def load_delivery(
         geometry=geometry,
         not_read={k: v for k, v in not_read.items() if v},
         **tables,
-    )
-
-
-def has_geometry(path: Path) -> bool:
-    """Whether a delivery gives its geometry (contract v1.1): rpc/, rpc_adjusted/ or an
-    adjustment table."""
-    return (
-        (path / RPC_DIR).exists()
-        or (path / ADJUSTED_DIR).exists()
-        or any((path / f"adjustment.{ext}").exists() for ext in ("csv", "parquet"))
     )
 
 

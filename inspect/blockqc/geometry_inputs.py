@@ -134,6 +134,16 @@ def _refined(geometry: BlockGeometry, models: dict[str, RPCModel], needed: list[
         geometry.affine = np.zeros((len(needed), len(AFFINE_KEYS)))
 
 
+def has_geometry(path: Path) -> bool:
+    """Whether a delivery gives its geometry (contract v1.1): rpc/, rpc_adjusted/ or an
+    adjustment table."""
+    return (
+        (path / RPC_DIR).exists()
+        or (path / ADJUSTED_DIR).exists()
+        or any((path / f"adjustment.{ext}").exists() for ext in ("csv", "parquet"))
+    )
+
+
 def load_geometry(
     path: Path, tables: dict[str, pd.DataFrame], files: dict[str, Path]
 ) -> tuple[BlockGeometry | None, list[Problem]]:

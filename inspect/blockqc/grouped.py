@@ -58,12 +58,10 @@ class Groups:
         values = self._in(values)
         if of is None:
             return self._sums(values, 0)
-        out = np.zeros(self.k)
-        for part in pieces.each(
-            lambda a: self._sums(of(values[a : a + pieces.CHUNK]), a), len(values)
-        ):
-            out += part
-        return out
+        piece = pieces.CHUNK
+        return pieces.total(
+            lambda a: self._sums(of(values[a : a + piece]), a), len(values), np.zeros(self.k)
+        )
 
     def _sums(self, values: np.ndarray, at: int) -> np.ndarray:
         """The sums per group of the values of rows at, at + 1, …"""
@@ -110,9 +108,7 @@ class Groups:
             key += c.astype(np.int64) * BINS
             return np.bincount(key[~np.isnan(v)], minlength=k * BINS)
 
-        table = np.zeros(k * BINS, dtype=np.int64)
-        for part in pieces.each(count, len(values)):
-            table += part
+        table = pieces.total(count, len(values), np.zeros(k * BINS, dtype=np.int64))
         cum = np.cumsum(table.reshape(k, BINS), axis=1)
         n = cum[:, -1]
         ranks = np.stack([(n - 1) // 2, n // 2])  # the middle ranks of each group

@@ -12,7 +12,7 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
-from typing import TypeVar
+from typing import Any, TypeVar
 
 #: rows worked through at once
 CHUNK = 1 << 20
@@ -38,6 +38,15 @@ def each(func: Callable[[int], T], n: int) -> list[T]:
     if _pool is None:
         _pool = ThreadPoolExecutor(THREADS, thread_name_prefix="blockqc-pieces")
     return list(_pool.map(func, first))
+
+
+def total(func: Callable[[int], Any], n: int, none: Any) -> Any:
+    """The sum of func(a) over the pieces of n rows (`each`), added in the order of the
+    pieces into `none` (an array is added to in place); `none` when there are no rows."""
+    out = none
+    for part in each(func, n):
+        out += part
+    return out
 
 
 def _forgotten() -> None:

@@ -165,14 +165,13 @@ def _block_stats(e: np.ndarray, lo: float, hi: float, median: float | None = Non
     top = float(e.max())
     s = top if top > SQUARE_SAFE else 1.0  # as in _stats, for the one group
 
-    def sums(a: int) -> tuple[int, float]:  # of the errors in (lo, hi] and of the squares
+    def sums(a: int) -> np.ndarray:  # the errors in (lo, hi] (exact below 2**53), the squares
         piece = e[a : a + pieces.CHUNK]
         squares = np.sum(np.square(piece if s == 1.0 else piece / s))
-        return np.count_nonzero(_in_interval(piece, lo, hi)), squares
+        return np.array([np.count_nonzero(_in_interval(piece, lo, hi)), squares])
 
-    inside = squares = 0
-    for k, q in pieces.each(sums, n):  # in the order of the pieces, whatever the threads
-        inside, squares = inside + k, squares + q
+    inside, squares = pieces.total(sums, n, np.zeros(2))  # in the order of the pieces
+    inside = int(inside)
     row = {
         "n": n,
         "median": float(np.median(e)) if median is None else median,
@@ -381,9 +380,8 @@ def tie_point_errors(d: Delivery, p: ErrorParams, measure: Measure) -> Measureme
         codes, dtype=d.tie_points["scene_id"].dtype, validate=False
     )
     hist_edges = histogram_edges(float(err.max()))
-    counts = sum(
-        pieces.each(lambda a: histogram_counts(err[a : a + pieces.CHUNK], hist_edges), err.size)
-    )
+    step = pieces.CHUNK
+    counts = pieces.total(lambda a: histogram_counts(err[a : a + step], hist_edges), err.size, 0)
     block = _block_stats(err, lo, hi, histogram_median(err, hist_edges, counts))
     if "point_id" in d.tie_points:  # not when the pack reads only the columns its rules use
         ids = d.tie_points["point_id"]
@@ -521,9 +519,7 @@ def _per_scene_cells(scenes: pd.DataFrame, tp: pd.DataFrame, p: DistributionPara
         cell += _cell_along(sample[a : a + pieces.CHUNK][on], samples, c, k)
         return np.bincount(cell, minlength=n_cells)
 
-    per_cell = np.zeros(n_cells, dtype=np.int64)
-    for part in pieces.each(count, len(code)):
-        per_cell += part
+    per_cell = pieces.total(count, len(code), np.zeros(n_cells, dtype=np.int64))
     per_cell = per_cell.reshape(len(out), -1)
     water = (
         scenes["water_fraction"].to_numpy(dtype=float)
