@@ -166,3 +166,46 @@ def test_tie_points_of_some_bands_taken_once_and_again_when_replaced(tmp_path) -
     assert (two["line"] == d.tie_points["line"].iloc[two.index]).all()  # the index: positions
     d.tie_points = d.tie_points.iloc[:10]
     assert len(_select(d, ["pan"])[1]) <= 10
+
+
+@pytest.mark.parametrize("categorical", [True, False])
+def test_positions_outside_their_scene_by_hand(categorical: bool) -> None:
+    """Scene A is 100 lines × 50 samples: line 100.4 lies inside (half a pixel of slack),
+    100.6 and −0.6 outside; a row of an unknown scene or of no scene is outside only below
+    −0.5 (its scene is reported apart)."""
+    import pandas as pd
+
+    from blockqc.delivery import _consistency_masks
+
+    scene = pd.Series(["A", "A", "A", "X", None, None, "A"])
+    tp = pd.DataFrame(
+        {
+            "scene_id": scene.astype("category") if categorical else scene,
+            "line": [100.4, 100.6, -0.6, 500.0, 7.0, -3.0, 10.0],
+            "sample": [1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 50.6],
+        }
+    )
+    scenes = pd.DataFrame({"scene_id": ["A"], "lines": [100], "samples": [50]})
+    masks = {col: m for _, col, m, _ in _consistency_masks({"tie_points": tp, "scenes": scenes})}
+    assert masks["line"].tolist() == [False, True, True, False, False, True, False]
+    assert masks["sample"].tolist() == [False, False, False, False, False, False, True]
+
+
+@pytest.mark.parametrize("categorical", [True, False])
+def test_a_row_of_no_scene_alone_outside(categorical: bool) -> None:
+    """Every row of scene A inside: the one row of no scene at line −3 is still found."""
+    import pandas as pd
+
+    from blockqc.delivery import _consistency_masks
+
+    scene = pd.Series(["A", None, "A"])
+    tp = pd.DataFrame(
+        {
+            "scene_id": scene.astype("category") if categorical else scene,
+            "line": [5.0, -3.0, 6.0],
+            "sample": [1.0, 1.0, 1.0],
+        }
+    )
+    scenes = pd.DataFrame({"scene_id": ["A"], "lines": [100], "samples": [50]})
+    masks = {col: m for _, col, m, _ in _consistency_masks({"tie_points": tp, "scenes": scenes})}
+    assert masks["line"].tolist() == [False, True, False]

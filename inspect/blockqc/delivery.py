@@ -821,13 +821,14 @@ def _consistency_masks(
     tp, sc = tables.get("tie_points"), tables.get("scenes")
     if tp is not None and sc is not None:
         size = sc.drop_duplicates("scene_id").set_index("scene_id")
-        at = scene_positions(tp["scene_id"], size.index) + 1  # 0: no scene (reported apart)
+        codes, lookup = scene_lookup(tp["scene_id"], size.index)  # grouped by the codes
         for col, extent in (("line", "lines"), ("sample", "samples")):
             if col not in tp.columns:  # not read
                 continue
             v = tp[col].to_numpy(dtype=float)
-            top = np.append(np.nan, size[extent].to_numpy(dtype=float, na_value=np.nan))
-            outside = _outside(v, at, -PIXEL_SLACK, top + PIXEL_SLACK)
+            limit = size[extent].to_numpy(dtype=float, na_value=np.nan)
+            top = np.where(lookup >= 0, limit[lookup], np.nan)  # no scene: reported apart
+            outside = _outside(v, codes, -PIXEL_SLACK, top + PIXEL_SLACK)
             msg = f"{col} lies outside its scene (0 to the scene's {extent} in scenes.csv)"
             out.append(("tie_points", col, outside, msg))
     pm = tables.get("pan_ms")
@@ -847,11 +848,11 @@ def _consistency_masks(
 
 def _outside(v: np.ndarray, at: np.ndarray, low: float, high: np.ndarray) -> np.ndarray:
     """Rows whose value lies below `low` or above its group's `high[at]` (NaN compares as
-    inside). The extremes of each group are found first, so that a table within its bounds
-    costs one grouped pass and no row-sized temporary."""
+    inside; group −1 is high's last). The extremes of each group are found first, so that a
+    table within its bounds costs one grouped pass and no row-sized temporary."""
     lo, hi = grouped.extremes(v, at, len(high))
     with np.errstate(invalid="ignore"):
-        if not ((lo < low) | (hi > high)).any():
+        if at.min(initial=0) >= 0 and not ((lo < low) | (hi > high)).any():
             return np.zeros(len(v), dtype=bool)
         return (v < low) | (v > high[at])
 
@@ -903,13 +904,22 @@ def distinct_count(values: pd.Series) -> int:
 
 
 def scene_positions(scene_id: pd.Series, scene_ids: Any) -> np.ndarray:
-    """Each row's position in `scene_ids` (-1 when absent), as int32; a Categorical is looked
-    up once per distinct scene, its codes then taken, instead of once per row."""
+    """Each row's position in `scene_ids` (-1 when absent), as int32."""
+    codes, lookup = scene_lookup(scene_id, scene_ids)
+    return lookup[codes]
+
+
+def scene_lookup(scene_id: pd.Series, scene_ids: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Each row's code and, per code, its position in `scene_ids` (-1 when absent): a row's
+    position is lookup[code], code −1 (a missing cell) taking lookup's last entry, −1. A
+    Categorical's own codes are given and its categories looked up once each, so that a pass
+    over millions of rows can take positions a piece at a time, or group by the codes."""
     index = pd.Index(scene_ids)
     if not isinstance(scene_id.dtype, pd.CategoricalDtype):
-        return index.get_indexer(scene_id).astype(np.int32)
-    found = np.append(index.get_indexer(scene_id.cat.categories), -1)  # code -1: missing
-    return found.astype(np.int32)[scene_id.array.codes]
+        codes = index.get_indexer(scene_id).astype(np.int32)
+        return codes, np.append(np.arange(len(index), dtype=np.int32), np.int32(-1))
+    found = np.append(index.get_indexer(scene_id.cat.categories), -1)
+    return scene_id.array.codes, found.astype(np.int32)
 
 
 def block_scenes(

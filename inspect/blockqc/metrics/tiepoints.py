@@ -12,7 +12,7 @@ import pandas as pd
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from blockqc import grouped, pieces
-from blockqc.delivery import Delivery, distinct_count, scene_positions
+from blockqc.delivery import Delivery, distinct_count, scene_lookup, scene_positions
 from blockqc.metrics import Measure, Measurement, Scope, Table, metric, not_applicable
 from blockqc.outputs import records
 from blockqc.spatial import clark_evans_grouped
@@ -71,7 +71,11 @@ def _on(d: Delivery, bands: list[str] | None) -> tuple[pd.DataFrame, np.ndarray 
     scenes = _scenes(d, bands)
 
     def on() -> np.ndarray | None:
-        found = scene_positions(d.tie_points["scene_id"], scenes["scene_id"]) >= 0
+        codes, lookup = scene_lookup(d.tie_points["scene_id"], scenes["scene_id"])
+        found = lookup >= 0
+        if found[:-1].all() and codes.min(initial=0) >= 0:  # every row on a scene checked
+            return None
+        found = found[codes]
         return None if found.all() else found
 
     return scenes, _cached(d, (_bands(bands), "on"), on)
@@ -506,12 +510,12 @@ def _per_scene_cells(scenes: pd.DataFrame, tp: pd.DataFrame, p: DistributionPara
     k = p.grid
     out = scenes[["scene_id", "band", "lines", "samples"]].reset_index(drop=True)
     lines, samples = out["lines"].to_numpy(dtype=float), out["samples"].to_numpy(dtype=float)
-    code = scene_positions(tp["scene_id"], out["scene_id"])
+    codes, lookup = scene_lookup(tp["scene_id"], out["scene_id"])  # positions piece by piece
     line, sample = tp["line"].to_numpy(), tp["sample"].to_numpy()
     n_cells = len(out) * k * k
 
     def count(a: int) -> np.ndarray:  # the observations per cell of these rows
-        c = code[a : a + pieces.CHUNK]
+        c = lookup[codes[a : a + pieces.CHUNK]]
         on = c >= 0
         c = c[on]
         cell = c.astype(np.int64) * (k * k)  # the (scene, row, column) cell, summed in place
@@ -519,7 +523,7 @@ def _per_scene_cells(scenes: pd.DataFrame, tp: pd.DataFrame, p: DistributionPara
         cell += _cell_along(sample[a : a + pieces.CHUNK][on], samples, c, k)
         return np.bincount(cell, minlength=n_cells)
 
-    per_cell = pieces.total(count, len(code), np.zeros(n_cells, dtype=np.int64))
+    per_cell = pieces.total(count, len(codes), np.zeros(n_cells, dtype=np.int64))
     per_cell = per_cell.reshape(len(out), -1)
     water = (
         scenes["water_fraction"].to_numpy(dtype=float)
