@@ -54,18 +54,18 @@ def test_sums_counts_and_medians_as_pandas(case) -> None:
     assert np.array_equal(medians, g.median().reindex(groups).to_numpy(), equal_nan=True)
 
 
-@given(rows(nan=True), st.sampled_from([1, 3, 1 << 20]))
+@given(rows(nan=True), st.sampled_from([1, 3, 1 << 20]), st.sampled_from([4, 24, 1 << 22]))
 @settings(max_examples=300, deadline=None)
-def test_medians_as_pandas(case, chunk: int) -> None:
+def test_medians_as_pandas(case, chunk: int, cells: int) -> None:
     """Medians with NaN values passed over, groups with none, the rows worked through a few
-    at a time or all at once."""
+    at a time or all at once, in windows of 2 to 512 bins (fewer for many groups)."""
     values, codes, k = case
     g, groups = _frame(values, codes, k)
-    old, pieces.CHUNK = pieces.CHUNK, chunk
+    old, pieces.CHUNK, grouped.CELLS = (pieces.CHUNK, grouped.CELLS), chunk, cells
     try:
         medians = grouped.medians(values, codes, k)
     finally:
-        pieces.CHUNK = old
+        pieces.CHUNK, grouped.CELLS = old
     assert np.array_equal(medians, g.median().reindex(groups).to_numpy(), equal_nan=True)
 
 

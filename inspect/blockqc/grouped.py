@@ -9,6 +9,8 @@ the runs once for every statistic taken over the same codes.
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
@@ -91,38 +93,19 @@ class Groups:
         as pandas gives it (the mean of the two middle values of an even count).
 
         Selection by bins, in two passes over the rows a piece at a time (no row-sized copy):
-        the values' bits ordered as integers give each value a bin (BIN_BITS per octave, in a
-        window of BINS bins about the values' middle, the tails gathered in its end bins); one
-        bincount per piece over (group, bin) tells each group the bins of its middle ranks, and
-        only the values of those bins are taken and sorted."""
+        the values' bits ordered as integers give each value a bin (`_Window`); one bincount
+        per piece over (group, bin) tells each group the bins of its middle ranks, and only
+        the values of those bins are taken and sorted."""
         values, codes, k = self._in(values), self.codes, self.k
-        sample = values[:: max(1, len(values) // 4096)]
-        with np.errstate(over="ignore"):  # the middle of values near ±1e308 may overflow
-            centre = np.nanmedian(sample) if np.isfinite(sample).any() else 0.0
-        low = _bins(np.array([centre]))
-        low = int(low[0]) - BINS // 2
-
-        def count(a: int) -> np.ndarray:  # per (group, bin)
-            v, c = values[a : a + pieces.CHUNK], codes[a : a + pieces.CHUNK]
-            key = _in_window(_bins(v), low)
-            key += c.astype(np.int64) * BINS
-            return np.bincount(key[~np.isnan(v)], minlength=k * BINS)
-
-        table = pieces.total(count, len(values), np.zeros(k * BINS, dtype=np.int64))
-        cum = np.cumsum(table.reshape(k, BINS), axis=1)
+        window = _Window.about(values, k)
+        cells = np.zeros(k * window.width, dtype=np.int64)
+        cum = pieces.total(partial(window.count, values, codes, k), len(values), cells)
+        cum = np.cumsum(cum.reshape(k, window.width), axis=1)
         n = cum[:, -1]
         ranks = np.stack([(n - 1) // 2, n // 2])  # the middle ranks of each group
         middle = (cum[None] <= ranks[..., None]).sum(axis=2)  # their bins
         before = np.where(middle[0] > 0, cum[np.arange(k), np.maximum(middle[0] - 1, 0)], 0)
-
-        def take(a: int) -> tuple[np.ndarray, np.ndarray]:  # the values of the middle bins
-            v, c = values[a : a + pieces.CHUNK], codes[a : a + pieces.CHUNK]
-            b = _in_window(_bins(v), low)
-            pick = (b == middle[0][c]) | (b == middle[1][c])
-            pick &= ~np.isnan(v)
-            return v[pick], c[pick]
-
-        taken = pieces.each(take, len(values))
+        taken = pieces.each(partial(window.take, values, codes, middle), len(values))
         v = np.concatenate([t[0] for t in taken]) if taken else values[:0]
         c = np.concatenate([t[1] for t in taken]) if taken else codes[:0]
         v = v[np.lexsort((v, c))]  # by group, then value
@@ -135,9 +118,53 @@ class Groups:
         return out
 
 
-#: the median's bins: 2**BIN_BITS per octave of the values, BINS of them about their middle
+#: the median's bins: 2**BIN_BITS per octave of the values, at most BINS of them about their
+#: middle, and at most CELLS (group, bin) counts (fewer bins for many groups)
 BIN_BITS = 5
 BINS = 512
+CELLS = 1 << 22
+
+
+@dataclass(frozen=True)
+class _Window:
+    """`width` bins from `low` (in `_bins` units), the values outside gathered in its end
+    bins: the values' order is kept, so a group's middle values lie in the bins of its
+    middle ranks whatever the window."""
+
+    low: int
+    width: int
+
+    @classmethod
+    def about(cls, values: np.ndarray, k: int) -> _Window:
+        """A window about the middle of a sample of the values, narrower for many groups."""
+        sample = values[:: max(1, len(values) // 4096)]
+        with np.errstate(over="ignore"):  # the middle of values near ±1e308 may overflow
+            centre = np.nanmedian(sample) if np.isfinite(sample).any() else 0.0
+        width = int(np.clip(CELLS // max(k, 1), 2, BINS))
+        return cls(int(_bins(np.array([centre]))[0]) - width // 2, width)
+
+    def bins(self, v: np.ndarray) -> np.ndarray:
+        b = _bins(v)
+        b -= self.low
+        return np.clip(b, 0, self.width - 1, out=b)
+
+    def count(self, values: np.ndarray, codes: np.ndarray, k: int, a: int) -> np.ndarray:
+        """The values per (group, bin) of the piece of rows from a, NaN left out."""
+        v, c = values[a : a + pieces.CHUNK], codes[a : a + pieces.CHUNK]
+        key = self.bins(v)
+        key += c.astype(np.int64) * self.width
+        return np.bincount(key[~np.isnan(v)], minlength=k * self.width)
+
+    def take(
+        self, values: np.ndarray, codes: np.ndarray, middle: np.ndarray, a: int
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The values, and their groups, of the piece from a that lie in their group's bins
+        `middle` (two per group)."""
+        v, c = values[a : a + pieces.CHUNK], codes[a : a + pieces.CHUNK]
+        b = self.bins(v)
+        pick = (b == middle[0][c]) | (b == middle[1][c])
+        pick &= ~np.isnan(v)
+        return v[pick], c[pick]
 
 
 def _bins(values: np.ndarray) -> np.ndarray:
@@ -146,12 +173,6 @@ def _bins(values: np.ndarray) -> np.ndarray:
     bits = np.asarray(values, dtype=np.float64).view(np.int64)
     ordered = bits ^ ((bits >> 63) & np.int64(0x7FFF_FFFF_FFFF_FFFF))
     return ordered >> (52 - BIN_BITS)
-
-
-def _in_window(bins: np.ndarray, low: int) -> np.ndarray:
-    """Bins counted from `low`, those outside the window gathered in its end bins."""
-    bins -= low
-    return np.clip(bins, 0, BINS - 1, out=bins)
 
 
 def counts(codes: np.ndarray, k: int) -> np.ndarray:
