@@ -30,19 +30,27 @@ def test_histogram_counts_as_numpy(values: list[float], on_edge: float) -> None:
     st.lists(st.floats(0, 30, allow_nan=False), min_size=1, max_size=300),
     st.sampled_from([0.0, 0.05, 0.5, 1.0, 2.0, 9.95, 10.0, 12.0, 1e6, 1e300]),
     st.integers(0, 3),
+    st.sampled_from([2, 7, 1 << 20]),
 )
 @settings(max_examples=300, deadline=None)
-def test_histogram_median_as_numpy(values: list[float], extra: float, on_edges: int) -> None:
+def test_histogram_median_as_numpy(
+    values: list[float], extra: float, on_edges: int, chunk: int
+) -> None:
     """The median found from the residual histogram is np.median's, to the last bit: odd and
     even counts, middle values on bin edges, in the last bin that gathers the largest errors,
-    and in two different bins."""
+    and in two different bins; the values taken a few at a time or all at once."""
+    from blockqc import pieces
     from blockqc.metrics.tiepoints import histogram_counts, histogram_edges, histogram_median
 
     v = np.array([*values, extra])
     edges = histogram_edges(float(v.max()))
     v = np.concatenate([v, np.repeat(edges[: on_edges * 7 : 3], on_edges)])
     counts = histogram_counts(v, edges)
-    assert histogram_median(v, edges, counts) == np.median(v)
+    old, pieces.CHUNK = pieces.CHUNK, chunk
+    try:
+        assert histogram_median(v, edges, counts) == np.median(v)
+    finally:
+        pieces.CHUNK = old
 
 
 def test_histogram_median_by_hand() -> None:
@@ -209,3 +217,25 @@ def test_a_row_of_no_scene_alone_outside(categorical: bool) -> None:
     scenes = pd.DataFrame({"scene_id": ["A"], "lines": [100], "samples": [50]})
     masks = {col: m for _, col, m, _ in _consistency_masks({"tie_points": tp, "scenes": scenes})}
     assert masks["line"].tolist() == [False, True, False]
+
+
+@given(
+    st.lists(st.lists(st.integers(0, 39999) | st.none(), max_size=20), min_size=1, max_size=4),
+    st.sampled_from([1, 126, 127, 32766, 32767, 40000]),
+)
+@settings(max_examples=200, deadline=None)
+def test_dictionary_indices_as_codes(chunks: list[list[int | None]], n: int) -> None:
+    """A column's dictionary indices, in chunks, with missing values, become the codes pandas
+    itself makes of them: the same values (missing −1) and pandas' integer type for n
+    categories."""
+    import pandas as pd
+    import pyarrow as pa
+
+    from blockqc.delivery import _codes
+
+    chunks = [[None if v is None else v % n for v in c] for c in chunks]
+    indices = pa.chunked_array([pa.array(c, pa.int32()) for c in chunks], pa.int32())
+    flat = np.array([-1 if v is None else v for c in chunks for v in c], dtype=np.int64)
+    want = pd.Categorical.from_codes(flat, categories=pd.RangeIndex(n)).codes
+    got = _codes(indices, n)
+    assert got.dtype == want.dtype and got.tolist() == want.tolist()

@@ -389,13 +389,27 @@ def _categorical(col: pa.ChunkedArray) -> pd.Categorical:
     if not stripped.equals(words):  # some ids carried spaces: encode the stripped ones
         enc = pc.dictionary_encode(pc.take(stripped, indices)).combine_chunks()
         stripped, indices = enc.dictionary, enc.indices
-    codes = indices.fill_null(-1).to_numpy()
+    codes = _codes(indices, len(stripped))
     empty = pc.equal(stripped, "").to_numpy(zero_copy_only=False)
     if empty.any():
         remap = np.where(empty, -1, np.cumsum(~empty) - 1)
         codes = np.where(codes >= 0, remap[np.maximum(codes, 0)], -1)
         stripped = stripped.filter(pa.array(~empty))
     return pd.Categorical.from_codes(codes, dtype=_distinct_categories(stripped), validate=False)
+
+
+def _codes(indices: pa.ChunkedArray | pa.Array, n: int) -> np.ndarray:
+    """Dictionary indices as the codes of a Categorical of n categories, in the smallest
+    integer type pandas keeps them in (so that pandas does not convert them again), chunk by
+    chunk into one array; a missing value is −1."""
+    dtype = next(t for t in (np.int8, np.int16, np.int32, np.int64) if n < np.iinfo(t).max)
+    codes = np.empty(len(indices), dtype=dtype)
+    at = 0
+    chunks = indices.chunks if isinstance(indices, pa.ChunkedArray) else [indices]
+    for chunk in chunks:  # one per row group
+        codes[at : at + len(chunk)] = chunk.fill_null(-1).to_numpy()
+        at += len(chunk)
+    return codes
 
 
 def _unified(col: pa.ChunkedArray) -> pa.ChunkedArray | None:

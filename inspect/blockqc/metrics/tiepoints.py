@@ -242,9 +242,16 @@ def histogram_median(values: np.ndarray, edges: np.ndarray, counts: np.ndarray) 
     cum = np.cumsum(counts)
     first, last = np.searchsorted(cum, ranks, side="right")  # the bins of the middle ranks
     before = int(cum[first - 1]) if first else 0
-    inside = values >= edges[first]
-    inside &= values <= edges[last + 1] if last + 1 == len(edges) - 1 else values < edges[last + 1]
-    middle = np.partition(values[inside], ranks - before)[ranks - before]
+    low, high, closed = edges[first], edges[last + 1], last + 1 == len(edges) - 1
+
+    def taken(a: int) -> np.ndarray:  # the values of these bins in the piece from a
+        v = values[a : a + pieces.CHUNK]
+        inside = v >= low
+        inside &= v <= high if closed else v < high
+        return v[inside]
+
+    middle = np.concatenate(pieces.each(taken, n))
+    middle = np.partition(middle, ranks - before)[ranks - before]
     return float(middle[0]) if n % 2 else float((middle[0] + middle[1]) / 2)
 
 
