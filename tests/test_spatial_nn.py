@@ -231,3 +231,22 @@ def _count_tree_calls(monkeypatch) -> list[int]:
 
     monkeypatch.setattr(spatial, "_tree_nearest", counting)
     return calls
+
+
+def test_batches_on_two_threads_as_on_one(monkeypatch):
+    """60 patterns in batches of about 64 points shared by two threads: the distances of the
+    full distance matrix, and R to the last bit as on one thread."""
+    from blockqc import pieces
+
+    rng = np.random.default_rng(5)
+    g = np.repeat(np.arange(60), rng.integers(1, 40, 60))
+    pts = rng.uniform(0, 1000.0, (len(g), 2))
+    x, y, area, perimeter = pts[:, 0], pts[:, 1], np.full(60, 1e6), np.full(60, 4e3)
+    monkeypatch.setattr(spatial, "_BATCH", 64)
+    monkeypatch.setattr(pieces, "THREADS", 2)
+    got = nearest_neighbour_distances(x, y, g, 60)
+    np.testing.assert_allclose(got, brute_nearest(x, y, g, 60), rtol=1e-12, atol=0)
+    r2 = clark_evans_grouped(x, y, g, area, perimeter)
+    monkeypatch.setattr(pieces, "THREADS", 1)
+    r1 = clark_evans_grouped(x, y, g, area, perimeter)
+    assert np.array_equal(r1, r2, equal_nan=True) and np.isfinite(r1).sum() >= 50

@@ -10,7 +10,7 @@ over them are the same whatever the number of threads. A worker process of a bat
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any, TypeVar
 
@@ -31,13 +31,18 @@ def starts(n: int) -> range:
 def each(func: Callable[[int], T], n: int) -> list[T]:
     """func(a) for the first row a of each piece of n rows, in the order of the pieces; the
     pieces run on THREADS threads when there are several (func must not call `each`)."""
-    first = starts(n)
-    if THREADS <= 1 or len(first) <= 1:
-        return [func(a) for a in first]
+    return shared(func, starts(n))
+
+
+def shared(func: Callable[[Any], T], items: Sequence[Any]) -> list[T]:
+    """func(item) for each item, in their order, on THREADS threads when there are several
+    items (func must not call `shared` or `each`)."""
+    if THREADS <= 1 or len(items) <= 1:
+        return [func(item) for item in items]
     global _pool
     if _pool is None:
         _pool = ThreadPoolExecutor(THREADS, thread_name_prefix="blockqc-pieces")
-    return list(_pool.map(func, first))
+    return list(_pool.map(func, items))
 
 
 def total(func: Callable[[int], Any], n: int, none: Any) -> Any:

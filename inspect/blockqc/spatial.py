@@ -6,15 +6,21 @@ cells is measured once; a nearest distance d so found is final when no cell fart
 a nearer point (d ≤ the distance to the cells not searched). The few points not settled are
 searched again ring by ring, and those still unsettled after a few rings, with the patterns too
 clustered for their grid, are measured with a k-d tree over those patterns only. Patterns are
-handled in batches of about `_BATCH` points, so that the work stays in cache and memory bounded.
+handled in batches of about `_BATCH` points, so that the work stays in cache and memory bounded;
+the batches are shared among the cores (`blockqc.pieces`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
+
+from blockqc import pieces
+
+T = TypeVar("T")
 
 _OCCUPANCY = 1.0  # mean points per grid cell over a pattern's bounding box
 _MAX_RING = 3  # rings of cells searched before the k-d tree takes over
@@ -76,14 +82,21 @@ def nearest_neighbour_distances(
     group = np.asarray(group, dtype=np.int64)
     k = int(group.max(initial=-1)) + 1 if k is None else k
     out = np.full(len(group), np.nan)
-    for pos, _, dist in _nearest_by_batch(x, y, group, k):
-        out[pos] = dist
+
+    def keep(pos: np.ndarray, codes: np.ndarray, dist: np.ndarray) -> None:
+        out[pos] = dist  # the batches' points are apart: written from any thread
+
+    _nearest_by_batch(x, y, group, k, keep)
     return out
 
 
-def _nearest_by_batch(x: np.ndarray, y: np.ndarray, group: np.ndarray, k: int) -> Iterator:
-    """Positions, pattern codes and nearest distances of the points of patterns of ≥ 2 points,
-    for batches of whole patterns of about `_BATCH` points (small enough to stay in cache)."""
+def _nearest_by_batch(
+    x: np.ndarray, y: np.ndarray, group: np.ndarray, k: int, keep: Callable[..., T]
+) -> list[T]:
+    """keep(positions, pattern codes, nearest distances) of the points of patterns of ≥ 2
+    points, for each batch of whole patterns of about `_BATCH` points (small enough to stay in
+    cache); the batches are shared among the cores (`blockqc.pieces`), their results come back
+    in order."""
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     if not (np.isfinite(x).all() and np.isfinite(y).all()):
         raise ValueError("point coordinates must be finite")
@@ -97,18 +110,29 @@ def _nearest_by_batch(x: np.ndarray, y: np.ndarray, group: np.ndarray, k: int) -
     begin = np.concatenate([[0], np.cumsum(count)])
     n = np.where(count >= 2, count, 0)
     ends = np.cumsum(n)
-    first = 0
+
+    def batch(span: tuple[int, int]) -> T:
+        first, last = span
+        pos = np.arange(begin[first], begin[last])
+        if (count[first:last] == 1).any():
+            pos = pos[count[group[pos]] >= 2]
+        order, dist = _nearest_sorted(x[pos], y[pos], group[pos] - first, n[first:last])
+        pos = pos[order]
+        return keep(pos if index is None else index[pos], group[pos], dist)
+
+    return pieces.shared(batch, _batches(ends, k))
+
+
+def _batches(ends: np.ndarray, k: int) -> list[tuple[int, int]]:
+    """The patterns [first, last) of each batch of about `_BATCH` points that holds some."""
+    out, first = [], 0
     while first < k:
         done = ends[first - 1] if first else 0
         last = max(first + 1, int(np.searchsorted(ends, done + _BATCH, side="right")))
         if ends[last - 1] > done:
-            pos = np.arange(begin[first], begin[last])
-            if (count[first:last] == 1).any():
-                pos = pos[count[group[pos]] >= 2]
-            order, dist = _nearest_sorted(x[pos], y[pos], group[pos] - first, n[first:last])
-            pos = pos[order]
-            yield (pos if index is None else index[pos]), group[pos], dist
+            out.append((first, last))
         first = last
+    return out
 
 
 def _nearest_sorted(x: np.ndarray, y: np.ndarray, g: np.ndarray, n: np.ndarray) -> tuple:
@@ -324,6 +348,15 @@ def expected_nearest_neighbour_distance(n, area, perimeter=None):
     return expected
 
 
+def _pattern_sums(pos: np.ndarray, codes: np.ndarray, dist: np.ndarray) -> tuple[int, np.ndarray]:
+    """The sum of the nearest distances of each pattern of a batch (whole patterns, codes
+    first..), summed point by point as over all the batches at once."""
+    first = int(codes.min())
+    sums = np.zeros(int(codes.max()) - first + 1)
+    np.add.at(sums, codes - first, dist)
+    return first, sums
+
+
 def clark_evans_grouped(
     x: np.ndarray,
     y: np.ndarray,
@@ -344,8 +377,8 @@ def clark_evans_grouped(
     if not ok.any():
         return r
     total = np.zeros(k)
-    for _, codes, dist in _nearest_by_batch(x, y, group, k):
-        np.add.at(total, codes, dist)
+    for first, sums in _nearest_by_batch(x, y, group, k, _pattern_sums):
+        total[first : first + len(sums)] += sums
     observed = total / np.maximum(n, 1)
     per = None if perimeter is None else np.asarray(perimeter, dtype=float)[ok]
     r[ok] = observed[ok] / expected_nearest_neighbour_distance(n[ok], np.asarray(area)[ok], per)
