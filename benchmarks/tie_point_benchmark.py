@@ -4,7 +4,8 @@
     python benchmarks/tie_point_benchmark.py --generate N [--scenes S] --out FOLDER [...]
 
 DELIVERY holds its tie points as tie_points.parquet. Four commands, each run as its own process
-and timed by the wall clock (min and median of R runs):
+and timed by the wall clock (min and median of R runs; each round runs them in an order
+rotated by one, so that no command always follows the same one):
 
 1. read: pyarrow reads the five columns the tie-point rules need, `scene_id, line, sample,
    v_line, v_sample`, of tie_points.parquet (read3: the three the Great Expectations suite
@@ -108,27 +109,36 @@ def blockqc_statuses(out: Path) -> dict[str, str]:
     }
 
 
-def one_round(block: Path, python_ge: str, tmp: Path) -> tuple[dict[str, float], dict]:
-    """The four commands once: their times, GE's verdicts and blockqc's statuses."""
+def one_round(
+    block: Path, python_ge: str, tmp: Path, turn: int = 0
+) -> tuple[dict[str, float], dict]:
+    """The five commands once, in an order rotated by `turn` (so that over the rounds each
+    command also runs after each other one: a command that frees much memory slows the next
+    one's first touch of memory on some machines); their times, GE's verdicts and blockqc's
+    statuses."""
     blockqc = [sys.executable, "-m", "blockqc", "inspect", str(block), "--pdf", "none"]
     shutil.rmtree(tmp / "tp", ignore_errors=True)
     shutil.rmtree(tmp / "pack", ignore_errors=True)
-    times, seen = {}, {}
     parquet = str(block / "tie_points.parquet")
-    times["read"], printed = timed("read", [sys.executable, "-c", READ, parquet, READ5])
-    times["read3"], _ = timed("read3", [sys.executable, "-c", READ, parquet, READ3])
-    seen["observations"] = int(printed.split()[0])
-    times["ge"], printed = timed("ge", [python_ge, str(GE_SCRIPT), str(block)], ok=(0, 1))
-    seen["ge_output"] = printed
-    seen["ge"] = json.loads(printed.strip().splitlines()[-1].removeprefix("verdicts "))
-    cmd_tp = [*blockqc, "--rules", str(TP_PACK), "--out", str(tmp / "tp")]
-    times["blockqc_tp"], _ = timed("blockqc_tp", cmd_tp, ok=(0, 1))
-    seen["tp"] = blockqc_statuses(tmp / "tp")
-    times["blockqc_pack"], _ = timed(
-        "blockqc_pack", [*blockqc, "--out", str(tmp / "pack")], ok=(0, 1)
-    )
-    seen["pack"] = blockqc_statuses(tmp / "pack")
-    return times, seen
+    commands = {
+        "read": ([sys.executable, "-c", READ, parquet, READ5], (0,)),
+        "read3": ([sys.executable, "-c", READ, parquet, READ3], (0,)),
+        "ge": ([python_ge, str(GE_SCRIPT), str(block)], (0, 1)),
+        "blockqc_tp": ([*blockqc, "--rules", str(TP_PACK), "--out", str(tmp / "tp")], (0, 1)),
+        "blockqc_pack": ([*blockqc, "--out", str(tmp / "pack")], (0, 1)),
+    }
+    names = list(commands)
+    times, printed = {}, {}
+    for name in names[turn % len(names) :] + names[: turn % len(names)]:
+        times[name], printed[name] = timed(name, *commands[name])
+    seen = {
+        "observations": int(printed["read"].split()[0]),
+        "ge_output": printed["ge"],
+        "ge": json.loads(printed["ge"].strip().splitlines()[-1].removeprefix("verdicts ")),
+        "tp": blockqc_statuses(tmp / "tp"),
+        "pack": blockqc_statuses(tmp / "pack"),
+    }
+    return {name: times[name] for name in names}, seen
 
 
 def compare(seen: dict) -> int:
@@ -168,8 +178,8 @@ def main() -> None:
     python_ge = ge_python(args.ge_python)
     rounds = []
     with tempfile.TemporaryDirectory() as tmp:
-        for _ in range(args.repeat):
-            times, seen = one_round(block, python_ge, Path(tmp))
+        for turn in range(args.repeat):
+            times, seen = one_round(block, python_ge, Path(tmp), turn)
             rounds.append(times)
     disagree = compare(seen)
     report(rounds, seen["observations"], disagree)
