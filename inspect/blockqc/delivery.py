@@ -841,7 +841,7 @@ def _consistency_masks(
                 continue
             v = tp[col].to_numpy(dtype=float)
             limit = size[extent].to_numpy(dtype=float, na_value=np.nan)
-            top = np.where(lookup >= 0, limit[lookup], np.nan)  # no scene: reported apart
+            top = np.append(limit, np.nan)[lookup]  # position −1, no scene: reported apart
             outside = _outside(v, codes, -PIXEL_SLACK, top + PIXEL_SLACK)
             msg = f"{col} lies outside its scene (0 to the scene's {extent} in scenes.csv)"
             out.append(("tie_points", col, outside, msg))
