@@ -68,3 +68,6 @@ def test_asprs_pack_on_sample_delivery() -> None:
     assert comp["horizontal"]["ce90_m"] == pytest.approx(h["ce90"], rel=1e-12)
     assert comp["horizontal"]["axis_ratio"] == pytest.approx(h["ratio"], rel=1e-12)
     assert res.verdict == "pass" and pack.acceptance is None  # ASPRS grades no blocks
+    # every axis' bias decides a content: x and y the horizontal one, v the vertical one
+    contents = {r.group["axis"]: r.content for r in res.results if r.rule == "AS-3"}
+    assert contents == {"x": ["horizontal"], "y": ["horizontal"], "v": ["vertical"]}

@@ -384,7 +384,12 @@ class Judge:
 
 
 def _in_group(group: Mapping[str, Any], where: Mapping[str, Any]) -> bool:
-    return all(str(group.get(k, v)) == str(v) for k, v in where.items())
+    """Whether a result's group is one a content selects (a value or a list of values); a
+    result of no group (not applicable, an error) belongs to every content of its rule."""
+    return all(
+        k not in group or str(group[k]) in map(str, v if isinstance(v, list) else [v])
+        for k, v in where.items()
+    )
 
 
 def judge_all(ctx: Context, pack: Pack, block_input: BlockInput) -> list[RuleResult]:

@@ -131,6 +131,46 @@ def test_thresholds_of_one_group_after_where_are_enough(tmp_path: Path) -> None:
     assert _messages(pack) == []
 
 
+def test_contents_select_groups_the_scope_has(tmp_path: Path) -> None:
+    """A content takes the results of the groups it names: a column that is no group column
+    or a value the column never takes would leave results to no content, or to the wrong one."""
+    pack = _pack(
+        tmp_path,
+        "overrides:\n  CP-4:\n"
+        "    content: {cp_plane: {componnt: plane}, cp_height: {component: height}}\n"
+        "  RO-3:\n    content: {cp_plane: {component: planar}, cp_height: {component: height}}\n"
+        "  RO-4:\n    content: {cp_height: {component: height}}\n",
+    )
+    msgs = _messages(pack)
+    assert sorted(msgs) == [
+        f"{pack}, line 5: rule CP-4: content.cp_plane: checkpoint_accuracy at scope "
+        "component_method has no group column 'componnt' (did you mean component?) "
+        "(group columns: component, method)",
+        f"{pack}, line 5: rule CP-4: content: no content takes the results of component plane "
+        "(give each value of component to a content: plane, height)",
+        f"{pack}, line 7: rule RO-3: content.cp_plane.component: no component 'planar' (did you "
+        "mean plane?) (values: plane, height)",
+        f"{pack}, line 7: rule RO-3: content: no content takes the results of component plane "
+        "(give each value of component to a content: plane, height)",
+        f"{pack}, line 9: rule RO-4: content: no content takes the results of component plane "
+        "(give each value of component to a content: plane, height)",
+    ], msgs
+    with pytest.raises(RuleError):
+        load_pack(pack)
+
+
+def test_a_content_may_take_several_values_or_every_group(tmp_path: Path) -> None:
+    pack = _pack(
+        tmp_path,
+        "overrides:\n  RO-3:\n    content: {cp_plane: {component: [plane, height]}}\n"
+        "  RO-4:\n    where: {component: plane}\n    content: {cp_plane: {component: plane}}\n"
+        "    thresholds:\n      plane: {max: 20}\n"
+        "  CP-4:\n    content: [cp_plane]\n",
+    )
+    assert _messages(pack) == []
+    assert load_pack(pack).rule("RO-3").content == {"cp_plane": {"component": ["plane", "height"]}}
+
+
 def test_ids_are_unique_regardless_of_case(tmp_path: Path) -> None:
     pack = _pack(
         tmp_path,

@@ -201,6 +201,7 @@ def check_rule(rule: Rule, names: Mapping[str, Any], file: str, line: LineFn) ->
         )
     _check_threshold_kinds(rule, scope, bad)
     _check_where(rule.where, scope, f"{spec.name} at scope {rule.scope}", "where", bad)
+    _check_content_groups(rule, scope, f"{spec.name} at scope {rule.scope}", bad)
     _check_groups(rule, spec, scope, bad)
     _check_evidence(rule, spec, scope, bad)
     _check_params(rule, spec, names, bad)
@@ -265,6 +266,46 @@ def _check_where(
             values = scope.groups[col]
             hint = did_you_mean(str(val), values)
             bad(f"{key}.{col}: no {col} '{val}'{hint} (values: {', '.join(values)})", key, col)
+
+
+def _check_content_groups(rule: Rule, scope: Scope, what: str, bad: Callable[..., None]) -> None:
+    """`content: {id: {column: value or [values]}}` selects the results of some groups: the
+    column must be a group column of the scope, each value one of its values, and together the
+    contents must take every group the rule judges (a result no content takes is reported
+    apart from the contents it belongs to)."""
+    taken: dict[str, set[str]] = {}
+    for content, where in rule.content.items():
+        for col, val in where.items():
+            if col not in scope.groups:
+                groups = ", ".join(scope.groups) or "none"
+                hint = did_you_mean(col, scope.groups)
+                bad(
+                    f"content.{content}: {what} has no group column '{col}'{hint} "
+                    f"(group columns: {groups})",
+                    "content",
+                    content,
+                    col,
+                )
+                continue
+            vals = [str(v) for v in (val if isinstance(val, list) else [val])]
+            for v in vals:
+                _check_where({col: v}, scope, what, f"content.{content}", _at(bad, content))
+            taken.setdefault(col, set()).update(vals)
+    if any(not where for where in rule.content.values()):
+        return  # a content that takes every result
+    for col, vals in taken.items():
+        judged = [str(rule.where[col])] if col in rule.where else scope.groups[col]
+        missing = [v for v in judged if v not in vals]
+        if missing:
+            bad(
+                f"content: no content takes the results of {col} {', '.join(missing)} "
+                f"(give each value of {col} to a content: {', '.join(judged)})",
+                "content",
+            )
+
+
+def _at(bad: Callable[..., None], content: str) -> Callable[..., None]:
+    return lambda message, *_: bad(message, "content", content)
 
 
 def _check_groups(rule: Rule, spec: MetricSpec, scope: Scope, bad: Callable[..., None]) -> None:

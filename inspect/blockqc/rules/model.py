@@ -103,6 +103,9 @@ class Threshold(BaseModel):
         return f"{ge} {num(lo)}"
 
 
+Scalar = str | float | bool
+
+
 class Rule(BaseModel):
     """One rule: a registered metric measured at a scope, a statistic, a threshold, a severity."""
 
@@ -114,8 +117,9 @@ class Rule(BaseModel):
     description: str = ""
     description_zh: str = ""
     # the inspection content(s) the rule decides (ids of the pack's `elements:` tree): one id, a
-    # list, or {content id: {group column: value}} where results of a group decide one content
-    content: dict[str, dict[str, str | float | bool]] = Field(default_factory=dict)
+    # list, or {content id: {group column: value or [values]}} where results of a group decide
+    # one content
+    content: dict[str, dict[str, Scalar | list[Scalar]]] = Field(default_factory=dict)
     quality_element: str = ""  # an element id, for a rule that decides no content of the tree
     inspection: Literal["general", "detailed"] = "general"  # DOMAIN §2: every block / sampled
     figures: list[FigureHint] = Field(default_factory=list)
