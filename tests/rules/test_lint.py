@@ -171,6 +171,23 @@ def test_a_content_may_take_several_values_or_every_group(tmp_path: Path) -> Non
     assert load_pack(pack).rule("RO-3").content == {"cp_plane": {"component": ["plane", "height"]}}
 
 
+def test_a_true_false_statistic_is_compared_with_true_or_false(tmp_path: Path) -> None:
+    """A text never equals true/false (the rule could never pass); `in:` holds texts and numbers."""
+    pack = _pack(
+        tmp_path,
+        "overrides:\n  DOC-2:\n    threshold: {equals: tp.nope}\n"
+        "  MB-3:\n    threshold: {min: 1}\n  DOC-1:\n    threshold: {in: [true]}\n",
+    )
+    assert sorted(_messages(pack)) == [
+        f"{pack}, line 5: rule DOC-2: threshold: statistic agrees is true/false: compare it "
+        "with equals: true or equals: false",
+        f"{pack}, line 7: rule MB-3: threshold: statistic projection_ok is true/false: compare "
+        "it with equals: true or equals: false",
+        f"{pack}, line 9: rule DOC-1: threshold: statistic ok is true/false: compare it with "
+        "equals: true or equals: false",
+    ]
+
+
 def test_ids_are_unique_regardless_of_case(tmp_path: Path) -> None:
     pack = _pack(
         tmp_path,

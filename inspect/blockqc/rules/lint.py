@@ -238,7 +238,18 @@ NON_NUMERIC_UNITS = {"", "true/false", "name", "EPSG code", "the figure's unit"}
 
 def _check_threshold_kinds(rule: Rule, scope: Scope, bad: Callable[..., None]) -> None:
     """A statistic with a unit is a number: `equals: true`, a text, or `in` of texts never pass."""
-    if scope.statistics.get(rule.statistic or "", "") in NON_NUMERIC_UNITS:
+    unit = scope.statistics.get(rule.statistic or "", "")
+    if unit == "true/false":
+        for group, th in rule.all_thresholds().items():
+            loc = ("thresholds", group) if group else ("threshold",)
+            given = [th.equals] if th.in_ is None else th.in_
+            if not all(isinstance(v, bool) for v in given):
+                bad(
+                    f"{'.'.join(loc)}: statistic {rule.statistic} is true/false: "
+                    "compare it with equals: true or equals: false",
+                    *loc,
+                )
+    if unit in NON_NUMERIC_UNITS:
         return
     for group, th in rule.all_thresholds().items():
         loc = ("thresholds", group) if group else ("threshold",)
