@@ -197,3 +197,18 @@ def test_duplicate_block_ids_refused_in_parallel_batch(blockqc, tmp_path: Path) 
     assert [b["block_id"] for b in summary["blocks"]] == ["CASE", "OTHER"]
     assert summary["unreadable"][0]["path"] == str(batch / "b")
     assert summary["complete"] is False and summary["verdict"] == "error"
+
+
+def test_block_ids_differing_only_in_case_are_refused(blockqc, tmp_path: Path) -> None:
+    """F1-B01 and f1-b01 would write one output folder on a case-insensitive file system."""
+    batch = tmp_path / "batch"
+    write_delivery(batch / "a", {"manifest": {"block_id": "F1-B01"}})
+    write_delivery(batch / "b", {"manifest": {"block_id": "f1-b01"}})
+    p = blockqc("inspect", batch, "--out", tmp_path / "out", "--no-pdf")
+    assert p.returncode == 2
+    _no_traceback(p)
+    assert (
+        f"{batch / 'b' / 'block.yaml'}: block_id f1-b01 differs only in case from F1-B01, the id "
+        f"of {batch / 'a'}: block ids must be unique in a batch, whatever their case" in p.stderr
+    )
+    assert sorted(q.name for q in (tmp_path / "out").iterdir() if q.is_dir()) == ["F1-B01"]

@@ -86,7 +86,7 @@ def collect(paths: Iterable[Path]) -> Collected:
     got = Collected(
         found, batch or len(found) > 1, files=[f for p in paths for f in batch_files(p)]
     )
-    seen: dict[str, Path] = {}
+    seen: dict[str, tuple[Path, str]] = {}
     for path in found:
         if not is_delivery(path):
             got.refused[path] = Problem(
@@ -99,14 +99,20 @@ def collect(paths: Iterable[Path]) -> Collected:
             manifest = got.manifests[path] = load_manifest(path / MANIFEST)
         except InputError:
             continue  # reported in full when the delivery is read
-        if manifest.block_id in seen:
+        key = manifest.block_id.casefold()  # one output folder on Windows and macOS
+        if key in seen:
+            other, first = seen[key]
+            same = (
+                f"differs only in case from {first}," if first != manifest.block_id else "is also"
+            )
             got.refused[path] = Problem(
                 str(path / MANIFEST),
-                f"block_id {manifest.block_id} is also the id of {seen[manifest.block_id]}: "
-                "block ids must be unique in a batch",
+                f"block_id {manifest.block_id} {same} the id of {other}: block ids must be "
+                "unique in a batch, whatever their case (their outputs share a folder on "
+                "Windows and macOS)",
             )
         else:
-            seen[manifest.block_id] = path
+            seen[key] = (path, manifest.block_id)
     return got
 
 
