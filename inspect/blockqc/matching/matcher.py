@@ -130,96 +130,36 @@ def _match_chunk(
     grid: int,
     s: MatchSettings,
 ) -> pd.DataFrame:
-    r0, r1, c0, c1 = window
-    rows, cols = image.shape
-    ref_rows, ref_cols = reference.shape
+    """The matches of one chunk of the image: its Harris corners matched by BRIEF and refined
+    by NCC, the corners left searched by NCC alone, then RANSAC over the chunk's matches."""
     off = np.rint(np.asarray(offset)).astype(np.int64)
-    half = s.template_half
-    radius = s.search_radius
-
-    # Image chunk with the margin its patches need; corners only in the chunk proper.
-    m = s.margin
-    ir0, ir1, ic0, ic1 = max(r0 - m, 0), min(r1 + m, rows), max(c0 - m, 0), min(c1 + m, cols)
-    img = image[ir0:ir1, ic0:ic1]
-    usable = _erode(image_valid[ir0:ir1, ic0:ic1], m)
-    core = np.zeros_like(usable)
-    core[r0 - ir0 : r1 - ir0, c0 - ic0 : c1 - ic0] = True
-    usable &= core
-
-    # Reference chunk around the same centre, enlarged by the search radius and the margins.
-    mr = m + radius + s.refine_radius + 1
-    rr0 = max(r0 + off[0] - mr, 0)
-    rr1 = min(r1 + off[0] + mr, ref_rows)
-    rc0 = max(c0 + off[1] - mr, 0)
-    rc1 = min(c1 + off[1] + mr, ref_cols)
-    if rr1 - rr0 < s.template or rc1 - rc0 < s.template or not usable.any():
+    img, usable, i0 = _image_chunk(image, image_valid, window, s.margin)
+    found = _reference_chunk(reference, reference_valid, window, off, s)
+    if found is None or not usable.any():
         return _empty(CANDIDATE_COLUMNS)
-    ref = reference[rr0:rr1, rc0:rc1]
-    ref_valid = reference_valid[rr0:rr1, rc0:rc1]
-    ref_usable = _erode(ref_valid, max(s.brief_half, half + s.refine_radius))
-    search_usable = _erode(ref_valid, half + radius)
-
-    harris = dict(
-        block=s.harris_block,
-        ksize=s.harris_ksize,
-        k=s.harris_k,
-        quality=s.harris_quality,
-        min_distance=s.harris_min_distance,
-        per_cell=s.corners_per_cell,
-    )
-    pts = harris_corners(img, usable, cell_of=(ir0, ic0, grid), **harris)
+    ref, ref_usable, search_usable, r0 = found
+    pts = harris_corners(img, usable, cell_of=(i0[0], i0[1], grid), **_harris(s))
     if len(pts) == 0:
         return _empty(CANDIDATE_COLUMNS)
-    ref_pts = harris_corners(ref, ref_usable, cell_of=(rr0 - off[0], rc0 - off[1], grid), **harris)
-
-    # 512-bit BRIEF + Hamming matching within the search window.
-    pattern = brief_pattern(s.brief_patch, s.brief_seed)
-    desc = brief_descriptors(smooth_for_brief(img, s.brief_sigma), pts, pattern)
-    ref_desc = brief_descriptors(smooth_for_brief(ref, s.brief_sigma), ref_pts, pattern)
-    pts_global = pts + np.array([ir0, ic0])
-    ref_in_image = ref_pts + np.array([rr0, rc0]) - off
-    bi, bj, bd = match_brief(
-        desc,
-        pts_global,
-        ref_desc,
-        ref_in_image,
-        radius=radius,
-        max_distance=s.max_hamming,
-        ratio=s.hamming_ratio,
-    )
-    # Sub-pixel refinement of each BRIEF match by NCC in a small window around its corner.
-    if s.ncc_sigma > 0:
+    ref_cell = (r0[0] - off[0], r0[1] - off[1], grid)
+    ref_pts = harris_corners(ref, ref_usable, cell_of=ref_cell, **_harris(s))
+    pts_global = pts + i0
+    bi, bj, bd = _brief_matches(img, pts, pts_global, ref, ref_pts, ref_pts + r0 - off, s)
+    if s.ncc_sigma > 0:  # NCC compares the images smoothed alike
         img = cv2.GaussianBlur(img, (0, 0), s.ncc_sigma)
         ref = cv2.GaussianBlur(ref, (0, 0), s.ncc_sigma)
+    # sub-pixel refinement of each BRIEF match by NCC in a small window around its corner
     b_ref, b_peak, b_inside = ncc_search(
-        img, pts[bi], ref, ref_pts[bj], half=half, radius=s.refine_radius
+        img, pts[bi], ref, ref_pts[bj], half=s.template_half, radius=s.refine_radius
     )
     b_ok = b_inside & (b_peak >= s.min_ncc)
     bi, bd, b_ref = bi[b_ok], bd[b_ok], b_ref[b_ok]
-
-    # NCC search for every corner left unmatched, at the expected position in the reference.
-    left = np.ones(len(pts), dtype=bool)
-    left[bi] = False
-    centres = pts_global + off - np.array([rr0, rc0])
-    inside_ref = (
-        (centres[:, 0] >= 0)
-        & (centres[:, 0] < ref.shape[0])
-        & (centres[:, 1] >= 0)
-        & (centres[:, 1] < ref.shape[1])
-    )
-    left &= inside_ref
-    left[left] = search_usable[centres[left, 0], centres[left, 1]]
-    ni = np.flatnonzero(left)
-    n_ref, n_peak, n_inside = ncc_search(img, pts[ni], ref, centres[ni], half=half, radius=radius)
-    n_ok = n_inside & (n_peak >= s.min_ncc)
-    ni, n_ref, n_peak = ni[n_ok], n_ref[n_ok], n_peak[n_ok]
-
+    ni, n_ref, n_peak = _ncc_matches(img, pts, ref, pts_global + off - r0, bi, search_usable, s)
     src = np.concatenate([pts_global[bi], pts_global[ni]]).astype(np.float64)
-    dst = np.concatenate([b_ref, n_ref]) + np.array([rr0, rc0])
+    dst = np.concatenate([b_ref, n_ref]) + r0
     kind = np.array(["brief"] * len(bi) + ["ncc"] * len(ni), dtype=object)
     score = np.concatenate([bd.astype(np.float64), n_peak])
-
-    # RANSAC per chunk drops the matches that disagree with the chunk's common geometry.
+    # RANSAC per chunk drops the matches that disagree with the chunk's common geometry
     keep = ransac_inliers(
         src,
         dst,
@@ -238,6 +178,106 @@ def _match_chunk(
             "score": score[keep],
         }
     )
+
+
+def _image_chunk(
+    image: np.ndarray, valid: np.ndarray, window: tuple[int, int, int, int], margin: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The chunk of the image with the margin its patches need, where corners may lie (valid
+    pixels of the chunk proper, the margin's width from any invalid one), and its origin."""
+    r0, r1, c0, c1 = window
+    rows, cols = image.shape
+    ir0, ir1 = max(r0 - margin, 0), min(r1 + margin, rows)
+    ic0, ic1 = max(c0 - margin, 0), min(c1 + margin, cols)
+    usable = _erode(valid[ir0:ir1, ic0:ic1], margin)
+    core = np.zeros_like(usable)
+    core[r0 - ir0 : r1 - ir0, c0 - ic0 : c1 - ic0] = True
+    return image[ir0:ir1, ic0:ic1], usable & core, np.array([ir0, ic0])
+
+
+def _reference_chunk(
+    reference: np.ndarray,
+    valid: np.ndarray,
+    window: tuple[int, int, int, int],
+    off: np.ndarray,
+    s: MatchSettings,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    """The reference around the chunk's centre, enlarged by the search radius and the margins:
+    the chunk, where its corners may lie, where a search window fits, and its origin; None
+    when it is smaller than a template."""
+    r0, r1, c0, c1 = window
+    ref_rows, ref_cols = reference.shape
+    m = s.margin + s.search_radius + s.refine_radius + 1
+    rr0, rr1 = max(r0 + off[0] - m, 0), min(r1 + off[0] + m, ref_rows)
+    rc0, rc1 = max(c0 + off[1] - m, 0), min(c1 + off[1] + m, ref_cols)
+    if rr1 - rr0 < s.template or rc1 - rc0 < s.template:
+        return None
+    ref_valid = valid[rr0:rr1, rc0:rc1]
+    corners = _erode(ref_valid, max(s.brief_half, s.template_half + s.refine_radius))
+    search = _erode(ref_valid, s.template_half + s.search_radius)
+    return reference[rr0:rr1, rc0:rc1], corners, search, np.array([rr0, rc0])
+
+
+def _harris(s: MatchSettings) -> dict[str, float]:
+    """The Harris detector's settings, as `harris_corners` takes them."""
+    return dict(
+        block=s.harris_block,
+        ksize=s.harris_ksize,
+        k=s.harris_k,
+        quality=s.harris_quality,
+        min_distance=s.harris_min_distance,
+        per_cell=s.corners_per_cell,
+    )
+
+
+def _brief_matches(
+    img: np.ndarray,
+    pts: np.ndarray,
+    pts_global: np.ndarray,
+    ref: np.ndarray,
+    ref_pts: np.ndarray,
+    ref_in_image: np.ndarray,
+    s: MatchSettings,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """512-bit BRIEF descriptors matched by Hamming distance within the search window: the
+    image corners, their reference corners and the distances."""
+    pattern = brief_pattern(s.brief_patch, s.brief_seed)
+    desc = brief_descriptors(smooth_for_brief(img, s.brief_sigma), pts, pattern)
+    ref_desc = brief_descriptors(smooth_for_brief(ref, s.brief_sigma), ref_pts, pattern)
+    return match_brief(
+        desc,
+        pts_global,
+        ref_desc,
+        ref_in_image,
+        radius=s.search_radius,
+        max_distance=s.max_hamming,
+        ratio=s.hamming_ratio,
+    )
+
+
+def _ncc_matches(
+    img: np.ndarray,
+    pts: np.ndarray,
+    ref: np.ndarray,
+    centres: np.ndarray,
+    matched: np.ndarray,
+    search_usable: np.ndarray,
+    s: MatchSettings,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """NCC search for every corner not `matched`, around its expected position in the reference
+    chunk (`centres`): the corners found, their positions in the chunk and their peaks."""
+    left = np.ones(len(pts), dtype=bool)
+    left[matched] = False
+    rows, cols = ref.shape
+    left &= (centres[:, 0] >= 0) & (centres[:, 0] < rows)
+    left &= (centres[:, 1] >= 0) & (centres[:, 1] < cols)
+    left[left] = search_usable[centres[left, 0], centres[left, 1]]
+    ni = np.flatnonzero(left)
+    found, peak, inside = ncc_search(
+        img, pts[ni], ref, centres[ni], half=s.template_half, radius=s.search_radius
+    )
+    ok = inside & (peak >= s.min_ncc)
+    return ni[ok], found[ok], peak[ok]
 
 
 def _empty(columns: list[str]) -> pd.DataFrame:
