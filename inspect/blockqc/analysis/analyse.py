@@ -33,22 +33,8 @@ def analyse(table: pd.DataFrame, source: str) -> dict[str, Any]:
     """
     factors, indicators = list(FACTOR_COLUMNS), list(INDICATOR_COLUMNS)
     numeric = table[factors + indicators].apply(pd.to_numeric, errors="coerce").astype(float)
-    finite = np.isfinite(numeric.to_numpy(dtype=float))
-    complete = finite.all(axis=1)
-    ids = (
-        table["experiment"].astype(str)
-        if "experiment" in table
-        else pd.Series([str(i + 1) for i in range(len(table))])
-    )
-    excluded = [
-        {
-            "experiment": ids.iloc[i],
-            "missing": [c for c, ok in zip(factors + indicators, finite[i], strict=True) if not ok],
-        }
-        for i in np.flatnonzero(~complete)
-    ]
+    complete = np.isfinite(numeric.to_numpy(dtype=float)).all(axis=1)
     used = numeric[complete].reset_index(drop=True)
-    n = len(used)
     stats = pd.DataFrame(
         {
             "n": numeric.notna().sum(),
@@ -58,11 +44,11 @@ def analyse(table: pd.DataFrame, source: str) -> dict[str, Any]:
             "max": numeric.max(),
         }
     )
-    results: dict[str, Any] = {
+    return {
         "source": source,
         "n_rows": int(len(table)),
-        "n_used": int(n),
-        "excluded": excluded,
+        "n_used": int(len(used)),
+        "excluded": _excluded(table, numeric),
         "factors": factors,
         "indicators": indicators,
         "labels": {c: LABELS[c] for c in factors + indicators},
@@ -72,32 +58,61 @@ def analyse(table: pd.DataFrame, source: str) -> dict[str, Any]:
         "table": [
             {k: jsonable(v) for k, v in row.items()} for row in table.to_dict(orient="records")
         ],
-        "correlation": None,
-        "correlation_note": None,
-        "cca": None,
-        "cca_not_computed": [],
+        "correlation": _correlation(numeric, factors, indicators),
+        "correlation_note": _correlation_note(numeric),
+        **_cca_of(used, factors, indicators),
     }
-    corr = pearson(numeric, factors, indicators)
-    if corr.r.notna().to_numpy().any():
-        n_cells = corr.n.to_numpy()
-        results["correlation"] = {
-            "r": _matrix(corr.r),
-            "p_value": _matrix(corr.p_value),
-            "n": _matrix(corr.n),
-            "n_min": int(n_cells.min()),
-            "n_max": int(n_cells.max()),
+
+
+def _excluded(table: pd.DataFrame, numeric: pd.DataFrame) -> list[dict[str, Any]]:
+    """The experiments left out of the CCA, each with the columns it misses."""
+    finite = np.isfinite(numeric.to_numpy(dtype=float))
+    ids = (
+        table["experiment"].astype(str)
+        if "experiment" in table
+        else pd.Series([str(i + 1) for i in range(len(table))])
+    )
+    return [
+        {
+            "experiment": ids.iloc[i],
+            "missing": [c for c, ok in zip(numeric.columns, finite[i], strict=True) if not ok],
         }
+        for i in np.flatnonzero(~finite.all(axis=1))
+    ]
+
+
+def _correlation(
+    numeric: pd.DataFrame, factors: list[str], indicators: list[str]
+) -> dict[str, Any] | None:
+    """Pearson r of every factor with every indicator, its p-value and the rows of each cell;
+    None when no cell has one."""
+    corr = pearson(numeric, factors, indicators)
+    if not corr.r.notna().to_numpy().any():
+        return None
+    n_cells = corr.n.to_numpy()
+    return {
+        "r": _matrix(corr.r),
+        "p_value": _matrix(corr.p_value),
+        "n": _matrix(corr.n),
+        "n_min": int(n_cells.min()),
+        "n_max": int(n_cells.max()),
+    }
+
+
+def _correlation_note(numeric: pd.DataFrame) -> str | None:
+    """Why some columns have no correlation, or one that rests on very small differences."""
+    cols = list(numeric.columns)
     notes = []
-    few = [c for c in factors + indicators if numeric[c].notna().sum() < MIN_CORRELATION_ROWS]
+    few = [c for c in cols if numeric[c].notna().sum() < MIN_CORRELATION_ROWS]
     if few:
         notes.append(f"fewer than {MIN_CORRELATION_ROWS} values, no correlation: {', '.join(few)}")
-    const = [c for c in factors + indicators if c not in few and not numeric[c].std(ddof=1) > 0]
+    const = [c for c in cols if c not in few and not numeric[c].std(ddof=1) > 0]
     if const:
         notes.append("constant over the experiments, no correlation: " + ", ".join(const))
     mean_abs = numeric.mean().abs()
     nearly = [
         c
-        for c in factors + indicators
+        for c in cols
         if c not in few + const and numeric[c].std(ddof=1) < NEARLY_CONSTANT * mean_abs[c]
     ]
     if nearly:
@@ -105,17 +120,20 @@ def analyse(table: pd.DataFrame, source: str) -> dict[str, Any]:
             "varying by less than 0.1 % of their mean, so their correlations rest on very small "
             "differences: " + ", ".join(nearly)
         )
-    results["correlation_note"] = "; ".join(notes) or None
+    return "; ".join(notes) or None
+
+
+def _cca_of(used: pd.DataFrame, factors: list[str], indicators: list[str]) -> dict[str, Any]:
+    """The CCA of the complete rows, or why it was not computed."""
+    n = len(used)
     reasons = (
         cca_requirements(used, factors, indicators)
         if n >= 2
         else [f"the table has {n} complete rows"]
     )
     if reasons:
-        results["cca_not_computed"] = reasons
-    else:
-        try:
-            results["cca"] = cca(used, factors, indicators).to_dict()
-        except AnalysisError as exc:
-            results["cca_not_computed"] = [str(exc)]
-    return results
+        return {"cca": None, "cca_not_computed": reasons}
+    try:
+        return {"cca": cca(used, factors, indicators).to_dict(), "cca_not_computed": []}
+    except AnalysisError as exc:
+        return {"cca": None, "cca_not_computed": [str(exc)]}
