@@ -696,37 +696,12 @@ def load_delivery(
         problems.extend(exc.problems)
     if tie_point_columns is not None and has_geometry(path):
         tie_point_columns = None
-    tables: dict[str, pd.DataFrame] = {}
-    files: dict[str, Path] = {}
-    headers: dict[str, list[str]] = {}
-    clean: set[str] = set()  # tables read without a problem, checked row by row further
-    for name, schema in TABLES.items():
-        columns = tie_point_columns if name == "tie_points" else None
-        try:
-            f = _table_file(path, name)
-            if f is None:
-                if schema.required:
-                    problems.append(
-                        Problem(
-                            str(path / f"{name}.csv"),
-                            f"required table {name} is missing (expected "
-                            f"{name}.csv or {name}.parquet)",
-                        )
-                    )
-                continue
-            files[name] = f
-            df, found, headers[name] = read_columns(f, schema, columns)
-        except InputError as exc:
-            problems.extend(exc.problems)
-            continue
-        problems.extend(found)
-        tables[name] = df
-        if not found:
-            clean.add(name)
-
+    read = _read_tables(path, tie_point_columns)
+    tables, files, headers = read.tables, read.files, read.headers
+    problems.extend(read.problems)
     problems.extend(_misnamed_tables(path))
     problems.extend(_check_references(tables, files))
-    problems.extend(_check_consistency({k: tables[k] for k in clean}, files))
+    problems.extend(_check_consistency({k: tables[k] for k in read.clean}, files))
     geometry, found = load_geometry(path, tables, files)  # contract v1.1
     problems.extend(found)
     if residuals and "tie_points" in tables:
@@ -749,6 +724,48 @@ def load_delivery(
         not_read={k: v for k, v in not_read.items() if v},
         **tables,
     )
+
+
+@dataclass
+class _Tables:
+    """The tables of a delivery as read: frames, files, header names, problems; `clean`: the
+    tables read without a problem (checked row by row further)."""
+
+    tables: dict[str, pd.DataFrame] = field(default_factory=dict)
+    files: dict[str, Path] = field(default_factory=dict)
+    headers: dict[str, list[str]] = field(default_factory=dict)
+    clean: set[str] = field(default_factory=set)
+    problems: list[Problem] = field(default_factory=list)
+
+
+def _read_tables(path: Path, tie_point_columns: Collection[str] | None) -> _Tables:
+    """Read and validate every table of the contract the delivery gives (a required one
+    missing is a problem); of the tie points only `tie_point_columns` (None: all)."""
+    out = _Tables()
+    for name, schema in TABLES.items():
+        columns = tie_point_columns if name == "tie_points" else None
+        try:
+            f = _table_file(path, name)
+            if f is None:
+                if schema.required:
+                    out.problems.append(
+                        Problem(
+                            str(path / f"{name}.csv"),
+                            f"required table {name} is missing (expected "
+                            f"{name}.csv or {name}.parquet)",
+                        )
+                    )
+                continue
+            out.files[name] = f
+            df, found, out.headers[name] = read_columns(f, schema, columns)
+        except InputError as exc:
+            out.problems.extend(exc.problems)
+            continue
+        out.problems.extend(found)
+        out.tables[name] = df
+        if not found:
+            out.clean.add(name)
+    return out
 
 
 def _misnamed_tables(path: Path) -> list[Problem]:
