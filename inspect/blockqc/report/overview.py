@@ -17,7 +17,8 @@ def block_extent(scenes: list[dict[str, Any]]) -> str | None:
     """The union of a block's scene footprints (lon/lat) as WKT, simplified; None without any."""
     import shapely
 
-    geoms = plots.geometries([s.get("footprint_wkt") for s in scenes])
+    wkts = dict.fromkeys(s.get("footprint_wkt") for s in scenes)  # a PAN and MS pair once
+    geoms = plots.geometries(list(wkts))
     geoms = geoms[~shapely.is_missing(geoms)]
     geoms = shapely.make_valid(geoms[shapely.get_type_id(geoms) >= 0])
     if len(geoms) == 0:
