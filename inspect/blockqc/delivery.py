@@ -44,7 +44,7 @@ from blockqc.schema import (
     report_rows,
     validate_table,
 )
-from blockqc.textio import BOM, decode_utf8, read_bytes
+from blockqc.textio import BOM, check_utf8, read_bytes
 from blockqc.yamlio import line_of, load_yaml, pydantic_problems
 
 MANIFEST = "block.yaml"
@@ -266,7 +266,7 @@ def _read_csv(
     """Read a CSV fast with pyarrow; text-like columns stay text (ids keep leading zeros).
     Only the `columns` given are read (None: all); the header's names come back beside."""
     data = read_bytes(path, None)
-    decode_utf8(path, data)  # the whole file is UTF-8, or the line that is not is named
+    check_utf8(path, data)  # the whole file is UTF-8, or the line that is not is named
     data = data.removeprefix(BOM)
     if not data.strip():
         raise InputError(Problem(str(path), "the file is empty: expected a header row"))

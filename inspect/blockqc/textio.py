@@ -61,6 +61,13 @@ def read_bytes(path: Path, max_bytes: int | None, error: type[BlockqcError] = In
         raise error(Problem(str(path), f"cannot be read: {exc.strerror or exc}")) from None
 
 
+def check_utf8(path: Path, data: bytes, error: type[BlockqcError] = InputError) -> None:
+    """Raise `error` naming the line when `data` is not UTF-8 (plain ASCII is checked at once,
+    without decoding)."""
+    if not data.isascii():
+        decode_utf8(path, data, error)
+
+
 def decode_utf8(path: Path, data: bytes, error: type[BlockqcError] = InputError) -> str:
     """UTF-8 text without its byte-order mark; other encodings are refused with the line."""
     try:
