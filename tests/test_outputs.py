@@ -38,6 +38,9 @@ def test_records_as_value_by_value(columns: tuple[list, list, list, list]) -> No
     got = records(df)
     assert json.dumps(got) == json.dumps(expected)
     assert all(type(r["f"]) in (float, type(None)) for r in got)
+    # the rows are plain already: converting them again passes them on as they are
+    assert jsonable({"rows": got})["rows"] is got
+    assert jsonable(list(got)) == got
 
 
 def test_records_by_hand() -> None:

@@ -20,13 +20,18 @@ from blockqc.errors import InputError, Problem, UsageError
 _PLAIN = frozenset({str, int, bool, type(None)})
 
 
+class Rows(list):
+    """Table rows made by `records`: plain JSON values already, passed on by `jsonable` as
+    they are (a measurement detail may hold thousands)."""
+
+
 def jsonable(value: Any) -> Any:
     """Plain JSON values: numpy scalars unwrapped, NaN/NaT as null, timestamps as ISO dates.
 
     The plain Python types are dispatched on their exact type first and numeric arrays are
     converted whole: measurement details hold lists of thousands of small rows."""
     kind = type(value)
-    if kind in _PLAIN:
+    if kind in _PLAIN or kind is Rows:
         return value
     if kind is float:
         return value if math.isfinite(value) else None
@@ -68,13 +73,13 @@ def _jsonable_other(value: Any) -> Any:
     return value
 
 
-def records(df: pd.DataFrame) -> list[dict[str, Any]]:
+def records(df: pd.DataFrame) -> Rows:
     """A table as JSON rows, the values of `jsonable`, converted column by column."""
     if df.shape[1] == 0:
-        return [{} for _ in range(len(df))]
+        return Rows({} for _ in range(len(df)))
     names = [str(c) for c in df.columns]
     columns = [_column_values(df.iloc[:, i]) for i in range(df.shape[1])]
-    return [dict(zip(names, row, strict=True)) for row in zip(*columns, strict=True)]
+    return Rows(dict(zip(names, row, strict=True)) for row in zip(*columns, strict=True))
 
 
 def _column_values(col: pd.Series) -> list[Any]:
