@@ -72,6 +72,22 @@ def test_a_font_that_cannot_load_is_an_error_not_a_fallback(tmp_path):
         chromium.html_to_pdf(page("<p>text</p>", css))
 
 
+def _tagged(data: bytes, tmp_path) -> str:
+    path = tmp_path / "t.pdf"
+    path.write_bytes(data)
+    out = subprocess.run([require_tool("pdfinfo"), str(path)], capture_output=True, text=True)
+    return next(line.split()[-1] for line in out.stdout.splitlines() if line.startswith("Tagged:"))
+
+
+def test_pdfs_are_untagged_unless_asked(tmp_path, monkeypatch):
+    """Like WeasyPrint's by default; BLOCKQC_PDF_TAGGED=1 asks for the structure tree."""
+    require_chromium()
+    monkeypatch.delenv(chromium.TAGGED, raising=False)
+    assert _tagged(chromium.html_to_pdf(page("<h1>Title</h1><p>text</p>")), tmp_path) == "no"
+    monkeypatch.setenv(chromium.TAGGED, "1")
+    assert _tagged(chromium.html_to_pdf(page("<h1>Title</h1><p>text</p>")), tmp_path) == "yes"
+
+
 def test_relative_links_lead_from_the_output_folder(tmp_path):
     require_chromium()
     data = chromium.html_to_pdf(page('<p><a href="B-01/report.html">B-01</a></p>'), tmp_path)
