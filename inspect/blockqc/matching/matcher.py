@@ -138,11 +138,12 @@ def _match_chunk(
     if found is None or not usable.any():
         return _empty(CANDIDATE_COLUMNS)
     ref, ref_usable, search_usable, r0 = found
-    pts = harris_corners(img, usable, cell_of=(i0[0], i0[1], grid), **_harris(s))
+    harris = _harris(s)
+    pts = harris_corners(img, usable, cell_of=(i0[0], i0[1], grid), **harris)
     if len(pts) == 0:
         return _empty(CANDIDATE_COLUMNS)
     ref_cell = (r0[0] - off[0], r0[1] - off[1], grid)
-    ref_pts = harris_corners(ref, ref_usable, cell_of=ref_cell, **_harris(s))
+    ref_pts = harris_corners(ref, ref_usable, cell_of=ref_cell, **harris)
     pts_global = pts + i0
     bi, bj, bd = _brief_matches(img, pts, pts_global, ref, ref_pts, ref_pts + r0 - off, s)
     if s.ncc_sigma > 0:  # NCC compares the images smoothed alike
