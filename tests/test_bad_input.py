@@ -148,12 +148,14 @@ def test_not_a_delivery(blockqc, tmp_path: Path) -> None:
 
 def test_empty_and_ragged_csv(blockqc, delivery: Path, tmp_path: Path) -> None:
     (delivery / "edges.csv").write_text("")
+    (delivery / "pan_ms.csv").write_bytes(b" \r\n\t\n")  # white space only: empty too
     with (delivery / "overlaps.csv").open("a") as fh:
         fh.write("S1,S2,O9,1,2,3,4,5\n")
     p = blockqc("inspect", delivery, "--out", tmp_path / "out")
     assert p.returncode == 2
     _no_traceback(p)
     assert "edges.csv: the file is empty" in p.stderr
+    assert "pan_ms.csv: the file is empty" in p.stderr
     assert "overlaps.csv, line 7: not a readable CSV table: 8 fields where the header has 6" in (
         p.stderr
     )

@@ -268,7 +268,7 @@ def _read_csv(
     data = read_bytes(path, None)
     check_utf8(path, data)  # the whole file is UTF-8, or the line that is not is named
     data = data.removeprefix(BOM)
-    if not data.strip():
+    if not data or data.isspace():  # no stripped copy of the whole file
         raise InputError(Problem(str(path), "the file is empty: expected a header row"))
     header = None if columns is None else _csv_header(data)
     include = None if header is None else [h for h in header if h.strip() in columns]
