@@ -146,6 +146,22 @@ def test_not_a_delivery(blockqc, tmp_path: Path) -> None:
     assert "neither a delivery" in p.stderr
 
 
+@pytest.mark.parametrize(("sep", "name"), [(";", "semicolons"), ("\t", "tabs")])
+def test_csv_of_another_separator(
+    blockqc, delivery: Path, tmp_path: Path, sep: str, name: str
+) -> None:
+    tp = delivery / "tie_points.csv"
+    tp.write_text(tp.read_text().replace(",", sep))
+    p = blockqc("inspect", delivery, "--out", tmp_path / "out")
+    assert p.returncode == 2
+    _no_traceback(p)
+    assert (
+        f"tie_points.csv, line 1: columns separated by {name}, not by commas: blockqc reads "
+        "CSV tables comma-separated (RFC 4180); export the table with ',' as the separator"
+    ) in p.stderr
+    assert "missing column" not in p.stderr  # said once, not once per column
+
+
 def test_empty_and_ragged_csv(blockqc, delivery: Path, tmp_path: Path) -> None:
     (delivery / "edges.csv").write_text("")
     (delivery / "pan_ms.csv").write_bytes(b" \r\n\t\n")  # white space only: empty too

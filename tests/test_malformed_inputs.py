@@ -144,6 +144,19 @@ def test_factor_table_rows_with_a_field_too_many_are_refused(blockqc, tmp_path):
     _refused(p, "d.csv", "column named more than once")
 
 
+def test_semicolon_separated_tables_are_refused_once(blockqc, tmp_path):
+    source = SAMPLE.parents[1] / "factors" / "gf7_adjustment_experiments.csv"
+    text = source.read_text(encoding="utf-8-sig")
+    (tmp_path / "t.csv").write_text(text.replace(",", ";"))
+    p = blockqc("factors", "--table", tmp_path / "t.csv", "--out", tmp_path / "out")
+    _refused(p, "t.csv, line 1: columns separated by semicolons, not by commas")
+    assert "missing" not in p.stderr
+    cp = tmp_path / "cp.csv"  # an inspector's checkpoints, read as a delivery's tables are
+    cp.write_text("point_id;method;reference_id;x_m;y_m;z_m;ref_x_m;ref_y_m;ref_z_m\n")
+    p = blockqc("inspect", SAMPLE, "--checkpoints", cp, "--out", tmp_path / "o2", "--pdf", "none")
+    _refused(p, "cp.csv, line 1: columns separated by semicolons")
+
+
 def test_block_yaml_unknown_key_is_a_stated_warning(blockqc, block, tmp_path):
     with open(block / "block.yaml", "a") as fh:
         fh.write("colour: blue\n")

@@ -44,7 +44,7 @@ from blockqc.schema import (
     report_rows,
     validate_table,
 )
-from blockqc.textio import BOM, check_utf8, read_bytes
+from blockqc.textio import BOM, check_utf8, read_bytes, separator_problem
 from blockqc.yamlio import line_of, load_yaml, pydantic_problems
 
 MANIFEST = "block.yaml"
@@ -270,7 +270,11 @@ def _read_csv(
     data = data.removeprefix(BOM)
     if not data or data.isspace():  # no stripped copy of the whole file
         raise InputError(Problem(str(path), "the file is empty: expected a header row"))
-    header = None if columns is None else _csv_header(data)
+    first = _csv_header(data)
+    wrong = separator_problem(path, first) if len(schema.columns) > 1 else None
+    if wrong:
+        raise InputError(wrong)
+    header = None if columns is None else first
     include = None if header is None else [h for h in header if h.strip() in columns]
     text_cols = {
         c.name: pa.string() for c in schema.columns if c.kind in ("str", "enum", "date", "wkt")

@@ -80,3 +80,23 @@ def decode_utf8(path: Path, data: bytes, error: type[BlockqcError] = InputError)
 def read_text(path: Path, max_bytes: int | None, error: type[BlockqcError] = InputError) -> str:
     """A text file's contents as UTF-8 (BOM dropped; CRLF is left to the parsers)."""
     return decode_utf8(path, read_bytes(path, max_bytes, error), error)
+
+
+#: separators of other CSV dialects (spreadsheets set to some locales export with ';')
+OTHER_SEPARATORS = {";": "semicolons", "\t": "tabs", "|": "vertical bars"}
+
+
+def separator_problem(path: Path, header: list[str]) -> Problem | None:
+    """A CSV header read as one name that holds another dialect's separator: the problem to
+    report once, rather than every column missing (None when the header is not such)."""
+    found = [
+        name for sep, name in OTHER_SEPARATORS.items() if len(header) == 1 and sep in header[0]
+    ]
+    if not found:
+        return None
+    return Problem(
+        str(path),
+        f"columns separated by {found[0]}, not by commas: blockqc reads CSV tables "
+        "comma-separated (RFC 4180); export the table with ',' as the separator",
+        line=1,
+    )

@@ -8,6 +8,7 @@ import numpy as np
 import pandas as pd
 
 from blockqc.errors import InputError, Problem
+from blockqc.textio import separator_problem
 
 #: Columns that identify an experiment (text, kept but not analysed).
 ID_COLUMNS: tuple[str, ...] = ("experiment", "region", "periods", "image_pairs")
@@ -82,6 +83,9 @@ def _check_shape(path: Path) -> None:
     with path.open(newline="", encoding="utf-8-sig") as fh:
         rows = csv.reader(fh)
         header = [h.strip() for h in next(rows, [])]
+        wrong = separator_problem(path, header)
+        if wrong:
+            raise InputError(wrong)
         problems = [
             Problem(file=str(path), column=c, message="column named more than once")
             for c in sorted({h for h in header if header.count(h) > 1})
