@@ -298,6 +298,33 @@ def test_self_intersecting_footprint(blockqc, delivery: Path, tmp_path: Path) ->
     )
 
 
+def test_one_part_multipolygon_footprint_is_that_polygon(
+    blockqc, delivery: Path, tmp_path: Path
+) -> None:
+    import shapely
+
+    scenes = pd.read_csv(delivery / "scenes.csv")
+    given = scenes.loc[2, "footprint_wkt"]
+    ring = given[given.index("((") + 2 : given.rindex("))")]
+    scenes.loc[2, "footprint_wkt"] = f"MULTIPOLYGON((({ring})))"  # as GIS exports write it
+    scenes.to_csv(delivery / "scenes.csv", index=False)
+    p = blockqc("inspect", delivery, "--out", tmp_path / "out", "--no-pdf")
+    assert p.returncode in (0, 1), p.stderr
+    (results,) = (tmp_path / "out").rglob("results.json")
+    read = json.loads(results.read_text())["scenes"][2]["footprint_wkt"]
+    assert read.startswith("POLYGON")
+    assert shapely.equals(shapely.from_wkt(read), shapely.from_wkt(given))
+    scenes.loc[2, "footprint_wkt"] = f"MULTIPOLYGON((({ring})), ((0 0, 1 0, 1 1, 0 0)))"
+    scenes.to_csv(delivery / "scenes.csv", index=False)
+    _refused(
+        blockqc,
+        delivery,
+        tmp_path / "out2",
+        "scenes.csv, row 3 (line 4), column 'footprint_wkt': expected a WKT polygon in lon/lat "
+        "degrees (a MULTIPOLYGON of one part is read as that polygon)",
+    )
+
+
 def test_missing_templates_folder(blockqc, delivery: Path, tmp_path: Path) -> None:
     p = blockqc("inspect", delivery, "--out", tmp_path / "out", "--templates", tmp_path / "nothing")
     assert p.returncode == 2

@@ -447,7 +447,8 @@ def _expected(col: Column) -> str:
         "int": f"expected a whole number (at most {MAX_INT:,} in size)",
         "date": "expected an ISO date (YYYY-MM-DD)",
         "enum": f"expected one of {', '.join(col.choices)}",
-        "wkt": "expected a WKT polygon in lon/lat degrees",
+        "wkt": "expected a WKT polygon in lon/lat degrees (a MULTIPOLYGON of one part is read "
+        "as that polygon)",
     }[col.kind]
 
 
@@ -486,8 +487,13 @@ def _convert(raw: pd.Series, col: Column, blank: np.ndarray) -> tuple[pd.Series,
             d = d.dt.tz_localize(None)
         return d, ~blank & d.isna().to_numpy()
     if col.kind == "wkt":
-        text = raw.astype("string").str.strip().fillna("").to_numpy(dtype=object)
+        stripped = raw.astype("string").str.strip().astype(object)
+        text = stripped.fillna("").to_numpy(dtype=object)
         geoms = shapely.from_wkt(text, on_invalid="ignore")
+        one = (shapely.get_type_id(geoms) == 6) & (shapely.get_num_geometries(geoms) == 1)
+        if one.any():  # a MULTIPOLYGON of one part (as GIS exports write any polygon): its part
+            geoms[one] = shapely.get_geometry(geoms[one], 0)
+            stripped[one] = shapely.to_wkt(geoms[one], rounding_precision=-1)
         poly = shapely.get_type_id(geoms) == 3  # Polygon
         bad = ~blank & ~poly
         bounds = shapely.bounds(geoms)
@@ -498,5 +504,5 @@ def _convert(raw: pd.Series, col: Column, blank: np.ndarray) -> tuple[pd.Series,
             & (bounds[:, 3] <= 90)
         )
         bad = bad | (~blank & poly & ~np.nan_to_num(inside, nan=0).astype(bool))
-        return pd.Series(raw.astype("string").str.strip().astype(object), index=raw.index), bad
+        return stripped, bad
     raise AssertionError(col.kind)
