@@ -134,6 +134,50 @@ def test_epsg_too_large(blockqc, delivery: Path, tmp_path: Path) -> None:
     _refused(blockqc, delivery, tmp_path / "out", "block.yaml, line 10: spatial_reference.epsg")
 
 
+@pytest.mark.parametrize("given", ["EPSG:32650", "'32650'", "'epsg: 32650'"])
+def test_epsg_given_as_text(blockqc, delivery: Path, tmp_path: Path, given: str) -> None:
+    p = blockqc("inspect", delivery, "--out", tmp_path / "a", "--no-pdf")
+    _replace(delivery / "block.yaml", "epsg: 32650", f"epsg: {given}")
+    q = blockqc("inspect", delivery, "--out", tmp_path / "b", "--no-pdf")
+    assert q.returncode == p.returncode, q.stderr
+    read = [json.loads(next((tmp_path / d).rglob("results.json")).read_text()) for d in "ab"]
+    assert read[0]["results"] == read[1]["results"]
+
+
+@pytest.mark.parametrize(
+    "old, new, expected",
+    [
+        ("epsg: 32650", "epsg: UTM 50N", "line 10: spatial_reference.epsg: expected an EPSG code"),
+        ("block_id: CASE", "block_id: 0101", "line 1: block_id: expected text: write the id in"),
+        (
+            "  pan: 1.0",
+            "\tpan: 1.0",
+            "not valid YAML: found character that cannot start any "
+            "token: a tab; YAML indents with spaces",
+        ),
+    ],
+)
+def test_block_yaml_slips_named(
+    blockqc, delivery: Path, tmp_path: Path, old: str, new: str, expected: str
+) -> None:
+    _replace(delivery / "block.yaml", old, new)
+    _refused(blockqc, delivery, tmp_path / "out", expected)
+
+
+def test_one_gsd_for_all_bands_is_refused(blockqc, delivery: Path, tmp_path: Path) -> None:
+    text = (delivery / "block.yaml").read_text()
+    start = text.index("gsd_m:")
+    end = text.index("\n", text.index("ms:", start))
+    (delivery / "block.yaml").write_text(text[:start] + "gsd_m: 1.0" + text[end:])
+    _refused(
+        blockqc,
+        delivery,
+        tmp_path / "out",
+        "block.yaml, line 3: gsd_m: expected the ground sample distance of each band in metres, "
+        "e.g. gsd_m: {pan: 1.0, ms: …} (got one number)",
+    )
+
+
 @pytest.mark.parametrize(
     "table, old, dup",
     [

@@ -85,6 +85,20 @@ class SpatialReference(BaseModel):
     projection: str | None = None
     epsg: int | None = Field(default=None, ge=1, le=2**31 - 1)
 
+    @field_validator("epsg", mode="before")
+    @classmethod
+    def _code(cls, value: Any) -> Any:
+        """An EPSG code as a number, or as text: '32650' or 'EPSG:32650' (as GIS tools write
+        it); anything else is refused."""
+        if isinstance(value, bool):
+            raise ValueError(f"expected an EPSG code, got {str(value).lower()}")
+        if not isinstance(value, str):
+            return value
+        m = re.fullmatch(r"\s*(?:EPSG\s*:\s*)?(\d{1,10})\s*", value, flags=re.IGNORECASE)
+        if m is None:
+            raise ValueError(f"expected an EPSG code such as 32650 or 'EPSG:32650', got {value!r}")
+        return int(m.group(1))
+
     def zone_epsg(self) -> int | None:
         """The EPSG code of `projection: UTM` with `zone: 50N` (or UPS with N/S); None when the
         projection is another or no zone is stated."""
@@ -123,12 +137,33 @@ class Manifest(BaseModel):
     spatial_reference: SpatialReference | None = None
     documents: dict[str, str] = Field(default_factory=dict)
     reported: dict[str, float] = Field(default_factory=dict)
+
     # keys the sample deliveries carry: typed, so that a wrong value is refused
     test_field: int | None = Field(default=None, ge=1, le=2**31 - 1)
     sampled: bool | None = None
 
     #: keys block.yaml gives that no part of blockqc reads (stated as warnings)
     unknown_keys: list[Problem] = Field(default_factory=list, exclude=True)
+
+    @field_validator("block_id", mode="before")
+    @classmethod
+    def _text(cls, value: Any) -> Any:
+        if not isinstance(value, str):  # YAML reads 0101 as the number 65: not guessed back
+            raise ValueError(
+                "expected text: write the id in quotes (block_id: '…'), so that YAML keeps it "
+                "as written"
+            )
+        return value
+
+    @field_validator("gsd_m", mode="before")
+    @classmethod
+    def _per_band(cls, value: Any) -> Any:
+        if isinstance(value, int | float) and not isinstance(value, bool):
+            raise ValueError(
+                "expected the ground sample distance of each band in metres, e.g. "
+                f"gsd_m: {{pan: {value}, ms: …}} (got one number)"
+            )
+        return value
 
     @field_validator("block_id")
     @classmethod

@@ -130,11 +130,20 @@ def load_yaml(path: Path, error: type[BlockqcError] = InputError) -> Any:
                     line=line,
                 )
             ) from None
-        if "could not determine a constructor" in what:
-            what = f"{what}: tags that build objects are not allowed in blockqc files"
+        what = _hinted(what, text, mark)
         raise error(Problem(str(path), f"not valid YAML: {what}", line=line)) from None
     except yaml.YAMLError as exc:
         raise error(Problem(str(path), f"not valid YAML: {exc}")) from None
+
+
+def _hinted(what: str, text: str, mark: Any) -> str:
+    """PyYAML's problem, with what it most likely comes from when that is plain."""
+    if "could not determine a constructor" in what:
+        return f"{what}: tags that build objects are not allowed in blockqc files"
+    lines = text.splitlines()
+    if mark and mark.line < len(lines) and "\t" in lines[mark.line][: mark.column + 1]:
+        return f"{what}: a tab; YAML indents with spaces"
+    return what
 
 
 def line_of(data: Any, loc: Sequence[Any]) -> int | None:
