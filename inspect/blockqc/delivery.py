@@ -137,7 +137,6 @@ class Manifest(BaseModel):
     spatial_reference: SpatialReference | None = None
     documents: dict[str, str] = Field(default_factory=dict)
     reported: dict[str, float] = Field(default_factory=dict)
-
     # keys the sample deliveries carry: typed, so that a wrong value is refused
     test_field: int | None = Field(default=None, ge=1, le=2**31 - 1)
     sampled: bool | None = None

@@ -141,7 +141,8 @@ def _hinted(what: str, text: str, mark: Any) -> str:
     if "could not determine a constructor" in what:
         return f"{what}: tags that build objects are not allowed in blockqc files"
     lines = text.splitlines()
-    if mark and mark.line < len(lines) and "\t" in lines[mark.line][: mark.column + 1]:
+    at = lines[mark.line][mark.column : mark.column + 1] if mark and mark.line < len(lines) else ""
+    if at == "\t" and "tab" not in what:
         return f"{what}: a tab; YAML indents with spaces"
     return what
 
