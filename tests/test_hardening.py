@@ -401,6 +401,26 @@ def test_missing_document_reported_with_table_errors(blockqc, delivery, tmp_path
     )
 
 
+def test_document_paths_written_with_windows_separators(blockqc, delivery, tmp_path) -> None:
+    text = (delivery / "block.yaml").read_text()
+    (delivery / "block.yaml").write_text(text.replace("documents/", "documents\\"))
+    p = blockqc("inspect", delivery, "--out", tmp_path / "out", "--no-pdf")
+    (results,) = (tmp_path / "out").rglob("results.json")
+    doc1 = next(r for r in json.loads(results.read_text())["results"] if r["rule"] == "DOC-1")
+    assert doc1["status"] == "pass", (p.stderr, doc1)
+    text = (delivery / "block.yaml").read_text()
+    (delivery / "block.yaml").write_text(
+        text.replace("documents\\technical_design.pdf", "..\\technical_design.pdf")
+    )
+    p = blockqc("inspect", delivery, "--out", tmp_path / "out2", "--no-pdf")
+    (results,) = (tmp_path / "out2").rglob("results.json")
+    doc1 = next(r for r in json.loads(results.read_text())["results"] if r["rule"] == "DOC-1")
+    assert doc1["status"] == "fail"
+    assert doc1["evidence"][0]["problem"] == (
+        "..\\technical_design.pdf points outside the delivery"
+    )
+
+
 def test_did_you_mean_method_and_scene(blockqc, delivery: Path, tmp_path: Path) -> None:
     _cell(delivery / "checkpoints.csv", 2, "method", "high_precison")
     _cell(delivery / "tie_points.csv", 10, "scene_id", "S01")

@@ -946,8 +946,14 @@ def _missing_documents(path: Path, manifest: Manifest) -> list[Problem]:
             f"documents.{kind}: {rel} is missing from the delivery",
         )
         for kind, rel in manifest.documents.items()
-        if not (path / rel).is_file()
+        if not document_path(path, rel).is_file()
     ]
+
+
+def document_path(root: Path, rel: str) -> Path:
+    """A document block.yaml names, in the delivery `root`: a path written with Windows
+    separators (documents\\design.pdf, as Windows tools write it) is read with '/'."""
+    return root / rel.replace("\\", "/")
 
 
 def summary(d: Delivery) -> dict[str, Any]:

@@ -7,7 +7,7 @@ from pathlib import Path
 import pandas as pd
 from pydantic import BaseModel, ConfigDict, Field
 
-from blockqc.delivery import Delivery
+from blockqc.delivery import Delivery, document_path
 from blockqc.metrics import Measure, Measurement, Scope, Table, metric
 
 REQUIRED = [
@@ -39,7 +39,7 @@ def check_document(root: Path, rel: str | None) -> tuple[bool, bool, int, str]:
     """(present, readable, size, problem) of one declared document path inside the delivery."""
     if not rel:
         return False, False, 0, "not declared in block.yaml documents"
-    path = (root / rel).resolve()
+    path = document_path(root, rel).resolve()
     if root.resolve() not in path.parents:
         return False, False, 0, f"{rel} points outside the delivery"
     if not path.is_file():
