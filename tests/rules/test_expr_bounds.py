@@ -50,3 +50,17 @@ def test_what_python_only_warns_about_is_a_message_not_a_printed_warning(recwarn
     ):
         evaluate("1if 1 else 2", {})
     assert not [w for w in recwarn if issubclass(w.category, SyntaxWarning)]
+
+
+def test_a_number_with_its_unit_is_told_to_drop_the_unit() -> None:
+    import pytest
+
+    for text in ("0.5 px", "10m", "5 %", "-1.5e-1 pixels"):
+        with pytest.raises(ExpressionError) as exc:
+            evaluate(text, NAMES)
+        assert str(exc.value).endswith(
+            "; write the number alone: the rule's `unit` gives its unit"
+        ), exc.value
+    with pytest.raises(ExpressionError) as exc:
+        evaluate("norm.plane_m m", NAMES)  # not a number with a unit: no such hint
+    assert "unit" not in str(exc.value)

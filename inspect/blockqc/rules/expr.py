@@ -10,6 +10,7 @@ import ast
 import difflib
 import math
 import operator
+import re
 import warnings
 from collections.abc import Callable, Mapping
 from typing import Any
@@ -125,6 +126,10 @@ def _depth(node: ast.AST) -> int:
     return deepest
 
 
+#: a number followed by a unit (`0.5 px`, `10m`, `5 %`), as thresholds are written in prose
+WITH_UNIT = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?\s*(px|pixels?|m|cm|mm|km|%|deg|°)")
+
+
 def syntax_tree(text: str) -> ast.Expression:
     """`ast.parse` of an expression; what Python only warns about (`1if x else 2`, an invalid
     escape) is refused as the SyntaxError it announces, never printed to the user."""
@@ -144,6 +149,8 @@ def parse(expression: str) -> ast.Expression:
         tree = syntax_tree(text)
     except (SyntaxError, ValueError) as exc:
         msg = getattr(exc, "msg", str(exc))
+        if WITH_UNIT.fullmatch(text):
+            msg += "; write the number alone: the rule's `unit` gives its unit"
         raise ExpressionError(f"malformed expression {_short(text)}: {msg}") from None
     except (RecursionError, MemoryError):
         raise ExpressionError(f"expression {_short(text)} is nested too deeply") from None
