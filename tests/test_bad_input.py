@@ -230,3 +230,20 @@ def test_block_ids_differing_only_in_case_are_refused(blockqc, tmp_path: Path) -
         f"of {batch / 'a'}: block ids must be unique in a batch, whatever their case" in p.stderr
     )
     assert sorted(q.name for q in (tmp_path / "out").iterdir() if q.is_dir()) == ["F1-B01"]
+
+
+def test_a_delivery_named_twice_is_inspected_once(blockqc, tmp_path: Path) -> None:
+    import json
+
+    batch = tmp_path / "batch"
+    write_delivery(batch / "a")
+    write_delivery(batch / "c", {"manifest": {"block_id": "OTHER"}})
+    again = tmp_path / "batch" / "." / "a"  # the same folder, written otherwise
+    p = blockqc("inspect", batch / "a", batch, again, "--out", tmp_path / "out", "--no-pdf")
+    _no_traceback(p)
+    assert p.returncode in (0, 1), p.stderr
+    assert p.stderr.count("named more than once, inspected once") == 1
+    assert f"warning: {batch / 'a'}: named more than once, inspected once" in p.stderr
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert [b["block_id"] for b in summary["blocks"]] == ["CASE", "OTHER"]
+    assert summary["unreadable"] == []

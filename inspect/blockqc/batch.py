@@ -73,6 +73,7 @@ class Collected:
     manifests: dict[Path, Manifest] = field(default_factory=dict)
     refused: dict[Path, Problem] = field(default_factory=dict)
     files: list[Path] = field(default_factory=list)  # lying beside a batch's deliveries, unread
+    repeated: list[Path] = field(default_factory=list)  # named again: inspected once
 
 
 def collect(paths: Iterable[Path]) -> Collected:
@@ -83,8 +84,14 @@ def collect(paths: Iterable[Path]) -> Collected:
         ds = find_deliveries(Path(p))
         batch |= len(ds) > 1 or ds[0] != Path(p)
         found.extend(ds)
+    once: dict[Path, Path] = {}  # each folder once, where it is first named
+    repeated = [d for d in found if once.setdefault(d.resolve(), d) is not d]
+    found = list(once.values())
     got = Collected(
-        found, batch or len(found) > 1, files=[f for p in paths for f in batch_files(p)]
+        found,
+        batch or len(found) > 1,
+        files=[f for p in paths for f in batch_files(p)],
+        repeated=list(dict.fromkeys(repeated)),
     )
     seen: dict[str, tuple[Path, str]] = {}
     for path in found:

@@ -194,6 +194,8 @@ def inspect_cmd(
     got = batch.collect(paths)
     for f in got.files:
         click.echo(f"warning: {f}: a file beside the deliveries of a batch, not read", err=True)
+    for d in got.repeated:
+        click.echo(f"warning: {d}: named more than once, inspected once", err=True)
     for manifest in got.manifests.values():
         for w in manifest.unknown_keys:
             click.echo(f"warning: {w}", err=True)
