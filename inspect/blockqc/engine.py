@@ -18,7 +18,7 @@ from blockqc.metrics import REGISTRY, Measurement, Table
 from blockqc.outputs import jsonable, records
 from blockqc.results import STATUSES, BlockResults, MeasurementRecord, RuleResult
 from blockqc.rules.expr import ExpressionError, evaluate, resolve_params
-from blockqc.rules.model import Pack, Rule, Threshold
+from blockqc.rules.model import Pack, Rule, Threshold, selected
 from blockqc.verification import annotate, prepare
 
 #: tables up to this many rows are kept in results.json for the report
@@ -386,10 +386,7 @@ class Judge:
 def _in_group(group: Mapping[str, Any], where: Mapping[str, Any]) -> bool:
     """Whether a result's group is one a content selects (a value or a list of values); a
     result of no group (not applicable, an error) belongs to every content of its rule."""
-    return all(
-        k not in group or str(group[k]) in map(str, v if isinstance(v, list) else [v])
-        for k, v in where.items()
-    )
+    return all(k not in group or str(group[k]) in selected(v) for k, v in where.items())
 
 
 def judge_all(ctx: Context, pack: Pack, block_input: BlockInput) -> list[RuleResult]:

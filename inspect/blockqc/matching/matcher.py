@@ -150,10 +150,7 @@ def _match_chunk(
         img = cv2.GaussianBlur(img, (0, 0), s.ncc_sigma)
         ref = cv2.GaussianBlur(ref, (0, 0), s.ncc_sigma)
     # sub-pixel refinement of each BRIEF match by NCC in a small window around its corner
-    b_ref, b_peak, b_inside = ncc_search(
-        img, pts[bi], ref, ref_pts[bj], half=s.template_half, radius=s.refine_radius
-    )
-    b_ok = b_inside & (b_peak >= s.min_ncc)
+    b_ok, b_ref, _ = _ncc_kept(img, pts[bi], ref, ref_pts[bj], s.refine_radius, s)
     bi, bd, b_ref = bi[b_ok], bd[b_ok], b_ref[b_ok]
     ni, n_ref, n_peak = _ncc_matches(img, pts, ref, pts_global + off - r0, bi, search_usable, s)
     src = np.concatenate([pts_global[bi], pts_global[ni]]).astype(np.float64)
@@ -274,11 +271,22 @@ def _ncc_matches(
     left &= (centres[:, 1] >= 0) & (centres[:, 1] < cols)
     left[left] = search_usable[centres[left, 0], centres[left, 1]]
     ni = np.flatnonzero(left)
-    found, peak, inside = ncc_search(
-        img, pts[ni], ref, centres[ni], half=s.template_half, radius=s.search_radius
-    )
-    ok = inside & (peak >= s.min_ncc)
+    ok, found, peak = _ncc_kept(img, pts[ni], ref, centres[ni], s.search_radius, s)
     return ni[ok], found[ok], peak[ok]
+
+
+def _ncc_kept(
+    img: np.ndarray,
+    pts: np.ndarray,
+    ref: np.ndarray,
+    centres: np.ndarray,
+    radius: int,
+    s: MatchSettings,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """`ncc_search` of the corners around `centres` within `radius`, and which of them to keep:
+    the peak found inside the window and at least `min_ncc`."""
+    found, peak, inside = ncc_search(img, pts, ref, centres, half=s.template_half, radius=radius)
+    return inside & (peak >= s.min_ncc), found, peak
 
 
 def _empty(columns: list[str]) -> pd.DataFrame:

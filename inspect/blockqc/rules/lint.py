@@ -21,7 +21,7 @@ from pydantic import BaseModel, ValidationError
 from blockqc.errors import Problem, RuleError
 from blockqc.metrics import REGISTRY, MetricSpec, Scope
 from blockqc.rules.expr import ExpressionError, evaluate, flatten, resolve_params, syntax_tree
-from blockqc.rules.model import Pack, Rule
+from blockqc.rules.model import Pack, Rule, selected
 from blockqc.yamlio import line_of
 
 LineFn = Callable[..., int | None]
@@ -237,28 +237,23 @@ NON_NUMERIC_UNITS = {"", "true/false", "name", "EPSG code", "the figure's unit"}
 
 
 def _check_threshold_kinds(rule: Rule, scope: Scope, bad: Callable[..., None]) -> None:
-    """A statistic with a unit is a number: `equals: true`, a text, or `in` of texts never pass."""
+    """A true/false statistic is compared with `equals: true/false`; a statistic with a unit is
+    a number: `equals: true`, a text, or `in` of texts never pass."""
     unit = scope.statistics.get(rule.statistic or "", "")
-    if unit == "true/false":
-        for group, th in rule.all_thresholds().items():
-            loc = ("thresholds", group) if group else ("threshold",)
-            given = [th.equals] if th.in_ is None else th.in_
-            if not all(isinstance(v, bool) for v in given):
-                bad(
-                    f"{'.'.join(loc)}: statistic {rule.statistic} is true/false: "
-                    "compare it with equals: true or equals: false",
-                    *loc,
-                )
-    if unit in NON_NUMERIC_UNITS:
-        return
     for group, th in rule.all_thresholds().items():
         loc = ("thresholds", group) if group else ("threshold",)
-        if isinstance(th.equals, (bool, str)) or any(isinstance(v, str) for v in th.in_ or []):
-            bad(
-                f"{'.'.join(loc)}: statistic {rule.statistic} is a number "
-                f"({scope.statistics[rule.statistic]}): compare it with min/max or numbers",
-                *loc,
+        if unit == "true/false":
+            given = [th.equals] if th.in_ is None else th.in_
+            wrong = not all(isinstance(v, bool) for v in given)
+            kind = "is true/false: compare it with equals: true or equals: false"
+        else:
+            texts = isinstance(th.equals, (bool, str)) or any(
+                isinstance(v, str) for v in th.in_ or []
             )
+            wrong = unit not in NON_NUMERIC_UNITS and texts
+            kind = f"is a number ({unit}): compare it with min/max or numbers"
+        if wrong:
+            bad(f"{'.'.join(loc)}: statistic {rule.statistic} {kind}", *loc)
 
 
 def _check_where(
@@ -298,7 +293,7 @@ def _check_content_groups(rule: Rule, scope: Scope, what: str, bad: Callable[...
                     col,
                 )
                 continue
-            vals = [str(v) for v in (val if isinstance(val, list) else [val])]
+            vals = selected(val)
             for v in vals:
                 _check_where({col: v}, scope, what, f"content.{content}", _at(bad, content))
             taken.setdefault(col, set()).update(vals)

@@ -106,6 +106,11 @@ class Threshold(BaseModel):
 Scalar = str | float | bool
 
 
+def selected(value: Scalar | list[Scalar]) -> list[str]:
+    """The group values a content selector takes (one value or a list), as text."""
+    return [str(v) for v in (value if isinstance(value, list) else [value])]
+
+
 class Rule(BaseModel):
     """One rule: a registered metric measured at a scope, a statistic, a threshold, a severity."""
 
