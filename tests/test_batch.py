@@ -254,3 +254,37 @@ def test_dask_block_that_raises_once_is_retried(tmp_path: Path):
     got: list[str] = []
     run_on_dask("local", job, [(tmp_path / "A", None)], got.append)
     assert got == ["A"]
+
+
+def test_a_report_failing_after_results_json_leaves_no_results(small_batch, tmp_path, monkeypatch):
+    """results.json is written before the report: when the report fails, results.json goes too,
+    so that no block folder holds results without their report."""
+
+    def broken(folder, results, **kwargs):
+        raise RuntimeError("simulated report defect")
+
+    monkeypatch.setattr(batch, "write_block_report", broken)
+    got = batch.collect([small_batch / "F1-B02"])
+    outcomes, _ = batch.run(got, load_pack("global-project"), batch.Writer(tmp_path / "out"))
+    assert (
+        outcomes[0].entry is None and "simulated report defect" in outcomes[0].problems[0].message
+    )
+    assert not (tmp_path / "out" / "F1-B02").exists()
+
+
+def test_an_unreadable_block_leaves_no_earlier_results_behind(small_batch: Path, tmp_path: Path):
+    """A block read and passed, then broken: its earlier outputs are removed, so that no
+    results.json says pass for a delivery that could not be inspected; other files stay."""
+    out = tmp_path / "out"
+    assert run_blockqc("inspect", small_batch, "--out", out, "--no-pdf").returncode == 1
+    (out / "F1-B02" / "notes.txt").write_text("the inspector's own file")
+    tie_points = small_batch / "F1-B02" / "tie_points.csv"
+    lines = tie_points.read_text(encoding="utf-8").splitlines()
+    header = lines[0].split(",")
+    cells = lines[1].split(",")
+    cells[header.index("v_line")] = "abc"
+    tie_points.write_text("\n".join([lines[0], ",".join(cells), *lines[2:]]) + "\n")
+    again = run_blockqc("inspect", small_batch, "--out", out, "--no-pdf")
+    assert again.returncode == 2 and "tie_points.csv" in again.stderr
+    assert sorted(p.name for p in (out / "F1-B02").iterdir()) == ["notes.txt"]
+    assert (out / "F4-B02" / "results.json").is_file()

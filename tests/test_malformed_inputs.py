@@ -238,6 +238,9 @@ def _doc2(out: Path) -> dict:
         ("tie_point_error_px: 0.32", "tie_point_errro_px: 0.32", "fail",
          "did you mean tie_point_error_px"),
         # a figure two edits away is another figure, with no recomputation: exempt
+        # the figure without its unit is the figure meant, not another one
+        ("tie_point_max_error_px: 1.14", "tie_point_max_error: 1.14", "fail",
+         "did you mean tie_point_max_error_px"),
         ("tie_point_max_error_px: 1.14", "tie_point_mean_error_px: 1.14", "pass", None),
         ("tie_point_max_error_px: 1.14", "tie_point_max_error_px: 1.14", "pass", None),
     ],
@@ -253,6 +256,16 @@ def test_a_misspelt_reported_figure_fails_doc2(blockqc, block, tmp_path, old, ne
     notes = [e.get("note") for e in doc2.get("evidence") or []]
     if note:
         assert any(note in (n or "") for n in notes), doc2
+
+
+def test_a_recomputed_figure_that_is_not_finite_never_agrees():
+    from blockqc.metrics.reported import ReportedParams, _agree
+
+    p = ReportedParams()  # |Δ| ≤ max(0.005, 0.05·|recomputed|)
+    assert _agree(0.05, 1.0, p) and not _agree(0.06, 1.0, p)
+    assert _agree(0.005, 0.0, p) and not _agree(0.006, 0.0, p)
+    assert not _agree(float("nan"), float("inf"), p)  # 1.14 against inf − inf
+    assert not _agree(float("-inf"), float("inf"), p)
 
 
 @pytest.mark.parametrize(
@@ -276,6 +289,7 @@ def test_a_gsd_band_a_threshold_needs_is_named_in_block_yaml_terms(blockqc, bloc
         r["rule"]: r["detail"]["reason"] for r in results["results"] if r["status"] == "error"
     }
     assert list(errors) == ["RO-1"]  # the rules that need no MS GSD are judged
+    assert "ERROR  failed or in error: RO-1" in p.stdout  # its status is error, not fail
     assert "block.yaml gives no gsd_m.ms" in errors["RO-1"]
 
 
@@ -307,3 +321,78 @@ def test_a_utm_zone_that_agrees_with_the_epsg_is_read(blockqc, block, tmp_path):
     results = json.loads((tmp_path / "out" / "F1-B01" / "results.json").read_text("utf-8"))
     (mb3,) = [r for r in results["results"] if r["rule"] == "MB-3"]
     assert mb3["status"] == "pass"
+
+
+def _set_cell(table: Path, row: int, column: str, value: str) -> None:
+    lines = table.read_text(encoding="utf-8").splitlines()
+    cells = lines[row].split(",")
+    cells[lines[0].split(",").index(column)] = value
+    lines[row] = ",".join(cells)
+    table.write_text("\n".join(lines) + "\n", encoding="utf-8")
+
+
+@pytest.mark.parametrize(
+    "table, column, value",
+    [
+        ("tie_points.csv", "v_line", "1.7e308"),  # its error √(v_l² + v_s²) would overflow
+        ("tie_points.csv", "v_sample", "-1e30"),  # a no-data marker
+        ("checkpoints.csv", "x_m", "-3.4028235e38"),  # float32's largest, as no-data
+        ("overlaps.csv", "dz_m", "2e15"),
+    ],
+)
+def test_a_value_no_measurement_comes_near_is_refused(
+    blockqc, block, tmp_path, table, column, value
+):
+    _set_cell(block / table, 2, column, value)
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    _refused(p, f"{table}, row 2 (line 3), column '{column}'", "magnitude above 1e+15")
+
+
+def test_a_large_value_below_the_limit_is_judged(blockqc, block, tmp_path):
+    _set_cell(block / "tie_points.csv", 2, "v_line", "9e14")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    assert p.returncode == 1, p.stderr
+    results = json.loads((tmp_path / "out" / "F1-B01" / "results.json").read_text("utf-8"))
+    (tp2,) = [r for r in results["results"] if r["rule"] == "TP-2"]
+    assert tp2["status"] == "fail" and tp2["value"] >= 9e14  # √(9e14² + v_s²) ≥ 9e14
+
+
+@pytest.mark.parametrize("misspelt", ["dz", "dZ_m", "DZ_M", "dz_mm", "dzm"])
+def test_a_misspelt_optional_column_is_refused(blockqc, block, tmp_path, misspelt):
+    """overlaps.csv's dz_m is optional: misspelt, RO-2..4 would lose their height checks."""
+    text = (block / "overlaps.csv").read_text(encoding="utf-8")
+    (block / "overlaps.csv").write_text(text.replace(",dz_m\n", f",{misspelt}\n", 1))
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    _refused(p, f"overlaps.csv: column '{misspelt}': did you mean 'dz_m'?")
+
+
+def test_a_misspelt_required_column_is_named_with_the_one_meant(blockqc, block, tmp_path):
+    text = (block / "scenes.csv").read_text(encoding="utf-8")
+    (block / "scenes.csv").write_text(text.replace(",lines,", ",Lines,", 1))
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    _refused(p, "scenes.csv: missing column 'lines'", "is 'Lines' meant to be it?")
+
+
+def test_an_unrelated_extra_column_is_still_read_as_before(blockqc, block, tmp_path):
+    lines = (block / "overlaps.csv").read_text(encoding="utf-8").splitlines()
+    lines = [lines[0] + ",remark"] + [x + ",checked" for x in lines[1:]]
+    (block / "overlaps.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    assert p.returncode == 0, p.stderr
+
+
+def test_an_unknown_spatial_reference_key_is_a_stated_warning(blockqc, block, tmp_path):
+    text = (block / "block.yaml").read_text(encoding="utf-8")
+    text = text.replace("  epsg: 32637\n", "  epsg: 32637\n  ellipsoid: WGS84\n")
+    (block / "block.yaml").write_text(text, encoding="utf-8")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    assert p.returncode == 0, p.stderr
+    assert "block.yaml, line 11: unknown key 'spatial_reference.ellipsoid': not read" in p.stderr
+
+
+def test_space_separated_tables_are_refused_once(blockqc, tmp_path):
+    cp = tmp_path / "cp.csv"  # as ASP writes its match tables: "x1 y1 x2 y2"
+    cp.write_text("point_id method reference_id x_m y_m z_m ref_x_m ref_y_m ref_z_m\n")
+    p = blockqc("inspect", SAMPLE, "--checkpoints", cp, "--out", tmp_path / "o", "--pdf", "none")
+    _refused(p, "cp.csv, line 1: columns separated by spaces, not by commas")
+    assert "missing" not in p.stderr

@@ -10,6 +10,7 @@ from __future__ import annotations
 import datetime as dt
 from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from contextlib import suppress
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -20,7 +21,7 @@ from blockqc.acceptance.evaluate import evaluate_results
 from blockqc.acceptance.model import BatchDecision, BlockGrade, ReportMeta
 from blockqc.acceptance.plan import Plan, apply_plan
 from blockqc.acceptance.scoring import a_class_errors
-from blockqc.cache import Cached, delivery_fingerprint, read_cached, write_cached
+from blockqc.cache import CACHE_FILE, Cached, delivery_fingerprint, read_cached, write_cached
 from blockqc.checkpoint_inputs import InspectorCheckpoints, merge_checkpoints
 from blockqc.delivery import (
     MANIFEST,
@@ -34,7 +35,7 @@ from blockqc.delivery import (
 from blockqc.engine import inspect_delivery, tie_point_columns
 from blockqc.errors import InputError, Problem
 from blockqc.inspector import InspectorInput
-from blockqc.outputs import safe_child, write_json_atomic
+from blockqc.outputs import BLOCK_OUTPUTS, safe_child, write_json_atomic
 from blockqc.report import checkpoint_rows, write_block_report, write_summary_report
 from blockqc.results import (
     STATUSES,
@@ -201,6 +202,17 @@ class Writer:
             (folder / "report.pdf").unlink(missing_ok=True)  # never a stale PDF beside
         return pdf
 
+    def discard(self, block_id: str) -> None:
+        """Remove the block's outputs (and its folder, when nothing else is left in it)."""
+        try:
+            folder = safe_child(self.out, block_id)
+        except InputError:
+            return  # an id that cannot name a folder of the outputs has none
+        for name in (*BLOCK_OUTPUTS, CACHE_FILE):
+            (folder / name).unlink(missing_ok=True)
+        with suppress(OSError):
+            folder.rmdir()
+
     def summary(self, summary: Summary, jobs: int = 1) -> list[Path]:
         """summary.json and the summary reports; the files written."""
         write_json_atomic(self.out / "summary.json", summary)
@@ -299,10 +311,20 @@ class Job:
                 write_cached(folder, Cached(key, o.entry, o.rules, grade))
             return o
         except InputError as exc:
-            return Outcome(path, problems=exc.problems)
+            return self._not_inspected(path, manifest, exc.problems)
         except Exception as exc:  # one block's failure must not stop the batch
             reason = f"could not be inspected: {type(exc).__name__}: {exc}"
-            return Outcome(path, problems=[Problem(str(path), reason)])
+            return self._not_inspected(path, manifest, [Problem(str(path), reason)])
+
+    def _not_inspected(
+        self, path: Path, manifest: Manifest | None, problems: list[Problem]
+    ) -> Outcome:
+        """A delivery that could not be inspected: the outputs of its block id (from an earlier
+        run, or written by this one before it failed) are removed, so that none is taken for
+        its results."""
+        if manifest is not None:
+            self.writer.discard(manifest.block_id)
+        return Outcome(path, problems=problems)
 
     def _key(self, path: Path, manifest: Manifest | None) -> str | None:
         if self.digest is None or manifest is None:

@@ -237,7 +237,8 @@ def _outcome_line(o) -> str:
     e = o.entry
     if e is None:
         return click.style(f"{o.path}  UNREADABLE  ({len(o.problems)} problem(s))", fg="red")
-    notes = [f"failed: {', '.join(e.failed_rules)}"] if e.failed_rules else []
+    failed = "failed or in error" if e.verdict == "error" else "failed"  # failed_rules: both
+    notes = [f"{failed}: {', '.join(e.failed_rules)}"] if e.failed_rules else []
     notes += [f"warnings: {', '.join(e.warned_rules)}"] if e.warned_rules else []
     notes += [f"awaiting the inspector: {', '.join(e.pending_manual)}"] if e.pending_manual else []
     notes += ["unchanged, outputs reused"] if o.cached else []

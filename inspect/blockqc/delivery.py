@@ -592,13 +592,11 @@ def _parquet_table(
     path: Path, schema: TableSchema, found: pa.Schema
 ) -> tuple[pa.Table, dict[str, Future]]:
     """The columns of `found` of a Parquet file, each column in one piece (so that a float
-    column becomes a numpy array without a copy), not read ahead into memory; a folder of
-    Parquet files is read as one dataset. In a large file, the key columns that are not decoded
-    into a dictionary (point ids: millions of distinct values) are read first and encoded by a
-    second thread while the other columns are read (`_to_pandas` takes the encodings)."""
+    column becomes a numpy array without a copy), not read ahead into memory. In a large file,
+    the key columns that are not decoded into a dictionary (point ids: millions of distinct
+    values) are read first and encoded by a second thread while the other columns are read
+    (`_to_pandas` takes the encodings)."""
     dictionary = _bounded_keys(schema, found)
-    if path.is_dir():
-        return pq.read_table(path, columns=found.names, read_dictionary=dictionary), {}
     parquet = pq.ParquetFile(path, read_dictionary=dictionary, pre_buffer=False)
     first = [name for name in _text_keys(schema, found) if name not in dictionary]
     if not first or parquet.metadata.num_rows < EARLY_ROWS:
@@ -625,10 +623,7 @@ def read_rows(path: Path, column: str, rows: np.ndarray) -> pa.Array:
             ),
         )
         return table.column(0).take(pa.array(rows)).combine_chunks()
-    parquet = pq.ParquetFile(path) if not path.is_dir() else None
-    if parquet is None:
-        table = pq.read_table(path, columns=[column])
-        return table.column(0).take(pa.array(rows)).combine_chunks()
+    parquet = pq.ParquetFile(path)
     meta = parquet.metadata
     sizes = np.array([meta.row_group(i).num_rows for i in range(meta.num_row_groups)])
     ends = np.cumsum(sizes)
@@ -680,11 +675,19 @@ def load_manifest(path: Path) -> Manifest:
         problems = pydantic_problems(exc, path, data) + problems
     if problems:
         raise InputError(problems)
-    manifest.unknown_keys = [
-        Problem(str(path), f"unknown key '{key}': not read", line=line_of(data, (key,)))
-        for key in (manifest.model_extra or {})
-    ]
+    manifest.unknown_keys = _unknown_keys(path, data, manifest)
     return manifest
+
+
+def _unknown_keys(path: Path, data: dict, manifest: Manifest) -> list[Problem]:
+    """Keys of block.yaml, and of its spatial_reference, that nothing reads (warnings)."""
+    sr = manifest.spatial_reference
+    keys = [(key,) for key in manifest.model_extra or {}]
+    keys += [("spatial_reference", k) for k in (sr.model_extra or {}) if sr and k != "zone"]
+    return [
+        Problem(str(path), f"unknown key '{'.'.join(loc)}': not read", line=line_of(data, loc))
+        for loc in keys
+    ]
 
 
 def _misspelt_keys(path: Path, data: dict) -> list[Problem]:

@@ -155,6 +155,8 @@ def make_out_dir(out: Path, out_r: Path) -> Path:
 
 #: block ids are also folder names of the outputs (contract v1.1)
 BLOCK_ID_MAX = 100
+#: files written into a block's folder of the outputs
+BLOCK_OUTPUTS = ("results.json", "report.html", "report.pdf", "checkpoints.csv", "evidence.csv")
 #: files a batch writes beside the block folders: no block id may take their names
 BATCH_OUTPUTS = (
     "summary.json",

@@ -280,6 +280,7 @@ def _check_column(
     finite = np.isfinite(vals)
     checks = [(~finite, "value is not finite (inf or NaN): expected a finite number")]
     with np.errstate(invalid="ignore"):
+        checks.append((finite & (np.abs(vals) > MAGNITUDE_LIMIT), NOT_A_MEASUREMENT))
         if col.min is not None:
             low = finite & (vals < col.min)
             checks.append((low, f"value below the allowed minimum {col.min:g}"))
@@ -289,6 +290,16 @@ def _check_column(
     for mask, message in checks:
         report_rows(problems, file, col.name, ok & mask, message, raw, csv)
     return conv
+
+
+#: no value of the contract's units (metres, pixels, degrees, shares) comes near this size: a
+#: larger one is a no-data marker (-1e30, 3.4e38) or a broken export, and would overflow the
+#: errors and sums computed from it
+MAGNITUDE_LIMIT = 1e15
+NOT_A_MEASUREMENT = (
+    f"value of magnitude above {MAGNITUDE_LIMIT:g}: not a measurement in metres, pixels or "
+    "degrees (a no-data marker?)"
+)
 
 
 def _clean_floats(raw: pd.Series, col: Column) -> bool:
@@ -302,6 +313,7 @@ def _clean_floats(raw: pd.Series, col: Column) -> bool:
     return bool(
         np.isfinite(lo)
         and np.isfinite(hi)
+        and max(-lo, hi) <= MAGNITUDE_LIMIT
         and (col.min is None or lo >= col.min)
         and (col.max is None or hi <= col.max)
     )
@@ -349,23 +361,43 @@ def validate_table(
             )
         )
     out: dict[str, pd.Series] = {}
+    extra = [c for c in given if c not in {col.name for col in schema.columns}]
     for col in schema.columns:
         if col.name in df.columns:
             out[col.name] = _check_column(df[col.name], col, file, csv, problems)
-        elif col.required and col.name not in given:
-            problems.append(
-                Problem(
-                    file,
-                    f"missing column '{col.name}' (expected a {col.kind} column; "
-                    f"columns found: {', '.join(map(str, header or df.columns))})",
-                )
-            )
+        elif col.name not in given:
+            problems += _missing(col, _near(col.name, extra), file, header or list(df.columns))
     for c in df.columns:  # extra columns are kept, untouched
         if c not in out:
             out[c] = df[c]
     table = pd.DataFrame(out, index=pd.RangeIndex(len(df)), copy=False)  # copy on write
     _check_unique(table, schema, file, csv, problems)
     return table, problems
+
+
+def _missing(col: Column, near: str | None, file: str, found: list) -> list[Problem]:
+    """A column of the schema that the file lacks: refused when required; when optional, only
+    beside a column that looks like it misspelt, whose checks would else go unmade."""
+    if col.required:
+        hint = f"; is '{near}' meant to be it?" if near else ""
+        why = f"expected a {col.kind} column; columns found: {', '.join(map(str, found))}{hint}"
+        return [Problem(file, f"missing column '{col.name}' ({why})")]
+    if near:
+        why = "rename it: misspelt, the checks of that optional column would not be made"
+        return [Problem(file, f"column '{near}': did you mean '{col.name}'? ({why})")]
+    return []
+
+
+def _near(name: str, columns: list[str]) -> str | None:
+    """The first of `columns` that looks like `name` misspelt: in other case, without or with
+    one more last word (`dz` or `dz_mm` for `dz_m`), or differing in a letter or two."""
+    want = name.casefold()
+    for column in columns:
+        c = str(column).casefold()
+        stem = c == want.rsplit("_", 1)[0] or want == c.rsplit("_", 1)[0]
+        if c == want or stem or difflib.SequenceMatcher(None, c, want).ratio() >= 0.8:
+            return column
+    return None
 
 
 def _labels(table: pd.DataFrame, cols: list[str]) -> pd.Series:

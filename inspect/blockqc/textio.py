@@ -82,15 +82,18 @@ def read_text(path: Path, max_bytes: int | None, error: type[BlockqcError] = Inp
     return decode_utf8(path, read_bytes(path, max_bytes, error), error)
 
 
-#: separators of other CSV dialects (spreadsheets set to some locales export with ';')
-OTHER_SEPARATORS = {";": "semicolons", "\t": "tabs", "|": "vertical bars"}
+#: separators of other CSV dialects (spreadsheets set to some locales export with ';'), spaces
+#: last: a header separated by semicolons may hold spaces too
+OTHER_SEPARATORS = {";": "semicolons", "\t": "tabs", "|": "vertical bars", " ": "spaces"}
 
 
 def separator_problem(path: Path, header: list[str]) -> Problem | None:
     """A CSV header read as one name that holds another dialect's separator: the problem to
     report once, rather than every column missing (None when the header is not such)."""
     found = [
-        name for sep, name in OTHER_SEPARATORS.items() if len(header) == 1 and sep in header[0]
+        name
+        for sep, name in OTHER_SEPARATORS.items()
+        if len(header) == 1 and sep in header[0].strip()
     ]
     if not found:
         return None

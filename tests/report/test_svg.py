@@ -41,6 +41,17 @@ def test_nice_ticks_are_round_evenly_spaced_and_inside(lo, extent):
     assert np.allclose([float(s) for s in labels], ticks, rtol=0, atol=step * 0.01)
 
 
+def test_nice_ticks_at_the_ends_of_the_float_range_by_hand():
+    """Spans that overflow when subtracted (±1.7e308) or underflow to nothing."""
+    # (1.7e308 − 0) / 5 = 3.4e307: the first round step above it is 5e307
+    assert svgplot.nice_ticks(0.0, 1.7e308).tolist() == [0.0, 5e307, 1e308, 1.5e308]
+    # (1.7e308 + 1.7e308) / 5 = 6.8e307: step 1e308
+    assert svgplot.nice_ticks(-1.7e308, 1.7e308).tolist() == [-1e308, 0.0, 1e308]
+    # 1e-300 / 5 = 2e-301: step 2e-301, not rounded away to 0
+    assert svgplot.nice_ticks(0.0, 1e-300).tolist() == [0.0, 2e-301, 4e-301, 6e-301, 8e-301, 1e-300]
+    assert svgplot.nice_ticks(5e-324, 1e-323).tolist() == [5e-324]  # a span of no width
+
+
 def test_tick_labels_by_hand():
     assert svgplot.tick_labels(np.array([0.0, 0.5, 1.0, 1.5])) == ["0.0", "0.5", "1.0", "1.5"]
     assert svgplot.tick_labels(np.array([0.0, 2.5, 5.0])) == ["0.0", "2.5", "5.0"]

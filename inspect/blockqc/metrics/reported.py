@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -56,18 +57,32 @@ def recompute(fig: Figure, measure: Measure) -> tuple[float, str]:
     return float(df[fig.statistic].iloc[0]), ""
 
 
+def _agree(diff: float, value_r: float, p: ReportedParams) -> bool:
+    """|Δ| ≤ max(abs_tol, rel_tol·|recomputed|); a difference that is not a finite number
+    (an infinite recomputed value) never agrees."""
+    return bool(math.isfinite(diff) and abs(diff) <= max(p.abs_tol, p.rel_tol * abs(value_r)))
+
+
 def _undefined(name: str, value: float, figures: dict, reported: dict) -> dict[str, Any]:
-    """A figure the pack defines no recomputation for: exempt, unless its name is one edit
-    from a defined figure that is not reported under its own name (a misspelling, e.g.
-    `tie_point_max_eror_px`), which does not agree: a figure is never left unchecked by a typo.
-    (`tie_point_mean_error_px` is two edits from `tie_point_max_error_px`: another figure.)"""
+    """A figure the pack defines no recomputation for: exempt, unless it is meant for a defined
+    figure that is not reported under its own name (`_meant`), which does not agree: a figure
+    is never left unchecked by a typo."""
     row = {"figure": name, "reported": value, "recomputed": np.nan, "difference": np.nan}
-    close = [f for f in figures if f not in reported and edit_distance(name, f) == 1]
+    close = [f for f in figures if f not in reported and _meant(name, f)]
     if close:
         note = f"no figure is named {name}: did you mean {close[0]}? (not recomputed)"
         return row | {"agrees": False, "exempt": False, "exempt_reason": "", "note": note}
     why = "no recomputation is defined for this figure"
     return row | {"agrees": True, "exempt": True, "exempt_reason": why, "note": ""}
+
+
+def _meant(name: str, figure: str) -> bool:
+    """Whether `name` is a slip for `figure`: one edit from it (`tie_point_max_eror_px`), or
+    it without its last word, the unit (`tie_point_max_error` for `tie_point_max_error_px`).
+    `tie_point_mean_error_px` is two edits from `tie_point_max_error_px`: another figure."""
+    unit = figure[len(name) + 1 :]
+    without_unit = figure.startswith(name + "_") and unit.isalnum()
+    return without_unit or edit_distance(name, figure) == 1
 
 
 def edit_distance(a: str, b: str) -> int:
@@ -122,7 +137,7 @@ def reported_figures(d: Delivery, p: ReportedParams, measure: Measure) -> Measur
             continue
         value_r, why = recompute(fig, measure)
         diff = value - value_r
-        agrees = bool(abs(diff) <= max(p.abs_tol, p.rel_tol * abs(value_r))) if not why else True
+        agrees = _agree(diff, value_r, p) if not why else True
         rows.append(
             {
                 "figure": name,

@@ -46,12 +46,15 @@ def nice_ticks(lo: float, hi: float, target: int = 6) -> np.ndarray:
     """Round tick values (1, 2, 2.5, 5 × 10^k apart) inside [lo, hi], about `target` of them."""
     if not (math.isfinite(lo) and math.isfinite(hi)) or hi <= lo:
         return np.array([lo]) if math.isfinite(lo) else np.array([])
-    raw = (hi - lo) / max(target - 1, 1)
-    k = 10 ** math.floor(math.log10(raw))
+    parts = max(target - 1, 1)
+    raw = hi / parts - lo / parts  # (hi - lo) / parts without overflow near ±1.8e308
+    if not raw > 0:  # the span underflows: one tick
+        return np.array([lo])
+    k = 10.0 ** math.floor(math.log10(raw))
     step = next(m * k for m in (1, 2, 2.5, 5, 10) if m * k >= raw * 0.999)
     first = math.ceil(lo / step - 1e-9)
-    ticks = (first + np.arange(int(math.floor(hi / step + 1e-9)) - first + 1)) * step
-    return np.round(ticks, 12) + 0.0
+    ticks = np.arange(first, math.floor(hi / step + 1e-9) + 1) * step
+    return np.round(ticks, 3 - math.floor(math.log10(step))) + 0.0  # without 0.30000000000000004
 
 
 def tick_labels(ticks: np.ndarray) -> list[str]:
