@@ -12,11 +12,15 @@ Formats, told apart by their content (not their name) in `read_rpc`:
   used by Planet and SkySat (`LINE_OFF: +015750.00 pixels`, `LINE_NUM_COEFF_1: …`);
 * the JSON dictionary used by rpcm / SatNeRF (`row_offset`, `row_num`, …).
 
-Every problem is an `InputError` naming the file and the line or key that is wrong or missing.
+Text is UTF-8 (with or without BOM), UTF-16 with a BOM, or else Latin-1, with LF, CR LF or
+CR-only line ends. Every problem is an `InputError` naming the file and the line or key that is
+wrong, missing or given twice; a 21st coefficient, a second number after a value and a latitude
+or longitude offset out of range are refused too (docs/rfm.md).
 """
 
 from __future__ import annotations
 
+import codecs
 import json
 import re
 import warnings
@@ -43,13 +47,36 @@ def _error(path: Path | str, message: str, line: int | None = None) -> InputErro
     return InputError(Problem(file=str(path), message=message, line=line))
 
 
-def _number(path: Path | str, key: str, text: str, line: int | None = None) -> float:
-    """Parse one number, tolerating a trailing unit ('+005124.00 pixels')."""
-    token = text.strip().split()[0] if text.strip() else ""
+def _duplicate(path: Path | str, key: str, first: int, second: int) -> InputError:
+    return _error(path, f"{key} given twice, on lines {first} and {second}: expected once", second)
+
+
+_UNIT = re.compile(r"[^\W\d_]+")
+
+
+def _is_unit(token: str) -> bool:
+    """A unit word after a number ('pixels', 'degrees', 'meters'), not a second number."""
     try:
-        value = float(token)
+        float(token)
+    except ValueError:
+        return bool(_UNIT.fullmatch(token))
+    return False
+
+
+def _number(path: Path | str, key: str, text: str, line: int | None = None) -> float:
+    """Parse one number, tolerating a trailing unit word ('+005124.00 pixels')."""
+    tokens = text.split()
+    try:
+        value = float(tokens[0] if tokens else "")
     except ValueError:
         raise _error(path, f"{key}: expected a number, got {text.strip()!r}", line) from None
+    if len(tokens) > 2 or (len(tokens) == 2 and not _is_unit(tokens[1])):
+        raise _error(
+            path,
+            f"{key}: expected one number, optionally followed by a unit word such as 'pixels', "
+            f"got {text.strip()!r}",
+            line,
+        )
     if not np.isfinite(value):
         raise _error(path, f"{key}: expected a finite number, got {text.strip()!r}", line)
     return value
@@ -63,8 +90,24 @@ def _build(path: Path | str, values: Mapping[str, object], **extra: object) -> R
         arr = np.asarray(values[key], dtype=np.float64)
         if arr.shape != (20,):
             raise _error(path, f"{key}: expected 20 coefficients, got {arr.size}")
+    _check_ground_offsets(path, values)
     kwargs = {k: values[k] for k in (*OFFSET_SCALE_KEYS, *COEFF_KEYS)}
     return RPCModel(source=str(path), **kwargs, **extra)  # type: ignore[arg-type]
+
+
+def _check_ground_offsets(path: Path | str, values: Mapping[str, object]) -> None:
+    """LAT_OFF in [-90, 90] and LONG_OFF in [-180, 360] degrees (longitudes -180…180 or 0…360)."""
+    lat, lon = float(values["lat_off"]), float(values["lon_off"])  # type: ignore[arg-type]
+    if not -90.0 <= lat <= 90.0:
+        raise _error(
+            path,
+            f"LAT_OFF (latitude offset): expected degrees in [-90, 90], got {lat!r} "
+            "(latitude and longitude swapped?)",
+        )
+    if not -180.0 <= lon <= 360.0:
+        raise _error(
+            path, f"LONG_OFF (longitude offset): expected degrees in [-180, 360], got {lon!r}"
+        )
 
 
 # -- KEY: value text (IKONOS, GF/ZY *_rpc.txt, Planet, SkySat) --------------------------------
@@ -83,39 +126,69 @@ _TXT_NAMES = {
 _KV_LINE = re.compile(r"^\s*([A-Za-z0-9_.]+)\s*[:=]\s*(.*?)\s*;?\s*$")
 
 
-def _key_values(path: Path, text: str) -> dict[str, tuple[str, int]]:
-    """`key: value` lines → {key: (value, line number)}; lines without a colon are skipped."""
+def _key_values(path: Path, text: str, upper: bool = False) -> dict[str, tuple[str, int]]:
+    """`key: value` lines → {key: (value, line number)}; lines without a colon are skipped.
+
+    A key given twice is refused (with `upper`, keys are upper-cased before comparing)."""
     out: dict[str, tuple[str, int]] = {}
     for number, raw in enumerate(text.splitlines(), start=1):
         m = _KV_LINE.match(raw)
         if m:
-            out[m.group(1)] = (m.group(2), number)
+            key = m.group(1).upper() if upper else m.group(1)
+            if key in out:
+                raise _duplicate(path, key, out[key][1], number)
+            out[key] = (m.group(2), number)
     return out
+
+
+def _kv_number(path: Path, kv: Mapping[str, tuple[str, int]], key: str) -> float:
+    if key not in kv:
+        raise _error(path, f"missing key {key}")
+    return _number(path, key, *kv[key])
+
+
+def _kv_coeffs(
+    path: Path,
+    kv: Mapping[str, tuple[str, int]],
+    key_of: Callable[[str, int], str],
+    numbers: range,
+    pattern: re.Pattern[str],
+) -> dict[str, list[float]]:
+    """The four polynomials (COEFF_KEYS), read from the keys `key_of(name, i)`, i in `numbers`;
+    another key matching `pattern` (a 21st coefficient) is refused."""
+    keys = {name: [key_of(name, i) for i in numbers] for name in COEFF_KEYS}
+    known = {key for names in keys.values() for key in names}
+    for key, (_, line) in kv.items():
+        if pattern.fullmatch(key) and key not in known:
+            raise _error(
+                path,
+                f"{key}: an RPC00B polynomial has 20 coefficients, "
+                f"numbered {numbers[0]} to {numbers[-1]}",
+                line,
+            )
+    return {name: [_kv_number(path, kv, key) for key in names] for name, names in keys.items()}
+
+
+_TXT_COEFF = re.compile(r"(LINE|SAMP)_(NUM|DEN)_COEFF_\d+")
+
+
+def _txt_coeff_key(name: str, i: int) -> str:
+    return f"{name.upper()}_COEFF_{i}"
 
 
 def read_rpc_txt(path: Path, text: str | None = None) -> RPCModel:
     """The `KEY: value [unit]` format (IKONOS, GF/ZY `_rpc.txt`, Planet, SkySat)."""
     path = Path(path)
     text = _read_text(path) if text is None else text
-    kv = {k.upper(): v for k, v in _key_values(path, text).items()}
-    values: dict[str, object] = {}
-    for key, name in _TXT_NAMES.items():
-        if key not in kv:
-            raise _error(path, f"missing key {key}")
-        values[name] = _number(path, key, kv[key][0], kv[key][1])
-    for kind in ("LINE", "SAMP"):
-        for part in ("NUM", "DEN"):
-            coeffs = []
-            for i in range(1, 21):
-                key = f"{kind}_{part}_COEFF_{i}"
-                if key not in kv:
-                    raise _error(path, f"missing key {key}")
-                coeffs.append(_number(path, key, kv[key][0], kv[key][1]))
-            values[f"{kind.lower()}_{part.lower()}"] = coeffs
+    kv = _key_values(path, text, upper=True)
+    values: dict[str, object] = {
+        name: _kv_number(path, kv, key) for key, name in _TXT_NAMES.items()
+    }
+    values.update(_kv_coeffs(path, kv, _txt_coeff_key, range(1, 21), _TXT_COEFF))
     extra = {}
     for key, name in (("ERR_BIAS", "err_bias"), ("ERR_RAND", "err_rand")):
         if key in kv:
-            extra[name] = _number(path, key, kv[key][0], kv[key][1])
+            extra[name] = _kv_number(path, kv, key)
     return _build(path, values, **extra)
 
 
@@ -134,6 +207,13 @@ _GEOM_NAMES = {
 }
 
 
+_GEOM_COEFF = re.compile(r"(line|samp)_(num|den)_coeff_\d+")
+
+
+def _geom_coeff_key(name: str, i: int) -> str:
+    return f"{name}_coeff_{i:02d}"
+
+
 def read_rpc_geom(path: Path, text: str | None = None) -> RPCModel:
     """OSSIM keyword list (`.geom`); only `polynomial_format: B` (RPC00B order) is accepted."""
     path = Path(path)
@@ -144,20 +224,10 @@ def read_rpc_geom(path: Path, text: str | None = None) -> RPCModel:
         raise _error(
             path, f"polynomial_format: only B (RPC00B term order) is supported, got {value!r}", line
         )
-    values: dict[str, object] = {}
-    for key, name in _GEOM_NAMES.items():
-        if key not in kv:
-            raise _error(path, f"missing key {key}")
-        values[name] = _number(path, key, kv[key][0], kv[key][1])
-    for kind in ("line", "samp"):
-        for part in ("num", "den"):
-            coeffs = []
-            for i in range(20):
-                key = f"{kind}_{part}_coeff_{i:02d}"
-                if key not in kv:
-                    raise _error(path, f"missing key {key}")
-                coeffs.append(_number(path, key, kv[key][0], kv[key][1]))
-            values[f"{kind}_{part}"] = coeffs
+    values: dict[str, object] = {
+        name: _kv_number(path, kv, key) for key, name in _GEOM_NAMES.items()
+    }
+    values.update(_kv_coeffs(path, kv, _geom_coeff_key, range(20), _GEOM_COEFF))
     return _build(path, values)
 
 
@@ -189,7 +259,10 @@ def read_rpc_rpb(path: Path, text: str | None = None) -> RPCModel:
     text = _read_text(path) if text is None else text
     items: dict[str, tuple[str, int]] = {}
     for m in _RPB_ITEM.finditer(text):
-        items[m.group(1)] = (m.group(2), text.count("\n", 0, m.start(2)) + 1)
+        key, line = m.group(1), text.count("\n", 0, m.start(2)) + 1
+        if key in items:
+            raise _duplicate(path, key, items[key][1], line)
+        items[key] = (m.group(2), line)
     values: dict[str, object] = {}
     for key, name in _RPB_NAMES.items():
         if key not in items:
@@ -211,9 +284,18 @@ def read_rpc_rpb(path: Path, text: str | None = None) -> RPCModel:
 
 
 # -- XML: DIMAP v2 and DigitalGlobe -----------------------------------------------------------
+def _xml_one(path: Path, parent: ElementTree.Element, tag: str, where: str) -> ElementTree.Element:
+    found = parent.findall(tag)
+    if not found:
+        raise _error(path, f"missing element {where}/{tag}")
+    if len(found) > 1:
+        raise _error(path, f"element {where}/{tag} given {len(found)} times: expected once")
+    return found[0]
+
+
 def _xml_number(path: Path, parent: ElementTree.Element, tag: str, where: str) -> float:
-    el = parent.find(tag)
-    if el is None or el.text is None:
+    el = _xml_one(path, parent, tag, where)
+    if el.text is None:
         raise _error(path, f"missing element {where}/{tag}")
     return _number(path, f"{where}/{tag}", el.text)
 
@@ -264,9 +346,7 @@ def _read_dg_xml(path: Path, image: ElementTree.Element) -> RPCModel:
     for kind in ("LINE", "SAMP"):
         for part in ("NUM", "DEN"):
             tag = f"{kind}{part}COEF"
-            holder = image.find(f"{tag}List")
-            if holder is None:
-                raise _error(path, f"missing element {where}/{tag}List")
+            holder = _xml_one(path, image, f"{tag}List", where)
             text = " ".join((el.text or "") for el in holder.iter(tag))
             tokens = text.split()
             if len(tokens) != 20:
@@ -324,12 +404,22 @@ _JSON_NAMES = {
 }
 
 
+def _json_object(path: Path, pairs: list[tuple[str, object]]) -> dict[str, object]:
+    """A JSON object, refusing a key given twice (`json.loads` would keep the last)."""
+    out: dict[str, object] = {}
+    for key, value in pairs:
+        if key in out:
+            raise _error(path, f"key {key!r} given twice in one JSON object: expected once")
+        out[key] = value
+    return out
+
+
 def read_rpc_json(path: Path, text: str | None = None) -> RPCModel:
     """The JSON dictionary of rpcm / SatNeRF (`{"rpc": {"row_offset": …, "row_num": […]}}`)."""
     path = Path(path)
     text = _read_text(path) if text is None else text
     try:
-        doc = json.loads(text)
+        doc = json.loads(text, object_pairs_hook=lambda pairs: _json_object(path, pairs))
     except json.JSONDecodeError as exc:
         raise _error(path, f"not valid JSON: {exc.msg}", exc.lineno) from None
     d = doc.get("rpc", doc) if isinstance(doc, dict) else None
@@ -392,15 +482,31 @@ def read_rpc_gdal(path: Path) -> RPCModel:
 
 
 # -- sniffing -------------------------------------------------------------------------------
-def _read_text(path: Path) -> str:
-    try:
-        data = path.read_bytes()
-    except OSError as exc:
-        raise _error(path, f"cannot read: {exc.strerror or exc}") from None
+_UTF16_BOMS = (codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)
+
+
+def _decode(path: Path, data: bytes) -> str:
+    """UTF-8 (with or without BOM), UTF-16 with a BOM, else Latin-1."""
+    if data.startswith(_UTF16_BOMS):
+        try:
+            return data.decode("utf-16")
+        except UnicodeDecodeError:
+            raise _error(
+                path, "starts with a UTF-16 byte-order mark but is not valid UTF-16 text"
+            ) from None
     try:
         return data.decode("utf-8-sig")
     except UnicodeDecodeError:
         return data.decode("latin-1")
+
+
+def _read_text(path: Path) -> str:
+    """The file's text with its line ends (CR LF, or CR alone as on old Macs) made LF."""
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise _error(path, f"cannot read: {exc.strerror or exc}") from None
+    return _decode(path, data).replace("\r\n", "\n").replace("\r", "\n")
 
 
 def sniff_format(path: Path) -> str:
@@ -413,14 +519,14 @@ def sniff_format(path: Path) -> str:
         raise _error(path, f"cannot read: {exc.strerror or exc}") from None
     if head[:4] in _TIFF_MAGIC or head[:4] in _NITF_MAGIC:
         return "gdal"
-    if b"\x00" in head:
+    if b"\x00" in head and not head.startswith(_UTF16_BOMS):
         return "gdal"
-    stripped = head.lstrip(b"\xef\xbb\xbf \t\r\n")
-    if stripped.startswith(b"<"):
-        return "xml"
-    if stripped.startswith(b"{"):
-        return "json"
     text = _read_text(path)
+    stripped = text.lstrip()
+    if stripped.startswith("<"):
+        return "xml"
+    if stripped.startswith("{"):
+        return "json"
     if re.search(r"\blineNumCoef\s*=", text):
         return "rpb"
     if re.search(r"^\s*line_num_coeff_00\s*:", text, re.M):
@@ -443,6 +549,8 @@ _READERS: dict[str, Callable[[Path], RPCModel]] = {
 def read_rpc(path: str | Path) -> RPCModel:
     """Read an RPC00B model from any supported file, choosing the reader from the content."""
     path = Path(path)
+    if path.is_dir():
+        raise _error(path, "is a folder, not a file: expected an RPC file")
     if not path.is_file():
         raise _error(path, "no such file")
     kind = sniff_format(path)

@@ -1,0 +1,224 @@
+"""Malformed RPC files are refused with the file, key and line; odd encodings and line ends read.
+
+Each bad file is a real one of tests/data/rfm edited in tmp_path; line numbers are those of the
+real files (gf_rpc_txt has 90 lines, LINE_OFF on line 1; left_image.geom has 190 lines, line_off
+on line 83; sample.RPB has lineOffset on line 7 and END_GROUP on line 101).
+"""
+
+from __future__ import annotations
+
+import codecs
+from pathlib import Path
+
+import numpy as np
+import pytest
+from rfm_helpers import DATA, VENTOUX
+
+from blockqc.errors import InputError
+from blockqc.rfm.readers import read_rpc
+
+FORMATS = DATA / "rpc_formats"
+GF_TXT = DATA / "gf_rpc_txt" / "left_image_rpc.txt"
+GEOM = VENTOUX / "left_image.geom"
+FIELDS = (
+    "line_off",
+    "samp_off",
+    "lat_off",
+    "lon_off",
+    "height_off",
+    "line_scale",
+    "samp_scale",
+    "lat_scale",
+    "lon_scale",
+    "height_scale",
+    "line_num",
+    "line_den",
+    "samp_num",
+    "samp_den",
+)
+
+
+def assert_identical(a, b):
+    for name in FIELDS:
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+
+
+def refused(path: Path):
+    """The one problem `read_rpc` reports for `path` (it must refuse it)."""
+    with pytest.raises(InputError) as err:
+        read_rpc(path)
+    (problem,) = err.value.problems
+    assert problem.file == str(path)
+    return problem
+
+
+def edited(tmp_path: Path, source: Path, name: str, old: str, new: str) -> Path:
+    text = source.read_text()
+    assert old in text
+    out = tmp_path / name
+    out.write_text(text.replace(old, new, 1))
+    return out
+
+
+def appended(tmp_path: Path, source: Path, name: str, line: str) -> Path:
+    out = tmp_path / name
+    out.write_text(source.read_text() + line + "\n")
+    return out
+
+
+# -- a key given twice -------------------------------------------------------------------------
+@pytest.mark.parametrize("line", ["LINE_OFF: 21110.5", "line_off: 21110.5 pixels"])
+def test_txt_key_given_twice_names_both_lines(tmp_path: Path, line: str):
+    problem = refused(appended(tmp_path, GF_TXT, "dup_rpc.txt", line))
+    assert problem.line == 91
+    assert "LINE_OFF given twice, on lines 1 and 91" in problem.message
+
+
+def test_geom_key_given_twice_names_both_lines(tmp_path: Path):
+    problem = refused(appended(tmp_path, GEOM, "dup.geom", "line_off:  21110.5"))
+    assert problem.line == 191
+    assert "line_off given twice, on lines 83 and 191" in problem.message
+
+
+def test_rpb_key_given_twice_names_both_lines(tmp_path: Path):
+    bad = edited(
+        tmp_path, FORMATS / "sample.RPB", "dup.RPB", "END_GROUP", "\tlineOffset = 600.0;\nEND_GROUP"
+    )
+    problem = refused(bad)
+    assert problem.line == 101
+    assert "lineOffset given twice, on lines 7 and 101" in problem.message
+
+
+def test_json_key_given_twice_is_named(tmp_path: Path):
+    old = '"row_offset": 405.51806724276,'
+    bad = edited(
+        tmp_path, FORMATS / "JAX_068_001_RGB.json", "dup.json", old, old + ' "row_offset": 1.0,'
+    )
+    assert "'row_offset' given twice" in refused(bad).message
+
+
+def test_xml_element_given_twice_is_named(tmp_path: Path):
+    old = "<LATOFFSET>2.679000000000000e+01</LATOFFSET>"
+    bad = edited(
+        tmp_path, FORMATS / "rpc_WV3_RPB_only.xml", "dup.xml", old, old + "<LATOFFSET>3</LATOFFSET>"
+    )
+    assert "RPB/IMAGE/LATOFFSET given 2 times" in refused(bad).message
+
+
+# -- numbers beyond the 20 coefficients or after the value ---------------------------------------
+def test_txt_21st_coefficient_is_refused(tmp_path: Path):
+    problem = refused(appended(tmp_path, GF_TXT, "c21_rpc.txt", "LINE_NUM_COEFF_21: +1.0E-05"))
+    assert problem.line == 91 and problem.message.startswith("LINE_NUM_COEFF_21:")
+    assert "has 20 coefficients" in problem.message
+
+
+def test_geom_21st_coefficient_is_refused(tmp_path: Path):
+    problem = refused(appended(tmp_path, GEOM, "c21.geom", "line_num_coeff_20:  1e-05"))
+    assert problem.line == 191 and problem.message.startswith("line_num_coeff_20:")
+    assert "has 20 coefficients" in problem.message
+
+
+def test_txt_second_number_after_a_value_is_refused(tmp_path: Path):
+    old = "LINE_NUM_COEFF_7: -2.911986523175590E-05"
+    bad = edited(tmp_path, GF_TXT, "two_rpc.txt", old, old + " 7.0")
+    problem = refused(bad)
+    assert problem.line == 17 and problem.message.startswith(
+        "LINE_NUM_COEFF_7: expected one number"
+    )
+    assert "-2.911986523175590E-05 7.0" in problem.message
+
+
+def test_geom_second_number_after_a_value_is_refused(tmp_path: Path):
+    old = "line_num_coeff_06:  -2.91198652317559e-05"
+    problem = refused(edited(tmp_path, GEOM, "two.geom", old, old + " 7.0"))
+    assert problem.line == 69 and problem.message.startswith("line_num_coeff_06: expected one")
+
+
+def test_unit_words_after_values_are_still_read(tmp_path: Path):
+    """gf_rpc_txt carries 'pixels', 'degrees', 'meters'; a coefficient may carry a unit too."""
+    old = "LINE_NUM_COEFF_7: -2.911986523175590E-05"
+    good = edited(tmp_path, GF_TXT, "unit_rpc.txt", old, old + " pixels")
+    assert read_rpc(good).line_num[6] == -2.91198652317559e-05
+
+
+# -- latitude / longitude offsets ---------------------------------------------------------------
+def test_latitude_and_longitude_swapped_is_refused(tmp_path: Path):
+    """rpc_PLANET_L1B.txt with LAT_OFF and LONG_OFF exchanged: LAT_OFF 151.7593."""
+    text = (FORMATS / "rpc_PLANET_L1B.txt").read_text()
+    text = text.replace("LAT_OFF: -32.85", "@").replace("LONG_OFF: 151.7593", "LONG_OFF: -32.85")
+    bad = tmp_path / "swapped_rpc.txt"
+    bad.write_text(text.replace("@", "LAT_OFF: 151.7593"))
+    message = refused(bad).message
+    assert message.startswith("LAT_OFF") and "151.7593" in message and "[-90, 90]" in message
+
+
+@pytest.mark.parametrize("lon", ["+361", "-180.5"])
+def test_longitude_offset_out_of_range_is_refused(tmp_path: Path, lon: str):
+    bad = edited(tmp_path, GF_TXT, "lon_rpc.txt", "LONG_OFF: +5.28464655928485", f"LONG_OFF: {lon}")
+    message = refused(bad).message
+    assert message.startswith("LONG_OFF") and "[-180, 360]" in message
+
+
+def test_latitude_offset_out_of_range_in_json_is_refused(tmp_path: Path):
+    old = '"lat_offset": 30.348745058662'
+    bad = edited(tmp_path, FORMATS / "JAX_068_001_RGB.json", "lat.json", old, '"lat_offset": -90.5')
+    assert refused(bad).message.startswith("LAT_OFF")
+
+
+def test_longitudes_0_to_360_and_negative_scales_are_read(tmp_path: Path):
+    """LONG_OFF 200 (0…360 convention) is accepted; rpc_PLANET_L1B.txt has LAT_SCALE -0.0234."""
+    good = edited(tmp_path, GF_TXT, "east_rpc.txt", "LONG_OFF: +5.28464655928485", "LONG_OFF: 200")
+    assert read_rpc(good).lon_off == 200.0
+    assert read_rpc(FORMATS / "rpc_PLANET_L1B.txt").lat_scale == -0.0234
+
+
+def test_zero_scale_is_refused_naming_the_field(tmp_path: Path):
+    bad = edited(tmp_path, GF_TXT, "zero_rpc.txt", "HEIGHT_SCALE: +885", "HEIGHT_SCALE: 0")
+    assert "HEIGHT_SCALE" in refused(bad).message
+
+
+# -- line ends, encodings, folders -------------------------------------------------------------
+@pytest.mark.parametrize("source", [GF_TXT, GEOM, FORMATS / "sample.RPB"], ids=lambda p: p.name)
+def test_cr_only_line_ends_are_read(tmp_path: Path, source: Path):
+    old_mac = tmp_path / source.name
+    old_mac.write_bytes(source.read_bytes().replace(b"\n", b"\r"))
+    assert_identical(read_rpc(old_mac), read_rpc(source))
+
+
+def test_cr_only_line_ends_keep_line_numbers(tmp_path: Path):
+    lines = GF_TXT.read_text().splitlines()
+    lines[2] = "LAT_OFF: north degrees"
+    bad = tmp_path / "cr_rpc.txt"
+    bad.write_bytes("\r".join(lines).encode())
+    assert refused(bad).line == 3
+
+
+@pytest.mark.parametrize(
+    "source",
+    [GF_TXT, GEOM, FORMATS / "sample.RPB", FORMATS / "JAX_068_001_RGB.json"]
+    + [FORMATS / "rpc_PLEIADES.xml", FORMATS / "rpc_WV3_RPB_only.xml"],
+    ids=lambda p: p.name,
+)
+def test_utf16_with_byte_order_mark_is_read(tmp_path: Path, source: Path):
+    wide = tmp_path / source.name
+    wide.write_text(source.read_text(), encoding="utf-16")  # writes a BOM
+    assert_identical(read_rpc(wide), read_rpc(source))
+
+
+def test_big_endian_utf16_is_read(tmp_path: Path):
+    wide = tmp_path / "be_rpc.txt"
+    wide.write_bytes(codecs.BOM_UTF16_BE + GF_TXT.read_text().encode("utf-16-be"))
+    assert_identical(read_rpc(wide), read_rpc(GF_TXT))
+
+
+def test_broken_utf16_names_the_encoding(tmp_path: Path):
+    bad = tmp_path / "odd_rpc.txt"
+    bad.write_bytes(GF_TXT.read_text().encode("utf-16") + b"\x00")  # an odd number of bytes
+    assert "UTF-16" in refused(bad).message
+
+
+def test_folder_is_not_called_missing(tmp_path: Path):
+    folder = tmp_path / "rpc.txt"
+    folder.mkdir()
+    message = refused(folder).message
+    assert "folder" in message and "no such file" not in message
