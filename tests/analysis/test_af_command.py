@@ -158,3 +158,39 @@ def test_a_dem_that_covers_no_block_is_refused(batch, dem_writer, tmp_path):
         args = [str(batch), "--dem", str(far), "--out", str(out)]
         command.main(args, standalone_mode=False)
     assert not (out / "experiments.csv").exists()
+
+
+def test_an_output_that_would_replace_the_table_is_refused(appendix_path, tmp_path):
+    folder = tmp_path / "d"
+    folder.mkdir()
+    table = folder / "experiments.csv"
+    table.write_bytes(appendix_path.read_bytes())
+    with pytest.raises(UsageError) as err:
+        command.main(["--table", str(table), "--out", str(folder)], standalone_mode=False)
+    assert err.value.exit_code == 2
+    assert f"its experiments.csv would replace the input table {table}" in str(err.value)
+    assert table.read_bytes() == appendix_path.read_bytes()
+    assert sorted(p.name for p in folder.iterdir()) == ["experiments.csv"]
+    # the table's own folder is fine when no output takes its name
+    mine = folder / "mine.csv"
+    table.rename(mine)
+    res = CliRunner().invoke(command, ["--table", str(mine), "--out", str(folder)])
+    assert res.exit_code == 0, res.output
+    assert mine.read_bytes() == appendix_path.read_bytes()
+
+
+def test_outputs_of_an_earlier_run_are_removed(appendix_path, tmp_path):
+    out = tmp_path / "out"
+    res = CliRunner().invoke(command, ["--table", str(appendix_path), "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    (out / "notes.txt").write_text("mine", encoding="utf-8")
+    one = tmp_path / "one.csv"
+    one.write_text("\n".join(appendix_path.read_text().splitlines()[:2]) + "\n")
+    res = CliRunner().invoke(command, ["--table", str(one), "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    assert sorted(p.name for p in out.iterdir()) == [
+        "experiments.csv",
+        "factors.html",
+        "factors.json",
+        "notes.txt",
+    ]

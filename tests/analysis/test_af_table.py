@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from blockqc.analysis.table import FACTOR_COLUMNS, INDICATOR_COLUMNS, read_table
+from blockqc.analysis.table import FACTOR_COLUMNS, INDICATOR_COLUMNS, read_table, write_table_csv
 from blockqc.errors import InputError
 
 
@@ -45,3 +45,62 @@ def test_missing_column_is_named(tmp_path, appendix_path):
 def test_missing_file(tmp_path):
     with pytest.raises(InputError, match="not found"):
         read_table(tmp_path / "nothing.csv")
+
+
+def _rows(appendix_path, n: int) -> list[str]:
+    """The appendix header and its first `n` data rows, as lines."""
+    return appendix_path.read_text(encoding="utf-8").splitlines()[: n + 1]
+
+
+def test_duplicate_experiment_ids_are_named(tmp_path, appendix_path):
+    lines = _rows(appendix_path, 4)
+    lines[4] = "2" + lines[4][1:]  # data row 4 takes the id of data row 2
+    bad = tmp_path / "dup.csv"
+    bad.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    with pytest.raises(InputError) as err:
+        read_table(bad)
+    assert str(err.value) == (
+        f"{bad}, row 4 (line 5), column 'experiment': experiment id '2' is also the id of "
+        "row 2 (line 3): each experiment needs its own id"
+    )
+
+
+def test_rows_are_named_with_their_line(tmp_path, appendix_path):
+    """Blank lines and a quoted cell over two lines: the line is where the row starts."""
+    lines = _rows(appendix_path, 5)
+    lines[2] = lines[2].replace("08HZ", '"08\nHZ"')  # data row 2 spans lines 3 and 4
+    cells = lines[4].split(",")
+    cells[5] = "abc"  # mean_slope_deg of data row 4
+    lines[4] = ",".join(cells)
+    lines.insert(4, "")  # a blank line before data row 4, skipped
+    bad = tmp_path / "lines.csv"
+    bad.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    with pytest.raises(InputError) as err:
+        read_table(bad)
+    assert [(p.row, p.line, p.column) for p in err.value.problems] == [(4, 7, "mean_slope_deg")]
+
+
+def test_a_table_not_in_utf8_names_the_line(tmp_path, appendix_path):
+    lines = _rows(appendix_path, 3)
+    lines[3] = lines[3].replace("08HZ", "Zürich")
+    bad = tmp_path / "latin1.csv"
+    bad.write_bytes(("\n".join(lines) + "\n").encode("latin-1"))
+    with pytest.raises(InputError) as err:
+        read_table(bad)
+    (problem,) = err.value.problems
+    assert (problem.file, problem.line) == (str(bad), 4)
+    assert "byte 0xfc at character 4 is not UTF-8" in problem.message
+    assert "must be UTF-8" in problem.message
+
+
+def test_written_table_keeps_formulas_as_text(tmp_path, appendix_path):
+    lines = _rows(appendix_path, 2)
+    lines[0] += ",=note"
+    lines[1] = "=1+1,@SUM(A1)," + lines[1].split(",", 2)[2] + ",-2.5"
+    lines[2] += ",+cmd"
+    src = tmp_path / "t.csv"
+    src.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    out = write_table_csv(read_table(src)).splitlines()
+    assert out[0].endswith(",'=note")
+    assert out[1].startswith("'=1+1,'@SUM(A1),H1-H5,14,")
+    assert out[1].endswith(",-2.5") and out[2].endswith(",'+cmd")

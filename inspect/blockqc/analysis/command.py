@@ -54,6 +54,51 @@ def _dem_coverage(table: pd.DataFrame, dems: list[Path]) -> None:
             )
 
 
+#: every file this command writes into --out; those a run does not write are removed from it
+OUTPUT_NAMES: tuple[str, ...] = (
+    "experiments.csv",
+    "factors.json",
+    "correlation.csv",
+    "correlation_p_values.csv",
+    "cca_tests.csv",
+    "cca_coefficients.csv",
+    "cca_structure.csv",
+    "correlation.svg",
+    "correlation.png",
+    "structure.svg",
+    "structure.png",
+    "factors.html",
+)
+
+
+def _check_not_table(out: Path, table_path: Path) -> None:
+    """Refuse an --out where an output file would be (or replace) the input table."""
+    table_r = table_path.resolve()
+    for name in OUTPUT_NAMES:
+        target = out / name
+        if target.resolve() == table_r or (target.exists() and target.samefile(table_r)):
+            raise UsageError(
+                f"--out {out}: its {name} would replace the input table {table_path}; "
+                "choose another output folder (or rename the table)"
+            )
+
+
+def _remove_stale(out: Path, written: list[Path]) -> None:
+    """Remove the outputs of an earlier run that this run did not write (a CCA, a figure it
+    could not make), so that the folder never mixes two runs; other files are left alone."""
+    made = {p.name for p in written}
+    for name in OUTPUT_NAMES:
+        old = out / name
+        if name in made or not (old.is_file() or old.is_symlink()):
+            continue
+        try:
+            old.unlink()
+        except OSError as exc:
+            raise UsageError(
+                f"--out {out}: the earlier run's {name} cannot be removed: {exc.strerror or exc}"
+            ) from None
+
+
 def write_outputs(
     out: Path, table: pd.DataFrame, results: dict[str, Any], user_templates: Path | None = None
 ) -> list[Path]:
@@ -224,6 +269,7 @@ def command(
         source = str(batch)
     else:
         assert table_path is not None
+        _check_not_table(out, table_path)
         out = check_out_dir(out, [])
         table = read_table(table_path)
         source = str(table_path)
@@ -231,6 +277,7 @@ def command(
     if batch is not None:
         results["options"] = asdict(options) | {"dem": [str(d) for d in dems]}
     written = write_outputs(out, table, results, user_templates)
+    _remove_stale(out, written)
     n_f, n_i = len(FACTOR_COLUMNS), len(INDICATOR_COLUMNS)
     if results["cca"]:
         r1 = results["cca"]["tests"][0]

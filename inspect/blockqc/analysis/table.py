@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+import csv
+import io
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from blockqc.errors import InputError, Problem
-from blockqc.textio import separator_problem
+from blockqc.report.exports import neutralise
+from blockqc.textio import read_text, separator_problem
 
 #: Columns that identify an experiment (text, kept but not analysed).
 ID_COLUMNS: tuple[str, ...] = ("experiment", "region", "periods", "image_pairs")
@@ -59,29 +62,37 @@ LABELS: dict[str, str] = {
 
 
 def read_table(path: Path) -> pd.DataFrame:
-    """Read and validate an experiments table (CSV); every problem named with row and column."""
+    """Read and validate an experiments table (CSV, UTF-8); every problem named with its row,
+    line and column."""
     path = Path(path)
     name = str(path)
+    text = read_text(path, None)  # not found, a folder, not UTF-8: named with the line
+    lines = _check_shape(path, text)
     try:
-        _check_shape(path)
         raw = pd.read_csv(
-            path, dtype=str, keep_default_na=False, skipinitialspace=True, index_col=False
+            io.StringIO(text),
+            dtype=str,
+            keep_default_na=False,
+            skipinitialspace=True,
+            index_col=False,
         )
-    except FileNotFoundError:
-        raise InputError(Problem(file=name, message="file not found")) from None
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
+    except (pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
         raise InputError(Problem(file=name, message=f"not a readable CSV table: {exc}")) from None
     raw.columns = [str(c).strip() for c in raw.columns]
-    return validate_table(raw, name)
+    return validate_table(raw, name, lines if len(lines) == len(raw) else None)
 
 
-def _check_shape(path: Path) -> None:
+def _is_blank(row: list[str]) -> bool:
+    """A record pandas skips: an empty or blank line."""
+    return len(row) <= 1 and not "".join(row).strip()
+
+
+def _check_shape(path: Path, text: str) -> list[int]:
     """What pandas would silently repair: a column named twice (renamed `x.1`) and a row with
-    more fields than the header (which shifts every column of the table by one)."""
-    import csv
-
-    with path.open(newline="", encoding="utf-8-sig") as fh:
-        rows = csv.reader(fh)
+    more fields than the header (which shifts every column of the table by one). Returns the
+    line each data row starts on (blank lines skipped, as pandas skips them)."""
+    rows = csv.reader(io.StringIO(text, newline=""))
+    try:
         header = [h.strip() for h in next(rows, [])]
         wrong = separator_problem(path, header)
         if wrong:
@@ -90,25 +101,38 @@ def _check_shape(path: Path) -> None:
             Problem(file=str(path), column=c, message="column named more than once")
             for c in sorted({h for h in header if header.count(h) > 1})
         ]
-        for i, row in enumerate(rows, start=1):
+        starts: list[int] = []
+        end = rows.line_num
+        for row in rows:
+            start, end = end + 1, rows.line_num
+            if _is_blank(row):
+                continue
+            starts.append(start)
             if len(row) > len(header):
                 problems.append(
                     Problem(
                         file=str(path),
-                        row=i,
+                        row=len(starts),
+                        line=start,
                         message=f"{len(row)} fields where the header names {len(header)}",
                     )
                 )
+    except csv.Error as exc:
+        raise InputError(
+            Problem(str(path), f"not a readable CSV table: {exc}", line=rows.line_num)
+        ) from None
     if problems:
         raise InputError(problems[:20])
+    return starts
 
 
 #: |value| beyond which a factor or indicator is refused (sums of squares must stay finite)
 MAX_MAGNITUDE = 1e12
 
 
-def validate_table(raw: pd.DataFrame, file: str) -> pd.DataFrame:
-    """Check the columns and parse the factors and indicators as finite numbers."""
+def validate_table(raw: pd.DataFrame, file: str, lines: list[int] | None = None) -> pd.DataFrame:
+    """Check the columns and ids and parse the factors and indicators as finite numbers;
+    `lines`: the line each row starts on, named beside the row in the problems."""
     problems: list[Problem] = []
     missing = [c for c in FACTOR_COLUMNS + INDICATOR_COLUMNS if c not in raw.columns]
     for col in missing:
@@ -129,6 +153,7 @@ def validate_table(raw: pd.DataFrame, file: str) -> pd.DataFrame:
         raise InputError(
             [Problem(file=file, column=c, message="column named more than once") for c in dup]
         )
+    problems = _duplicate_ids(raw, file, lines)
     table = raw.copy()
     if "experiment" not in table.columns:
         table.insert(0, "experiment", [str(i + 1) for i in range(len(table))])
@@ -144,15 +169,51 @@ def validate_table(raw: pd.DataFrame, file: str) -> pd.DataFrame:
                 if shown == ""
                 else f"'{shown}' is not a finite number of magnitude at most {MAX_MAGNITUDE:g}"
             )
-            problems.append(Problem(file=file, row=int(i) + 1, column=col, message=what))
+            problems.append(_cell_problem(file, int(i), lines, col, what))
         table[col] = values
     if problems:
         raise InputError(problems)
     return table
 
 
+def _cell_problem(
+    file: str, index: int, lines: list[int] | None, column: str, message: str
+) -> Problem:
+    """A problem in the row at `index` (0-based), named by row number and line."""
+    line = lines[index] if lines else None
+    return Problem(file=file, row=index + 1, line=line, column=column, message=message)
+
+
+def _where(index: int, lines: list[int] | None) -> str:
+    return f"row {index + 1}" + (f" (line {lines[index]})" if lines else "")
+
+
+def _duplicate_ids(raw: pd.DataFrame, file: str, lines: list[int] | None) -> list[Problem]:
+    """Rows whose experiment id an earlier row already has (ids left empty are not compared)."""
+    if "experiment" not in raw.columns:
+        return []
+    ids = raw["experiment"].astype(str).str.strip()
+    first: dict[str, int] = {}
+    problems = []
+    for i, value in enumerate(ids):
+        if value and value in first:
+            message = (
+                f"experiment id '{value}' is also the id of {_where(first[value], lines)}: "
+                "each experiment needs its own id"
+            )
+            problems.append(_cell_problem(file, i, lines, "experiment", message))
+        first.setdefault(value, i)
+    return problems
+
+
 def write_table_csv(table: pd.DataFrame) -> str:
-    """The table as CSV text: the appendix columns first, then any extra columns."""
+    """The table as CSV text: the appendix columns first, then any extra columns; text a
+    spreadsheet would run as a formula (`=1+1`, `@SUM(A1)`) is prefixed with `'`."""
     cols = [c for c in TABLE_COLUMNS if c in table.columns]
     cols += [c for c in table.columns if c not in cols]
-    return table[cols].to_csv(index=False, lineterminator="\n")
+    out = table[cols].copy()
+    for col in cols:
+        if out[col].dtype == object or isinstance(out[col].dtype, pd.StringDtype):
+            out[col] = out[col].map(lambda v: neutralise(v) if isinstance(v, str) else v)
+    out.columns = [neutralise(str(c)) for c in cols]
+    return out.to_csv(index=False, lineterminator="\n")
