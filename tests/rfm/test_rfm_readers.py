@@ -219,3 +219,11 @@ def test_raster_without_rpc(tmp_path: Path):
         ds.write(np.zeros((1, 2, 2), np.uint8))
     with pytest.raises(InputError, match="carries no RPCs"):
         read_rpc(image)
+
+
+def test_rpb_error_figures_after_begin_group_are_read():
+    """`BEGIN_GROUP = IMAGE` ends with its line, no ';': the errBias and errRand after it (lines
+    5 and 6 of sample.RPB, 0.02 and 0.03) are their own items."""
+    m = read_rpc(FORMATS / "sample.RPB")
+    assert (m.err_bias, m.err_rand) == (0.02, 0.03)
+    assert (m.line_off, m.samp_off, m.lat_off, m.lon_off) == (531.0, 1278.0, 37.6198, -122.3733)

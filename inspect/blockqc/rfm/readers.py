@@ -250,7 +250,7 @@ _RPB_COEFF = {
     "sampNumCoef": "samp_num",
     "sampDenCoef": "samp_den",
 }
-_RPB_ITEM = re.compile(r"(\w+)\s*=\s*(\([^)]*\)|[^;]*);", re.S)
+_RPB_ITEM = re.compile(r"(\w+)\s*=\s*(\([^)]*\)|[^;\n]*);", re.S)  # a plain value ends on its line
 
 
 def read_rpc_rpb(path: Path, text: str | None = None) -> RPCModel:
