@@ -170,6 +170,7 @@ def load_geometry(
         )
     if rpc_dir.exists():
         geometry.original = _read_models(rpc_dir, needed, scene_ids, problems)
+        problems.extend(domain_problems(scenes, geometry.original, files["scenes"].name))
     elif adjustment is not None:
         problems.append(
             Problem(
@@ -187,6 +188,57 @@ def load_geometry(
         problems.extend(_with_affine(geometry, adjustment, files["adjustment"], needed))
         geometry.source = files["adjustment"].name
     return geometry, problems
+
+
+def _bounds(wkt: object) -> tuple[float, float, float, float] | None:
+    """lon/lat bounds of a footprint WKT; None when empty or unreadable (reported elsewhere)."""
+    import shapely
+
+    if not isinstance(wkt, str):
+        return None
+    try:
+        geom = shapely.from_wkt(wkt)
+    except shapely.errors.ShapelyError:
+        return None
+    if geom is None or geom.is_empty:
+        return None
+    return tuple(float(v) for v in geom.bounds)  # type: ignore[return-value]
+
+
+def domain_problem(model: RPCModel, sid: str, wkt: object, table: str) -> Problem | None:
+    """A problem when the RPC's ground domain (LON_OFF ± LON_SCALE, LAT_OFF ± LAT_SCALE) does
+    not overlap the scene's footprint: an RPC that cannot describe the scene (another scene's
+    file, offsets and scales swapped …); None when it does or the footprint is unreadable."""
+    box = _bounds(wkt)
+    if box is None:
+        return None
+    west, south, east, north = box
+    shift = 360.0 * round((model.lon_off - (west + east) / 2) / 360.0)  # ±180° and 0..360°
+    lon0, lon1 = model.lon_off - abs(model.lon_scale), model.lon_off + abs(model.lon_scale)
+    lat0, lat1 = model.lat_off - abs(model.lat_scale), model.lat_off + abs(model.lat_scale)
+    if west + shift <= lon1 and east + shift >= lon0 and south <= lat1 and north >= lat0:
+        return None
+    return Problem(
+        model.source,
+        f"the RPC's ground domain (lon {lon0:.4f}..{lon1:.4f}, lat {lat0:.4f}..{lat1:.4f}: "
+        f"LON_OFF ± LON_SCALE, LAT_OFF ± LAT_SCALE) does not overlap the footprint_wkt of "
+        f"scene '{sid}' in {table} (lon {west:.4f}..{east:.4f}, lat {south:.4f}..{north:.4f}): "
+        "expected the RPC of this scene (another scene's file, or offsets and scales swapped?)",
+    )
+
+
+def domain_problems(
+    scenes: pd.DataFrame, models: dict[str, RPCModel], table: str = "scenes.csv"
+) -> list[Problem]:
+    """`domain_problem` of every scene with both an RPC and a footprint."""
+    if "footprint_wkt" not in scenes:
+        return []
+    problems = []
+    for sid, wkt in zip(scenes["scene_id"].astype(str), scenes["footprint_wkt"], strict=True):
+        found = domain_problem(models[sid], sid, wkt, table) if sid in models else None
+        if found is not None:
+            problems.append(found)
+    return problems
 
 
 def residual_column_problems(

@@ -5,17 +5,41 @@ from __future__ import annotations
 from pathlib import Path
 
 import click
+from click.core import ParameterSource
 
 from blockqc.adjust.run import DEFAULT_DEM_SIGMA_M, AdjustConfig, run_adjust
 from blockqc.adjust.solver import Settings
+from blockqc.errors import UsageError
 from blockqc.outputs import check_out_dir
+
+
+def check_dem_options(dem: Path | None, geoid: Path | None) -> None:
+    """Refuse the DEM's options without --dem (they would be silently ignored)."""
+    if dem is not None:
+        return
+    ctx = click.get_current_context()
+    given = ["--geoid"] if geoid is not None else []
+    given += [
+        f"--{name.replace('_', '-')}"
+        for name in ("dem_vertical", "dem_sigma")
+        if ctx.get_parameter_source(name) is ParameterSource.COMMANDLINE
+    ]
+    if given:
+        raise UsageError(
+            f"{', '.join(given)} given without --dem: the geoid and the DEM options apply to "
+            "the DEM's heights only (give --dem DEM, or leave them out)"
+        )
 
 
 @click.command("adjust")
 @click.argument("delivery", type=click.Path(path_type=Path))
 @click.option("--out", required=True, type=click.Path(path_type=Path), help="Output folder.")
 @click.option("--dem", type=click.Path(path_type=Path), help="DEM for height priors.")
-@click.option("--geoid", type=click.Path(path_type=Path), help="Geoid grid (geoid-height DEM).")
+@click.option(
+    "--geoid",
+    type=click.Path(path_type=Path),
+    help="Geoid of a geoid-height DEM (needs --dem): a grid file, or egm96 (shipped).",
+)
 @click.option(
     "--dem-vertical",
     type=click.Choice(["geoid", "ellipsoid"]),
@@ -64,6 +88,7 @@ def command(
     recalculation), adjust.json and adjust.html into --out. Exit status 0 when the adjustment
     converged, 1 when it did not (the outputs say converged: false), 2 on unreadable input.
     """
+    check_dem_options(dem, geoid)
     inputs = [p for p in (delivery, dem, geoid) if p is not None]
     out_dir = check_out_dir(out, inputs)
     settings = Settings(max_iterations=max_iterations, reject_k=reject, sigma_image_px=sigma_image)
@@ -87,6 +112,8 @@ def command(
         f"σ0 {r['sigma0_px']:.3f} px, RMS {r['rms_px_before']:.3f} → {r['rms_px_after']:.3f} px, "
         f"{r['n_outliers']} outliers; results in {out_dir}"
     )
+    for warning in r["warnings"]:
+        click.echo(f"warning: {warning}", err=True)
     if not r["converged"]:
         click.echo("the adjustment did not converge: see adjust.json (history)", err=True)
         click.get_current_context().exit(1)

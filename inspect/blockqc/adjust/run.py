@@ -10,6 +10,7 @@ import dataclasses
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -18,6 +19,9 @@ from blockqc.adjust.geometry import RPCStack, intersect
 from blockqc.adjust.inputs import AdjustInput, load_adjust_input
 from blockqc.adjust.solver import Observations, Priors, Settings, Solution, adjust
 from blockqc.errors import InputError, Problem
+
+if TYPE_CHECKING:
+    from blockqc.rfm.dem import DEM
 
 DEFAULT_DEM_SIGMA_M = 10.0
 """σ of a DEM height prior: SRTM's ~16 m absolute LE90 is ≈ 10 m at 1σ."""
@@ -82,14 +86,14 @@ def _weak_height(stack: RPCStack, n_points: int) -> tuple[np.ndarray, np.ndarray
 
 def height_priors(block: Block, cfg: AdjustConfig) -> tuple[np.ndarray, np.ndarray, str]:
     """Per point height prior: the DEM under the point (two passes of intersection on the
-    DEM), or the weak prior from the RPC height range where there is no DEM value."""
+    DEM), or the weak prior from the RPC height range where there is no DEM value. A DEM that
+    gives no height at any point is refused, as `rfm-accuracy` refuses one under no pixel."""
     h, sig, text = _weak_height(block.stack, block.obs.n_points)
     if cfg.dem is None:
         return h, sig, text
-    from blockqc.rfm.dem import load_dem
-
     obs = block.obs
-    lon = lat = None
+    on = np.zeros(obs.n_points, bool)
+    box = None
     for _ in range(2):
         res = intersect(
             block.stack,
@@ -100,27 +104,52 @@ def height_priors(block: Block, cfg: AdjustConfig) -> tuple[np.ndarray, np.ndarr
             obs.sample,
             height_prior=(h, sig),
         )
-        lon, lat = res.lon, res.lat
-        ok = np.isfinite(lon) & np.isfinite(lat)
+        ok = np.isfinite(res.lon) & np.isfinite(res.lat)
         if not ok.any():
             break
-        bounds = (
-            float(lon[ok].min()) - 0.05,
-            float(lat[ok].min()) - 0.05,
-            float(lon[ok].max()) + 0.05,
-            float(lat[ok].max()) + 0.05,
+        box = (
+            float(res.lon[ok].min()) - 0.05,
+            float(res.lat[ok].min()) - 0.05,
+            float(res.lon[ok].max()) + 0.05,
+            float(res.lat[ok].max()) + 0.05,
         )
-        dem = load_dem(cfg.dem, geoid=cfg.geoid, vertical=cfg.dem_vertical, bounds=bounds)
-        dem_h = dem.height(np.where(ok, lon, 0.0), np.where(ok, lat, 0.0))
-        on = ok & np.isfinite(dem_h)
-        h = np.where(on, dem_h, h)
-        sig = np.where(on, cfg.dem_sigma_m, sig)
-    n_on = int(np.count_nonzero(sig == cfg.dem_sigma_m))
+        dem = _load_dem(cfg, box)
+        dem_h = dem.height(np.where(ok, res.lon, 0.0), np.where(ok, res.lat, 0.0))
+        here = ok & np.isfinite(dem_h)
+        h = np.where(here, dem_h, h)
+        sig = np.where(here, cfg.dem_sigma_m, sig)
+        on |= here
+    if not on.any():
+        raise InputError(Problem(str(cfg.dem), _no_height(obs.n_points, box)))
     text = (
         f"DEM height prior ± {cfg.dem_sigma_m:g} m from {Path(cfg.dem).name} ({dem.vertical}) "
-        f"at {n_on} of {obs.n_points} points; elsewhere {text}"
+        f"at {int(on.sum())} of {obs.n_points} points; elsewhere {text}"
     )
     return h, sig, text
+
+
+def _load_dem(cfg: AdjustConfig, bounds: tuple[float, float, float, float]) -> DEM:
+    """The DEM over `bounds` as ellipsoidal heights (adjust has no --geoid-offset)."""
+    from blockqc.rfm.dem import load_dem
+
+    return load_dem(
+        cfg.dem, geoid=cfg.geoid, vertical=cfg.dem_vertical, bounds=bounds, offset_option=None
+    )
+
+
+def _no_height(n_points: int, box: tuple[float, ...] | None) -> str:
+    where = (
+        ""
+        if box is None
+        else (
+            f" (lon {box[0] + 0.05:.4f}..{box[2] - 0.05:.4f}, lat {box[1] + 0.05:.4f}.."
+            f"{box[3] - 0.05:.4f})"
+        )
+    )
+    return (
+        f"the DEM gives a height at none of the block's {n_points} tie points{where}: it is void "
+        "there or does not cover the block (expected a DEM with heights under the block)"
+    )
 
 
 def datum(block: Block, cfg: AdjustConfig) -> tuple[Priors, dict]:
@@ -337,6 +366,31 @@ def per_scene(block: Block, sol: Solution) -> list[dict]:
     return rows
 
 
+MIN_SCENE_OBSERVATIONS = 3
+"""Kept observations a scene needs for its affine (6 parameters, 2 equations each)."""
+
+
+def scene_warnings(scenes: list[dict]) -> list[str]:
+    """Scenes whose affine the data do not determine: too few observations kept."""
+    out = []
+    for row in scenes:
+        kept, rejected = row["n_observations"], row["n_outliers"]
+        if kept >= MIN_SCENE_OBSERVATIONS:
+            continue
+        if kept + rejected == 0:
+            why = "has no tie-point observation"
+        else:
+            why = (
+                f"keeps {kept} of its {kept + rejected} observations after outlier rejection "
+                f"(fewer than {MIN_SCENE_OBSERVATIONS})"
+            )
+        out.append(
+            f"scene {row['scene_id']} {why}: its affine is set by the priors alone, not by "
+            "the data; check its RPC (rpc/) and its tie points"
+        )
+    return out
+
+
 def summarize(
     block: Block,
     sol: Solution,
@@ -347,6 +401,7 @@ def summarize(
 ) -> dict:
     """adjust.json: the counts, convergence, σ0, residual RMS before/after and the datum."""
     kept = ~sol.outlier
+    scenes = per_scene(block, sol)
     return {
         "block_id": block.data.manifest.block_id,
         "delivery": str(block.data.path),
@@ -367,6 +422,7 @@ def summarize(
         "checkpoints": cp_info,
         "producer_adjustment": block.data.producer_source,
         "history": sol.history,
-        "scenes": per_scene(block, sol),
+        "scenes": scenes,
+        "warnings": scene_warnings(scenes),
         "residual_convention": "v = computed − measured, image pixels (contract v1.1)",
     }

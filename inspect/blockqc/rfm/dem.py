@@ -108,6 +108,28 @@ class DEM:
     __call__ = height
 
 
+MIN_PIXEL = 1e-9
+"""Smallest pixel size accepted, in the grid's CRS units (1e-9° is 0.1 mm): below it the
+geotransform is degenerate (e.g. a file read by the wrong GDAL driver)."""
+
+
+def _check_transform(path: Path, t: Affine, what: str) -> None:
+    """Refuse a grid that is not north-up or whose pixel size is (near) zero or not finite."""
+    if not all(np.isfinite(v) for v in (t.a, t.b, t.c, t.d, t.e, t.f)):
+        message = f"the {what} has a geotransform that is not finite: {tuple(t)[:6]}"
+    elif t.b != 0 or t.d != 0 or t.a <= 0 or t.e >= 0:
+        message = f"the {what} must be a north-up grid, got {t}"
+    elif t.a < MIN_PIXEL or -t.e < MIN_PIXEL or t.is_degenerate:
+        message = (
+            f"the {what} has a degenerate geotransform: pixel size {t.a:.3g} × {-t.e:.3g} "
+            f"(expected pixel sizes of at least {MIN_PIXEL:g} CRS units; is the file in the "
+            "format its name says, e.g. not an SRTM .hgt renamed .gtx?)"
+        )
+    else:
+        return
+    raise InputError(Problem(file=str(path), message=message))
+
+
 def _read_grid(path: Path, bounds: tuple[float, float, float, float] | None, what: str) -> Grid:
     """Read a raster (or the window of it covering lon/lat `bounds`) as float64 with NaN voids."""
     import rasterio
@@ -122,10 +144,7 @@ def _read_grid(path: Path, bounds: tuple[float, float, float, float] | None, wha
         if ds.crs is None:
             raise InputError(Problem(file=str(path), message=f"the {what} has no CRS"))
         t = ds.transform
-        if t.b != 0 or t.d != 0 or t.a <= 0 or t.e >= 0:
-            raise InputError(
-                Problem(file=str(path), message=f"the {what} must be a north-up grid, got {t}")
-            )
+        _check_transform(path, t, what)
         crs = CRS.from_wkt(ds.crs.to_wkt())
         if len(crs.axis_info) > 2:
             crs = crs.to_2d()  # heights are the values; the grid is horizontal
@@ -191,18 +210,22 @@ def _node_lonlat(grid: Grid) -> tuple[FloatArray, FloatArray]:
     return np.asarray(lon), np.asarray(lat)
 
 
-def _unknown_reference(why: str, n_here: float, plane_per_m: float | None) -> str:
-    """The message for a DEM whose height reference is not known: both options, and what
-    declaring it ellipsoidal would cost if it is not."""
+def _unknown_reference(
+    why: str, n_here: float, plane_per_m: float | None, offset_option: str | None
+) -> str:
+    """The message for a DEM whose height reference is not known: the options the command has,
+    and what declaring it ellipsoidal would cost if it is not."""
     cost = f"tens of metres (EGM96: N = {n_here:.1f} m here)"
     moved = "metres of plane error wherever the view is oblique"
     if plane_per_m is not None and np.isfinite(plane_per_m) and np.isfinite(n_here):
         moved = f"{abs(n_here) * plane_per_m:.1f} m of plane error for this image's view"
+    grid = "--geoid FILE (a geoid grid, e.g. egm96_15.gtx or a national one)"
+    if offset_option:
+        grid += f" or {offset_option} METRES (a constant undulation N)"
     return (
         f"{why}; RPC heights are WGS-84 ellipsoidal, so the DEM must be converted. Most DEMs "
         "(SRTM, ASTER, Copernicus, national DEMs) give heights above a geoid: pass --geoid egm96 "
-        "(the EGM96 grid shipped with blockqc), --geoid FILE (a geoid grid, e.g. egm96_15.gtx or "
-        "a national one) or --geoid-offset METRES (a constant undulation N). Use --dem-vertical "
+        f"(the EGM96 grid shipped with blockqc) or {grid}. Use --dem-vertical "
         "ellipsoid only for a DEM known to hold ellipsoidal heights: a geoid DEM taken as "
         f"ellipsoidal has every height off by N, {cost}, which moves the corrected image by "
         f"N·tan(view angle): {moved}"
@@ -216,8 +239,10 @@ def _check_choice(
     geoid: str | Path | None,
     geoid_offset: float | None,
     vertical: str,
+    offset_option: str | None,
 ) -> None:
-    """Refuse contradictory statements about the DEM's height reference."""
+    """Refuse contradictory statements about the DEM's height reference (`offset_option`: the
+    command's option of a constant undulation, None when it has none)."""
 
     def refuse(message: str) -> None:
         raise InputError(Problem(file=str(path), message=message))
@@ -227,8 +252,9 @@ def _check_choice(
     given = geoid is not None or geoid_offset is not None
     if geoid is not None and geoid_offset is not None:
         refuse("give either a geoid (--geoid) or a constant undulation (--geoid-offset), not both")
+    geoid_options = f"--geoid/{offset_option}" if offset_option else "--geoid"
     if vertical == "ellipsoid" and given:
-        refuse("--dem-vertical ellipsoid contradicts --geoid/--geoid-offset (geoid heights)")
+        refuse(f"--dem-vertical ellipsoid contradicts {geoid_options} (geoid heights)")
     if declared == geoid_mod.ELLIPSOID and (given or vertical == "geoid"):
         refuse(f"the DEM declares ellipsoidal heights ({how}): no geoid conversion applies")
     if declared not in (None, geoid_mod.ELLIPSOID) and vertical == "ellipsoid":
@@ -238,9 +264,10 @@ def _check_choice(
         )
     named = "EGM96" if str(geoid).lower() == "egm96" else None
     if declared not in (None, geoid_mod.ELLIPSOID, "EGM96") and named == "EGM96":
+        offset = f", or its undulation here with {offset_option}" if offset_option else ""
         refuse(
             f"the DEM declares {declared} heights ({how}), not EGM96: pass that model's grid "
-            "with --geoid FILE, or its undulation here with --geoid-offset"
+            f"with --geoid FILE{offset}"
         )
 
 
@@ -253,9 +280,10 @@ def _resolve_geoid(
     geoid_offset: float | None,
     vertical: str,
     plane_per_m: float | None,
+    offset_option: str | None,
 ) -> geoid_mod.Geoid | None:
     """The geoid to add to the DEM's heights (None: the heights are already ellipsoidal)."""
-    _check_choice(path, declared, how, geoid, geoid_offset, vertical)
+    _check_choice(path, declared, how, geoid, geoid_offset, vertical, offset_option)
     if geoid_offset is not None:
         return geoid_mod.constant_geoid(float(geoid_offset))
     if geoid is not None and str(geoid).lower() == "egm96":
@@ -276,7 +304,8 @@ def _resolve_geoid(
         why = f"the DEM does not say what its heights are measured from ({how})"
     lon, lat = _node_lonlat(grid)
     n_here = float(geoid_mod.egm96().undulation(np.nanmean(lon), np.nanmean(lat)))
-    raise InputError(Problem(file=str(path), message=_unknown_reference(why, n_here, plane_per_m)))
+    message = _unknown_reference(why, n_here, plane_per_m, offset_option)
+    raise InputError(Problem(file=str(path), message=message))
 
 
 def load_dem(
@@ -288,6 +317,7 @@ def load_dem(
     bounds: tuple[float, float, float, float] | None = None,
     fill: int = 0,
     plane_per_m: float | None = None,
+    offset_option: str | None = "--geoid-offset",
 ) -> DEM:
     """Load a DEM as ellipsoidal heights, h = H + N for a geoid DEM (§MB-2).
 
@@ -297,13 +327,17 @@ def load_dem(
     reference are refused. `plane_per_m` (plane metres per metre of height error for the image's
     view) makes that refusal say what a wrong choice would cost. `bounds` (west, south, east,
     north in degrees) restricts reading to the window needed; `fill` > 0 closes small voids.
+    `offset_option` is the caller's option for a constant undulation, named in the messages
+    (None: the command has none, e.g. `adjust`).
     """
     path = Path(path)
     declared, how = geoid_mod.declared_reference(path)
     grid = _read_grid(path, bounds, "DEM")
     if fill > 0:
         grid = Grid(fill_voids(grid.values, fill), grid.transform, grid.crs, grid.source)
-    g = _resolve_geoid(path, grid, declared, how, geoid, geoid_offset, vertical, plane_per_m)
+    g = _resolve_geoid(
+        path, grid, declared, how, geoid, geoid_offset, vertical, plane_per_m, offset_option
+    )
     if g is None:
         said = f"declared by {how}" if declared == geoid_mod.ELLIPSOID else "as stated by the user"
         return DEM(grid, f"ellipsoidal (WGS-84) heights from {path.name} ({said})")

@@ -150,6 +150,29 @@ def plane_per_height(rpc: RPCModel, shape: tuple[int, int], offset: tuple[float,
     return float(dist) / 100.0
 
 
+def image_without_height(
+    rpc: RPCModel, shape: tuple[int, int], offset: tuple[float, float], dem: DEM, n: int = 64
+) -> tuple[float, float]:
+    """Shares of the image (n×n positions, taken to the ground at the DEM's mean height) outside
+    the DEM and on its voids: those pixels stay empty in the ortho and give no CP."""
+    from blockqc.rfm.dem import Grid
+
+    rows, cols = np.meshgrid(
+        np.linspace(0.0, shape[0] - 1.0, n) + offset[0],
+        np.linspace(0.0, shape[1] - 1.0, n) + offset[1],
+    )
+    lon, lat, _ = rpc.image_to_ground(rows.ravel(), cols.ravel(), dem.mean_height)
+    ok = np.isfinite(lon) & np.isfinite(lat)
+    if not ok.any() or not np.isfinite(dem.mean_height):
+        return 0.0, 0.0
+    lon, lat = lon[ok], lat[ok]
+    g = dem.grid
+    cover = DEM(Grid(np.ones_like(g.values), g.transform, g.crs), "coverage")
+    outside = ~np.isfinite(cover.height(lon, lat))
+    void = ~outside & ~np.isfinite(dem.height(lon, lat))
+    return float(outside.mean()), float(void.mean())
+
+
 def _raster_shape(path: Path) -> tuple[tuple[int, int], bool]:
     with open_raster(path) as ds:
         return (ds.height, ds.width), ds.crs is not None
@@ -392,17 +415,41 @@ def match_cps(
     return matches, cell, how
 
 
+MATCH_WINDOW = 50
+"""Side (px) of the window a match needs free of voids: the matcher's BRIEF patch and NCC
+template (`blockqc.matching.MatchSettings.margin`, 25 px, on each side of a corner)."""
+VOIDED_WINDOWS = 0.5
+"""Share of matching windows touching a void above which voids are named as the cause."""
+
+
+def voided_windows(image: np.ndarray, window: int = MATCH_WINDOW) -> float:
+    """Share of the window×window cells inside the image's footprint (every neighbour cell at
+    least half with data, so the footprint's edge is left out) that hold an empty pixel:
+    scattered voids (of the DEM, empty in the ortho) leave no window to match."""
+    from scipy.ndimage import binary_erosion
+
+    rows, cols = (n // window * window for n in image.shape)
+    if rows == 0 or cols == 0:
+        return 0.0
+    finite = np.isfinite(image[:rows, :cols])
+    count = finite.reshape(rows // window, window, cols // window, window).sum(axis=(1, 3))
+    inside = binary_erosion(count >= window * window / 2, np.ones((3, 3)), border_value=0)
+    return float((inside & (count < window * window)).sum() / max(inside.sum(), 1))
+
+
 def no_cp_reason(image: np.ndarray, overlap: np.ndarray, dem: DEM, n_matches: int) -> str:
     """Why matching gave no CP: the likely cause first, then the figures behind it."""
     valid = float(np.isfinite(image).mean())
     both = float(overlap.sum() / max(np.isfinite(image).sum(), 1))
     voids = float(np.isnan(dem.grid.values).mean())
+    touched = voided_windows(image)
     pixels = image[overlap]
     spread = float(np.subtract(*np.percentile(pixels, [98, 2]))) if pixels.size else 0.0
     figures = (
         f"image pixels with data {valid:.0%} of the grid, of which {both:.0%} also on the "
-        f"reference; DEM voids {voids:.0%} of its window; {n_matches} matches found; "
-        f"grey-level spread (2–98 %) over the overlap {spread:.4g}"
+        f"reference; DEM voids {voids:.0%} of its window; {touched:.0%} of the "
+        f"{MATCH_WINDOW} px matching windows over the image touch an empty pixel; "
+        f"{n_matches} matches found; grey-level spread (2–98 %) over the overlap {spread:.4g}"
     )
     if n_matches:
         why = "every match fell on a DEM void (no height under it)"
@@ -410,14 +457,40 @@ def no_cp_reason(image: np.ndarray, overlap: np.ndarray, dem: DEM, n_matches: in
         why = "the reference does not overlap the image (wrong reference, CRS or crop offset?)"
     elif voids > 0.2 or valid < 0.2:
         why = "DEM voids: most of the image has no height (fill voids with --dem-fill-voids?)"
+    elif touched > VOIDED_WINDOWS:
+        why = (
+            "DEM voids scattered across the image: the image has no height (no pixel) on them "
+            "and most matching windows touch one (close them with --dem-fill-voids N, holes up "
+            "to ~2·N DEM cells across)"
+        )
     else:
         why = "no texture or too little likeness between the two images to match"
     return f"no control point found: {why}. {figures}"
 
 
-def run_warnings(cfg: RfmAccuracyConfig, dem: DEM, n: int, cell: int) -> list[str]:
-    """What the user should know about the run's inputs and its CP count."""
-    out = []
+def height_warning(dem_file: Path, no_height: tuple[float, float]) -> list[str]:
+    """The share of the image without DEM heights (outside the DEM, on its voids), if any."""
+    outside, void = no_height
+    if outside + void <= 0:
+        return []
+    parts = [f"{outside:.1%} outside it"] if outside > 0 else []
+    parts += [f"{void:.1%} on its voids (--dem-fill-voids N closes small ones)"] if void else []
+    return [
+        f"{outside + void:.1%} of the image has no height from the DEM {dem_file.name} "
+        f"({', '.join(parts)}): those pixels stay empty in ortho.tif and give no CP"
+    ]
+
+
+def run_warnings(
+    cfg: RfmAccuracyConfig,
+    dem: DEM,
+    n: int,
+    cell: int,
+    no_height: tuple[float, float] = (0.0, 0.0),
+) -> list[str]:
+    """What the user should know about the run's inputs and its CP count (`no_height`: the
+    shares of the image outside the DEM and on its voids)."""
+    out = height_warning(cfg.dem, no_height)
     if n < TARGET_CPS:
         how = "given" if cfg.match_grid else "chosen"
         out.append(
@@ -446,6 +519,8 @@ class _Run:
     cell_how: str = ""
     how: str = ""
     ref_rpc: Any = None
+    no_height: tuple[float, float] = (0.0, 0.0)
+    """Shares of the image outside the DEM and on its voids."""
 
 
 def _prepare(cfg: RfmAccuracyConfig) -> _Run:
@@ -467,6 +542,7 @@ def _prepare(cfg: RfmAccuracyConfig) -> _Run:
     )
     run = _Run(cfg, rpc, offset, dem)
     run.grid = ortho_grid(rpc, shape, dem, crop_offset=offset, crs=cfg.crs, gsd=cfg.gsd)
+    run.no_height = image_without_height(rpc, shape, offset, dem)
     return run
 
 
@@ -643,7 +719,8 @@ def run_rfm_accuracy(cfg: RfmAccuracyConfig, matcher: Matcher | None = None) -> 
         "distortion": {"clause": "§RA-5", **summary},
         "refined_rfm": _refined_doc(run, table, refined_all),
         "files": _files(run, refined_all is not None),
-        "warnings": run_warnings(cfg, run.dem, n, run.cell) + accuracy.k_warnings(cfg.ks, n),
+        "warnings": run_warnings(cfg, run.dem, n, run.cell, run.no_height)
+        + accuracy.k_warnings(cfg.ks, n),
     }
     results = _clean(results)  # type: ignore[assignment]
     write_json_atomic(cfg.out / "results.json", results)

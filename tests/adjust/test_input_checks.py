@@ -1,0 +1,119 @@
+"""`blockqc adjust`: DEM options and DEMs that cannot give heights, RPCs that do not fit their
+scene, and scenes left without observations."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+import rasterio
+from rasterio.transform import from_origin
+
+from blockqc.adjust.run import scene_warnings
+from blockqc.adjust.synthetic import SyntheticConfig, synthetic_block
+from blockqc.rfm.readers import read_rpc
+
+VENTOUX = Path(__file__).parents[1] / "data" / "rfm" / "phr_ventoux"
+MODELS = [read_rpc(VENTOUX / "left_image.geom"), read_rpc(VENTOUX / "right_image.geom")]
+GEOID = VENTOUX / "egm96_15_crop.gtx"
+
+
+@pytest.fixture(scope="module")
+def block(tmp_path_factory) -> Path:
+    cfg = SyntheticConfig(scenes=2, observations_per_scene=100, checkpoints=0, seed=5)
+    _, folder = synthetic_block(MODELS, cfg, tmp_path_factory.mktemp("syn") / "blk")
+    return folder
+
+
+def _dem(path: Path, value: float) -> Path:
+    """A DEM over lon 4..7, lat 43..46 (0.01°), every cell `value` (-9999: all voids)."""
+    with rasterio.open(
+        path, "w", driver="GTiff", width=300, height=300, count=1, dtype="float32",
+        crs="EPSG:4326", transform=from_origin(4.0, 46.0, 0.01, 0.01), nodata=-9999,
+    ) as ds:  # fmt: skip
+        ds.write(np.full((300, 300), value, np.float32), 1)
+    return path
+
+
+def test_geoid_without_dem_is_a_usage_error(block, tmp_path, blockqc):
+    out = tmp_path / "out"
+    r = blockqc("adjust", block, "--out", out, "--geoid", GEOID)
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert "--geoid given without --dem" in r.stderr
+    assert not out.exists()
+    r = blockqc("adjust", block, "--out", out, "--dem-sigma", "5")
+    assert r.returncode == 2 and "--dem-sigma given without --dem" in r.stderr
+
+
+def test_dem_with_no_height_under_the_block_is_refused(block, tmp_path, blockqc):
+    dem = _dem(tmp_path / "voids.tif", -9999.0)
+    r = blockqc("adjust", block, "--out", tmp_path / "out", "--dem", dem, "--geoid", GEOID)
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert f"{dem}: the DEM gives a height at none of the block's" in r.stderr
+    assert "void there or does not cover the block" in r.stderr
+
+
+def test_unknown_dem_reference_names_only_adjust_options(block, tmp_path, blockqc):
+    dem = _dem(tmp_path / "plain.tif", 500.0)
+    r = blockqc("adjust", block, "--out", tmp_path / "out", "--dem", dem)
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert "--geoid FILE" in r.stderr and "--dem-vertical ellipsoid" in r.stderr
+    assert "--geoid-offset" not in r.stderr
+
+
+def test_rpc_whose_domain_misses_the_footprint_is_refused(block, tmp_path, blockqc):
+    """S0001's RPC with the lat/lon offsets and scales swapped: its domain is lon ~44°, lat ~5°,
+    the scene's footprint lon ~5°, lat ~44°."""
+    blk = tmp_path / "blk"
+    shutil.copytree(block, blk)
+    path = blk / "rpc" / "S0001.json"
+    doc = json.loads(path.read_text())
+    rpc = doc.get("rpc", doc)
+    for a, b in (("lat_offset", "lon_offset"), ("lat_scale", "lon_scale")):
+        rpc[a], rpc[b] = rpc[b], rpc[a]
+    path.write_text(json.dumps(doc))
+    r = blockqc("adjust", blk, "--out", tmp_path / "out")
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert f"{path}: the RPC's ground domain" in r.stderr
+    assert "does not overlap the footprint_wkt of scene 'S0001' in scenes.csv" in r.stderr
+    assert "S0002" not in r.stderr
+
+
+def test_valid_block_has_no_warning(block, tmp_path, blockqc):
+    out = tmp_path / "out"
+    r = blockqc("adjust", block, "--out", out)
+    assert r.returncode == 0 and "warning" not in r.stderr
+    assert json.loads((out / "adjust.json").read_text())["warnings"] == []
+
+
+def test_scene_left_without_observations_is_warned():
+    rows = [
+        {"scene_id": "S1", "n_observations": 0, "n_outliers": 120},
+        {"scene_id": "S2", "n_observations": 2, "n_outliers": 1},
+        {"scene_id": "S3", "n_observations": 3, "n_outliers": 50},
+        {"scene_id": "S4", "n_observations": 0, "n_outliers": 0},
+    ]
+    assert scene_warnings(rows) == [
+        "scene S1 keeps 0 of its 120 observations after outlier rejection (fewer than 3): its "
+        "affine is set by the priors alone, not by the data; check its RPC (rpc/) and its tie "
+        "points",
+        "scene S2 keeps 2 of its 3 observations after outlier rejection (fewer than 3): its "
+        "affine is set by the priors alone, not by the data; check its RPC (rpc/) and its tie "
+        "points",
+        "scene S4 has no tie-point observation: its affine is set by the priors alone, not by "
+        "the data; check its RPC (rpc/) and its tie points",
+    ]
+
+
+def test_warnings_are_on_the_page(block, tmp_path, blockqc):
+    from blockqc.adjust.report import render_html
+
+    out = tmp_path / "out"
+    assert blockqc("adjust", block, "--out", out).returncode == 0
+    summary = json.loads((out / "adjust.json").read_text())
+    assert "<h2>Warnings</h2>" not in render_html(summary)
+    summary["warnings"] = ["scene S4 has no tie-point observation: check it"]
+    assert "<li>scene S4 has no tie-point observation: check it</li>" in render_html(summary)
