@@ -396,3 +396,20 @@ def test_space_separated_tables_are_refused_once(blockqc, tmp_path):
     p = blockqc("inspect", SAMPLE, "--checkpoints", cp, "--out", tmp_path / "o", "--pdf", "none")
     _refused(p, "cp.csv, line 1: columns separated by spaces, not by commas")
     assert "missing" not in p.stderr
+
+
+@pytest.mark.parametrize(
+    "text, why",
+    [
+        ('pack: x\nversion: "1"\n', "no rule is defined"),
+        ('pack: x\nversion: "1"\nextends: asprs-2023\ndisable: [AS-1, AS-2, AS-3, AS-4]\n',
+         "every rule is disabled (AS-1, AS-2, AS-3, AS-4)"),
+    ],
+)  # fmt: skip
+def test_a_pack_without_rules_is_refused(blockqc, tmp_path, text, why):
+    """It would pass every delivery having checked nothing."""
+    (tmp_path / "p.yaml").write_text(text, encoding="utf-8")
+    _refused(blockqc("rules", "lint", tmp_path / "p.yaml"), f"no rule to judge: {why}")
+    p = blockqc("inspect", SAMPLE, "--rules", tmp_path / "p.yaml", "--out", tmp_path / "o")
+    _refused(p, "p.yaml: the pack has no rule to judge")
+    assert not (tmp_path / "o").exists()

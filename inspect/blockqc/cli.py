@@ -188,7 +188,6 @@ def inspect_cmd(
     runner = batch.Runner(jobs or os.cpu_count() or 1, scheduler)  # its scheduler checked first
     pdf = "none" if no_pdf else pdf
     check_pdf_engine(pdf_engine, pdf != "none")
-    out = check_out_dir(out, paths)
     pack = load_pack(rules_ref)
     inspector = load_inspector_input(verdicts) if verdicts else None
     got = batch.collect(paths)
@@ -209,6 +208,7 @@ def inspect_cmd(
         checkpoints = load_checkpoint_files(list(checkpoint_files))
         check_blocks(checkpoints, got.deliveries)
     plan, meta = _acceptance_inputs(plan_file, meta_file, got)
+    out = check_out_dir(out, paths)  # created once every input is read
     writer = batch.Writer(out, templates, lang, pdf, pdf_engine)
     show = sys.stderr.isatty() if progress is None else progress
     with _progress(len(got.deliveries) if show else 0) as tick:

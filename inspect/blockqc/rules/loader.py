@@ -239,6 +239,8 @@ def read_pack(ref: str | Path) -> tuple[Pack | None, list[Problem]]:
         problems.extend(check_rule(rule, names, raw.file, partial(_line, raw)))
         problems.extend(_check_contents(rule, elements, raw))
         rules.append(rule)
+    if not loaded.rules:
+        problems.append(_no_rules(path, loaded))
     pf = loaded.pf
     pack = Pack(
         name=pf.pack,
@@ -256,6 +258,13 @@ def read_pack(ref: str | Path) -> tuple[Pack | None, list[Problem]]:
         columns=next((f.columns for _, _, f in reversed(loaded.sources) if f.columns), "all"),
     )
     return pack, problems
+
+
+def _no_rules(path: Path, loaded: _Loaded) -> Problem:
+    """A pack left without rules would pass every delivery having checked nothing."""
+    why = f"every rule is disabled ({', '.join(loaded.disabled)})" if loaded.disabled else ""
+    why = why or "no rule is defined"
+    return Problem(str(path), f"the pack has no rule to judge: {why}; give it at least one rule")
 
 
 def load_pack(ref: str | Path) -> Pack:
