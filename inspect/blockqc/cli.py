@@ -182,12 +182,13 @@ def inspect_cmd(
     from blockqc import batch
     from blockqc.delivery import block_scenes
     from blockqc.inspector import check_inspector_input, load_inspector_input
-    from blockqc.outputs import check_out_dir
+    from blockqc.outputs import check_out_dir, refuse_inside
     from blockqc.rules import load_pack
 
     runner = batch.Runner(jobs or os.cpu_count() or 1, scheduler)  # its scheduler checked first
     pdf = "none" if no_pdf else pdf
     check_pdf_engine(pdf_engine, pdf != "none")
+    refuse_inside(out, paths)
     pack = load_pack(rules_ref)
     inspector = load_inspector_input(verdicts) if verdicts else None
     got = batch.collect(paths)

@@ -125,7 +125,15 @@ def write_json_atomic(path: Path, obj: Any) -> None:
 
 
 def check_out_dir(out: Path, inputs: Iterable[Path]) -> Path:
-    """Refuse an output folder that lies inside (or is) one of the input deliveries or batches."""
+    """The output folder, created; refused when it lies inside (or is) one of the input
+    deliveries or batches (`refuse_inside`)."""
+    refuse_inside(out, inputs)
+    return make_out_dir(out, out.resolve())
+
+
+def refuse_inside(out: Path, inputs: Iterable[Path]) -> None:
+    """Refuse an output folder that lies inside (or is) one of the inputs, before they are read
+    (the folder is made once they are, `check_out_dir`)."""
     out_r = out.resolve()
     for p in inputs:
         p_r = Path(p).resolve()
@@ -134,7 +142,6 @@ def check_out_dir(out: Path, inputs: Iterable[Path]) -> Path:
                 f"--out {out} lies inside the input {p}: blockqc never writes into a delivery; "
                 "choose an output folder outside it"
             )
-    return make_out_dir(out, out_r)
 
 
 def make_out_dir(out: Path, out_r: Path) -> Path:

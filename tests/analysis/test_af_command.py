@@ -194,3 +194,11 @@ def test_outputs_of_an_earlier_run_are_removed(appendix_path, tmp_path):
         "factors.json",
         "notes.txt",
     ]
+
+
+def test_a_refused_batch_leaves_no_output_folder(tmp_path):
+    (tmp_path / "empty").mkdir()
+    args = [str(tmp_path / "empty"), "--dem", str(tmp_path), "--out", str(tmp_path / "o")]
+    with pytest.raises(InputError, match="neither a delivery"):
+        command.main(args, standalone_mode=False)
+    assert not (tmp_path / "o").exists()

@@ -16,7 +16,13 @@ from blockqc.analysis.table import FACTOR_COLUMNS, INDICATOR_COLUMNS, read_table
 from blockqc.analysis.terrain import DemSet
 from blockqc.delivery import find_deliveries, load_delivery
 from blockqc.errors import UsageError
-from blockqc.outputs import check_out_dir, write_bytes_atomic, write_json_atomic, write_text_atomic
+from blockqc.outputs import (
+    check_out_dir,
+    refuse_inside,
+    write_bytes_atomic,
+    write_json_atomic,
+    write_text_atomic,
+)
 from blockqc.verification import prepare
 
 
@@ -263,16 +269,16 @@ def command(
     if batch is not None:
         if not dems:
             raise UsageError("BATCH needs --dem: a DEM file or folder of tiles covering the blocks")
-        out = check_out_dir(out, [batch])
+        refuse_inside(out, [batch])
         table = build_table(batch, list(dems), options)
         _dem_coverage(table, list(dems))
         source = str(batch)
     else:
         assert table_path is not None
         _check_not_table(out, table_path)
-        out = check_out_dir(out, [])
         table = read_table(table_path)
         source = str(table_path)
+    out = check_out_dir(out, [batch] if batch is not None else [])  # once the inputs are read
     results = analyse(table, source)
     if batch is not None:
         results["options"] = asdict(options) | {"dem": [str(d) for d in dems]}
