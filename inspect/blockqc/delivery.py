@@ -683,7 +683,8 @@ def _unknown_keys(path: Path, data: dict, manifest: Manifest) -> list[Problem]:
     """Keys of block.yaml, and of its spatial_reference, that nothing reads (warnings)."""
     sr = manifest.spatial_reference
     keys = [(key,) for key in manifest.model_extra or {}]
-    keys += [("spatial_reference", k) for k in (sr.model_extra or {}) if sr and k != "zone"]
+    extra = (sr.model_extra or {}) if sr is not None else {}
+    keys += [("spatial_reference", k) for k in extra if k != "zone"]
     return [
         Problem(str(path), f"unknown key '{'.'.join(loc)}': not read", line=line_of(data, loc))
         for loc in keys

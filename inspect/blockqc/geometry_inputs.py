@@ -205,25 +205,33 @@ def _bounds(wkt: object) -> tuple[float, float, float, float] | None:
     return tuple(float(v) for v in geom.bounds)  # type: ignore[return-value]
 
 
+#: an RPC is read up to this many of its scales from its offsets (normalised coordinates within
+#: ±REACH): a footprint beyond is not of the scene the RPC describes
+REACH = 2.0
+
+
 def domain_problem(model: RPCModel, sid: str, wkt: object, table: str) -> Problem | None:
-    """A problem when the RPC's ground domain (LON_OFF ± LON_SCALE, LAT_OFF ± LAT_SCALE) does
-    not overlap the scene's footprint: an RPC that cannot describe the scene (another scene's
-    file, offsets and scales swapped …); None when it does or the footprint is unreadable."""
+    """A problem when the RPC's ground domain (LON_OFF ± REACH·LON_SCALE, LAT_OFF ±
+    REACH·LAT_SCALE) does not overlap the scene's footprint: an RPC that cannot describe the
+    scene (another scene's file, offsets and scales swapped …); None when it does or the
+    footprint is unreadable."""
     box = _bounds(wkt)
     if box is None:
         return None
     west, south, east, north = box
     shift = 360.0 * round((model.lon_off - (west + east) / 2) / 360.0)  # ±180° and 0..360°
-    lon0, lon1 = model.lon_off - abs(model.lon_scale), model.lon_off + abs(model.lon_scale)
-    lat0, lat1 = model.lat_off - abs(model.lat_scale), model.lat_off + abs(model.lat_scale)
+    lon_r, lat_r = REACH * abs(model.lon_scale), REACH * abs(model.lat_scale)
+    lon0, lon1 = model.lon_off - lon_r, model.lon_off + lon_r
+    lat0, lat1 = model.lat_off - lat_r, model.lat_off + lat_r
     if west + shift <= lon1 and east + shift >= lon0 and south <= lat1 and north >= lat0:
         return None
     return Problem(
         model.source,
         f"the RPC's ground domain (lon {lon0:.4f}..{lon1:.4f}, lat {lat0:.4f}..{lat1:.4f}: "
-        f"LON_OFF ± LON_SCALE, LAT_OFF ± LAT_SCALE) does not overlap the footprint_wkt of "
-        f"scene '{sid}' in {table} (lon {west:.4f}..{east:.4f}, lat {south:.4f}..{north:.4f}): "
-        "expected the RPC of this scene (another scene's file, or offsets and scales swapped?)",
+        f"LON_OFF ± {REACH:g}·LON_SCALE, LAT_OFF ± {REACH:g}·LAT_SCALE) does not overlap the "
+        f"footprint_wkt of scene '{sid}' in {table} (lon {west:.4f}..{east:.4f}, lat "
+        f"{south:.4f}..{north:.4f}): expected the RPC of this scene (another scene's file, or "
+        "offsets and scales swapped?)",
     )
 
 

@@ -43,18 +43,24 @@ COLUMN_LABEL_PT = 90.0  # the longest a column label may reach below the axes
 
 
 def nice_ticks(lo: float, hi: float, target: int = 6) -> np.ndarray:
-    """Round tick values (1, 2, 2.5, 5 × 10^k apart) inside [lo, hi], about `target` of them."""
+    """Round tick values (1, 2, 2.5, 5 × 10^k apart) inside [lo, hi], about `target` of them,
+    each the float nearest its decimal value (0.3, not 0.30000000000000004)."""
     if not (math.isfinite(lo) and math.isfinite(hi)) or hi <= lo:
         return np.array([lo]) if math.isfinite(lo) else np.array([])
     parts = max(target - 1, 1)
     raw = hi / parts - lo / parts  # (hi - lo) / parts without overflow near ±1.8e308
     if not raw > 0:  # the span underflows: one tick
         return np.array([lo])
-    k = 10.0 ** math.floor(math.log10(raw))
-    step = next(m * k for m in (1, 2, 2.5, 5, 10) if m * k >= raw * 0.999)
-    first = math.ceil(lo / step - 1e-9)
-    ticks = np.arange(first, math.floor(hi / step + 1e-9) + 1) * step
-    return np.round(ticks, 3 - math.floor(math.log10(step))) + 0.0  # without 0.30000000000000004
+    e = math.floor(math.log10(raw)) - 1  # step = tenths × 10^e, tenths one of 10, 20, 25, 50, 100
+    tenths = next(m for m in (10, 20, 25, 50, 100) if _decimal(m, e) >= raw * 0.999)
+    step = _decimal(tenths, e)
+    first, last = math.ceil(lo / step - 1e-9), math.floor(hi / step + 1e-9)
+    return np.array([_decimal(i * tenths, e) for i in range(first, last + 1)]) + 0.0
+
+
+def _decimal(n: int, e: int) -> float:
+    """n × 10^e correctly rounded (Python's integers are exact, their quotient rounded once)."""
+    return float(n * 10**e) if e >= 0 else n / 10**-e
 
 
 def tick_labels(ticks: np.ndarray) -> list[str]:
