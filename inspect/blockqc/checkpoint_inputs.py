@@ -36,14 +36,21 @@ class InspectorCheckpoints:
         if self.by_block:
             return self.rows[self.rows[BLOCK] == block_id]
         if not single:
-            raise InputError(
+            raise self.no_block_column()
+        return self.rows
+
+    def no_block_column(self) -> InputError:
+        """The refusal of files without a block_id column when several blocks are inspected."""
+        return InputError(
+            [
                 Problem(
-                    self.files[0],
+                    f,
                     f"several blocks are inspected: give a '{BLOCK}' column saying which block "
                     "each checkpoint belongs to",
                 )
-            )
-        return self.rows
+                for f in self.files
+            ]
+        )
 
 
 def load_checkpoint_files(paths: list[Path]) -> InspectorCheckpoints:
@@ -126,8 +133,11 @@ def merge_checkpoints(d: Delivery, extra: pd.DataFrame) -> Delivery:
 
 
 def check_blocks(cp: InspectorCheckpoints, deliveries: list[Path]) -> None:
-    """Rows naming a block that is not inspected would be ignored: refuse them."""
+    """Rows naming a block that is not inspected would be ignored: refuse them; and files
+    without a block_id column when several deliveries are inspected, once, before any is read."""
     if not cp.by_block:
+        if len(deliveries) > 1:
+            raise cp.no_block_column()
         return
     known = set()
     for path in deliveries:

@@ -121,20 +121,58 @@ def _rule_problems(
     return []
 
 
+#: the scopes whose units a waiver lists under one key: (that key, what the units are)
+_UNIT_KEYS = {"scene": ("scenes", "scenes"), "document": ("units", "document kinds")}
+
+
 def _unit_kind_problems(
     inp: InspectorInput, loc: tuple[Any, ...], waiver: Waiver, rule: Any
 ) -> list[Problem]:
-    """A rule judged per scene is waived for scenes: pairs, points or units would match none."""
-    if rule is None or getattr(rule, "scope", None) != "scene":
+    """A rule judged per scene is waived for scenes, one judged per document for document kinds
+    (under 'units'): units under another key would match none."""
+    scope = getattr(rule, "scope", None)
+    if rule is None or scope not in _UNIT_KEYS:
         return []
+    key, what = _UNIT_KEYS[scope]
     return [
         inp.problem(
             (*loc, kind),
-            f"rule {rule.id} is judged per scene: list the scenes to waive under 'scenes' "
+            f"rule {rule.id} is judged per {scope}: list the {what} to waive under '{key}' "
             f"('{kind}' would match none)",
         )
-        for kind in ("pairs", "points", "units")
-        if getattr(waiver, kind)
+        for kind in ("scenes", "pairs", "points", "units")
+        if kind != key and getattr(waiver, kind)
+    ]
+
+
+def document_kinds(rule: Any) -> list[str] | None:
+    """The document kinds a rule judged per document checks (its `required`), else None."""
+    if getattr(rule, "scope", None) != "document" or getattr(rule, "metric", None) != "documents":
+        return None
+    from blockqc.metrics.documents import DocumentParams
+
+    try:
+        return DocumentParams.model_validate(rule.params).required
+    except ValueError:
+        return None  # the pack's own problem, reported when it is loaded
+
+
+def _document_problems(
+    inp: InspectorInput, loc: tuple[Any, ...], waiver: Waiver, rule: Any
+) -> list[Problem]:
+    """Every document kind a waiver names must be one the rule checks: another would match none
+    (a kind the rule does not require never fails, so there is nothing to waive)."""
+    kinds = document_kinds(rule)
+    if kinds is None:
+        return []
+    return [
+        inp.problem(
+            (*loc, "units", i),
+            f"a waiver for document '{u}', which rule {rule.id} does not check "
+            f"({', '.join(kinds)})" + _hint(u, kinds),
+        )
+        for i, u in enumerate(waiver.units)
+        if u not in kinds
     ]
 
 
@@ -175,6 +213,7 @@ def check_inspector_input(
             at = (*loc, "waivers", rid)
             problems += _rule_problems(inp, at, rid, rules, True)
             problems += _unit_kind_problems(inp, at, waiver, rules.get(rid))
+            problems += _document_problems(inp, at, waiver, rules.get(rid))
             if scenes is not None:
                 problems += _scene_problems(inp, at, waiver, scenes, where)
     if problems:

@@ -48,13 +48,24 @@ def test_sample_command_names_a_missing_key(tmp_path: Path) -> None:
     assert not (tmp_path / "p.yaml").exists()
 
 
+#: the fields of a plan that say what it is and where it comes from (every one is required)
+ABOUT = {
+    "plan": "sampling plan",
+    "standard": "GB/T 24356-2023",
+    "rule_pack": "global-project 1.0",
+    "batch": "batch",
+    "strata_key": None,
+    "method": "simple random",
+}
+
+
 def _write_plan_b00_b02(path: Path) -> None:
     """A plan over B00..B03 (one lot, one stratum) that samples B00 and B02."""
     stratum = {"value": "", "size": 4, "sample": 2, "units": ["B00", "B01", "B02", "B03"]}
     sampled = ["B00", "B02"]
     lot = {"size": 4, "sample_size": 2, "census": False}
     lot |= {"strata": [stratum | {"sampled": sampled}], "sampled": sampled}
-    plan = {"seed": 0, "units": 4, "sample_size": 2, "lots": [lot], "sampled": sampled}
+    plan = {**ABOUT, "seed": 0, "units": 4, "sample_size": 2, "lots": [lot], "sampled": sampled}
     path.write_text(yaml.safe_dump(plan))
 
 
@@ -80,6 +91,7 @@ def test_inspect_with_plan(tmp_path: Path) -> None:
 def test_inspect_plan_refuses_a_block_outside_it(tmp_path: Path) -> None:
     batch = _batch(tmp_path / "batch", 2)
     plan = {
+        **ABOUT,
         "seed": 0,
         "units": 1,
         "sample_size": 1,

@@ -23,6 +23,18 @@ def _lookup(data: dict[str, Any], key: str) -> Any:
     return value
 
 
+def _stratum(data: dict[str, Any], key: str) -> str:
+    """A block's stratum: the key's value, text or a number; ValueError for anything else."""
+    value = _lookup(data, key)
+    if isinstance(value, (str, int, float)) and not isinstance(value, bool):
+        return str(value)
+    if isinstance(value, dict):
+        why = f"a mapping (stratify by one of its keys, e.g. '{key}.{next(iter(value), 'name')}')"
+    else:
+        why = {bool: "true/false", list: "a list", type(None): "empty"}.get(type(value), "not text")
+    raise ValueError(f"'{key}' is {why}: a stratum is text or a number")
+
+
 def read_units(batch: Path, key: str | None) -> tuple[list[str], dict[str, str] | None]:
     """The batch's block ids and, with a key, each block's stratum; every problem at once."""
     from blockqc.batch import collect
@@ -43,11 +55,10 @@ def read_units(batch: Path, key: str | None) -> tuple[list[str], dict[str, str] 
         m = got.manifests[path]
         if key:
             try:
-                strata[m.block_id] = str(_lookup(m.model_dump(mode="json"), key))
-            except KeyError:
-                problems.append(
-                    Problem(str(path / MANIFEST), f"no key '{key}' to stratify by", column=key)
-                )
+                strata[m.block_id] = _stratum(m.model_dump(mode="json"), key)
+            except (KeyError, ValueError) as exc:
+                why = f"no key '{key}' to stratify by" if isinstance(exc, KeyError) else str(exc)
+                problems.append(Problem(str(path / MANIFEST), why, column=key))
     if problems:
         raise InputError(problems)
     ids = [got.manifests[p].block_id for p in got.deliveries]

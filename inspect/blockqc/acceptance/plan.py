@@ -7,16 +7,17 @@ block without checkpoints is incomplete, and its results say so.
 
 from __future__ import annotations
 
+from collections import Counter
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, ValidationError
 
 from blockqc.acceptance.model import ReportMeta
 from blockqc.acceptance.sampling import Lot
 from blockqc.errors import InputError, Problem
 from blockqc.results import STATUSES, BlockResults
-from blockqc.yamlio import load_yaml, pydantic_problems
+from blockqc.yamlio import line_of, load_yaml, pydantic_problems
 
 NOT_SAMPLED = "not sampled for detailed inspection (sampling plan)"
 NO_CHECKPOINTS = (
@@ -45,20 +46,26 @@ class LotPlan(_M):
     sampled: list[str]
 
 
-class Plan(_M):
-    """What was sampled, how, and from what: enough to draw the same sample again."""
+SIMPLE, STRATIFIED = "simple random", "stratified proportional random"
 
-    plan: str = "sampling plan"
-    standard: str = ""
-    rule_pack: str = ""
-    batch: str = ""  # the batch folder's name (never an absolute path)
+
+class Plan(_M):
+    """What was sampled, how, and from what: enough to draw the same sample again.
+
+    Every field is required (`blockqc sample` writes them all); `load_plan` also refuses a plan
+    whose parts disagree (see `plan_problems`)."""
+
+    plan: str
+    standard: str
+    rule_pack: str
+    batch: str  # the batch folder's name (never an absolute path)
     seed: int
-    strata_key: str | None = None
-    method: str = "simple random"
+    strata_key: str | None
+    method: Literal["simple random", "stratified proportional random"]
     units: int
     sample_size: int
     lots: list[LotPlan]
-    sampled: list[str] = Field(default_factory=list)
+    sampled: list[str]
 
     @property
     def population(self) -> set[str]:
@@ -87,9 +94,10 @@ def make_plan(lots: list[Lot], seed: int, key: str | None, **about: Any) -> Plan
         for lot in lots
     ]
     return Plan(
+        plan="sampling plan",
         seed=seed,
         strata_key=key,
-        method="stratified proportional random" if key else "simple random",
+        method=STRATIFIED if key else SIMPLE,
         units=sum(x.size for x in out),
         sample_size=sum(x.sample_size for x in out),
         lots=out,
@@ -104,9 +112,90 @@ def load_plan(path: Path) -> Plan:
     if not isinstance(data, dict):
         raise InputError(Problem(str(path), "expected a sampling plan (blockqc sample)", line=1))
     try:
-        return Plan.model_validate(data)
+        plan = Plan.model_validate(data)
     except ValidationError as exc:
         raise InputError(pydantic_problems(exc, path, data)) from None
+    found = plan_problems(plan)
+    if found:
+        raise InputError(
+            [
+                Problem(str(path), f"{_key(loc)}: {msg}", line=line_of(data, loc))
+                for loc, msg in found
+            ]
+        )
+    return plan
+
+
+#: a disagreement between parts of a plan: where (a key path) and what
+Mismatch = tuple[tuple[str | int, ...], str]
+
+
+def _key(loc: tuple[str | int, ...]) -> str:
+    return ".".join(str(p) for p in loc)
+
+
+def _names(units: list[str], most: int = 10) -> str:
+    more = f", … ({len(units)} in all)" if len(units) > most else ""
+    return ", ".join(units[:most]) + more if units else "none"
+
+
+def _count(loc: tuple[str | int, ...], given: int, units: list[str], what: str) -> list[Mismatch]:
+    """`given` must be the number of `units` (what they are, for the message)."""
+    if given == len(units):
+        return []
+    return [(loc, f"{given}, but {what} {len(units)} unit(s): {_names(units)}")]
+
+
+def _same(
+    loc: tuple[str | int, ...], given: list[str], units: list[str], what: str
+) -> list[Mismatch]:
+    """`given` must list the same blocks as `units` (any order, each once)."""
+    if sorted(given) == sorted(units):
+        return []
+    return [(loc, f"{_names(given)} disagrees with {what}: {_names(sorted(units))}")]
+
+
+def _stratum_problems(s: StratumPlan, at: tuple[str | int, ...]) -> list[Mismatch]:
+    out = _count((*at, "size"), s.size, s.units, "the stratum lists")
+    out += _count((*at, "sample"), s.sample, s.sampled, "the stratum samples")
+    out += [
+        ((*at, "sampled"), f"{u} is not among the stratum's units")
+        for u in s.sampled
+        if u not in s.units
+    ]
+    return out
+
+
+def _lot_problems(lot: LotPlan, at: tuple[str | int, ...]) -> list[Mismatch]:
+    out = [p for j, s in enumerate(lot.strata) for p in _stratum_problems(s, (*at, "strata", j))]
+    units = [u for s in lot.strata for u in s.units]
+    drawn = [u for s in lot.strata for u in s.sampled]
+    out += _count((*at, "size"), lot.size, units, "its strata list")
+    out += _same((*at, "sampled"), lot.sampled, drawn, "the sampled blocks of its strata")
+    out += _count((*at, "sample_size"), lot.sample_size, lot.sampled, "the lot samples")
+    if lot.census != (lot.sample_size == lot.size):
+        census = "every unit" if lot.sample_size == lot.size else "not every unit"
+        out.append(((*at, "census"), f"{lot.census}, but the lot samples {census}"))
+    return out
+
+
+def plan_problems(plan: Plan) -> list[Mismatch]:
+    """Every disagreement between the parts of a plan: counts against the lists they count,
+    the sampled blocks against those of the lots and strata, the method against the key."""
+    out = [p for i, lot in enumerate(plan.lots) for p in _lot_problems(lot, ("lots", i))]
+    units = [u for lot in plan.lots for s in lot.strata for u in s.units]
+    twice = sorted(u for u, n in Counter(units).items() if n > 1)
+    if twice:
+        out.append((("lots",), f"{_names(twice)} listed in more than one stratum or lot"))
+    out += _count(("units",), plan.units, units, "its lots list")
+    lots_sampled = [u for lot in plan.lots for u in lot.sampled]
+    out += _count(("sample_size",), plan.sample_size, lots_sampled, "its lots sample")
+    out += _same(("sampled",), plan.sampled, lots_sampled, "the sampled blocks of its lots")
+    method = STRATIFIED if plan.strata_key else SIMPLE
+    if plan.method != method:
+        key = f"strata_key {plan.strata_key}" if plan.strata_key else "no strata_key"
+        out.append((("method",), f"{plan.method}, but with {key} the method is {method}"))
+    return out
 
 
 def check_blocks(plan: Plan, path: Path, block_ids: list[str], whole_batch: bool) -> None:

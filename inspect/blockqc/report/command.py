@@ -7,11 +7,12 @@ from pathlib import Path
 from typing import Any
 
 import click
+from pydantic import ValidationError
 
 from blockqc.cli import check_pdf_engine, pdf_engine_option
 from blockqc.errors import InputError, Problem
 from blockqc.report.messages import LANGUAGES
-from blockqc.results import BlockResults, Summary, parse
+from blockqc.results import STATUSES, BlockResults, Summary, json_path, parse
 
 
 def _read_json(path: Path) -> tuple[Any, bytes]:
@@ -52,12 +53,78 @@ def _no_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     return out
 
 
+def _strict(path: Path, doc: Any, kind: str) -> None:
+    """The schema's types as they are: a number written as text ("3") is refused, not read."""
+    model = BlockResults if kind == "results" else Summary
+    try:
+        model.model_validate(doc, strict=True)
+    except ValidationError as exc:
+        raise InputError(
+            [
+                Problem(str(path), f"not a valid {kind}.json: at {json_path(e['loc'])}: {e['msg']}")
+                for e in exc.errors()[:20]
+            ]
+        ) from None
+
+
+def _contradictions(path: Path, doc: BlockResults) -> list[Problem]:
+    """The verdict and the counts must be those of the rule results (as the engine makes them)."""
+    counts = dict.fromkeys(STATUSES, 0)
+    for r in doc.results:
+        counts[r.status] += 1
+    verdict = "error" if counts["error"] else "fail" if counts["fail"] else "pass"
+    out = [
+        Problem(
+            str(path),
+            f"$.counts.{s} is {doc.counts.get(s, 0)}, but {n} rule result(s) have status {s}",
+        )
+        for s, n in counts.items()
+        if doc.counts.get(s, 0) != n
+    ]
+    if doc.verdict != verdict:
+        out.append(
+            Problem(
+                str(path),
+                f"$.verdict is {doc.verdict}, but its rule results make it {verdict} "
+                f"({counts['error']} error, {counts['fail']} fail)",
+            )
+        )
+    return out
+
+
 def _check_results(path: Path, doc: Any) -> BlockResults:
-    return parse(doc, str(path), "results")
+    """A results document to re-render: valid, its types strict, not contradicting itself."""
+    _strict(path, doc, "results")
+    results = parse(doc, str(path), "results")
+    problems = _contradictions(path, results)
+    if problems:
+        raise InputError(problems)
+    return results
 
 
 def _check_summary(path: Path, doc: Any) -> Summary:
+    _strict(path, doc, "summary")
     return parse(doc, str(path), "summary")
+
+
+def _summary_blocks(
+    path: Path, summary: Summary, named: list[Path]
+) -> tuple[list[Path], list[Problem]]:
+    """The results files of the summary's blocks not named already, and a problem for each
+    block whose results file is missing: its report could not be re-made, nor linked to."""
+    found: list[Path] = []
+    missing: list[Problem] = []
+    for b in summary.blocks:
+        cand = path.parent / b.results
+        if not cand.is_file():
+            msg = (
+                f"lists block {b.block_id}, but its results file {cand} is missing (name the "
+                "results files to re-render without the summary)"
+            )
+            missing.append(Problem(str(path), msg))
+        elif cand not in named and cand not in found:
+            found.append(cand)
+    return found, missing
 
 
 def gather(
@@ -104,12 +171,10 @@ def gather(
             except InputError as exc:
                 problems.extend(exc.problems)
                 continue
-            for b in doc["blocks"]:  # the summary's own blocks, when not named already
-                rel = b.get("results") if isinstance(b, dict) else None
-                cand = f.parent / rel if isinstance(rel, str) else None
-                if cand is not None and cand.is_file() and cand not in files:
-                    files.append(cand)
-                    queue.append(cand)
+            found, missing = _summary_blocks(f, summary[1], files)
+            files += found
+            queue += found
+            problems += missing
             continue
         loaded.append((f, doc, raw))
     seen: dict[str, Path] = {}

@@ -1,7 +1,7 @@
 """Rule cases: a rule's passing and failing examples, kept beside its pack and run on demand.
 
 The cases of a pack file `NAME.yaml` live in the folder `NAME.cases/` beside it, one file per
-rule, `NAME.cases/<RULE>.yaml`:
+rule, `NAME.cases/<RULE>.yaml` (or `.yml`):
 
     rule: TP-4
     cases:
@@ -120,12 +120,31 @@ def case_folder(pack_file: Path) -> Path:
     return pack_file.with_name(pack_file.stem + ".cases")
 
 
+#: the suffixes a case file may have
+CASE_SUFFIXES = (".yaml", ".yml")
+
+
+def case_files(folder: Path) -> list[Path]:
+    """Every case file of a folder (`.yaml` or `.yml`), sorted; RuleError for a rule that has
+    both, since either could be the one meant."""
+    if not folder.is_dir():
+        return []
+    files = sorted(f for f in folder.iterdir() if f.suffix in CASE_SUFFIXES and f.is_file())
+    stems = [f.stem for f in files]
+    twice = [f for f in files if stems.count(f.stem) > 1 and f.suffix == ".yml"]
+    if twice:
+        raise RuleError(
+            [Problem(str(f), f"cases for {f.stem} also in {f.stem}.yaml: keep one") for f in twice]
+        )
+    return files
+
+
 def find_case_file(chain: list[str], rule_id: str) -> Path | None:
     """The case file of a rule nearest to the pack: its own folder first, then its parents'."""
     for file in chain:
-        candidate = case_folder(Path(file)) / f"{rule_id}.yaml"
-        if candidate.is_file():
-            return candidate
+        found = [f for f in case_files(case_folder(Path(file))) if f.stem == rule_id]
+        if found:
+            return found[0]
     return None
 
 
@@ -230,8 +249,7 @@ def run_case(pack: Pack, pack_file: Path, rule_id: str, case: Case, work: Path) 
 
 def iter_cases(pack_file: Path) -> Iterator[tuple[Path, CaseFile, int, Case]]:
     """Every case beside one pack file: (case file, its document, case index, case)."""
-    folder = case_folder(pack_file)
-    for f in sorted(folder.glob("*.yaml")) if folder.is_dir() else []:
+    for f in case_files(case_folder(pack_file)):
         doc = read_case_file(f)
         for i, case in enumerate(doc.cases):
             yield f, doc, i, case

@@ -469,12 +469,11 @@ def check_cases(pack: Pack) -> list[Problem]:
 
 def _stray_case_files(pack: Pack) -> list[Problem]:
     """A case file in the pack's own folder for a rule the pack does not have."""
-    from blockqc.rules.cases import case_folder
+    from blockqc.rules.cases import case_files, case_folder
 
-    folder = case_folder(Path(pack.chain[0]))
     ids = [r.id for r in pack.rules]
     out = []
-    for f in sorted(folder.glob("*.yaml")) if folder.is_dir() else []:
+    for f in case_files(case_folder(Path(pack.chain[0]))):
         if f.stem not in ids and f.stem not in pack.disabled:
             hint = did_you_mean(f.stem, ids)
             out.append(Problem(str(f), f"cases for {f.stem}, which the pack has no rule for{hint}"))

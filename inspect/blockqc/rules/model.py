@@ -3,14 +3,26 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, field_validator, model_validator
 
 from blockqc.acceptance.model import Acceptance, ErrorClass, ScoreDef
 
+
+def _not_bool(v: Any) -> Any:
+    """A bound is a number or an expression: true/false (YAML also reads yes/no so) is refused,
+    as it is for a constant, rather than read as 1 or 0."""
+    if isinstance(v, bool):
+        raise ValueError(
+            f"expected a number or an expression, got {str(v).lower()} "
+            "(YAML reads yes/no as true/false)"
+        )
+    return v
+
+
 #: a number, or an arithmetic expression over the pack's constants, e.g. "2*sqrt(2)*norm.plane_m"
-Expr = float | int | str
+Expr = Annotated[float | int | str, BeforeValidator(_not_bool)]
 
 
 #: what a rule may ask the report to draw from its results (§2 report figures)

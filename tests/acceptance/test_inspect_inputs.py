@@ -1,0 +1,82 @@
+"""The inspector's inputs to `inspect` that would match nothing are refused up front: checkpoint
+files without a block_id column for a batch, waivers naming a document kind the rule does not
+check (or units under the wrong key)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from blockqc.checkpoint_inputs import check_blocks, load_checkpoint_files
+from blockqc.errors import InputError
+from blockqc.inspector import check_inspector_input, load_inspector_input
+from blockqc.rules import load_pack
+from casekit import base_tables, run_blockqc, write_delivery
+
+NO_BLOCK_COLUMN = (
+    "several blocks are inspected: give a 'block_id' column saying which block each checkpoint "
+    "belongs to"
+)
+
+
+def _checkpoints(tmp_path: Path) -> Path:
+    path = tmp_path / "mine.csv"
+    cps = base_tables()["checkpoints"].head(3).assign(method="recalculation")
+    cps.to_csv(path, index=False)
+    return path
+
+
+def test_no_block_id_column_for_several_deliveries_is_refused_once(tmp_path: Path) -> None:
+    paths = [write_delivery(tmp_path / b, {"manifest": {"block_id": b}}) for b in ("B00", "B01")]
+    cps = load_checkpoint_files([_checkpoints(tmp_path)])
+    check_blocks(cps, paths[:1])  # one delivery: the rows are its own
+    with pytest.raises(InputError) as exc:
+        check_blocks(cps, paths)
+    assert [str(p) for p in exc.value.problems] == [f"{tmp_path / 'mine.csv'}: {NO_BLOCK_COLUMN}"]
+
+
+def test_inspect_refuses_it_before_any_block_is_read(tmp_path: Path) -> None:
+    for b in ("B00", "B01"):
+        write_delivery(tmp_path / "batch" / b, {"manifest": {"block_id": b}})
+    cps, out = _checkpoints(tmp_path), tmp_path / "out"
+    r = run_blockqc("inspect", tmp_path / "batch", "--checkpoints", cps, "--out", out, "--no-pdf")
+    assert r.returncode == 2
+    assert r.stderr.count(NO_BLOCK_COLUMN) == 1 and "UNREADABLE" not in r.stdout + r.stderr
+    assert not list(out.glob("**/*.json"))
+
+
+@pytest.fixture(scope="module")
+def rules():
+    return {r.id: r for r in load_pack("global-project").rules}
+
+
+def _check(tmp_path: Path, rules, text: str) -> list[str]:
+    path = tmp_path / "verdicts.yaml"
+    path.write_text(text, "utf-8")
+    with pytest.raises(InputError) as exc:
+        check_inspector_input(load_inspector_input(path), rules, {"B00": {"S1"}})
+    return [str(p).removeprefix(f"{path}, ") for p in exc.value.problems]
+
+
+def test_a_waiver_for_a_document_kind_the_rule_does_not_check(tmp_path: Path, rules) -> None:
+    text = "waivers:\n  DOC-1:\n    reason: on paper\n    units: [tecnical_design]\n"
+    assert _check(tmp_path, rules, text) == [
+        "line 4: a waiver for document 'tecnical_design', which rule DOC-1 does not check "
+        "(technical_design, inspection_report, technical_summary, relative_orientation_report, "
+        "absolute_orientation_report); did you mean 'technical_design'?"
+    ]
+
+
+def test_documents_are_waived_under_units(tmp_path: Path, rules) -> None:
+    text = "waivers:\n  DOC-1:\n    reason: on paper\n    scenes: [S1]\n"
+    assert _check(tmp_path, rules, text) == [
+        "line 4: rule DOC-1 is judged per document: list the document kinds to waive under "
+        "'units' ('scenes' would match none)"
+    ]
+
+
+def test_a_waiver_for_a_document_kind_the_rule_checks(tmp_path: Path, rules) -> None:
+    path = tmp_path / "verdicts.yaml"
+    path.write_text("waivers:\n  DOC-1:\n    reason: r\n    units: [technical_design]\n", "utf-8")
+    check_inspector_input(load_inspector_input(path), rules, {"B00": {"S1"}})

@@ -1,0 +1,143 @@
+"""`inspect --plan` refuses a plan whose parts disagree, or that lacks a field, naming the plan
+file, the line and the field; `blockqc sample --strata` refuses a key that is not text or a
+number."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from blockqc.acceptance.command import read_units
+from blockqc.acceptance.plan import load_plan
+from blockqc.errors import InputError
+from casekit import run_blockqc, write_delivery
+
+#: a plan as `blockqc sample --strata test_field` writes it: 4 blocks in 2 strata, 3 sampled
+PLAN = """\
+plan: sampling plan
+standard: GB/T 24356-2023
+rule_pack: global-project 1.0
+batch: batch
+seed: 7
+strata_key: test_field
+method: stratified proportional random
+units: 4
+sample_size: 3
+lots:
+- size: 4
+  sample_size: 3
+  census: false
+  strata:
+  - value: '1'
+    size: 2
+    sample: 2
+    units: [F1-B01, F1-B02]
+    sampled: [F1-B01, F1-B02]
+  - value: '2'
+    size: 2
+    sample: 1
+    units: [F2-B01, F2-B02]
+    sampled: [F2-B02]
+  sampled: [F1-B01, F1-B02, F2-B02]
+sampled: [F1-B01, F1-B02, F2-B02]
+"""
+
+
+def _refusal(tmp_path: Path, old: str, new: str) -> list[str]:
+    path = tmp_path / "plan.yaml"
+    assert old in PLAN
+    path.write_text(PLAN.replace(old, new, 1), "utf-8")
+    with pytest.raises(InputError) as exc:
+        load_plan(path)
+    return [str(p).removeprefix(f"{path}, ") for p in exc.value.problems]
+
+
+def test_a_consistent_plan_is_read(tmp_path: Path) -> None:
+    (tmp_path / "plan.yaml").write_text(PLAN, "utf-8")
+    assert load_plan(tmp_path / "plan.yaml").sampled == ["F1-B01", "F1-B02", "F2-B02"]
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "expected"),
+    [
+        (  # the top-level sample is another than the lots': it would decide the acceptance
+            "\nsampled: [F1-B01, F1-B02, F2-B02]\n",
+            "\nsampled: [F2-B01]\n",
+            "line 26: sampled: F2-B01 disagrees with the sampled blocks of its lots: "
+            "F1-B01, F1-B02, F2-B02",
+        ),
+        (
+            "units: 4\n",
+            "units: 40\n",
+            "line 8: units: 40, but its lots list 4 unit(s): F1-B01, F1-B02, F2-B01, F2-B02",
+        ),
+        (
+            "  sample_size: 3\n",
+            "  sample_size: 2\n",
+            "line 12: lots.0.sample_size: 2, but the lot samples 3 unit(s): F1-B01, F1-B02, F2-B02",
+        ),
+        (
+            "    sample: 2\n",
+            "    sample: 1\n",
+            "line 17: lots.0.strata.0.sample: 1, but the stratum samples 2 unit(s): F1-B01, F1-B02",
+        ),
+        (
+            "strata_key: test_field\n",
+            "strata_key: null\n",
+            "line 7: method: stratified proportional random, but with no strata_key the method "
+            "is simple random",
+        ),
+    ],
+)
+def test_parts_that_disagree_are_refused(tmp_path: Path, old, new, expected) -> None:
+    assert _refusal(tmp_path, old, new) == [expected]
+
+
+def test_a_missing_sampled_is_refused_not_taken_as_none(tmp_path: Path) -> None:
+    problems = _refusal(tmp_path, "\nsampled: [F1-B01, F1-B02, F2-B02]\n", "\n")
+    assert problems == ["line 1: sampled: Field required"]
+
+
+def test_inspect_refuses_an_inconsistent_plan_and_writes_nothing(tmp_path: Path) -> None:
+    for block in ("F1-B01", "F1-B02", "F2-B01", "F2-B02"):
+        write_delivery(tmp_path / "batch" / block, {"manifest": {"block_id": block}})
+    plan = tmp_path / "plan.yaml"
+    plan.write_text(PLAN.replace("\nsampled: [F1-B01, F1-B02, F2-B02]\n", "\nsampled: [F2-B01]\n"))
+    out = tmp_path / "out"
+    r = run_blockqc("inspect", tmp_path / "batch", "--plan", plan, "--out", out, "--no-pdf")
+    assert r.returncode == 2
+    assert f"error: {plan}, line 26: sampled: F2-B01 disagrees with" in r.stderr
+    assert "Traceback" not in r.stderr and not list(out.glob("**/*.json"))
+
+
+def _batch(root: Path, values: list[object]) -> Path:
+    for i, value in enumerate(values):
+        write_delivery(root / f"B{i:02d}", {"manifest": {"block_id": f"B{i:02d}", "zone": value}})
+    return root
+
+
+def test_strata_by_text_or_number_or_a_key_of_a_mapping(tmp_path: Path) -> None:
+    batch = _batch(tmp_path / "batch", ["north", 2, 3.5])
+    assert read_units(batch, "zone")[1] == {"B00": "north", "B01": "2", "B02": "3.5"}
+    batch = _batch(tmp_path / "nested", [{"class": "flat"}, {"class": "hilly"}])
+    assert read_units(batch, "zone.class")[1] == {"B00": "flat", "B01": "hilly"}
+
+
+@pytest.mark.parametrize(
+    ("value", "why"),
+    [
+        ({"class": "flat"}, "a mapping (stratify by one of its keys, e.g. 'zone.class')"),
+        (["a", "b"], "a list"),
+        (True, "true/false"),
+        (None, "empty"),
+    ],
+)
+def test_a_stratum_that_is_not_text_or_a_number_is_refused(tmp_path: Path, value, why) -> None:
+    batch = _batch(tmp_path / "batch", ["north", value])
+    with pytest.raises(InputError) as exc:
+        read_units(batch, "zone")
+    assert [str(p) for p in exc.value.problems] == [
+        f"{batch / 'B01' / 'block.yaml'}, column 'zone': 'zone' is {why}: a stratum is text or "
+        "a number"
+    ]
