@@ -106,24 +106,42 @@ def _with_affine(
         for sid in needed
         if sid not in rows.index
     ]
-    values = table[list(AFFINE_KEYS)].to_numpy(dtype=float)
-    for i, j in zip(*np.nonzero(np.isinf(values)), strict=True):  # NaN: reported as empty
-        csv = file.suffix.lower() == ".csv"
-        problems.append(
-            Problem(
-                str(file),
-                f"value is not finite, got {values[i, j]}",
-                row=int(i) + 1,
-                line=int(i) + 2 if csv else None,
-                column=AFFINE_KEYS[j],
-            )
-        )
+    problems += _distorting(table, file)
     if problems or any(sid not in geometry.original for sid in needed):
         return problems  # the missing RPCs are reported by _read_models
     geometry.scene_ids = list(needed)
     geometry.adjusted = [geometry.original[sid] for sid in needed]
     geometry.affine = rows.loc[needed, list(AFFINE_KEYS)].to_numpy(dtype=float)
     return problems
+
+
+#: the determinant of a scene's affine M = [[1 − a2, −a1], [−b2, 1 − b1]] lies in this range: an
+#: adjustment corrects the image by parts per thousand, not by halving, doubling or mirroring it
+DET_RANGE = (0.5, 2.0)
+
+
+def _distorting(table: pd.DataFrame, file: Path) -> list[Problem]:
+    """Rows whose affine cannot be inverted, or scales or mirrors the image (det M outside
+    DET_RANGE): its residuals would be divided by nearly zero (non-finite values are the
+    table's own problems)."""
+    a = table[list(AFFINE_KEYS)].to_numpy(dtype=float)
+    with np.errstate(invalid="ignore", over="ignore"):  # inf cells: the table's own problem
+        det = (1.0 - a[:, 2]) * (1.0 - a[:, 4]) - a[:, 1] * a[:, 5]
+        bad = np.flatnonzero(np.isfinite(det) & ((det < DET_RANGE[0]) | (det > DET_RANGE[1])))
+    csv = file.suffix.lower() == ".csv"
+    return [
+        Problem(
+            str(file),
+            f"scene '{table['scene_id'].iloc[i]}': the affine's determinant (1 − a2)(1 − b1) − "
+            f"a1·b2 is {det[i]:.6g}; expected {DET_RANGE[0]:g} … {DET_RANGE[1]:g} (an affine that "
+            "corrects the image, not one that collapses, scales or mirrors it; a1, a2, b1, b2 "
+            "are per pixel)",
+            row=int(i) + 1,
+            line=int(i) + 2 if csv else None,
+            column="a1, a2, b1, b2",
+        )
+        for i in bad
+    ]
 
 
 def _refined(geometry: BlockGeometry, models: dict[str, RPCModel], needed: list[str]) -> None:

@@ -17,6 +17,7 @@ import pandas as pd
 
 from blockqc.adjust.geometry import RPCStack, intersect, intersect_at_height
 from blockqc.delivery import Delivery, scene_positions
+from blockqc.errors import InputError, Problem
 
 WGS84_A = 6378137.0
 WGS84_E2 = 6.69437999014e-3
@@ -129,6 +130,24 @@ def radii(lat_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return WGS84_A / w * np.cos(phi), WGS84_A * (1.0 - WGS84_E2) / w**3
 
 
+def _refuse_unintersected(d: Delivery, obs: pd.DataFrame) -> None:
+    """Residuals to compute (the delivery gives none) for points whose rays do not meet (parallel:
+    the same image twice?) cannot be: refused, rather than judged as missing numbers."""
+    none = ~np.isfinite(obs[["v_line_computed", "v_sample_computed"]].to_numpy()).all(axis=1)
+    if not none.any():
+        return
+    points = pd.unique(obs.loc[none, "point_id"].astype(str))
+    shown = ", ".join(points[:20]) + (f" and {len(points) - 20} more" if len(points) > 20 else "")
+    raise InputError(
+        Problem(
+            str(d.files.get("tie_points", d.path)),
+            f"the rays of {len(points)} tie point(s) do not intersect ({shown}): their residuals "
+            "cannot be computed from the geometry, and the delivery gives none (v_line, "
+            "v_sample); expected rays from different viewpoints (the same image twice?)",
+        )
+    )
+
+
 def prepare(d: Delivery) -> dict[str, Any]:
     """Compute the process data once; fill absent residuals and overlaps; say what was done."""
     if d.process_data.get("prepared"):
@@ -140,6 +159,7 @@ def prepare(d: Delivery) -> dict[str, Any]:
     pdata = compute(d)
     notes.update(pdata.notes)
     if "v_line" not in d.tie_points.columns:
+        _refuse_unintersected(d, pdata.observations)
         d.tie_points = d.tie_points.assign(
             v_line=pdata.observations["v_line_computed"].to_numpy(),
             v_sample=pdata.observations["v_sample_computed"].to_numpy(),

@@ -249,3 +249,31 @@ def test_rpc_denominator_of_zeros_is_refused() -> None:
     with pytest.raises(InputError) as exc:
         RPCModel(**model)
     assert "rpc/S1.json" in str(exc.value.problems[0]) and "LINE_DEN" in str(exc.value.problems[0])
+
+
+@pytest.mark.parametrize(
+    "row, det",
+    [
+        ("L,0,0,1,0,0,0", "0"),  # a2 = 1: (1 − 1)(1 − 0) − 0·0, the affine collapses the lines
+        ("L,0,0.7,0,0,0.5,1", "-0.2"),  # (1 − 0)(1 − 0.5) − 0.7·1
+        ("L,0,0,2,0,0,0", "-1"),  # (1 − 2)(1 − 0) − 0: the lines mirrored
+    ],
+)
+def test_an_affine_that_cannot_be_a_correction_is_refused(tmp_path, tie_points, row, det) -> None:
+    folder = write_v11(tmp_path / "d", tie_points)
+    lines = (folder / "adjustment.csv").read_text().splitlines()
+    at = next(i for i, line in enumerate(lines) if line.startswith("L,"))
+    lines[at] = row
+    (folder / "adjustment.csv").write_text("\n".join(lines) + "\n")
+    (msg,) = _problems(folder)
+    assert f"adjustment.csv, row {at} (line {at + 1}), column 'a1, a2, b1, b2'" in msg
+    assert f"scene 'L': the affine's determinant (1 − a2)(1 − b1) − a1·b2 is {det};" in msg
+
+
+def test_an_affine_of_a_real_correction_is_read(tmp_path, tie_points) -> None:
+    folder = write_v11(tmp_path / "d", tie_points)
+    lines = (folder / "adjustment.csv").read_text().splitlines()
+    at = next(i for i, line in enumerate(lines) if line.startswith("L,"))
+    lines[at] = "L,12.5,2e-4,-3e-4,-8.0,1e-4,5e-5"  # det = (1 + 3e-4)(1 − 1e-4) − 1e-8
+    (folder / "adjustment.csv").write_text("\n".join(lines) + "\n")
+    assert load_delivery(folder).geometry.affine is not None

@@ -155,3 +155,35 @@ def test_synthetic_v11_delivery(tmp_path) -> None:
     inspect_delivery(d, load_pack("global-project"))
     assert np.allclose(d.tie_points["v_line"], delivered["v_line"], atol=1e-3)
     assert np.allclose(d.tie_points["v_sample"], delivered["v_sample"], atol=1e-3)
+
+
+def test_observations_the_geometry_cannot_reproduce_are_left_out_and_counted() -> None:
+    """A point seen once (its ray fixes it) and one whose rays do not meet (no computed
+    residual) are not compared; the counts say so, the others are compared."""
+    from types import SimpleNamespace
+
+    from blockqc.errors import InputError
+    from blockqc.metrics.geometry import _verifiable
+    from blockqc.verification import _refuse_unintersected
+
+    nan = float("nan")
+    table = pd.DataFrame(
+        {
+            "point_id": ["A", "A", "S", "X", "X"],
+            "v_line_computed": [0.1, -0.1, 0.0, nan, nan],
+            "v_sample_computed": [0.2, -0.2, 0.0, nan, nan],
+            "n_rays": [2, 2, 1, 2, 2],
+        }
+    )
+    kept, unverified = _verifiable(table)
+    assert kept["point_id"].tolist() == ["A", "A"]
+    assert unverified["single_ray_observations"] == 1
+    assert unverified["not_intersected_observations"] == 2
+    assert "not compared" in unverified["not_verified"]
+    d = SimpleNamespace(files={"tie_points": Path("d/tie_points.csv")}, path=Path("d"))
+    with pytest.raises(InputError) as exc:
+        _refuse_unintersected(d, table)  # residuals to compute: point X has none
+    (problem,) = exc.value.problems
+    assert problem.file == "d/tie_points.csv"
+    assert "the rays of 1 tie point(s) do not intersect (X)" in problem.message
+    _refuse_unintersected(d, table.iloc[:3])  # every point intersected: nothing to refuse

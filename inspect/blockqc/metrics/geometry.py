@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pandas as pd
 
@@ -68,9 +70,13 @@ def residual_reproduction(d: Delivery, p: NoParams, measure: Measure) -> Measure
     table["difference_px"] = np.hypot(
         table["v_line"] - table["v_line_computed"], table["v_sample"] - table["v_sample_computed"]
     )
-    table = table[table["n_rays"] >= 2].reset_index(drop=True)
+    table, unverified = _verifiable(table)
     if table.empty:
-        return not_applicable("no tie point is seen on two or more scenes")
+        return not_applicable(
+            "no tie point is seen on two or more scenes and intersected "
+            f"({unverified['single_ray_observations']} observations of single-ray points, "
+            f"{unverified['not_intersected_observations']} of points not intersected)"
+        )
     diff = table["difference_px"]
     block = pd.DataFrame(
         {
@@ -86,5 +92,23 @@ def residual_reproduction(d: Delivery, p: NoParams, measure: Measure) -> Measure
             "observation": Table(table, keys=["point_id", "scene_id"], sort="difference_px"),
             "block": Table(block),
         },
-        detail={k: v for k, v in notes.items()},
+        detail={**notes, **unverified},
     )
+
+
+def _verifiable(table: pd.DataFrame) -> tuple[pd.DataFrame, dict[str, Any]]:
+    """The observations whose residuals the geometry gives (points on two or more scenes, their
+    rays intersected), and how many are left out and why: a point seen once is fixed by its one
+    ray (nothing to reproduce), one whose rays do not meet has no computed residual."""
+    multi = (table["n_rays"] >= 2).to_numpy()
+    computed = np.isfinite(table[["v_line_computed", "v_sample_computed"]].to_numpy()).all(axis=1)
+    unverified = {
+        "single_ray_observations": int((~multi).sum()),
+        "not_intersected_observations": int((multi & ~computed).sum()),
+    }
+    if any(unverified.values()):
+        unverified["not_verified"] = (
+            "observations of points seen on one scene only (their one ray fixes the point) and "
+            "of points whose rays could not be intersected are not compared"
+        )
+    return table[multi & computed].reset_index(drop=True), unverified
