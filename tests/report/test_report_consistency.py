@@ -70,3 +70,11 @@ def test_a_summary_block_without_its_results_is_refused(tmp_path, capsys, result
     assert not (tmp_path / "o").exists()
     # the blocks that are there can still be re-rendered, without the summary
     assert run("report", str(batch / "T-B01"), "--out", str(tmp_path / "o"), "--no-pdf") == 0
+
+
+def test_a_results_json_saved_with_a_byte_order_mark_is_read(tmp_path, results_doc):
+    path = tmp_path / "in" / "results.json"
+    path.parent.mkdir()
+    path.write_bytes(b"\xef\xbb\xbf" + json.dumps(results_doc).encode("utf-8"))
+    assert run("report", str(path), "--out", str(tmp_path / "out"), "--no-pdf") == 0
+    assert (tmp_path / "out" / results_doc["block_id"] / "report.html").is_file()

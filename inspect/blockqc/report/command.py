@@ -21,7 +21,8 @@ def _read_json(path: Path) -> tuple[Any, bytes]:
     except OSError as exc:
         raise InputError(Problem(str(path), f"cannot be read: {exc.strerror or exc}")) from None
     try:
-        return json.loads(raw.decode("utf-8"), object_pairs_hook=_no_duplicates), raw
+        text = raw.decode("utf-8-sig")  # a byte-order mark, as some editors save, is read
+        return json.loads(text, object_pairs_hook=_no_duplicates), raw
     except _DuplicateKey as exc:
         raise InputError(Problem(str(path), f"is not accepted: key '{exc}' given twice")) from None
     except UnicodeDecodeError as exc:
