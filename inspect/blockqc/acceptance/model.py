@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 ErrorClass = Literal["A", "B", "C", "D"]
 
@@ -19,6 +19,17 @@ class ScoreDef(_M):
     kind: Literal["accuracy", "deduction"] = "deduction"
     # the norm m0 (an expression over the pack's constants); none: the result's upper bound
     norm: float | int | str | None = None
+
+    @field_validator("norm", mode="before")
+    @classmethod
+    def _positive(cls, v: Any) -> Any:
+        """m0 divides the score (§QE-3): a number at or below 0 (or true/false) cannot be meant;
+        an expression is checked when the pack is loaded."""
+        if isinstance(v, bool):
+            raise ValueError("expected a number above 0 or an expression, got true/false")
+        if isinstance(v, (int, float)) and not v > 0:
+            raise ValueError(f"the norm m0 divides the accuracy score: expected above 0, got {v}")
+        return v
 
 
 class SampleRow(_M):

@@ -22,6 +22,7 @@ from blockqc.errors import Problem, RuleError
 from blockqc.metrics import REGISTRY, MetricSpec, Scope
 from blockqc.rules.expr import ExpressionError, evaluate, flatten, resolve_params, syntax_tree
 from blockqc.rules.model import Pack, Rule, selected
+from blockqc.rules.text import TEXT_FIELDS, placeholders
 from blockqc.yamlio import line_of
 
 LineFn = Callable[..., int | None]
@@ -138,6 +139,13 @@ def referenced_names(value: Any) -> set[str]:
     return out
 
 
+def _text_names(raw: Mapping[str, Any]) -> set[str]:
+    """Dotted names the placeholders of a rule's titles and descriptions refer to."""
+    texts = [raw.get(k) for k in TEXT_FIELDS]
+    exprs = [p.partition(":")[0] for t in texts if isinstance(t, str) for p in placeholders(t)]
+    return referenced_names(exprs)
+
+
 def unused_constants(
     sites: list[ConstantSite], rules: Iterable[Mapping[str, Any]]
 ) -> list[Problem]:
@@ -147,6 +155,7 @@ def unused_constants(
     for raw in rules:
         for key in ("threshold", "thresholds", "params"):
             used |= referenced_names(raw.get(key))
+        used |= _text_names(raw)
     out = []
     for s in sites:
         if s.name in used:
@@ -171,12 +180,7 @@ def check_rule(rule: Rule, names: Mapping[str, Any], file: str, line: LineFn) ->
     if not rule.title.strip():
         bad("a rule needs a title", "title")
     _check_thresholds(rule, names, bad)
-    score = getattr(rule, "score", None)
-    if score is not None and isinstance(score.norm, str):
-        try:
-            evaluate(score.norm, names)
-        except ExpressionError as exc:
-            bad(f"score.norm: {exc}", "score", "norm")
+    _check_score(rule, names, bad)
     if rule.manual:
         return out
     spec = REGISTRY.get(rule.metric or "")
@@ -230,6 +234,47 @@ def _check_thresholds(rule: Rule, names: Mapping[str, Any], bad: Callable[..., N
             bad(f"{'.'.join(loc)}.in: an empty list: nothing can pass", *loc, "in")
         if isinstance(th.equals, float) and not math.isfinite(th.equals):
             bad(f"{'.'.join(loc)}.equals: expected a finite number, true/false or a text", *loc)
+
+
+def _check_score(rule: Rule, names: Mapping[str, Any], bad: Callable[..., None]) -> None:
+    """An accuracy score divides by its norm m0 (§QE-3): the norm, or else every upper bound
+    that stands for it, is a number above 0."""
+    score = rule.score
+    if score is None or score.kind != "accuracy":
+        return
+    if score.norm is None:
+        _check_bound_norms(rule, names, bad)
+        return
+    try:
+        m0 = evaluate(score.norm, names)
+    except ExpressionError as exc:
+        bad(f"score.norm: {exc}", "score", "norm")
+        return
+    if isinstance(m0, float) and not m0 > 0:
+        bad(f"score.norm is {m0:g}: {_DIVIDES}", "score", "norm")
+
+
+def _check_bound_norms(rule: Rule, names: Mapping[str, Any], bad: Callable[..., None]) -> None:
+    """Without `score.norm`, each threshold's max is the norm of its results."""
+    for group, th in rule.all_thresholds().items():
+        loc = ("thresholds", group) if group else ("threshold",)
+        where = ".".join(loc)
+        if th.max is None:
+            bad(
+                f"score: without score.norm the norm m0 is the upper bound, and {where} has no "
+                "max: give score.norm",
+                "score",
+            )
+            continue
+        try:
+            m0 = evaluate(th.max, names)
+        except ExpressionError:
+            continue  # reported by the threshold checks
+        if isinstance(m0, float) and not m0 > 0:
+            bad(f"score: the norm m0 is {where}.max, {m0:g}: {_DIVIDES}, or give score.norm", *loc)
+
+
+_DIVIDES = "m0 divides the accuracy score (§QE-3): give a norm above 0"
 
 
 #: units of statistics that are not numbers (booleans, names, codes)

@@ -17,6 +17,7 @@ from pydantic import ValidationError
 from blockqc.acceptance.model import Acceptance
 from blockqc.errors import Problem, RuleError
 from blockqc.resources import rules_dir
+from blockqc.rules import accept
 from blockqc.rules.lint import (
     check_constants,
     check_rule,
@@ -26,6 +27,7 @@ from blockqc.rules.lint import (
     unused_constants,
 )
 from blockqc.rules.model import ElementDef, Pack, PackFile, Rule, merge_elements
+from blockqc.rules.text import render_rule
 from blockqc.yamlio import LineDict, line_of, load_yaml, pydantic_problems
 
 #: values the delivery supplies to expressions; pack checks evaluate them with these stand-ins
@@ -223,7 +225,7 @@ def read_pack(ref: str | Path) -> tuple[Pack | None, list[Problem]]:
     loaded = _load_raw(path, ())
     problems = list(loaded.problems)
     elements = _elements(loaded.sources)
-    acceptance, found = _acceptance(loaded.sources, elements, loaded.constants)
+    acceptance, found = _acceptance(loaded.sources, elements)
     problems.extend(found)
     rules: list[Rule] = []
     names = {**loaded.constants, **DELIVERY_NAMES}
@@ -236,6 +238,8 @@ def read_pack(ref: str | Path) -> tuple[Pack | None, list[Problem]]:
                     Problem(p.file, f"rule {rid}: {p.message}", line=p.line or raw.line)
                 )
             continue
+        rule, found = render_rule(rule, loaded.constants, raw.file, partial(_line, raw))
+        problems.extend(found)
         problems.extend(check_rule(rule, names, raw.file, partial(_line, raw)))
         problems.extend(_check_contents(rule, elements, raw))
         rules.append(rule)
@@ -309,29 +313,20 @@ def _elements(sources: list[tuple[str, Any, PackFile]]) -> list[ElementDef]:
 
 
 def _acceptance(
-    sources: list[tuple[str, Any, PackFile]], elements: list[ElementDef], constants: dict[str, Any]
+    sources: list[tuple[str, Any, PackFile]], elements: list[ElementDef]
 ) -> tuple[Acceptance | None, list[Problem]]:
     """§QE: each file's `acceptance:` merged from the root pack down, validated, weights checked."""
     merged: dict[str, Any] | None = None
-    where, src = "", None
-    for file, data, _ in sources:
+    for _, data, _ in sources:
         own = data.get("acceptance") if isinstance(data, dict) else None
         if own is not None:
             merged = _deep_merge(merged or {}, own)
-            where, src = file, data
     if merged is None:
         return None, []
-    try:
-        acc = Acceptance.model_validate(merged)
-    except ValidationError as exc:
-        return None, pydantic_problems(exc, Path(where), src, ("acceptance",))
-    known = {e.id for e in elements} | {i.id for e in elements for i in e.items}
-    problems = [
-        Problem(where, f"acceptance.weights: '{k}' is no element or item (known: {sorted(known)})")
-        for k in [*acc.weights.elements, *acc.weights.items]
-        if k not in known
-    ]
-    return acc, problems
+    acc, problems = accept.validate(merged, sources)
+    if acc is None:
+        return None, problems
+    return acc, accept.check_weights(acc, elements, sources)
 
 
 def _line(raw: _Raw, *loc: Any) -> int | None:

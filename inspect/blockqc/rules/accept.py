@@ -1,0 +1,83 @@
+"""Checking a pack's `acceptance:` section (§QE) as merged down its `extends` chain.
+
+Each problem names the file of the chain that wrote the offending value and its line: the pack
+itself or a pack it extends, whichever wrote it last.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from pydantic import ValidationError
+
+from blockqc.acceptance.model import Acceptance
+from blockqc.errors import Problem
+from blockqc.rules.model import ElementDef
+from blockqc.yamlio import LineDict, LineList, line_of, pydantic_problems
+
+#: every file of a pack's chain as read, the pack it extends first: (file, its YAML, its model)
+Sources = Sequence[tuple[str, Any, Any]]
+
+
+def _holds(data: Any, loc: Sequence[Any]) -> bool:
+    node = data
+    for part in loc:
+        if isinstance(node, LineDict) and part in node:
+            node = node[part]
+        elif isinstance(node, LineList) and isinstance(part, int) and 0 <= part < len(node):
+            node = node[part]
+        else:
+            return False
+    return True
+
+
+def site(sources: Sources, loc: Sequence[Any]) -> tuple[str, int | None]:
+    """The file that last writes `acceptance.<loc>` (or the deepest part of it) and the line."""
+    full = ("acceptance", *loc)
+    for n in range(len(full), 0, -1):
+        for file, data, _ in reversed(sources):
+            if _holds(data, full[:n]):
+                return file, line_of(data, full)
+    return (sources[-1][0], None) if sources else ("", None)
+
+
+def validate(merged: dict[str, Any], sources: Sources) -> tuple[Acceptance | None, list[Problem]]:
+    """The merged section validated; each problem at the file and line that wrote the value."""
+    try:
+        return Acceptance.model_validate(merged), []
+    except ValidationError as exc:
+        found = pydantic_problems(exc, Path(""), None, ("acceptance",))
+        out = []
+        for err, p in zip(exc.errors(), found, strict=True):
+            file, line = site(sources, err["loc"])
+            out.append(Problem(file, p.message, line=line))
+        return None, out
+
+
+def check_weights(acc: Acceptance, elements: list[ElementDef], sources: Sources) -> list[Problem]:
+    """Weights name elements and items of the tree; no group re-normalised is weighted all 0."""
+    known = {e.id for e in elements} | {i.id for e in elements for i in e.items}
+    out = [
+        _at(sources, ("weights", group, k), f"'{k}' is no element or item (known: {sorted(known)})")
+        for group in ("elements", "items")
+        for k in getattr(acc.weights, group)
+        if k not in known
+    ]
+    groups = [("elements", "the quality elements", [e.id for e in elements])]
+    groups += [("items", f"the items of element {e.id}", [i.id for i in e.items]) for e in elements]
+    for group, what, ids in groups:
+        weights = getattr(acc.weights, group)
+        if ids and all(weights.get(i, 1.0) == 0 for i in ids):
+            msg = (
+                f"every weight of {what} ({', '.join(ids)}) is 0: their score Σwᵢsᵢ/Σwᵢ is "
+                "undefined; give at least one a weight above 0"
+            )
+            out.append(_at(sources, ("weights", group, ids[0]), msg))
+    return out
+
+
+def _at(sources: Sources, loc: tuple[str, ...], message: str) -> Problem:
+    file, line = site(sources, loc)
+    return Problem(file, f"acceptance.{'.'.join(loc[:2])}: {message}", line=line)

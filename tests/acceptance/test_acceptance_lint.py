@@ -1,0 +1,113 @@
+"""`blockqc rules lint` on the `acceptance:` section: values scoring cannot use, at their line."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from blockqc.errors import RuleError
+from blockqc.rules import load_pack
+from blockqc.rules.lint import lint
+
+KNOWN = (
+    "['attachment', 'data', 'documents', 'edge_accuracy', 'height_accuracy', 'layout', "
+    "'mathematical_basis', 'plane_accuracy', 'points_distribution', 'report']"
+)
+
+
+def _pack(tmp_path: Path, body: str, name: str = "project", extends: str = "global-project"):
+    path = tmp_path / f"{name}.yaml"
+    path.write_text(f"pack: {name}\nextends: {extends}\n{body}", "utf-8")
+    return path
+
+
+def _messages(path: Path) -> list[str]:
+    return [str(p) for p in lint(path)[1]]
+
+
+def test_unknown_weight_key_is_named_at_its_line(tmp_path: Path) -> None:
+    pack = _pack(
+        tmp_path, "acceptance:\n  weights:\n    items: {report: 0.7, documents: 0.3, reprot: 1}\n"
+    )
+    assert _messages(pack) == [
+        f"{pack}, line 5: acceptance.weights.items: 'reprot' is no element or item (known: {KNOWN})"
+    ]
+
+
+def test_unknown_weight_key_is_named_in_the_file_that_writes_it(tmp_path: Path) -> None:
+    parent = _pack(tmp_path, "acceptance:\n  weights:\n    elements: {dta: 1}\n", "parent")
+    child = _pack(tmp_path, "acceptance:\n  deduction: {B: 10}\n", "child", "parent.yaml")
+    assert _messages(child) == [
+        f"{parent}, line 5: acceptance.weights.elements: 'dta' is no element or item "
+        f"(known: {KNOWN})"
+    ]
+
+
+def test_element_weights_all_zero_are_refused(tmp_path: Path) -> None:
+    pack = _pack(
+        tmp_path, "acceptance:\n  weights:\n    elements: {data: 0, layout: 0, attachment: 0}\n"
+    )
+    assert _messages(pack) == [
+        f"{pack}, line 5: acceptance.weights.elements: every weight of the quality elements "
+        "(data, layout, attachment) is 0: their score Σwᵢsᵢ/Σwᵢ is undefined; give at least one "
+        "a weight above 0"
+    ]
+    with pytest.raises(RuleError):
+        load_pack(pack)
+
+
+def test_item_weights_of_one_element_all_zero_are_refused(tmp_path: Path) -> None:
+    pack = _pack(
+        tmp_path,
+        "acceptance:\n  weights:\n    items:\n      report: 0\n      documents: 0\n",
+    )
+    assert _messages(pack) == [
+        f"{pack}, line 6: acceptance.weights.items: every weight of the items of element "
+        "attachment (report, documents) is 0: their score Σwᵢsᵢ/Σwᵢ is undefined; give at least "
+        "one a weight above 0"
+    ]
+
+
+def test_some_zero_weights_are_fine(tmp_path: Path) -> None:
+    pack = _pack(
+        tmp_path,
+        "acceptance:\n  weights:\n    elements: {layout: 0}\n    items: {report: 0}\n",
+    )
+    assert _messages(pack) == []
+
+
+def test_a_norm_of_zero_is_refused_at_its_line(tmp_path: Path) -> None:
+    pack = _pack(tmp_path, "overrides:\n  CP-2:\n    score: {kind: accuracy, norm: 0}\n")
+    assert _messages(pack) == [
+        f"{pack}, line 5: rule CP-2: score.norm: the norm m0 divides the accuracy score: "
+        "expected above 0, got 0"
+    ]
+
+
+def test_a_norm_expression_at_or_below_zero_is_refused(tmp_path: Path) -> None:
+    pack = _pack(
+        tmp_path, "overrides:\n  CP-2:\n    score: {kind: accuracy, norm: norm.plane_m - 12}\n"
+    )
+    assert _messages(pack) == [
+        f"{pack}, line 5: rule CP-2: score.norm is -2: m0 divides the accuracy score (§QE-3): "
+        "give a norm above 0"
+    ]
+
+
+def test_an_upper_bound_standing_for_the_norm_must_be_above_zero(tmp_path: Path) -> None:
+    pack = _pack(
+        tmp_path, "overrides:\n  TP-1:\n    score: {kind: accuracy}\n    threshold: {max: 0}\n"
+    )
+    assert _messages(pack) == [
+        f"{pack}, line 6: rule TP-1: score: the norm m0 is threshold.max, 0: m0 divides the "
+        "accuracy score (§QE-3): give a norm above 0, or give score.norm"
+    ]
+
+
+def test_an_accuracy_score_without_norm_needs_an_upper_bound(tmp_path: Path) -> None:
+    pack = _pack(tmp_path, "overrides:\n  TP-4:\n    score: {kind: accuracy}\n")
+    assert _messages(pack) == [
+        f"{pack}, line 5: rule TP-4: score: without score.norm the norm m0 is the upper bound, "
+        "and threshold has no max: give score.norm"
+    ]

@@ -1,0 +1,110 @@
+"""Numbers in rules' titles and descriptions follow the pack's constants (`{tp.min_points}`)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from blockqc.errors import RuleError
+from blockqc.rules import load_pack
+from blockqc.rules.expr import ExpressionError
+from blockqc.rules.lint import lint
+from blockqc.rules.text import render
+
+DESERT = "constants:\n  norm: {plane_m: 8}\n  tp: {min_points_per_scene: 150}\n"
+
+
+def _pack(tmp_path: Path, body: str) -> Path:
+    path = tmp_path / "project.yaml"
+    path.write_text(f"pack: project\nextends: global-project\n{body}", "utf-8")
+    return path
+
+
+def _messages(path: Path) -> list[str]:
+    return [str(p) for p in lint(path)[1]]
+
+
+def test_stock_texts_follow_the_constants_a_project_changes(tmp_path: Path) -> None:
+    pack = load_pack(_pack(tmp_path, DESERT))
+    tp4, cp2 = pack.rule("TP-4"), pack.rule("CP-2")
+    assert tp4.title == "At least 150 tie points in every scene"
+    assert tp4.title_zh == "每景影像至少 150 个连接点"
+    assert tp4.description.startswith("Every PAN scene holds at least 150 tie points.")
+    assert cp2.description.rstrip().endswith("is at most 8 m.")
+    assert cp2.description_zh.endswith("不超过 8 m。")
+    assert "plane below 22.6 m, height below 17.0 m" in " ".join(
+        pack.rule("RO-3").description.split()
+    )
+
+
+def test_stock_texts_with_the_default_constants() -> None:
+    pack = load_pack("global-project")
+    assert pack.rule("TP-4").title == "At least 100 tie points in every scene"
+    assert pack.rule("TP-3").title == "Share of tie points with errors in (1.0, 1.5] px"
+    assert pack.rule("CP-1").title_zh == "抽样区域网布设 20 至 50 个检查点"
+    assert pack.rule("CP-4").title == "Gross-error rate below 5 %"
+    assert "plane 14.1 m, height 8.5 m" in " ".join(pack.rule("RO-4").description.split())
+    asprs = load_pack("asprs-2023")
+    assert asprs.rule("AS-3").title == "Mean error (bias) below 25 % of the target RMSE"
+    assert "Accuracy_r = 1.7308·RMSE_r and CE90 = 2.1460·RMSE_x" in asprs.rule("AS-4").description
+
+
+def test_explain_shows_the_projects_number(blockqc, tmp_path: Path) -> None:
+    p = blockqc("rules", "explain", "TP-4", "--rules", _pack(tmp_path, DESERT))
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.splitlines()[0] == "TP-4 — At least 150 tie points in every scene"
+
+
+def test_unknown_placeholder_is_refused_at_its_line(tmp_path: Path) -> None:
+    pack = _pack(tmp_path, "overrides:\n  TP-4:\n    title: At least {tp.min_point} points\n")
+    assert _messages(pack) == [
+        f"{pack}, line 5: rule TP-4: title: placeholder {{tp.min_point}}: unknown constant "
+        "'tp.min_point' (did you mean cp.min_points?) (known: cp.max_gross_rate_pct, "
+        "cp.max_points, cp.min_points, norm.height_m, norm.plane_m, rc.residual_tolerance_px, "
+        "tp.error_px, tp.max_error_px, tp.max_share_pct, tp.min_points_per_scene, "
+        "tp.share_interval_px)"
+    ]
+    with pytest.raises(RuleError):
+        load_pack(pack)
+
+
+@pytest.mark.parametrize(
+    ("text", "why"),
+    [
+        (
+            "below {gsd.ms} m",
+            "placeholder {gsd.ms} names a value of the delivery, unknown when the pack is "
+            "loaded: name the pack's constants only",
+        ),
+        (
+            "below {norm.plane_m:x} m",
+            "placeholder {norm.plane_m:x}: unknown format 'x' (give .1f, .3g, g or d)",
+        ),
+        ("a set {a, b", "a lone '{': write {{ for a literal brace"),
+        ("empty {}", "an empty placeholder {}: name a constant, e.g. {norm.plane_m}"),
+    ],
+)
+def test_bad_placeholders_are_refused(tmp_path: Path, text: str, why: str) -> None:
+    pack = _pack(tmp_path, f'overrides:\n  CP-2:\n    description_zh: "{text}"\n')
+    assert _messages(pack) == [f"{pack}, line 5: rule CP-2: description_zh: {why}"]
+
+
+def test_render_formats_lists_and_literal_braces() -> None:
+    consts = {"tp": {"share": [1.0, 1.5], "n": 100}, "norm": {"plane_m": 10}}
+    assert render("({tp.share:.1f}] px, {{x}}", consts) == "(1.0, 1.5] px, {x}"
+    assert render("{2 * sqrt(2) * norm.plane_m:.1f} m; {tp.n} points", consts) == (
+        "28.3 m; 100 points"
+    )
+    with pytest.raises(ExpressionError, match="a lone '}'"):
+        render("x}", consts)
+
+
+def test_a_constant_used_only_in_a_text_is_used(tmp_path: Path) -> None:
+    pack = _pack(
+        tmp_path,
+        "constants:\n  mine: {cells: 4}\noverrides:\n"
+        "  TP-5:\n    title: Tie points in each of {mine.cells} cells\n",
+    )
+    assert _messages(pack) == []
+    assert load_pack(pack).rule("TP-5").title == "Tie points in each of 4 cells"
