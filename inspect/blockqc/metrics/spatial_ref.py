@@ -83,6 +83,25 @@ def describe_epsg(code: int | None) -> str:
     return f"EPSG:{code}"
 
 
+def zone_name(code: int | None) -> str | None:
+    """'38N', '50S', 'UPS N', 'UPS S' for a UTM/UPS code; None for another code or none."""
+    if code is None:
+        return None
+    if 32601 <= code <= 32660 or 32701 <= code <= 32760:
+        return f"{code % 100}{'N' if code < 32700 else 'S'}"
+    if code in (32661, 32761):
+        return f"UPS {'N' if code == 32661 else 'S'}"
+    return None
+
+
+def _zones(codes: list[int]) -> dict[str, str]:
+    """The codes a block may use and their zones, as evidence: '32637 / 32638', '37N / 38N'."""
+    return {
+        "expected_epsg": " / ".join(str(c) for c in codes),
+        "expected_zone": " / ".join(str(zone_name(c)) for c in codes),
+    }
+
+
 @metric(
     "spatial_reference",
     tie_points=(),
@@ -95,7 +114,7 @@ def describe_epsg(code: int | None) -> str:
                 "projection_ok": "true/false",
                 "epsg": "EPSG code",
             },
-            columns=("projection",),
+            columns=("projection", "zone", "expected_epsg", "expected_zone"),
         )
     },
     param_units={"ups_north_lat": "degrees", "ups_south_lat": "degrees"},
@@ -129,6 +148,8 @@ def spatial_reference(d: Delivery, p: SpatialParams, measure: Measure) -> Measur
             "height_datum": [normalize_height_datum(sr.height_datum if sr else None)],
             "projection": [(sr.projection if sr else None)],
             "epsg": [code],
+            "zone": [zone_name(code)],
+            **{k: [v] for k, v in _zones(allowed).items()},
             "projection_ok": [ok],
         }
     )

@@ -34,8 +34,8 @@ def _error_row(x: ErrorRecord, f: Formatter) -> dict[str, Any]:
         "rule": x.rule,
         "group": f.group(x.group),
         "cls": x.error_class,
-        "value": f.num(x.value),
-        "threshold": f.num(x.threshold),
+        "value": f.cell(x.value),
+        "threshold": f.cell(x.threshold),
         "why": _why(x, f),
     }
 

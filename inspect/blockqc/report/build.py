@@ -26,7 +26,7 @@ from blockqc.report.checkpoints import (
 )
 from blockqc.report.contents import content_rows
 from blockqc.report.figures import block_figures, scene_statuses
-from blockqc.report.format import Formatter
+from blockqc.report.format import Formatter, metric_units
 from blockqc.report.messages import MESSAGES
 from blockqc.report.overview import overview_map
 from blockqc.results import (
@@ -40,26 +40,47 @@ from blockqc.results import (
 NO_FIGURES: dict[str, list] = {"general": [], "detailed": [], "scene_maps": [], "notes": []}
 
 
-def _row(res: RuleResult, f: Formatter) -> dict[str, Any]:
-    detail = res.detail
+#: the statistics a checkpoint rule judges that the mean error replaces below 20 points (§CP-7)
+MEDIUM_ERROR_STATISTICS = ("medium_error",)
+
+
+def _conditional(res: RuleResult) -> bool:
+    """An inspector's pass on a condition (stated in the verdict's note)."""
+    return res.value == "conditional_pass"
+
+
+def _notes(res: RuleResult, f: Formatter) -> list[str]:
+    """The result's reason, note (the condition of a conditional pass), waiver and §CP-7 notes."""
+    detail, colon = res.detail, "：" if f.lang == "zh" else ": "
     notes = [
-        str(detail[k])
+        f.text(str(detail[k]))
         for k in ("reason", "note", "waiver_reason", "waiver_ignored")
         if detail.get(k)
     ]
-    if detail.get("used_mean") or detail.get("statistic") == "mean":
+    if _conditional(res) and detail.get("note"):
+        notes[notes.index(f.text(str(detail["note"])))] = f.t("condition") + colon + detail["note"]
+    used_mean = detail.get("used_mean") or detail.get("statistic") == "mean"
+    if used_mean and res.statistic in MEDIUM_ERROR_STATISTICS:
         notes.append(f.t("used_mean_note"))
+    return notes
+
+
+def _status_text(res: RuleResult, f: Formatter) -> str:
+    return f.t("val_conditional_pass") if _conditional(res) else f.status(res.status)
+
+
+def _row(res: RuleResult, f: Formatter) -> dict[str, Any]:
     return {
         "rule": res.rule,
         "title": f.title(res),
         "description": f.pick(res.description, res.description_zh),
         "group": f.group(res.group),
         "status": res.status,
-        "status_text": f.status(res.status),
+        "status_text": _status_text(res, f),
         "value": f.value(res),
         "threshold": f.threshold(res),
         "clause": res.clause,
-        "notes": notes,
+        "notes": _notes(res, f),
     }
 
 
@@ -199,8 +220,8 @@ def _manual(results: BlockResults, f: Formatter) -> list[dict[str, Any]]:
     return [
         {
             **_row(r, f),
-            "verdict": f.status(r.value) if r.value else "–",
-            "note": r.detail.get("note") or r.detail.get("reason") or "",
+            "verdict": f.value(r) if r.value else "–",
+            "note": f.text(r.detail.get("note") or r.detail.get("reason") or ""),
         }
         for r in results.results
         if r.status == "manual" or r.detail.get("decided_by") == "inspector"
@@ -226,12 +247,12 @@ def _waivers(results: BlockResults, f: Formatter) -> list[dict[str, Any]]:
     return out
 
 
-def _exemptions(results: BlockResults) -> list[dict[str, Any]]:
+def _exemptions(results: BlockResults, f: Formatter) -> list[dict[str, Any]]:
     return [
         {
             "rule": r.rule,
             "units": ", ".join(str(v) for k, v in e.items() if k != "exempt_reason"),
-            "reason": e.get("exempt_reason", ""),
+            "reason": f.text(str(e.get("exempt_reason", ""))),
         }
         for r in results.results
         for e in r.detail.get("exempt") or []
@@ -239,8 +260,22 @@ def _exemptions(results: BlockResults) -> list[dict[str, Any]]:
     ]
 
 
-def _evidence_table(res: RuleResult, f: Formatter) -> dict[str, Any]:
-    rows = res.evidence
+def _evidence_rows(res: RuleResult) -> list[dict[str, Any]]:
+    """The offending units; for a block-level failure without any, the measured row itself
+    (the scalars of its detail: stated and expected datum, EPSG code, zone …)."""
+    if res.evidence or res.status not in ("fail", "error", "warn"):
+        return res.evidence
+    skip = {"reason", "note", "waiver_reason", "waiver_ignored", "evidence_truncated"}
+    row = {
+        k: v
+        for k, v in res.detail.items()
+        if k not in skip and (v is None or isinstance(v, str | int | float | bool))
+    }
+    return [row] if row else []
+
+
+def _evidence_table(res: RuleResult, f: Formatter, units: dict[str, str]) -> dict[str, Any]:
+    rows = _evidence_rows(res)
     keys: list[str] = []
     for r in rows:
         keys += [k for k in r if k not in keys]
@@ -255,10 +290,12 @@ def _evidence_table(res: RuleResult, f: Formatter) -> dict[str, Any]:
         vals = [r.get(k) for r in rows if r.get(k) is not None]
         return all(isinstance(v, int | float) and not isinstance(v, bool) for v in vals)
 
+    cells = [[f.cell(r.get(k)) for k in keys] for r in rows]
     return {
-        "headers": [f.column(k) for k in keys],
+        "headers": [f.evidence_column(k, units) for k in keys],
         "numeric": [numeric(k) for k in keys],
-        "rows": [[f.num(r.get(k)) for k in keys] for r in rows],
+        "long": [bool(f.ident([c[i] for c in cells])) for i in range(len(keys))],
+        "rows": cells,
         "shown": len(rows),
         "total": len(rows) + int(res.detail.get("evidence_truncated") or 0),
     }
@@ -267,7 +304,12 @@ def _evidence_table(res: RuleResult, f: Formatter) -> dict[str, Any]:
 def _failures(results: BlockResults, f: Formatter) -> list[dict[str, Any]]:
     bad = [r for r in results.results if r.status in ("fail", "error", "warn")]
     bad.sort(key=lambda r: status_rank(r.status))
-    return [{**_row(r, f), "evidence": _evidence_table(r, f)} for r in bad]
+    return [{**_row(r, f), "evidence": _evidence_table(r, f, _units(results, r))} for r in bad]
+
+
+def _units(results: BlockResults, res: RuleResult) -> dict[str, str]:
+    m = results.measurement(res.measurement)
+    return metric_units(m.metric if m else None)
 
 
 # ----------------------------------------------------------------------------- pages
@@ -329,7 +371,7 @@ def block_context(
         "cp_points": _checkpoint_points(results, f),
         "manual": _manual(results, f),
         "waivers": _waivers(results, f),
-        "exemptions": _exemptions(results),
+        "exemptions": _exemptions(results, f),
         "failures": _failures(results, f),
         "figures": block_figures(results, f, scene_statuses(results)) if figures else NO_FIGURES,
         "pending": results.pending_manual,
@@ -408,7 +450,10 @@ def summary_context(
             {"rule": rid, "counts": [cnt.get(s, 0) for s in STATUSES]}
             for rid, cnt in summary.rules.items()
         ],
-        "unreadable": [u.model_dump() for u in summary.unreadable],
+        "unreadable": [
+            {**u.model_dump(), "problems": [f.text(str(p)) for p in u.problems]}
+            for u in summary.unreadable
+        ],
         "acceptance": decision_context(summary, f),
     }
 

@@ -7,6 +7,7 @@ from typing import Any
 from blockqc.report import plots
 from blockqc.report.checkpoints import checkpoint_measurement
 from blockqc.report.format import Formatter
+from blockqc.report.svg import cut
 from blockqc.results import BlockResults, MeasurementRecord, RuleResult
 
 SCENE_KEYS = ("scene_id", "scene_a", "scene_b", "pan_scene_id", "ms_scene_id")
@@ -97,6 +98,15 @@ def _scene_counts(results: BlockResults, f: Formatter, figs: dict[str, Any]) -> 
     figs["general"].append(plots.scene_counts(per_scene, minimum, statuses, f.t, "tp-counts"))
 
 
+#: the caption of a scene map (a third of the page wide): two lines of 7.5 pt at most
+CAPTION_PT, CAPTION_ROOM_PT = 7.5, 2 * 150.0
+
+
+def _scene_names(sid: str) -> dict[str, str]:
+    """A scene map's id, in full and cut with an ellipsis to fit its caption."""
+    return {"scene": sid, "scene_short": cut(sid, CAPTION_PT, CAPTION_ROOM_PT)}
+
+
 def _scene_maps(results: BlockResults, f: Formatter, figs: dict[str, Any]) -> None:
     """The tie-point layout of each scene a `scene_points` rule fails."""
     rules = [r for r in _hinted(results, "scene_points") if r.status in ("fail", "error")]
@@ -110,14 +120,15 @@ def _scene_maps(results: BlockResults, f: Formatter, figs: dict[str, Any]) -> No
     for i, sid in enumerate(failing[:MAX_SCENE_MAPS]):
         pts, scene = kept.get(sid), size.get(sid, {})
         if not pts or not scene.get("lines") or not scene.get("samples"):
-            figs["scene_maps"].append({"scene": sid, "svg": None, "caption": f.t("no_points_kept")})
+            caption = f.t("no_points_kept")
+            figs["scene_maps"].append({**_scene_names(sid), "svg": None, "caption": caption})
             continue
         lines, samples = pts.get("line", []), pts.get("sample", [])
         svg = plots.scene_points(
             sid, lines, samples, scene["lines"], scene["samples"], grid, f.t, f"scene-{i}"
         )
         caption = f.t("scene_points_caption", n=len(lines))
-        figs["scene_maps"].append({"scene": sid, "svg": svg, "caption": caption})
+        figs["scene_maps"].append({**_scene_names(sid), "svg": svg, "caption": caption})
     if len(failing) > MAX_SCENE_MAPS:
         figs["notes"].append(f.t("maps_capped", n=MAX_SCENE_MAPS, total=len(failing)))
 

@@ -41,6 +41,31 @@ def bound(v: Any) -> str:
     return number(v)
 
 
+#: fixed English phrases of results.json (the contract's text) and their catalogue keys, the
+#: longest first: translated when a page is rendered, the results left as they are
+PHRASES = (
+    "ph_no_block_yaml",
+    "ph_no_geometry",
+    "ph_awaiting",
+    "ph_mostly_sea",
+    "ph_water_fraction",
+)
+#: units of a statistic written after its column label; counts name the column instead
+SHOWN_UNITS = ("px", "m", "%", "degrees")
+#: a cell holding a word longer than this wraps anywhere (long scene, point and block ids)
+LONG_WORD = 24
+
+
+def metric_units(metric: str | None) -> dict[str, str]:
+    """Statistic -> unit, as the metric's scopes declare them (empty for an unknown metric)."""
+    from blockqc.metrics import REGISTRY
+
+    spec = REGISTRY.get(metric or "")
+    if spec is None:
+        return {}
+    return {k: u for scope in spec.scopes.values() for k, u in scope.statistics.items()}
+
+
 SYMBOLS = {"<=": "≤", "<": "<", ">=": "≥", ">": ">", "equals": "="}
 
 
@@ -113,6 +138,37 @@ class Formatter:
 
     def column(self, key: str) -> str:
         return self._key("col", key, self.t(key) if key in MESSAGES else key)
+
+    def evidence_column(self, key: str, units: dict[str, str]) -> str:
+        """A column's label with the unit its metric declares: 'Median (px)', 'Observations'."""
+        unit = units.get(key, "")
+        if key == "n" and f"count_{unit}" in MESSAGES:
+            return self.t(f"count_{unit}")
+        label = self.column(key)
+        if unit not in SHOWN_UNITS or label == key or label.endswith((")", "）")):
+            return label
+        shown = self.unit(unit)
+        return f"{label}（{shown}）" if self.lang == "zh" else f"{label} ({shown})"
+
+    def ident(self, values: Any) -> str:
+        """'ident' (the class of cells that wrap anywhere) when a value holds a word longer than
+        LONG_WORD characters (long scene, point or block ids), else ''."""
+        texts = values if isinstance(values, list | tuple) else [values]
+        return "ident" if any(len(w) > LONG_WORD for v in texts for w in str(v).split()) else ""
+
+    def cell(self, v: Any) -> str:
+        """An evidence value: named values (band pan, …) and fixed phrases translated."""
+        if isinstance(v, str):
+            return self._key("val", v, self.text(v))
+        return self.num(v)
+
+    def text(self, s: str) -> str:
+        """A text of results.json with its fixed English phrases in the page's language."""
+        if self.lang == "en" or not s:
+            return s
+        for key in PHRASES:
+            s = s.replace(MESSAGES[key][0], self.t(key))
+        return s
 
     def method(self, m: str) -> str:
         return self._key("method", m, m)

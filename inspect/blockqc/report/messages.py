@@ -437,6 +437,66 @@ MESSAGES.update(
 )
 
 
+# --- evidence columns named after the metrics' statistics (their units come from the metric's
+# Scope declarations: blockqc.report.format.Formatter.evidence_column)
+MESSAGES.update(
+    {
+        "col_n": ("Count", "个数"),
+        "count_observations": ("Observations", "观测数"),
+        "count_points": ("Points", "点数"),
+        "count_documents": ("Documents", "文档数"),
+        "count_rows": ("Rows", "行数"),
+        "col_median": ("Median", "中位数"),
+        "col_rms": ("RMS", "均方根"),
+        "col_mean": ("Mean", "平均值"),
+        "col_max": ("Maximum", "最大值"),
+        "col_rms_m": ("RMS", "均方根"),
+        "col_max_m": ("Maximum", "最大值"),
+        "col_mean_m": ("Mean", "平均值"),
+        "col_n_in_interval": ("Observations in the interval", "区间内观测数"),
+        "col_share_in_interval": ("Share in the interval", "区间内比例"),
+        "col_required": ("Required", "必需"),
+        "col_ok": ("Conforms", "符合"),
+        "col_path": ("File", "文件"),
+        "col_band": ("Band", "波段"),
+        "col_scene_id": ("Scene", "影像"),
+        "col_point_id": ("Point", "点号"),
+        "col_epsg": ("EPSG stated", "声明的 EPSG"),
+        "col_zone": ("Zone stated", "声明的投影带"),
+        "col_expected_epsg": ("EPSG expected from the footprints", "按影像范围应采用的 EPSG"),
+        "col_expected_zone": ("Zone expected from the footprints", "按影像范围应采用的投影带"),
+        "col_projection_ok": ("Projection conforms", "投影符合"),
+        "col_norm_m": ("Norm (m)", "规定中误差（m）"),
+        "col_n_units": ("Units", "单元数"),
+        "col_n_offending": ("Offending units", "超限单元数"),
+        "col_geodetic_datum": ("Geodetic datum", "大地基准"),
+        "col_height_datum": ("Height datum", "高程基准"),
+        "col_projection": ("Projection", "投影"),
+        "unit_m": ("m", "m"),
+        "unit_%": ("%", "%"),
+        "unit_degrees": ("°", "°"),
+        "val_pan": ("PAN", "全色"),
+        "val_ms": ("MS", "多光谱"),
+        "val_conditional_pass": ("conditional pass", "有条件通过"),
+        "val_rework": ("rework", "返工"),
+        "condition": ("Condition", "条件"),
+        # fixed phrases of results.json (English there), translated when the page is rendered
+        "ph_awaiting": ("awaiting the inspector's verdict", "等待检查员判定"),
+        "ph_no_geometry": (
+            "no geometry in the delivery (rpc/ with adjustment.csv, or rpc_adjusted/)",
+            "成果中没有几何模型（rpc/ 及 adjustment.csv，或 rpc_adjusted/）",
+        ),
+        "ph_mostly_sea": (" (mostly sea)", "（大部分为水域）"),
+        "ph_water_fraction": ("water_fraction", "水域比例"),
+        "ph_no_block_yaml": (
+            "missing: every sub-folder of a batch is a delivery and needs its block.yaml "
+            "(folders named '.…' are left out)",
+            "缺失：批次的每个子文件夹都是一份成果，须有 block.yaml（以“.”开头的文件夹除外）",
+        ),
+    }
+)
+
+
 def translator(lang: str) -> Callable[..., str]:
     """`t(key, **values)`: the label in `lang`, formatted; unknown keys are a defect, loudly."""
     if lang not in LANGUAGES:

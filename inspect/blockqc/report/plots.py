@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from blockqc.report.svg import Frame, Rings, arrow_outlines, outlines_d, text, text_width
+from blockqc.report.svg import Frame, Rings, arrow_outlines, cut, outlines_d, text, text_width
 from blockqc.report.svgplot import (
     LegendEntry,
     Mark,
@@ -355,23 +355,36 @@ def lonlat_plot(
 
 
 def ring_labels(rings: Rings, ids: np.ndarray, most: int) -> Mark:
-    """The ids of the first `most` rings' owners at their centres, each left out where it would
-    overlap one already written (adjacent failing scenes)."""
+    """The ids of the first `most` rings' owners at their centres, each cut (with an ellipsis) to
+    its footprint's width and kept inside the frame, and left out where it would overlap one
+    already written (adjacent failing scenes)."""
     centres = rings.centres()[:most]
     names = ids[rings.owner[:most]].tolist()
+    spans = _x_spans(rings)[:most]
 
     def draw(fr: Frame) -> str:
         page = fr.xy(centres)
-        half = np.array([text_width(s, 6) / 2 + 1 for s in names])
+        room = np.minimum(0.8 * np.abs(fr.x(spans[:, 1]) - fr.x(spans[:, 0])), fr.width - 2)
+        shown = [cut(s, 6, max(float(w), 12.0)) for s, w in zip(names, room, strict=True)]
+        half = np.array([text_width(s, 6) / 2 + 1 for s in shown])
         low, high = fr.left + half, np.maximum(fr.left + fr.width - half, fr.left + half)
         page[:, 0] = np.clip(page[:, 0], low, high)  # a label stays inside the frame
         kept = _apart(page, half, 4.5)
         return "".join(
-            text(x, y + 2, names[i], 6, anchor="middle", colour="#111")
+            text(x, y + 2, shown[i], 6, anchor="middle", colour="#111")
             for i, (x, y) in zip(kept, page[kept].tolist(), strict=True)
         )
 
     return draw
+
+
+def _x_spans(rings: Rings) -> np.ndarray:
+    """Each ring's least and greatest x (k × 2)."""
+    if not len(rings.xy):
+        return np.zeros((0, 2))
+    starts = rings.starts()
+    x = rings.xy[:, 0]
+    return np.column_stack([np.minimum.reduceat(x, starts), np.maximum.reduceat(x, starts)])
 
 
 def _apart(centre: np.ndarray, half_width: np.ndarray, half_height: float) -> list[int]:

@@ -1,0 +1,278 @@
+"""Presentation for people: long ids wrap inside the page, evidence columns carry labels and
+units, block-level failures show what was measured, conditional passes and fixed phrases read in
+the page's language, the §CP-7 note only where the medium error is judged."""
+
+from __future__ import annotations
+
+import copy
+import re
+import subprocess
+
+import pytest
+from report_helpers import make_results, make_summary, require_chromium, require_tool, summary_entry
+
+from blockqc.metrics import REGISTRY
+from blockqc.report import write_block_report, write_summary_report
+from blockqc.report.build import block_context, summary_context
+from blockqc.report.format import Formatter
+from blockqc.report.html import environment, render_block
+
+LONG = "C01-" + "P" * 90
+
+
+def _with_long_point_ids(doc: dict) -> dict:
+    doc = copy.deepcopy(doc)
+    for m in doc["measurements"]:
+        for row in m["tables"].get("point", []):
+            if str(row.get("point_id", "")).startswith("C"):
+                row["point_id"] = f"{row['point_id']}-{'P' * 90}"
+    return doc
+
+
+def _result(doc: dict, rule: str, **where) -> dict:
+    return next(
+        r
+        for r in doc["results"]
+        if r["rule"] == rule and all(r["group"].get(k) == v for k, v in where.items())
+    )
+
+
+def _text(html: str) -> str:
+    html = re.sub(r"<(style|script|svg)\b.*?</\1>", " ", html, flags=re.S)
+    return re.sub(r"\s+", " ", re.sub(r"<[^>]+>", " ", html))
+
+
+# ------------------------------------------------------------------------- 1 long ids
+def test_css_wraps_long_ids_and_keeps_headings_whole():
+    css = environment().get_template("base.css.j2").render(font_url="")
+    assert re.search(r"td\.ident[^{]*\{[^}]*overflow-wrap: anywhere", css)
+    assert re.search(r"figcaption[^{]*\{[^}]*overflow-wrap: anywhere", css)
+    assert re.search(r"\bth \{ overflow-wrap: normal", css)
+    assert re.search(r"td\.grp \{[^}]*min-width", css)
+
+
+@pytest.mark.parametrize("engine", ["weasyprint", "chromium"])
+def test_checkpoint_table_with_long_ids_fits_the_page(tmp_path, engine):
+    """The last columns (Tolerance, Gross) are on the page, at full scale (Chromium would shrink
+    the whole document to fit a table wider than the page)."""
+    require_tool("pdftotext")
+    if engine == "chromium":
+        require_chromium()
+    folder = tmp_path / "T-B01"
+    write_block_report(folder, _with_long_point_ids(make_results()), pdf_engine=engine)
+    words = subprocess.run(
+        ["pdftotext", "-bbox", str(folder / "report.pdf"), "-"],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
+    boxes = [
+        [float(v) for v in m.groups()]
+        for m in re.finditer(
+            r'<word xMin="([\d.]+)" yMin="([\d.]+)" xMax="([\d.]+)" yMax="([\d.]+)">Gross</word>',
+            words,
+        )
+    ]
+    assert boxes, "the last column's header is not in the PDF"
+    x0, y0, x1, y1 = boxes[-1]
+    assert x1 <= 595.3 - 14 * 72 / 25.4 + 1  # inside the right margin of an A4 page
+    assert y1 - y0 > 6  # 7 pt type at full scale, not shrunk to fit
+    html = (folder / "report.html").read_text(encoding="utf-8")
+    assert 'class="id ident"' in html  # the long point ids wrap
+
+
+def test_scene_map_captions_are_cut_to_their_figure():
+    f = Formatter("en")
+    from blockqc.report.figures import _scene_names
+
+    names = _scene_names("GF7-" + "X" * 200)
+    assert names["scene"].endswith("X") and names["scene_short"].endswith("…")
+    assert len(names["scene_short"]) < 120
+    assert f.ident(["short", "GF7-" + "X" * 30]) == "ident" and f.ident("C01 C02") == ""
+
+
+def test_footprint_labels_are_cut_to_their_footprint():
+    from blockqc.report.plots import footprints
+
+    square = "POLYGON((40.0 39.0, 40.1 39.0, 40.1 39.1, 40.0 39.1, 40.0 39.0))"
+    scenes = [{"scene_id": "S-" + "X" * 120, "footprint_wkt": square}]
+    svg = footprints(scenes, {scenes[0]["scene_id"]: "fail"}, Formatter("en").t, "fp")
+    assert "S-XXXX" in svg and "…" in svg and "X" * 120 not in svg
+
+
+# --------------------------------------------------------- 2 evidence labels and units
+@pytest.mark.parametrize(
+    ("lang", "labels"),
+    [
+        ("en", ["Median (px)", "RMS (px)", "Observations", "Share in the interval (%)"]),
+        ("zh", ["中位数（像素）", "均方根（像素）", "观测数", "区间内比例（%）"]),
+    ],
+)
+def test_evidence_columns_have_labels_with_the_metrics_units(lang, labels):
+    f = Formatter(lang)
+    units = {
+        k: u for s in REGISTRY["tie_point_errors"].scopes.values() for k, u in s.statistics.items()
+    }
+    got = [f.evidence_column(k, units) for k in ("median", "rms", "n", "share_in_interval")]
+    assert got == labels
+    ro = {
+        k: u
+        for s in REGISTRY["pan_ms_discrepancy"].scopes.values()
+        for k, u in s.statistics.items()
+    }
+    assert f.evidence_column("rms_m", ro).endswith(("(m)", "（m）"))
+    assert f.evidence_column("required", {}) in ("Required", "必需")
+    assert f.evidence_column("no_such_column", units) == "no_such_column"
+
+
+def test_failure_evidence_headers_are_labelled_in_the_report():
+    doc = make_results()
+    tp1 = _result(doc, "TP-1")
+    tp1["status"] = "fail"
+    tp1["evidence"] = [{"scene_id": "S1", "n": 10, "median": 0.7, "rms": 0.8, "max": 1.6}]
+    failure = next(x for x in block_context(doc)["failures"] if x["rule"] == "TP-1")
+    assert failure["evidence"]["headers"] == [
+        "Scene",
+        "Observations",
+        "Median (px)",
+        "RMS (px)",
+        "Maximum (px)",
+    ]
+
+
+# --------------------------------------------------------------------- 3 MB-3 evidence
+def test_wrong_zone_is_shown_with_the_stated_and_expected_zone():
+    """A block at 117.5°E (zone 50) stating EPSG:32651 (zone 51)."""
+    from blockqc.metrics.spatial_ref import SpatialParams, spatial_reference, zone_name
+
+    class Sr:
+        epsg, geodetic_datum, height_datum, projection = 32651, "WGS84", "ellipsoidal", "UTM"
+
+        def zone_epsg(self):
+            return None
+
+    class Manifest:
+        spatial_reference = Sr()
+
+    class D:
+        manifest = Manifest()
+        import pandas as pd
+
+        scenes = pd.DataFrame(
+            {"footprint_wkt": ["POLYGON((117.4 40, 117.6 40, 117.6 40.2, 117.4 40.2, 117.4 40))"]}
+        )
+
+    block = spatial_reference(D(), SpatialParams(), None).tables["block"].df.iloc[0]
+    assert (block["epsg"], block["zone"]) == (32651, "51N")
+    assert (block["expected_epsg"], block["expected_zone"]) == ("32650", "50N")
+    assert zone_name(32761) == "UPS S" and zone_name(4326) is None
+
+
+def test_block_failure_without_evidence_shows_its_measured_row():
+    doc = make_results()
+    mb3 = _result(doc, "MB-3")
+    mb3.update(status="fail", value=False, evidence=[])
+    mb3["detail"] = {"epsg": 32651, "zone": "51N", "expected_epsg": "32650", "expected_zone": "50N"}
+    text = _text(render_block(doc, lang="en"))
+    section = text[text.index("6 Failures") :]
+    assert "EPSG expected from the footprints" in section and "32650" in section
+    assert "Zone stated" in section and "51N" in section
+
+
+# ------------------------------------------------------------------ 4 conditional pass
+@pytest.mark.parametrize("lang", ["en", "zh"])
+def test_conditional_pass_is_named_with_its_condition(lang):
+    doc = make_results()
+    doc3 = _result(doc, "DOC-3")
+    doc3.update(status="pass", value="conditional_pass")
+    doc3["detail"] = {
+        "note": "accuracy table to be added",
+        "condition": "accuracy table to be added",
+        "decided_by": "inspector",
+    }
+    text = _text(render_block(doc, lang=lang))
+    name = {"en": "conditional pass", "zh": "有条件通过"}[lang]
+    assert name in text and "conditional_pass" not in text
+    assert {"en": "Condition: accuracy table to be added", "zh": "条件：accuracy table"}[
+        lang
+    ] in text
+
+
+# -------------------------------------------------------------- 5 zh fixed phrases
+def test_zh_report_translates_fixed_phrases_of_the_results():
+    doc = make_results()
+    doc3 = _result(doc, "DOC-3")
+    doc3.update(status="manual", value=None, detail={"reason": "awaiting the inspector's verdict"})
+    f = Formatter("zh")
+    assert "等待检查员判定" in _text(render_block(doc, lang="zh"))
+    assert f.text("water_fraction 0.82 ≥ 0.5 (mostly sea)") == "水域比例 0.82 ≥ 0.5（大部分为水域）"
+    assert "成果中没有几何模型" in f.text(
+        "no geometry in the delivery (rpc/ with adjustment.csv, or rpc_adjusted/)"
+    )
+    assert f.cell("pan") == "全色" and f.cell("ellipsoidal") == "椭球高"
+    assert Formatter("en").text("(mostly sea)") == "(mostly sea)"
+
+
+def test_zh_summary_translates_the_unreadable_reason():
+    summary = make_summary([summary_entry("T-B01", "pass")])
+    summary["counts"]["unreadable"] = 1
+    summary["unreadable"] = [
+        {
+            "path": "stress/BROKEN",
+            "problems": [
+                "stress/BROKEN/block.yaml: missing: every sub-folder of a batch is a delivery "
+                "and needs its block.yaml (folders named '.…' are left out)"
+            ],
+        }
+    ]
+    problem = summary_context(summary, "zh", figures=False)["unreadable"][0]["problems"][0]
+    assert problem.startswith("stress/BROKEN/block.yaml: 缺失：") and "every" not in problem
+
+
+# ------------------------------------------------------------------------ 6 minor layout
+def test_medium_error_note_only_on_medium_error_rules():
+    doc = make_results()
+    for r in doc["results"]:
+        if r["rule"] in ("CP-2", "CP-4"):
+            r["detail"]["used_mean"] = True
+            r["statistic"] = "medium_error" if r["rule"] == "CP-2" else "gross_rate"
+    ctx = block_context(doc, figures=False)
+    note = "Fewer than 20 checkpoints"
+    rows = {(x["rule"], x["group"]): x["notes"] for x in ctx["detailed"]}
+    assert any(note in n for (rule, _), ns in rows.items() if rule == "CP-2" for n in ns)
+    assert not any(note in n for (rule, _), ns in rows.items() if rule == "CP-4" for n in ns)
+
+
+def test_summary_headings_do_not_break_inside_words(tmp_path):
+    require_tool("pdftotext")
+    blocks = [
+        summary_entry(
+            f"B{i}",
+            "pass",
+            sampled=True,
+            checkpoints=[
+                {
+                    "component": "plane",
+                    "method": "high_precision",
+                    "n_total": 30,
+                    "n": 30,
+                    "medium_error": 3.0,
+                    "max_error": 8.0,
+                    "n_gross": 0,
+                    "gross_rate": 0.0,
+                    "used_mean": False,
+                    "status": "pass",
+                }
+            ],
+        )
+        for i in range(3)
+    ]
+    write_summary_report(tmp_path, make_summary(blocks), lang="en")
+    text = subprocess.run(
+        ["pdftotext", "-layout", str(tmp_path / "summary.pdf"), "-"],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
+    assert "Checkpoints" in text and "Component" in text
+    assert "Checkpo" not in text.replace("Checkpoints", "")
