@@ -3,7 +3,11 @@
 from __future__ import annotations
 
 import json
+import os
 import shutil
+import socket
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -288,3 +292,148 @@ def test_an_unreadable_block_leaves_no_earlier_results_behind(small_batch: Path,
     assert again.returncode == 2 and "tie_points.csv" in again.stderr
     assert sorted(p.name for p in (out / "F1-B02").iterdir()) == ["notes.txt"]
     assert (out / "F4-B02" / "results.json").is_file()
+
+
+def _incremental(small_batch: Path, out: Path, *extra: object):
+    return run_blockqc("inspect", small_batch, "--out", out, "--no-pdf", "--incremental", *extra)
+
+
+def test_incremental_key_holds_the_packs_columns_and_the_inspectors_name(small_batch, tmp_path):
+    out = tmp_path / "out"
+    verdicts = tmp_path / "v.yaml"
+    verdicts.write_text("inspector: Li Wei\n", encoding="utf-8")
+    assert _incremental(small_batch, out, "--verdicts", verdicts).returncode == 1
+    verdicts.write_text("inspector: Zhang San\n", encoding="utf-8")
+    again = _incremental(small_batch, out, "--verdicts", verdicts)
+    assert again.stdout.count("outputs reused") == 0, again.stdout  # every report names him
+    results = json.loads((out / "F1-B02" / "results.json").read_text(encoding="utf-8"))
+    assert "Zhang San" in json.dumps(results)
+    pack = tmp_path / "p.yaml"
+    pack.write_text("pack: p\nversion: '1'\nextends: global-project\n", encoding="utf-8")
+    args = ("--verdicts", verdicts, "--rules", pack)
+    assert _incremental(small_batch, out, *args).stdout.count("outputs reused") == 0
+    assert _incremental(small_batch, out, *args).stdout.count("outputs reused") == 3
+    pack.write_text(pack.read_text(encoding="utf-8") + "columns: used\n", encoding="utf-8")
+    assert _incremental(small_batch, out, *args).stdout.count("outputs reused") == 0
+
+
+@pytest.mark.parametrize("change", ["truncate results.json", "delete evidence.csv"])
+def test_incremental_block_with_an_output_cut_or_gone_is_written_again(
+    small_batch, tmp_path, change
+):
+    out = tmp_path / "out"
+    assert _incremental(small_batch, out).returncode == 1
+    verb, name = change.split()
+    if verb == "truncate":
+        (out / "F4-B02" / name).write_text('{"trunc', encoding="utf-8")
+    else:
+        (out / "F4-B02" / name).unlink()
+    again = _incremental(small_batch, out)
+    assert again.stdout.count("outputs reused") == 2, again.stdout
+    assert json.loads((out / "F4-B02" / "results.json").read_text("utf-8"))["verdict"] == "pass"
+    assert (out / "F4-B02" / "evidence.csv").is_file()
+
+
+def test_a_run_stopped_while_writing_leaves_no_key_vouching_for_it(
+    small_batch, tmp_path, monkeypatch
+):
+    """Stopped (Ctrl-C) between results.json and the report: the block's and the summary's
+    keys are gone, so the next incremental run writes both again."""
+    out = tmp_path / "out"
+    pack = load_pack("global-project")
+    got = batch.collect([small_batch])
+    batch.run(got, pack, batch.Writer(out, pdf="none"), incremental=True)
+    assert (out / "F1-B02" / ".blockqc-cache.json").is_file()
+    tie_points = small_batch / "F1-B02" / "tie_points.csv"
+    tie_points.write_text(tie_points.read_text(encoding="utf-8") + "\n", encoding="utf-8")
+
+    def stopped(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(batch, "write_block_report", stopped)
+    with pytest.raises(KeyboardInterrupt):
+        batch.run(
+            batch.collect([small_batch]), pack, batch.Writer(out, pdf="none"), incremental=True
+        )
+    assert not (out / "F1-B02" / ".blockqc-cache.json").exists()
+    assert not (out / ".blockqc-summary-cache.json").exists()
+
+
+def test_summary_pdf_of_an_earlier_run_is_removed(small_batch: Path, tmp_path: Path):
+    out = tmp_path / "out"
+    assert run_blockqc("inspect", small_batch, "--out", out, "--pdf", "failing").returncode == 1
+    assert (out / "summary.pdf").is_file() and (out / "acceptance.pdf").is_file()
+    assert run_blockqc("inspect", small_batch, "--out", out, "--pdf", "none").returncode == 1
+    assert not (out / "summary.pdf").exists() and not (out / "acceptance.pdf").exists()
+    assert not (out / "F3-B02" / "report.pdf").exists()
+
+
+def test_a_delivery_whose_block_yaml_went_leaves_no_earlier_results(small_batch, tmp_path):
+    """Its block id is found by its path in the last summary: its outputs are removed."""
+    out = tmp_path / "out"
+    assert run_blockqc("inspect", small_batch, "--out", out, "--no-pdf").returncode == 1
+    (small_batch / "F1-B02" / "block.yaml").unlink()
+    again = run_blockqc("inspect", small_batch, "--out", out, "--no-pdf")
+    assert again.returncode == 2 and "F1-B02" in again.stderr
+    assert not (out / "F1-B02").exists()
+    assert (out / "F4-B02" / "results.json").is_file()
+
+
+def test_a_file_where_a_block_folder_goes_does_not_stop_the_batch(small_batch, tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "F1-B02").write_text("not a folder", encoding="utf-8")
+    p = run_blockqc("inspect", small_batch, "--out", out, "--no-pdf")
+    assert p.returncode == 2 and "internal error" not in p.stderr, p.stderr
+    summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+    assert [b["block_id"] for b in summary["blocks"]] == ["F3-B02", "F4-B02"]
+    assert (out / "F1-B02").read_text(encoding="utf-8") == "not a folder"
+
+
+class _DiesOn:
+    """A job whose worker process dies on one block: once (a marker file left), or always."""
+
+    def __init__(self, job: batch.Job, name: str, marker: Path | None):
+        self.job, self.name, self.marker = job, name, marker
+        self.writer = job.writer
+
+    def __call__(self, path: Path, manifest=None):
+        if path.name == self.name and (self.marker is None or not self.marker.exists()):
+            if self.marker is not None:
+                self.marker.write_text("died here", encoding="utf-8")
+            os._exit(1)
+        return self.job(path, manifest)
+
+
+@pytest.mark.parametrize("dies", ["once", "always"])
+def test_a_worker_process_that_dies_takes_no_other_block_with_it(small_batch, tmp_path, dies):
+    got = batch.collect([small_batch])
+    job = batch.Job(load_pack("global-project"), None, batch.Writer(tmp_path / "out", pdf="none"))
+    marker = tmp_path / "died-once" if dies == "once" else None
+    outcomes: list[batch.Outcome] = []
+    todo = [(p, got.manifests.get(p)) for p in got.deliveries]
+    batch.Runner(jobs=2).run(_DiesOn(job, "F3-B02", marker), todo, outcomes.append)
+    by_name = {o.path.name: o for o in outcomes}
+    assert sorted(by_name) == ["F1-B02", "F3-B02", "F4-B02"]
+    assert by_name["F1-B02"].entry is not None and by_name["F4-B02"].entry is not None
+    if dies == "once":
+        assert by_name["F3-B02"].entry.verdict == "fail"  # RO-3, as published
+    else:
+        assert "died twice" in by_name["F3-B02"].problems[0].message
+        assert not (tmp_path / "out" / "F3-B02").exists()
+
+
+def test_a_second_run_into_the_same_output_folder_is_refused(tmp_path: Path):
+    from blockqc.errors import UsageError
+    from blockqc.outputs import LOCK_FILE, out_lock
+
+    with out_lock(tmp_path):
+        with pytest.raises(UsageError, match="another blockqc run is writing into it"):
+            with out_lock(tmp_path):
+                pass
+    assert not (tmp_path / LOCK_FILE).exists()
+    ended = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], text=True,
+                           capture_output=True).stdout.split()[0]  # fmt: skip
+    (tmp_path / LOCK_FILE).write_text(f"{socket.gethostname()} {ended}", encoding="utf-8")
+    with out_lock(tmp_path):  # left by a process that has ended: taken over
+        assert (tmp_path / LOCK_FILE).read_text(encoding="utf-8").endswith(str(os.getpid()))

@@ -8,8 +8,10 @@ line of the summary: a batch never holds the results of all its blocks.
 from __future__ import annotations
 
 import datetime as dt
+import json
 from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures.process import BrokenProcessPool
 from contextlib import suppress
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -21,7 +23,15 @@ from blockqc.acceptance.evaluate import evaluate_results
 from blockqc.acceptance.model import BatchDecision, BlockGrade, ReportMeta
 from blockqc.acceptance.plan import Plan, apply_plan
 from blockqc.acceptance.scoring import a_class_errors
-from blockqc.cache import CACHE_FILE, Cached, delivery_fingerprint, read_cached, write_cached
+from blockqc.cache import (
+    CACHE_FILE,
+    Cached,
+    delivery_fingerprint,
+    forget_block,
+    forget_summary,
+    read_cached,
+    write_cached,
+)
 from blockqc.checkpoint_inputs import InspectorCheckpoints, merge_checkpoints
 from blockqc.delivery import (
     MANIFEST,
@@ -35,7 +45,7 @@ from blockqc.delivery import (
 from blockqc.engine import inspect_delivery, tie_point_columns
 from blockqc.errors import InputError, Problem
 from blockqc.inspector import InspectorInput
-from blockqc.outputs import BLOCK_OUTPUTS, safe_child, write_json_atomic
+from blockqc.outputs import BATCH_OUTPUTS, BLOCK_OUTPUTS, safe_child, write_json_atomic
 from blockqc.report import checkpoint_rows, write_block_report, write_summary_report
 from blockqc.results import (
     STATUSES,
@@ -209,7 +219,8 @@ class Writer:
         except InputError:
             return  # an id that cannot name a folder of the outputs has none
         for name in (*BLOCK_OUTPUTS, CACHE_FILE):
-            (folder / name).unlink(missing_ok=True)
+            with suppress(OSError):  # a file in the folder's place: nothing of ours to remove
+                (folder / name).unlink(missing_ok=True)
         with suppress(OSError):
             folder.rmdir()
 
@@ -217,10 +228,14 @@ class Writer:
         """summary.json and the summary reports; the files written."""
         write_json_atomic(self.out / "summary.json", summary)
         pdf = self.pdf != "none"
-        return [self.out / "summary.json"] + write_summary_report(
+        written = [self.out / "summary.json"] + write_summary_report(
             self.out, summary, lang=self.lang, templates=self.templates, pdf=pdf, jobs=jobs,
             pdf_engine=self.pdf_engine,
         )  # fmt: skip
+        for name in BATCH_OUTPUTS:  # an earlier run's summary PDF or acceptance page, not remade
+            if self.out / name not in written:
+                (self.out / name).unlink(missing_ok=True)
+        return written
 
 
 def block_entry(path: Path, r: BlockResults, pdf: bool) -> BlockEntry:
@@ -302,6 +317,8 @@ class Job:
             if key and (hit := read_cached(safe_child(self.writer.out, manifest.block_id), key)):
                 return Outcome(path, hit.entry, hit.rules, cached=True, grade=hit.grade, key=key)
             results = inspect_one(path, self.pack, self.inspector, manifest, self.extra)
+            forget_block(safe_child(self.writer.out, results.block_id, source=results.delivery))
+            forget_summary(self.writer.out)  # both rewritten: no key may vouch for them meanwhile
             pdf = self.writer.block(results)
             grade = block_grade(results, self.pack)
             o = Outcome(path, block_entry(path, results, pdf), rule_counts(results), grade=grade)
@@ -416,13 +433,42 @@ class Runner:
 
             run_on_dask(self.scheduler, job, todo, done)
         elif self.jobs > 1 and len(todo) > 1:
-            workers = min(self.jobs, len(todo))  # one thread each: they share the cores
-            with ProcessPoolExecutor(workers, initializer=pieces.single_thread) as pool:
-                for future in as_completed([pool.submit(job, p, m) for p, m in todo]):
-                    done(future.result())
+            self._in_processes(job, todo, done)
         else:
             for p, m in todo:
                 done(job(p, m))
+
+    def _in_processes(
+        self, job: Job, todo: list[tuple[Path, Manifest | None]], done: Callable
+    ) -> None:
+        """The jobs in a pool of processes, one thread each (they share the cores). The blocks
+        of a worker that died (killed, out of memory), and those the broken pool took down with
+        it, are inspected again each in a process of its own: a block whose process dies then
+        is not inspected, and is said to be so."""
+        lost = _pooled(job, todo, done, min(self.jobs, len(todo)))
+        for p, m in lost:
+            if not _pooled(job, [(p, m)], done, 1):
+                continue
+            if m is not None:
+                job.writer.discard(m.block_id)  # what it wrote before it died
+            why = "could not be inspected: the worker process inspecting it died twice"
+            done(Outcome(p, problems=[Problem(str(p), f"{why} (killed, or out of memory)")]))
+
+
+def _pooled(
+    job: Job, todo: list[tuple[Path, Manifest | None]], done: Callable, workers: int
+) -> list[tuple[Path, Manifest | None]]:
+    """done(outcome) of each job run in a pool of `workers` processes; the jobs lost to a
+    process that died."""
+    lost = []
+    with ProcessPoolExecutor(workers, initializer=pieces.single_thread) as pool:
+        futures = {pool.submit(job, p, m): (p, m) for p, m in todo}
+        for future in as_completed(futures):
+            try:
+                done(future.result())
+            except BrokenProcessPool:
+                lost.append(futures[future])
+    return lost
 
 
 def run(
@@ -453,8 +499,10 @@ def run(
 
     for p, problem in got.refused.items():
         finished(Outcome(p, problems=[problem]))
+    _discard_refused(writer, list(got.refused))
     extra = Extra(checkpoints, len(got.deliveries) == 1, plan, meta)
-    digest = run_digest(pack, writer, extra) if incremental else None
+    name = inspector.inspector if inspector else None
+    digest = run_digest(pack, writer, extra, name) if incremental else None
     todo = [(p, got.manifests.get(p)) for p in got.deliveries if p not in got.refused]
     runner = runner or Runner()
     runner.run(Job(pack, inspector, writer, digest, extra), todo, finished)
@@ -464,6 +512,21 @@ def run(
         summary = summarize(outcomes, pack, inspector, extra)
         _write_summary(writer, summary, outcomes, digest, runner.jobs)
     return outcomes, summary
+
+
+def _discard_refused(writer: Writer, refused: list[Path]) -> None:
+    """Outputs of deliveries refused unread (their block.yaml, so their block id, unreadable):
+    found by the block id the last summary in `--out` gave their path, and removed."""
+    if not refused:
+        return
+    try:
+        doc = json.loads((writer.out / "summary.json").read_text(encoding="utf-8"))
+        ids = {Path(b["path"]).resolve(): str(b["block_id"]) for b in doc["blocks"]}
+    except (OSError, ValueError, KeyError, TypeError):
+        return  # no summary (or not one of ours): nothing to find them by
+    for p in refused:
+        if (block_id := ids.get(Path(p).resolve())) is not None:
+            writer.discard(block_id)
 
 
 def _write_summary(

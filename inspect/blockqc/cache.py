@@ -2,9 +2,12 @@
 
 The key of a block is a SHA-256 over its delivery's files (relative path, size and modification
 time of each — the quick check of make and rsync: a file rewritten with new content gets a new
-time), the inspector's verdicts and waivers for the block, the resolved rule pack, the output
-options and blockqc's version. It is kept beside the block's outputs in `.blockqc-cache.json`
-with the block's line of the summary, so that a re-run reads nothing else of an unchanged block.
+time), the inspector (name, verdicts and waivers for the block), the resolved rule pack (its
+rules, constants, files and the columns it reads), the output options, and blockqc itself (its
+version, and the size and time of each of its modules and templates, so that a changed blockqc
+recomputes too). It is kept beside the block's outputs in `.blockqc-cache.json` with the
+block's line of the summary and the size of each output, so that a re-run reads nothing else
+of an unchanged block, and a missing or cut output is written again.
 """
 
 from __future__ import annotations
@@ -26,8 +29,8 @@ CACHE_FILE = ".blockqc-cache.json"
 #: beside the batch summary: the key of the blocks' lines it was written from
 SUMMARY_CACHE_FILE = ".blockqc-summary-cache.json"
 SUMMARY_OUTPUTS = ("summary.json", "summary.html", "summary.csv", "summary.parquet")
-#: outputs that must still be there for a block's outputs to be reused
-OUTPUTS = ("results.json", "report.html")
+#: outputs that must still be there, at the size written, for a block's outputs to be reused
+OUTPUTS = ("results.json", "report.html", "checkpoints.csv", "evidence.csv")
 
 
 @dataclass
@@ -36,6 +39,7 @@ class Cached:
     entry: BlockEntry
     rules: dict[str, dict[str, int]]
     grade: Any = None  # the block's §QE grade (BlockGrade), when the pack has acceptance
+    sizes: dict[str, int] | None = None  # of the outputs, as written
 
 
 def _sha(*parts: Any) -> str:
@@ -62,9 +66,9 @@ def _tree(folder: Path) -> list[tuple[str, int, int]]:
     return out
 
 
-def run_digest(pack: Any, writer: Any, extra: Any = None) -> str:
-    """What every block of a run shares: the resolved pack, output options, the inspector's
-    checkpoint files (their rows), the sampling plan and report particulars, blockqc's version."""
+def run_digest(pack: Any, writer: Any, extra: Any = None, inspector: str | None = None) -> str:
+    """What every block of a run shares: the resolved pack, output options, the inspector's name
+    and checkpoint files (their rows), the sampling plan and report particulars, blockqc."""
     checkpoints = getattr(extra, "checkpoints", None)
     plan, meta = getattr(extra, "plan", None), getattr(extra, "meta", None)
     acceptance = getattr(pack, "acceptance", None)
@@ -72,9 +76,8 @@ def run_digest(pack: Any, writer: Any, extra: Any = None) -> str:
     elements = [e.model_dump(mode="json") for e in pack.elements]
     templates = _tree(writer.templates) if writer.templates else None
     return _sha(
-        __version__,
-        pack.name,
-        pack.version,
+        _blockqc(),
+        (pack.name, pack.version, pack.chain, pack.columns, pack.disabled),
         pack.constants,
         rules,
         elements,
@@ -83,11 +86,21 @@ def run_digest(pack: Any, writer: Any, extra: Any = None) -> str:
         writer.pdf_engine,
         str(writer.templates),
         templates,
+        inspector,
         None if checkpoints is None else checkpoints.rows.to_csv(index=False),
         None if plan is None else plan.model_dump(mode="json"),
         None if meta is None else meta.model_dump(mode="json"),
         None if acceptance is None else acceptance.model_dump(mode="json"),
     )
+
+
+def _blockqc() -> tuple[str, list, list]:
+    """blockqc's version and the size and time of its modules and stock templates."""
+    from blockqc.resources import templates_dir
+
+    package = Path(__file__).resolve().parent
+    modules = [f for f in _tree(package) if f[0].endswith(".py")]
+    return __version__, modules, _tree(templates_dir())
 
 
 def delivery_fingerprint(path: Path, digest: str, block_input: BaseModel | None) -> str:
@@ -97,25 +110,44 @@ def delivery_fingerprint(path: Path, digest: str, block_input: BaseModel | None)
 
 
 def read_cached(folder: Path, key: str) -> Cached | None:
-    """The block's cached line when its key matches and its outputs are all still there."""
+    """The block's cached line when its key matches and its outputs are all still there, at the
+    size they were written."""
     try:
         doc = json.loads((folder / CACHE_FILE).read_text(encoding="utf-8"))
-        if doc.get("key") != key or not all((folder / f).is_file() for f in OUTPUTS):
-            return None
         entry = BlockEntry.model_validate(doc["entry"])
-        if entry.pdf and not (folder / "report.pdf").is_file():
+        names = [*OUTPUTS, "report.pdf"] if entry.pdf else list(OUTPUTS)
+        if doc.get("key") != key or _sizes(folder, names) != doc.get("sizes"):
             return None
         from blockqc.acceptance.model import BlockGrade
 
         grade = BlockGrade.model_validate(doc["grade"]) if doc.get("grade") else None
-        return Cached(key, entry, doc["rules"], grade)
+        return Cached(key, entry, doc["rules"], grade, doc["sizes"])
     except (OSError, ValueError, KeyError, TypeError, AttributeError, ValidationError):
         return None  # no cache, or a broken one: inspect again
 
 
+def _sizes(folder: Path, names: list[str]) -> dict[str, int]:
+    """The size of each output (OSError when one is missing)."""
+    return {name: (folder / name).stat().st_size for name in names}
+
+
 def write_cached(folder: Path, cached: Cached) -> None:
-    doc = {"key": cached.key, "entry": cached.entry, "rules": cached.rules, "grade": cached.grade}
+    """The block's key and line, and the size of each of its outputs as now written."""
+    names = [*OUTPUTS, "report.pdf"] if cached.entry.pdf else list(OUTPUTS)
+    doc = {
+        "key": cached.key,
+        "entry": cached.entry,
+        "rules": cached.rules,
+        "grade": cached.grade,
+        "sizes": _sizes(folder, names),
+    }
     write_json_atomic(folder / CACHE_FILE, doc)
+
+
+def forget_block(folder: Path) -> None:
+    """Drop a block's key before its outputs are rewritten: a run stopped half-way must not
+    leave a key that vouches for outputs it did not finish."""
+    (folder / CACHE_FILE).unlink(missing_ok=True)
 
 
 def summary_key(digest: str, block_keys: list[str | None], inspector: str | None) -> str | None:

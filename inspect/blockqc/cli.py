@@ -182,7 +182,7 @@ def inspect_cmd(
     from blockqc import batch
     from blockqc.delivery import block_scenes
     from blockqc.inspector import check_inspector_input, load_inspector_input
-    from blockqc.outputs import check_out_dir, refuse_inside
+    from blockqc.outputs import check_out_dir, out_lock, refuse_inside
     from blockqc.rules import load_pack
 
     runner = batch.Runner(jobs or os.cpu_count() or 1, scheduler)  # its scheduler checked first
@@ -212,7 +212,7 @@ def inspect_cmd(
     out = check_out_dir(out, paths)  # created once every input is read
     writer = batch.Writer(out, templates, lang, pdf, pdf_engine)
     show = sys.stderr.isatty() if progress is None else progress
-    with _progress(len(got.deliveries) if show else 0) as tick:
+    with out_lock(out), _progress(len(got.deliveries) if show else 0) as tick:
         outcomes, summary = batch.run(
             got, pack, writer, inspector, runner=runner, incremental=incremental,
             progress=tick, checkpoints=checkpoints, plan=plan, meta=meta,

@@ -5,8 +5,10 @@ from __future__ import annotations
 import datetime as dt
 import math
 import os
+import socket
 import tempfile
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Iterator, Mapping
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -142,6 +144,55 @@ def refuse_inside(out: Path, inputs: Iterable[Path]) -> None:
                 f"--out {out} lies inside the input {p}: blockqc never writes into a delivery; "
                 "choose an output folder outside it"
             )
+
+
+#: held in an output folder while a run writes into it
+LOCK_FILE = ".blockqc-lock"
+
+
+@contextmanager
+def out_lock(out: Path) -> Iterator[None]:
+    """One run at a time writes into an output folder: another is refused (exit 2) while this
+    one holds `.blockqc-lock`; a lock left by a process of this machine that no longer runs is
+    taken over."""
+    lock = out / LOCK_FILE
+    me = f"{socket.gethostname()} {os.getpid()}"
+    try:
+        fd = os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+    except FileExistsError:
+        holder = _lock_holder(lock)
+        if holder is not None:
+            raise UsageError(
+                f"--out {out}: another blockqc run is writing into it (host and process "
+                f"{holder}); wait for it to end or choose another folder (if none runs, delete "
+                f"{lock})"
+            ) from None
+        lock.unlink(missing_ok=True)
+        fd = os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+    os.write(fd, me.encode("utf-8"))
+    os.close(fd)
+    try:
+        yield
+    finally:
+        lock.unlink(missing_ok=True)
+
+
+def _lock_holder(lock: Path) -> str | None:
+    """Who holds the lock ("host pid"); None when it is stale (its process, of this machine,
+    has ended) or unreadable."""
+    try:
+        host, pid = lock.read_text(encoding="utf-8").split()
+        number = int(pid)
+    except (OSError, ValueError):
+        return None
+    if host == socket.gethostname():
+        try:
+            os.kill(number, 0)  # no signal sent: whether the process is there
+        except ProcessLookupError:
+            return None
+        except PermissionError:
+            pass  # another user's: it runs
+    return f"{host} {pid}"
 
 
 def make_out_dir(out: Path, out_r: Path) -> Path:
