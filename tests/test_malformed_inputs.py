@@ -413,3 +413,25 @@ def test_a_pack_without_rules_is_refused(blockqc, tmp_path, text, why):
     p = blockqc("inspect", SAMPLE, "--rules", tmp_path / "p.yaml", "--out", tmp_path / "o")
     _refused(p, "p.yaml: the pack has no rule to judge")
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize(
+    "projection, status",
+    [("UTM", "pass"), ("WGS 84 / UTM zone 37N", "pass"), ("Universal Transverse Mercator", "pass"),
+     ("Gauss-Kruger", "fail"), ("Transverse Mercator", "fail"), ("UPS", "fail")],
+)  # fmt: skip
+def test_mb3_judges_the_stated_projection_beside_the_epsg(
+    blockqc, block, tmp_path, projection, status
+):
+    """block.yaml's epsg is 32637 (UTM 37N, the block's zone): a projection named otherwise
+    contradicts it."""
+    text = (block / "block.yaml").read_text(encoding="utf-8")
+    assert "  projection: UTM\n" in text
+    (block / "block.yaml").write_text(
+        text.replace("  projection: UTM\n", f"  projection: {projection}\n")
+    )
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    assert p.returncode in (0, 1), p.stderr
+    results = json.loads((tmp_path / "out" / "F1-B01" / "results.json").read_text("utf-8"))
+    (mb3,) = [r for r in results["results"] if r["rule"] == "MB-3"]
+    assert mb3["status"] == status

@@ -102,6 +102,25 @@ def _zones(codes: list[int]) -> dict[str, str]:
     }
 
 
+#: projection names (spaces, case and punctuation aside) that say UTM, and that say UPS
+_UTM_NAMES = ("UTM", "UNIVERSALTRANSVERSEMERCATOR")
+_UPS_NAMES = ("UPS", "UNIVERSALPOLARSTEREOGRAPHIC", "POLARSTEREOGRAPHIC")
+
+
+def _projection_problem(projection: str | None, code: int | None) -> str | None:
+    """Why the stated projection name contradicts the EPSG code (a Gauss–Krüger projection
+    stated beside a UTM code), or None when it agrees or none is stated."""
+    if not projection or code is None or zone_name(code) is None:
+        return None
+    key = _key(projection)
+    polar = code in (32661, 32761)
+    names = _UPS_NAMES if polar else _UTM_NAMES
+    if any(name in key for name in names):
+        return None
+    wanted = "UPS" if polar else "UTM"
+    return f"projection '{projection}' stated beside {describe_epsg(code)}: expected {wanted}"
+
+
 @metric(
     "spatial_reference",
     tie_points=(),
@@ -127,9 +146,12 @@ def spatial_reference(d: Delivery, p: SpatialParams, measure: Measure) -> Measur
     lat_c = (lat_min + lat_max) / 2
     allowed = expected_epsg(lon_min, lon_max, lat_c, p)
     code = delivered_epsg(sr)
-    ok = code in allowed
+    named = _projection_problem(sr.projection if sr else None, code)
+    ok = code in allowed and named is None
     straddles = len(allowed) > 1
-    if code is None:
+    if named is not None:
+        note = named
+    elif code is None:
         note = "block.yaml states no EPSG code (nor projection UTM with a zone such as 50N)"
     elif ok and straddles:
         note = (
