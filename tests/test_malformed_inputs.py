@@ -290,6 +290,7 @@ def test_a_gsd_band_a_threshold_needs_is_named_in_block_yaml_terms(blockqc, bloc
     }
     assert list(errors) == ["RO-1"]  # the rules that need no MS GSD are judged
     assert "ERROR  failed or in error: RO-1" in p.stdout  # its status is error, not fail
+    assert "RO-1: block.yaml gives no gsd_m.ms" in p.stderr  # why, on the console too
     assert "block.yaml gives no gsd_m.ms" in errors["RO-1"]
 
 

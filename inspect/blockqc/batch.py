@@ -73,6 +73,7 @@ class Outcome:
     cached: bool = False
     grade: BlockGrade | None = None  # §QE, for the batch decision
     key: str | None = None  # incremental mode: the key its outputs were reused or written under
+    errors: list[str] = field(default_factory=list)  # rules in error: "RULE: why" (not cached)
 
 
 @dataclass
@@ -322,6 +323,11 @@ class Job:
             pdf = self.writer.block(results)
             grade = block_grade(results, self.pack)
             o = Outcome(path, block_entry(path, results, pdf), rule_counts(results), grade=grade)
+            o.errors = [
+                f"{r.rule}: {r.detail.get('reason', 'see results.json')}"
+                for r in results.results
+                if r.status == "error"
+            ]
             o.key = key
             if key:
                 folder = safe_child(self.writer.out, results.block_id)

@@ -274,6 +274,8 @@ def _closing_lines(outcomes, summary, out: Path) -> None:
     for o in outcomes:
         for p in o.problems:
             click.echo(f"error: {p}", err=True)
+        for e in o.errors:  # a rule that could not be judged: why, beside the block's line
+            click.echo(f"error: {o.path}: {e}", err=True)
     if summary is not None:
         c = summary.counts
         click.echo(
