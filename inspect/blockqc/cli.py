@@ -8,11 +8,25 @@ import sys
 from pathlib import Path
 
 import click
+from click.core import ParameterSource
 
 from blockqc import __version__
-from blockqc.errors import BlockqcError
+from blockqc.errors import BlockqcError, UsageError
 
 STATUS_STYLE = {"pass": "green", "fail": "red", "error": "red", "warn": "yellow"}
+
+
+class OutPath(click.Path):
+    """An output path: a Path, and never empty (`--out ''` would write into the current
+    folder)."""
+
+    def __init__(self) -> None:
+        super().__init__(path_type=Path)
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, str) and not value.strip():
+            self.fail("an empty path: give the folder to write into", param, ctx)
+        return super().convert(value, param, ctx)
 
 
 class LazyGroup(click.Group):
@@ -93,7 +107,7 @@ def check_pdf_engine(engine: str, pdf: bool) -> None:
 @click.option(
     "--out",
     required=True,
-    type=click.Path(path_type=Path),
+    type=OutPath(),
     help="Output folder (never inside a delivery).",
 )
 @click.option(
@@ -185,6 +199,7 @@ def inspect_cmd(
     from blockqc.outputs import check_out_dir, out_lock, refuse_inside
     from blockqc.rules import load_pack
 
+    _refuse_conflicts(no_pdf, pdf, scheduler)
     runner = batch.Runner(jobs or os.cpu_count() or 1, scheduler)  # its scheduler checked first
     pdf = "none" if no_pdf else pdf
     check_pdf_engine(pdf_engine, pdf != "none")
@@ -209,16 +224,46 @@ def inspect_cmd(
         checkpoints = load_checkpoint_files(list(checkpoint_files))
         check_blocks(checkpoints, got.deliveries)
     plan, meta = _acceptance_inputs(plan_file, meta_file, got)
+    made = not out.exists()
     out = check_out_dir(out, paths)  # created once every input is read
     writer = batch.Writer(out, templates, lang, pdf, pdf_engine)
     show = sys.stderr.isatty() if progress is None else progress
-    with out_lock(out), _progress(len(got.deliveries) if show else 0) as tick:
+    with (
+        _empty_removed(out, made),
+        out_lock(out),
+        _progress(len(got.deliveries) if show else 0) as tick,
+    ):
         outcomes, summary = batch.run(
             got, pack, writer, inspector, runner=runner, incremental=incremental,
             progress=tick, checkpoints=checkpoints, plan=plan, meta=meta,
         )  # fmt: skip
     _closing_lines(outcomes, summary, out)
     return batch.exit_status(outcomes)
+
+
+def _refuse_conflicts(no_pdf: bool, pdf: str, scheduler: str | None) -> None:
+    """Options that contradict each other are refused rather than one silently winning."""
+    given = click.get_current_context().get_parameter_source
+    if no_pdf and pdf != "none" and given("pdf") is ParameterSource.COMMANDLINE:
+        raise UsageError(f"--no-pdf contradicts --pdf {pdf}: give one of them")
+    if scheduler and given("jobs") is ParameterSource.COMMANDLINE:
+        raise UsageError(
+            "--jobs runs processes on this machine, --scheduler tasks on a Dask cluster's "
+            "workers: give one of them"
+        )
+
+
+@contextlib.contextmanager
+def _empty_removed(out: Path, made: bool):
+    """The output folder this run made is removed again when the run stops with nothing in
+    it (a scheduler that cannot be reached)."""
+    try:
+        yield
+    except BaseException:
+        if made:
+            with contextlib.suppress(OSError):
+                out.rmdir()  # only when empty
+        raise
 
 
 def _acceptance_inputs(plan_file: Path | None, meta_file: Path | None, got):
@@ -233,17 +278,22 @@ def _acceptance_inputs(plan_file: Path | None, meta_file: Path | None, got):
     return plan, meta
 
 
+def _style(text: str, **how) -> str:
+    """click.style, unless NO_COLOR is set (no-color.org)."""
+    return text if os.environ.get("NO_COLOR") else click.style(text, **how)
+
+
 def _outcome_line(o) -> str:
     """One line per delivery: the verdict and the rules behind it, or why it was not read."""
     e = o.entry
     if e is None:
-        return click.style(f"{o.path}  UNREADABLE  ({len(o.problems)} problem(s))", fg="red")
+        return _style(f"{o.path}  UNREADABLE  ({len(o.problems)} problem(s))", fg="red")
     failed = "failed or in error" if e.verdict == "error" else "failed"  # failed_rules: both
     notes = [f"{failed}: {', '.join(e.failed_rules)}"] if e.failed_rules else []
     notes += [f"warnings: {', '.join(e.warned_rules)}"] if e.warned_rules else []
     notes += [f"awaiting the inspector: {', '.join(e.pending_manual)}"] if e.pending_manual else []
     notes += ["unchanged, outputs reused"] if o.cached else []
-    verdict = click.style(f"{e.verdict.upper():5}", fg=STATUS_STYLE.get(e.verdict), bold=True)
+    verdict = _style(f"{e.verdict.upper():5}", fg=STATUS_STYLE.get(e.verdict), bold=True)
     return f"{e.block_id:12} {verdict}  " + "; ".join(notes)
 
 
@@ -251,22 +301,35 @@ def _outcome_line(o) -> str:
 def _progress(total: int):
     """A progress bar on stderr for batches (total > 1), else one line per outcome on stdout."""
     if total <= 1:
-        yield lambda o: click.echo(_outcome_line(o))
+        yield lambda o: _echo(_outcome_line(o))
         return
     from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.text import Text
 
-    columns = ("[progress.description]{task.description}", BarColumn(), MofNCompleteColumn())
+    columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn())
     with Progress(
         *columns, TimeElapsedColumn(), console=Console(stderr=True), transient=True
     ) as bar:
         task = bar.add_task("inspecting", total=total)
 
-        def tick(o) -> None:
-            bar.console.print(_outcome_line(o), markup=False, highlight=False)
+        def tick(o) -> None:  # colours as rich decides: none into a pipe or with NO_COLOR
+            bar.console.print(Text.from_ansi(_outcome_line(o)), highlight=False)
             bar.advance(task)
 
         yield tick
+
+
+def _echo(line: str) -> None:
+    """A line on stdout; when its reader has gone (`| head -1`) the run goes on, silent: stdout
+    is pointed at the null device, so that nothing more is lost but the lines not wanted."""
+    try:
+        click.echo(line)
+        sys.stdout.flush()
+    except BrokenPipeError:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
 
 
 def _closing_lines(outcomes, summary, out: Path) -> None:
@@ -278,14 +341,14 @@ def _closing_lines(outcomes, summary, out: Path) -> None:
             click.echo(f"error: {o.path}: {e}", err=True)
     if summary is not None:
         c = summary.counts
-        click.echo(
+        _echo(
             f"{c.blocks} blocks: {c.pass_} pass, {c.fail} fail, "
             f"{c.unreadable} unreadable — {out / 'summary.html'}"
         )
     elif all(o.entry is None for o in outcomes):
         click.echo("nothing was written: the delivery could not be inspected", err=True)
     else:
-        click.echo(f"results in {out}")
+        _echo(f"results in {out}")
 
 
 # ---------------------------------------------------------------------------------- schema
@@ -350,7 +413,6 @@ def simulate_cmd(
     dem_dir: Path | None,
 ) -> None:
     """Write sample deliveries that mirror the four published test fields."""
-    from blockqc.errors import UsageError
     from blockqc.simulate import FAULTS, Layout, Options, simulate
 
     if list_faults:
@@ -400,9 +462,15 @@ def main(argv: list[str] | None = None) -> None:
     except KeyboardInterrupt:
         click.echo("interrupted", err=True)
         sys.exit(130)
+    except OSError as exc:  # the system refused a path: too long, a link loop, no space …
+        click.echo(f"error: {exc.filename or ''}: {exc.strerror or exc}", err=True)
+        sys.exit(2)
     except Exception as exc:  # a defect of blockqc, not of the input: say so, briefly
         if os.environ.get("BLOCKQC_DEBUG"):
             raise
+        if isinstance(exc, RuntimeError) and str(exc).startswith("Symlink loop"):
+            click.echo(f"error: {exc}: a symbolic link leads back to itself", err=True)
+            sys.exit(2)
         click.echo(
             f"internal error: {type(exc).__name__}: {exc} (set BLOCKQC_DEBUG=1 for the "
             "traceback; please report it)",

@@ -1,0 +1,75 @@
+"""Command-line options and paths: contradictions, empty or impossible paths, a closed pipe and
+colours are handled with a message (exit 2) or quietly, never an internal error."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+
+import pytest
+
+from casekit import SAMPLES, run_blockqc
+
+SAMPLE = SAMPLES / "batch" / "F1-B01"
+
+
+def _refused(p: subprocess.CompletedProcess, *words: str) -> None:
+    assert p.returncode == 2, p.stdout + p.stderr
+    assert "internal error" not in p.stderr and "Traceback" not in p.stderr, p.stderr
+    for w in words:
+        assert w in p.stderr, p.stderr
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (("--out", ""), "Invalid value for '--out': an empty path"),
+        (("--out", "o", "--no-pdf", "--pdf", "all"), "--no-pdf contradicts --pdf all"),
+        (("--out", "o", "--jobs", "2", "--scheduler", "local"), "give one of them"),
+    ],
+)
+def test_contradicting_or_empty_options_are_refused(tmp_path, args, words):
+    p = run_blockqc("inspect", SAMPLE, *args, cwd=tmp_path)
+    _refused(p, words)
+    assert list(tmp_path.iterdir()) == []  # nothing written, not even a folder
+
+
+def test_a_symbolic_link_loop_or_a_name_too_long_is_named(tmp_path):
+    (tmp_path / "a").symlink_to(tmp_path / "b")
+    (tmp_path / "b").symlink_to(tmp_path / "a")
+    _refused(run_blockqc("inspect", SAMPLE, "--out", tmp_path / "a"), "leads back to itself")
+    _refused(run_blockqc("inspect", tmp_path / "a", "--out", tmp_path / "o"), "Symlink loop")
+    long = tmp_path / ("x" * 300)  # NAME_MAX is 255 bytes
+    _refused(run_blockqc("inspect", SAMPLE, "--out", long), "File name too long")
+
+
+def test_a_reader_that_stops_reading_does_not_stop_the_run(tmp_path):
+    """`blockqc inspect BATCH | head -1`: every block is inspected and the summary written."""
+    batch = tmp_path / "batch"
+    for name in ("F1-B02", "F3-B02", "F4-B02"):
+        shutil.copytree(SAMPLES / "batch" / name, batch / name)
+    cmd = [sys.executable, "-m", "blockqc", "inspect", str(batch), "--out", str(tmp_path / "o"),
+           "--pdf", "none"]  # fmt: skip
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert proc.stdout.readline().startswith("F1-B02")
+    proc.stdout.close()  # as head does after its line
+    _, err = proc.communicate(timeout=600)
+    assert proc.returncode == 1 and "Traceback" not in err, err  # F3-B02 fails RO-3
+    assert (tmp_path / "o" / "summary.json").is_file()
+
+
+def test_no_colour_codes_with_no_color_or_into_a_pipe(tmp_path):
+    batch = tmp_path / "batch"
+    for name in ("F1-B02", "F3-B02"):
+        shutil.copytree(SAMPLES / "batch" / name, batch / name)
+    env = {**os.environ, "NO_COLOR": "1"}
+    p = subprocess.run(
+        [sys.executable, "-m", "blockqc", "inspect", str(batch), "--out", str(tmp_path / "o"),
+         "--pdf", "none", "--progress"],
+        capture_output=True, text=True, env=env, timeout=600,
+    )  # fmt: skip
+    assert p.returncode == 1, p.stderr
+    assert "\x1b[" not in p.stderr + p.stdout
+    assert "F3-B02       FAIL" in p.stderr and "[progress.description]" not in p.stderr
