@@ -73,3 +73,9 @@ def test_no_colour_codes_with_no_color_or_into_a_pipe(tmp_path):
     assert p.returncode == 1, p.stderr
     assert "\x1b[" not in p.stderr + p.stdout
     assert "F3-B02       FAIL" in p.stderr and "[progress.description]" not in p.stderr
+
+
+def test_a_folder_given_for_a_file_is_called_a_folder(tmp_path):
+    _refused(run_blockqc("rules", "list", "--rules", tmp_path), "is a folder, not a rule pack file")
+    p = run_blockqc("inspect", SAMPLE, "--checkpoints", tmp_path, "--out", tmp_path / "o")
+    _refused(p, f"{tmp_path}: a folder (expected a checkpoints table)")

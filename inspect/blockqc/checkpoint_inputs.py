@@ -60,7 +60,8 @@ def load_checkpoint_files(paths: list[Path]) -> InspectorCheckpoints:
     with_block = []
     for path in map(Path, paths):
         if not path.is_file():
-            problems.append(Problem(str(path), "no such file (expected a checkpoints table)"))
+            what = "a folder" if path.is_dir() else "no such file"
+            problems.append(Problem(str(path), f"{what} (expected a checkpoints table)"))
             continue
         try:
             df, found = read_table(path, CHECKPOINTS)

@@ -86,7 +86,7 @@ def check_pdf_engine(engine: str, pdf: bool) -> None:
         try:
             find_chromium()
         except ChromiumProblem as exc:
-            raise click.BadParameter(str(exc), param_hint="--pdf-engine") from None
+            raise click.UsageError(str(exc)) from None  # it names --pdf-engine itself
 
 
 # ------------------------------------------------------------------------------- inspect

@@ -67,6 +67,8 @@ def resolve_pack_path(
                 line=site[1],
             )
         )
+    if Path(ref_s).is_dir():
+        raise RuleError(Problem(ref_s, f"is a folder, not a rule pack file: {message}"))
     raise RuleError(Problem(ref_s, f"no such rule pack: {message}"))
 
 
