@@ -86,7 +86,9 @@ def check_pdf_engine(engine: str, pdf: bool) -> None:
         try:
             find_chromium()
         except ChromiumProblem as exc:
-            raise click.UsageError(str(exc)) from None  # it names --pdf-engine itself
+            why = str(exc)
+            lead = "" if why.startswith("--pdf-engine") else "--pdf-engine chromium: "
+            raise click.UsageError(lead + why) from None
 
 
 # ------------------------------------------------------------------------------- inspect
