@@ -9,10 +9,11 @@ import pytest
 
 from blockqc.delivery import load_delivery
 from blockqc.engine import inspect_delivery
+from blockqc.errors import UsageError
 from blockqc.results import dump
 from blockqc.rules import load_pack
 from blockqc.simulate import FAULTS, Layout, Options, simulate
-from casekit import SAMPLES, aggregate_status
+from casekit import SAMPLES, aggregate_status, run_blockqc
 
 DEM = SAMPLES / "dem"
 SMALL = dict(fields=(4,), blocks_per_field=2, layout=Layout(rows=3, cols=3, obs_per_scene=150))
@@ -73,3 +74,50 @@ def test_fault_trips_its_rule(tmp_path: Path, fault: str) -> None:
     assert not others - also, f"{fault} also failed {others}"
     if fault == "sea-scene":
         assert results[0]["detail"]["exempt"][0]["exempt_reason"].startswith("water_fraction")
+
+
+TINY = dict(fields=(4,), blocks_per_field=1, layout=Layout(rows=2, cols=2, obs_per_scene=20))
+
+
+def test_a_delivery_folder_that_holds_files_is_refused(tmp_path: Path) -> None:
+    old = tmp_path / "F4-B01"
+    old.mkdir()
+    (old / "edges.csv").write_text("old", encoding="utf-8")
+    with pytest.raises(UsageError) as err:
+        simulate(tmp_path, Options(**TINY), DEM)
+    assert str(err.value) == (
+        f"OUT {tmp_path}: the delivery folder {old} already exists and is not empty: choose an "
+        "empty or new folder"
+    )
+    assert [p.name for p in old.iterdir()] == ["edges.csv"]
+    assert simulate(tmp_path / "new", Options(**TINY), DEM) == ["F4-B01"]  # an empty one is fine
+
+
+def test_an_empty_out_is_refused(tmp_path: Path) -> None:
+    with pytest.raises(UsageError, match="^OUT is empty: give the folder to write the deliveries"):
+        simulate("", Options(**TINY), DEM)
+
+
+def test_out_that_cannot_be_a_folder_is_a_usage_error(tmp_path: Path) -> None:
+    (tmp_path / "loop1").symlink_to("loop2")
+    (tmp_path / "loop2").symlink_to("loop1")
+    (tmp_path / "file").write_text("x", encoding="utf-8")
+    r = run_blockqc("simulate", tmp_path / "loop1", "--fields", "4", "--grid", "2x2")
+    assert r.returncode == 2
+    assert r.stderr == (
+        f"error: OUT {tmp_path / 'loop1'} is not a folder (a file, or a link that loops or leads "
+        "nowhere): give a folder\n"
+    )
+    with pytest.raises(UsageError, match="^OUT .*loop1/sub cannot be created or read: Too many"):
+        simulate(tmp_path / "loop1" / "sub", Options(**TINY), DEM)
+    with pytest.raises(UsageError, match="^OUT .*file/sub cannot be created or read: Not a dir"):
+        simulate(tmp_path / "file" / "sub", Options(**TINY), DEM)
+
+
+def test_read_only_parent_is_a_usage_error(tmp_path: Path, monkeypatch) -> None:
+    def refuse(self, *args, **kwargs):
+        raise PermissionError(13, "Permission denied", str(self))
+
+    monkeypatch.setattr(Path, "mkdir", refuse)
+    with pytest.raises(UsageError, match="^OUT .*/ro/sim cannot be created or read: Permission d"):
+        simulate(tmp_path / "ro" / "sim", Options(**TINY), DEM)

@@ -367,7 +367,7 @@ def schema_cmd(kind: str) -> None:
 
 # ------------------------------------------------------------------------------ simulate
 @cli.command("simulate")
-@click.argument("out", type=click.Path(path_type=Path))
+@click.argument("out", type=OutPath())
 @click.option(
     "--seed", default=20231, show_default=True, type=click.IntRange(min=0), help="Random seed."
 )

@@ -10,6 +10,7 @@ switched on to make any rule fail.
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -231,7 +232,7 @@ class _Block:
         self.spec, self.index, self.opts, self.rng, self.faults = spec, index, opts, rng, faults
         self.lay = opts.layout
         w, _ = self.lay.extent_deg
-        self.block_id = f"F{spec.number}-B{index + 1:02d}"
+        self.block_id = block_id(spec.number, index)
         self.lon0 = spec.lon0 + index * (w - self.lay.size_deg * self.lay.overlap) / math.cos(
             math.radians(spec.lat0)
         )
@@ -599,8 +600,47 @@ def default_dem_dir() -> Path:
     return checkout if checkout.is_dir() else Path("samples") / "dem"
 
 
-def simulate(out: Path, opts: Options, dem_dir: Path | None = None) -> list[str]:
-    """Write a batch of deliveries for the chosen fields; return the block ids."""
+def block_id(field_number: int, index: int) -> str:
+    """The id (and folder name) of a field's index-th block (from 0)."""
+    return f"F{field_number}-B{index + 1:02d}"
+
+
+def _holds_something(folder: Path) -> bool:
+    """Whether a delivery folder to write is there already and not an empty folder."""
+    if not (folder.exists() or folder.is_symlink()):
+        return False
+    return not folder.is_dir() or any(folder.iterdir())
+
+
+def prepare_out(out: Path | str, ids: list[str]) -> Path:
+    """OUT, created: refused (exit 2) when empty, when it cannot be made or written in, or when a
+    delivery folder to write already holds something (old files would stay beside new ones)."""
+    if not str(out):
+        raise UsageError("OUT is empty: give the folder to write the deliveries into")
+    out = Path(out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        taken = [out / i for i in ids if _holds_something(out / i)]
+    except FileExistsError:
+        raise UsageError(
+            f"OUT {out} is not a folder (a file, or a link that loops or leads nowhere): "
+            "give a folder"
+        ) from None
+    except OSError as exc:
+        raise UsageError(f"OUT {out} cannot be created or read: {exc.strerror or exc}") from None
+    if taken:
+        raise UsageError(
+            f"OUT {out}: the delivery folder {taken[0]} already exists and is not empty: "
+            "choose an empty or new folder"
+        )
+    if not os.access(out, os.W_OK | os.X_OK):
+        raise UsageError(f"OUT {out}: this folder cannot be written in")
+    return out
+
+
+def simulate(out: Path | str, opts: Options, dem_dir: Path | None = None) -> list[str]:
+    """Write a batch of deliveries for the chosen fields into OUT (new or empty delivery
+    folders only); return the block ids."""
     unknown = sorted(set(opts.faults) - set(FAULTS))
     if unknown:
         raise UsageError(f"unknown fault {', '.join(unknown)} (known: {', '.join(FAULTS)})")
@@ -610,6 +650,8 @@ def simulate(out: Path, opts: Options, dem_dir: Path | None = None) -> list[str]
     dem_dir = dem_dir or default_dem_dir()
     if not dem_dir.is_dir():
         raise UsageError(f"DEM folder {dem_dir} not found (give --dem-dir)")
+    ids = [block_id(f, i) for f in opts.fields for i in range(opts.blocks_per_field)]
+    out = prepare_out(out, ids)
     return [
         write_block(out, FIELDS[f], i, opts, dem_dir)
         for f in opts.fields

@@ -133,3 +133,57 @@ def test_unknown_scene_in_adjustment_csv(small_block, tmp_path, blockqc):
 def test_output_inside_the_delivery_is_refused(small_block, blockqc):
     r = blockqc("adjust", small_block, "--out", small_block / "out")
     assert r.returncode == 2 and "never writes into a delivery" in r.stderr
+
+
+@pytest.mark.parametrize(
+    "option, value, expected",
+    [
+        ("--reject", "0", "Invalid value for '--reject': '0' is not a finite number > 0"),
+        ("--reject", "-1", "Invalid value for '--reject': '-1' is not a finite number > 0"),
+        ("--reject", "nan", "Invalid value for '--reject': 'nan' is not a finite number > 0"),
+        ("--dem-sigma", "-5", "Invalid value for '--dem-sigma': '-5' is not a finite number > 0"),
+        ("--dem-sigma", "0", "Invalid value for '--dem-sigma': '0' is not a finite number > 0"),
+        ("--sigma-image", "0", "Invalid value for '--sigma-image': '0' is not a finite number > 0"),
+        (
+            "--sigma-image",
+            "inf",
+            "Invalid value for '--sigma-image': 'inf' is not a finite number > 0",
+        ),
+        (
+            "--sigma-shift",
+            "nan",
+            "Invalid value for '--sigma-shift': 'nan' is not a number > 0 (inf allowed)",
+        ),
+        (
+            "--sigma-linear",
+            "0",
+            "Invalid value for '--sigma-linear': '0' is not a number > 0 (inf allowed)",
+        ),
+    ],
+)
+def test_bad_numeric_option_is_refused_up_front(small_block, tmp_path, blockqc, option, value,
+                                                 expected):  # fmt: skip
+    out = tmp_path / "out"
+    r = blockqc("adjust", small_block, "--out", out, option, value)
+    assert r.returncode == 2, r.stderr
+    assert expected in r.stderr and "internal error" not in r.stderr
+    assert not out.exists()
+
+
+def test_no_output_folder_when_the_delivery_is_unreadable(small_block, tmp_path, blockqc):
+    blk = _copy(small_block, tmp_path)
+    shutil.rmtree(blk / "rpc")
+    out = tmp_path / "out"
+    r = blockqc("adjust", blk, "--out", out)
+    assert r.returncode == 2 and "rpc/ is missing" in r.stderr
+    assert not out.exists()
+    r = blockqc("adjust", tmp_path / "nothing", "--out", out)
+    assert r.returncode == 2 and "not a delivery folder (no block.yaml)" in r.stderr
+    assert not out.exists()
+
+
+def test_empty_out_is_refused(small_block, tmp_path, blockqc):
+    r = blockqc("adjust", small_block, "--out", "", cwd=tmp_path)
+    assert r.returncode == 2
+    assert "Invalid value for '--out': an empty path: give an output folder" in r.stderr
+    assert list(tmp_path.iterdir()) == []

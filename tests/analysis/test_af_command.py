@@ -202,3 +202,20 @@ def test_a_refused_batch_leaves_no_output_folder(tmp_path):
     with pytest.raises(InputError, match="neither a delivery"):
         command.main(args, standalone_mode=False)
     assert not (tmp_path / "o").exists()
+
+
+def test_empty_out_is_refused(appendix_path, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    res = CliRunner().invoke(command, ["--table", str(appendix_path), "--out", ""])
+    assert res.exit_code == 2
+    assert "Invalid value for '--out': an empty path: give an output folder" in res.output
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_help_says_where_out_may_be():
+    """docs/factors.md: --out may be the folder of --table (not "never inside an input")."""
+    text = " ".join(CliRunner().invoke(command, ["--help"]).output.split())
+    assert (
+        "Output folder: never inside BATCH; it may be the folder of --table unless one of its "
+        "outputs would replace the table." in text
+    )

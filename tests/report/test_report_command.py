@@ -133,3 +133,39 @@ def test_inspection_run_and_rerender_give_the_same_report(tmp_path):
     assert rc.returncode == 0, rc.stderr
     again = tmp_path / "b" / first.parent.name / "report.html"
     assert again.read_text(encoding="utf-8") == inspected.read_text(encoding="utf-8")
+
+
+@pytest.mark.parametrize("where", [".", "x", "x/y"])
+def test_out_inside_an_input_folder_is_refused(tmp_path, capsys, results_file, where):
+    block = results_file.parent
+    before = sorted(p.name for p in block.iterdir())
+    out = block / where
+    for named in (block, results_file):
+        assert run("report", str(named), "--out", str(out), "--no-pdf") == 2
+        assert capsys.readouterr().err == (
+            f"error: --out {out} lies inside the input folder {block}: choose an output folder "
+            "outside the inputs (or, to re-render in place, the folder that holds "
+            "<block_id>/results.json)\n"
+        )
+    assert sorted(p.name for p in block.iterdir()) == before
+
+
+def test_rerendering_in_place_is_allowed(tmp_path, results_file):
+    """docs/report.md: the results files are copied only when the output folder is another one;
+    --out the folder holding <block_id>/results.json re-renders beside them."""
+    raw = results_file.read_bytes()
+    batch = results_file.parents[1]
+    assert run("report", str(batch), "--out", str(batch), "--no-pdf") == 0
+    assert (results_file.parent / "report.html").is_file()
+    assert results_file.read_bytes() == raw
+    assert sorted(p.name for p in batch.iterdir()) == ["T-B01"]
+
+
+def test_empty_out_is_refused(tmp_path, capsys, results_file, monkeypatch):
+    monkeypatch.chdir(tmp_path / "in")
+    assert run("report", str(results_file), "--out", "", "--no-pdf") == 2
+    assert "Invalid value for '--out': an empty path: give an output folder" in (
+        capsys.readouterr().err
+    )
+    assert sorted(p.name for p in results_file.parent.iterdir()) == ["results.json"]
+    assert sorted(p.name for p in (tmp_path / "in").iterdir()) == ["T-B01"]

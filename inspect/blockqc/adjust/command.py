@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import click
@@ -10,7 +11,31 @@ from click.core import ParameterSource
 from blockqc.adjust.run import DEFAULT_DEM_SIGMA_M, AdjustConfig, run_adjust
 from blockqc.adjust.solver import Settings
 from blockqc.errors import UsageError
-from blockqc.outputs import check_out_dir
+from blockqc.outputs import refuse_inside
+
+
+class Positive(click.ParamType):
+    """A number > 0, refused (exit 2, the option named) before anything is read; finite unless
+    `infinite` (an infinite prior σ leaves its parameters free)."""
+
+    name = "float"
+
+    def __init__(self, infinite: bool = False) -> None:
+        self.infinite = infinite
+
+    def convert(self, value, param, ctx) -> float:
+        number = click.FLOAT.convert(value, param, ctx)
+        if number > 0 and (self.infinite or math.isfinite(number)):
+            return number
+        expected = "a number > 0 (inf allowed)" if self.infinite else "a finite number > 0"
+        self.fail(f"{value!r} is not {expected}", param, ctx)
+
+
+def not_empty(ctx: click.Context, param: click.Parameter, value: str) -> Path:
+    """--out as a path; an empty one is refused (it would be the current folder)."""
+    if not value:
+        raise click.BadParameter("an empty path: give an output folder", ctx, param)
+    return Path(value)
 
 
 def check_dem_options(dem: Path | None, geoid: Path | None) -> None:
@@ -33,7 +58,7 @@ def check_dem_options(dem: Path | None, geoid: Path | None) -> None:
 
 @click.command("adjust")
 @click.argument("delivery", type=click.Path(path_type=Path))
-@click.option("--out", required=True, type=click.Path(path_type=Path), help="Output folder.")
+@click.option("--out", required=True, type=click.Path(), callback=not_empty, help="Output folder.")
 @click.option("--dem", type=click.Path(path_type=Path), help="DEM for height priors.")
 @click.option(
     "--geoid",
@@ -47,17 +72,38 @@ def check_dem_options(dem: Path | None, geoid: Path | None) -> None:
     show_default=True,
     help="Heights of the DEM: above the geoid (SRTM; needs --geoid) or ellipsoidal.",
 )
-@click.option("--dem-sigma", default=DEFAULT_DEM_SIGMA_M, show_default=True, help="σ of DEM (m).")
+@click.option(
+    "--dem-sigma",
+    type=Positive(),
+    default=DEFAULT_DEM_SIGMA_M,
+    show_default=True,
+    help="σ of DEM (m).",
+)
 @click.option("--fix", multiple=True, help="Hold this scene's affine at zero (repeatable).")
-@click.option("--sigma-shift", default=10.0, show_default=True, help="A-priori σ of a0, b0 (px).")
+@click.option(
+    "--sigma-shift",
+    type=Positive(infinite=True),
+    default=10.0,
+    show_default=True,
+    help="A-priori σ of a0, b0 (px).",
+)
 @click.option(
     "--sigma-linear",
+    type=Positive(infinite=True),
     default=2.0,
     show_default=True,
     help="A-priori σ of the linear terms, in px at the image edge.",
 )
-@click.option("--sigma-image", default=0.5, show_default=True, help="Starting σ of a measurement.")
-@click.option("--reject", default=4.0, show_default=True, help="Reject |v| > k·σ0: this k.")
+@click.option(
+    "--sigma-image",
+    type=Positive(),
+    default=0.5,
+    show_default=True,
+    help="Starting σ of a measurement (px).",
+)
+@click.option(
+    "--reject", type=Positive(), default=4.0, show_default=True, help="Reject |v| > k·σ0: this k."
+)
 @click.option("--max-iterations", default=20, show_default=True, type=click.IntRange(1, 1000))
 @click.option(
     "--checkpoints",
@@ -89,12 +135,10 @@ def command(
     converged, 1 when it did not (the outputs say converged: false), 2 on unreadable input.
     """
     check_dem_options(dem, geoid)
-    inputs = [p for p in (delivery, dem, geoid) if p is not None]
-    out_dir = check_out_dir(out, inputs)
     settings = Settings(max_iterations=max_iterations, reject_k=reject, sigma_image_px=sigma_image)
     cfg = AdjustConfig(
         delivery=delivery,
-        out=out_dir,
+        out=out,
         dem=dem,
         geoid=geoid,
         dem_vertical=dem_vertical,
@@ -105,12 +149,13 @@ def command(
         settings=settings,
         checkpoints=n_checkpoints,
     )
+    refuse_inside(out, cfg.inputs())  # before reading; the folder is made once they are read
     r = run_adjust(cfg)
     click.echo(
         f"{r['block_id']}: {r['n_scenes']} scenes, {r['n_observations']} observations, "
         f"{r['iterations']} iterations, converged {'yes' if r['converged'] else 'NO'}; "
         f"σ0 {r['sigma0_px']:.3f} px, RMS {r['rms_px_before']:.3f} → {r['rms_px_after']:.3f} px, "
-        f"{r['n_outliers']} outliers; results in {out_dir}"
+        f"{r['n_outliers']} outliers; results in {out.resolve()}"
     )
     for warning in r["warnings"]:
         click.echo(f"warning: {warning}", err=True)

@@ -19,6 +19,7 @@ from blockqc.adjust.geometry import RPCStack, intersect
 from blockqc.adjust.inputs import AdjustInput, load_adjust_input
 from blockqc.adjust.solver import Observations, Priors, Settings, Solution, adjust
 from blockqc.errors import InputError, Problem
+from blockqc.outputs import check_out_dir
 
 if TYPE_CHECKING:
     from blockqc.rfm.dem import DEM
@@ -40,6 +41,10 @@ class AdjustConfig:
     sigma_linear_px: float = 2.0
     settings: Settings = field(default_factory=Settings)
     checkpoints: int = 30
+
+    def inputs(self) -> list[Path]:
+        """The delivery, the DEM and the geoid grid given (--out must lie outside them)."""
+        return [p for p in (self.delivery, self.dem, self.geoid) if p is not None]
 
 
 @dataclass
@@ -309,6 +314,7 @@ def run_adjust(cfg: AdjustConfig) -> dict:
     block = index_block(load_adjust_input(cfg.delivery))
     clock.lap("read")
     priors, datum_desc = datum(block, cfg)
+    out = check_out_dir(cfg.out, cfg.inputs())  # created once the inputs (DEM too) are read
     clock.lap("datum")
     sol, v0l, v0s = adjust(block.stack, block.obs, block.lines, block.samples, priors, cfg.settings)
     clock.lap("adjust")
@@ -319,7 +325,7 @@ def run_adjust(cfg: AdjustConfig) -> dict:
     summary["settings"]["sigma_image_px_estimated"] = sol.sigma_image_px
     summary["seconds"] = round(time.perf_counter() - t0, 2)
     summary["timings"] = clock.laps
-    write_outputs(cfg.out, block, sol, cps, summary, np.hypot(v0l, v0s))
+    write_outputs(out, block, sol, cps, summary, np.hypot(v0l, v0s))
     return summary
 
 

@@ -178,6 +178,13 @@ def _struct_frame(
     )
 
 
+def _out_path(ctx: click.Context, param: click.Parameter, value: str) -> Path:
+    """--out as a path; an empty one is refused (it would be the current folder)."""
+    if not value:
+        raise click.BadParameter("an empty path: give an output folder", ctx, param)
+    return Path(value)
+
+
 @click.command("factors")
 @click.argument("batch", required=False, type=click.Path(exists=True, path_type=Path))
 @click.option(
@@ -196,8 +203,10 @@ def _struct_frame(
 @click.option(
     "--out",
     required=True,
-    type=click.Path(file_okay=False, path_type=Path),
-    help="Output folder (never inside an input).",
+    type=click.Path(file_okay=False),
+    callback=_out_path,
+    help="Output folder: never inside BATCH; it may be the folder of --table unless one of "
+    "its outputs would replace the table.",
 )
 @click.option(
     "--images-band",

@@ -10,7 +10,7 @@ import click
 from pydantic import ValidationError
 
 from blockqc.cli import check_pdf_engine, pdf_engine_option
-from blockqc.errors import InputError, Problem
+from blockqc.errors import InputError, Problem, UsageError
 from blockqc.report.messages import LANGUAGES
 from blockqc.results import STATUSES, BlockResults, Summary, json_path, parse
 
@@ -197,14 +197,42 @@ def gather(
     return results, summary
 
 
+def _out_path(ctx: click.Context, param: click.Parameter, value: str) -> Path:
+    """--out as a path; an empty one is refused (it would be the current folder)."""
+    if not value:
+        raise click.BadParameter("an empty path: give an output folder", ctx, param)
+    return Path(value)
+
+
+def _check_out(out: Path, named: tuple[Path, ...], docs: list, summary: tuple | None) -> None:
+    """Refuse --out inside (or equal to) a folder named or holding a named file, unless the
+    reports are re-rendered in place: every results file (and the summary) is already where
+    it would be written, `<out>/<block_id>/results.json` (`<out>/summary.json`)."""
+    here = [(out / d.block_id / "results.json", p) for p, d, _ in docs]
+    here += [(out / "summary.json", summary[0])] if summary is not None else []
+    if all(target.resolve() == p.resolve() for target, p in here):
+        return
+    out_r = out.resolve()
+    for p in named:
+        folder = p if p.is_dir() else p.parent
+        if folder.resolve() in (out_r, *out_r.parents):
+            raise UsageError(
+                f"--out {out} lies inside the input folder {folder}: choose an output folder "
+                "outside the inputs (or, to re-render in place, the folder that holds "
+                "<block_id>/results.json)"
+            )
+
+
 @click.command("report")
 @click.argument("results", nargs=-1, required=True, type=click.Path(path_type=Path))
 @click.option(
     "--out",
     required=True,
-    type=click.Path(path_type=Path, file_okay=False),
+    type=click.Path(file_okay=False),
+    callback=_out_path,
     help="Output folder: <out>/<block_id>/report.html, report.pdf, CSV exports; "
-    "<out>/summary.html for a batch.",
+    "<out>/summary.html for a batch. Never inside an input, unless it is the folder the "
+    "results are in (<out>/<block_id>/results.json): the reports are then re-rendered in place.",
 )
 @click.option(
     "--lang",
@@ -237,6 +265,7 @@ def command(
 
     check_pdf_engine(pdf_engine, pdf)
     docs, summary = gather(list(results))
+    _check_out(out, results, docs, summary)
     make_out_dir(out, out.resolve())
     written: list[Path] = []
     for path, doc, raw in docs:
