@@ -33,3 +33,19 @@ def run_blockqc(*args: object, cwd: Path | None = None) -> subprocess.CompletedP
         text=True,
         timeout=600,
     )
+
+
+def extension_pack(
+    tmp_path: Path, body: str, name: str = "project", extends: str = "global-project"
+) -> Path:
+    """A pack file `<name>.yaml` extending `extends` with `body` (YAML text), in tmp_path."""
+    path = tmp_path / f"{name}.yaml"
+    path.write_text(f"pack: {name}\nextends: {extends}\n{body}", "utf-8")
+    return path
+
+
+def lint_messages(path: Path) -> list[str]:
+    """Every problem `blockqc rules lint` finds in a pack file, as printed."""
+    from blockqc.rules.lint import lint
+
+    return [str(p) for p in lint(path)[1]]

@@ -8,22 +8,13 @@ import pytest
 
 from blockqc.errors import RuleError
 from blockqc.rules import load_pack
-from blockqc.rules.lint import lint
+from casekit import extension_pack as _pack
+from casekit import lint_messages as _messages
 
 KNOWN = (
     "['attachment', 'data', 'documents', 'edge_accuracy', 'height_accuracy', 'layout', "
     "'mathematical_basis', 'plane_accuracy', 'points_distribution', 'report']"
 )
-
-
-def _pack(tmp_path: Path, body: str, name: str = "project", extends: str = "global-project"):
-    path = tmp_path / f"{name}.yaml"
-    path.write_text(f"pack: {name}\nextends: {extends}\n{body}", "utf-8")
-    return path
-
-
-def _messages(path: Path) -> list[str]:
-    return [str(p) for p in lint(path)[1]]
 
 
 def test_unknown_weight_key_is_named_at_its_line(tmp_path: Path) -> None:

@@ -11,27 +11,17 @@ import rasterio
 from rfm_helpers import DATA, VENTOUX
 
 from blockqc.errors import InputError
-from blockqc.rfm.readers import read_rpc, read_rpc_gdal, sniff_format
+from blockqc.rfm.model import OFFSET_SCALE_KEYS
+from blockqc.rfm.readers import COEFF_KEYS, read_rpc, read_rpc_gdal, sniff_format
 
 FORMATS = DATA / "rpc_formats"
 pytestmark = pytest.mark.filterwarnings("ignore::rasterio.errors.NotGeoreferencedWarning")
 
 
 def assert_same_model(a, b, offsets_tol=0.0, coeff_rtol=0.0):
-    for name in (
-        "line_off",
-        "samp_off",
-        "lat_off",
-        "lon_off",
-        "height_off",
-        "line_scale",
-        "samp_scale",
-        "lat_scale",
-        "lon_scale",
-        "height_scale",
-    ):
+    for name in OFFSET_SCALE_KEYS:
         assert getattr(a, name) == pytest.approx(getattr(b, name), abs=offsets_tol), name
-    for name in ("line_num", "line_den", "samp_num", "samp_den"):
+    for name in COEFF_KEYS:
         np.testing.assert_allclose(getattr(a, name), getattr(b, name), rtol=coeff_rtol, atol=0)
 
 

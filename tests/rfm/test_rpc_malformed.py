@@ -15,27 +15,13 @@ import pytest
 from rfm_helpers import DATA, VENTOUX
 
 from blockqc.errors import InputError
-from blockqc.rfm.readers import read_rpc
+from blockqc.rfm.model import OFFSET_SCALE_KEYS
+from blockqc.rfm.readers import COEFF_KEYS, read_rpc
 
 FORMATS = DATA / "rpc_formats"
 GF_TXT = DATA / "gf_rpc_txt" / "left_image_rpc.txt"
 GEOM = VENTOUX / "left_image.geom"
-FIELDS = (
-    "line_off",
-    "samp_off",
-    "lat_off",
-    "lon_off",
-    "height_off",
-    "line_scale",
-    "samp_scale",
-    "lat_scale",
-    "lon_scale",
-    "height_scale",
-    "line_num",
-    "line_den",
-    "samp_num",
-    "samp_den",
-)
+FIELDS = (*OFFSET_SCALE_KEYS, *COEFF_KEYS)
 
 
 def assert_identical(a, b):

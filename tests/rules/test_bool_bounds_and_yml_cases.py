@@ -9,18 +9,8 @@ import pytest
 from blockqc.errors import RuleError
 from blockqc.rules import cases, load_pack
 from blockqc.rules.cases import find_case_file, iter_cases
-from blockqc.rules.lint import lint
-
-
-def _pack(tmp_path: Path, body: str, name: str = "project") -> Path:
-    path = tmp_path / f"{name}.yaml"
-    path.write_text(f"pack: {name}\nextends: global-project\n{body}", "utf-8")
-    return path
-
-
-def _messages(path: Path) -> list[str]:
-    _, problems = lint(path)
-    return [str(p) for p in problems]
+from casekit import extension_pack as _pack
+from casekit import lint_messages as _messages
 
 
 @pytest.mark.parametrize("written", ["true", "yes", "True"])

@@ -9,20 +9,11 @@ import pytest
 from blockqc.errors import RuleError
 from blockqc.rules import load_pack
 from blockqc.rules.expr import ExpressionError
-from blockqc.rules.lint import lint
 from blockqc.rules.text import render
+from casekit import extension_pack as _pack
+from casekit import lint_messages as _messages
 
 DESERT = "constants:\n  norm: {plane_m: 8}\n  tp: {min_points_per_scene: 150}\n"
-
-
-def _pack(tmp_path: Path, body: str) -> Path:
-    path = tmp_path / "project.yaml"
-    path.write_text(f"pack: project\nextends: global-project\n{body}", "utf-8")
-    return path
-
-
-def _messages(path: Path) -> list[str]:
-    return [str(p) for p in lint(path)[1]]
 
 
 def test_stock_texts_follow_the_constants_a_project_changes(tmp_path: Path) -> None:
