@@ -436,3 +436,13 @@ def test_mb3_judges_the_stated_projection_beside_the_epsg(
     results = json.loads((tmp_path / "out" / "F1-B01" / "results.json").read_text("utf-8"))
     (mb3,) = [r for r in results["results"] if r["rule"] == "MB-3"]
     assert mb3["status"] == status
+
+
+def test_an_extra_column_sharing_only_a_first_word_is_not_taken_for_a_misspelling():
+    """`water` (say, a flag) beside no `water_fraction`: 'fraction' is no unit, so it is an
+    extra column, kept and ignored; `dz` for `dz_m` and `h_m` for `h` differ by a unit."""
+    from blockqc.schema import _near
+
+    assert _near("water_fraction", ["water", "cloud"]) is None
+    assert _near("dz_m", ["remark", "dz"]) == "dz"
+    assert _near("h", ["h_m"]) == "h_m"

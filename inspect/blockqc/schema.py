@@ -388,16 +388,27 @@ def _missing(col: Column, near: str | None, file: str, found: list) -> list[Prob
     return []
 
 
+#: the last words of column names that are units (`dz_m`, `lat_deg`)
+UNIT_WORDS = {"m", "mm", "cm", "km", "px", "pix", "pixel", "pixels", "deg", "degree", "degrees"}
+
+
 def _near(name: str, columns: list[str]) -> str | None:
-    """The first of `columns` that looks like `name` misspelt: in other case, without or with
-    one more last word (`dz` or `dz_mm` for `dz_m`), or differing in a letter or two."""
+    """The first of `columns` that looks like `name` misspelt: in other case, with its unit
+    dropped, added or changed (`dz`, `dz_mm` for `dz_m`; `h_m` for `h`), or differing in a
+    letter or two. (`water` is not `water_fraction`: 'fraction' is no unit.)"""
     want = name.casefold()
     for column in columns:
         c = str(column).casefold()
-        stem = c == want.rsplit("_", 1)[0] or want == c.rsplit("_", 1)[0]
-        if c == want or stem or difflib.SequenceMatcher(None, c, want).ratio() >= 0.8:
+        close = difflib.SequenceMatcher(None, c, want).ratio() >= 0.8
+        if c == want or close or _stem(c) == _stem(want):
             return column
     return None
+
+
+def _stem(name: str) -> str:
+    """A column name without its unit word: `dz_m` → `dz`, `water_fraction` as it is."""
+    base, _, last = name.rpartition("_")
+    return base if base and last in UNIT_WORDS else name
 
 
 def _labels(table: pd.DataFrame, cols: list[str]) -> pd.Series:
