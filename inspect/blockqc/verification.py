@@ -17,7 +17,6 @@ import pandas as pd
 
 from blockqc.adjust.geometry import RPCStack, intersect, intersect_at_height
 from blockqc.delivery import Delivery, scene_positions
-from blockqc.errors import InputError, Problem
 
 WGS84_A = 6378137.0
 WGS84_E2 = 6.69437999014e-3
@@ -130,22 +129,18 @@ def radii(lat_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return WGS84_A / w * np.cos(phi), WGS84_A * (1.0 - WGS84_E2) / w**3
 
 
-def _refuse_unintersected(d: Delivery, obs: pd.DataFrame) -> None:
-    """Residuals to compute (the delivery gives none) for points whose rays do not meet (parallel:
-    the same image twice?) cannot be: refused, rather than judged as missing numbers."""
-    none = ~np.isfinite(obs[["v_line_computed", "v_sample_computed"]].to_numpy()).all(axis=1)
-    if not none.any():
-        return
-    points = pd.unique(obs.loc[none, "point_id"].astype(str))
-    shown = ", ".join(points[:20]) + (f" and {len(points) - 20} more" if len(points) > 20 else "")
-    raise InputError(
-        Problem(
-            str(d.files.get("tie_points", d.path)),
-            f"the rays of {len(points)} tie point(s) do not intersect ({shown}): their residuals "
-            "cannot be computed from the geometry, and the delivery gives none (v_line, "
-            "v_sample); expected rays from different viewpoints (the same image twice?)",
-        )
-    )
+def _with_computed_residuals(d: Delivery, obs: pd.DataFrame, notes: dict[str, Any]) -> None:
+    """The residuals blockqc computed stand in for the delivery's; observations of points whose
+    rays do not intersect (parallel, no convergence) have none: they are left out of the
+    tie-point rules, and the notes count them (`observations_without_residual`)."""
+    v_l, v_s = obs["v_line_computed"].to_numpy(), obs["v_sample_computed"].to_numpy()
+    tp = d.tie_points.assign(v_line=v_l, v_sample=v_s)
+    computed = np.isfinite(v_l) & np.isfinite(v_s)
+    if not computed.all():
+        tp = tp[computed].reset_index(drop=True)
+        notes["observations_without_residual"] = int((~computed).sum())
+    d.tie_points = tp
+    notes["tie_point_residuals"] = COMPUTED_RESIDUALS
 
 
 def prepare(d: Delivery) -> dict[str, Any]:
@@ -159,12 +154,7 @@ def prepare(d: Delivery) -> dict[str, Any]:
     pdata = compute(d)
     notes.update(pdata.notes)
     if "v_line" not in d.tie_points.columns:
-        _refuse_unintersected(d, pdata.observations)
-        d.tie_points = d.tie_points.assign(
-            v_line=pdata.observations["v_line_computed"].to_numpy(),
-            v_sample=pdata.observations["v_sample_computed"].to_numpy(),
-        )
-        notes["tie_point_residuals"] = COMPUTED_RESIDUALS
+        _with_computed_residuals(d, pdata.observations, notes)
     else:
         notes["tie_point_residuals"] = "delivered; verified against the geometry (§RC-1)"
     if pdata.overlaps is not None:
@@ -182,3 +172,5 @@ def annotate(results: list[Any], metric_of: dict[str, str], notes: dict) -> None
         source = SOURCES.get(metric_of.get(res.rule, ""))
         if source in computed:
             res.detail["computed_by_blockqc"] = computed[source]
+            if source == "tie_point_residuals" and "observations_without_residual" in notes:
+                res.detail["observations_without_residual"] = notes["observations_without_residual"]

@@ -162,9 +162,8 @@ def test_observations_the_geometry_cannot_reproduce_are_left_out_and_counted() -
     residual) are not compared; the counts say so, the others are compared."""
     from types import SimpleNamespace
 
-    from blockqc.errors import InputError
     from blockqc.metrics.geometry import _verifiable
-    from blockqc.verification import _refuse_unintersected
+    from blockqc.verification import _with_computed_residuals
 
     nan = float("nan")
     table = pd.DataFrame(
@@ -180,10 +179,10 @@ def test_observations_the_geometry_cannot_reproduce_are_left_out_and_counted() -
     assert unverified["single_ray_observations"] == 1
     assert unverified["not_intersected_observations"] == 2
     assert "not compared" in unverified["not_verified"]
-    d = SimpleNamespace(files={"tie_points": Path("d/tie_points.csv")}, path=Path("d"))
-    with pytest.raises(InputError) as exc:
-        _refuse_unintersected(d, table)  # residuals to compute: point X has none
-    (problem,) = exc.value.problems
-    assert problem.file == "d/tie_points.csv"
-    assert "the rays of 1 tie point(s) do not intersect (X)" in problem.message
-    _refuse_unintersected(d, table.iloc[:3])  # every point intersected: nothing to refuse
+    # residuals to compute: point X's two observations have none and are left out, counted
+    d = SimpleNamespace(tie_points=table[["point_id"]].copy())
+    notes: dict = {}
+    _with_computed_residuals(d, table, notes)
+    assert d.tie_points["point_id"].tolist() == ["A", "A", "S"]
+    assert d.tie_points["v_sample"].tolist() == [0.2, -0.2, 0.0]
+    assert notes["observations_without_residual"] == 2
