@@ -419,7 +419,8 @@ def test_a_pack_without_rules_is_refused(blockqc, tmp_path, text, why):
 @pytest.mark.parametrize(
     "projection, status",
     [("UTM", "pass"), ("WGS 84 / UTM zone 37N", "pass"), ("Universal Transverse Mercator", "pass"),
-     ("Gauss-Kruger", "fail"), ("Transverse Mercator", "fail"), ("UPS", "fail")],
+     ("Transverse_Mercator", "pass"),  # GDAL's and ESRI's name for a UTM code's projection
+     ("Gauss-Kruger", "fail"), ("Gauss-Kruger Transverse Mercator", "fail"), ("UPS", "fail")],
 )  # fmt: skip
 def test_mb3_judges_the_stated_projection_beside_the_epsg(
     blockqc, block, tmp_path, projection, status
@@ -446,3 +447,13 @@ def test_an_extra_column_sharing_only_a_first_word_is_not_taken_for_a_misspellin
     assert _near("water_fraction", ["water", "cloud"]) is None
     assert _near("dz_m", ["remark", "dz"]) == "dz"
     assert _near("h", ["h_m"]) == "h_m"
+
+
+def test_a_reused_block_says_again_why_a_rule_is_in_error(blockqc, block, tmp_path):
+    text = (block / "block.yaml").read_text(encoding="utf-8")
+    (block / "block.yaml").write_text(text.replace("  ms: 2.6\n", ""), encoding="utf-8")
+    args = ("inspect", block, "--out", tmp_path / "out", "--pdf", "none", "--incremental")
+    assert "RO-1: block.yaml gives no gsd_m.ms" in blockqc(*args).stderr
+    again = blockqc(*args)
+    assert "outputs reused" in again.stdout and again.returncode == 2
+    assert "RO-1: block.yaml gives no gsd_m.ms" in again.stderr

@@ -73,7 +73,7 @@ class Outcome:
     cached: bool = False
     grade: BlockGrade | None = None  # §QE, for the batch decision
     key: str | None = None  # incremental mode: the key its outputs were reused or written under
-    errors: list[str] = field(default_factory=list)  # rules in error: "RULE: why" (not cached)
+    errors: list[str] = field(default_factory=list)  # rules in error: "RULE: why"
 
 
 @dataclass
@@ -316,7 +316,9 @@ class Job:
         try:
             key = self._key(path, manifest)
             if key and (hit := read_cached(safe_child(self.writer.out, manifest.block_id), key)):
-                return Outcome(path, hit.entry, hit.rules, cached=True, grade=hit.grade, key=key)
+                o = Outcome(path, hit.entry, hit.rules, cached=True, grade=hit.grade, key=key)
+                o.errors = hit.errors or []  # why its rules in error are, said again
+                return o
             results = inspect_one(path, self.pack, self.inspector, manifest, self.extra)
             forget_block(safe_child(self.writer.out, results.block_id, source=results.delivery))
             forget_summary(self.writer.out)  # both rewritten: no key may vouch for them meanwhile
@@ -331,7 +333,7 @@ class Job:
             o.key = key
             if key:
                 folder = safe_child(self.writer.out, results.block_id)
-                write_cached(folder, Cached(key, o.entry, o.rules, grade))
+                write_cached(folder, Cached(key, o.entry, o.rules, grade, errors=o.errors))
             return o
         except InputError as exc:
             return self._not_inspected(path, manifest, exc.problems)
@@ -447,17 +449,19 @@ class Runner:
     def _in_processes(
         self, job: Job, todo: list[tuple[Path, Manifest | None]], done: Callable
     ) -> None:
-        """The jobs in a pool of processes, one thread each (they share the cores). The blocks
-        of a worker that died (killed, out of memory), and those the broken pool took down with
-        it, are inspected again each in a process of its own: a block whose process dies then
-        is not inspected, and is said to be so."""
+        """The jobs in a pool of processes, one thread each (they share the cores). The blocks a
+        pool lost when one of its workers died (killed, out of memory) run again in a new pool;
+        those lost again, each in a process of its own: a block whose process dies then is not
+        inspected, and is said to be so."""
         lost = _pooled(job, todo, done, min(self.jobs, len(todo)))
+        if lost:
+            lost = _pooled(job, lost, done, min(self.jobs, len(lost)))
         for p, m in lost:
             if not _pooled(job, [(p, m)], done, 1):
                 continue
             if m is not None:
                 job.writer.discard(m.block_id)  # what it wrote before it died
-            why = "could not be inspected: the worker process inspecting it died twice"
+            why = "could not be inspected: its worker process died, again when it ran alone"
             done(Outcome(p, problems=[Problem(str(p), f"{why} (killed, or out of memory)")]))
 
 

@@ -40,6 +40,7 @@ class Cached:
     rules: dict[str, dict[str, int]]
     grade: Any = None  # the block's §QE grade (BlockGrade), when the pack has acceptance
     sizes: dict[str, int] | None = None  # of the outputs, as written
+    errors: list[str] | None = None  # the block's rules in error, "RULE: why"
 
 
 def _sha(*parts: Any) -> str:
@@ -121,7 +122,7 @@ def read_cached(folder: Path, key: str) -> Cached | None:
         from blockqc.acceptance.model import BlockGrade
 
         grade = BlockGrade.model_validate(doc["grade"]) if doc.get("grade") else None
-        return Cached(key, entry, doc["rules"], grade, doc["sizes"])
+        return Cached(key, entry, doc["rules"], grade, doc["sizes"], doc.get("errors"))
     except (OSError, ValueError, KeyError, TypeError, AttributeError, ValidationError):
         return None  # no cache, or a broken one: inspect again
 
@@ -140,6 +141,7 @@ def write_cached(folder: Path, cached: Cached) -> None:
         "rules": cached.rules,
         "grade": cached.grade,
         "sizes": _sizes(folder, names),
+        "errors": cached.errors or [],
     }
     write_json_atomic(folder / CACHE_FILE, doc)
 

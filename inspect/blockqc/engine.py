@@ -16,7 +16,7 @@ from blockqc.delivery import Delivery, summary
 from blockqc.inspector import BlockInput, Waiver
 from blockqc.metrics import REGISTRY, Measurement, Table
 from blockqc.outputs import jsonable, records
-from blockqc.results import STATUSES, BlockResults, MeasurementRecord, RuleResult
+from blockqc.results import BlockResults, MeasurementRecord, RuleResult, tally
 from blockqc.rules.expr import ExpressionError, evaluate, resolve_params
 from blockqc.rules.model import Pack, Rule, Threshold, selected
 from blockqc.verification import annotate, prepare
@@ -440,10 +440,7 @@ def inspect_delivery(
     ctx = Context(delivery, names_for(delivery, pack))
     results = judge_all(ctx, pack, block_input or BlockInput())
     annotate(results, {r.id: r.metric for r in pack.rules if not r.manual}, process_data)
-    counts = dict.fromkeys(STATUSES, 0)
-    for res in results:
-        counts[res.status] += 1
-    verdict = "error" if counts["error"] else "fail" if counts["fail"] else "pass"
+    counts, verdict = tally(r.status for r in results)
     pending = sorted({r.rule for r in results if r.status == "manual"})
     return BlockResults(
         block_id=delivery.block_id,

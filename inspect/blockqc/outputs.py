@@ -154,38 +154,52 @@ LOCK_FILE = ".blockqc-lock"
 def out_lock(out: Path) -> Iterator[None]:
     """One run at a time writes into an output folder: another is refused (exit 2) while this
     one holds `.blockqc-lock`; a lock left by a process of this machine that no longer runs is
-    taken over."""
+    taken over. The lock is written whole before it appears (a temporary file linked into
+    place), so that no run reads it half-written."""
     lock = out / LOCK_FILE
     me = f"{socket.gethostname()} {os.getpid()}"
+    tmp = out / f"{LOCK_FILE}.{os.getpid()}"
+    tmp.write_text(me, encoding="utf-8")
     try:
-        fd = os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
-    except FileExistsError:
-        holder = _lock_holder(lock)
-        if holder is not None:
-            raise UsageError(
-                f"--out {out}: another blockqc run is writing into it (host and process "
-                f"{holder}); wait for it to end or choose another folder (if none runs, delete "
-                f"{lock})"
-            ) from None
-        lock.unlink(missing_ok=True)
-        fd = os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
-    os.write(fd, me.encode("utf-8"))
-    os.close(fd)
+        try:
+            os.link(tmp, lock)  # fails when a lock is there
+        except FileExistsError:
+            holder = _lock_holder(lock)
+            if holder is not None:
+                raise UsageError(
+                    f"--out {out}: another blockqc run is writing into it (host and process "
+                    f"{holder}); wait for it to end or choose another folder (if none runs, "
+                    f"delete {lock})"
+                ) from None
+            os.replace(tmp, lock)  # a stale lock: taken over
+    finally:
+        tmp.unlink(missing_ok=True)
     try:
         yield
     finally:
-        lock.unlink(missing_ok=True)
+        if _read_lock(lock) == me:  # never another run's
+            lock.unlink(missing_ok=True)
+
+
+def _read_lock(lock: Path) -> str | None:
+    try:
+        return lock.read_text(encoding="utf-8")
+    except OSError:
+        return None
 
 
 def _lock_holder(lock: Path) -> str | None:
     """Who holds the lock ("host pid"); None when it is stale (its process, of this machine,
-    has ended) or unreadable."""
+    has ended, or is this one: a lock left by an earlier process of the same number, as in a
+    container restarted) or unreadable."""
     try:
-        host, pid = lock.read_text(encoding="utf-8").split()
+        host, pid = (_read_lock(lock) or "").split()
         number = int(pid)
-    except (OSError, ValueError):
+    except ValueError:
         return None
     if host == socket.gethostname():
+        if number == os.getpid():
+            return None
         try:
             os.kill(number, 0)  # no signal sent: whether the process is there
         except ProcessLookupError:

@@ -47,6 +47,15 @@ def worst_status(statuses: Iterable[str]) -> str | None:
     return next((s for s in STATUS_ORDER if s in seen), None)
 
 
+def tally(statuses: Iterable[str]) -> tuple[dict[str, int], str]:
+    """The count of each status and the block's verdict from its results' statuses: error when
+    a rule could not be judged, else fail when one fails, else pass."""
+    counts = dict.fromkeys(STATUSES, 0)
+    for status in statuses:
+        counts[status] += 1
+    return counts, "error" if counts["error"] else "fail" if counts["fail"] else "pass"
+
+
 def block_fails(verdict: str) -> bool:
     """The one definition of a failing block: its verdict is not pass (fail, or error)."""
     return verdict != "pass"

@@ -16,7 +16,7 @@ from pydantic import BaseModel, ConfigDict, ValidationError
 from blockqc.acceptance.model import ReportMeta
 from blockqc.acceptance.sampling import Lot
 from blockqc.errors import InputError, Problem
-from blockqc.results import STATUSES, BlockResults
+from blockqc.results import BlockResults, tally
 from blockqc.yamlio import line_of, load_yaml, pydantic_problems
 
 NOT_SAMPLED = "not sampled for detailed inspection (sampling plan)"
@@ -234,11 +234,7 @@ def apply_plan(results: BlockResults, sampled: bool) -> BlockResults:
 
 
 def _recount(results: BlockResults) -> None:
-    counts = dict.fromkeys(STATUSES, 0)
-    for r in results.results:
-        counts[r.status] += 1
-    results.counts = counts
-    results.verdict = "error" if counts["error"] else "fail" if counts["fail"] else "pass"
+    results.counts, results.verdict = tally(r.status for r in results.results)
 
 
 def load_meta(path: Path) -> ReportMeta:

@@ -102,9 +102,12 @@ def _zones(codes: list[int]) -> dict[str, str]:
     }
 
 
-#: projection names (spaces, case and punctuation aside) that say UTM, and that say UPS
-_UTM_NAMES = ("UTM", "UNIVERSALTRANSVERSEMERCATOR")
+#: projection names (spaces, case and punctuation aside) that say UTM — GDAL and ESRI call a
+#: UTM code's projection Transverse_Mercator — and that say UPS; Gauss–Krüger is a transverse
+#: Mercator of other zones and scale, never a UTM code's
+_UTM_NAMES = ("UTM", "TRANSVERSEMERCATOR")
 _UPS_NAMES = ("UPS", "UNIVERSALPOLARSTEREOGRAPHIC", "POLARSTEREOGRAPHIC")
+_NOT_UTM = ("GAUSS", "KRUGER", "KRUEGER", "KRÜGER")
 
 
 def _projection_problem(projection: str | None, code: int | None) -> str | None:
@@ -115,7 +118,7 @@ def _projection_problem(projection: str | None, code: int | None) -> str | None:
     key = _key(projection)
     polar = code in (32661, 32761)
     names = _UPS_NAMES if polar else _UTM_NAMES
-    if any(name in key for name in names):
+    if any(name in key for name in names) and not any(name in key for name in _NOT_UTM):
         return None
     wanted = "UPS" if polar else "UTM"
     return f"projection '{projection}' stated beside {describe_epsg(code)}: expected {wanted}"

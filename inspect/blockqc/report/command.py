@@ -12,7 +12,7 @@ from pydantic import ValidationError
 from blockqc.cli import check_pdf_engine, pdf_engine_option
 from blockqc.errors import InputError, Problem, UsageError
 from blockqc.report.messages import LANGUAGES
-from blockqc.results import STATUSES, BlockResults, Summary, json_path, parse
+from blockqc.results import BlockResults, Summary, json_path, parse, tally
 
 
 def _read_json(path: Path) -> tuple[Any, bytes]:
@@ -70,10 +70,7 @@ def _strict(path: Path, doc: Any, kind: str) -> None:
 
 def _contradictions(path: Path, doc: BlockResults) -> list[Problem]:
     """The verdict and the counts must be those of the rule results (as the engine makes them)."""
-    counts = dict.fromkeys(STATUSES, 0)
-    for r in doc.results:
-        counts[r.status] += 1
-    verdict = "error" if counts["error"] else "fail" if counts["fail"] else "pass"
+    counts, verdict = tally(r.status for r in doc.results)
     out = [
         Problem(
             str(path),
