@@ -457,3 +457,24 @@ def test_a_reused_block_says_again_why_a_rule_is_in_error(blockqc, block, tmp_pa
     again = blockqc(*args)
     assert "outputs reused" in again.stdout and again.returncode == 2
     assert "RO-1: block.yaml gives no gsd_m.ms" in again.stderr
+
+
+def test_tie_points_on_scenes_of_bands_not_checked_are_counted(blockqc, block, tmp_path):
+    """The stock TP rules check PAN scenes: observations on an MS scene are not judged, and the
+    results say how many (10 here, at 3 px: they would fail TP-2 if judged)."""
+    lines = (block / "tie_points.csv").read_text(encoding="utf-8").splitlines()
+    header = lines[0].split(",")
+    extra = []
+    for i, row in enumerate(lines[1:11]):
+        cells = row.split(",")
+        cells[header.index("point_id")] = f"MS-{i}"
+        cells[header.index("scene_id")] = "GF7-1010000-M"
+        cells[header.index("line")], cells[header.index("sample")] = "100", "100"
+        cells[header.index("v_line")], cells[header.index("v_sample")] = "3.0", "0.0"
+        extra.append(",".join(cells))
+    (block / "tie_points.csv").write_text("\n".join([*lines, *extra]) + "\n", encoding="utf-8")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    assert p.returncode == 0, p.stderr
+    results = json.loads((tmp_path / "out" / "F1-B01" / "results.json").read_text("utf-8"))
+    (tp1,) = [r for r in results["results"] if r["rule"] == "TP-1"]
+    assert tp1["detail"]["n_other_bands"] == 10

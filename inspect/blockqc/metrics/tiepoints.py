@@ -369,7 +369,10 @@ def _fill_observations(
     "tie_point_errors",
     params=ErrorParams,
     scopes={
-        "block": Scope({**_ERROR_STATS, "n_in_interval": "observations"}, columns=("n_points",)),
+        "block": Scope(
+            {**_ERROR_STATS, "n_in_interval": "observations"},
+            columns=("n_points", "n_other_bands"),
+        ),
         "scene": Scope(_ERROR_STATS, keys=("scene_id",), columns=("n_in_interval",)),
         "observation": Scope(
             {"error_px": "px"},
@@ -385,7 +388,11 @@ def tie_point_errors(d: Delivery, p: ErrorParams, measure: Measure) -> Measureme
     scenes, on = _on(d, p.bands)
     codes, err = _errors(d.tie_points, on)
     if not err.size:
-        return not_applicable("no tie-point observations on the scenes checked")
+        others = 0 if on is None else int(on.size)
+        return not_applicable(
+            f"no tie-point observations on the scenes checked (bands "
+            f"{', '.join(p.bands or ['all'])}; {others} on scenes of other bands, not judged)"
+        )
     lo, hi = p.interval_px
     scene_id = pd.Categorical.from_codes(
         codes, dtype=d.tie_points["scene_id"].dtype, validate=False
@@ -394,6 +401,8 @@ def tie_point_errors(d: Delivery, p: ErrorParams, measure: Measure) -> Measureme
     step = pieces.CHUNK
     counts = pieces.total(lambda a: histogram_counts(err[a : a + step], hist_edges), err.size, 0)
     block = _block_stats(err, lo, hi, histogram_median(err, hist_edges, counts))
+    # observations on scenes of other bands than those checked: not judged, and said so
+    block["n_other_bands"] = 0 if on is None else int(on.size - np.count_nonzero(on))
     if "point_id" in d.tie_points:  # not when the pack reads only the columns its rules use
         ids = d.tie_points["point_id"]
         block.insert(0, "n_points", distinct_count(ids if on is None else ids[on]))
