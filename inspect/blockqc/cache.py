@@ -22,15 +22,17 @@ from typing import Any
 from pydantic import BaseModel, ValidationError
 
 from blockqc import __version__
-from blockqc.outputs import write_json_atomic
+from blockqc.outputs import BATCH_OUTPUTS, BLOCK_OUTPUTS, write_json_atomic
 from blockqc.results import BlockEntry
 
 CACHE_FILE = ".blockqc-cache.json"
 #: beside the batch summary: the key of the blocks' lines it was written from
 SUMMARY_CACHE_FILE = ".blockqc-summary-cache.json"
-SUMMARY_OUTPUTS = ("summary.json", "summary.html", "summary.csv", "summary.parquet")
+#: the summary outputs always written (its PDFs and acceptance pages are listed in the cache)
+SUMMARY_OUTPUTS = tuple(n for n in BATCH_OUTPUTS if n.startswith("summary.") and n != "summary.pdf")
 #: outputs that must still be there, at the size written, for a block's outputs to be reused
-OUTPUTS = ("results.json", "report.html", "checkpoints.csv", "evidence.csv")
+#: (its PDF too when it has one)
+OUTPUTS = tuple(n for n in BLOCK_OUTPUTS if n != "report.pdf")
 
 
 @dataclass

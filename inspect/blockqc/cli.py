@@ -20,12 +20,12 @@ class OutPath(click.Path):
     """An output path: a Path, and never empty (`--out ''` would write into the current
     folder)."""
 
-    def __init__(self) -> None:
-        super().__init__(path_type=Path)
+    def __init__(self, **how) -> None:
+        super().__init__(path_type=Path, **how)
 
     def convert(self, value, param, ctx):
         if isinstance(value, str) and not value.strip():
-            self.fail("an empty path: give the folder to write into", param, ctx)
+            self.fail("an empty path: give an output folder", param, ctx)
         return super().convert(value, param, ctx)
 
 

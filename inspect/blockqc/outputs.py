@@ -197,16 +197,20 @@ def _lock_holder(lock: Path) -> str | None:
         number = int(pid)
     except ValueError:
         return None
-    if host == socket.gethostname():
-        if number == os.getpid():
-            return None
-        try:
-            os.kill(number, 0)  # no signal sent: whether the process is there
-        except ProcessLookupError:
-            return None
-        except PermissionError:
-            pass  # another user's: it runs
+    if host == socket.gethostname() and (number == os.getpid() or not _runs(number)):
+        return None
     return f"{host} {pid}"
+
+
+def _runs(pid: int) -> bool:
+    """Whether a process of this machine runs (no signal is sent)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True  # another user's
+    return True
 
 
 def make_out_dir(out: Path, out_r: Path) -> Path:

@@ -10,6 +10,7 @@ from click.core import ParameterSource
 
 from blockqc.adjust.run import DEFAULT_DEM_SIGMA_M, AdjustConfig, run_adjust
 from blockqc.adjust.solver import Settings
+from blockqc.cli import OutPath
 from blockqc.errors import UsageError
 from blockqc.outputs import refuse_inside
 
@@ -29,13 +30,6 @@ class Positive(click.ParamType):
             return number
         expected = "a number > 0 (inf allowed)" if self.infinite else "a finite number > 0"
         self.fail(f"{value!r} is not {expected}", param, ctx)
-
-
-def not_empty(ctx: click.Context, param: click.Parameter, value: str) -> Path:
-    """--out as a path; an empty one is refused (it would be the current folder)."""
-    if not value:
-        raise click.BadParameter("an empty path: give an output folder", ctx, param)
-    return Path(value)
 
 
 def check_dem_options(dem: Path | None, geoid: Path | None) -> None:
@@ -58,7 +52,7 @@ def check_dem_options(dem: Path | None, geoid: Path | None) -> None:
 
 @click.command("adjust")
 @click.argument("delivery", type=click.Path(path_type=Path))
-@click.option("--out", required=True, type=click.Path(), callback=not_empty, help="Output folder.")
+@click.option("--out", required=True, type=OutPath(), help="Output folder.")
 @click.option("--dem", type=click.Path(path_type=Path), help="DEM for height priors.")
 @click.option(
     "--geoid",

@@ -14,6 +14,7 @@ from blockqc.analysis.factors import FactorOptions, experiments_table
 from blockqc.analysis.render import correlation_heatmap, render_html, structure_plot
 from blockqc.analysis.table import FACTOR_COLUMNS, INDICATOR_COLUMNS, read_table, write_table_csv
 from blockqc.analysis.terrain import DemSet
+from blockqc.cli import OutPath
 from blockqc.delivery import find_deliveries, load_delivery
 from blockqc.errors import UsageError
 from blockqc.outputs import (
@@ -178,13 +179,6 @@ def _struct_frame(
     )
 
 
-def _out_path(ctx: click.Context, param: click.Parameter, value: str) -> Path:
-    """--out as a path; an empty one is refused (it would be the current folder)."""
-    if not value:
-        raise click.BadParameter("an empty path: give an output folder", ctx, param)
-    return Path(value)
-
-
 @click.command("factors")
 @click.argument("batch", required=False, type=click.Path(exists=True, path_type=Path))
 @click.option(
@@ -203,8 +197,7 @@ def _out_path(ctx: click.Context, param: click.Parameter, value: str) -> Path:
 @click.option(
     "--out",
     required=True,
-    type=click.Path(file_okay=False),
-    callback=_out_path,
+    type=OutPath(file_okay=False),
     help="Output folder: never inside BATCH; it may be the folder of --table unless one of "
     "its outputs would replace the table.",
 )

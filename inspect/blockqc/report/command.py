@@ -9,7 +9,7 @@ from typing import Any
 import click
 from pydantic import ValidationError
 
-from blockqc.cli import check_pdf_engine, pdf_engine_option
+from blockqc.cli import OutPath, check_pdf_engine, pdf_engine_option
 from blockqc.errors import InputError, Problem, UsageError
 from blockqc.report.messages import LANGUAGES
 from blockqc.results import BlockResults, Summary, json_path, parse, tally
@@ -194,13 +194,6 @@ def gather(
     return results, summary
 
 
-def _out_path(ctx: click.Context, param: click.Parameter, value: str) -> Path:
-    """--out as a path; an empty one is refused (it would be the current folder)."""
-    if not value:
-        raise click.BadParameter("an empty path: give an output folder", ctx, param)
-    return Path(value)
-
-
 def _check_out(out: Path, named: tuple[Path, ...], docs: list, summary: tuple | None) -> None:
     """Refuse --out inside (or equal to) a folder named or holding a named file, unless the
     reports are re-rendered in place: every results file (and the summary) is already where
@@ -225,8 +218,7 @@ def _check_out(out: Path, named: tuple[Path, ...], docs: list, summary: tuple | 
 @click.option(
     "--out",
     required=True,
-    type=click.Path(file_okay=False),
-    callback=_out_path,
+    type=OutPath(file_okay=False),
     help="Output folder: <out>/<block_id>/report.html, report.pdf, CSV exports; "
     "<out>/summary.html for a batch. Never inside an input, unless it is the folder the "
     "results are in (<out>/<block_id>/results.json): the reports are then re-rendered in place.",
