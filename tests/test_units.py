@@ -91,6 +91,23 @@ def test_tie_point_statistics_by_hand() -> None:
     assert s["share_in_interval"] == pytest.approx(40.0)
 
 
+@settings(max_examples=100, deadline=None)
+@given(st.lists(st.tuples(st.floats(-1e15, 1e15), st.floats(-1e15, 1e15)), max_size=50))
+def test_tie_point_error_is_the_formula_as_written(v) -> None:
+    # √(v_l² + v_s²) in IEEE arithmetic, one observation at a time (Python's own floats)
+    vl, vs = np.array([a for a, _ in v]), np.array([b for _, b in v])
+    expected = [math.sqrt(a * a + b * b) for a, b in v]
+    assert tie_point_error_px(vl, vs).tolist() == expected
+    out = np.full(len(v), -1.0)
+    assert tie_point_error_px(vl, vs, out=out) is out and out.tolist() == expected
+
+
+def test_tie_point_error_of_squares_that_overflow() -> None:
+    # 3e200² overflows: the magnitude is still 5e200 (np.hypot), not inf
+    err = tie_point_error_px(np.array([3e200, 0.3]), np.array([4e200, 0.4]))
+    assert err.tolist() == pytest.approx([5e200, 0.5], rel=1e-15)
+
+
 @settings(max_examples=60, deadline=None)
 @given(
     st.lists(st.tuples(st.floats(-2, 2), st.floats(-2, 2)), min_size=1, max_size=200),
