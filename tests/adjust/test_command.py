@@ -187,3 +187,22 @@ def test_empty_out_is_refused(small_block, tmp_path, blockqc):
     assert r.returncode == 2
     assert "Invalid value for '--out': an empty path: give an output folder" in r.stderr
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("keep", ["one scene", "one observation per point"])
+def test_no_point_seen_on_two_scenes_is_refused(small_block, tmp_path, blockqc, keep):
+    """Without a point on two scenes there is nothing to intersect: refused before any output
+    (it wrote every output, 'converged', then failed on its console line)."""
+    blk = _copy(small_block, tmp_path)
+    ties = pd.read_csv(blk / "tie_points.csv", dtype={"point_id": str})
+    if keep == "one scene":
+        ties = ties[ties["scene_id"] == "S0001"]
+    else:
+        ties = ties.drop_duplicates("point_id")
+    ties.to_csv(blk / "tie_points.csv", index=False)
+    out = tmp_path / "out"
+    r = blockqc("adjust", blk, "--out", out)
+    assert r.returncode == 2, r.stderr
+    assert "tie_points.csv" in r.stderr and "observed on two or more scenes" in r.stderr
+    assert f"none of the {len(ties)} tie points" in r.stderr
+    assert "internal error" not in r.stderr and not out.exists()

@@ -50,6 +50,21 @@ def _originals(path: Path, geometry: BlockGeometry | None, scene_ids: list[str])
     return [have[s] for s in scene_ids]
 
 
+def _check_multi_ray(path: Path, tie_points: pd.DataFrame) -> None:
+    """Refuse tie points of which none is seen on two or more scenes: there is no ray to
+    intersect with another, so nothing ties the scenes and there is nothing to adjust."""
+    if tie_points["point_id"].duplicated().any():  # (point_id, scene_id) is unique
+        return
+    raise InputError(
+        Problem(
+            str(path),
+            f"none of the {len(tie_points)} tie points is observed on two or more scenes: "
+            "the adjustment needs points seen on several scenes (expected point_id repeated "
+            "on the rows of the scenes that see it)",
+        )
+    )
+
+
 def _producer(geometry: BlockGeometry, models: list[RPCModel], scene_ids: list[str]) -> tuple:
     """The producer's adjusted models and affine in the scenes' order; scenes without
     observations (absent from the producer's adjustment) keep their original RPC, no affine."""
@@ -71,6 +86,7 @@ def load_adjust_input(path: str | Path) -> AdjustInput:
     if not (path / MANIFEST).is_file():
         raise InputError(Problem(str(path), f"not a delivery folder (no {MANIFEST})"))
     d = load_delivery(path, residuals=False)  # the observations alone are adjusted
+    _check_multi_ray(d.files["tie_points"], d.tie_points)
     scene_ids = [str(s) for s in d.scenes["scene_id"]]
     models = _originals(path, d.geometry, scene_ids)
     producer_models, affine = (None, None)
