@@ -241,3 +241,26 @@ def test_voids_reduce_coverage(tmp_path, dem_writer):
     assert f.dem_coverage == pytest.approx(1 - 400 / 80**2, abs=0.01)
     assert f.mean_elevation_m == pytest.approx(800.0)
     assert f.mean_slope_deg == pytest.approx(0.0) and f.mean_roughness_m == pytest.approx(0.0)
+
+
+def test_undeclared_no_data_value_is_refused(tmp_path, dem_writer):
+    """−32768 in a file whose nodata is −9999: not a height (it gave a mean elevation of
+    −205 m and roughness of 8,900 m over the sample batch)."""
+    z = np.full((20, 20), 800.0)
+    z[5, 7] = -32768.0
+    path = dem_writer(tmp_path / "dem.tif", z, 10.0, 51.0, 0.01, "EPSG:4326")
+    with pytest.raises(InputError) as err:
+        DemSet([path]).factors(shapely.box(10.02, 50.82, 10.18, 50.98))
+    # the cell's centre: lon 10 + 7.5·0.01 = 10.075, lat 51 − 5.5·0.01 = 50.945
+    assert "dem.tif" in str(err.value) and "1 cell(s) beyond any height on Earth" in str(err.value)
+    assert "the first -32768 at x 10.075, y 50.945" in str(err.value)
+
+
+def test_dem_of_several_bands_is_refused(tmp_path):
+    with rasterio.open(
+        tmp_path / "dem.tif", "w", driver="GTiff", width=2, height=2, count=2, dtype="float32",
+        crs="EPSG:4326", transform=from_origin(10.0, 51.0, 1.0, 1.0),
+    ) as ds:  # fmt: skip
+        ds.write(np.full((2, 2, 2), 100.0, np.float32))
+    with pytest.raises(InputError, match="the DEM has 2 bands: expected one band of heights"):
+        DemSet([tmp_path / "dem.tif"])

@@ -121,3 +121,32 @@ def test_constant_height():
         constant_height(321.5).height(np.array([-179.0, 0.0, 179.9]), np.array([-80.0, 0.0, 80.0]))
         == 321.5
     )
+
+
+def test_undeclared_no_data_value_is_refused_with_its_cell(tmp_path: Path):
+    """An int16 DEM whose voids hold −32768 without a declared nodata: those are not heights
+    (they were taken as −32768 m, pulling the image's heights down by kilometres)."""
+    z = np.full((4, 5), 300, np.int16)
+    z[2, 3] = -32768
+    z[3, 4] = -32768
+    with rasterio.open(
+        tmp_path / "dem.tif", "w", driver="GTiff", width=5, height=4, count=1, dtype="int16",
+        crs="EPSG:4326", transform=from_origin(10.0, 51.0, 0.5, 0.5),
+    ) as ds:  # fmt: skip
+        ds.write(z, 1)
+    with pytest.raises(InputError) as err:
+        load_dem(tmp_path / "dem.tif", vertical="ellipsoid")
+    text = str(err.value)
+    # the first cell: row 2, column 3, centre lon 10 + 3.5·0.5 = 11.75, lat 51 − 2.5·0.5 = 49.75
+    assert "dem.tif" in text and "2 cell(s) beyond any height on Earth" in text
+    assert "the first -32768 at row 2, column 3 (x 11.75, y 49.75" in text
+
+
+def test_dem_of_several_bands_is_refused(tmp_path: Path):
+    with rasterio.open(
+        tmp_path / "dem.tif", "w", driver="GTiff", width=2, height=2, count=3, dtype="float32",
+        crs="EPSG:4326", transform=from_origin(10.0, 51.0, 1.0, 1.0),
+    ) as ds:  # fmt: skip
+        ds.write(np.full((3, 2, 2), 100.0, np.float32))
+    with pytest.raises(InputError, match="the DEM has 3 bands: expected one band of heights"):
+        load_dem(tmp_path / "dem.tif", vertical="ellipsoid")

@@ -19,6 +19,7 @@ from pyproj import CRS, Transformer
 from rasterio.enums import Resampling
 
 from blockqc.errors import InputError, Problem
+from blockqc.rfm.dem import check_heights, check_one_band
 
 WGS84_A = 6378137.0
 WGS84_F = 1.0 / 298.257223563
@@ -140,6 +141,7 @@ def _open_tiles(paths: Sequence[Path]) -> list[_Tile]:
             with rasterio.open(p) as src:
                 if src.crs is None:
                     raise InputError(Problem(file=str(p), message="DEM has no coordinate system"))
+                check_one_band(p, src.count)
                 if src.transform.b != 0 or src.transform.d != 0:
                     raise InputError(
                         Problem(file=str(p), message="rotated DEM grids are not supported")
@@ -213,6 +215,7 @@ def _terrain_over(
             masked=True,
         )
     zf = np.ma.filled(z[0].astype(float), np.nan)
+    check_heights(", ".join(str(p) for p in paths), zf, transform)
     inside = rasterio.features.geometry_mask(
         [poly], out_shape=zf.shape, transform=transform, invert=True
     )

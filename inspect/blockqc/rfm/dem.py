@@ -108,6 +108,57 @@ class DEM:
     __call__ = height
 
 
+LOWEST_HEIGHT_M = -12_000.0
+"""Below any height on Earth (the Challenger Deep is about −10 994 m): a DEM value under it
+is a no-data marker the file does not declare (SRTM's −32768), not a height."""
+HIGHEST_HEIGHT_M = 9_000.0
+"""Above any height on Earth (Everest, 8 849 m): a no-data marker such as 32767 or 3.4e38."""
+
+
+def check_heights(
+    path: Path | str,
+    values: FloatArray,
+    transform: Affine,
+    what: str = "DEM",
+    origin: tuple[int, int] | None = None,
+) -> None:
+    """Refuse heights no terrain has (LOWEST_HEIGHT_M … HIGHEST_HEIGHT_M): an undeclared
+    no-data value taken as a height would pull every mean, slope and intersection with it.
+    The first such cell is named by its centre in the grid's CRS (`transform`) and, given the
+    (row, column) in the file of `values`' first cell (`origin`), by its row and column."""
+    with np.errstate(invalid="ignore"):
+        beyond = (values < LOWEST_HEIGHT_M) | (values > HIGHEST_HEIGHT_M)
+    if not beyond.any():
+        return
+    row, col = np.argwhere(beyond)[0]
+    value = float(values[row, col])
+    x, y = transform * (col + 0.5, row + 0.5)
+    where = f"x {x:.6g}, y {y:.7g} in the {what}'s CRS"
+    if origin is not None:
+        where = f"row {row + origin[0]}, column {col + origin[1]} ({where})"
+    raise InputError(
+        Problem(
+            file=str(path),
+            message=f"the {what} holds {int(beyond.sum())} cell(s) beyond any height on Earth "
+            f"(expected {LOWEST_HEIGHT_M:g} to {HIGHEST_HEIGHT_M:g} m), the first {value:g} at "
+            f"{where}: a no-data value the file does not declare? Declare it "
+            f"(gdal_edit.py -a_nodata {value:g} FILE) or fill those cells",
+        )
+    )
+
+
+def check_one_band(path: Path | str, count: int, what: str = "DEM") -> None:
+    """Refuse a raster of several bands: which one holds the heights is not for blockqc to guess."""
+    if count != 1:
+        raise InputError(
+            Problem(
+                file=str(path),
+                message=f"the {what} has {count} bands: expected one band of heights "
+                "(extract it first, e.g. gdal_translate -b N)",
+            )
+        )
+
+
 MIN_PIXEL = 1e-9
 """Smallest pixel size accepted, in the grid's CRS units (1e-9° is 0.1 mm): below it the
 geotransform is degenerate (e.g. a file read by the wrong GDAL driver)."""
@@ -143,6 +194,7 @@ def _read_grid(path: Path, bounds: tuple[float, float, float, float] | None, wha
     with ds:
         if ds.crs is None:
             raise InputError(Problem(file=str(path), message=f"the {what} has no CRS"))
+        check_one_band(path, ds.count, what)
         t = ds.transform
         _check_transform(path, t, what)
         crs = CRS.from_wkt(ds.crs.to_wkt())
@@ -171,7 +223,9 @@ def _read_grid(path: Path, bounds: tuple[float, float, float, float] | None, wha
                 )
             window = Window(col0, row0, col1 - col0, row1 - row0)
         values = ds.read(1, window=window, masked=True).astype(np.float64).filled(np.nan)
-        return Grid(values, ds.window_transform(window), crs, str(path))
+        transform = ds.window_transform(window)
+        check_heights(path, values, transform, what, (int(window.row_off), int(window.col_off)))
+        return Grid(values, transform, crs, str(path))
 
 
 def fill_voids(values: FloatArray, max_steps: int) -> FloatArray:
