@@ -121,3 +121,22 @@ def test_read_only_parent_is_a_usage_error(tmp_path: Path, monkeypatch) -> None:
     monkeypatch.setattr(Path, "mkdir", refuse)
     with pytest.raises(UsageError, match="^OUT .*/ro/sim cannot be created or read: Permission d"):
         simulate(tmp_path / "ro" / "sim", Options(**TINY), DEM)
+
+
+def test_a_dem_folder_without_a_fields_tile_is_refused_before_writing(tmp_path: Path) -> None:
+    """Field 2's tile present, field 1's not: refused up front, naming the tile (it wrote field
+    2's deliveries, then stopped with 'error: : …: No such file or directory')."""
+    dems = tmp_path / "dems"
+    dems.mkdir()
+    (dems / "srtm_N44E005.tif").write_bytes((DEM / "srtm_N44E005.tif").read_bytes())
+    out = tmp_path / "out"
+    r = run_blockqc(
+        "simulate", out, "--fields", "2,1", "--grid", "2x2", "--dem-dir", dems
+    )  # fmt: skip
+    assert r.returncode == 2
+    assert r.stderr == (
+        f"error: DEM folder {dems}: no srtm_40E39N_demcompare.tif, the DEM tile of test field 1 "
+        "(its checkpoint heights are sampled from it; the tiles are in samples/dem of the "
+        "checkout)\n"
+    )
+    assert not out.exists()

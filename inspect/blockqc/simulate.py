@@ -650,6 +650,13 @@ def simulate(out: Path | str, opts: Options, dem_dir: Path | None = None) -> lis
     dem_dir = dem_dir or default_dem_dir()
     if not dem_dir.is_dir():
         raise UsageError(f"DEM folder {dem_dir} not found (give --dem-dir)")
+    absent = [f for f in opts.fields if not (dem_dir / FIELDS[f].dem).is_file()]
+    if absent:
+        raise UsageError(
+            f"DEM folder {dem_dir}: no {FIELDS[absent[0]].dem}, the DEM tile of test field "
+            f"{absent[0]} (its checkpoint heights are sampled from it; the tiles are in "
+            "samples/dem of the checkout)"
+        )
     ids = [block_id(f, i) for f in opts.fields for i in range(opts.blocks_per_field)]
     out = prepare_out(out, ids)
     return [
