@@ -146,6 +146,20 @@ def refuse_inside(out: Path, inputs: Iterable[Path]) -> None:
             )
 
 
+def refuse_replacing(out: Path, names: Iterable[str], inputs: Iterable[Path]) -> None:
+    """Refuse an output folder where an output file (`names`) would be one of the input files:
+    writing it would replace the input."""
+    for p in inputs:
+        p_r = Path(p).resolve()
+        for name in names:
+            target = out / name
+            if target.resolve() == p_r or (target.exists() and target.samefile(p_r)):
+                raise UsageError(
+                    f"--out {out}: its {name} would replace the input {p}; choose another "
+                    "output folder (or rename the input)"
+                )
+
+
 #: held in an output folder while a run writes into it
 LOCK_FILE = ".blockqc-lock"
 

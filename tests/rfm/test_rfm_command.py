@@ -429,3 +429,51 @@ def test_no_cp_reasons_name_dem_voids_and_overlap():
     assert "DEM voids" in no_cp_reason(image, overlap, dem, 0)
     assert "does not overlap" in no_cp_reason(image, np.zeros_like(overlap), dem, 0)
     assert "every match fell on a DEM void" in no_cp_reason(image, overlap, dem, 12)
+
+
+def test_an_earlier_runs_outputs_do_not_stay_beside_a_failed_run(tmp_path: Path, capsys):
+    """A run that finds no CP in a folder holding an earlier run's outputs: the earlier
+    results.json, cps.csv and checkpoints.csv (of another image) went with them, not kept
+    beside this run's ortho.tif as if they were its results."""
+    from blockqc.cli import main
+
+    out = tmp_path / "out"
+    out.mkdir()
+    for name in ("results.json", "cps.csv", "checkpoints.csv", "report.html", "notes.txt"):
+        (out / name).write_text("earlier run", encoding="utf-8")
+    args = base_args(out) + [
+        "--reference", str(VENTOUX / "right_image.tif"),
+        "--reference-rpc", str(VENTOUX / "right_image.geom"),
+        "--reference-crop-offset", "20000,20000",
+    ]  # fmt: skip
+    with pytest.raises(SystemExit) as exc:
+        main(["rfm-accuracy", *args])
+    assert exc.value.code == 2 and "no control point found" in capsys.readouterr().err
+    assert sorted(p.name for p in out.iterdir()) == [
+        "notes.txt",  # not an output: left alone
+        "ortho.tif",
+        "reference_on_grid.tif",
+    ]
+
+
+def test_an_input_an_output_would_replace_is_refused(tmp_path: Path, capsys):
+    """The image named ortho.tif in the output folder: it was overwritten by the ortho."""
+    from blockqc.cli import main
+
+    folder = tmp_path / "work"
+    folder.mkdir()
+    shutil.copy(VENTOUX / "left_image.tif", folder / "ortho.tif")
+    before = (folder / "ortho.tif").read_bytes()
+    args = [str(folder / "ortho.tif")] + base_args(folder)[1:] + [
+        "--reference", str(VENTOUX / "right_image.tif"),
+        "--reference-rpc", str(VENTOUX / "right_image.geom"),
+    ]  # fmt: skip
+    with pytest.raises(SystemExit) as exc:
+        main(["rfm-accuracy", *args])
+    assert exc.value.code == 2
+    assert capsys.readouterr().err == (
+        f"error: --out {folder}: its ortho.tif would replace the input {folder / 'ortho.tif'}; "
+        "choose another output folder (or rename the input)\n"
+    )
+    assert (folder / "ortho.tif").read_bytes() == before
+    assert sorted(p.name for p in folder.iterdir()) == ["ortho.tif"]

@@ -10,8 +10,8 @@ from pyproj import CRS
 from pyproj.exceptions import CRSError
 
 from blockqc.errors import UsageError
-from blockqc.outputs import check_out_dir
-from blockqc.rfm.pipeline import METHODS, RfmAccuracyConfig, run_rfm_accuracy
+from blockqc.outputs import check_out_dir, refuse_replacing
+from blockqc.rfm.pipeline import METHODS, OUTPUT_NAMES, RfmAccuracyConfig, run_rfm_accuracy
 
 
 def _offset(value: str | None) -> tuple[float, float] | None:
@@ -240,6 +240,7 @@ def command(
     inputs = [p for p in (image, rpc, dem, reference, reference_rpc) if p is not None]
     if isinstance(geoid_path, Path):
         inputs.append(geoid_path)
+    refuse_replacing(out, OUTPUT_NAMES, inputs)
     out_dir = check_out_dir(out, inputs)
     cfg = RfmAccuracyConfig(
         image=image,

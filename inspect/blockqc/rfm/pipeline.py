@@ -70,6 +70,19 @@ CHECKPOINT_COLUMNS = [
     "ref_z_m",
 ]
 METHODS = ("high_precision", "same_accuracy", "recalculation")
+#: every file a run writes into its output folder (`_files`, results.json)
+OUTPUT_NAMES = (
+    "cps.csv",
+    "refined_rfm.csv",
+    "ortho.tif",
+    "ortho_refined.tif",
+    "reference_on_grid.tif",
+    "error_vectors.png",
+    "gev_histogram.png",
+    "checkpoints.csv",
+    "results.json",
+    "report.html",
+)
 
 
 @dataclass
@@ -543,6 +556,8 @@ def _prepare(cfg: RfmAccuracyConfig) -> _Run:
     run = _Run(cfg, rpc, offset, dem)
     run.grid = ortho_grid(rpc, shape, dem, crop_offset=offset, crs=cfg.crs, gsd=cfg.gsd)
     run.no_height = image_without_height(rpc, shape, offset, dem)
+    for name in OUTPUT_NAMES:  # an earlier run's outputs never lie beside this run's
+        (cfg.out / name).unlink(missing_ok=True)
     return run
 
 
