@@ -478,3 +478,12 @@ def test_tie_points_on_scenes_of_bands_not_checked_are_counted(blockqc, block, t
     results = json.loads((tmp_path / "out" / "F1-B01" / "results.json").read_text("utf-8"))
     (tp1,) = [r for r in results["results"] if r["rule"] == "TP-1"]
     assert tp1["detail"]["n_other_bands"] == 10
+
+
+def test_a_quote_never_closed_names_the_line_it_opens_on(blockqc, block, tmp_path):
+    lines = (block / "checkpoints.csv").read_text().splitlines()
+    lines[4] = '"' + lines[4]  # line 5 opens a quoted field that runs to the end of the file
+    (block / "checkpoints.csv").write_text("\n".join(lines) + "\n")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    _refused(p, "checkpoints.csv, line 5:", "never closed")
+    assert "C error" not in p.stderr and "line 4" not in p.stderr

@@ -473,7 +473,17 @@ def _distinct_categories(values: pa.Array) -> pd.CategoricalDtype:
 
 def _read_csv_slow(path: Path, data: bytes, reason: str) -> pd.DataFrame:
     """Fallback reader whose errors carry the line number of a malformed row."""
-    short = _short_rows(data)
+    try:
+        raw = pd.read_csv(
+            io.BytesIO(data), dtype=str, keep_default_na=False, skipinitialspace=True, header=None
+        )  # header=None: every row must have the header's fields, and repeated names stay
+    except pd.errors.EmptyDataError:
+        raise InputError(Problem(str(path), "the file is empty: expected a header row")) from None
+    except (pd.errors.ParserError, ValueError) as exc:
+        raise InputError(_parser_problem(path, str(exc))) from None
+    except Exception:  # pragma: no cover - report the original reader's reason
+        raise InputError(Problem(str(path), f"not a readable CSV table: {reason}")) from None
+    short = _short_rows(data)  # checked once the file parses: a quote never closed is said so
     if short:
         raise InputError(
             [
@@ -485,17 +495,7 @@ def _read_csv_slow(path: Path, data: bytes, reason: str) -> pd.DataFrame:
                 for line, got, want in short
             ]
         )
-    try:
-        raw = pd.read_csv(
-            io.BytesIO(data), dtype=str, keep_default_na=False, skipinitialspace=True, header=None
-        )  # header=None: every row must have the header's fields, and repeated names stay
-        return raw.iloc[1:].set_axis(list(raw.iloc[0]), axis=1).reset_index(drop=True)
-    except pd.errors.EmptyDataError:
-        raise InputError(Problem(str(path), "the file is empty: expected a header row")) from None
-    except (pd.errors.ParserError, ValueError) as exc:
-        raise InputError(_parser_problem(path, str(exc))) from None
-    except Exception:  # pragma: no cover - report the original reader's reason
-        raise InputError(Problem(str(path), f"not a readable CSV table: {reason}")) from None
+    return raw.iloc[1:].set_axis(list(raw.iloc[0]), axis=1).reset_index(drop=True)
 
 
 def _short_rows(data: bytes, limit: int = 5) -> list[tuple[int, int, int]]:
@@ -529,6 +529,14 @@ def _parser_problem(path: Path, message: str) -> Problem:
             str(path),
             f"not a readable CSV table: {got} fields where the header has {want}",
             line=line,
+        )
+    unclosed = re.search(r"EOF inside string starting at row (\d+)", message)
+    if unclosed:  # the parser counts its rows from 0, the header being row 0
+        return Problem(
+            str(path),
+            "not a readable CSV table: a quoted field opened on this line is never closed "
+            '(expected a closing ", and "" for a quote inside a field)',
+            line=int(unclosed.group(1)) + 1,
         )
     line = re.search(r"(?:line|row) (\d+)", message)
     return Problem(
