@@ -173,6 +173,11 @@ def test_block_yaml_unknown_key_is_a_stated_warning(blockqc, block, tmp_path):
         ("sampled: true", "sampled: maybe", ("block.yaml", "sampled")),
         ("pan: 0.8", "pan: true", ("block.yaml", "expected a number of metres, got true")),
         ("pan: 0.8", "pan: 1.0e+30", ("block.yaml", "gsd_m.pan")),
+        (
+            "tie_point_error_px: 0.32",
+            "tie_point_error_px: yes",
+            ("block.yaml, line 18", "reported.tie_point_error_px", "expected a number, got true"),
+        ),
     ],
 )
 def test_block_yaml_values_that_would_be_misread(blockqc, block, tmp_path, old, new, words):

@@ -9,7 +9,7 @@ from collections.abc import Collection
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
 import numpy as np
 import pandas as pd
@@ -19,6 +19,7 @@ import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 from pydantic import (
     BaseModel,
+    BeforeValidator,
     ConfigDict,
     Field,
     PositiveFloat,
@@ -127,6 +128,13 @@ class SpatialReference(BaseModel):
         return self
 
 
+def _figure(value: Any) -> Any:
+    """A reported figure of true/false (YAML reads `yes` so) is no number: not taken for 1."""
+    if isinstance(value, bool):
+        raise ValueError(f"expected a number, got {str(value).lower()}")
+    return value
+
+
 class Manifest(BaseModel):
     """block.yaml: the block's identity, GSDs, spatial reference, documents, reported figures."""
 
@@ -136,7 +144,7 @@ class Manifest(BaseModel):
     gsd_m: GSD
     spatial_reference: SpatialReference | None = None
     documents: dict[str, str] = Field(default_factory=dict)
-    reported: dict[str, float] = Field(default_factory=dict)
+    reported: dict[str, Annotated[float, BeforeValidator(_figure)]] = Field(default_factory=dict)
     # keys the sample deliveries carry: typed, so that a wrong value is refused
     test_field: int | None = Field(default=None, ge=1, le=2**31 - 1)
     sampled: bool | None = None
