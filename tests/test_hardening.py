@@ -523,6 +523,10 @@ VERDICT_CASES = [
         "waivers:\n  TP-4: {reason: x, pairs: [[S1, Q2]]}\n",
         "line 3: a waiver for scene 'Q2', which is not a scene of any block inspected",
     ),
+    (
+        "waivers:\n  TP-4: {reason: sea, scenes: []}\n",
+        "line 3: waivers.TP-4.scenes: an empty list waives nothing",
+    ),
     ("verdicts:\n  DOC-3: {status: conditional_pass}\n", "line 3: verdicts.DOC-3: a conditional"),
     (
         "waivers:\n  TP-5: {reason: x, points: [PS1-000]}\n",

@@ -16,7 +16,15 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    PrivateAttr,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 
 from blockqc.errors import InputError, Problem
 from blockqc.yamlio import line_of, load_yaml, pydantic_problems
@@ -45,6 +53,17 @@ class Waiver(BaseModel):
     pairs: list[tuple[str, str]] = Field(default_factory=list)
     points: list[str] = Field(default_factory=list)
     units: list[str] = Field(default_factory=list)  # other units by key, e.g. a document kind
+
+    @field_validator("scenes", "pairs", "points", "units")
+    @classmethod
+    def _names_units(cls, value: list) -> list:
+        """A list given names units: an empty one would waive the whole rule unsaid."""
+        if not value:
+            raise ValueError(
+                "an empty list waives nothing: list the units to waive, or leave the key out "
+                "to waive the whole rule"
+            )
+        return value
 
     def labels(self) -> set[str]:
         """Unit labels this waiver covers: ids, and pairs in both orders ("A/B", "B/A")."""
