@@ -41,6 +41,22 @@ def test_a_misnamed_table_is_refused_not_left_out(blockqc, block, tmp_path, name
     _refused(p, name, "checkpoints.csv or checkpoints.parquet")
 
 
+@pytest.mark.parametrize(
+    ("name", "meant"), [("RPC", "rpc"), ("rpcs", "rpc"), ("RPC_Adjusted", "rpc_adjusted")]
+)
+def test_a_misnamed_geometry_folder_is_refused_not_left_out(blockqc, block, tmp_path, name, meant):
+    (block / name).mkdir()
+    (block / name / "GF7-1010000-F.RPB").write_text("LINE_OFF = 1\n")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    _refused(p, f"F1-B01/{name}:", f"{meant}/")
+
+
+def test_another_folder_in_the_delivery_is_still_read_as_before(blockqc, block, tmp_path):
+    (block / "previews").mkdir()
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    assert p.returncode == 0, p.stderr
+
+
 def test_another_file_beside_the_tables_is_still_read_as_before(blockqc, block, tmp_path):
     shutil.copy(block / "checkpoints.csv", block / "checkpoints_from_the_field_team.csv")
     p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")

@@ -31,6 +31,7 @@ from pydantic import (
 from blockqc import grouped
 from blockqc.errors import InputError, Problem
 from blockqc.geometry_inputs import (
+    GEOMETRY_DIRS,
     BlockGeometry,
     has_geometry,
     load_geometry,
@@ -829,22 +830,22 @@ def _read_tables(path: Path, tie_point_columns: Collection[str] | None) -> _Tabl
 def _misnamed_tables(path: Path) -> list[Problem]:
     """Files that look like a table of the contract but are not named <table>.csv|.parquet
     (checkpoints.CSV, checkpoints.csv.gz, checkpoint.csv): not read, so an optional table
-    would be left out unsaid (a sampled block judged without its checkpoints)."""
-    exact = {f"{n}.{ext}" for n in TABLES for ext in ("csv", "parquet")}
+    would be left out unsaid (a sampled block judged without its checkpoints). Likewise a
+    folder named like rpc/ or rpc_adjusted/ (RPC/, rpcs/): its geometry would pass for absent."""
+    exact = {f"{n}.{ext}" for n in TABLES for ext in ("csv", "parquet")} | set(GEOMETRY_DIRS)
     problems = []
     for f in sorted(path.iterdir()):
-        if f.name in exact or f.name.startswith(".") or f.is_dir():
+        if f.name in exact or f.name.startswith("."):
             continue
         stem = f.name.lower().split(".", 1)[0].replace("-", "_").replace(" ", "_")
-        close = difflib.get_close_matches(stem, list(TABLES), n=1, cutoff=0.9)
+        if f.is_dir():
+            close = difflib.get_close_matches(stem, GEOMETRY_DIRS, n=1, cutoff=0.8)
+            why = "not read: the geometry of contract v1.1 is read from {0}/ (lower case)"
+        else:
+            close = difflib.get_close_matches(stem, list(TABLES), n=1, cutoff=0.9)
+            why = "not read: a table is named {0}.csv or {0}.parquet (lower case, not compressed)"
         if close:
-            problems.append(
-                Problem(
-                    str(f),
-                    f"not read: a table is named {close[0]}.csv or {close[0]}.parquet "
-                    "(lower case, not compressed)",
-                )
-            )
+            problems.append(Problem(str(f), why.format(close[0])))
     return problems
 
 

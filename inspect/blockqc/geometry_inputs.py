@@ -21,6 +21,8 @@ from blockqc.rfm.readers import read_rpc
 
 RPC_DIR = "rpc"
 ADJUSTED_DIR = "rpc_adjusted"
+#: the folders of a delivery's geometry, read by these names only
+GEOMETRY_DIRS = (RPC_DIR, ADJUSTED_DIR)
 AFFINE_KEYS = ("a0", "a1", "a2", "b0", "b1", "b2")
 
 
