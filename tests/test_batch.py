@@ -379,6 +379,30 @@ def test_a_delivery_whose_block_yaml_went_leaves_no_earlier_results(small_batch,
     assert (out / "F4-B02" / "results.json").is_file()
 
 
+def test_a_block_inspected_alone_removes_the_batch_summary_that_lists_it(small_batch, tmp_path):
+    """The summary would go on giving the block's earlier verdict beside its new results."""
+    out = tmp_path / "out"
+    assert _incremental(small_batch, out).returncode == 1
+    manifest = small_batch / "F1-B02" / "block.yaml"
+    text = manifest.read_text(encoding="utf-8")
+    manifest.write_text(text.replace("tie_point_error_px: 0.", "tie_point_error_px: 9."))
+    alone = run_blockqc("inspect", small_batch / "F1-B02", "--out", out, "--no-pdf")
+    assert alone.returncode == 1, alone.stderr  # DOC-2 now fails
+    assert f"{out / 'summary.json'}" in alone.stderr and "F1-B02" in alone.stderr
+    assert not [p.name for p in out.iterdir() if p.name.startswith(("summary", "acceptance"))]
+    assert not (out / ".blockqc-summary-cache.json").exists()
+    assert (out / "F4-B02" / "results.json").is_file()
+
+
+def test_a_block_inspected_alone_keeps_a_summary_that_does_not_list_it(small_batch, tmp_path):
+    out = tmp_path / "out"
+    assert run_blockqc("inspect", small_batch, "--out", out, "--no-pdf").returncode == 1
+    other = shutil.copytree(SAMPLES / "batch" / "F2-B02", tmp_path / "F2-B02")
+    alone = run_blockqc("inspect", other, "--out", out, "--no-pdf")
+    assert alone.returncode == 0, alone.stderr
+    assert (out / "summary.json").is_file() and "summary" not in alone.stderr
+
+
 def test_a_file_where_a_block_folder_goes_does_not_stop_the_batch(small_batch, tmp_path):
     out = tmp_path / "out"
     out.mkdir()

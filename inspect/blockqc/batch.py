@@ -539,6 +539,32 @@ def _discard_refused(writer: Writer, refused: list[Path]) -> None:
             writer.discard(block_id)
 
 
+def drop_outdated_summary(writer: Writer, got: Collected) -> str | None:
+    """A delivery inspected on its own into an `--out` whose summary lists it (by block id or
+    path): that summary, and the pages made from it, would go on giving the block's earlier
+    verdict beside its new results, so they are removed. What was removed and why, or None."""
+    if got.is_batch:
+        return None
+    try:
+        doc = json.loads((writer.out / "summary.json").read_text(encoding="utf-8"))
+        listed = [(str(b["block_id"]), b["path"]) for b in doc["blocks"]]
+        listed += [(str(u["path"]), u["path"]) for u in doc["unreadable"]]
+        ids = {m.block_id for m in got.manifests.values()}
+        paths = {p.resolve() for p in got.deliveries}
+        hit = [name for name, path in listed if name in ids or Path(path).resolve() in paths]
+    except (OSError, ValueError, KeyError, TypeError):
+        return None  # no summary (or not one of ours)
+    if not hit:
+        return None
+    forget_summary(writer.out)
+    for name in BATCH_OUTPUTS:
+        (writer.out / name).unlink(missing_ok=True)
+    return (
+        f"{writer.out / 'summary.json'}: it listed {', '.join(hit)}, inspected again on its own: "
+        "the batch's summary and acceptance pages are removed (inspect the batch to remake them)"
+    )
+
+
 def _write_summary(
     writer: Writer, summary: Summary, outcomes: list[Outcome], digest: str | None, jobs: int
 ) -> None:
@@ -569,6 +595,7 @@ __all__ = [
     "Runner",
     "Writer",
     "collect",
+    "drop_outdated_summary",
     "exit_status",
     "run",
     "summarize",

@@ -235,6 +235,9 @@ def inspect_cmd(
         out_lock(out),
         _progress(len(got.deliveries) if show else 0) as tick,
     ):
+        outdated = batch.drop_outdated_summary(writer, got)
+        if outdated:
+            click.echo(f"warning: {outdated}", err=True)
         outcomes, summary = batch.run(
             got, pack, writer, inspector, runner=runner, incremental=incremental,
             progress=tick, checkpoints=checkpoints, plan=plan, meta=meta,
