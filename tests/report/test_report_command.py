@@ -65,6 +65,23 @@ def test_report_command_rerenders_a_batch_summary(tmp_path, results_doc):
     assert (tmp_path / "o" / "T-B01" / "report.html").is_file()
 
 
+def test_no_pdf_leaves_no_pdf_of_an_earlier_run_behind(tmp_path, results_doc):
+    """An earlier run's PDFs would give what the re-rendered results may no longer say."""
+    batch = tmp_path / "batch"
+    (batch / "T-B01").mkdir(parents=True)
+    (batch / "T-B01" / "results.json").write_text(json.dumps(results_doc), encoding="utf-8")
+    summary = make_summary([summary_entry("T-B01", "fail", sampled=True, failed_rules=["TP-4"])])
+    (batch / "summary.json").write_text(json.dumps(summary), encoding="utf-8")
+    out = tmp_path / "o"
+    (out / "T-B01").mkdir(parents=True)
+    for old in ("T-B01/report.pdf", "summary.pdf", "acceptance.pdf", "acceptance.html"):
+        (out / old).write_bytes(b"%PDF-1.7 an earlier run's")
+    assert run("report", str(batch / "summary.json"), "--out", str(out), "--no-pdf") == 0
+    assert not (out / "T-B01" / "report.pdf").exists()
+    assert not (out / "summary.pdf").exists() and not (out / "acceptance.pdf").exists()
+    assert not (out / "acceptance.html").exists()  # the summary has no acceptance section
+
+
 @pytest.mark.parametrize(
     "content, expected",
     [

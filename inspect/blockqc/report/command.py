@@ -249,7 +249,7 @@ def command(
 
     A batch folder (or its summary.json) re-renders the batch summary as well.
     """
-    from blockqc.outputs import make_out_dir, safe_child, write_bytes_atomic
+    from blockqc.outputs import BATCH_OUTPUTS, make_out_dir, safe_child, write_bytes_atomic
     from blockqc.report import write_block_report, write_summary_report
 
     check_pdf_engine(pdf_engine, pdf)
@@ -264,6 +264,8 @@ def command(
         written += write_block_report(
             folder, doc, lang=lang, templates=templates, pdf=pdf, pdf_engine=pdf_engine
         )
+        if not pdf:
+            (folder / "report.pdf").unlink(missing_ok=True)  # never a stale PDF beside
         click.echo(f"{doc.block_id:12} {doc.verdict.upper():5}  {folder}")
     if summary is not None:
         path, doc, raw = summary
@@ -272,6 +274,9 @@ def command(
         written += write_summary_report(
             out, doc, lang=lang, templates=templates, pdf=pdf, pdf_engine=pdf_engine
         )
+        for name in BATCH_OUTPUTS:  # an earlier run's summary PDF or acceptance page, not remade
+            if name != "summary.json" and out / name not in written:
+                (out / name).unlink(missing_ok=True)
         click.echo(f"summary      {out / 'summary.html'}")
     click.echo(f"{len(written)} files written in {out}")
     return 0
