@@ -264,3 +264,29 @@ def test_dem_of_several_bands_is_refused(tmp_path):
         ds.write(np.full((2, 2, 2), 100.0, np.float32))
     with pytest.raises(InputError, match="the DEM has 2 bands: expected one band of heights"):
         DemSet([tmp_path / "dem.tif"])
+
+
+def test_undeclared_no_data_value_is_refused_on_an_averaged_grid(tmp_path, dem_writer):
+    """Read averaged over k×k cells (more cells than max_pixels), −32768 among 800 m heights
+    averages to 800 − 32768·… a plausible height: the check must still see the cell itself."""
+    z = np.full((20, 20), 800.0)
+    z[5, 7] = -32768.0
+    path = dem_writer(tmp_path / "dem.tif", z, 10.0, 51.0, 0.01, "EPSG:4326")
+    # the block's extent plus two cells: 20 to 22 cells a side (400 to 484 cells); max_pixels
+    # 150 → k = 2, and the 2×2 average holding −32768 is (3·800 − 32768)/4 = −7592 m, within
+    # the heights on Earth
+    dem = DemSet([path], max_pixels=150)
+    with pytest.raises(InputError) as err:
+        dem.factors(shapely.box(10.02, 50.82, 10.18, 50.98))
+    # the cell's centre: lon 10 + 7.5·0.01 = 10.075, lat 51 − 5.5·0.01 = 50.945, row 5, column 7
+    assert "dem.tif" in str(err.value) and "1 cell(s) beyond any height on Earth" in str(err.value)
+    assert "the first -32768 at row 5, column 7 (x 10.075, y 50.945" in str(err.value)
+
+
+def test_averaged_grid_of_real_heights_is_read(tmp_path, dem_writer):
+    """Heights down to −400 m and up to 8,800 m are heights: not refused on an averaged grid."""
+    z = np.full((20, 20), 800.0)
+    z[3, 3], z[12, 14] = -400.0, 8800.0
+    path = dem_writer(tmp_path / "dem.tif", z, 10.0, 51.0, 0.01, "EPSG:4326")
+    f = DemSet([path], max_pixels=150).factors(shapely.box(10.02, 50.82, 10.18, 50.98))
+    assert f.resolution_factor == 2 and math.isfinite(f.mean_elevation_m)

@@ -13,6 +13,7 @@ import rasterio
 import rasterio.features
 import rasterio.merge
 import rasterio.warp
+import rasterio.windows
 import shapely
 from affine import Affine
 from pyproj import CRS, Transformer
@@ -182,6 +183,28 @@ class DemSet:
         return _terrain_over(polygon_lonlat, [t.path for t in used], used[0].crs, self.max_pixels)
 
 
+def _check_full_resolution(
+    srcs: list[rasterio.DatasetReader],
+    bounds: tuple[float, float, float, float],
+    max_pixels: int,
+) -> None:
+    """`check_heights` on every cell of the tiles within `bounds`, read at their own grid in
+    strips of at most `max_pixels` cells: an average over k×k cells would hide a no-data value
+    such as −32768 among real heights (3·800 m and −32768 m average to −7592 m)."""
+    for src in srcs:
+        win = rasterio.windows.from_bounds(*bounds, transform=src.transform)
+        col0, row0 = max(math.floor(win.col_off), 0), max(math.floor(win.row_off), 0)
+        col1 = min(math.ceil(win.col_off + win.width), src.width)
+        row1 = min(math.ceil(win.row_off + win.height), src.height)
+        if col1 <= col0:
+            continue
+        rows = max(1, max_pixels // (col1 - col0))
+        for top in range(row0, row1, rows):
+            strip = rasterio.windows.Window(col0, top, col1 - col0, min(rows, row1 - top))
+            values = src.read(1, window=strip, masked=True).astype(np.float32).filled(np.nan)
+            check_heights(src.name, values, src.window_transform(strip), origin=(top, col0))
+
+
 def _terrain_over(
     polygon_lonlat: shapely.Geometry, paths: list[Path], crs: CRS, max_pixels: int
 ) -> TerrainFactors:
@@ -205,6 +228,8 @@ def _terrain_over(
         bottom = t0.f - (math.ceil((t0.f - miny) / res_y) + 2) * res_y
         npix = (right - left) / res_x * (top - bottom) / res_y
         k = max(1, math.ceil(math.sqrt(npix / max_pixels)))
+        if k > 1:
+            _check_full_resolution(srcs, (left, bottom, right, top), max_pixels)
         z, transform = rasterio.merge.merge(
             srcs,
             bounds=(left, bottom, right, top),
