@@ -14,7 +14,7 @@ import rasterio
 from click.testing import CliRunner
 from rfm_helpers import VENTOUX
 
-from blockqc.rfm.command import command
+from blockqc.rfm.command import command, console_line
 from blockqc.rfm.dem import load_dem
 from blockqc.rfm.model import ImageAffine
 from blockqc.rfm.ortho import orthorectify, read_ortho
@@ -225,6 +225,87 @@ def test_pipeline_measures_a_known_reference_shift(tmp_path: Path):
     affine = ImageAffine(**results["refined_rfm"]["all_cps"]["affine"])
     d_line, d_sample = affine.delta(5250.0, 5250.0)
     assert d_line == pytest.approx(2.0, abs=0.3) and d_sample == pytest.approx(3.0, abs=0.3)
+
+
+def _four_bands(single: Path, path: Path, colour: bool) -> None:
+    """`single` as four bands. Colour: red 0 wherever there is data, green and blue 1.5×
+    `single` (the mean of the three is `single` itself) and alpha (255 where there is data).
+    Multispectral (no colours declared): band 1 `single`, bands 2–4 `single` upside down
+    (their texture is not the image's)."""
+    with rasterio.open(single) as src:
+        profile = src.profile
+        x = src.read(1, masked=True).astype(np.float32).filled(np.nan)
+    valid = np.isfinite(x)
+    if colour:
+        bands = np.stack([np.where(valid, 0.0, np.nan), 1.5 * x, 1.5 * x, 255.0 * valid])
+        profile.update(photometric="RGB", alpha="YES")
+    else:
+        bands = np.stack([x, x[::-1], x[::-1], x[::-1]])
+        profile.update(photometric="MINISBLACK")
+    profile.update(count=4, dtype="float32", nodata=None)
+    with rasterio.open(path, "w", **profile) as dst:
+        dst.write(bands.astype(np.float32))
+
+
+ONE_BAND = {"count": 1, "used": [1], "matched_on": "band 1 (one band)"}
+RGBA = {
+    "count": 4,
+    "used": [1, 2, 3],
+    "matched_on": "mean of bands 1, 2, 3 (red, green, blue) of 4",
+}
+MS = {"count": 4, "used": [1], "matched_on": "band 1 of 4 (no bands declared red, green, blue)"}
+
+
+@pytest.mark.filterwarnings("ignore::rasterio.errors.NotGeoreferencedWarning")
+@pytest.mark.parametrize(
+    ("several", "colour"),
+    [("image", True), ("reference", True), ("image", False), ("reference", False)],
+)
+def test_inputs_of_several_bands_are_matched_on_their_grey(tmp_path: Path, several, colour):
+    """An image or a reference of four bands is matched on the mean of the bands it declares
+    red, green and blue (alpha left out), else on band 1, and says which: built so that this
+    grey is the one-band input, the run gives the one-band answer (RMSE √13 px for the
+    reference shifted 3 px east, 2 px south), where band 1 of the colour file is flat and the
+    mean of the multispectral one is not the image."""
+    rpc = read_rpc(VENTOUX / "left_image.geom")
+    dem = load_dem(VENTOUX / "srtm_N44E005_crop.tif", geoid=VENTOUX / "egm96_15_crop.gtx")
+    grid = orthorectify(VENTOUX / "left_image.tif", rpc, dem, tmp_path / "own.tif")
+    g, t = grid.gsd, grid.transform
+    with rasterio.open(tmp_path / "own.tif") as src:
+        profile, data = src.profile, src.read()
+    profile["transform"] = rasterio.Affine(t.a, 0, t.c + 3 * g, 0, t.e, t.f - 2 * g)
+    with rasterio.open(tmp_path / "reference.tif", "w", **profile) as dst:
+        dst.write(data)
+    image, reference = VENTOUX / "left_image.tif", tmp_path / "reference.tif"
+    if several == "image":
+        image = tmp_path / "four_band_image.tif"
+        _four_bands(VENTOUX / "left_image.tif", image, colour)
+    else:
+        reference = tmp_path / "four_band_reference.tif"
+        _four_bands(tmp_path / "reference.tif", reference, colour)
+    cfg = RfmAccuracyConfig(
+        image=image,
+        rpc=VENTOUX / "left_image.geom",
+        dem=VENTOUX / "srtm_N44E005_crop.tif",
+        geoid=VENTOUX / "egm96_15_crop.gtx",
+        reference=reference,
+        out=tmp_path / "out",
+        match_grid=50,
+        repeats=3,
+    )
+    results = run_rfm_accuracy(cfg, matcher=phase_correlation_matcher)
+    assert results["accuracy"]["rmse_px"] == pytest.approx(np.sqrt(13.0), abs=1e-6)
+    ortho, _ = read_ortho(tmp_path / "out" / "ortho.tif")
+    own, _ = read_ortho(tmp_path / "own.tif")
+    np.testing.assert_allclose(ortho, own, rtol=1e-6)  # NaN where the image has no data
+    four = RGBA if colour else MS
+    image_bands, reference_bands = (four, ONE_BAND) if several == "image" else (ONE_BAND, four)
+    assert results["image_bands"] == image_bands
+    assert results["reference"]["bands"] == reference_bands
+    line = console_line("x.tif", results, 1.0, tmp_path)
+    assert f"matched on the image's {image_bands['matched_on']} and the reference's " in line
+    page = (tmp_path / "out" / "report.html").read_text()
+    assert four["matched_on"] in page
 
 
 def test_geoid_dem_without_geoid_is_an_input_error(tmp_path: Path, capsys):

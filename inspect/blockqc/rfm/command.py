@@ -278,7 +278,8 @@ def command(
 
 
 def console_line(name: str, results: dict, requirement: float, out_dir: Path) -> str:
-    """One line: CPs, RMSE, the systematic shift (mean dx, dy in metres and pixels), verdict."""
+    """One line: CPs (and the bands matched when an input has several), RMSE, the systematic
+    shift (mean dx, dy in metres and pixels), verdict."""
     acc, d = results["accuracy"], results["distortion"]
     rmse = acc["rmse_px"]
     shift = ""
@@ -287,8 +288,15 @@ def console_line(name: str, results: dict, requirement: float, out_dir: Path) ->
             f", shift dx {d['mean_dx_m']:+.2f} m ({d['mean_dx_px']:+.2f} px) "
             f"dy {d['mean_dy_m']:+.2f} m ({d['mean_dy_px']:+.2f} px)"
         )
+    image, reference = results["image_bands"], results["reference"]["bands"]
+    bands = ""
+    if image["count"] > 1 or reference["count"] > 1:
+        bands = (
+            f" matched on the image's {image['matched_on']} and the reference's "
+            f"{reference['matched_on']}"
+        )
     return (
-        f"{name}: {acc['n']} CPs, RMSE "
+        f"{name}: {acc['n']} CPs{bands}, RMSE "
         + (f"{rmse:.3f} px" if rmse is not None else "n/a")
         + shift
         + f" → {acc['verdict']} (requirement < {requirement:g} px); results in {out_dir}"

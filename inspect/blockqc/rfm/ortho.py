@@ -233,14 +233,47 @@ def sensor_positions(
     return model.ground_to_image(lon, lat, h)
 
 
+def grey_bands(ds: object) -> tuple[int, ...]:
+    """The bands an image is matched on: those it declares red, green and blue (a colour
+    orthophoto; an alpha band or others left out), else band 1 (one band, or multispectral
+    bands whose colours are not declared: a near-infrared band would blur the mean)."""
+    from rasterio.enums import ColorInterp
+
+    colours = (ColorInterp.red, ColorInterp.green, ColorInterp.blue)
+    pairs = zip(ds.indexes, ds.colorinterp, strict=True)  # type: ignore[attr-defined]
+    rgb = tuple(i for i, c in pairs if c in colours)
+    return rgb if len(rgb) == 3 else (1,)
+
+
+def bands_used(path: str | Path) -> dict[str, object]:
+    """Which bands of a raster are matched on (`grey_bands`), said in words."""
+    with open_raster(path) as ds:
+        count, used = ds.count, grey_bands(ds)
+    if count == 1:
+        text = "band 1 (one band)"
+    elif len(used) == 1:
+        text = f"band 1 of {count} (no bands declared red, green, blue)"
+    else:
+        text = f"mean of bands {', '.join(map(str, used))} (red, green, blue)"
+        if count > 3:
+            text += f" of {count}"
+    return {"count": count, "used": list(used), "matched_on": text}
+
+
+def band_mean(values: np.ma.MaskedArray) -> NDArray[np.float32]:
+    """Mean over the bands (axis 0) of those with a value at each pixel; NaN where none has."""
+    return np.ma.masked_invalid(values.astype(np.float32)).mean(axis=0).filled(np.nan)
+
+
 def _resample(
     ds: object,
-    band: int,
+    bands: tuple[int, ...],
     row: FloatArray,
     col: FloatArray,
     order: int,
 ) -> NDArray[np.float32]:
-    """Sample band `band` of the open dataset at file positions (row, col), NaN outside."""
+    """Sample the mean of `bands` of the open dataset at file positions (row, col), NaN outside
+    (the mean of bilinear samples is the bilinear sample of the mean)."""
     from rasterio.windows import Window
 
     out = np.full(row.shape, np.nan, dtype=np.float32)
@@ -260,10 +293,11 @@ def _resample(
     wc0 = max(int(np.floor(col[ok].min())) - pad, 0)
     wr1 = min(int(np.ceil(row[ok].max())) + pad + 1, nrows)
     wc1 = min(int(np.ceil(col[ok].max())) + pad + 1, ncols)
-    src = ds.read(  # type: ignore[attr-defined]
-        band, window=Window(wc0, wr0, wc1 - wc0, wr1 - wr0), masked=True
+    src = band_mean(
+        ds.read(  # type: ignore[attr-defined]
+            list(bands), window=Window(wc0, wr0, wc1 - wc0, wr1 - wr0), masked=True
+        )
     )
-    src = src.astype(np.float32).filled(np.nan)
     coords = np.stack([row[ok] - wr0, col[ok] - wc0])
     out[ok] = map_coordinates(src, coords, order=order, mode="nearest", prefilter=order > 1)
     return out
@@ -277,12 +311,13 @@ def orthorectify(
     *,
     grid: OrthoGrid | None = None,
     crop_offset: tuple[float, float] | None = None,
-    band: int = 1,
+    band: int | None = None,
     chunk: int = 1024,
     order: int = 1,
 ) -> OrthoGrid:
-    """Orthorectify band `band` of `image` onto `grid` (default: `ortho_grid`), chunk by chunk,
-    into a float32 GeoTIFF at `out_path` with NaN where the image gives nothing (§RA-1).
+    """Orthorectify `image` onto `grid` (default: `ortho_grid`), chunk by chunk, into a float32
+    GeoTIFF at `out_path` with NaN where the image gives nothing (§RA-1): band `band`, or by
+    default `grey_bands` (the mean of red, green and blue, else band 1).
 
     `crop_offset` is the file's position in the full image (default: `crop_offset_from_file`);
     `order` is the spline order of the resampling (1 bilinear, 3 cubic).
@@ -293,10 +328,11 @@ def orthorectify(
     if crop_offset is None:
         crop_offset = crop_offset_from_file(image)
     with open_raster(image) as src:
-        if not 1 <= band <= src.count:
+        if band is not None and not 1 <= band <= src.count:
             raise InputError(
                 Problem(file=str(image), message=f"band {band} asked, the image has {src.count}")
             )
+        bands = grey_bands(src) if band is None else (band,)
         if grid is None:
             grid = ortho_grid(model, (src.height, src.width), dem, crop_offset=crop_offset)
         profile = {
@@ -321,7 +357,9 @@ def orthorectify(
             with rasterio.open(tmp, "w", **profile) as dst:
                 for window in grid.chunks(chunk):
                     row, col = sensor_positions(model, grid, dem, window)
-                    values = _resample(src, band, row - crop_offset[0], col - crop_offset[1], order)
+                    values = _resample(
+                        src, bands, row - crop_offset[0], col - crop_offset[1], order
+                    )
                     r0, c0, nr, nc = window
                     dst.write(values, 1, window=rasterio.windows.Window(c0, r0, nc, nr))
             tmp.replace(out_path)  # atomic rename: readers never see a half-written ortho

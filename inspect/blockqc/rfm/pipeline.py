@@ -24,7 +24,10 @@ from blockqc.rfm.dem import DEM, load_dem
 from blockqc.rfm.model import RefinedRFM, RPCModel, fit_affine
 from blockqc.rfm.ortho import (
     OrthoGrid,
+    band_mean,
+    bands_used,
     crop_offset_from_file,
+    grey_bands,
     image_border,
     ortho_grid,
     orthorectify,
@@ -198,6 +201,7 @@ def reference_on_grid(
 
     A georeferenced reference is reprojected (bilinear); a reference in sensor geometry with
     RPCs (a same-accuracy stereo mate) is orthorectified with its own RPCs and the same DEM.
+    Either way it is matched on `grey_bands`, as the image is.
     Returns (how, rpc source).
     """
     import rasterio
@@ -217,10 +221,11 @@ def reference_on_grid(
             chunk=cfg.ortho_chunk,
         )
         return "orthorectified with its RPCs and the same DEM", rpc.source
-    dst = np.full((ref_grid.height, ref_grid.width), np.nan, dtype=np.float32)
     with rasterio.open(cfg.reference) as src:
+        bands = grey_bands(src)
+        dst = np.full((len(bands), ref_grid.height, ref_grid.width), np.nan, dtype=np.float32)
         reproject(
-            source=rasterio.band(src, 1),
+            source=rasterio.band(src, list(bands)),
             destination=dst,
             src_nodata=src.nodata,
             dst_transform=ref_grid.transform,
@@ -228,6 +233,7 @@ def reference_on_grid(
             dst_nodata=np.nan,
             resampling=Resampling.bilinear,
         )
+    dst = band_mean(np.ma.masked_invalid(dst))
     profile = {
         "driver": "GTiff",
         "dtype": "float32",
@@ -663,6 +669,7 @@ def _inputs(run: _Run) -> dict[str, object]:
     return {
         "kind": "rfm_accuracy",
         "image": str(cfg.image),
+        "image_bands": bands_used(cfg.image),
         "rpc": {"file": str(rpc_path), "format": sniff_format(Path(rpc_path))},
         "crop_offset_px": list(run.offset),
         "dem": {
@@ -673,6 +680,7 @@ def _inputs(run: _Run) -> dict[str, object]:
         "reference": {
             "file": str(cfg.reference),
             "how": run.how,
+            "bands": bands_used(cfg.reference),
             "rpc": run.ref_rpc,
             "method": cfg.method,
         },
