@@ -140,3 +140,18 @@ def test_a_dem_folder_without_a_fields_tile_is_refused_before_writing(tmp_path: 
         "checkout)\n"
     )
     assert not out.exists()
+
+
+def test_a_failure_leaves_no_empty_out_it_made(tmp_path: Path) -> None:
+    """A DEM tile that is not a raster stops the run (exit 2) before any delivery is written:
+    the OUT folder the run made is removed, one that was there before is kept."""
+    dems = tmp_path / "dems"
+    dems.mkdir()
+    (dems / "srtm_40E39N_demcompare.tif").write_text("not a raster")
+    out = tmp_path / "out"
+    r = run_blockqc("simulate", out, "--fields", "1", "--grid", "2x2", "--dem-dir", dems)
+    assert r.returncode == 2 and "srtm_40E39N_demcompare.tif" in r.stderr
+    assert not out.exists()
+    out.mkdir()
+    r = run_blockqc("simulate", out, "--fields", "1", "--grid", "2x2", "--dem-dir", dems)
+    assert r.returncode == 2 and out.is_dir()

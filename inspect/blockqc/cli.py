@@ -198,7 +198,7 @@ def inspect_cmd(
     from blockqc import batch
     from blockqc.delivery import block_scenes
     from blockqc.inspector import check_inspector_input, load_inspector_input
-    from blockqc.outputs import check_out_dir, out_lock, refuse_inside
+    from blockqc.outputs import check_out_dir, empty_removed, out_lock, refuse_inside
     from blockqc.rules import load_pack
 
     _refuse_conflicts(no_pdf, pdf, scheduler)
@@ -226,22 +226,18 @@ def inspect_cmd(
         checkpoints = load_checkpoint_files(list(checkpoint_files))
         check_blocks(checkpoints, got.deliveries)
     plan, meta = _acceptance_inputs(plan_file, meta_file, got)
-    made = not out.exists()
-    out = check_out_dir(out, paths)  # created once every input is read
-    writer = batch.Writer(out, templates, lang, pdf, pdf_engine)
-    show = sys.stderr.isatty() if progress is None else progress
-    with (
-        _empty_removed(out, made),
-        out_lock(out),
-        _progress(len(got.deliveries) if show else 0) as tick,
-    ):
-        outdated = batch.drop_outdated_summary(writer, got)
-        if outdated:
-            click.echo(f"warning: {outdated}", err=True)
-        outcomes, summary = batch.run(
-            got, pack, writer, inspector, runner=runner, incremental=incremental,
-            progress=tick, checkpoints=checkpoints, plan=plan, meta=meta,
-        )  # fmt: skip
+    with empty_removed(out):
+        out = check_out_dir(out, paths)  # created once every input is read
+        writer = batch.Writer(out, templates, lang, pdf, pdf_engine)
+        show = sys.stderr.isatty() if progress is None else progress
+        with out_lock(out), _progress(len(got.deliveries) if show else 0) as tick:
+            outdated = batch.drop_outdated_summary(writer, got)
+            if outdated:
+                click.echo(f"warning: {outdated}", err=True)
+            outcomes, summary = batch.run(
+                got, pack, writer, inspector, runner=runner, incremental=incremental,
+                progress=tick, checkpoints=checkpoints, plan=plan, meta=meta,
+            )  # fmt: skip
     _closing_lines(outcomes, summary, out)
     return batch.exit_status(outcomes)
 
@@ -256,19 +252,6 @@ def _refuse_conflicts(no_pdf: bool, pdf: str, scheduler: str | None) -> None:
             "--jobs runs processes on this machine, --scheduler tasks on a Dask cluster's "
             "workers: give one of them"
         )
-
-
-@contextlib.contextmanager
-def _empty_removed(out: Path, made: bool):
-    """The output folder this run made is removed again when the run stops with nothing in
-    it (a scheduler that cannot be reached)."""
-    try:
-        yield
-    except BaseException:
-        if made:
-            with contextlib.suppress(OSError):
-                out.rmdir()  # only when empty
-        raise
 
 
 def _acceptance_inputs(plan_file: Path | None, meta_file: Path | None, got):

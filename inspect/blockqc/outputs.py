@@ -8,7 +8,7 @@ import os
 import socket
 import tempfile
 from collections.abc import Iterable, Iterator, Mapping
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from pathlib import Path
 from typing import Any
 
@@ -158,6 +158,21 @@ def refuse_replacing(out: Path, names: Iterable[str], inputs: Iterable[Path]) ->
                     f"--out {out}: its {name} would replace the input {p}; choose another "
                     "output folder (or rename the input)"
                 )
+
+
+@contextmanager
+def empty_removed(out: Path) -> Iterator[None]:
+    """The output folder, absent on entry and made by the run, is removed again when the run
+    stops (an input error, a scheduler that cannot be reached) with nothing in it; a folder
+    that was there before is never removed."""
+    made = not (out.exists() or out.is_symlink())
+    try:
+        yield
+    except BaseException:
+        if made:
+            with suppress(OSError):
+                out.rmdir()  # only when empty
+        raise
 
 
 #: held in an output folder while a run writes into it

@@ -21,7 +21,7 @@ import yaml
 from pyproj import Transformer
 
 from blockqc.errors import UsageError
-from blockqc.outputs import write_bytes_atomic, write_text_atomic
+from blockqc.outputs import empty_removed, write_bytes_atomic, write_text_atomic
 from blockqc.resources import _CHECKOUT
 
 FAULTS = {
@@ -658,12 +658,13 @@ def simulate(out: Path | str, opts: Options, dem_dir: Path | None = None) -> lis
             "samples/dem of the checkout)"
         )
     ids = [block_id(f, i) for f in opts.fields for i in range(opts.blocks_per_field)]
-    out = prepare_out(out, ids)
-    return [
-        write_block(out, FIELDS[f], i, opts, dem_dir)
-        for f in opts.fields
-        for i in range(opts.blocks_per_field)
-    ]
+    with empty_removed(Path(out)):  # a failure leaves no empty folder the run made
+        out = prepare_out(out, ids)
+        return [
+            write_block(out, FIELDS[f], i, opts, dem_dir)
+            for f in opts.fields
+            for i in range(opts.blocks_per_field)
+        ]
 
 
 __all__ = ["FAULTS", "FIELDS", "Layout", "Options", "simulate", "replace"]

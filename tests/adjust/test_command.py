@@ -107,11 +107,16 @@ def test_unreadable_rpc_is_an_input_error(small_block, tmp_path, blockqc):
 
 
 def test_free_datum_is_refused_as_singular(small_block, tmp_path, blockqc):
-    r = blockqc(
-        "adjust", small_block, "--out", tmp_path / "out", "--sigma-shift", "inf",
-        "--sigma-linear", "inf",
-    )  # fmt: skip
+    """Refused once the inputs are read and --out made: the folder the run made is removed
+    again (it was left empty), one that was there before is kept."""
+    out = tmp_path / "out"
+    free = ["--sigma-shift", "inf", "--sigma-linear", "inf"]
+    r = blockqc("adjust", small_block, "--out", out, *free)
     assert r.returncode == 2 and "singular" in r.stderr and "Traceback" not in r.stderr
+    assert not out.exists()
+    out.mkdir()
+    r = blockqc("adjust", small_block, "--out", out, *free)
+    assert r.returncode == 2 and out.is_dir()
 
 
 def test_no_convergence_is_reported(small_block, tmp_path, blockqc):

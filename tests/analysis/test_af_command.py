@@ -12,7 +12,7 @@ import pytest
 from click.testing import CliRunner
 
 from blockqc.analysis.command import command
-from blockqc.errors import InputError, UsageError
+from blockqc.errors import InputError, Problem, UsageError
 
 SAMPLES = Path(__file__).resolve().parents[2] / "samples"
 
@@ -219,3 +219,23 @@ def test_help_says_where_out_may_be():
         "Output folder: never inside BATCH; it may be the folder of --table unless one of its "
         "outputs would replace the table." in text
     )
+
+
+def test_a_failure_after_out_is_made_leaves_no_empty_folder(appendix_path, tmp_path, monkeypatch):
+    """The run stops once --out is made (here the analysis, made to fail): the folder the run
+    made is removed again, one that was there before is kept."""
+    import blockqc.analysis.command as factors_command
+
+    def fail(*args, **kwargs):
+        raise InputError(Problem(file="table.csv", message="cannot be analysed"))
+
+    monkeypatch.setattr(factors_command, "analyse", fail)
+    out = tmp_path / "out"
+    args = ["--table", str(appendix_path), "--out", str(out)]
+    with pytest.raises(InputError, match="cannot be analysed"):  # exit 2
+        command.main(args, standalone_mode=False)
+    assert not out.exists()
+    out.mkdir()
+    with pytest.raises(InputError):
+        command.main(args, standalone_mode=False)
+    assert out.is_dir()

@@ -14,6 +14,7 @@ import rasterio
 from click.testing import CliRunner
 from rfm_helpers import VENTOUX
 
+from blockqc.errors import InputError
 from blockqc.rfm.command import command, console_line
 from blockqc.rfm.dem import load_dem
 from blockqc.rfm.model import ImageAffine
@@ -434,7 +435,6 @@ def test_no_overlap_is_an_input_error_with_its_reason(tmp_path: Path, capsys):
 
 
 def test_no_texture_is_an_input_error_with_its_reason(tmp_path: Path):
-    from blockqc.errors import InputError
 
     def nothing(image, reference, **_):
         return pd.DataFrame(columns=["row", "col", "ref_row", "ref_col", "kind", "score"])
@@ -558,3 +558,19 @@ def test_an_input_an_output_would_replace_is_refused(tmp_path: Path, capsys):
     )
     assert (folder / "ortho.tif").read_bytes() == before
     assert sorted(p.name for p in folder.iterdir()) == ["ortho.tif"]
+
+
+def test_an_input_error_leaves_no_empty_out_it_made(tmp_path: Path):
+    """An RPC file that is no RPC: exit 2, and the --out the run made is removed again (it was
+    left empty); an --out that was there before is kept."""
+    bad = tmp_path / "bad.RPB"
+    bad.write_text("garbage\n")
+    out = tmp_path / "out"
+    args = base_args(out) + ["--reference", str(VENTOUX / "right_image.tif")]
+    args[args.index("--rpc") + 1] = str(bad)
+    result = CliRunner().invoke(command, args)
+    assert isinstance(result.exception, InputError)  # exit 2
+    assert "not a known RPC format" in str(result.exception)
+    assert not out.exists()
+    out.mkdir()
+    assert isinstance(CliRunner().invoke(command, args).exception, InputError) and out.is_dir()

@@ -12,7 +12,7 @@ from blockqc.adjust.run import DEFAULT_DEM_SIGMA_M, AdjustConfig, run_adjust
 from blockqc.adjust.solver import Settings
 from blockqc.cli import OutPath
 from blockqc.errors import UsageError
-from blockqc.outputs import refuse_inside
+from blockqc.outputs import empty_removed, refuse_inside
 
 
 class Positive(click.ParamType):
@@ -144,7 +144,8 @@ def command(
         checkpoints=n_checkpoints,
     )
     refuse_inside(out, cfg.inputs())  # before reading; the folder is made once they are read
-    r = run_adjust(cfg)
+    with empty_removed(out):  # an input error leaves no empty folder the run made
+        r = run_adjust(cfg)
     click.echo(
         f"{r['block_id']}: {r['n_scenes']} scenes, {r['n_observations']} observations, "
         f"{r['iterations']} iterations, converged {'yes' if r['converged'] else 'NO'}; "

@@ -19,6 +19,7 @@ from blockqc.delivery import find_deliveries, load_delivery
 from blockqc.errors import UsageError
 from blockqc.outputs import (
     check_out_dir,
+    empty_removed,
     refuse_inside,
     write_bytes_atomic,
     write_json_atomic,
@@ -280,11 +281,12 @@ def command(
         _check_not_table(out, table_path)
         table = read_table(table_path)
         source = str(table_path)
-    out = check_out_dir(out, [batch] if batch is not None else [])  # once the inputs are read
-    results = analyse(table, source)
-    if batch is not None:
-        results["options"] = asdict(options) | {"dem": [str(d) for d in dems]}
-    written = write_outputs(out, table, results, user_templates)
+    with empty_removed(out):  # a failure leaves no empty folder the run made
+        out = check_out_dir(out, [batch] if batch is not None else [])  # once the inputs are read
+        results = analyse(table, source)
+        if batch is not None:
+            results["options"] = asdict(options) | {"dem": [str(d) for d in dems]}
+        written = write_outputs(out, table, results, user_templates)
     _remove_stale(out, written)
     n_f, n_i = len(FACTOR_COLUMNS), len(INDICATOR_COLUMNS)
     if results["cca"]:

@@ -10,7 +10,7 @@ from pyproj import CRS
 from pyproj.exceptions import CRSError
 
 from blockqc.errors import UsageError
-from blockqc.outputs import check_out_dir, refuse_replacing
+from blockqc.outputs import check_out_dir, empty_removed, refuse_replacing
 from blockqc.rfm.pipeline import METHODS, OUTPUT_NAMES, RfmAccuracyConfig, run_rfm_accuracy
 
 
@@ -241,34 +241,35 @@ def command(
     if isinstance(geoid_path, Path):
         inputs.append(geoid_path)
     refuse_replacing(out, OUTPUT_NAMES, inputs)
-    out_dir = check_out_dir(out, inputs)
-    cfg = RfmAccuracyConfig(
-        image=image,
-        dem=dem,
-        reference=reference,
-        out=out_dir,
-        rpc=rpc,
-        geoid=geoid_path,
-        geoid_offset=geoid_offset,
-        dem_vertical=dem_vertical,
-        reference_rpc=reference_rpc,
-        crs=crs,
-        gsd=gsd,
-        crop_offset=_offset(crop_offset),
-        reference_crop_offset=_offset(reference_crop_offset),
-        margin=margin,
-        match_chunk=match_chunk,
-        match_grid=match_grid,
-        ks=_ks(k_text),
-        repeats=repeats,
-        seed=seed,
-        requirement_px=requirement,
-        method=method,
-        export_checkpoints=export_checkpoints,
-        refined_ortho=refined_ortho,
-        dem_fill=dem_fill,
-    )
-    results = run_rfm_accuracy(cfg)
+    with empty_removed(out):  # an input error leaves no empty folder the run made
+        out_dir = check_out_dir(out, inputs)
+        cfg = RfmAccuracyConfig(
+            image=image,
+            dem=dem,
+            reference=reference,
+            out=out_dir,
+            rpc=rpc,
+            geoid=geoid_path,
+            geoid_offset=geoid_offset,
+            dem_vertical=dem_vertical,
+            reference_rpc=reference_rpc,
+            crs=crs,
+            gsd=gsd,
+            crop_offset=_offset(crop_offset),
+            reference_crop_offset=_offset(reference_crop_offset),
+            margin=margin,
+            match_chunk=match_chunk,
+            match_grid=match_grid,
+            ks=_ks(k_text),
+            repeats=repeats,
+            seed=seed,
+            requirement_px=requirement,
+            method=method,
+            export_checkpoints=export_checkpoints,
+            refined_ortho=refined_ortho,
+            dem_fill=dem_fill,
+        )
+        results = run_rfm_accuracy(cfg)
     for warning in results.get("warnings") or []:  # type: ignore[union-attr]
         click.echo(f"warning: {warning}", err=True)
     acc = results["accuracy"]
