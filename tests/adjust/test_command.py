@@ -211,3 +211,40 @@ def test_no_point_seen_on_two_scenes_is_refused(small_block, tmp_path, blockqc, 
     assert "tie_points.csv" in r.stderr and "observed on two or more scenes" in r.stderr
     assert f"none of the {len(ties)} tie points" in r.stderr
     assert "internal error" not in r.stderr and not out.exists()
+
+
+def test_observations_without_a_second_ray_are_not_counted_as_outliers(
+    small_block, tmp_path, blockqc
+):
+    """With scene S0001's observations removed, the points it shared with one other scene are
+    left with one ray: their observations are counted apart from the outliers the rule
+    |v| > k·σ0 rejects (all were counted as outliers: hundreds, where the simulated block has a
+    few gross errors)."""
+    blk = _copy(small_block, tmp_path)
+    ties = pd.read_csv(blk / "tie_points.csv", dtype={"point_id": str})
+    ties = ties[ties["scene_id"] != "S0001"]
+    ties.to_csv(blk / "tie_points.csv", index=False)
+    one_ray = int((ties.groupby("point_id")["scene_id"].transform("size") == 1).sum())
+    assert one_ray > 100  # the case: many observations lose their second ray
+    out = tmp_path / "out"
+    r = blockqc("adjust", blk, "--out", out)
+    assert r.returncode == 0, r.stderr
+    res = json.loads((out / "adjust.json").read_text())
+    left_out = len(ties) - res["n_observations"]
+    assert res["n_outliers"] + res["n_without_second_ray"] == left_out
+    # one ray from the start, plus at most the second ray of each rejected observation
+    assert one_ray <= res["n_without_second_ray"] <= one_ray + res["n_outliers"]
+    assert res["n_outliers"] <= 10  # 0.2 % gross errors of ~1,200 observations, and a few more
+    flagged = pd.read_csv(out / "tie_points.csv")["outlier"]
+    assert int(flagged.sum()) == left_out  # the table still flags every observation left out
+    scenes = res["scenes"]
+    assert sum(s["n_outliers"] for s in scenes) == res["n_outliers"]
+    assert sum(s["n_without_second_ray"] for s in scenes) == res["n_without_second_ray"]
+    assert (
+        f"{res['n_outliers']} outliers, {res['n_without_second_ray']} observations left without "
+        "a second ray" in r.stdout
+    )
+    page = (out / "adjust.html").read_text()
+    assert (
+        "observations left without a second ray</th><td>" + str(res["n_without_second_ray"]) in page
+    )

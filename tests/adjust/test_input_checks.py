@@ -91,18 +91,18 @@ def test_valid_block_has_no_warning(block, tmp_path, blockqc):
 
 def test_scene_left_without_observations_is_warned():
     rows = [
-        {"scene_id": "S1", "n_observations": 0, "n_outliers": 120},
-        {"scene_id": "S2", "n_observations": 2, "n_outliers": 1},
-        {"scene_id": "S3", "n_observations": 3, "n_outliers": 50},
-        {"scene_id": "S4", "n_observations": 0, "n_outliers": 0},
+        {"scene_id": "S1", "n_observations": 0, "n_outliers": 100, "n_without_second_ray": 20},
+        {"scene_id": "S2", "n_observations": 2, "n_outliers": 1, "n_without_second_ray": 0},
+        {"scene_id": "S3", "n_observations": 3, "n_outliers": 50, "n_without_second_ray": 4},
+        {"scene_id": "S4", "n_observations": 0, "n_outliers": 0, "n_without_second_ray": 0},
     ]
     assert scene_warnings(rows) == [
-        "scene S1 keeps 0 of its 120 observations after outlier rejection (fewer than 3): its "
-        "affine is set by the priors alone, not by the data; check its RPC (rpc/) and its tie "
-        "points",
-        "scene S2 keeps 2 of its 3 observations after outlier rejection (fewer than 3): its "
-        "affine is set by the priors alone, not by the data; check its RPC (rpc/) and its tie "
-        "points",
+        "scene S1 keeps 0 of its 120 observations after outlier rejection (fewer than 3; 100 "
+        "outliers, 20 left without a second ray): its affine is set by the priors alone, not by "
+        "the data; check its RPC (rpc/) and its tie points",
+        "scene S2 keeps 2 of its 3 observations after outlier rejection (fewer than 3; 1 "
+        "outliers, 0 left without a second ray): its affine is set by the priors alone, not by "
+        "the data; check its RPC (rpc/) and its tie points",
         "scene S4 has no tie-point observation: its affine is set by the priors alone, not by "
         "the data; check its RPC (rpc/) and its tie points",
     ]

@@ -150,7 +150,8 @@ def command(
         f"{r['block_id']}: {r['n_scenes']} scenes, {r['n_observations']} observations, "
         f"{r['iterations']} iterations, converged {'yes' if r['converged'] else 'NO'}; "
         f"σ0 {r['sigma0_px']:.3f} px, RMS {r['rms_px_before']:.3f} → {r['rms_px_after']:.3f} px, "
-        f"{r['n_outliers']} outliers; results in {out.resolve()}"
+        f"{r['n_outliers']} outliers, {r['n_without_second_ray']} observations left without a "
+        f"second ray; results in {out.resolve()}"
     )
     for warning in r["warnings"]:
         click.echo(f"warning: {warning}", err=True)

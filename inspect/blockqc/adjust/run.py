@@ -352,11 +352,13 @@ def _rms(vl: np.ndarray, vs: np.ndarray, mask: np.ndarray) -> float | None:
 
 
 def per_scene(block: Block, sol: Solution) -> list[dict]:
-    """Per scene: observations kept, outliers, residual RMS, the affine and its σ."""
+    """Per scene: observations kept, outliers (rejected by the rule), observations left without
+    a second ray, residual RMS, the affine and its σ."""
     obs, kept = block.obs, ~sol.outlier
     ns = obs.n_scenes
     n_kept = np.bincount(obs.scene, kept.astype(float), ns)
-    n_out = np.bincount(obs.scene, sol.outlier.astype(float), ns)
+    n_out = np.bincount(obs.scene, sol.rejected.astype(float), ns)
+    n_single = np.bincount(obs.scene, (sol.outlier & ~sol.rejected).astype(float), ns)
     v2 = np.where(kept, sol.v_line**2 + sol.v_sample**2, 0.0)
     with np.errstate(invalid="ignore", divide="ignore"):
         rms = np.sqrt(np.bincount(obs.scene, v2, ns) / n_kept)
@@ -364,6 +366,7 @@ def per_scene(block: Block, sol: Solution) -> list[dict]:
     rows = []
     for k, sid in enumerate(block.data.scenes["scene_id"].astype(str)):
         row = {"scene_id": sid, "n_observations": int(n_kept[k]), "n_outliers": int(n_out[k])}
+        row["n_without_second_ray"] = int(n_single[k])
         row["rms_px"] = float(rms[k]) if np.isfinite(rms[k]) else None
         row.update({key: float(sol.affine[k, i]) for i, key in enumerate(keys)})
         row.update({f"sigma_{key}": float(sol.affine_sigma[k, i]) for i, key in enumerate(keys)})
@@ -380,7 +383,8 @@ def scene_warnings(scenes: list[dict]) -> list[str]:
     """Scenes whose affine the data do not determine: too few observations kept."""
     out = []
     for row in scenes:
-        kept, rejected = row["n_observations"], row["n_outliers"]
+        kept = row["n_observations"]
+        rejected = row["n_outliers"] + row["n_without_second_ray"]
         if kept >= MIN_SCENE_OBSERVATIONS:
             continue
         if kept + rejected == 0:
@@ -388,7 +392,8 @@ def scene_warnings(scenes: list[dict]) -> list[str]:
         else:
             why = (
                 f"keeps {kept} of its {kept + rejected} observations after outlier rejection "
-                f"(fewer than {MIN_SCENE_OBSERVATIONS})"
+                f"(fewer than {MIN_SCENE_OBSERVATIONS}; {row['n_outliers']} outliers, "
+                f"{row['n_without_second_ray']} left without a second ray)"
             )
         out.append(
             f"scene {row['scene_id']} {why}: its affine is set by the priors alone, not by "
@@ -421,9 +426,11 @@ def summarize(
         "sigma0_px": sol.sigma0_px,
         "rms_px_before": _rms(v0l, v0s, kept),
         "rms_px_after": _rms(sol.v_line, sol.v_sample, kept),
-        "n_outliers": int(sol.outlier.sum()),
+        "n_outliers": int(sol.rejected.sum()),
+        "n_without_second_ray": int((sol.outlier & ~sol.rejected).sum()),
         "outlier_rule": "|v| > k·σ0 after a Huber IRLS pass, and observations of points left "
-        "with fewer than two (k in settings)",
+        "with fewer than two (k in settings); n_outliers counts the first, "
+        "n_without_second_ray the second",
         "datum": datum_desc,
         "checkpoints": cp_info,
         "producer_adjustment": block.data.producer_source,

@@ -111,7 +111,8 @@ class Solution:
     ground_sigma: FloatArray
     v_line: FloatArray
     v_sample: FloatArray
-    outlier: BoolArray
+    outlier: BoolArray  # every observation left out: `rejected`, and those left without a 2nd ray
+    rejected: BoolArray  # rejected by the rule |v| > k·σ0
     point_used: BoolArray
     converged: bool
     iterations: int
@@ -680,12 +681,14 @@ def adjust(
 
     converged, step = iterate(ctx, state, huber, "huber", settings.huber_iterations)
     converged = False
+    rejected = np.zeros(obs.point.size, bool)
     for _ in range(4):
         s0 = sigma0(step.lin.f, step.w, priors, ctx.used, step.u_inv[:, 2, 2]) * sig
         vl, vs = step.lin.f.T
         s0 = max(s0, settings.min_sigma_px) if np.isfinite(s0) else sig
         new = ctx.kept & (np.hypot(vl, vs) > settings.reject_k * s0)
         ctx.kept &= ~new
+        rejected |= new
         ctx.drop_weak_points()
         changed = abs(s0 / sig - 1.0) > 0.02 or bool(new.any())
         sig = s0
@@ -695,11 +698,14 @@ def adjust(
         if budget <= 0:
             break
         converged, step = iterate(ctx, state, fixed_weights(ctx.kept, sig), "ls", budget)
-    return _solution(ctx, state, step, sig, converged), v0l, v0s
+    return _solution(ctx, state, step, sig, converged, rejected), v0l, v0s
 
 
-def _solution(ctx: Context, state: State, last: Step, sig: float, converged: bool) -> Solution:
-    """Final residuals, σ0 and the precision of every parameter (σ0²·S⁻¹ and the points')."""
+def _solution(
+    ctx: Context, state: State, last: Step, sig: float, converged: bool, rejected: BoolArray
+) -> Solution:
+    """Final residuals, σ0 and the precision of every parameter (σ0²·S⁻¹ and the points');
+    `rejected`: the observations the rule |v| > k·σ0 rejected."""
     obs, lines, samples = ctx.obs, *_sizes(ctx.norm)
     kept = ctx.kept.copy()
     step = last
@@ -728,6 +734,7 @@ def _solution(ctx: Context, state: State, last: Step, sig: float, converged: boo
         v_line=vl,
         v_sample=vs,
         outlier=~kept,
+        rejected=rejected,
         point_used=ctx.used.copy(),
         converged=converged and step.max_dp < 10 * ctx.settings.tol_px,
         iterations=len(ctx.history),
