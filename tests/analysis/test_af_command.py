@@ -168,7 +168,7 @@ def test_an_output_that_would_replace_the_table_is_refused(appendix_path, tmp_pa
     with pytest.raises(UsageError) as err:
         command.main(["--table", str(table), "--out", str(folder)], standalone_mode=False)
     assert err.value.exit_code == 2
-    assert f"its experiments.csv would replace the input table {table}" in str(err.value)
+    assert f"its experiments.csv would replace the input {table}" in str(err.value)
     assert table.read_bytes() == appendix_path.read_bytes()
     assert sorted(p.name for p in folder.iterdir()) == ["experiments.csv"]
     # the table's own folder is fine when no output takes its name

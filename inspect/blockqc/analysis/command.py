@@ -21,6 +21,7 @@ from blockqc.outputs import (
     check_out_dir,
     empty_removed,
     refuse_inside,
+    refuse_replacing,
     write_bytes_atomic,
     write_json_atomic,
     write_text_atomic,
@@ -77,18 +78,6 @@ OUTPUT_NAMES: tuple[str, ...] = (
     "structure.png",
     "factors.html",
 )
-
-
-def _check_not_table(out: Path, table_path: Path) -> None:
-    """Refuse an --out where an output file would be (or replace) the input table."""
-    table_r = table_path.resolve()
-    for name in OUTPUT_NAMES:
-        target = out / name
-        if target.resolve() == table_r or (target.exists() and target.samefile(table_r)):
-            raise UsageError(
-                f"--out {out}: its {name} would replace the input table {table_path}; "
-                "choose another output folder (or rename the table)"
-            )
 
 
 def _remove_stale(out: Path, written: list[Path]) -> None:
@@ -278,7 +267,7 @@ def command(
         source = str(batch)
     else:
         assert table_path is not None
-        _check_not_table(out, table_path)
+        refuse_replacing(out, OUTPUT_NAMES, [table_path])
         table = read_table(table_path)
         source = str(table_path)
     with empty_removed(out):  # a failure leaves no empty folder the run made
