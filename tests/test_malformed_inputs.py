@@ -508,3 +508,13 @@ def test_a_quote_never_closed_names_the_line_it_opens_on(blockqc, block, tmp_pat
     p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
     _refused(p, "checkpoints.csv, line 5:", "never closed")
     assert "C error" not in p.stderr and "line 4" not in p.stderr
+
+
+def test_a_template_that_fails_on_a_block_says_so(blockqc, block, tmp_path):
+    """Not 'could not be inspected: UndefinedError': the delivery is fine, the template not."""
+    mine = tmp_path / "templates"
+    mine.mkdir()
+    (mine / "block.html.j2").write_text("{{ no_such_name }}\n", encoding="utf-8")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none", "--templates", mine)
+    _refused(p, "F1-B01: its report could not be rendered:", "'no_such_name' is undefined")
+    assert "could not be inspected:" not in p.stderr

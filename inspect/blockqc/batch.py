@@ -17,6 +17,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import jinja2
+
 from blockqc import __version__, pieces
 from blockqc.acceptance.decision import decide
 from blockqc.acceptance.evaluate import evaluate_results
@@ -337,6 +339,9 @@ class Job:
             return o
         except InputError as exc:
             return self._not_inspected(path, manifest, exc.problems)
+        except jinja2.TemplateError as exc:  # a template of --templates that fails on this block
+            reason = f"its report could not be rendered: {type(exc).__name__}: {exc}"
+            return self._not_inspected(path, manifest, [Problem(str(path), reason)])
         except Exception as exc:  # one block's failure must not stop the batch
             reason = f"could not be inspected: {type(exc).__name__}: {exc}"
             return self._not_inspected(path, manifest, [Problem(str(path), reason)])

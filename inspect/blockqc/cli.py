@@ -29,6 +29,30 @@ class OutPath(click.Path):
         return super().convert(value, param, ctx)
 
 
+class TemplatesPath(click.Path):
+    """A folder of the user's templates, each compiled up front in the environment of the
+    reports (`page="factors"`: of the factors page), so that a broken one is named with its
+    line before anything runs."""
+
+    def __init__(self, page: str = "report") -> None:
+        super().__init__(path_type=Path, file_okay=False, exists=True)
+        self.page = page
+
+    def convert(self, value, param, ctx):
+        folder = super().convert(value, param, ctx)
+        from blockqc.report.html import PAGES, check_templates
+
+        if self.page == "factors":
+            from blockqc.analysis.render import TEMPLATE, environment
+
+            check_templates(folder, environment(folder), [TEMPLATE])
+        else:
+            from blockqc.report.html import environment
+
+            check_templates(folder, environment(folder), PAGES)
+        return folder
+
+
 class LazyGroup(click.Group):
     """Commands of the numerical methods load their (heavy) modules only when invoked."""
 
@@ -114,7 +138,7 @@ def check_pdf_engine(engine: str, pdf: bool) -> None:
 )
 @click.option(
     "--templates",
-    type=click.Path(path_type=Path, file_okay=False, exists=True),
+    type=TemplatesPath(),
     help="Folder of templates that take precedence over the stock ones.",
 )
 @click.option(
@@ -433,6 +457,14 @@ def simulate_cmd(
 MAX_GRID = 20
 
 
+def _template_error(exc: Exception) -> bool:
+    """Whether a page could not be rendered from its templates (a user's that fails at run time:
+    an undefined name); jinja2 is imported only then."""
+    import jinja2
+
+    return isinstance(exc, jinja2.TemplateError)
+
+
 def main(argv: list[str] | None = None) -> None:
     """Entry point: run the command group, turning blockqc's errors into messages and exit 2."""
     try:
@@ -458,6 +490,10 @@ def main(argv: list[str] | None = None) -> None:
             raise
         if isinstance(exc, RuntimeError) and str(exc).startswith("Symlink loop"):
             click.echo(f"error: {exc}: a symbolic link leads back to itself", err=True)
+            sys.exit(2)
+        if _template_error(exc):
+            why = f"{type(exc).__name__}: {exc}"
+            click.echo(f"error: a template of --templates failed: {why}", err=True)
             sys.exit(2)
         click.echo(
             f"internal error: {type(exc).__name__}: {exc} (set BLOCKQC_DEBUG=1 for the "

@@ -239,3 +239,34 @@ def test_a_failure_after_out_is_made_leaves_no_empty_folder(appendix_path, tmp_p
     with pytest.raises(InputError):
         command.main(args, standalone_mode=False)
     assert out.is_dir()
+
+
+def test_a_template_that_fails_on_the_analysis_leaves_no_output(appendix_path, tmp_path):
+    """The page is rendered before any file is written: a user's template that fails on the
+    results (an undefined name) left the CSVs, JSON and figures of a run without its page."""
+    from blockqc.cli import main
+
+    mine = tmp_path / "templates"
+    mine.mkdir()
+    (mine / "factors.html.j2").write_text("{{ no_such_name }}\n", encoding="utf-8")
+    (mine / "block.html.j2").write_text("{{ x | num }}\n")  # a report page: not the factors'
+    out = tmp_path / "out"
+    with pytest.raises(SystemExit) as exc:
+        main(
+            ["factors", "--table", str(appendix_path), "--out", str(out), "--templates", str(mine)]
+        )
+    assert exc.value.code == 2 and not out.exists()
+
+
+def test_a_factors_template_that_cannot_be_read_is_named(appendix_path, tmp_path):
+    mine = tmp_path / "templates"
+    mine.mkdir()
+    (mine / "factors.html.j2").write_text("ok\n{{ 1 | no_such_filter }}\n", encoding="utf-8")
+    args = ["--table", str(appendix_path), "--out", str(tmp_path / "o"), "--templates", str(mine)]
+    with pytest.raises(InputError) as err:
+        command.main(args, standalone_mode=False)
+    assert str(err.value) == (
+        f"{mine / 'factors.html.j2'}, line 2: not a readable template: No filter named "
+        "'no_such_filter'."
+    )
+    assert not (tmp_path / "o").exists()

@@ -186,3 +186,52 @@ def test_empty_out_is_refused(tmp_path, capsys, results_file, monkeypatch):
     )
     assert sorted(p.name for p in results_file.parent.iterdir()) == ["results.json"]
     assert sorted(p.name for p in (tmp_path / "in").iterdir()) == ["T-B01"]
+
+
+@pytest.mark.parametrize(
+    ("files", "expected"),
+    [
+        (
+            {"block.html.j2": "<p>\n{{ results.block_id </p>\n"},
+            "{d}/block.html.j2, line 2: not a readable template: unexpected '/'",  # `<` an operator
+        ),
+        (
+            {"block.html.j2": "{{ results.block_id | no_such_filter }}\n"},
+            "{d}/block.html.j2, line 1: not a readable template: No filter named 'no_such_filter'.",
+        ),
+        (
+            {"block.html.j2": '{% include "_mine.html.j2" %}\n'},
+            "{d}/block.html.j2: _mine.html.j2: no such template, in the folder or the stock ones",
+        ),
+        (
+            {"block.html.j2": '{% include "_mine.html.j2" %}\n', "_mine.html.j2": "{% if x %}\n"},
+            "{d}/_mine.html.j2, line 1: not a readable template: Unexpected end of template.",
+        ),
+    ],
+)
+def test_a_template_that_cannot_be_read_is_named_before_anything_runs(
+    tmp_path, results_file, capsys, files, expected
+):
+    """It used to be found block after block, each block then 'could not be inspected'."""
+    mine = tmp_path / "templates"
+    mine.mkdir()
+    for name, text in files.items():
+        (mine / name).write_text(text, encoding="utf-8")
+    (mine / "factors.html.j2").write_text("{{ 1 | num }}\n")  # the factors page's filter: left
+    out = tmp_path / "out"
+    assert run("report", str(results_file), "--out", str(out), "--templates", str(mine)) == 2
+    assert capsys.readouterr().err.startswith("error: " + expected.format(d=mine))
+    assert not out.exists()
+
+
+def test_a_template_that_fails_on_the_results_is_an_error_not_an_internal_one(
+    tmp_path, results_file, capsys
+):
+    mine = tmp_path / "templates"
+    mine.mkdir()
+    (mine / "block.html.j2").write_text("{{ no_such_name }}\n", encoding="utf-8")
+    out = tmp_path / "out"
+    assert run("report", str(results_file), "--out", str(out), "--no-pdf", "--templates", mine) == 2
+    assert capsys.readouterr().err == (
+        "error: a template of --templates failed: UndefinedError: 'no_such_name' is undefined\n"
+    )

@@ -14,7 +14,7 @@ from blockqc.analysis.factors import FactorOptions, experiments_table
 from blockqc.analysis.render import correlation_heatmap, render_html, structure_plot
 from blockqc.analysis.table import FACTOR_COLUMNS, INDICATOR_COLUMNS, read_table, write_table_csv
 from blockqc.analysis.terrain import DemSet
-from blockqc.cli import OutPath
+from blockqc.cli import OutPath, TemplatesPath
 from blockqc.delivery import find_deliveries, load_delivery
 from blockqc.errors import UsageError
 from blockqc.outputs import (
@@ -100,7 +100,16 @@ def write_outputs(
     out: Path, table: pd.DataFrame, results: dict[str, Any], user_templates: Path | None = None
 ) -> list[Path]:
     """Write the table, the analysis (CSV, JSON), the figures and the page; return the files."""
-    written: list[Path] = []
+    figures = {
+        name: made
+        for name, made in (
+            ("correlation", correlation_heatmap(results)),
+            ("structure", structure_plot(results)),
+        )
+        if made is not None
+    }
+    page = render_html(results, {name: svg for name, (svg, _) in figures.items()}, user_templates)
+    written: list[Path] = []  # the page is rendered first: a template that fails leaves no file
 
     def text(name: str, content: str) -> None:
         write_text_atomic(out / name, content)
@@ -131,19 +140,11 @@ def write_outputs(
             ]
         )
         text("cca_structure.csv", struct.to_csv(index=False, lineterminator="\n"))
-    figures: dict[str, bytes] = {}
-    for name, made in (
-        ("correlation", correlation_heatmap(results)),
-        ("structure", structure_plot(results)),
-    ):
-        if made is None:
-            continue
-        svg, png = made
-        figures[name] = svg
+    for name, (svg, png) in figures.items():
         for suffix, data in ((".svg", svg), (".png", png)):
             write_bytes_atomic(out / f"{name}{suffix}", data)
             written.append(out / f"{name}{suffix}")
-    text("factors.html", render_html(results, figures, user_templates))
+    text("factors.html", page)
     return written
 
 
@@ -229,7 +230,7 @@ def _struct_frame(
 @click.option(
     "--templates",
     "user_templates",
-    type=click.Path(exists=True, file_okay=False, path_type=Path),
+    type=TemplatesPath("factors"),
     help="A folder whose factors.html.j2 overrides the stock page.",
 )
 def command(

@@ -9,7 +9,7 @@ from typing import Any
 import click
 from pydantic import ValidationError
 
-from blockqc.cli import OutPath, check_pdf_engine, pdf_engine_option
+from blockqc.cli import OutPath, TemplatesPath, check_pdf_engine, pdf_engine_option
 from blockqc.errors import InputError, Problem, UsageError
 from blockqc.report.messages import LANGUAGES
 from blockqc.results import BlockResults, Summary, json_path, parse, tally
@@ -232,7 +232,7 @@ def _check_out(out: Path, named: tuple[Path, ...], docs: list, summary: tuple | 
 )
 @click.option(
     "--templates",
-    type=click.Path(path_type=Path, file_okay=False, exists=True),
+    type=TemplatesPath(),
     help="Folder of templates that take precedence over the stock ones.",
 )
 @click.option("--pdf/--no-pdf", default=True, show_default=True, help="Also write the PDFs.")

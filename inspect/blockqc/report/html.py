@@ -8,8 +8,10 @@ from pathlib import Path
 from typing import Any
 
 import jinja2
+from jinja2 import meta
 from markupsafe import Markup
 
+from blockqc.errors import InputError, Problem
 from blockqc.report.build import block_context
 from blockqc.report.format import number
 from blockqc.resources import templates_dir
@@ -54,6 +56,37 @@ def environment(user_templates: Path | None = None) -> jinja2.Environment:
     env.filters["group"] = _group
     env.filters["css_string"] = _css_string
     return env
+
+
+#: the pages of the block and batch reports
+PAGES = ("block.html.j2", "summary.html.j2", "acceptance.html.j2")
+
+
+def check_templates(folder: Path, env: jinja2.Environment, pages: Sequence[str] = PAGES) -> None:
+    """The pages, and every template they include, import or extend, compiled once in `env`
+    (the user's `folder` first): one that cannot be read is refused with its file and line before
+    anything is inspected or written (not taken, block after block, for a delivery that could
+    not be inspected). Templates of other pages in the folder are left alone."""
+    todo, seen = [(name, None) for name in pages], set()
+    while todo:
+        name, by = todo.pop()
+        if name in seen:
+            continue
+        seen.add(name)
+        try:
+            source, file, _ = env.loader.get_source(env, name)  # type: ignore[union-attr]
+            env.compile(source, name, file)
+            todo += [(t, file) for t in meta.find_referenced_templates(env.parse(source)) if t]
+        except jinja2.TemplateNotFound:
+            raise InputError(
+                Problem(by or name, f"{name}: no such template, in the folder or the stock ones")
+            ) from None
+        except jinja2.TemplateSyntaxError as exc:  # also a filter or test that does not exist
+            problem = f"not a readable template: {exc.message}"
+            raise InputError(Problem(exc.filename or name, problem, line=exc.lineno)) from None
+        except UnicodeDecodeError:
+            where = folder / name if (folder / name).is_file() else name
+            raise InputError(Problem(str(where), "not a template: expected UTF-8 text")) from None
 
 
 def render_page(
