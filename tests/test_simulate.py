@@ -155,3 +155,13 @@ def test_a_failure_leaves_no_empty_out_it_made(tmp_path: Path) -> None:
     out.mkdir()
     r = run_blockqc("simulate", out, "--fields", "1", "--grid", "2x2", "--dem-dir", dems)
     assert r.returncode == 2 and out.is_dir()
+
+
+def test_a_dem_tile_that_is_no_raster_is_named(tmp_path: Path) -> None:
+    """The raster library's error names the file itself: no empty name before it."""
+    dems = tmp_path / "dems"
+    dems.mkdir()
+    (dems / "srtm_N44E005.tif").write_text("not a raster\n")
+    r = run_blockqc("simulate", tmp_path / "out", "--fields", "2", "--dem-dir", dems)
+    assert r.returncode == 2 and not (tmp_path / "out").exists()
+    assert r.stderr.startswith(f"error: '{dems / 'srtm_N44E005.tif'}' not recognized as ")

@@ -483,7 +483,8 @@ def main(argv: list[str] | None = None) -> None:
         click.echo("interrupted", err=True)
         sys.exit(130)
     except OSError as exc:  # the system refused a path: too long, a link loop, no space …
-        click.echo(f"error: {exc.filename or ''}: {exc.strerror or exc}", err=True)
+        where = f"{exc.filename}: " if exc.filename else ""  # a raster library's names the file
+        click.echo(f"error: {where}{exc.strerror or exc}", err=True)
         sys.exit(2)
     except Exception as exc:  # a defect of blockqc, not of the input: say so, briefly
         if os.environ.get("BLOCKQC_DEBUG"):
