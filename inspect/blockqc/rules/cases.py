@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
@@ -30,8 +30,10 @@ import yaml
 from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, model_validator
 
 from blockqc.errors import BlockqcError, Problem, RuleError
+from blockqc.metrics import REGISTRY
 from blockqc.rules.casebase import EditError, write_delivery
-from blockqc.rules.model import Pack
+from blockqc.rules.lint import did_you_mean
+from blockqc.rules.model import Pack, Rule
 from blockqc.yamlio import line_of, load_yaml, pydantic_problems
 
 #: the most severe status first: a rule's overall status over its results
@@ -88,11 +90,11 @@ class CaseFile(BaseModel):
     # anything the cases share through YAML anchors (e.g. the files of a delivery's geometry)
     shared: dict[str, Any] = Field(default_factory=dict)
     cases: list[Case] = Field(min_length=1)
-    _lines: list[int | None] = PrivateAttr(default_factory=list)
+    _data: Any = PrivateAttr(default=None)
 
-    def line(self, i: int) -> int | None:
-        """The line where case `i` starts."""
-        return self._lines[i] if i < len(self._lines) else None
+    def line(self, i: int, *loc: Any) -> int | None:
+        """The line where case `i` starts, or where its key `loc` stands."""
+        return line_of(self._data, ("cases", i, *loc))
 
     @model_validator(mode="after")
     def _unique(self) -> CaseFile:
@@ -160,8 +162,99 @@ def read_case_file(path: Path) -> CaseFile:
         raise RuleError(
             Problem(str(path), f"rule: {doc.rule}, but the file is {path.name}", line=line)
         )
-    doc._lines = [line_of(data, ("cases", i)) for i in range(len(doc.cases))]
+    doc._data = data
     return doc
+
+
+def case_problems(path: Path, doc: CaseFile, pack: Pack, pack_file: Path) -> list[Problem]:
+    """What the cases of a file ask that their rule can never give — a `value` of another kind
+    than the rule's statistic, a `group` column or value the rule does not judge — by file and
+    line. Each case is checked against the rule it runs under: the pack's, or its own `pack:`'s."""
+    out: list[Problem] = []
+    with tempfile.TemporaryDirectory(prefix="blockqc-case-") as tmp:
+        for i, case in enumerate(doc.cases):
+            rule = _case_rule(pack, pack_file, doc.rule, case, Path(tmp))
+            if rule is None:
+                continue
+
+            def bad(message: str, *loc: Any, i: int = i) -> None:
+                where = ".".join(map(str, ("cases", i, *loc)))
+                out.append(Problem(str(path), f"{where}: {message}", line=doc.line(i, *loc)))
+
+            _check_value(case.value, rule, bad)
+            _check_group(case.group, rule, bad)
+    return out
+
+
+def _case_rule(pack: Pack, pack_file: Path, rule_id: str, case: Case, work: Path) -> Rule | None:
+    """The rule a case is judged by; None when there is none (said where the case runs)."""
+    try:
+        return _case_pack(pack, pack_file, case, work).rule(rule_id)
+    except (KeyError, BlockqcError):
+        return None
+
+
+def _statistic_unit(rule: Rule) -> str:
+    return REGISTRY[rule.metric or ""].scopes[rule.scope].statistics.get(rule.statistic or "", "")
+
+
+def _check_value(value: Any, rule: Rule, bad: Callable[..., None]) -> None:
+    """A case's `value` is of the kind the rule's statistic gives: a number, true/false, a text."""
+    if value is None or rule.manual:
+        return
+    unit = _statistic_unit(rule)
+    if unit == "true/false":
+        ok, want = isinstance(value, bool), "true or false"
+    elif unit == "name":
+        ok, want = isinstance(value, str), "a text"
+    elif unit:
+        ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+        want = "a number"
+    else:
+        return
+    if not ok:
+        judged = f"rule {rule.id} judges {rule.statistic} ({unit})"
+        bad(f"{judged}: expected {want}, got {_kind(value)}", "value")
+
+
+def _kind(value: Any) -> str:
+    if isinstance(value, str):
+        return f"the text '{value}'"
+    if isinstance(value, bool):
+        return str(value).lower()
+    if isinstance(value, dict):
+        return "a mapping"
+    return "a list" if isinstance(value, list) else repr(value)
+
+
+def _check_group(group: dict[str, Any], rule: Rule, bad: Callable[..., None]) -> None:
+    """A case's `group` names group columns of the rule's scope and values the rule judges."""
+    if not group:
+        return
+    scope = None if rule.manual else REGISTRY[rule.metric or ""].scopes[rule.scope]
+    if scope is None or not scope.groups:
+        what = f"{rule.metric} at scope {rule.scope}" if scope else "the inspector's verdict"
+        bad(f"rule {rule.id} judges no groups ({what}): leave group out", "group")
+        return
+    for col, val in group.items():
+        if col not in scope.groups:
+            hint = did_you_mean(str(col), scope.groups)
+            columns = ", ".join(scope.groups)
+            bad(
+                f"rule {rule.id} has no group column '{col}'{hint} (group columns: {columns})",
+                "group",
+                col,
+            )
+        elif col in rule.where and str(val) != str(rule.where[col]):
+            bad(f"rule {rule.id} judges {col} {rule.where[col]} only (where:)", "group", col)
+        elif str(val) not in scope.groups[col]:
+            values = scope.groups[col]
+            hint = did_you_mean(str(val), values)
+            bad(
+                f"rule {rule.id} has no {col} '{val}'{hint} (values: {', '.join(values)})",
+                "group",
+                col,
+            )
 
 
 def aggregate_status(results: list[dict[str, Any]]) -> str:
@@ -266,6 +359,8 @@ def run_file_cases(pack_file: Path) -> list[Outcome]:
         line = doc.line(i)
         if doc.rule not in ids:
             raise RuleError(Problem(str(f), f"cases for {doc.rule}: no such rule in the pack"))
+        if i == 0 and (problems := case_problems(f, doc, pack, pack_file)):
+            raise RuleError(problems)
         with tempfile.TemporaryDirectory(prefix="blockqc-case-") as tmp:
             try:
                 message = run_case(pack, pack_file, doc.rule, case, Path(tmp))

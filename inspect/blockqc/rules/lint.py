@@ -480,10 +480,12 @@ def _check_reference(
 
 # ---------------------------------------------------------------------------------- lint
 def check_cases(pack: Pack) -> list[Problem]:
-    """Every rule has a case file (nearest along the pack's chain) with a pass and a fail case."""
-    from blockqc.rules.cases import case_folder, find_case_file, read_case_file
+    """Every rule has a case file (nearest along the pack's chain) with a pass and a fail case,
+    whose values and groups its rule can give."""
+    from blockqc.rules.cases import case_folder, case_problems, find_case_file, read_case_file
 
     out: list[Problem] = []
+    owners = _case_owners(pack)
     for rule in pack.rules:
         file, line = pack.origin.get(rule.id, (pack.chain[0], None))
         found = find_case_file(pack.chain, rule.id)
@@ -503,6 +505,9 @@ def check_cases(pack: Pack) -> list[Problem]:
         except RuleError as exc:
             out.extend(exc.problems)
             continue
+        owner = owners(found)
+        if owner is not None:
+            out.extend(case_problems(found, doc, *owner))
         expects = {c.expect for c in doc.cases}
         if "pass" not in expects:
             out.append(Problem(str(found), f"rule {rule.id}: no passing case (expect: pass)"))
@@ -510,6 +515,27 @@ def check_cases(pack: Pack) -> list[Problem]:
             out.append(Problem(str(found), f"rule {rule.id}: no failing case (expect: fail)"))
     out.extend(_stray_case_files(pack))
     return out
+
+
+def _case_owners(pack: Pack) -> Callable[[Path], tuple[Pack, Path] | None]:
+    """The pack a case file runs against (the pack of its folder, along the chain) and its file;
+    None when that pack cannot be loaded (its own problems are reported when it is linted)."""
+    from blockqc.rules.cases import case_folder
+    from blockqc.rules.loader import load_pack
+
+    loaded: dict[Path, Pack | None] = {Path(pack.chain[0]): pack}
+
+    def owner(case_file: Path) -> tuple[Pack, Path] | None:
+        file = next(Path(f) for f in pack.chain if case_folder(Path(f)) == case_file.parent)
+        if file not in loaded:
+            try:
+                loaded[file] = load_pack(file)
+            except RuleError:
+                loaded[file] = None
+        found = loaded[file]
+        return None if found is None else (found, file)
+
+    return owner
 
 
 def _stray_case_files(pack: Pack) -> list[Problem]:

@@ -1,0 +1,119 @@
+"""A case's `value` and `group` are checked against its rule: a case that can never match is a
+broken case file (exit 2, its file and line), not a failing case."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from blockqc.errors import RuleError
+from blockqc.rules import load_pack
+from blockqc.rules.cases import run_pack_cases
+from casekit import extension_pack as _pack
+from casekit import lint_messages as _messages
+
+_TP1 = (
+    "rule: TP-1\ncases:\n  - name: every error 0.3 px\n    expect: pass\n    value: {value}\n"
+    "  - name: errors of 0.707 px\n    set: {{tie_points: [{{values: {{v_line: 0.5, "
+    "v_sample: 0.5}}}}]}}\n    expect: fail\n"
+)
+_RO3 = (
+    "rule: RO-3\ncases:\n  - name: passes\n    expect: pass\n"
+    "  - name: 20 m and 20 m fail\n"
+    "    set: {{overlaps: [{{where: {{point_id: O1}}, values: {{dx_m: 20.0, dy_m: 20.0}}}}]}}\n"
+    "    expect: fail\n    group: {group}\n"
+)
+
+
+def _with_cases(tmp_path: Path, rule: str, text: str) -> tuple[Path, Path]:
+    pack = _pack(tmp_path, "")
+    folder = tmp_path / "project.cases"
+    folder.mkdir()
+    case_file = folder / f"{rule}.yaml"
+    case_file.write_text(text, "utf-8")
+    return pack, case_file
+
+
+def _refused(pack: Path) -> list[str]:
+    with pytest.raises(RuleError) as exc:
+        run_pack_cases(load_pack(pack), own_only=True)
+    return [str(p) for p in exc.value.problems]
+
+
+def test_a_value_written_as_text_for_a_number_is_refused(tmp_path: Path) -> None:
+    pack, cases = _with_cases(tmp_path, "TP-1", _TP1.format(value='"0.3"'))
+    expected = [
+        f"{cases}, line 5: cases.0.value: rule TP-1 judges median (px): expected a number, "
+        "got the text '0.3'"
+    ]
+    assert _refused(pack) == expected
+    assert _messages(pack) == expected
+
+
+def test_a_number_for_a_true_false_statistic_is_refused(tmp_path: Path) -> None:
+    text = (
+        "rule: MB-3\ncases:\n  - name: ok\n    expect: pass\n    value: 1\n"
+        "  - name: wrong\n    manifest: {spatial_reference: {epsg: 32651}}\n    expect: fail\n"
+    )
+    pack, cases = _with_cases(tmp_path, "MB-3", text)
+    assert _messages(pack) == [
+        f"{cases}, line 5: cases.0.value: rule MB-3 judges projection_ok (true/false): "
+        "expected true or false, got 1"
+    ]
+
+
+def test_a_group_value_the_rule_does_not_judge_is_refused(tmp_path: Path) -> None:
+    pack, cases = _with_cases(tmp_path, "RO-3", _RO3.format(group="{component: planar}"))
+    expected = [
+        f"{cases}, line 8: cases.1.group.component: rule RO-3 has no component 'planar' "
+        "(did you mean plane?) (values: plane, height)"
+    ]
+    assert _refused(pack) == expected
+    assert _messages(pack) == expected
+
+
+def test_a_group_column_the_rule_does_not_have_is_refused(tmp_path: Path) -> None:
+    pack, cases = _with_cases(tmp_path, "RO-3", _RO3.format(group="{componnet: plane}"))
+    assert _messages(pack) == [
+        f"{cases}, line 8: cases.1.group.componnet: rule RO-3 has no group column 'componnet' "
+        "(did you mean component?) (group columns: component)"
+    ]
+
+
+def test_a_group_on_a_rule_without_groups_is_refused(tmp_path: Path) -> None:
+    text = _TP1.format(value="0.3") + "    group: {component: plane}\n"
+    pack, cases = _with_cases(tmp_path, "TP-1", text)
+    assert _messages(pack) == [
+        f"{cases}, line 9: cases.1.group: rule TP-1 judges no groups "
+        "(tie_point_errors at scope block): leave group out"
+    ]
+
+
+def test_a_group_left_out_by_the_rules_where_is_refused(tmp_path: Path) -> None:
+    pack = _pack(
+        tmp_path,
+        "overrides:\n  RO-3:\n    where: {component: plane}\n"
+        "    thresholds: {plane: {max: 2 * sqrt(2) * norm.plane_m, inclusive: false}}\n",
+    )
+    cases = tmp_path / "project.cases"
+    cases.mkdir()
+    (cases / "RO-3.yaml").write_text(_RO3.format(group="{component: height}"), "utf-8")
+    assert _messages(pack) == [
+        f"{cases / 'RO-3.yaml'}, line 8: cases.1.group.component: rule RO-3 judges component "
+        "plane only (where:)"
+    ]
+
+
+def test_the_command_exits_2_on_a_broken_case(blockqc, tmp_path: Path) -> None:
+    pack, cases = _with_cases(tmp_path, "TP-1", _TP1.format(value='"0.3"'))
+    p = blockqc("rules", "test", pack, "--own")
+    assert p.returncode == 2 and "Traceback" not in p.stderr
+    assert f"{cases}, line 5: cases.0.value" in p.stderr
+
+
+def test_a_case_pack_changing_the_statistic_is_checked_against_it(tmp_path: Path) -> None:
+    text = _TP1.format(value="0.3") + "    pack: {overrides: {TP-1: {statistic: rms}}}\n"
+    pack, _ = _with_cases(tmp_path, "TP-1", text)
+    assert _messages(pack) == []
+    assert all(o.ok for o in run_pack_cases(load_pack(pack), own_only=True))
