@@ -420,6 +420,30 @@ def test_space_separated_tables_are_refused_once(blockqc, tmp_path):
     assert "missing" not in p.stderr
 
 
+_COMMENT = (
+    "line 1: a comment line ('# exported by the AT software{rest}') where the header row is "
+    "expected: contract tables have no comment lines; remove it so that the first line names "
+    "the columns"
+)
+
+
+@pytest.mark.parametrize("rest", ["", ", 2024"])
+def test_a_comment_line_above_the_header_is_named_as_one(blockqc, block, tmp_path, rest):
+    tp = block / "tie_points.csv"
+    tp.write_text(f"# exported by the AT software{rest}\n" + tp.read_text(encoding="utf-8"))
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    _refused(p, "tie_points.csv, " + _COMMENT.format(rest=rest))
+    assert "separated by" not in p.stderr and "fields where" not in p.stderr
+
+
+def test_a_comment_line_above_another_tables_header_is_named_as_one(blockqc, tmp_path):
+    source = SAMPLE.parents[1] / "factors" / "gf7_adjustment_experiments.csv"
+    text = source.read_text(encoding="utf-8-sig")
+    (tmp_path / "t.csv").write_text("# exported by the AT software\n" + text, encoding="utf-8")
+    p = blockqc("factors", "--table", tmp_path / "t.csv", "--out", tmp_path / "out")
+    _refused(p, "t.csv, " + _COMMENT.format(rest=""))
+
+
 @pytest.mark.parametrize(
     "text, why",
     [

@@ -46,7 +46,7 @@ from blockqc.schema import (
     report_rows,
     validate_table,
 )
-from blockqc.textio import BOM, check_utf8, read_bytes, separator_problem
+from blockqc.textio import BOM, check_utf8, header_problem, read_bytes
 from blockqc.yamlio import line_of, load_yaml, pydantic_problems
 
 MANIFEST = "block.yaml"
@@ -314,7 +314,7 @@ def _read_csv(
     if not data or data.isspace():  # no stripped copy of the whole file
         raise InputError(Problem(str(path), "the file is empty: expected a header row"))
     first = _csv_header(data)
-    wrong = separator_problem(path, first) if len(schema.columns) > 1 else None
+    wrong = header_problem(path, first, len(schema.columns))
     if wrong:
         raise InputError(wrong)
     header = None if columns is None else first

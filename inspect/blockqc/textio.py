@@ -87,6 +87,22 @@ def read_text(path: Path, max_bytes: int | None, error: type[BlockqcError] = Inp
 OTHER_SEPARATORS = {";": "semicolons", "\t": "tabs", "|": "vertical bars", " ": "spaces"}
 
 
+def header_problem(path: Path, header: list[str], columns: int = 2) -> Problem | None:
+    """What makes a CSV's first record no header, to report once rather than every column
+    missing: a comment line, or (for a table of more than one column) another dialect's
+    separator. None when the header is not such."""
+    line = ",".join(header)
+    if line.lstrip().startswith("#"):
+        shown = line.strip() if len(line.strip()) <= 60 else line.strip()[:59] + "…"
+        return Problem(
+            str(path),
+            f"a comment line ('{shown}') where the header row is expected: contract tables "
+            "have no comment lines; remove it so that the first line names the columns",
+            line=1,
+        )
+    return separator_problem(path, header) if columns > 1 else None
+
+
 def separator_problem(path: Path, header: list[str]) -> Problem | None:
     """A CSV header read as one name that holds another dialect's separator: the problem to
     report once, rather than every column missing (None when the header is not such)."""

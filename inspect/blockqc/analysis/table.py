@@ -11,7 +11,7 @@ import pandas as pd
 
 from blockqc.errors import InputError, Problem
 from blockqc.report.exports import neutralise
-from blockqc.textio import read_text, separator_problem
+from blockqc.textio import header_problem, read_text
 
 #: Columns that identify an experiment (text, kept but not analysed).
 ID_COLUMNS: tuple[str, ...] = ("experiment", "region", "periods", "image_pairs")
@@ -94,7 +94,7 @@ def _check_shape(path: Path, text: str) -> list[int]:
     rows = csv.reader(io.StringIO(text, newline=""))
     try:
         header = [h.strip() for h in next(rows, [])]
-        wrong = separator_problem(path, header)
+        wrong = header_problem(path, header)
         if wrong:
             raise InputError(wrong)
         problems = [
