@@ -103,7 +103,7 @@ def test_override_of_unknown_rule_and_circular_extends(tmp_path: Path) -> None:
     a, b = tmp_path / "a.yaml", tmp_path / "b.yaml"
     a.write_text("pack: a\nextends: b.yaml\n")
     b.write_text("pack: b\nextends: a.yaml\n")
-    with pytest.raises(RuleError, match="circular extends"):
+    with pytest.raises(RuleError, match="closes a circle"):
         load_pack(a)
     c = tmp_path / "c.yaml"
     c.write_text(

@@ -272,3 +272,19 @@ def test_figures_naming_other_metrics_are_checked(tmp_path: Path) -> None:
         head.format(10) + "relative_orientation_rms_m.where.component: no component 'plnae' "
         "(did you mean plane?) (values: plane, height)",
     ]
+
+
+def test_circular_extends_names_the_file_and_line_that_closes_the_circle(tmp_path: Path) -> None:
+    a, b = tmp_path / "a.yaml", tmp_path / "b.yaml"
+    a.write_text("pack: a\nextends: b.yaml\n", "utf-8")
+    b.write_text("# the project's parent\npack: b\nextends: a.yaml\n", "utf-8")
+    assert _messages(a) == [
+        f"{b}, line 3: extends: a.yaml closes a circle ({a} -> {b} -> {a}): a pack cannot "
+        "extend itself or a pack that extends it"
+    ]
+    me = tmp_path / "me.yaml"
+    me.write_text("pack: me\nextends: ./me.yaml\n", "utf-8")
+    assert _messages(me) == [
+        f"{me}, line 2: extends: ./me.yaml closes a circle ({me} -> {me}): a pack cannot "
+        "extend itself or a pack that extends it"
+    ]

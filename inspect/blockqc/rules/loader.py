@@ -115,12 +115,8 @@ class _Loaded:
     sources: list[tuple[str, Any, PackFile]] = field(default_factory=list)
 
 
-def _read_file(path: Path, seen: tuple[Path, ...]) -> tuple[PackFile, Any]:
+def _read_file(path: Path) -> tuple[PackFile, Any]:
     """One pack file read and validated for its shape (unknown keys refused)."""
-    resolved = path.resolve()
-    if resolved in seen:
-        chain = " -> ".join(str(p) for p in seen + (resolved,))
-        raise RuleError(Problem(str(path), f"circular extends: {chain}"))
     data = load_yaml(path, RuleError)
     if not isinstance(data, dict):
         raise RuleError(
@@ -134,12 +130,15 @@ def _read_file(path: Path, seen: tuple[Path, ...]) -> tuple[PackFile, Any]:
 
 def _load_raw(path: Path, seen: tuple[Path, ...]) -> _Loaded:
     """Read one pack file and what it extends, collecting (not raising) the problems found."""
-    pf, data = _read_file(path, seen)
+    pf, data = _read_file(path)
     out = _Loaded(pf)
     if pf.extends:
         site = (str(path), line_of(data, ("extends",)))
         parent = resolve_pack_path(pf.extends, path.parent, site)
-        out = _load_raw(parent, seen + (path.resolve(),))
+        seen = seen + (path.resolve(),)
+        if parent.resolve() in seen:
+            _circle(pf.extends, (*seen, parent.resolve()), site)
+        out = _load_raw(parent, seen)
         out.pf = pf
     found = check_constants(pf.constants, data, path)
     out.problems += found
@@ -153,6 +152,19 @@ def _load_raw(path: Path, seen: tuple[Path, ...]) -> _Loaded:
     _apply_disable(out, pf, data, path)
     out.problems += unused_constants(sites, [r.data for r in out.rules.values()])
     return out
+
+
+def _circle(ref: str, chain: tuple[Path, ...], site: tuple[str, int | None]) -> None:
+    """An `extends` naming a pack already in the chain: refused at the file and line naming it."""
+    circle = " -> ".join(map(str, chain))
+    raise RuleError(
+        Problem(
+            site[0],
+            f"extends: {ref} closes a circle ({circle}): a pack cannot extend itself or a pack "
+            "that extends it",
+            line=site[1],
+        )
+    )
 
 
 def _add_rules(out: _Loaded, pf: PackFile, data: Any, path: Path) -> None:
