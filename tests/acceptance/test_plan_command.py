@@ -64,7 +64,7 @@ def _write_plan_b00_b02(path: Path) -> None:
     stratum = {"value": "", "size": 4, "sample": 2, "units": ["B00", "B01", "B02", "B03"]}
     sampled = ["B00", "B02"]
     lot = {"size": 4, "sample_size": 2, "census": False}
-    lot |= {"strata": [stratum | {"sampled": sampled}], "sampled": sampled}
+    lot |= {"strata": [stratum | {"sampled": sampled[:]}], "sampled": sampled[:]}
     plan = {**ABOUT, "seed": 0, "units": 4, "sample_size": 2, "lots": [lot], "sampled": sampled}
     path.write_text(yaml.safe_dump(plan))
 
@@ -188,3 +188,35 @@ def test_pdf_sampled_follows_the_plan(tmp_path: Path) -> None:
     r = run_blockqc("inspect", batch, "--out", without, "--pdf", "sampled")
     assert r.returncode == 0, r.stderr
     assert sorted(p.parent.name for p in without.glob("*/report.pdf")) == ["B00", "B01"]
+
+
+def _line(path: Path, text: str, after: str = "") -> int:
+    """The line of `path` holding `text` (after the line holding `after`)."""
+    lines = path.read_text().splitlines()
+    start = lines.index(after) + 1 if after else 0
+    return lines.index(text, start) + 1
+
+
+def test_inspect_plan_names_the_line_of_a_sampled_block_not_inspected(tmp_path: Path) -> None:
+    batch = _batch(tmp_path / "batch", 2)  # B00, B01: the plan samples B00 and B02
+    plan = tmp_path / "plan.yaml"
+    _write_plan_b00_b02(plan)
+    r = run_blockqc("inspect", batch, "--plan", plan, "--out", tmp_path / "o", "--no-pdf")
+    line = _line(plan, "- B02", after="sampled:")
+    assert r.returncode == 2, r.stderr
+    assert (
+        f"{plan}, line {line}: sampled: block B02 is sampled by the plan but not among the "
+        "deliveries inspected (B00, B01)"
+    ) in r.stderr
+
+
+def test_inspect_plan_names_the_line_of_its_units_for_a_block_outside_it(tmp_path: Path) -> None:
+    batch = _batch(tmp_path / "batch", 5)  # B04 is not among the plan's units B00..B03
+    plan = tmp_path / "plan.yaml"
+    _write_plan_b00_b02(plan)
+    r = run_blockqc("inspect", batch, "--plan", plan, "--out", tmp_path / "o", "--no-pdf")
+    assert r.returncode == 2, r.stderr
+    assert (
+        f"{plan}, line {_line(plan, 'units: 4')}: units: block B04 is not in the plan's batch "
+        "(its 4 units: B00, B01, B02, B03)"
+    ) in r.stderr

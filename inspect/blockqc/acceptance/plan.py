@@ -11,7 +11,7 @@ from collections import Counter
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, ValidationError
+from pydantic import BaseModel, ConfigDict, PrivateAttr, ValidationError
 
 from blockqc.acceptance.model import ReportMeta
 from blockqc.acceptance.sampling import Lot
@@ -66,10 +66,15 @@ class Plan(_M):
     sample_size: int
     lots: list[LotPlan]
     sampled: list[str]
+    _data: Any = PrivateAttr(default=None)  # the file as read, for the lines of its keys
 
     @property
     def population(self) -> set[str]:
         return {u for lot in self.lots for s in lot.strata for u in s.units}
+
+    def line(self, *loc: str | int) -> int | None:
+        """The line of a key of the plan file it was read from (None for a plan made here)."""
+        return line_of(self._data, loc) if self._data is not None else None
 
 
 def make_plan(lots: list[Lot], seed: int, key: str | None, **about: Any) -> Plan:
@@ -123,6 +128,7 @@ def load_plan(path: Path) -> Plan:
                 for loc, msg in found
             ]
         )
+    plan._data = data
     return plan
 
 
@@ -199,16 +205,27 @@ def plan_problems(plan: Plan) -> list[Mismatch]:
 
 
 def check_blocks(plan: Plan, path: Path, block_ids: list[str], whole_batch: bool) -> None:
-    """Every block inspected is in the plan's batch; with a whole batch, every sampled block too."""
+    """Every block inspected is in the plan's batch; with a whole batch, every sampled block too.
+    Each problem names the plan's line: its `units`, or the sampled block's."""
+    units = f"its {plan.units} units: {_names(sorted(plan.population))}"
     problems = [
-        Problem(str(path), f"block {b} is not in the plan's batch ({plan.units} units)")
+        Problem(
+            str(path),
+            f"units: block {b} is not in the plan's batch ({units})",
+            line=plan.line("units"),
+        )
         for b in block_ids
         if b not in plan.population
     ]
     if whole_batch:
         problems += [
-            Problem(str(path), f"sampled block {b} is not among the deliveries inspected")
-            for b in plan.sampled
+            Problem(
+                str(path),
+                f"sampled: block {b} is sampled by the plan but not among the deliveries "
+                f"inspected ({_names(sorted(block_ids))})",
+                line=plan.line("sampled", i),
+            )
+            for i, b in enumerate(plan.sampled)
             if b not in block_ids
         ]
     if problems:
