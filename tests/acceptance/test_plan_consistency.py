@@ -137,7 +137,24 @@ def test_a_stratum_that_is_not_text_or_a_number_is_refused(tmp_path: Path, value
     batch = _batch(tmp_path / "batch", ["north", value])
     with pytest.raises(InputError) as exc:
         read_units(batch, "zone")
+    manifest = batch / "B01" / "block.yaml"
+    line = _key_line(manifest, "zone:")
     assert [str(p) for p in exc.value.problems] == [
-        f"{batch / 'B01' / 'block.yaml'}, column 'zone': 'zone' is {why}: a stratum is text or "
-        "a number"
+        f"{manifest}, line {line}: key 'zone' is {why}: a stratum is text or a number"
     ]
+
+
+def _key_line(path: Path, start: str) -> int:
+    lines = path.read_text(encoding="utf-8").splitlines()
+    return next(i for i, x in enumerate(lines, 1) if x.startswith(start))
+
+
+def test_a_missing_strata_key_is_named_as_a_key_of_block_yaml(tmp_path: Path) -> None:
+    batch = _batch(tmp_path / "batch", [{"class": "flat"}])
+    manifest = batch / "B00" / "block.yaml"
+    for key, where in (("producer", ""), ("zone.klass", f", line {_key_line(manifest, 'zone:')}")):
+        with pytest.raises(InputError) as exc:
+            read_units(batch, key)
+        assert [str(p) for p in exc.value.problems] == [
+            f"{manifest}{where}: no key '{key}' in block.yaml to stratify by"
+        ]

@@ -32,7 +32,7 @@ def _stratum(data: dict[str, Any], key: str) -> str:
         why = f"a mapping (stratify by one of its keys, e.g. '{key}.{next(iter(value), 'name')}')"
     else:
         why = {bool: "true/false", list: "a list", type(None): "empty"}.get(type(value), "not text")
-    raise ValueError(f"'{key}' is {why}: a stratum is text or a number")
+    raise ValueError(f"key '{key}' is {why}: a stratum is text or a number")
 
 
 def read_units(batch: Path, key: str | None) -> tuple[list[str], dict[str, str] | None]:
@@ -56,13 +56,34 @@ def read_units(batch: Path, key: str | None) -> tuple[list[str], dict[str, str] 
         if key:
             try:
                 strata[m.block_id] = _stratum(m.model_dump(mode="json"), key)
-            except (KeyError, ValueError) as exc:
-                why = f"no key '{key}' to stratify by" if isinstance(exc, KeyError) else str(exc)
-                problems.append(Problem(str(path / MANIFEST), why, column=key))
+            except KeyError:
+                why = f"no key '{key}' in block.yaml to stratify by"
+                problems.append(_key_problem(path / MANIFEST, key.split(".")[:-1], why))
+            except ValueError as exc:
+                problems.append(_key_problem(path / MANIFEST, key.split("."), str(exc)))
     if problems:
         raise InputError(problems)
     ids = [got.manifests[p].block_id for p in got.deliveries]
     return ids, strata if key else None
+
+
+def _key_problem(path: Path, loc: list[str], why: str) -> Problem:
+    """A problem of the strata key at the line of `loc` in block.yaml, or of as much of it as is
+    there (no line when none of it is)."""
+    from blockqc.yamlio import line_of, load_yaml
+
+    data = load_yaml(path)
+    while loc and not _has(data, loc):
+        loc = loc[:-1]
+    return Problem(str(path), why, line=line_of(data, loc) if loc else None)
+
+
+def _has(data: dict[str, Any], loc: list[str]) -> bool:
+    try:
+        _lookup(data, ".".join(loc))
+    except KeyError:
+        return False
+    return True
 
 
 def _echo_plan(plan: Plan, out: Path) -> None:
