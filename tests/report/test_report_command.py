@@ -235,3 +235,18 @@ def test_a_template_that_fails_on_the_results_is_an_error_not_an_internal_one(
     assert capsys.readouterr().err == (
         "error: a template of --templates failed: UndefinedError: 'no_such_name' is undefined\n"
     )
+
+
+def test_a_results_file_named_twice_is_rendered_once_with_a_warning(tmp_path, results_file, capsys):
+    """As inspect does for a delivery named twice: said, not silently folded."""
+    again = results_file.parent / ".." / "T-B01" / "results.json"  # the same file, spelt apart
+    out = tmp_path / "out"
+    args = [str(results_file), str(results_file), str(again), str(results_file.parent)]
+    assert run("report", *args, "--out", str(out), "--no-pdf") == 0
+    captured = capsys.readouterr()
+    warned = [x for x in captured.err.splitlines() if x.startswith("warning:")]
+    assert warned == [
+        f"warning: {results_file}: named more than once, rendered once",
+        f"warning: {again}: named more than once, rendered once",
+    ]
+    assert captured.out.count("T-B01        FAIL") == 1

@@ -125,10 +125,23 @@ def _summary_blocks(
     return found, missing
 
 
+def _once(files: list[Path]) -> tuple[list[Path], list[Path]]:
+    """The files named, each once (by the file it is, however spelt), and those named again."""
+    first: dict[Path, Path] = {}
+    again: list[Path] = []
+    for f in files:
+        if f.resolve() in first:
+            again.append(f)
+        else:
+            first[f.resolve()] = f
+    return list(first.values()), list(dict.fromkeys(again))
+
+
 def gather(
     paths: list[Path],
-) -> tuple[list[tuple[Path, BlockResults, bytes]], tuple[Path, Summary, bytes] | None]:
-    """The results documents named (files or folders holding them) and a summary, if any."""
+) -> tuple[list[tuple[Path, BlockResults, bytes]], tuple[Path, Summary, bytes] | None, list[Path]]:
+    """The results documents named (files or folders holding them), a summary if any, and the
+    files named more than once (read once)."""
     results: list[tuple[Path, BlockResults, bytes]] = []
     summary: tuple[Path, Summary, bytes] | None = None
     problems: list[Problem] = []
@@ -155,7 +168,8 @@ def gather(
     if problems:
         raise InputError(problems)
     loaded: list[tuple[Path, Any, bytes]] = []
-    queue = list(dict.fromkeys(files))
+    files, repeated = _once(files)
+    queue = list(files)
     while queue:
         f = queue.pop(0)
         try:
@@ -191,7 +205,7 @@ def gather(
         results.append((f, doc, raw))
     if problems:
         raise InputError(problems)
-    return results, summary
+    return results, summary, repeated
 
 
 def _check_out(out: Path, named: tuple[Path, ...], docs: list, summary: tuple | None) -> None:
@@ -253,7 +267,9 @@ def command(
     from blockqc.report import write_block_report, write_summary_report
 
     check_pdf_engine(pdf_engine, pdf)
-    docs, summary = gather(list(results))
+    docs, summary, repeated = gather(list(results))
+    for f in repeated:
+        click.echo(f"warning: {f}: named more than once, rendered once", err=True)
     _check_out(out, results, docs, summary)
     make_out_dir(out, out.resolve())
     written: list[Path] = []
