@@ -7,6 +7,7 @@ from pathlib import Path
 import pytest
 
 from blockqc.errors import RuleError
+from blockqc.resources import rules_dir
 from blockqc.rules import load_pack
 from casekit import extension_pack as _pack
 from casekit import lint_messages as _messages
@@ -288,3 +289,27 @@ def test_circular_extends_names_the_file_and_line_that_closes_the_circle(tmp_pat
         f"{me}, line 2: extends: ./me.yaml closes a circle ({me} -> {me}): a pack cannot "
         "extend itself or a pack that extends it"
     ]
+
+
+def test_a_list_constant_as_a_bound_is_refused(tmp_path: Path) -> None:
+    """A list constant stands for a list parameter (interval_px); as a bound it left the rule
+    in error on every delivery, and as a score's norm it would divide by a list."""
+    pack = _pack(
+        tmp_path,
+        "constants:\n  tp: {error_px: [0.5, 0.7]}\n"
+        "overrides:\n  CP-2:\n    score: {kind: accuracy, norm: tp.share_interval_px}\n",
+    )
+    stock = rules_dir() / "global-project.yaml"
+    tp1 = _line_of(stock, "    threshold: {max: tp.error_px}")
+    assert _messages(pack) == [
+        f"{stock}, line {tp1}: rule TP-1: threshold.max: tp.error_px is a list of numbers "
+        "(0.5, 0.7): expected one number",
+        f"{pack}, line 7: rule CP-2: score.norm: tp.share_interval_px is a list of numbers "
+        "(1, 1.5): expected one number",
+    ]
+    with pytest.raises(RuleError):
+        load_pack(pack)
+
+
+def _line_of(path: Path, text: str) -> int:
+    return path.read_text(encoding="utf-8").splitlines().index(text) + 1

@@ -215,25 +215,36 @@ def check_rule(rule: Rule, names: Mapping[str, Any], file: str, line: LineFn) ->
 def _check_thresholds(rule: Rule, names: Mapping[str, Any], bad: Callable[..., None]) -> None:
     for group, th in rule.all_thresholds().items():
         loc = ("thresholds", group) if group else ("threshold",)
-        for key in ("min", "max"):
-            expr = getattr(th, key)
-            if expr is None:
-                continue
-            try:
-                evaluate(expr, names)
-            except ExpressionError as exc:
-                bad(f"{'.'.join(loc)}.{key}: {exc}", *loc, key)
-        if th.min is not None and th.max is not None:
-            try:
-                lo, hi = evaluate(th.min, names), evaluate(th.max, names)
-            except ExpressionError:
-                lo = hi = None  # reported above
-            if lo is not None and hi is not None and lo > hi:
-                bad(f"{'.'.join(loc)}: min {lo:g} is above max {hi:g}: nothing can pass", *loc)
+        where = ".".join(loc)
+        lo, hi = (
+            _number(getattr(th, key), names, bad, f"{where}.{key}", *loc, key)
+            for key in ("min", "max")
+        )
+        if lo is not None and hi is not None and lo > hi:
+            bad(f"{where}: min {lo:g} is above max {hi:g}: nothing can pass", *loc)
         if th.in_ is not None and not th.in_:
-            bad(f"{'.'.join(loc)}.in: an empty list: nothing can pass", *loc, "in")
+            bad(f"{where}.in: an empty list: nothing can pass", *loc, "in")
         if isinstance(th.equals, float) and not math.isfinite(th.equals):
-            bad(f"{'.'.join(loc)}.equals: expected a finite number, true/false or a text", *loc)
+            bad(f"{where}.equals: expected a finite number, true/false or a text", *loc)
+
+
+def _number(
+    expr: Any, names: Mapping[str, Any], bad: Callable[..., None], label: str, *loc: Any
+) -> float | None:
+    """A bound or norm evaluated to one number; None when not given or not one (reported). A
+    constant that is a list of numbers (for a list parameter) is no bound."""
+    if expr is None:
+        return None
+    try:
+        value = evaluate(expr, names)
+    except ExpressionError as exc:
+        bad(f"{label}: {exc}", *loc)
+        return None
+    if isinstance(value, list):
+        listed = ", ".join(f"{v:g}" for v in value)
+        bad(f"{label}: {expr} is a list of numbers ({listed}): expected one number", *loc)
+        return None
+    return value
 
 
 def _check_score(rule: Rule, names: Mapping[str, Any], bad: Callable[..., None]) -> None:
@@ -245,11 +256,7 @@ def _check_score(rule: Rule, names: Mapping[str, Any], bad: Callable[..., None])
     if score.norm is None:
         _check_bound_norms(rule, names, bad)
         return
-    try:
-        m0 = evaluate(score.norm, names)
-    except ExpressionError as exc:
-        bad(f"score.norm: {exc}", "score", "norm")
-        return
+    m0 = _number(score.norm, names, bad, "score.norm", "score", "norm")
     if isinstance(m0, float) and not m0 > 0:
         bad(f"score.norm is {m0:g}: {_DIVIDES}", "score", "norm")
 
