@@ -313,3 +313,18 @@ def test_a_list_constant_as_a_bound_is_refused(tmp_path: Path) -> None:
 
 def _line_of(path: Path, text: str) -> int:
     return path.read_text(encoding="utf-8").splitlines().index(text) + 1
+
+
+def test_a_rule_disabled_twice_is_named_as_such(tmp_path: Path) -> None:
+    """It was said to be no rule at all, with a "did you mean" another rule."""
+    parent = _pack(tmp_path, "disable: [CP-5]\n", name="parent")
+    pack = _pack(
+        tmp_path,
+        "disable: [TP-2,\n  TP-2, CP-5]\noverrides:\n  CP-5: {severity: fail}\n",
+        extends="parent.yaml",
+    )
+    assert _messages(pack) == [
+        f"{pack}, line 6: overrides.CP-5: CP-5 is disabled by {parent}, line 3",
+        f"{pack}, line 4: disable: TP-2 is listed twice (first on line 3)",
+        f"{pack}, line 4: disable: CP-5 is already disabled by {parent}, line 3",
+    ]

@@ -110,6 +110,7 @@ class _Loaded:
     rules: dict[str, _Raw] = field(default_factory=dict)
     chain: list[str] = field(default_factory=list)
     disabled: list[str] = field(default_factory=list)
+    disabled_at: dict[str, tuple[str, int | None]] = field(default_factory=dict)  # file, line
     problems: list[Problem] = field(default_factory=list)
     # every file of the chain as read, the root pack first: (file, its YAML, its model)
     sources: list[tuple[str, Any, PackFile]] = field(default_factory=list)
@@ -198,14 +199,10 @@ def _apply_overrides(out: _Loaded, pf: PackFile, data: Any, path: Path) -> None:
         line = line_of(data, ("overrides", rid))
         if rid not in out.rules:
             hint = did_you_mean(rid, out.rules)
-            out.problems.append(
-                Problem(
-                    str(path),
-                    f"overrides.{rid}: no rule {rid} to override{hint} "
-                    f"(known: {', '.join(out.rules)})",
-                    line=line,
-                )
-            )
+            why = f"no rule {rid} to override{hint} (known: {', '.join(out.rules)})"
+            if rid in out.disabled_at:
+                why = f"{rid} is disabled by {', line '.join(map(str, out.disabled_at[rid]))}"
+            out.problems.append(Problem(str(path), f"overrides.{rid}: {why}", line=line))
             continue
         if "id" in override and override["id"] != rid:
             out.problems.append(
@@ -220,17 +217,23 @@ def _apply_overrides(out: _Loaded, pf: PackFile, data: Any, path: Path) -> None:
 
 def _apply_disable(out: _Loaded, pf: PackFile, data: Any, path: Path) -> None:
     for i, rid in enumerate(pf.disable):
+        line = line_of(data, ("disable", i))
         if rid not in out.rules:
-            out.problems.append(
-                Problem(
-                    str(path),
-                    f"disable: no rule {rid} to disable{did_you_mean(rid, out.rules)}",
-                    line=line_of(data, ("disable", i)),
-                )
-            )
+            out.problems.append(Problem(str(path), _not_disabled(out, rid), line=line))
             continue
         del out.rules[rid]
         out.disabled.append(rid)
+        out.disabled_at[rid] = (str(path), line)
+
+
+def _not_disabled(out: _Loaded, rid: str) -> str:
+    """Why a rule named under `disable:` cannot be disabled: it already is, or there is none."""
+    if rid in out.disabled_at:
+        file, line = out.disabled_at[rid]
+        if file == out.chain[0]:
+            return f"disable: {rid} is listed twice (first on line {line})"
+        return f"disable: {rid} is already disabled by {file}, line {line}"
+    return f"disable: no rule {rid} to disable{did_you_mean(rid, out.rules)}"
 
 
 def read_pack(ref: str | Path) -> tuple[Pack | None, list[Problem]]:
