@@ -250,3 +250,22 @@ def test_a_results_file_named_twice_is_rendered_once_with_a_warning(tmp_path, re
         f"warning: {again}: named more than once, rendered once",
     ]
     assert captured.out.count("T-B01        FAIL") == 1
+
+
+def test_two_batch_summaries_are_refused(tmp_path, results_doc, capsys):
+    """The second replaced the first unsaid: one summary listed one batch's blocks only."""
+    summaries = []
+    for batch, bid in (("a", "T-B01"), ("b", "T-B02")):
+        (tmp_path / batch / bid).mkdir(parents=True)
+        doc = {**results_doc, "block_id": bid}
+        (tmp_path / batch / bid / "results.json").write_text(json.dumps(doc), encoding="utf-8")
+        summary = make_summary([summary_entry(bid, "fail", sampled=True, failed_rules=["TP-4"])])
+        summaries.append(tmp_path / batch / "summary.json")
+        summaries[-1].write_text(json.dumps(summary), encoding="utf-8")
+    out = tmp_path / "o"
+    assert run("report", str(tmp_path / "a"), str(tmp_path / "b"), "--out", str(out)) == 2
+    assert (
+        f"{summaries[1]}: a second batch summary (the first: {summaries[0]}): re-render one "
+        "batch at a time, or name the results files without their summaries"
+    ) in capsys.readouterr().err
+    assert not out.exists()

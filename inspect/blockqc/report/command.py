@@ -178,6 +178,9 @@ def gather(
             problems.extend(exc.problems)
             continue
         if isinstance(doc, dict) and "blocks" in doc and "results" not in doc:
+            if summary is not None:
+                problems.append(_second_summary(f, summary[0]))
+                continue
             try:
                 summary = (f, _check_summary(f, doc), raw)
             except InputError as exc:
@@ -206,6 +209,15 @@ def gather(
     if problems:
         raise InputError(problems)
     return results, summary, repeated
+
+
+def _second_summary(path: Path, first: Path) -> Problem:
+    """One summary is re-rendered per run: a second would replace the first unsaid."""
+    return Problem(
+        str(path),
+        f"a second batch summary (the first: {first}): re-render one batch at a time, or name "
+        "the results files without their summaries",
+    )
 
 
 def _check_out(out: Path, named: tuple[Path, ...], docs: list, summary: tuple | None) -> None:
