@@ -117,3 +117,24 @@ def test_a_case_pack_changing_the_statistic_is_checked_against_it(tmp_path: Path
     pack, _ = _with_cases(tmp_path, "TP-1", text)
     assert _messages(pack) == []
     assert all(o.ok for o in run_pack_cases(load_pack(pack), own_only=True))
+
+
+def test_a_case_pack_that_cannot_be_read_is_named_at_the_cases_line(tmp_path: Path) -> None:
+    """Lint passed it; rules test named a temporary file of its own."""
+    text = _TP1.format(value="0.3") + "    pack: {overrides: {TP-1: {statistic: rmss}}}\n"
+    pack, cases = _with_cases(tmp_path, "TP-1", text)
+    expected = [
+        f"{cases}, line 9: cases.1.pack: rule TP-1: metric tie_point_errors at scope block "
+        "offers no statistic 'rmss' (did you mean rms?) (offers: n, median, rms, mean, max, "
+        "share_in_interval, n_in_interval)"
+    ]
+    assert _messages(pack) == expected
+    assert _refused(pack) == expected
+
+
+def test_a_case_pack_disabling_the_rule_is_refused(tmp_path: Path) -> None:
+    text = _TP1.format(value="0.3") + "    pack: {disable: [TP-1]}\n"
+    pack, cases = _with_cases(tmp_path, "TP-1", text)
+    assert _messages(pack) == [
+        f"{cases}, line 9: cases.1.pack: disables TP-1, the rule the cases are for"
+    ]

@@ -173,25 +173,32 @@ def case_problems(path: Path, doc: CaseFile, pack: Pack, pack_file: Path) -> lis
     out: list[Problem] = []
     with tempfile.TemporaryDirectory(prefix="blockqc-case-") as tmp:
         for i, case in enumerate(doc.cases):
-            rule = _case_rule(pack, pack_file, doc.rule, case, Path(tmp))
-            if rule is None:
-                continue
 
             def bad(message: str, *loc: Any, i: int = i) -> None:
                 where = ".".join(map(str, ("cases", i, *loc)))
                 out.append(Problem(str(path), f"{where}: {message}", line=doc.line(i, *loc)))
 
+            rule = _case_rule(pack, pack_file, doc.rule, case, Path(tmp), bad)
+            if rule is None:
+                continue
             _check_value(case.value, rule, bad)
             _check_group(case.group, rule, bad)
     return out
 
 
-def _case_rule(pack: Pack, pack_file: Path, rule_id: str, case: Case, work: Path) -> Rule | None:
-    """The rule a case is judged by; None when there is none (said where the case runs)."""
+def _case_rule(
+    pack: Pack, pack_file: Path, rule_id: str, case: Case, work: Path, bad: Callable[..., None]
+) -> Rule | None:
+    """The rule a case is judged by; None when its own `pack:` cannot be read or disables the
+    rule (reported at the case's `pack` key: the pack is written to a file of the moment)."""
     try:
         return _case_pack(pack, pack_file, case, work).rule(rule_id)
-    except (KeyError, BlockqcError):
-        return None
+    except KeyError:
+        bad(f"disables {rule_id}, the rule the cases are for", "pack")
+    except BlockqcError as exc:
+        for p in exc.problems:
+            bad(p.message, "pack")
+    return None
 
 
 def _statistic_unit(rule: Rule) -> str:
