@@ -138,3 +138,19 @@ def test_a_case_pack_disabling_the_rule_is_refused(tmp_path: Path) -> None:
     assert _messages(pack) == [
         f"{cases}, line 9: cases.1.pack: disables TP-1, the rule the cases are for"
     ]
+
+
+def test_a_case_verdict_for_an_automatic_rule_is_refused(tmp_path: Path) -> None:
+    """inspect refuses it; the case runner dropped it and the case failed for another reason."""
+    text = (
+        "rule: TP-1\ncases:\n  - name: ok\n    expect: pass\n  - name: set aside\n"
+        "    verdicts: {verdicts: {TP-1: {status: fail}}}\n    expect: fail\n"
+    )
+    pack, cases = _with_cases(tmp_path, "TP-1", text)
+    expected = [
+        f"{cases}, line 6: cases.1.verdicts: rule TP-1 is judged from the delivery, not by the "
+        "inspector: a verdict is given only for a manual rule (DOC-3); to set a result aside, "
+        "waive a waivable rule"
+    ]
+    assert _messages(pack) == expected
+    assert _refused(pack) == expected

@@ -178,27 +178,54 @@ def case_problems(path: Path, doc: CaseFile, pack: Pack, pack_file: Path) -> lis
                 where = ".".join(map(str, ("cases", i, *loc)))
                 out.append(Problem(str(path), f"{where}: {message}", line=doc.line(i, *loc)))
 
-            rule = _case_rule(pack, pack_file, doc.rule, case, Path(tmp), bad)
-            if rule is None:
+            case_pack = _case_rule_pack(pack, pack_file, doc.rule, case, Path(tmp), bad)
+            if case_pack is None:
                 continue
+            rule = case_pack.rule(doc.rule)
+            out.extend(_verdict_problems(path, doc, i, case_pack))
             _check_value(case.value, rule, bad)
             _check_group(case.group, rule, bad)
     return out
 
 
-def _case_rule(
+def _case_rule_pack(
     pack: Pack, pack_file: Path, rule_id: str, case: Case, work: Path, bad: Callable[..., None]
-) -> Rule | None:
-    """The rule a case is judged by; None when its own `pack:` cannot be read or disables the
+) -> Pack | None:
+    """The pack a case is judged by; None when its own `pack:` cannot be read or disables the
     rule (reported at the case's `pack` key: the pack is written to a file of the moment)."""
     try:
-        return _case_pack(pack, pack_file, case, work).rule(rule_id)
+        case_pack = _case_pack(pack, pack_file, case, work)
+        case_pack.rule(rule_id)
+        return case_pack
     except KeyError:
         bad(f"disables {rule_id}, the rule the cases are for", "pack")
     except BlockqcError as exc:
         for p in exc.problems:
             bad(p.message, "pack")
     return None
+
+
+def _verdict_problems(path: Path, doc: CaseFile, i: int, pack: Pack) -> list[Problem]:
+    """A case's `verdicts`, checked as inspect checks an inspector's file: verdicts for manual
+    rules of the pack, waivers of waivable ones (its scenes are checked where the case runs)."""
+    from blockqc.errors import InputError
+    from blockqc.inspector import InspectorInput, check_inspector_input
+
+    at = ("cases", i, "verdicts")
+    try:
+        inp = InspectorInput.model_validate(doc.cases[i].verdicts)
+    except ValidationError as exc:
+        return pydantic_problems(exc, path, doc._data, at)
+    inp._file, inp._data = str(path), doc._data["cases"][i].get("verdicts")
+    try:
+        check_inspector_input(inp, {r.id: r for r in pack.rules}, {"CASE": None})
+    except InputError as exc:
+        return [Problem(p.file, f"{_key(at)}: {p.message}", line=p.line) for p in exc.problems]
+    return []
+
+
+def _key(loc: tuple[Any, ...]) -> str:
+    return ".".join(map(str, loc))
 
 
 def _statistic_unit(rule: Rule) -> str:
