@@ -10,7 +10,7 @@ from pathlib import Path
 import click
 from click.core import ParameterSource
 
-from blockqc import __version__
+from blockqc import __version__, memory
 from blockqc.errors import BlockqcError, UsageError
 
 STATUS_STYLE = {"pass": "green", "fail": "red", "error": "red", "warn": "yellow"}
@@ -467,6 +467,7 @@ def _template_error(exc: Exception) -> bool:
 
 def main(argv: list[str] | None = None) -> None:
     """Entry point: run the command group, turning blockqc's errors into messages and exit 2."""
+    memory.tune()  # before any command imports numpy
     try:
         rc = cli.main(args=argv, prog_name="blockqc", standalone_mode=False)
     except BlockqcError as exc:
