@@ -388,6 +388,21 @@ def test_half_given_reference_and_self_overlap(blockqc, delivery: Path, tmp_path
     )
 
 
+def test_an_overlap_point_given_in_both_orders_is_refused(blockqc, delivery, tmp_path) -> None:
+    # row 4 repeats row 1's point O0 of the pair S1/S2 as S2/S1: it would be judged twice
+    _cell(delivery / "overlaps.csv", 4, "point_id", "O0")
+    _cell(delivery / "overlaps.csv", 4, "scene_a", "S2")
+    _cell(delivery / "overlaps.csv", 4, "scene_b", "S1")
+    message = "the same point of this pair is also given with scene_a and scene_b swapped"
+    _refused(
+        blockqc,
+        delivery,
+        tmp_path / "out",
+        f"overlaps.csv, row 1 (line 2): {message}",
+        f"overlaps.csv, row 4 (line 5): {message}",
+    )
+
+
 # ------------------------------------------------ problems together, "did you mean"
 def test_missing_document_reported_with_table_errors(blockqc, delivery, tmp_path) -> None:
     (delivery / "documents" / "technical_design.pdf").unlink()

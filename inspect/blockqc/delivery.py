@@ -933,7 +933,21 @@ def _consistency_masks(
     if ov is not None and {"scene_a", "scene_b"} <= set(ov.columns):
         same = (ov["scene_a"] == ov["scene_b"]).to_numpy(dtype=bool)
         out.append(("overlaps", "scene_b", same, "scene_b is scene_a: expected two scenes"))
+        if "point_id" in ov.columns:
+            msg = (
+                "the same point of this pair is also given with scene_a and scene_b swapped: "
+                "give each point of a pair once"
+            )
+            out.append(("overlaps", None, _given_swapped(ov) & ~same, msg))
     return out
+
+
+def _given_swapped(ov: pd.DataFrame) -> np.ndarray:
+    """Overlap rows whose point is given again for the same pair in the other order (B, A):
+    the unique key (scene_a, scene_b, point_id) lets it through, and it would count twice."""
+    given = pd.MultiIndex.from_frame(ov[["scene_a", "scene_b", "point_id"]].astype(object))
+    swapped = pd.MultiIndex.from_frame(ov[["scene_b", "scene_a", "point_id"]].astype(object))
+    return swapped.isin(given)
 
 
 def _outside(v: np.ndarray, at: np.ndarray, low: float, high: np.ndarray) -> np.ndarray:
