@@ -403,6 +403,18 @@ def test_an_overlap_point_given_in_both_orders_is_refused(blockqc, delivery, tmp
     )
 
 
+@pytest.mark.parametrize("neighbour", ["CASE", "case"])
+def test_an_edge_against_the_block_itself_is_refused(blockqc, delivery, tmp_path, neighbour):
+    _cell(delivery / "edges.csv", 3, "neighbour_block", neighbour)
+    _refused(
+        blockqc,
+        delivery,
+        tmp_path / "out",
+        "edges.csv, row 3 (line 4), column 'neighbour_block': neighbour_block names this "
+        f"block (block_id CASE in block.yaml): expected an adjacent block, got '{neighbour}'",
+    )
+
+
 # ------------------------------------------------ problems together, "did you mean"
 def test_missing_document_reported_with_table_errors(blockqc, delivery, tmp_path) -> None:
     (delivery / "documents" / "technical_design.pdf").unlink()

@@ -761,6 +761,8 @@ def load_delivery(
     problems.extend(_misnamed_tables(path))
     problems.extend(_check_references(tables, files))
     problems.extend(_check_consistency({k: tables[k] for k in read.clean}, files))
+    if manifest is not None and "edges" in read.clean:
+        problems.extend(_edges_to_itself(tables["edges"], files["edges"], manifest.block_id))
     geometry, found = load_geometry(path, tables, files)  # contract v1.1
     problems.extend(found)
     if residuals and "tie_points" in tables:
@@ -969,6 +971,21 @@ def _check_consistency(tables: dict[str, pd.DataFrame], files: dict[str, Path]) 
         shown = ("line", "sample", "pan_scene_id", "ms_scene_id")
         values = tables[name][column] if column in shown else None
         report_rows(problems, str(f), column, mask, message, values, f.suffix == ".csv")
+    return problems
+
+
+def _edges_to_itself(edges: pd.DataFrame, f: Path, block_id: str) -> list[Problem]:
+    """Edge discrepancies whose neighbour_block is the block itself (whatever its case, as
+    block ids are unique): no adjacent block's, they would be judged by RO-2 as if they were."""
+    neighbour = edges["neighbour_block"].astype("string").str.casefold()
+    own = (neighbour == block_id.casefold()).to_numpy(dtype=bool, na_value=False)
+    problems: list[Problem] = []
+    msg = (
+        f"neighbour_block names this block (block_id {block_id} in block.yaml): "
+        "expected an adjacent block"
+    )
+    values = edges["neighbour_block"]
+    report_rows(problems, str(f), "neighbour_block", own, msg, values, f.suffix == ".csv")
     return problems
 
 
