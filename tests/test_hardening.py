@@ -415,6 +415,19 @@ def test_an_edge_against_the_block_itself_is_refused(blockqc, delivery, tmp_path
     )
 
 
+def test_a_footprint_with_a_hole_is_refused(blockqc, delivery, tmp_path) -> None:
+    outline = "116.3 39.9, 116.32 39.9, 116.32 39.88, 116.3 39.88, 116.3 39.9"
+    hole = "116.305 39.895, 116.31 39.895, 116.31 39.89, 116.305 39.895"
+    _cell(delivery / "scenes.csv", 2, "footprint_wkt", f"POLYGON(({outline}), ({hole}))")
+    _refused(
+        blockqc,
+        delivery,
+        tmp_path / "out",
+        "scenes.csv, row 2 (line 3), column 'footprint_wkt': a footprint is the outline of "
+        "an image: expected a polygon without holes",
+    )
+
+
 # ------------------------------------------------ problems together, "did you mean"
 def test_missing_document_reported_with_table_errors(blockqc, delivery, tmp_path) -> None:
     (delivery / "documents" / "technical_design.pdf").unlink()

@@ -322,7 +322,8 @@ def _clean_floats(raw: pd.Series, col: Column) -> bool:
 def _check_polygons(
     wkt: pd.Series, ok: np.ndarray, file: str, column: str, csv: bool, problems: list[Problem]
 ) -> None:
-    """Footprints must be valid polygons: not self-intersecting, no repeated rings."""
+    """Footprints must be valid polygons: not self-intersecting, no repeated rings, no holes
+    (an image's outline has none; its corners and area would be read from different rings)."""
     text = wkt.where(ok, "").fillna("").to_numpy(dtype=object)
     geoms = shapely.from_wkt(text, on_invalid="ignore")
     invalid = ok & ~shapely.is_valid(geoms)
@@ -330,6 +331,9 @@ def _check_polygons(
     few = ok & ~invalid & (shapely.get_num_coordinates(rings) < 5)
     msg = "a footprint has at least four corners (they are read as the image corners)"
     report_rows(problems, file, column, few, msg, wkt, csv)
+    holes = ok & ~invalid & (shapely.get_num_interior_rings(geoms) > 0)
+    msg = "a footprint is the outline of an image: expected a polygon without holes"
+    report_rows(problems, file, column, holes, msg, wkt, csv)
     if invalid.any():
         reasons = pd.Series(shapely.is_valid_reason(geoms), index=wkt.index)
         msg = "not a valid polygon (its boundary must not cross itself)"
