@@ -79,3 +79,21 @@ def test_a_folder_given_for_a_file_is_called_a_folder(tmp_path):
     _refused(run_blockqc("rules", "list", "--rules", tmp_path), "is a folder, not a rule pack file")
     p = run_blockqc("inspect", SAMPLE, "--checkpoints", tmp_path, "--out", tmp_path / "o")
     _refused(p, f"{tmp_path}: a folder (expected a checkpoints table)")
+
+
+def test_output_inside_a_delivery_a_batch_links_to_is_refused(tmp_path):
+    """A batch's delivery may be a link to a folder elsewhere: --out inside that folder lies
+    inside the delivery, though not inside the batch."""
+    real = tmp_path / "real" / "F1-B01"
+    shutil.copytree(SAMPLE, real)
+    batch = tmp_path / "batch"
+    batch.mkdir()
+    (batch / "F1-B01").symlink_to(real)
+    before = sorted(p.name for p in real.rglob("*"))
+    p = run_blockqc("inspect", batch, "--out", real / "out", "--pdf", "none")
+    _refused(
+        p,
+        f"error: --out {real / 'out'} lies inside the input {batch / 'F1-B01'}: blockqc never "
+        "writes into a delivery; choose an output folder outside it",
+    )
+    assert sorted(p.name for p in real.rglob("*")) == before
