@@ -165,6 +165,7 @@ def test_batch_folder_without_block_yaml_is_refused_by_name(small_batch: Path, t
     ("address", "says"),
     [
         ("bogus", "expected 'local' or tcp|tls|ws|wss|ucx://HOST:PORT"),
+        ("", "expected 'local' or tcp|tls|ws|wss|ucx://HOST:PORT"),
         ("inproc://x", "expected 'local' or tcp|tls|ws|wss|ucx://HOST:PORT"),
         ("tcp://", "expected HOST:PORT after the scheme"),
         ("tcp://:8786", "expected HOST:PORT after the scheme"),
@@ -178,7 +179,8 @@ def test_scheduler_address_refused_before_anything_runs(
     out = tmp_path / "out"
     proc = run_blockqc("inspect", small_batch, "--out", out, "--no-pdf", "--scheduler", address)
     assert proc.returncode == 2
-    assert f"--scheduler {address}: {says}" in proc.stderr and "Traceback" not in proc.stderr
+    shown = address or "''"  # an empty address is refused, not read as no --scheduler
+    assert f"--scheduler {shown}: {says}" in proc.stderr and "Traceback" not in proc.stderr
     assert not out.exists() or not any(out.iterdir())
 
 

@@ -435,7 +435,7 @@ class Runner:
     scheduler: str | None = None
 
     def __post_init__(self) -> None:
-        if self.scheduler:  # a wrong address is refused before anything is read or written
+        if self.scheduler is not None:  # a wrong or empty address: refused before anything runs
             from blockqc.distributed import check_scheduler
 
             check_scheduler(self.scheduler)

@@ -272,7 +272,7 @@ def _refuse_conflicts(no_pdf: bool, pdf: str, scheduler: str | None) -> None:
     given = click.get_current_context().get_parameter_source
     if no_pdf and pdf != "none" and given("pdf") is ParameterSource.COMMANDLINE:
         raise UsageError(f"--no-pdf contradicts --pdf {pdf}: give one of them")
-    if scheduler and given("jobs") is ParameterSource.COMMANDLINE:
+    if scheduler is not None and given("jobs") is ParameterSource.COMMANDLINE:
         raise UsageError(
             "--jobs runs processes on this machine, --scheduler tasks on a Dask cluster's "
             "workers: give one of them"

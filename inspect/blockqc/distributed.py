@@ -34,7 +34,7 @@ def check_scheduler(address: str) -> str:
     elif not (port.isdigit() and 0 < int(port) < 65536):
         problem = f"the port {port!r} is not a number from 1 to 65535"
     if problem:
-        raise UsageError(f"--scheduler {address}: {problem}")
+        raise UsageError(f"--scheduler {address or repr(address)}: {problem}")
     return address
 
 
