@@ -48,6 +48,20 @@ def test_sample_command_names_a_missing_key(tmp_path: Path) -> None:
     assert not (tmp_path / "p.yaml").exists()
 
 
+def test_sample_refuses_a_plan_inside_a_delivery_the_batch_links_to(tmp_path: Path) -> None:
+    real = _batch(tmp_path / "real", 1) / "B00"
+    batch = tmp_path / "batch"
+    batch.mkdir()
+    (batch / "B00").symlink_to(real)
+    r = run_blockqc("sample", batch, "--seed", 1, "--out", real / "p.yaml")
+    assert r.returncode == 2, r.stderr
+    assert (
+        f"error: --out {real} lies inside the input {batch / 'B00'}: blockqc never writes into "
+        "a delivery; choose an output folder outside it"
+    ) in r.stderr
+    assert not (real / "p.yaml").exists()
+
+
 #: the fields of a plan that say what it is and where it comes from (every one is required)
 ABOUT = {
     "plan": "sampling plan",

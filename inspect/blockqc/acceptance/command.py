@@ -35,8 +35,9 @@ def _stratum(data: dict[str, Any], key: str) -> str:
     raise ValueError(f"key '{key}' is {why}: a stratum is text or a number")
 
 
-def read_units(batch: Path, key: str | None) -> tuple[list[str], dict[str, str] | None]:
-    """The batch's block ids and, with a key, each block's stratum; every problem at once."""
+def read_units(batch: Path, key: str | None) -> tuple[list[str], dict[str, str] | None, list[Path]]:
+    """The batch's block ids, with a key each block's stratum, and its delivery folders; every
+    problem at once."""
     from blockqc.batch import collect
     from blockqc.delivery import MANIFEST, load_manifest
 
@@ -64,7 +65,7 @@ def read_units(batch: Path, key: str | None) -> tuple[list[str], dict[str, str] 
     if problems:
         raise InputError(problems)
     ids = [got.manifests[p].block_id for p in got.deliveries]
-    return ids, strata if key else None
+    return ids, strata if key else None, got.deliveries
 
 
 def _key_problem(path: Path, loc: list[str], why: str) -> Problem:
@@ -111,7 +112,7 @@ def _echo_plan(plan: Plan, out: Path) -> None:
 @click.option("--out", required=True, type=click.Path(path_type=Path), help="Plan file (YAML).")
 def command(batch: Path, seed: int, key: str | None, rules_ref: str, out: Path) -> None:
     """Draw the blocks of a batch to inspect in detail (§QE-1) and write the plan."""
-    from blockqc.outputs import check_out_dir, write_text_atomic
+    from blockqc.outputs import check_out_dir, refuse_inside, write_text_atomic
     from blockqc.rules import load_pack
 
     pack = load_pack(rules_ref)
@@ -120,7 +121,8 @@ def command(batch: Path, seed: int, key: str | None, rules_ref: str, out: Path) 
     check_out_dir(out.parent, [batch])
     if out.suffix not in (".yaml", ".yml"):
         raise UsageError(f"--out {out}: the plan is a YAML file (.yaml)")
-    ids, strata = read_units(batch, key)
+    ids, strata, deliveries = read_units(batch, key)
+    refuse_inside(out.parent, deliveries)  # a batch's delivery may link to a folder elsewhere
     lots = draw(ids, pack.acceptance.sampling, seed, strata)
     plan = make_plan(
         lots,
