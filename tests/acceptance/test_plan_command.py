@@ -62,6 +62,19 @@ def test_sample_refuses_a_plan_inside_a_delivery_the_batch_links_to(tmp_path: Pa
     assert not (real / "p.yaml").exists()
 
 
+def test_sample_refused_leaves_no_folder_it_made(tmp_path: Path) -> None:
+    batch = _batch(tmp_path / "batch", 2)
+    out = tmp_path / "new" / "p.yaml"
+    r = run_blockqc("sample", batch, "--seed", 1, "--strata", "producer", "--out", out)
+    assert r.returncode == 2 and "no key 'producer'" in r.stderr, r.stderr
+    r = run_blockqc("sample", batch, "--seed", 1, "--out", tmp_path / "new" / "p.txt")
+    assert r.returncode == 2
+    assert f"error: --out {tmp_path / 'new' / 'p.txt'}: the plan is a YAML file (.yaml)" in (
+        r.stderr
+    )
+    assert not (tmp_path / "new").exists()
+
+
 #: the fields of a plan that say what it is and where it comes from (every one is required)
 ABOUT = {
     "plan": "sampling plan",

@@ -118,11 +118,12 @@ def command(batch: Path, seed: int, key: str | None, rules_ref: str, out: Path) 
     pack = load_pack(rules_ref)
     if pack.acceptance is None:
         raise RuleError(f"pack {pack.name} has no acceptance section (sampling table)", rules_ref)
-    check_out_dir(out.parent, [batch])
     if out.suffix not in (".yaml", ".yml"):
         raise UsageError(f"--out {out}: the plan is a YAML file (.yaml)")
+    refuse_inside(out.parent, [batch])  # before reading; its folder is made once the batch is read
     ids, strata, deliveries = read_units(batch, key)
-    refuse_inside(out.parent, deliveries)  # a batch's delivery may link to a folder elsewhere
+    # a batch's delivery may link to a folder elsewhere
+    check_out_dir(out.parent, [batch, *deliveries])
     lots = draw(ids, pack.acceptance.sampling, seed, strata)
     plan = make_plan(
         lots,
