@@ -93,6 +93,20 @@ def test_a_delivery_folder_that_holds_files_is_refused(tmp_path: Path) -> None:
     assert simulate(tmp_path / "new", Options(**TINY), DEM) == ["F4-B01"]  # an empty one is fine
 
 
+def test_out_inside_a_delivery_is_refused(tmp_path: Path) -> None:
+    delivery = tmp_path / "F9-B01"
+    delivery.mkdir()
+    (delivery / "block.yaml").write_text("block_id: F9-B01\n", encoding="utf-8")
+    for out in (delivery, delivery / "sub"):
+        with pytest.raises(UsageError) as err:
+            simulate(out, Options(**TINY), DEM)
+        assert str(err.value) == (
+            f"OUT {out} lies inside the delivery {delivery}: blockqc never writes into a "
+            "delivery; choose a folder outside it"
+        )
+    assert [p.name for p in delivery.iterdir()] == ["block.yaml"]
+
+
 def test_an_empty_out_is_refused(tmp_path: Path) -> None:
     with pytest.raises(UsageError, match="^OUT is empty: give the folder to write the deliveries"):
         simulate("", Options(**TINY), DEM)

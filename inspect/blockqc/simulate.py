@@ -613,11 +613,19 @@ def _holds_something(folder: Path) -> bool:
 
 
 def prepare_out(out: Path | str, ids: list[str]) -> Path:
-    """OUT, created: refused (exit 2) when empty, when it cannot be made or written in, or when a
-    delivery folder to write already holds something (old files would stay beside new ones)."""
+    """OUT, created: refused (exit 2) when empty, when it is or lies inside a delivery (a folder
+    holding block.yaml), when it cannot be made or written in, or when a delivery folder to write
+    already holds something (old files would stay beside new ones)."""
     if not str(out):
         raise UsageError("OUT is empty: give the folder to write the deliveries into")
     out = Path(out)
+    real = Path(os.path.realpath(out))
+    inside = next((p for p in (real, *real.parents) if (p / "block.yaml").is_file()), None)
+    if inside is not None:
+        raise UsageError(
+            f"OUT {out} lies inside the delivery {inside}: blockqc never writes into a delivery; "
+            "choose a folder outside it"
+        )
     try:
         out.mkdir(parents=True, exist_ok=True)
         taken = [out / i for i in ids if _holds_something(out / i)]
