@@ -117,6 +117,19 @@ def test_errors(appendix_path, batch, tmp_path):
         command.main(
             [str(batch), "--dem", str(tmp_path), "--out", str(batch / "x")], standalone_mode=False
         )
+    linked = tmp_path / "linked"  # a batch whose delivery is a link to a folder elsewhere
+    linked.mkdir()
+    (linked / "F1-B01").symlink_to(batch / "F1-B01")
+    out = batch / "F1-B01" / "x"
+    with pytest.raises(UsageError) as err:
+        command.main(
+            [str(linked), "--dem", str(tmp_path), "--out", str(out)], standalone_mode=False
+        )
+    assert str(err.value) == (
+        f"--out {out} lies inside the input {linked / 'F1-B01'}: blockqc never writes into a "
+        "delivery; choose an output folder outside it"
+    )
+    assert not out.exists()
     bad = tmp_path / "bad.csv"
     bad.write_text(
         appendix_path.read_text(encoding="utf-8").replace("0.4761", "x"), encoding="utf-8"
