@@ -93,7 +93,7 @@ def test_output_inside_a_delivery_a_batch_links_to_is_refused(tmp_path):
     p = run_blockqc("inspect", batch, "--out", real / "out", "--pdf", "none")
     _refused(
         p,
-        f"error: --out {real / 'out'} lies inside the input {batch / 'F1-B01'}: blockqc never "
+        f"error: --out {real / 'out'} lies inside the delivery {real}: blockqc never "
         "writes into a delivery; choose an output folder outside it",
     )
     assert sorted(p.name for p in real.rglob("*")) == before

@@ -102,7 +102,7 @@ def test_out_inside_a_delivery_is_refused(tmp_path: Path) -> None:
             simulate(out, Options(**TINY), DEM)
         assert str(err.value) == (
             f"OUT {out} lies inside the delivery {delivery}: blockqc never writes into a "
-            "delivery; choose a folder outside it"
+            "delivery; choose an output folder outside it"
         )
     assert [p.name for p in delivery.iterdir()] == ["block.yaml"]
 

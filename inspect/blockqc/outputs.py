@@ -134,8 +134,9 @@ def check_out_dir(out: Path, inputs: Iterable[Path]) -> Path:
 
 
 def refuse_inside(out: Path, inputs: Iterable[Path]) -> None:
-    """Refuse an output folder that lies inside (or is) one of the inputs, before they are read
-    (the folder is made once they are, `check_out_dir`)."""
+    """Refuse an output folder that lies inside (or is) one of the inputs, or inside any
+    delivery (`delivery_holding`: one a batch links in from elsewhere too), before the inputs
+    are read (the folder is made once they are, `check_out_dir`)."""
     out_r = out.resolve()
     for p in inputs:
         p_r = Path(p).resolve()
@@ -144,6 +145,21 @@ def refuse_inside(out: Path, inputs: Iterable[Path]) -> None:
                 f"--out {out} lies inside the input {p}: blockqc never writes into a delivery; "
                 "choose an output folder outside it"
             )
+    refuse_delivery(out)
+
+
+def refuse_delivery(out: Path, option: str = "--out") -> None:
+    """Refuse an output folder that is or lies inside a delivery (a folder holding block.yaml),
+    by its real path: also one a batch links in from elsewhere."""
+    from blockqc.delivery import MANIFEST
+
+    real = Path(os.path.realpath(out))
+    delivery = next((p for p in (real, *real.parents) if (p / MANIFEST).is_file()), None)
+    if delivery is not None:
+        raise UsageError(
+            f"{option} {out} lies inside the delivery {delivery}: blockqc never writes into a "
+            "delivery; choose an output folder outside it"
+        )
 
 
 def refuse_replacing(out: Path, names: Iterable[str], inputs: Iterable[Path]) -> None:

@@ -21,7 +21,7 @@ import yaml
 from pyproj import Transformer
 
 from blockqc.errors import UsageError
-from blockqc.outputs import empty_removed, write_bytes_atomic, write_text_atomic
+from blockqc.outputs import empty_removed, refuse_delivery, write_bytes_atomic, write_text_atomic
 from blockqc.resources import _CHECKOUT
 
 FAULTS = {
@@ -619,13 +619,7 @@ def prepare_out(out: Path | str, ids: list[str]) -> Path:
     if not str(out):
         raise UsageError("OUT is empty: give the folder to write the deliveries into")
     out = Path(out)
-    real = Path(os.path.realpath(out))
-    inside = next((p for p in (real, *real.parents) if (p / "block.yaml").is_file()), None)
-    if inside is not None:
-        raise UsageError(
-            f"OUT {out} lies inside the delivery {inside}: blockqc never writes into a delivery; "
-            "choose a folder outside it"
-        )
+    refuse_delivery(out, "OUT")
     try:
         out.mkdir(parents=True, exist_ok=True)
         taken = [out / i for i in ids if _holds_something(out / i)]

@@ -56,7 +56,7 @@ def test_sample_refuses_a_plan_inside_a_delivery_the_batch_links_to(tmp_path: Pa
     r = run_blockqc("sample", batch, "--seed", 1, "--out", real / "p.yaml")
     assert r.returncode == 2, r.stderr
     assert (
-        f"error: --out {real} lies inside the input {batch / 'B00'}: blockqc never writes into "
+        f"error: --out {real} lies inside the delivery {real}: blockqc never writes into "
         "a delivery; choose an output folder outside it"
     ) in r.stderr
     assert not (real / "p.yaml").exists()

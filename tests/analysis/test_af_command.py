@@ -126,7 +126,7 @@ def test_errors(appendix_path, batch, tmp_path):
             [str(linked), "--dem", str(tmp_path), "--out", str(out)], standalone_mode=False
         )
     assert str(err.value) == (
-        f"--out {out} lies inside the input {linked / 'F1-B01'}: blockqc never writes into a "
+        f"--out {out} lies inside the delivery {batch / 'F1-B01'}: blockqc never writes into a "
         "delivery; choose an output folder outside it"
     )
     assert not out.exists()

@@ -269,3 +269,17 @@ def test_two_batch_summaries_are_refused(tmp_path, results_doc, capsys):
         "batch at a time, or name the results files without their summaries"
     ) in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_out_inside_a_delivery_is_refused(tmp_path, results_file, capsys):
+    """report reads results files, not deliveries, but writes into no delivery either."""
+    delivery = tmp_path / "F1-B01"
+    delivery.mkdir()
+    (delivery / "block.yaml").write_text("block_id: F1-B01\n", encoding="utf-8")
+    out = delivery / "reports"
+    assert run("report", str(results_file), "--out", str(out), "--no-pdf") == 2
+    assert capsys.readouterr().err == (
+        f"error: --out {out} lies inside the delivery {delivery}: blockqc never writes into a "
+        "delivery; choose an output folder outside it\n"
+    )
+    assert sorted(p.name for p in delivery.iterdir()) == ["block.yaml"]

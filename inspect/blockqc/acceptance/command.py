@@ -35,9 +35,8 @@ def _stratum(data: dict[str, Any], key: str) -> str:
     raise ValueError(f"key '{key}' is {why}: a stratum is text or a number")
 
 
-def read_units(batch: Path, key: str | None) -> tuple[list[str], dict[str, str] | None, list[Path]]:
-    """The batch's block ids, with a key each block's stratum, and its delivery folders; every
-    problem at once."""
+def read_units(batch: Path, key: str | None) -> tuple[list[str], dict[str, str] | None]:
+    """The batch's block ids and, with a key, each block's stratum; every problem at once."""
     from blockqc.batch import collect
     from blockqc.delivery import MANIFEST, load_manifest
 
@@ -65,7 +64,7 @@ def read_units(batch: Path, key: str | None) -> tuple[list[str], dict[str, str] 
     if problems:
         raise InputError(problems)
     ids = [got.manifests[p].block_id for p in got.deliveries]
-    return ids, strata if key else None, got.deliveries
+    return ids, strata if key else None
 
 
 def _key_problem(path: Path, loc: list[str], why: str) -> Problem:
@@ -121,9 +120,8 @@ def command(batch: Path, seed: int, key: str | None, rules_ref: str, out: Path) 
     if out.suffix not in (".yaml", ".yml"):
         raise UsageError(f"--out {out}: the plan is a YAML file (.yaml)")
     refuse_inside(out.parent, [batch])  # before reading; its folder is made once the batch is read
-    ids, strata, deliveries = read_units(batch, key)
-    # a batch's delivery may link to a folder elsewhere
-    check_out_dir(out.parent, [batch, *deliveries])
+    ids, strata = read_units(batch, key)
+    check_out_dir(out.parent, [batch])
     lots = draw(ids, pack.acceptance.sampling, seed, strata)
     plan = make_plan(
         lots,

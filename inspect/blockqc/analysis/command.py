@@ -262,7 +262,7 @@ def command(
     if batch is not None:
         if not dems:
             raise UsageError("BATCH needs --dem: a DEM file or folder of tiles covering the blocks")
-        refuse_inside(out, [batch, *find_deliveries(batch)])  # a delivery may link elsewhere
+        refuse_inside(out, [batch])
         table = build_table(batch, list(dems), options)
         _dem_coverage(table, list(dems))
         source = str(batch)

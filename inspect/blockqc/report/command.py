@@ -11,6 +11,7 @@ from pydantic import ValidationError
 
 from blockqc.cli import OutPath, TemplatesPath, check_pdf_engine, pdf_engine_option
 from blockqc.errors import InputError, Problem, UsageError
+from blockqc.outputs import refuse_delivery
 from blockqc.report.messages import LANGUAGES
 from blockqc.results import BlockResults, Summary, json_path, parse, tally
 
@@ -223,7 +224,9 @@ def _second_summary(path: Path, first: Path) -> Problem:
 def _check_out(out: Path, named: tuple[Path, ...], docs: list, summary: tuple | None) -> None:
     """Refuse --out inside (or equal to) a folder named or holding a named file, unless the
     reports are re-rendered in place: every results file (and the summary) is already where
-    it would be written, `<out>/<block_id>/results.json` (`<out>/summary.json`)."""
+    it would be written, `<out>/<block_id>/results.json` (`<out>/summary.json`). Never inside a
+    delivery."""
+    refuse_delivery(out)
     here = [(out / d.block_id / "results.json", p) for p, d, _ in docs]
     here += [(out / "summary.json", summary[0])] if summary is not None else []
     if all(target.resolve() == p.resolve() for target, p in here):
