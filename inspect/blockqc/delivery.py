@@ -947,18 +947,15 @@ def _consistency_masks(
 def _given_swapped(ov: pd.DataFrame) -> np.ndarray:
     """Overlap rows whose point is given again for the same pair in the other order (B, A):
     the unique key (scene_a, scene_b, point_id) lets it through, and it would count twice.
-    Each (scene_a, scene_b, point_id) becomes one integer over codes shared by both scene
-    columns; the rows whose swapped integer is among the given ones are found by one isin."""
+    Scenes and points get integer codes (a blank its own), each pair in both orders one code
+    below 2·rows, and each row one integer key; one isin finds the swapped keys among the given."""
     n = len(ov)
-    scene = pd.factorize(pd.concat([ov["scene_a"], ov["scene_b"]], ignore_index=True))[0]
-    point = pd.factorize(ov["point_id"])[0]
-    k, m = int(scene.max(initial=0)) + 2, int(point.max(initial=0)) + 2
-    scene, point = np.where(scene < 0, k - 1, scene), np.where(point < 0, m - 1, point)  # blank
-    if k * k * m >= 2**62:  # too many for one int64 key: pairs of keys instead
-        given = pd.MultiIndex.from_arrays([scene[:n], scene[n:], point])
-        return pd.MultiIndex.from_arrays([scene[n:], scene[:n], point]).isin(given)
-    a, b, p = scene[:n].astype(np.int64), scene[n:].astype(np.int64), point.astype(np.int64)
-    return np.isin((b * k + a) * m + p, (a * k + b) * m + p)
+    scene = pd.factorize(pd.concat([ov["scene_a"], ov["scene_b"]], ignore_index=True))[0] + 1
+    point = pd.factorize(ov["point_id"])[0].astype(np.int64) + 1
+    a, b, k = scene[:n].astype(np.int64), scene[n:].astype(np.int64), int(scene.max(initial=0)) + 1
+    pair = pd.factorize(np.concatenate([a * k + b, b * k + a]))[0].astype(np.int64)
+    m = int(point.max(initial=0)) + 1
+    return np.isin(pair[n:] * m + point, pair[:n] * m + point)
 
 
 def _outside(v: np.ndarray, at: np.ndarray, low: float, high: np.ndarray) -> np.ndarray:
