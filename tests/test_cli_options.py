@@ -97,3 +97,43 @@ def test_output_inside_a_delivery_a_batch_links_to_is_refused(tmp_path):
         "writes into a delivery; choose an output folder outside it",
     )
     assert sorted(p.name for p in real.rglob("*")) == before
+
+
+def _process(code: str) -> subprocess.CompletedProcess:
+    """A child interpreter running `code`, which ends by calling blockqc.cli.run()."""
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
+
+
+def test_the_process_ends_with_its_exit_status_after_its_output_and_exit_handlers():
+    """run() ends the process without Python's teardown: what it printed is all there, the exit
+    handlers registered (files to finish, temporary folders to remove) have run, and the exit
+    status is the command's."""
+    ok = _process(
+        "import atexit, sys\n"
+        "from blockqc.cli import run\n"
+        "atexit.register(lambda: print('handler ran'))\n"
+        "sys.argv = ['blockqc', 'rules', 'list']\n"
+        "run()\n"
+    )
+    assert ok.returncode == 0, ok.stderr
+    assert "TP-1" in ok.stdout and ok.stdout.endswith("handler ran\n")
+    refused = _process(
+        "import sys\n"
+        "from blockqc.cli import run\n"
+        "sys.argv = ['blockqc', 'inspect', '/no/such/delivery', '--out', '/no/such/out']\n"
+        "run()\n"
+        "print('never here')\n"
+    )
+    assert refused.returncode == 2 and "never here" not in refused.stdout
+    assert "/no/such/delivery" in refused.stderr and "Traceback" not in refused.stderr
+
+
+def test_under_a_profiler_the_process_ends_as_python_does(tmp_path):
+    """cProfile writes its profile when the command returns: run() leaves the ending to Python."""
+    out = tmp_path / "run.prof"
+    p = subprocess.run(
+        [sys.executable, "-m", "cProfile", "-o", str(out), "-m", "blockqc", "--version"],
+        capture_output=True, text=True, timeout=600,
+    )  # fmt: skip
+    assert p.returncode == 0, p.stderr
+    assert out.stat().st_size > 0

@@ -1,5 +1,5 @@
 """`python -m blockqc` runs the command line."""
 
-from blockqc.cli import main
+from blockqc.cli import run
 
-main()
+run()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import os
 import sys
@@ -504,3 +505,25 @@ def main(argv: list[str] | None = None) -> None:
         )
         sys.exit(2)
     sys.exit(rc if isinstance(rc, int) else 0)
+
+
+def run() -> None:
+    """The command line as a process (`blockqc`, `python -m blockqc`): main(), then the process
+    ends once its streams are flushed and its exit handlers have run, without tearing down every
+    module it imported one object at a time (0.14 s at the end of every command; the system takes
+    the memory back at once). Under a tracer or profiler (coverage, cProfile) it ends as
+    Python does, so that they write their results."""
+    try:
+        main()
+    except SystemExit as exc:
+        status = exc.code
+    else:
+        status = 0
+    ends_here = isinstance(status, int) and hasattr(atexit, "_run_exitfuncs")
+    if not ends_here or sys.gettrace() is not None or sys.getprofile() is not None:
+        sys.exit(status)
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(OSError, ValueError):  # a pipe its reader closed: nothing to do
+            stream.flush()
+    atexit._run_exitfuncs()
+    os._exit(status)
