@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import base64
 from collections.abc import Sequence
+from contextlib import suppress
+from functools import cache
 from pathlib import Path
 from typing import Any
 
@@ -51,11 +53,38 @@ def environment(user_templates: Path | None = None) -> jinja2.Environment:
         undefined=jinja2.StrictUndefined,
         trim_blocks=True,
         lstrip_blocks=True,
+        bytecode_cache=_bytecode_cache(),
     )
     env.filters["fmt"] = _fmt
     env.filters["group"] = _group
     env.filters["css_string"] = _css_string
     return env
+
+
+class _CompiledTemplates(jinja2.FileSystemBytecodeCache):
+    """Templates compiled once for every later process (Jinja's cache in a folder of this user's
+    own under the system's temporary folder, each entry checked against its template's source):
+    compiling the block page costs more than rendering it. A cache that cannot be read or
+    written is passed over: the template is then compiled as without one."""
+
+    def load_bytecode(self, bucket: jinja2.bccache.Bucket) -> None:
+        try:
+            super().load_bytecode(bucket)
+        except Exception:  # a damaged entry: the template is compiled again, the entry rewritten
+            bucket.reset()
+
+    def dump_bytecode(self, bucket: jinja2.bccache.Bucket) -> None:
+        with suppress(OSError):
+            super().dump_bytecode(bucket)
+
+
+@cache
+def _bytecode_cache() -> jinja2.BytecodeCache | None:
+    """The compiled templates' cache of this process, None where no safe folder can be had."""
+    try:
+        return _CompiledTemplates()
+    except (OSError, RuntimeError):
+        return None
 
 
 #: the pages of the block and batch reports
