@@ -743,6 +743,36 @@ def test_parquet_repeated_column_and_binary_text(blockqc, delivery: Path, tmp_pa
     assert {r["point_id"] for r in points} == {"E0", "E1", "E2", "E3", "E4"}
 
 
+@pytest.mark.parametrize("stored", ["bytes", "text", "dictionary"])
+def test_parquet_text_that_is_not_utf8_is_refused_at_its_row(
+    blockqc, delivery: Path, tmp_path: Path, stored: str
+) -> None:
+    """Bytes that are not UTF-8, in a column of bytes, of text (Arrow keeps them as read) or
+    of text read as a dictionary (the scene ids), in a later row group: refused at their row."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    tp = pd.read_csv(delivery / "tie_points.csv", dtype={"point_id": str, "scene_id": str})
+    (delivery / "tie_points.csv").unlink()
+    column = "scene_id" if stored == "dictionary" else "point_id"
+    raw = [s.encode() for s in tp[column]]
+    raw[6] = b"P\xff7"  # row 7
+    values = pa.array(raw, pa.binary())
+    if stored != "bytes":  # the same bytes typed as text, unchecked
+        values = pa.Array.from_buffers(pa.string(), len(values), values.buffers())
+    table = pa.table({c: tp[c] for c in tp}).set_column(
+        list(tp.columns).index(column), column, values
+    )
+    pq.write_table(table, delivery / "tie_points.parquet", row_group_size=4)
+    _refused(
+        blockqc,
+        delivery,
+        tmp_path / "out",
+        f"tie_points.parquet, row 7, column '{column}': text that is not UTF-8 (got the bytes "
+        "b'P\\xff7'): expected UTF-8",
+    )
+
+
 # ------------------------------------------------ tie-point keys held as Categoricals
 def test_categorical_keys_by_hand() -> None:
     import pyarrow as pa

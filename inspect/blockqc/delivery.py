@@ -588,6 +588,7 @@ def _read_parquet(
         for f in table.schema
         if f.name in names and pa.types.is_nested(f.type)
     ]
+    problems += _not_utf8(path, table, names)
     if problems:
         raise InputError(problems)
     try:
@@ -598,6 +599,61 @@ def _read_parquet(
         return _to_pandas(handed, schema, early), given
     except (pa.ArrowException, ValueError, OverflowError) as exc:
         raise InputError(Problem(str(path), f"not a readable Parquet table: {exc}")) from None
+
+
+def _not_utf8(path: Path, table: pa.Table, names: set[str]) -> list[Problem]:
+    """The first row of each text column of the contract (text or bytes) whose bytes are not
+    UTF-8: Arrow keeps such text as it is read, and it would reach the outputs."""
+    problems = []
+    for f in table.schema:
+        t = f.type.value_type if pa.types.is_dictionary(f.type) else f.type
+        if f.name in names and (
+            _is_text(t) or pa.types.is_binary(t) or pa.types.is_large_binary(t)
+        ):
+            found = _first_not_utf8(table.column(f.name))
+            if found is not None:
+                row, value = found
+                message = f"text that is not UTF-8 (got the bytes {value[:40]!r}): expected UTF-8"
+                problems.append(Problem(str(path), message, row=row + 1, column=f.name))
+    return problems
+
+
+def _first_not_utf8(col: pa.ChunkedArray) -> tuple[int, bytes] | None:
+    """The first position in a text or bytes column whose value is not UTF-8, and its bytes
+    (None: every value is UTF-8): each piece is checked at once, a piece that fails is halved
+    until one value is left."""
+    at = 0
+    for chunk in col.chunks:
+        if pa.types.is_dictionary(chunk.type):
+            if _utf8(_view(chunk.dictionary)):
+                at += len(chunk)
+                continue
+            chunk = chunk.dictionary_decode()
+        text = _view(chunk)
+        if not _utf8(text):
+            lo, hi = 0, len(text)  # text[lo:hi] holds a value that is not UTF-8
+            while hi - lo > 1:
+                mid = (lo + hi) // 2
+                lo, hi = (lo, mid) if not _utf8(text.slice(lo, mid - lo)) else (mid, hi)
+            return at + lo, _view(text, text=False)[lo].as_py()
+        at += len(chunk)
+    return None
+
+
+def _view(a: pa.Array, text: bool = True) -> pa.Array:
+    """Bytes seen as text, or text as bytes (no copy, not checked)."""
+    large = pa.types.is_large_binary(a.type) or pa.types.is_large_string(a.type)
+    if text:
+        return a.view(pa.large_string() if large else pa.string())
+    return a.view(pa.large_binary() if large else pa.binary())
+
+
+def _utf8(text: pa.Array) -> bool:
+    try:
+        text.validate(full=True)
+    except pa.ArrowInvalid:
+        return False
+    return True
 
 
 #: from this many rows, a Parquet table's text keys (point ids) are encoded by a second thread
