@@ -55,7 +55,9 @@ class InspectorCheckpoints:
 
 def load_checkpoint_files(paths: list[Path]) -> InspectorCheckpoints:
     """Read and validate every file (checkpoints.csv columns); list every problem at once."""
-    problems: list[Problem] = []
+    problems: list[Problem] = _given_twice(list(map(Path, paths)))
+    if problems:
+        raise InputError(problems)
     parts: list[pd.DataFrame] = []
     with_block = []
     for path in map(Path, paths):
@@ -86,6 +88,22 @@ def load_checkpoint_files(paths: list[Path]) -> InspectorCheckpoints:
     if problems:
         raise InputError(problems)
     return InspectorCheckpoints(rows, with_block[0], [str(p) for p in paths])
+
+
+def _given_twice(paths: list[Path]) -> list[Problem]:
+    """A file named again (by the same or another path to it): its rows would be taken twice."""
+    seen: dict[Path, Path] = {}
+    problems = []
+    for path in paths:
+        real = path.resolve()
+        if real in seen:
+            problems.append(
+                Problem(
+                    str(path), f"given twice to --checkpoints (also as {seen[real]}): give it once"
+                )
+            )
+        seen.setdefault(real, path)
+    return problems
 
 
 def _duplicates(rows: pd.DataFrame, extra: list[str]) -> list[Problem]:

@@ -145,6 +145,25 @@ def test_checkpoints_conflicts_and_blocks_exit_2(tmp_path, blockqc) -> None:
     )
 
 
+def test_the_same_checkpoints_file_given_twice_is_named_once(tmp_path, blockqc) -> None:
+    """Named again, by the same path or another path to it (a link): refused as the file given
+    twice, not row by row as checkpoints that are also in themselves."""
+    write_delivery(tmp_path / "a")
+    extra = tmp_path / "recalc.csv"
+    _recalculation(3).to_csv(extra, index=False)
+    (tmp_path / "link.csv").symlink_to(extra)
+    for again in (extra, tmp_path / "link.csv"):
+        proc = blockqc(
+            "inspect", tmp_path / "a", "--out", tmp_path / "o", "--no-pdf",
+            "--checkpoints", extra, "--checkpoints", again,
+        )  # fmt: skip
+        assert proc.returncode == 2, proc.stderr
+        assert f"error: {again}: given twice to --checkpoints (also as {extra}): give it once" in (
+            proc.stderr
+        )
+        assert "is also in" not in proc.stderr and not (tmp_path / "o").exists()
+
+
 def test_rpc_adjusted_equals_adjustment_csv(tmp_path) -> None:
     """A shift-only adjustment (a0, b0) is the same model as RPCs with LINE_OFF + a0 and
     SAMP_OFF + b0: rpc_adjusted/ and rpc/ + adjustment.csv give the same residuals."""
