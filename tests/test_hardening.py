@@ -441,6 +441,29 @@ def test_missing_document_reported_with_table_errors(blockqc, delivery, tmp_path
     )
 
 
+def test_a_document_present_in_other_case_is_pointed_to(blockqc, delivery, tmp_path) -> None:
+    """block.yaml names documents/technical_design.pdf, the delivery holds .PDF: missing (names
+    are matched exactly), and the message says where the file is."""
+    docs = delivery / "documents"
+    (docs / "technical_design.pdf").rename(docs / "technical_design.PDF")
+    hint = (
+        "(documents/technical_design.PDF is there: file names are matched exactly, in their case)"
+    )
+    p = blockqc("inspect", delivery, "--out", tmp_path / "out", "--no-pdf")
+    (results,) = (tmp_path / "out").rglob("results.json")
+    doc1 = next(r for r in json.loads(results.read_text())["results"] if r["rule"] == "DOC-1")
+    assert doc1["status"] == "fail", p.stderr
+    assert doc1["evidence"][0]["problem"] == f"documents/technical_design.pdf does not exist {hint}"
+    _cell(delivery / "tie_points.csv", 3, "v_line", "abc")  # unreadable: listed with the rest
+    _refused(
+        blockqc,
+        delivery,
+        tmp_path / "out2",
+        "block.yaml: documents.technical_design: documents/technical_design.pdf is missing from "
+        f"the delivery {hint}",
+    )
+
+
 def test_document_paths_written_with_windows_separators(blockqc, delivery, tmp_path) -> None:
     text = (delivery / "block.yaml").read_text()
     (delivery / "block.yaml").write_text(text.replace("documents/", "documents\\"))

@@ -1057,11 +1057,25 @@ def _missing_documents(path: Path, manifest: Manifest) -> list[Problem]:
     return [
         Problem(
             str(path / MANIFEST),
-            f"documents.{kind}: {rel} is missing from the delivery",
+            f"documents.{kind}: {rel} is missing from the delivery{other_case(path, rel)}",
         )
         for kind, rel in manifest.documents.items()
         if not document_path(path, rel).is_file()
     ]
+
+
+def other_case(root: Path, rel: str) -> str:
+    """Where the delivery holds a missing document under a name differing only in case
+    (`report.PDF`), said in parentheses; else nothing."""
+    path = document_path(root, rel)
+    try:
+        near = [p for p in path.parent.iterdir() if p.name.casefold() == path.name.casefold()]
+    except OSError:  # no such folder either
+        return ""
+    if not near:
+        return ""
+    found = near[0].relative_to(root).as_posix()
+    return f" ({found} is there: file names are matched exactly, in their case)"
 
 
 def document_path(root: Path, rel: str) -> Path:

@@ -7,7 +7,7 @@ from pathlib import Path
 import pandas as pd
 from pydantic import BaseModel, ConfigDict, Field
 
-from blockqc.delivery import Delivery, document_path
+from blockqc.delivery import Delivery, document_path, other_case
 from blockqc.metrics import Measure, Measurement, Scope, Table, metric
 
 REQUIRED = [
@@ -43,7 +43,7 @@ def check_document(root: Path, rel: str | None) -> tuple[bool, bool, int, str]:
     if root.resolve() not in path.parents:
         return False, False, 0, f"{rel} points outside the delivery"
     if not path.is_file():
-        return False, False, 0, f"{rel} does not exist"
+        return False, False, 0, f"{rel} does not exist{other_case(root, rel)}"
     size = path.stat().st_size
     if size == 0:
         return True, False, 0, f"{rel} is empty"
