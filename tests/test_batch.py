@@ -161,6 +161,22 @@ def test_batch_folder_without_block_yaml_is_refused_by_name(small_batch: Path, t
     assert [b["block_id"] for b in summary["blocks"]] == ["F1-B02", "F3-B02", "F4-B02"]
 
 
+def test_a_batch_inside_the_batch_is_said_to_be_one(small_batch: Path, tmp_path: Path):
+    """A sub-folder without block.yaml whose own sub-folders are deliveries: refused as before,
+    and said to be a batch whose deliveries are not inspected."""
+    inner = small_batch / "resubmitted"
+    for name in ("F2-B02", "F2-B01", "F1-B01", "F4-B01"):
+        shutil.copytree(SAMPLES / "batch" / name, inner / name)
+    proc = run_blockqc("inspect", small_batch, "--out", tmp_path / "out", "--no-pdf")
+    assert proc.returncode == 2, proc.stderr
+    assert (
+        f"{inner / 'block.yaml'}: missing: every sub-folder of a batch is a delivery and needs its "
+        "block.yaml (folders named '.…' are left out); it holds deliveries (F1-B01, F2-B01, "
+        "F2-B02 and 1 more): a batch inside the batch, whose deliveries are not inspected; give "
+        "it as a batch of its own"
+    ) in proc.stderr
+
+
 @pytest.mark.parametrize(
     ("address", "says"),
     [

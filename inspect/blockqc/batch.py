@@ -90,6 +90,20 @@ class Collected:
     repeated: list[Path] = field(default_factory=list)  # named again: inspected once
 
 
+def _nested(path: Path) -> str:
+    """What to say of a batch's sub-folder without block.yaml whose own sub-folders hold one:
+    a batch inside the batch, whose deliveries are not inspected."""
+    with suppress(OSError):
+        inner = sorted(p.name for p in path.iterdir() if is_delivery(p))
+        if inner:
+            more = f" and {len(inner) - 3} more" if len(inner) > 3 else ""
+            return (
+                f"; it holds deliveries ({', '.join(inner[:3])}{more}): a batch inside the "
+                "batch, whose deliveries are not inspected; give it as a batch of its own"
+            )
+    return ""
+
+
 def collect(paths: Iterable[Path]) -> Collected:
     """The delivery folders named by the arguments; duplicate block ids refused up front."""
     found: list[Path] = []
@@ -113,7 +127,7 @@ def collect(paths: Iterable[Path]) -> Collected:
             got.refused[path] = Problem(
                 str(path / MANIFEST),
                 "missing: every sub-folder of a batch is a delivery and needs its block.yaml "
-                "(folders named '.…' are left out)",
+                f"(folders named '.…' are left out){_nested(path)}",
             )
             continue
         try:
