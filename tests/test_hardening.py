@@ -441,6 +441,19 @@ def test_missing_document_reported_with_table_errors(blockqc, delivery, tmp_path
     )
 
 
+def test_a_column_repeated_in_another_case_is_refused(blockqc, delivery, tmp_path) -> None:
+    """`Dz_m` beside `dz_m`: which one is meant cannot be told, and the other would go unread."""
+    edges = pd.read_csv(delivery / "edges.csv", dtype=str)
+    edges.assign(Dz_m="99", DX_M="1").to_csv(delivery / "edges.csv", index=False)
+    _refused(
+        blockqc,
+        delivery,
+        tmp_path / "out",
+        "edges.csv, line 1: column 'DX_M' repeats column 'dx_m' in another case: give it once",
+        "edges.csv, line 1: column 'Dz_m' repeats column 'dz_m' in another case: give it once",
+    )
+
+
 def test_a_document_present_in_other_case_is_pointed_to(blockqc, delivery, tmp_path) -> None:
     """block.yaml names documents/technical_design.pdf, the delivery holds .PDF: missing (names
     are matched exactly), and the message says where the file is."""

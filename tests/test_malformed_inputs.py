@@ -487,11 +487,11 @@ def test_mb3_judges_the_stated_projection_beside_the_epsg(
 def test_an_extra_column_sharing_only_a_first_word_is_not_taken_for_a_misspelling():
     """`water` (say, a flag) beside no `water_fraction`: 'fraction' is no unit, so it is an
     extra column, kept and ignored; `dz` for `dz_m` and `h_m` for `h` differ by a unit."""
-    from blockqc.schema import _near
+    from blockqc.schema import near_column
 
-    assert _near("water_fraction", ["water", "cloud"]) is None
-    assert _near("dz_m", ["remark", "dz"]) == "dz"
-    assert _near("h", ["h_m"]) == "h_m"
+    assert near_column("water_fraction", ["water", "cloud"]) is None
+    assert near_column("dz_m", ["remark", "dz"]) == "dz"
+    assert near_column("h", ["h_m"]) == "h_m"
 
 
 def test_a_reused_block_says_again_why_a_rule_is_in_error(blockqc, block, tmp_path):

@@ -15,7 +15,7 @@ import pandas as pd
 
 from blockqc.delivery import MANIFEST, Delivery, _check_consistency, load_manifest, read_table
 from blockqc.errors import InputError, Problem
-from blockqc.schema import CHECKPOINTS
+from blockqc.schema import CHECKPOINTS, near_column
 
 BLOCK = "block_id"
 
@@ -70,7 +70,7 @@ def load_checkpoint_files(paths: list[Path]) -> InspectorCheckpoints:
         except InputError as exc:
             problems.extend(exc.problems)
             continue
-        problems.extend(found)
+        problems.extend(found + _misspelt_block(path, df))
         # the same row checks as a delivered checkpoints.csv (a row comparing nothing, ...)
         problems.extend(_check_consistency({"checkpoints": df}, {"checkpoints": path}))
         with_block.append(BLOCK in df.columns)
@@ -88,6 +88,17 @@ def load_checkpoint_files(paths: list[Path]) -> InspectorCheckpoints:
     if problems:
         raise InputError(problems)
     return InspectorCheckpoints(rows, with_block[0], [str(p) for p in paths])
+
+
+def _misspelt_block(path: Path, df: pd.DataFrame) -> list[Problem]:
+    """A column that looks like `block_id` misspelt (`Block_ID`, `blockid`) where there is no
+    `block_id`: its blocks would go unread, and every row be taken as the one block's."""
+    known = {c.name for c in CHECKPOINTS.columns}
+    near = near_column(BLOCK, [c for c in df.columns if c not in known])
+    if BLOCK in df.columns or near is None:
+        return []
+    message = f"column '{near}': did you mean '{BLOCK}'? (the block of each row is read from it)"
+    return [Problem(str(path), message, line=1 if path.suffix.lower() == ".csv" else None)]
 
 
 def _given_twice(paths: list[Path]) -> list[Problem]:

@@ -366,17 +366,35 @@ def validate_table(
         )
     out: dict[str, pd.Series] = {}
     extra = [c for c in given if c not in {col.name for col in schema.columns}]
+    problems += _other_case(extra, given, schema, file)
     for col in schema.columns:
         if col.name in df.columns:
             out[col.name] = _check_column(df[col.name], col, file, csv, problems)
         elif col.name not in given:
-            problems += _missing(col, _near(col.name, extra), file, header or list(df.columns))
+            problems += _missing(
+                col, near_column(col.name, extra), file, header or list(df.columns)
+            )
     for c in df.columns:  # extra columns are kept, untouched
         if c not in out:
             out[c] = df[c]
     table = pd.DataFrame(out, index=pd.RangeIndex(len(df)), copy=False)  # copy on write
     _check_unique(table, schema, file, csv, problems)
     return table, problems
+
+
+def _other_case(extra: list[str], given: set[str], schema: TableSchema, file: str) -> list[Problem]:
+    """Extra columns that repeat a column of the contract in another case (`Dz_m` beside
+    `dz_m`): which one is meant cannot be told, and the other would go unread."""
+    names = {col.name.casefold(): col.name for col in schema.columns if col.name in given}
+    return [
+        Problem(
+            file,
+            f"column '{c}' repeats column '{names[c.casefold()]}' in another case: give it once",
+            line=1 if file.lower().endswith(".csv") else None,
+        )
+        for c in sorted(extra)
+        if c.casefold() in names
+    ]
 
 
 def _missing(col: Column, near: str | None, file: str, found: list) -> list[Problem]:
@@ -396,7 +414,7 @@ def _missing(col: Column, near: str | None, file: str, found: list) -> list[Prob
 UNIT_WORDS = {"m", "mm", "cm", "km", "px", "pix", "pixel", "pixels", "deg", "degree", "degrees"}
 
 
-def _near(name: str, columns: list[str]) -> str | None:
+def near_column(name: str, columns: list[str]) -> str | None:
     """The first of `columns` that looks like `name` misspelt: in other case, with its unit
     dropped, added or changed (`dz`, `dz_mm` for `dz_m`; `h_m` for `h`), or differing in a
     letter or two. (`water` is not `water_fraction`: 'fraction' is no unit.)"""

@@ -145,6 +145,22 @@ def test_checkpoints_conflicts_and_blocks_exit_2(tmp_path, blockqc) -> None:
     )
 
 
+@pytest.mark.parametrize("header", ["Block_ID", "blockid", "block-id"])
+def test_a_misspelt_block_id_column_is_refused(tmp_path, blockqc, header) -> None:
+    """Its blocks would go unread and every row be merged into the one block inspected."""
+    write_delivery(tmp_path / "a")
+    extra = tmp_path / "recalc.csv"
+    _recalculation(3).assign(**{header: "OTHER-BLOCK"}).to_csv(extra, index=False)
+    proc = blockqc(
+        "inspect", tmp_path / "a", "--out", tmp_path / "o", "--no-pdf", "--checkpoints", extra
+    )
+    assert proc.returncode == 2, proc.stderr
+    assert (
+        f"error: {extra}, line 1: column '{header}': did you mean 'block_id'? (the block of each "
+        "row is read from it)"
+    ) in proc.stderr
+
+
 def test_the_same_checkpoints_file_given_twice_is_named_once(tmp_path, blockqc) -> None:
     """Named again, by the same path or another path to it (a link): refused as the file given
     twice, not row by row as checkpoints that are also in themselves."""
