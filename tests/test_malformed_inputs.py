@@ -542,3 +542,32 @@ def test_a_template_that_fails_on_a_block_says_so(blockqc, block, tmp_path):
     p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none", "--templates", mine)
     _refused(p, "F1-B01: its report could not be rendered:", "'no_such_name' is undefined")
     assert "could not be inspected:" not in p.stderr
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        (
+            "blocks:\n  F1-B01: 5\n",
+            "line 2: blocks.F1-B01: expected a mapping of keys, got a number (5)",
+        ),
+        (
+            "blocks:\n  F1-B01: [a]\n",
+            "line 2: blocks.F1-B01: expected a mapping of keys, got a list",
+        ),
+        (
+            "? [a, b]\n: 1\n",
+            "line 1: not valid YAML: a mapping key must be a plain value (text or a number), "
+            "got a list",
+        ),
+    ],
+)
+def test_a_value_of_the_wrong_kind_is_named_in_the_words_of_yaml(
+    blockqc, block, tmp_path, text, message
+):
+    """Not in the names of the classes that read the file (BlockInput, LineList)."""
+    verdicts = tmp_path / "verdicts.yaml"
+    verdicts.write_text(text, encoding="utf-8")
+    proc = blockqc("inspect", block, "--verdicts", verdicts, "--out", tmp_path / "o", "--no-pdf")
+    _refused(proc, f"{verdicts}, {message}")
+    assert "instance of" not in proc.stderr and "LineList" not in proc.stderr

@@ -51,7 +51,7 @@ def _mapping(loader: _Loader, node: yaml.MappingNode) -> LineDict:
             raise yaml.constructor.ConstructorError(
                 None,
                 None,
-                f"a mapping key must be a plain value, got {type(key).__name__}",
+                f"a mapping key must be a plain value (text or a number), got {yaml_kind(key)}",
                 key_node.start_mark,
             )
         if key in out:
@@ -163,6 +163,21 @@ def line_of(data: Any, loc: Sequence[Any]) -> int | None:
     return line
 
 
+def yaml_kind(value: Any) -> str:
+    """What a YAML value is, in the words of a YAML file (not of Python's classes)."""
+    if value is None:
+        return "an empty value"
+    if isinstance(value, bool):
+        return f"true/false ({str(value).lower()})"
+    if isinstance(value, int | float):
+        return f"a number ({value})"
+    if isinstance(value, str):
+        return f"text {value[:40]!r}"
+    if isinstance(value, list | tuple):
+        return "a list"
+    return "a mapping" if isinstance(value, dict) else type(value).__name__
+
+
 def pydantic_problems(exc: Any, file: Path, data: Any, prefix: Sequence[Any] = ()) -> list[Problem]:
     """Turn a pydantic ValidationError into problems naming the file, the line and the key path."""
     problems = []
@@ -172,5 +187,7 @@ def pydantic_problems(exc: Any, file: Path, data: Any, prefix: Sequence[Any] = (
         msg = err["msg"].removeprefix("Value error, ")
         if err["type"] == "extra_forbidden":
             msg = "unknown key"
+        elif err["type"] in ("model_type", "model_attributes_type", "dataclass_type"):
+            msg = f"expected a mapping of keys, got {yaml_kind(err.get('input'))}"
         problems.append(Problem(str(file), f"{path}: {msg}", line=line_of(data, loc)))
     return problems
