@@ -79,6 +79,8 @@ def test_a_folder_given_for_a_file_is_called_a_folder(tmp_path):
     _refused(run_blockqc("rules", "list", "--rules", tmp_path), "is a folder, not a rule pack file")
     p = run_blockqc("inspect", SAMPLE, "--checkpoints", tmp_path, "--out", tmp_path / "o")
     _refused(p, f"{tmp_path}: a folder (expected a checkpoints table)")
+    p = run_blockqc("inspect", SAMPLE, "--checkpoints", os.devnull, "--out", tmp_path / "o")
+    _refused(p, f"{os.devnull}: not a file (expected a checkpoints table)")
 
 
 def test_output_inside_a_delivery_a_batch_links_to_is_refused(tmp_path):

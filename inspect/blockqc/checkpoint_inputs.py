@@ -62,7 +62,9 @@ def load_checkpoint_files(paths: list[Path]) -> InspectorCheckpoints:
     with_block = []
     for path in map(Path, paths):
         if not path.is_file():
-            what = "a folder" if path.is_dir() else "no such file"
+            what = (
+                "a folder" if path.is_dir() else "not a file" if path.exists() else "no such file"
+            )
             problems.append(Problem(str(path), f"{what} (expected a checkpoints table)"))
             continue
         try:
