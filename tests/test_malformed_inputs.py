@@ -179,7 +179,10 @@ def test_block_yaml_unknown_key_is_a_stated_warning(blockqc, block, tmp_path):
     p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
     assert p.returncode == 0, p.stderr
     assert "warning:" in p.stderr and "block.yaml" in p.stderr
-    assert "unknown key 'colour': not read" in p.stderr
+    assert (
+        "unknown key 'colour': not read by the rules (a key `blockqc sample --strata` may draw "
+        "strata by)"
+    ) in p.stderr
 
 
 @pytest.mark.parametrize(
@@ -409,7 +412,9 @@ def test_an_unknown_spatial_reference_key_is_a_stated_warning(blockqc, block, tm
     (block / "block.yaml").write_text(text, encoding="utf-8")
     p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
     assert p.returncode == 0, p.stderr
-    assert "block.yaml, line 11: unknown key 'spatial_reference.ellipsoid': not read" in p.stderr
+    assert (
+        "block.yaml, line 11: unknown key 'spatial_reference.ellipsoid': not read by the rules\n"
+    ) in p.stderr
 
 
 def test_space_separated_tables_are_refused_once(blockqc, tmp_path):

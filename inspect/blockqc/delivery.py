@@ -758,8 +758,14 @@ def _unknown_keys(path: Path, data: dict, manifest: Manifest) -> list[Problem]:
     keys = [(key,) for key in manifest.model_extra or {}]
     extra = (sr.model_extra or {}) if sr is not None else {}
     keys += [("spatial_reference", k) for k in extra if k != "zone"]
+    strata = " (a key `blockqc sample --strata` may draw strata by)"
     return [
-        Problem(str(path), f"unknown key '{'.'.join(loc)}': not read", line=line_of(data, loc))
+        Problem(
+            str(path),
+            f"unknown key '{'.'.join(loc)}': not read by the rules"
+            + (strata if len(loc) == 1 else ""),
+            line=line_of(data, loc),
+        )
         for loc in keys
     ]
 
