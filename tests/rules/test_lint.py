@@ -328,3 +328,22 @@ def test_a_rule_disabled_twice_is_named_as_such(tmp_path: Path) -> None:
         f"{pack}, line 4: disable: TP-2 is listed twice (first on line 3)",
         f"{pack}, line 4: disable: CP-5 is already disabled by {parent}, line 3",
     ]
+
+
+@pytest.mark.parametrize("value", ["{pan: 3.0}", "3"])
+def test_a_constant_named_as_a_delivery_value_is_refused(blockqc, tmp_path: Path, value) -> None:
+    """The delivery's gsd is read in place of a constant `gsd`: RO-1 judged 0.8 m, not 3 m."""
+    pack = _pack(
+        tmp_path,
+        f"constants:\n  gsd: {value}\noverrides:\n  RO-1: {{threshold: {{max: gsd.pan}}}}\n",
+    )
+    message = (
+        f"{pack}, line 4: constants.gsd: the name gsd is reserved for the values the delivery "
+        "provides (gsd.pan, gsd.ms, read from block.yaml), which expressions read in place of "
+        "any constant: give the constant another name"
+    )
+    assert _messages(pack) == [message]
+    block = Path(__file__).resolve().parents[2] / "samples" / "batch" / "F1-B01"
+    p = blockqc("inspect", block, "--rules", pack, "--out", tmp_path / "out", "--pdf", "none")
+    assert p.returncode == 2 and "Traceback" not in p.stderr, p.stderr
+    assert message in p.stderr

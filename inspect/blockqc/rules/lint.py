@@ -54,9 +54,13 @@ def _is_number(v: Any) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
-def check_constants(consts: Mapping[str, Any], data: Any, path: Path) -> list[Problem]:
-    """Each constant is a finite number or a list of them, under a plain name (at its own line)."""
+def check_constants(
+    consts: Mapping[str, Any], data: Any, path: Path, reserved: Mapping[str, Any] | None = None
+) -> list[Problem]:
+    """Each constant is a finite number or a list of them, under a plain name (at its own line)
+    that is not one of the `reserved` names, the values the delivery provides (gsd)."""
     out: list[Problem] = []
+    reserved = reserved or {}
 
     def walk(node: Mapping[str, Any], loc: tuple[str, ...]) -> None:
         for key, value in node.items():
@@ -65,6 +69,8 @@ def check_constants(consts: Mapping[str, Any], data: Any, path: Path) -> list[Pr
             line = line_of(data, ("constants", *here))
             if not isinstance(key, str) or not _valid_name(key):
                 out.append(Problem(str(path), f"constants.{where}: not a plain name", line=line))
+            elif not loc and key in reserved:
+                out.append(Problem(str(path), _reserved(key, reserved[key]), line=line))
             elif isinstance(value, Mapping):
                 walk(value, here)
             elif isinstance(value, list) and value and all(_is_number(v) for v in value):
@@ -82,6 +88,20 @@ def check_constants(consts: Mapping[str, Any], data: Any, path: Path) -> list[Pr
 
     walk(consts, ())
     return out
+
+
+def _reserved(key: str, provided: Any) -> str:
+    names = list(flatten({key: provided})) if isinstance(provided, Mapping) else [key]
+    return (
+        f"constants.{key}: the name {key} is reserved for the values the delivery provides "
+        f"({', '.join(names)}, read from block.yaml), which expressions read in place of any "
+        "constant: give the constant another name"
+    )
+
+
+def without_reserved(consts: Mapping[str, Any], reserved: Mapping[str, Any]) -> dict[str, Any]:
+    """The constants less those under a reserved name (reported by check_constants)."""
+    return {k: v for k, v in consts.items() if k not in reserved}
 
 
 def stand_in_invalid(consts: Mapping[str, Any], inherited: Mapping[str, Any]) -> dict[str, Any]:

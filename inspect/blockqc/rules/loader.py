@@ -25,6 +25,7 @@ from blockqc.rules.lint import (
     new_constant_sites,
     stand_in_invalid,
     unused_constants,
+    without_reserved,
 )
 from blockqc.rules.model import ElementDef, Pack, PackFile, Rule, merge_elements
 from blockqc.rules.text import render_rule
@@ -141,11 +142,13 @@ def _load_raw(path: Path, seen: tuple[Path, ...]) -> _Loaded:
             _circle(pf.extends, (*seen, parent.resolve()), site)
         out = _load_raw(parent, seen)
         out.pf = pf
-    found = check_constants(pf.constants, data, path)
-    out.problems += found
-    sites = new_constant_sites(pf.constants, out.constants, data, path)
+    out.problems += check_constants(pf.constants, data, path, DELIVERY_NAMES)
+    # a constant under a name the delivery provides is reported once, at its own line, and set
+    # aside: the delivery's value is the one expressions read
+    consts = without_reserved(pf.constants, DELIVERY_NAMES)
+    sites = new_constant_sites(consts, out.constants, data, path)
     # an invalid constant is reported once, at its own line; its uses evaluate a stand-in
-    out.constants = _deep_merge(out.constants, stand_in_invalid(pf.constants, out.constants))
+    out.constants = _deep_merge(out.constants, stand_in_invalid(consts, out.constants))
     out.chain.insert(0, str(path))
     out.sources.append((str(path), data, pf))
     _add_rules(out, pf, data, path)
