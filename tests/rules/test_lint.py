@@ -179,6 +179,33 @@ def test_a_true_false_statistic_is_compared_with_true_or_false(tmp_path: Path) -
     ]
 
 
+def test_a_text_statistic_is_compared_with_texts(tmp_path: Path) -> None:
+    """MB-1's datum is a name: `max: 5` made inspect report MB-1 failing "WGS84 ≤ 5"."""
+    pack = _pack(
+        tmp_path,
+        "overrides:\n  MB-1: {threshold: {max: 5}}\n"
+        "  MB-2:\n    threshold: {in: [ellipsoidal, 2000]}\n",
+    )
+    assert _messages(pack) == [
+        f"{pack}, line 4: rule MB-1: threshold: statistic geodetic_datum is a text (name): "
+        "compare it with equals: a text or in: a list of texts (min/max do not apply)",
+        f"{pack}, line 6: rule MB-2: threshold: statistic height_datum is a text (name): "
+        "compare it with equals: a text or in: a list of texts (quote a text that YAML reads "
+        "as a number or true/false)",
+    ]
+    with pytest.raises(RuleError):
+        load_pack(pack)
+
+
+def test_a_text_statistic_takes_equals_or_in_of_texts(tmp_path: Path) -> None:
+    pack = _pack(
+        tmp_path,
+        "overrides:\n  MB-1: {threshold: {equals: WGS84}}\n"
+        '  MB-2: {threshold: {in: [ellipsoidal, "2000"]}}\n',
+    )
+    assert _messages(pack) == []
+
+
 def test_ids_are_unique_regardless_of_case(tmp_path: Path) -> None:
     pack = _pack(
         tmp_path,

@@ -306,11 +306,14 @@ _DIVIDES = "m0 divides the accuracy score (§QE-3): give a norm above 0"
 
 #: units of statistics that are not numbers (booleans, names, codes)
 NON_NUMERIC_UNITS = {"", "true/false", "name", "EPSG code", "the figure's unit"}
+#: units of statistics that are texts (a datum's name)
+TEXT_UNITS = {"name"}
 
 
 def _check_threshold_kinds(rule: Rule, scope: Scope, bad: Callable[..., None]) -> None:
-    """A true/false statistic is compared with `equals: true/false`; a statistic with a unit is
-    a number: `equals: true`, a text, or `in` of texts never pass."""
+    """A true/false statistic is compared with `equals: true/false`; a text statistic with
+    `equals` or `in` of texts (no min/max); a statistic with a unit is a number: `equals: true`,
+    a text, or `in` of texts never pass."""
     unit = scope.statistics.get(rule.statistic or "", "")
     for group, th in rule.all_thresholds().items():
         loc = ("thresholds", group) if group else ("threshold",)
@@ -318,6 +321,18 @@ def _check_threshold_kinds(rule: Rule, scope: Scope, bad: Callable[..., None]) -
             given = [th.equals] if th.in_ is None else th.in_
             wrong = not all(isinstance(v, bool) for v in given)
             kind = "is true/false: compare it with equals: true or equals: false"
+        elif unit in TEXT_UNITS:
+            bounds = th.min is not None or th.max is not None
+            given = [th.equals] if th.in_ is None else th.in_
+            wrong = bounds or not all(isinstance(v, str) for v in given)
+            why = (
+                "min/max do not apply"
+                if bounds
+                else "quote a text that YAML reads as a number or true/false"
+            )
+            kind = (
+                f"is a text ({unit}): compare it with equals: a text or in: a list of texts ({why})"
+            )
         else:
             texts = isinstance(th.equals, (bool, str)) or any(
                 isinstance(v, str) for v in th.in_ or []
