@@ -374,3 +374,39 @@ def test_a_constant_named_as_a_delivery_value_is_refused(blockqc, tmp_path: Path
     p = blockqc("inspect", block, "--rules", pack, "--out", tmp_path / "out", "--pdf", "none")
     assert p.returncode == 2 and "Traceback" not in p.stderr, p.stderr
     assert message in p.stderr
+
+
+def test_an_expression_only_the_stand_in_gsd_divides_by_zero_is_not_refused(
+    blockqc, tmp_path: Path
+) -> None:
+    """Lint evaluates gsd.ms as 1: `1 / (gsd.ms - 1)` was refused, though no delivery's MS GSD
+    need be 1 m (F1-B01's is 2.6 m). It is named as a warning, and inspect evaluates it."""
+    pack = _pack(tmp_path, "overrides:\n  RO-1: {threshold: {max: 1 / (gsd.ms - 1)}}\n")
+    warning = (
+        f"{pack}, line 4: rule RO-1: threshold.max: could not be evaluated with the stand-in "
+        "values lint gives the delivery's names (gsd.pan = 1, gsd.ms = 1) (cannot evaluate "
+        "'1 / (gsd.ms - 1)': float division by zero); inspect evaluates it with each "
+        "delivery's own values"
+    )
+    assert _messages(pack) == []
+    assert [str(n) for n in load_pack(pack).notes] == [warning]
+    p = blockqc("rules", "lint", pack)
+    assert p.returncode == 0 and p.stderr == f"warning: {warning}\n", p.stderr
+
+
+@pytest.mark.parametrize(
+    ("expr", "why"),
+    [
+        ("1 / (gsd.mss - 1)", "unknown constant 'gsd.mss' (did you mean gsd.ms?)"),
+        ("1 / (gsd.ms - ", "malformed expression '1 / (gsd.ms -'"),
+        ("1 / (norm.plane_m - 10)", "cannot evaluate '1 / (norm.plane_m - 10)': float division"),
+        ("sqrt(gsd.ms, 2)", "cannot evaluate 'sqrt(gsd.ms, 2)': math.sqrt() takes exactly one"),
+    ],
+)
+def test_an_expression_wrong_whatever_the_delivery_is_still_refused(
+    tmp_path: Path, expr: str, why: str
+) -> None:
+    pack = _pack(tmp_path, f'overrides:\n  RO-1: {{threshold: {{max: "{expr}"}}}}\n')
+    msgs = _messages(pack)
+    assert len(msgs) == 1 and msgs[0].startswith(f"{pack}, line 4: rule RO-1: threshold.max: ")
+    assert why in msgs[0], msgs

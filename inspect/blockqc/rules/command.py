@@ -28,12 +28,9 @@ def _pack_option(f):
 
 def _delivery_named(expr: Any) -> bool:
     """Whether an expression names a value the delivery supplies (e.g. gsd.ms)."""
-    from blockqc.rules.lint import referenced_names
-    from blockqc.rules.loader import DELIVERY_NAMES
+    from blockqc.rules.lint import delivery_named
 
-    if not isinstance(expr, str):
-        return False
-    return any(n.split(".")[0] in DELIVERY_NAMES for n in referenced_names(expr))
+    return delivery_named(expr)
 
 
 def threshold_text(rule: Rule, constants: dict[str, Any]) -> str:
@@ -183,6 +180,8 @@ def rules_lint(packs: tuple[str, ...]) -> int:
     for ref in packs or available_packs():
         pack, found = lint(ref)
         problems.extend(found)
+        for note in pack.notes if pack is not None else []:
+            click.echo(f"warning: {note}", err=True)
         if pack is not None and not found:
             click.echo(f"{ref}: {len(pack.rules)} rules, ok")
     if problems:

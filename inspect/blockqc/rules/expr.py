@@ -43,6 +43,11 @@ class ExpressionError(ValueError):
     """An expression that is malformed, refers to an unknown name or uses what is not allowed."""
 
 
+class EvaluationError(ExpressionError):
+    """A well-formed expression whose value cannot be computed from the values it was given
+    (a division by zero, a result not finite, the square root of a negative number)."""
+
+
 def _dotted(node: ast.AST) -> str | None:
     if isinstance(node, ast.Name):
         return node.id
@@ -107,7 +112,7 @@ def _short(text: str) -> str:
 def _bounded(value: float, text: str) -> float:
     """A finite number of sane magnitude, or an ExpressionError."""
     if not math.isfinite(value) or abs(value) > MAX_MAGNITUDE:
-        raise ExpressionError(
+        raise EvaluationError(
             f"cannot evaluate {_short(text)}: {value:g} is not a finite number of magnitude "
             f"at most {MAX_MAGNITUDE:g}"
         )
@@ -180,13 +185,13 @@ def _eval(node: ast.AST, constants: Mapping[str, Any], text: str) -> Any:
     if isinstance(node, ast.BinOp) and type(node.op) in _BINARY:
         left, right = _eval(node.left, constants, text), _eval(node.right, constants, text)
         if isinstance(node.op, ast.Pow) and abs(right) > MAX_EXPONENT:
-            raise ExpressionError(
+            raise EvaluationError(
                 f"cannot evaluate {_short(text)}: exponent {right:g} beyond ±{MAX_EXPONENT:g}"
             )
         try:
             return _bounded(float(_BINARY[type(node.op)](left, right)), text)
         except (ZeroDivisionError, OverflowError, TypeError) as exc:
-            raise ExpressionError(f"cannot evaluate {_short(text)}: {exc}") from None
+            raise EvaluationError(f"cannot evaluate {_short(text)}: {exc}") from None
     if isinstance(node, ast.UnaryOp) and type(node.op) in _UNARY:
         return _UNARY[type(node.op)](_eval(node.operand, constants, text))
     if isinstance(node, ast.Call):
@@ -200,7 +205,11 @@ def _eval(node: ast.AST, constants: Mapping[str, Any], text: str) -> Any:
         args = [_eval(a, constants, text) for a in node.args]
         try:
             return _bounded(float(FUNCTIONS[name](*args)), text)
-        except (ValueError, TypeError, OverflowError) as exc:
+        except EvaluationError:
+            raise
+        except (ValueError, OverflowError) as exc:  # sqrt(-1): the values, not the writing
+            raise EvaluationError(f"cannot evaluate {text!r}: {exc}") from None
+        except TypeError as exc:  # min(), round(1, 2, 3): the writing
             raise ExpressionError(f"cannot evaluate {text!r}: {exc}") from None
     name = _dotted(node)
     if name is not None:

@@ -20,7 +20,14 @@ from pydantic import BaseModel, ValidationError
 
 from blockqc.errors import Problem, RuleError
 from blockqc.metrics import REGISTRY, MetricSpec, Scope
-from blockqc.rules.expr import ExpressionError, evaluate, flatten, resolve_params, syntax_tree
+from blockqc.rules.expr import (
+    EvaluationError,
+    ExpressionError,
+    evaluate,
+    flatten,
+    resolve_params,
+    syntax_tree,
+)
 from blockqc.rules.model import Pack, Rule, selected
 from blockqc.rules.text import TEXT_FIELDS, placeholders
 from blockqc.yamlio import line_of
@@ -189,13 +196,24 @@ def unused_constants(
 
 
 # ---------------------------------------------------------------------------------- rules
-def check_rule(rule: Rule, names: Mapping[str, Any], file: str, line: LineFn) -> list[Problem]:
+def check_rule(
+    rule: Rule,
+    names: Mapping[str, Any],
+    file: str,
+    line: LineFn,
+    notes: list[Problem] | None = None,
+) -> list[Problem]:
     """Everything a rule can get wrong beyond its shape: expressions, metric, scope, statistic,
-    columns in `where`, threshold groups, parameters."""
+    columns in `where`, threshold groups, parameters. What could not be checked without a
+    delivery, and does not refuse the pack, is added to `notes` (lint prints it as a warning)."""
     out: list[Problem] = []
 
-    def bad(msg: str, *loc: Any) -> None:
-        out.append(Problem(file, f"rule {rule.id}: {msg}", line=line(*loc)))
+    def bad(msg: str, *loc: Any, warning: bool = False) -> None:
+        problem = Problem(file, f"rule {rule.id}: {msg}", line=line(*loc))
+        if not warning:
+            out.append(problem)
+        elif notes is not None:
+            notes.append(problem)
 
     if not rule.title.strip():
         bad("a rule needs a title", "title")
@@ -257,6 +275,12 @@ def _number(
         return None
     try:
         value = evaluate(expr, names)
+    except EvaluationError as exc:
+        if delivery_named(expr):  # the stand-ins, not the expression, may be at fault
+            bad(f"{label}: {_stand_ins_fail(exc)}", *loc, warning=True)
+        else:
+            bad(f"{label}: {exc}", *loc)
+        return None
     except ExpressionError as exc:
         bad(f"{label}: {exc}", *loc)
         return None
@@ -265,6 +289,26 @@ def _number(
         bad(f"{label}: {expr} is a list of numbers ({listed}): expected one number", *loc)
         return None
     return value
+
+
+def delivery_named(expr: Any) -> bool:
+    """Whether an expression (or any inside a mapping or list) names a value the delivery
+    provides (e.g. gsd.ms)."""
+    from blockqc.rules.loader import DELIVERY_NAMES
+
+    return any(n.split(".")[0] in DELIVERY_NAMES for n in referenced_names(expr))
+
+
+def _stand_ins_fail(exc: ExpressionError) -> str:
+    """Why an expression naming the delivery is not refused although it could not be computed:
+    lint knows no delivery and computes it with stand-ins, which any delivery may differ from."""
+    from blockqc.rules.loader import DELIVERY_NAMES
+
+    given = ", ".join(f"{k} = {v:g}" for k, v in flatten(DELIVERY_NAMES).items())
+    return (
+        f"could not be evaluated with the stand-in values lint gives the delivery's names "
+        f"({given}) ({exc}); inspect evaluates it with each delivery's own values"
+    )
 
 
 def _check_score(rule: Rule, names: Mapping[str, Any], bad: Callable[..., None]) -> None:
@@ -464,6 +508,11 @@ def _resolve(
     label = ".".join(map(str, at))
     try:
         return resolve_params(spec.params, raw, names)
+    except EvaluationError as exc:
+        if delivery_named(raw):
+            bad(f"{label}: {_stand_ins_fail(exc)}", *at, warning=True)
+        else:
+            bad(f"{label}: {exc}", *at)
     except ExpressionError as exc:
         bad(f"{label}: {exc}", *at)
     except ValidationError as exc:

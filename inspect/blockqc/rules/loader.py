@@ -32,6 +32,7 @@ from blockqc.rules.text import render_rule
 from blockqc.yamlio import LineDict, line_of, load_yaml, pydantic_problems
 
 #: values the delivery supplies to expressions; pack checks evaluate them with these stand-ins
+#: (an expression they cannot compute is not refused for it: lint warns, README "Rule packs")
 DELIVERY_NAMES = {"gsd": {"pan": 1.0, "ms": 1.0}}
 
 
@@ -248,6 +249,7 @@ def read_pack(ref: str | Path) -> tuple[Pack | None, list[Problem]]:
     acceptance, found = _acceptance(loaded.sources, elements)
     problems.extend(found)
     rules: list[Rule] = []
+    notes: list[Problem] = []
     names = {**loaded.constants, **DELIVERY_NAMES}
     for rid, raw in loaded.rules.items():
         try:
@@ -260,7 +262,7 @@ def read_pack(ref: str | Path) -> tuple[Pack | None, list[Problem]]:
             continue
         rule, found = render_rule(rule, loaded.constants, raw.file, partial(_line, raw))
         problems.extend(found)
-        problems.extend(check_rule(rule, names, raw.file, partial(_line, raw)))
+        problems.extend(check_rule(rule, names, raw.file, partial(_line, raw), notes))
         problems.extend(_check_contents(rule, elements, raw))
         rules.append(rule)
     if not loaded.rules:
@@ -280,6 +282,7 @@ def read_pack(ref: str | Path) -> tuple[Pack | None, list[Problem]]:
         history={rid: r.history for rid, r in loaded.rules.items()},
         acceptance=acceptance,
         columns=next((f.columns for _, _, f in reversed(loaded.sources) if f.columns), "all"),
+        notes=notes,
     )
     return pack, problems
 

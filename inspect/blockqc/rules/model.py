@@ -8,6 +8,7 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, field_validator, model_validator
 
 from blockqc.acceptance.model import Acceptance, ErrorClass, ScoreDef
+from blockqc.errors import Problem
 
 
 def _not_bool(v: Any) -> Any:
@@ -235,6 +236,8 @@ class Pack:
     history: dict[str, list[tuple[str, int | None, dict[str, Any]]]] = field(default_factory=dict)
     acceptance: Acceptance | None = None  # §QE: sampling, classes, scores, grades
     columns: Literal["all", "used"] = "all"  # the tie points' columns read (PackFile.columns)
+    # what lint could not check without a delivery and does not refuse the pack for: warnings
+    notes: list[Problem] = field(default_factory=list)
 
     def rule(self, rule_id: str) -> Rule:
         """The rule of that id, compared case-insensitively (`tp-1` is TP-1)."""
