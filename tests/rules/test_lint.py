@@ -410,3 +410,32 @@ def test_an_expression_wrong_whatever_the_delivery_is_still_refused(
     msgs = _messages(pack)
     assert len(msgs) == 1 and msgs[0].startswith(f"{pack}, line 4: rule RO-1: threshold.max: ")
     assert why in msgs[0], msgs
+
+
+def test_an_empty_exclusive_range_is_refused(tmp_path: Path) -> None:
+    """min 1, max 1, inclusive false: no value is both above 1 and below 1."""
+    pack = _pack(
+        tmp_path,
+        "overrides:\n  TP-1: {threshold: {min: 1, max: 1, inclusive: false}}\n"
+        "  TP-4:\n    threshold: {min: tp.min_points_per_scene, max: 100, inclusive: false}\n"
+        "  TP-2: {threshold: {min: 1, max: 1}}\n",
+    )
+    assert _messages(pack) == [
+        f"{pack}, line 4: rule TP-1: threshold: min and max are both 1 and inclusive is false: "
+        "nothing can pass (to pass 1 alone, write equals: 1)",
+        f"{pack}, line 6: rule TP-4: threshold: min and max are both 100 and inclusive is "
+        "false: nothing can pass (to pass 100 alone, write equals: 100)",
+    ]
+    with pytest.raises(RuleError):
+        load_pack(pack)
+
+
+def test_bounds_naming_the_delivery_are_not_compared_with_stand_ins(tmp_path: Path) -> None:
+    """gsd.pan and gsd.ms are both 1 for lint: `2 * gsd.pan … gsd.ms` was said to be empty,
+    though a delivery's MS GSD is about four times its PAN GSD."""
+    pack = _pack(
+        tmp_path,
+        "overrides:\n  RO-1: {threshold: {min: 2 * gsd.pan, max: gsd.ms}}\n"
+        "  TP-1: {threshold: {min: gsd.pan, max: gsd.ms, inclusive: false}}\n",
+    )
+    assert _messages(pack) == []

@@ -258,8 +258,16 @@ def _check_thresholds(rule: Rule, names: Mapping[str, Any], bad: Callable[..., N
             _number(getattr(th, key), names, bad, f"{where}.{key}", *loc, key)
             for key in ("min", "max")
         )
-        if lo is not None and hi is not None and lo > hi:
+        # bounds naming the delivery are compared at inspect, not with the stand-in values
+        compared = lo is not None and hi is not None and not delivery_named([th.min, th.max])
+        if compared and lo > hi:
             bad(f"{where}: min {lo:g} is above max {hi:g}: nothing can pass", *loc)
+        elif compared and lo == hi and not th.inclusive:
+            bad(
+                f"{where}: min and max are both {lo:g} and inclusive is false: nothing can "
+                f"pass (to pass {lo:g} alone, write equals: {lo:g})",
+                *loc,
+            )
         if th.in_ is not None and not th.in_:
             bad(f"{where}.in: an empty list: nothing can pass", *loc, "in")
         if isinstance(th.equals, float) and not math.isfinite(th.equals):
