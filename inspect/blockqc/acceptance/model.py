@@ -4,9 +4,32 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
 
 ErrorClass = Literal["A", "B", "C", "D"]
+
+#: words that read as a passing verdict (a decision, a rule's status, an inspector's verdict):
+#: the fail grade cannot be named so, or failing blocks would be graded "pass"
+PASSING_WORDS = ("pass", "passed", "conditional_pass", "waived")
+
+
+def _score(v: float) -> float:
+    """Scores are 0 to 100 (§QE-3, §QE-4): a bound outside is never or always reached."""
+    if not 0 <= v <= 100:
+        raise ValueError(f"expected a score from 0 to 100, got {v:g}")
+    return v
+
+
+#: a score bound (a grade's lowest score, element_fail_below)
+Score = Annotated[float, AfterValidator(_score)]
 
 
 class _M(BaseModel):
@@ -83,7 +106,7 @@ class Grade(_M):
     """A grade and its lowest score (inclusive)."""
 
     id: str
-    min: float
+    min: Score
     title: str
     title_zh: str = ""
 
@@ -114,7 +137,7 @@ class Acceptance(_M):
     default_error_class: ErrorClass = "C"
     deduction: Deduction = Field(default_factory=Deduction)
     accuracy: AccuracyScore = Field(default_factory=AccuracyScore)
-    element_fail_below: float = 60  # §QE-2: a unit fails with any element below this
+    element_fail_below: Score = 60  # §QE-2: a unit fails with any element below this
     grades: list[Grade] = Field(min_length=1)  # best first; below the last: the fail grade
     fail_grade: Grade
     better_than: str = "good"  # §QE-5 "good or better"
@@ -122,12 +145,49 @@ class Acceptance(_M):
     batch_default: str = "pass"
     weights: Weights = Field(default_factory=Weights)
 
+    @field_validator("fail_grade")
+    @classmethod
+    def _fail_grade_apart(cls, v: Grade, info: ValidationInfo) -> Grade:
+        """The fail grade's id names it alone, and does not read as passing."""
+        ids = [g.id for g in info.data.get("grades", [])]
+        if v.id in ids:
+            raise ValueError(
+                f"id '{v.id}' is also the id of a grade ({', '.join(ids)}): failing blocks "
+                "would be graded like blocks of that grade; give the fail grade an id of its "
+                "own, e.g. fail"
+            )
+        if v.id.strip().lower() in PASSING_WORDS:
+            raise ValueError(
+                f"id '{v.id}' reads as a passing verdict: failing blocks would be graded "
+                f"'{v.id}'; give the fail grade an id such as fail"
+            )
+        return v
+
+    @field_validator("batch_grades")
+    @classmethod
+    def _batch_best_first(cls, v: list[BatchGrade], info: ValidationInfo) -> list[BatchGrade]:
+        """The first batch grade whose shares hold is given: a worse one listed before a better
+        one would be given in its place."""
+        ids = [g.id for g in info.data.get("grades", [])]
+        named = [b.grade for b in v if b.grade in ids]  # an unknown one: _grades says so
+        ranks = [ids.index(g) for g in named]
+        if ranks != sorted(set(ranks)):
+            raise ValueError(
+                f"list them best first, in the order of grades ({', '.join(ids)}), each once: "
+                f"got {', '.join(named)}"
+            )
+        return v
+
     @model_validator(mode="after")
     def _grades(self) -> Acceptance:
         mins = [g.min for g in self.grades]
         if mins != sorted(mins, reverse=True):
             raise ValueError("grades: list them best first, lowest scores descending")
-        ids = {g.id for g in self.grades}
+        listed = [g.id for g in self.grades]
+        twice = sorted({i for i in listed if listed.count(i) > 1})
+        if twice:
+            raise ValueError(f"grades: each grade has an id of its own: {', '.join(twice)} twice")
+        ids = set(listed)
         for ref in [self.better_than, self.batch_default, *(b.grade for b in self.batch_grades)]:
             if ref not in ids:
                 raise ValueError(f"grade '{ref}' is not one of the grades ({', '.join(ids)})")
