@@ -439,3 +439,13 @@ def test_bounds_naming_the_delivery_are_not_compared_with_stand_ins(tmp_path: Pa
         "  TP-1: {threshold: {min: gsd.pan, max: gsd.ms, inclusive: false}}\n",
     )
     assert _messages(pack) == []
+
+
+def test_a_where_naming_no_group_value_is_named_once_the_right_way_round(tmp_path: Path) -> None:
+    """`where: {component: planar}` also said "thresholds.plane: no group 'plane' (did you mean
+    planar?)", as if planar were a group and the pack's plane the misspelling."""
+    pack = _pack(tmp_path, "overrides:\n  RO-3: {where: {component: planar}}\n")
+    assert _messages(pack) == [
+        f"{pack}, line 4: rule RO-3: where.component: no component 'planar' (did you mean "
+        "plane?) (values: plane, height)"
+    ]

@@ -439,7 +439,7 @@ def _check_content_groups(rule: Rule, scope: Scope, what: str, bad: Callable[...
     if any(not where for where in rule.content.values()):
         return  # a content that takes every result
     for col, vals in taken.items():
-        judged = [str(rule.where[col])] if col in rule.where else scope.groups[col]
+        judged = list(_judged(rule, scope, col))
         missing = [v for v in judged if v not in vals]
         if missing:
             bad(
@@ -447,6 +447,14 @@ def _check_content_groups(rule: Rule, scope: Scope, what: str, bad: Callable[...
                 f"(give each value of {col} to a content: {', '.join(judged)})",
                 "content",
             )
+
+
+def _judged(rule: Rule, scope: Scope, col: str) -> tuple[str, ...]:
+    """The values of a group column the rule judges: the one its `where` keeps, else every one
+    (also when `where` names no value of the column: that is reported at the `where`)."""
+    vals = tuple(scope.groups[col])
+    kept = str(rule.where[col]) if col in rule.where else None
+    return (kept,) if kept in vals else vals
 
 
 def _at(bad: Callable[..., None], content: str) -> Callable[..., None]:
@@ -461,10 +469,7 @@ def _check_groups(rule: Rule, spec: MetricSpec, scope: Scope, bad: Callable[...,
     if not scope.groups:
         bad(f"thresholds: {what} has no groups: give a single threshold:", "thresholds")
         return
-    values = {
-        col: (str(rule.where[col]),) if col in rule.where else vals
-        for col, vals in scope.groups.items()
-    }
+    values = {col: _judged(rule, scope, col) for col in scope.groups}
     every = {v for vals in values.values() for v in vals}
     for key in rule.thresholds:
         if key not in every:
