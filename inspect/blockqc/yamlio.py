@@ -4,9 +4,10 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
 import yaml
+from pydantic import AfterValidator
 
 from blockqc.errors import BlockqcError, InputError, Problem
 from blockqc.textio import read_text
@@ -24,6 +25,16 @@ class LineList(list):
 
     line: int = 0
     item_lines: list[int]
+
+
+def _not_blank(value: str) -> str:
+    if not value.strip():
+        raise ValueError("expected a text, got a blank one")
+    return value
+
+
+#: a text a YAML file must give (a title, a name): blank (empty or spaces only) is refused
+Text = Annotated[str, AfterValidator(_not_blank)]
 
 
 _BaseLoader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)  # libyaml's parser when built in

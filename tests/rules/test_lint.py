@@ -449,3 +449,28 @@ def test_a_where_naming_no_group_value_is_named_once_the_right_way_round(tmp_pat
         f"{pack}, line 4: rule RO-3: where.component: no component 'planar' (did you mean "
         "plane?) (values: plane, height)"
     ]
+
+
+def test_blank_titles_and_case_names_are_refused(tmp_path: Path) -> None:
+    """A title or a case name of spaces passed its `at least one character`."""
+    element = _pack(tmp_path, 'elements:\n  - id: data\n    title: "  "\n', name="element")
+    assert _messages(element) == [
+        f"{element}, line 5: elements.0.title: expected a text, got a blank one"
+    ]
+    grade = _pack(tmp_path, 'acceptance:\n  fail_grade: {id: fail, min: 0, title: " "}\n')
+    assert _messages(grade) == [
+        f"{grade}, line 4: acceptance.fail_grade.title: expected a text, got a blank one"
+    ]
+    pack = _pack(
+        tmp_path, "rules:\n  - id: PR-1\n    title: t\n    clause: §TP-1\n    manual: true\n"
+    )
+    cases = tmp_path / "project.cases"
+    cases.mkdir()
+    (cases / "PR-1.yaml").write_text(
+        'rule: PR-1\ncases:\n  - name: "  "\n    expect: manual\n'
+        "  - name: rejected\n    verdicts: {verdicts: {PR-1: {status: fail}}}\n    expect: fail\n",
+        "utf-8",
+    )
+    assert _messages(pack) == [
+        f"{cases / 'PR-1.yaml'}, line 3: cases.0.name: expected a text, got a blank one"
+    ]

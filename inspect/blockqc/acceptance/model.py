@@ -14,6 +14,8 @@ from pydantic import (
     model_validator,
 )
 
+from blockqc.yamlio import Text
+
 ErrorClass = Literal["A", "B", "C", "D"]
 
 #: words that read as a passing verdict (a decision, a rule's status, an inspector's verdict):
@@ -105,9 +107,9 @@ class AccuracyScore(_M):
 class Grade(_M):
     """A grade and its lowest score (inclusive)."""
 
-    id: str
+    id: Text
     min: Score
-    title: str
+    title: Text
     title_zh: str = ""
 
 

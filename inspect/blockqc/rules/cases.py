@@ -34,7 +34,7 @@ from blockqc.metrics import REGISTRY
 from blockqc.rules.casebase import EditError, write_delivery
 from blockqc.rules.lint import did_you_mean
 from blockqc.rules.model import Pack, Rule
-from blockqc.yamlio import line_of, load_yaml, pydantic_problems
+from blockqc.yamlio import Text, line_of, load_yaml, pydantic_problems
 
 #: the most severe status first: a rule's overall status over its results
 Expect = Literal["error", "fail", "warn", "waived", "manual", "pass", "not_applicable"]
@@ -67,7 +67,7 @@ class Case(BaseModel):
     """One case: edits of the base delivery, and what the rule must then say."""
 
     model_config = ConfigDict(extra="forbid")
-    name: str = Field(min_length=1)
+    name: Text
     expect: Expect
     manifest: dict[str, Any] = Field(default_factory=dict)
     set: dict[str, list[SetEdit]] = Field(default_factory=dict)

@@ -9,6 +9,7 @@ from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, field_valida
 
 from blockqc.acceptance.model import Acceptance, ErrorClass, ScoreDef
 from blockqc.errors import Problem
+from blockqc.yamlio import Text
 
 
 def _not_bool(v: Any) -> Any:
@@ -39,7 +40,7 @@ class Titled(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
     id: str = Field(pattern=r"^[A-Za-z][A-Za-z0-9_]*$")
-    title: str = Field(min_length=1)
+    title: Text
     title_zh: str = ""
 
 
