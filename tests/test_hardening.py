@@ -667,6 +667,43 @@ def test_whole_rule_waiver_covers_every_unit(blockqc, tmp_path: Path) -> None:
     assert tp4["detail"]["waived"] == ["S2"] and tp4["detail"]["waiver_reason"] == "open sea"
 
 
+def _short_scenes(tmp_path: Path) -> Path:
+    """The base block with 50 tie points kept in S1, 80 in S2 and 10 in S3, a water scene."""
+    drop = {
+        "tie_points": [
+            {"where": {"scene_id": "S1"}, "keep_first": 50},
+            {"where": {"scene_id": "S2"}, "keep_first": 80},
+            {"where": {"scene_id": "S3"}, "keep_first": 10},
+        ]
+    }
+    water = {"scenes": [{"where": {"scene_id": "S3"}, "values": {"water_fraction": 0.9}}]}
+    return write_delivery(tmp_path / "block", {"drop": drop, "set": water})
+
+
+@pytest.mark.parametrize(
+    "scenes, status, value, evidence, waived",
+    [
+        ("[S1]", "fail", 80, [("S2", 80)], ["S1"]),  # the failure: S2's 80 points, not S1's 50
+        ("[S2, S1]", "waived", 50, [("S1", 50), ("S2", 80)], ["S1", "S2"]),  # all waived: shown
+    ],
+)
+def test_waived_scene_gives_no_figure_of_a_failure(
+    blockqc, tmp_path: Path, scenes, status, value, evidence, waived
+) -> None:
+    d = _short_scenes(tmp_path)
+    v = _verdicts(tmp_path, f"waivers:\n  TP-4: {{scenes: {scenes}, reason: cloud}}\n")
+    p = blockqc("inspect", d, "--verdicts", v, "--out", tmp_path / "out", "--no-pdf")
+    _no_traceback(p)
+    doc = json.loads((tmp_path / "out" / "CASE" / "results.json").read_text())
+    tp4 = next(r for r in doc["results"] if r["rule"] == "TP-4")
+    assert (tp4["status"], tp4["value"]) == (status, value)
+    assert [(e["scene_id"], e["n_points"]) for e in tp4["evidence"]] == evidence
+    assert sorted(tp4["detail"]["waived"]) == waived
+    assert [x["scene_id"] for x in tp4["detail"]["exempt"]] == ["S3"]  # water: not judged
+    html = (tmp_path / "out" / "CASE" / "report.html").read_text()
+    assert f">{value} points<" in html
+
+
 # ---------------------------------------------------------------------- exports and plots
 def test_formula_cells_neutralised_in_exports(blockqc, delivery: Path, tmp_path: Path) -> None:
     text = (delivery / "checkpoints.csv").read_text()

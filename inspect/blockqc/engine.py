@@ -313,10 +313,12 @@ class Judge:
             detail["reason"] = "every unit is exempt"
             return self.result(group, "not_applicable", None, detail)
         status = _severity_status(r) if failing.any() else "waived" if waived.any() else "pass"
-        value = worst(judged[r.statistic], ok, self.th, self.hi)
+        sel = _deciding(failing, waived)
+        units = judged if sel is None else judged[sel]
+        value = worst(units[r.statistic], ok if sel is None else ok[sel], self.th, self.hi)
         evidence = []
         if status != "pass":
-            bad = _order(judged[~ok], r.statistic, table.sort, self.hi)
+            bad = _order(units, r.statistic, table.sort, self.hi)
             bad = _filter(table.complete(bad, r.evidence_where), r.evidence_where)
             shown = table.complete(bad.head(r.evidence_limit))
             evidence = records(
@@ -381,6 +383,16 @@ class Judge:
         if v == "conditional_pass":
             detail["condition"] = self.verdict.note
         return self.result({}, status, v, detail)
+
+
+def _deciding(failing: np.ndarray, waived: np.ndarray) -> np.ndarray | None:
+    """The units a per-unit result's value and evidence come from: the failing ones when any
+    fail (a waived unit, listed in the detail as waived, never supplies the figure of a failure);
+    when every offending unit is waived (status waived), the waived ones, the worst of them the
+    value; when none offends, every unit (None: the value is the worst that passes)."""
+    if failing.any():
+        return failing
+    return waived if waived.any() else None
 
 
 def _in_group(group: Mapping[str, Any], where: Mapping[str, Any]) -> bool:
