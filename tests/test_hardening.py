@@ -12,7 +12,7 @@ from types import SimpleNamespace
 import pandas as pd
 import pytest
 
-from casekit import run_blockqc, write_delivery
+from casekit import extension_pack, run_blockqc, write_delivery
 
 
 def _no_traceback(proc) -> None:
@@ -702,6 +702,80 @@ def test_waived_scene_gives_no_figure_of_a_failure(
     assert [x["scene_id"] for x in tp4["detail"]["exempt"]] == ["S3"]  # water: not judged
     html = (tmp_path / "out" / "CASE" / "report.html").read_text()
     assert f">{value} points<" in html
+
+
+#: RO-1 (per pair of PAN and MS scenes) and RO-3 (per point of a pair of scenes) made waivable
+WAIVABLE = "overrides:\n  RO-1: {waivable: true}\n  RO-3: {waivable: true}\n"
+# the base block's overlaps: points O0..O4 of the pair S1/S2; its pan_ms: R0..R4 of S1/M1
+UNIT_WAIVER_CASES = [
+    (
+        "waivers:\n  RO-3: {reason: x, points: [P2]}\n",
+        "line 2: a waiver for point 'P2', which is not a point in the overlaps table of any "
+        "block inspected",
+    ),
+    (
+        "waivers:\n  RO-3: {reason: x, scenes: [S1]}\n",
+        "line 2: rule RO-3 is judged per point: list the pairs of scenes to waive under 'pairs', "
+        "the point ids under 'points' or the units (scene_a/scene_b/point_id) under 'units' "
+        "('scenes' would match none)",
+    ),
+    (
+        "waivers:\n  RO-1: {reason: x, pairs: [[S1, S2]]}\n",
+        "line 2: a waiver for pair 'S1/S2', which is not a pair in the pan_ms table of any "
+        "block inspected; did you mean 'S1/M1'?",
+    ),
+    (
+        "blocks:\n  CASE:\n    waivers:\n      RO-3: {reason: x, units: [S2/S1/O2]}\n",
+        "line 4: a waiver for unit 'S2/S1/O2', which is not a unit in the overlaps table "
+        "(scene_a/scene_b/point_id) of block CASE; did you mean 'S1/S2/O2'?",
+    ),
+    (
+        "waivers:\n  RO-1: {reason: x, points: [R0]}\n",
+        "line 2: rule RO-1 is judged per pair: list the pairs of scenes to waive under 'pairs' "
+        "or the units (pan_scene_id/ms_scene_id) under 'units' ('points' would match none)",
+    ),
+    (
+        "waivers:\n  RO-3:\n    reason: x\n    pairs: [[S1, S2]]\n    units: [S1/S2]\n",
+        "line 5: a waiver for unit 'S1/S2', which is not a unit in the overlaps table "
+        "(scene_a/scene_b/point_id) of any block inspected",
+    ),
+]
+
+
+@pytest.mark.parametrize("text, message", UNIT_WAIVER_CASES)
+def test_waiver_of_pairs_and_points_matching_nothing(
+    blockqc, delivery, tmp_path, text, message
+) -> None:
+    pack = extension_pack(tmp_path, WAIVABLE)
+    v = _verdicts(tmp_path, text)
+    extra = ("--verdicts", v, "--rules", pack)
+    _refused(blockqc, delivery, tmp_path / "out", f"{v}, {message}", extra=extra)
+
+
+@pytest.mark.parametrize(
+    "named, waived",
+    [
+        ("points: [O2]", ["S1/S2/O2"]),  # the point of each pair holding it
+        ("pairs: [[S2, S1]]", ["S1/S2/O2", "S1/S2/O4"]),  # every point of the pair, any order
+        ("units: [S1/S2/O4]", ["S1/S2/O4"]),
+    ],
+)
+def test_waiver_of_points_and_pairs_of_a_per_point_rule(
+    blockqc, tmp_path: Path, named, waived
+) -> None:
+    too_far = [{"where": {"point_id": {"in": ["O2", "O4"]}}, "values": {"dx_m": 30.0}}]
+    d = write_delivery(tmp_path / "block", {"set": {"overlaps": too_far}})  # plane √916 m
+    v = _verdicts(tmp_path, f"waivers:\n  RO-3: {{reason: sea, {named}}}\n")
+    pack = extension_pack(tmp_path, WAIVABLE)
+    out = tmp_path / "out"
+    p = blockqc("inspect", d, "--verdicts", v, "--rules", pack, "--out", out, "--no-pdf")
+    _no_traceback(p)
+    doc = json.loads((out / "CASE" / "results.json").read_text())
+    plane = next(
+        r for r in doc["results"] if r["rule"] == "RO-3" and r["group"]["component"] == "plane"
+    )
+    assert plane["detail"]["waived"] == waived and plane["detail"]["waiver_reason"] == "sea"
+    assert plane["status"] == ("fail" if len(waived) == 1 else "waived")
 
 
 # ---------------------------------------------------------------------- exports and plots

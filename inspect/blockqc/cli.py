@@ -221,7 +221,7 @@ def inspect_cmd(
 ) -> int:
     """Inspect one delivery or a batch (a folder of deliveries) with a rule pack."""
     from blockqc import batch
-    from blockqc.delivery import block_scenes
+    from blockqc.delivery import block_ids
     from blockqc.inspector import check_inspector_input, load_inspector_input
     from blockqc.outputs import check_out_dir, empty_removed, out_lock, refuse_inside
     from blockqc.rules import load_pack
@@ -242,8 +242,9 @@ def inspect_cmd(
         for w in manifest.unknown_keys:
             click.echo(f"warning: {w}", err=True)
     if inspector is not None:
-        scenes = block_scenes(got.deliveries, got.manifests)
-        check_inspector_input(inspector, {r.id: r for r in pack.rules}, scenes)
+        ids, unread = block_ids(got.deliveries, got.manifests)
+        blocks = {**ids, **{f"(unreadable: {p})": None for p in unread}}
+        check_inspector_input(inspector, {r.id: r for r in pack.rules}, blocks)
     checkpoints = None
     if checkpoint_files:
         from blockqc.checkpoint_inputs import check_blocks, load_checkpoint_files

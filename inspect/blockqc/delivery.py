@@ -1131,22 +1131,53 @@ def scene_lookup(scene_id: pd.Series, scene_ids: Any) -> tuple[np.ndarray, np.nd
     return scene_id.array.codes, found.astype(np.int32)
 
 
-def block_scenes(
-    paths: list[Path], manifests: dict[Path, Manifest] | None = None
-) -> dict[str, set[str] | None]:
-    """Block id -> scene ids of each delivery, read lightly for checking the inspector's file.
+@dataclass
+class DeliveryIds:
+    """What of one delivery a verdicts file may name, read lightly for checking it: the scene
+    ids (None where scenes.csv cannot be read) and, only when a waiver names units of a table,
+    that table's key columns. What cannot be read is reported when the delivery is inspected."""
 
-    The value is None where the scenes cannot be read; a delivery whose block.yaml cannot be
-    read is keyed "(unreadable: <path>)", so that its problems are reported when it is read.
-    `manifests`: the manifests already read.
-    """
-    out: dict[str, set[str] | None] = {}
+    block_id: str
+    path: Path
+    scenes: set[str] | None
+    _units: dict[tuple[str, tuple[str, ...]], pd.DataFrame | None] = field(
+        default_factory=dict, repr=False
+    )
+
+    def units(self, table: str, columns: tuple[str, ...]) -> pd.DataFrame | None:
+        """The distinct rows of these columns of a table (none when the delivery has no such
+        table), or None when the table cannot be read."""
+        key = (table, columns)
+        if key not in self._units:
+            self._units[key] = _key_rows(self.path, table, columns)
+        return self._units[key]
+
+
+def _key_rows(path: Path, table: str, columns: tuple[str, ...]) -> pd.DataFrame | None:
+    try:
+        f = _table_file(path, table)
+        if f is None:
+            return pd.DataFrame(columns=list(columns))
+        df, problems, _ = read_columns(f, TABLES[table], set(columns))
+    except InputError:
+        return None
+    return None if problems else df[list(columns)].drop_duplicates()
+
+
+def block_ids(
+    paths: list[Path], manifests: dict[Path, Manifest] | None = None
+) -> tuple[dict[str, DeliveryIds], list[Path]]:
+    """Block id -> the ids of its delivery, for checking the inspector's file, and the deliveries
+    whose block.yaml cannot be read (their block ids unknown; their problems are reported when
+    they are read). `manifests`: the manifests already read."""
+    out: dict[str, DeliveryIds] = {}
+    unread: list[Path] = []
     manifests = manifests or {}
     for path in paths:  # a handful of small files per delivery
         try:
             bid = (manifests.get(path) or load_manifest(path / MANIFEST)).block_id
         except InputError:
-            out[f"(unreadable: {path})"] = None
+            unread.append(path)
             continue
         try:
             f = _table_file(path, "scenes")
@@ -1154,5 +1185,6 @@ def block_scenes(
         except InputError:
             df, problems = None, []
         ok = df is not None and not problems
-        out[bid] = set(df["scene_id"].dropna().astype(str)) if ok else None
-    return out
+        scenes = set(df["scene_id"].dropna().astype(str)) if ok else None
+        out[bid] = DeliveryIds(bid, path, scenes)
+    return out, unread

@@ -13,7 +13,7 @@ import pandas as pd
 
 from blockqc import __version__
 from blockqc.delivery import Delivery, summary
-from blockqc.inspector import BlockInput, Waiver
+from blockqc.inspector import BlockInput, Waiver, unit_labels
 from blockqc.metrics import REGISTRY, Measurement, Table
 from blockqc.outputs import jsonable, records
 from blockqc.results import BlockResults, MeasurementRecord, RuleResult, tally
@@ -281,14 +281,11 @@ class Judge:
         """Units the inspector waived, and their labels ("A", "A/B", ...)."""
         if self.waiver is None or not self.rule.waivable:
             return np.zeros(len(units), dtype=bool), pd.Series([], dtype=object)
-        keys = table.keys
-        units = table.complete(units, keys)
-        labels = units[keys[0]].astype(str)
-        for k in keys[1:]:
-            labels = labels + "/" + units[k].astype(str)
+        units = table.complete(units, table.keys)
+        labels = unit_labels(units, table.keys)
         if self.waiver.whole_rule:  # no units named: the waiver covers every unit
             return np.ones(len(units), dtype=bool), labels
-        return labels.isin(self.waiver.labels()).to_numpy(dtype=bool), labels
+        return self.waiver.covers(units, table.keys), labels
 
     def _units(self, group: dict[str, Any], sub: pd.DataFrame, table: Table) -> RuleResult:
         """Per scene/pair/point: value = worst case, evidence = the offending units."""

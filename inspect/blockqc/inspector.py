@@ -12,10 +12,12 @@ Verdict statuses (README "Readings"):
 from __future__ import annotations
 
 import difflib
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
+import numpy as np
+import pandas as pd
 from pydantic import (
     BaseModel,
     ConfigDict,
@@ -27,7 +29,12 @@ from pydantic import (
 )
 
 from blockqc.errors import InputError, Problem
+from blockqc.schema import TABLES
 from blockqc.yamlio import line_of, load_yaml, pydantic_problems
+
+if TYPE_CHECKING:
+    from blockqc.delivery import DeliveryIds
+    from blockqc.metrics import Scope
 
 VERDICT_STATUSES = ("pass", "conditional_pass", "rework", "fail")
 
@@ -65,11 +72,21 @@ class Waiver(BaseModel):
             )
         return value
 
-    def labels(self) -> set[str]:
-        """Unit labels this waiver covers: ids, and pairs in both orders ("A/B", "B/A")."""
-        out = set(self.scenes) | set(self.points) | set(self.units)
-        for a, b in self.pairs:
-            out |= {f"{a}/{b}", f"{b}/{a}"}
+    def named(self, kind: str) -> list[str]:
+        """What the waiver names under a key (scenes, pairs, points, units) as unit labels:
+        a pair in both orders ("A/B", "B/A")."""
+        if kind == "pairs":
+            return [f"{a}/{b}" for a, b in self.pairs] + [f"{b}/{a}" for a, b in self.pairs]
+        return list(getattr(self, kind))
+
+    def covers(self, units: pd.DataFrame, keys: Sequence[str]) -> np.ndarray:
+        """Which units (rows holding the key columns `keys`) the waiver names, under any key
+        that names units of such a scope (unit_columns)."""
+        out = np.zeros(len(units), dtype=bool)
+        for kind, columns in unit_columns(keys).items():
+            names = self.named(kind)
+            if names:
+                out |= unit_labels(units, columns).isin(names).to_numpy(dtype=bool)
         return out
 
     def scene_ids(self) -> list[tuple[tuple[Any, ...], str]]:
@@ -82,6 +99,39 @@ class Waiver(BaseModel):
     @property
     def whole_rule(self) -> bool:
         return not (self.scenes or self.pairs or self.points or self.units)
+
+
+#: the key columns naming a scene (those referring to scenes.csv)
+SCENE_COLUMNS = frozenset(
+    r.column for t in TABLES.values() for r in t.references if r.table == "scenes"
+)
+WAIVER_KEYS = ("scenes", "pairs", "points", "units")
+
+
+def unit_columns(keys: Sequence[str]) -> dict[str, list[str]]:
+    """The waiver keys naming units of a scope keyed by `keys`, each with the key columns
+    its names are matched with: a unit that is a scene is named under 'scenes'; one keyed by
+    two scenes (a pair, a point of a pair) under 'pairs' too, in either order; one keyed by a
+    point id under 'points' too (every unit of that point id: each pair holding it); any unit
+    under 'units', its key columns joined by '/' ("A/B/P7"). A scope without keys names none."""
+    keys = list(keys)
+    scenes = [k for k in keys if k in SCENE_COLUMNS]
+    if len(keys) == 1 and scenes:
+        return {"scenes": keys}
+    out: dict[str, list[str]] = {}
+    if len(scenes) == 2:
+        out["pairs"] = scenes
+    if "point_id" in keys:
+        out["points"] = ["point_id"]
+    return {**out, "units": keys} if keys else out
+
+
+def unit_labels(units: pd.DataFrame, columns: Sequence[str]) -> pd.Series:
+    """Each unit's label: its values of `columns` as text, joined by '/'."""
+    labels = units[columns[0]].astype(str)
+    for c in columns[1:]:
+        labels = labels + "/" + units[c].astype(str)
+    return labels
 
 
 class BlockInput(BaseModel):
@@ -140,27 +190,45 @@ def _rule_problems(
     return []
 
 
-#: the scopes whose units a waiver lists under one key: (that key, what the units are)
-_UNIT_KEYS = {"scene": ("scenes", "scenes"), "document": ("units", "document kinds")}
+def rule_scope(rule: Any) -> Scope | None:
+    """The scope of the metric an automatic rule is judged at (None for a manual rule, or one
+    whose metric or scope is unknown: the pack's own problem, reported when it is loaded)."""
+    from blockqc.metrics import REGISTRY
+
+    spec = REGISTRY.get(getattr(rule, "metric", None) or "")
+    return spec.scopes.get(rule.scope) if spec is not None else None
+
+
+def _instead(rule: Any, keys: Sequence[str], allowed: Iterable[str]) -> str:
+    """What to write instead of a waiver key that names no unit of the rule's scope."""
+    what = {"scenes": "scenes", "pairs": "pairs of scenes", "points": "point ids"}
+    what["units"] = "document kinds" if rule.scope == "document" else f"units ({'/'.join(keys)})"
+    parts = [f"the {what[k]}" + (" to waive" if i == 0 else "") + f" under '{k}'"
+             for i, k in enumerate(allowed)]  # fmt: skip
+    if not parts:
+        return ", which names no units: leave them out to waive the whole rule"
+    listed = ", ".join(parts[:-1]) + " or " + parts[-1] if len(parts) > 1 else parts[0]
+    return ": list " + listed
 
 
 def _unit_kind_problems(
     inp: InspectorInput, loc: tuple[Any, ...], waiver: Waiver, rule: Any
 ) -> list[Problem]:
-    """A rule judged per scene is waived for scenes, one judged per document for document kinds
-    (under 'units'): units under another key would match none."""
-    scope = getattr(rule, "scope", None)
-    if rule is None or scope not in _UNIT_KEYS:
+    """Units are waived under the keys that name units of the rule's scope (unit_columns): a
+    rule judged per scene is waived for scenes, one judged per document for document kinds
+    (under 'units'); units under another key would match none."""
+    scope = rule_scope(rule)
+    if scope is None:
         return []
-    key, what = _UNIT_KEYS[scope]
+    allowed = unit_columns(scope.keys)
     return [
         inp.problem(
             (*loc, kind),
-            f"rule {rule.id} is judged per {scope}: list the {what} to waive under '{key}' "
+            f"rule {rule.id} is judged per {rule.scope}{_instead(rule, scope.keys, allowed)} "
             f"('{kind}' would match none)",
         )
-        for kind in ("scenes", "pairs", "points", "units")
-        if kind != key and getattr(waiver, kind)
+        for kind in WAIVER_KEYS
+        if kind not in allowed and getattr(waiver, kind)
     ]
 
 
@@ -209,34 +277,124 @@ def _scene_problems(
     ]
 
 
+#: beyond this many units of a table, no "did you mean" is looked for among them
+HINT_LIMIT = 10_000
+
+
+def _labels_of(ids: list[DeliveryIds], table: str, columns: list[str]) -> set[str] | None:
+    """The labels of the units of a table in these deliveries (None: none could be read)."""
+    frames = [f for f in (d.units(table, tuple(columns)) for d in ids) if f is not None]
+    if not frames:
+        return None
+    return set().union(*(set(unit_labels(f, columns)) for f in frames))
+
+
+def _unit_hint(name: str, have: set[str], pair_first: bool) -> str:
+    """A "did you mean" for a unit: the same unit with its pair in the other order (a unit's
+    label keeps the order of the table), else a close one among not too many."""
+    a, _, rest = name.partition("/")
+    b, _, rest = rest.partition("/")
+    swapped = "/".join([b, a, rest] if rest else [b, a])
+    if pair_first and swapped in have:
+        return f"; did you mean '{swapped}'?"
+    return _hint(name, have) if len(have) <= HINT_LIMIT else ""
+
+
+def _unmatched(
+    waiver: Waiver, kind: str, have: set[str], scenes: set[str] | None
+) -> list[tuple[tuple[Any, ...], str]]:
+    """(place, name) of what the waiver names under `kind` that no unit has; a pair naming a
+    scene that is not one of the block's is left to _scene_problems."""
+    if kind != "pairs":
+        return [((kind, i), u) for i, u in enumerate(waiver.named(kind)) if u not in have]
+    return [
+        (("pairs", i), f"{a}/{b}")
+        for i, (a, b) in enumerate(waiver.pairs)
+        if f"{a}/{b}" not in have and f"{b}/{a}" not in have
+        and (scenes is None or {a, b} <= scenes)
+    ]  # fmt: skip
+
+
+def _named_unit_problems(
+    inp: InspectorInput,
+    loc: tuple[Any, ...],
+    waiver: Waiver,
+    rule: Any,
+    ids: list[DeliveryIds],
+    where: str,
+) -> list[Problem]:
+    """Every pair, point or unit a waiver names must be one the table of the rule's units holds
+    in the block(s) it applies to (its key columns, read lightly): another would match none."""
+    scope = rule_scope(rule)
+    if scope is None or not scope.table:
+        return []
+    scenes = None if any(d.scenes is None for d in ids) else set().union(*(d.scenes for d in ids))
+    out = []
+    allowed = unit_columns(scope.keys)
+    for kind, columns in allowed.items():
+        if kind == "scenes" or not getattr(waiver, kind):
+            continue
+        have = _labels_of(ids, scope.table, columns)
+        if have is None:
+            continue
+        noun = {"pairs": "pair", "points": "point", "units": "unit"}[kind]
+        for at, name in _unmatched(waiver, kind, have, scenes):
+            hint = _unit_hint(name, have, kind == "units" and "pairs" in allowed)
+            msg = f"a waiver for {noun} '{name}', which is not a {noun} in the {scope.table} table"
+            if kind == "units":
+                msg += f" ({'/'.join(columns)})"
+            out.append(inp.problem((*loc, *at), f"{msg} of {where}{hint}"))
+    return out
+
+
 def check_inspector_input(
-    inp: InspectorInput, rules: Mapping[str, Any], blocks: Mapping[str, set[str] | None]
+    inp: InspectorInput, rules: Mapping[str, Any], blocks: Mapping[str, DeliveryIds | None]
 ) -> None:
     """Refuse what would otherwise be dropped: verdicts on automatic or unknown rules, waivers
-    of rules that are not waivable, unknown block ids and scenes. `rules` maps rule ids to rules;
-    `blocks` maps the block ids inspected to their scene ids (None where not readable)."""
+    of rules that are not waivable, unknown block ids, scenes and units. `rules` maps rule ids
+    to rules; `blocks` maps the block ids inspected to their deliveries' ids (None where not
+    known)."""
     problems: list[Problem] = []
-    known = all(s is not None for s in blocks.values())
-    every = set().union(*(s for s in blocks.values() if s is not None))
+    known = all(d is not None and d.scenes is not None for d in blocks.values())
+    every = [d for d in blocks.values() if d is not None]
     parts = [((), inp.verdicts, inp.waivers, every if known else None, "any block inspected")]
     for bid, own in inp.blocks.items():
         if bid not in blocks and known:
             msg = f"block '{bid}' is not one of the blocks inspected ({', '.join(blocks)})"
             problems.append(inp.problem(("blocks", bid), msg + _hint(bid, blocks)))
-        where = f"block {bid}"
-        parts.append((("blocks", bid), own.verdicts, own.waivers, blocks.get(bid), where))
-    for loc, verdicts, waivers, scenes, where in parts:
+        d = blocks.get(bid)
+        ids = [d] if d is not None and d.scenes is not None else None
+        parts.append((("blocks", bid), own.verdicts, own.waivers, ids, f"block {bid}"))
+    for loc, verdicts, waivers, ids, where in parts:
         for rid in verdicts:
             problems += _rule_problems(inp, (*loc, "verdicts", rid), rid, rules, False)
         for rid, waiver in waivers.items():
             at = (*loc, "waivers", rid)
-            problems += _rule_problems(inp, at, rid, rules, True)
-            problems += _unit_kind_problems(inp, at, waiver, rules.get(rid))
-            problems += _document_problems(inp, at, waiver, rules.get(rid))
-            if scenes is not None:
-                problems += _scene_problems(inp, at, waiver, scenes, where)
+            problems += _waiver_problems(inp, at, waiver, rules, rid, ids, where)
     if problems:
         raise InputError(sorted(problems, key=lambda p: p.line or 0))
+
+
+def _waiver_problems(
+    inp: InspectorInput,
+    at: tuple[Any, ...],
+    waiver: Waiver,
+    rules: Mapping[str, Any],
+    rid: str,
+    ids: list[DeliveryIds] | None,
+    where: str,
+) -> list[Problem]:
+    """A waiver's problems: its rule, the keys it names units under, the units themselves
+    (checked against the deliveries' ids, when known)."""
+    rule = rules.get(rid)
+    out = _rule_problems(inp, at, rid, rules, True)
+    kinds = _unit_kind_problems(inp, at, waiver, rule)
+    out += kinds + _document_problems(inp, at, waiver, rule)
+    if ids is None:
+        return out
+    scenes = set().union(*(d.scenes or set() for d in ids))
+    out += _scene_problems(inp, at, waiver, scenes, where)
+    return out if kinds else out + _named_unit_problems(inp, at, waiver, rule, ids, where)
 
 
 def load_inspector_input(path: Path) -> InspectorInput:

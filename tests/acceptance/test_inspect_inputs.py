@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 
 from blockqc.checkpoint_inputs import check_blocks, load_checkpoint_files
+from blockqc.delivery import DeliveryIds
 from blockqc.errors import InputError
 from blockqc.inspector import check_inspector_input, load_inspector_input
 from blockqc.rules import load_pack
@@ -55,7 +56,9 @@ def _check(tmp_path: Path, rules, text: str) -> list[str]:
     path = tmp_path / "verdicts.yaml"
     path.write_text(text, "utf-8")
     with pytest.raises(InputError) as exc:
-        check_inspector_input(load_inspector_input(path), rules, {"B00": {"S1"}})
+        check_inspector_input(
+            load_inspector_input(path), rules, {"B00": DeliveryIds("B00", tmp_path, {"S1"})}
+        )
     return [str(p).removeprefix(f"{path}, ") for p in exc.value.problems]
 
 
@@ -79,4 +82,6 @@ def test_documents_are_waived_under_units(tmp_path: Path, rules) -> None:
 def test_a_waiver_for_a_document_kind_the_rule_checks(tmp_path: Path, rules) -> None:
     path = tmp_path / "verdicts.yaml"
     path.write_text("waivers:\n  DOC-1:\n    reason: r\n    units: [technical_design]\n", "utf-8")
-    check_inspector_input(load_inspector_input(path), rules, {"B00": {"S1"}})
+    check_inspector_input(
+        load_inspector_input(path), rules, {"B00": DeliveryIds("B00", tmp_path, {"S1"})}
+    )

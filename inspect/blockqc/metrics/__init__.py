@@ -73,6 +73,8 @@ class Scope:
     groups: Mapping[str, tuple[str, ...]] = field(default_factory=dict)  # column -> its values
     keys: tuple[str, ...] = ()  # what identifies a unit (scene, pair, point) inside a group
     columns: tuple[str, ...] = ()  # further columns of the table (some only when input has them)
+    # the delivery table whose rows hold the keys (the units a waiver names are checked in it)
+    table: str = ""
 
     def all_columns(self) -> tuple[str, ...]:
         """Every column the scope's table may carry."""

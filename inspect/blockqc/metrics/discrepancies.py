@@ -79,7 +79,7 @@ def _measure(df: pd.DataFrame | None, unit: list[str], what: str) -> Measurement
     )
 
 
-def _scopes(unit: tuple[str, ...]) -> dict[str, Scope]:
+def _scopes(unit: tuple[str, ...], table: str) -> dict[str, Scope]:
     """Per point, per unit (pair of scenes or neighbour block) and per component."""
     groups = {"component": COMPONENTS}
     return {
@@ -88,19 +88,20 @@ def _scopes(unit: tuple[str, ...]) -> dict[str, Scope]:
             groups=groups,
             keys=(*unit, "point_id"),
             columns=("dx_m", "dy_m", "dz_m"),
+            table=table,
         ),
-        "pair": Scope(_STATS, groups=groups, keys=unit),
+        "pair": Scope(_STATS, groups=groups, keys=unit, table=table),
         "component": Scope(_STATS, groups=groups),
     }
 
 
-@metric("overlap_discrepancy", scopes=_scopes(("scene_a", "scene_b")), tie_points=())
+@metric("overlap_discrepancy", scopes=_scopes(("scene_a", "scene_b"), "overlaps"), tie_points=())
 def overlap_discrepancy(d: Delivery, p: NoParams, measure: Measure) -> Measurement:
     """Discrepancies between adjacent overlapping images, per point and pair (§RO-3)."""
     return _measure(d.overlaps, ["scene_a", "scene_b"], "overlaps table (overlaps.csv)")
 
 
-@metric("edge_discrepancy", scopes=_scopes(("neighbour_block",)), tie_points=())
+@metric("edge_discrepancy", scopes=_scopes(("neighbour_block",), "edges"), tie_points=())
 def edge_discrepancy(d: Delivery, p: NoParams, measure: Measure) -> Measurement:
     """Discrepancies against adjacent blocks, per point and neighbour (§RO-2)."""
     return _measure(d.edges, ["neighbour_block"], "edges table (edges.csv)")
@@ -114,9 +115,12 @@ _PAN_MS = ("pan_scene_id", "ms_scene_id")
     tie_points=(),
     scopes={
         "point": Scope(
-            {"value_m": "m"}, keys=(*_PAN_MS, "point_id"), columns=("component", "dx_m", "dy_m")
+            {"value_m": "m"},
+            keys=(*_PAN_MS, "point_id"),
+            columns=("component", "dx_m", "dy_m"),
+            table="pan_ms",
         ),
-        "pair": Scope(_STATS, keys=_PAN_MS),
+        "pair": Scope(_STATS, keys=_PAN_MS, table="pan_ms"),
         "block": Scope(_STATS),
     },
 )

@@ -45,7 +45,10 @@ def _reason(d: Delivery) -> str | None:
     tie_points=(),  # it reads the process data; a delivery with geometry is read whole
     scopes={
         "observation": Scope(
-            {"difference_px": "px"}, keys=("point_id", "scene_id"), columns=_OBSERVATION_COLUMNS
+            {"difference_px": "px"},
+            keys=("point_id", "scene_id"),
+            columns=_OBSERVATION_COLUMNS,
+            table="tie_points",
         ),
         "block": Scope(_BLOCK),
     },

@@ -387,6 +387,7 @@ def _fill_observations(
             {"error_px": "px"},
             keys=("point_id", "scene_id"),
             columns=("line", "sample", "v_line", "v_sample"),
+            table="tie_points",
         ),
     },
     param_units={"interval_px": "px"},
