@@ -778,6 +778,64 @@ def test_waiver_of_points_and_pairs_of_a_per_point_rule(
     assert plane["status"] == ("fail" if len(waived) == 1 else "waived")
 
 
+def test_verdicts_file_checked_beside_an_unreadable_delivery(blockqc, tmp_path: Path) -> None:
+    """B01's scenes.csv cannot be read: block ids are still checked, and scenes and points
+    against the deliveries that could be read; B01's own waivers are not (its scenes unknown)."""
+    for b in ("B00", "B01"):
+        write_delivery(tmp_path / "batch" / b, {"manifest": {"block_id": b}})
+    _cell(tmp_path / "batch" / "B01" / "scenes.csv", 1, "band", "pann")
+    text = (
+        "blocks:\n"
+        "  F9-B99:\n"
+        "    verdicts: {DOC-3: {status: pass}}\n"
+        "  B00:\n"
+        "    waivers: {TP-4: {reason: x, scenes: [S11]}}\n"
+        "  B01:\n"
+        "    waivers: {TP-4: {reason: x, scenes: [ZZ]}}\n"
+        "waivers:\n"
+        "  TP-4: {reason: x, scenes: [NO-SUCH-SCENE]}\n"
+        "  RO-3: {reason: x, points: [Q9]}\n"
+    )
+    v = _verdicts(tmp_path, text)
+    extra = ("--verdicts", v, "--rules", extension_pack(tmp_path, WAIVABLE))
+    err = _refused(
+        blockqc,
+        tmp_path / "batch",
+        tmp_path / "out",
+        f"{v}, line 2: block 'F9-B99' is not one of the blocks inspected (B00, B01)",
+        f"{v}, line 5: a waiver for scene 'S11', which is not a scene of block B00; did you mean "
+        "'S1'?",
+        f"{v}, line 9: a waiver for scene 'NO-SUCH-SCENE', which is not a scene of any block "
+        "inspected (the scenes of B01 could not be read)",
+        f"{v}, line 10: a waiver for point 'Q9', which is not a point in the overlaps table of "
+        "any block inspected",
+        extra=extra,
+    )
+    assert "'ZZ'" not in err and err.count(f"{v}, ") == 4
+
+
+def test_verdicts_file_checked_beside_an_unreadable_block_yaml(blockqc, tmp_path: Path) -> None:
+    """B01's block.yaml cannot be read, so its block id is unknown: a block id not inspected
+    may be its own and is not refused; scenes are checked against B00."""
+    for b in ("B00", "B01"):
+        write_delivery(tmp_path / "batch" / b, {"manifest": {"block_id": b}})
+    (tmp_path / "batch" / "B01" / "block.yaml").write_text("block_id: [\n")
+    text = (
+        "blocks:\n  F9-B99:\n    verdicts: {DOC-3: {status: pass}}\n"
+        "waivers:\n  TP-4: {reason: x, scenes: [NO-SUCH-SCENE]}\n"
+    )
+    v = _verdicts(tmp_path, text)
+    err = _refused(
+        blockqc,
+        tmp_path / "batch",
+        tmp_path / "out",
+        f"{v}, line 5: a waiver for scene 'NO-SUCH-SCENE', which is not a scene of any block "
+        f"inspected (the block.yaml of {tmp_path / 'batch' / 'B01'} could not be read)",
+        extra=("--verdicts", v),
+    )
+    assert "F9-B99" not in err and err.count(f"{v}, ") == 1
+
+
 # ---------------------------------------------------------------------- exports and plots
 def test_formula_cells_neutralised_in_exports(blockqc, delivery: Path, tmp_path: Path) -> None:
     text = (delivery / "checkpoints.csv").read_text()

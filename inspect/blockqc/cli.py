@@ -243,8 +243,7 @@ def inspect_cmd(
             click.echo(f"warning: {w}", err=True)
     if inspector is not None:
         ids, unread = block_ids(got.deliveries, got.manifests)
-        blocks = {**ids, **{f"(unreadable: {p})": None for p in unread}}
-        check_inspector_input(inspector, {r.id: r for r in pack.rules}, blocks)
+        check_inspector_input(inspector, {r.id: r for r in pack.rules}, ids, unread)
     checkpoints = None
     if checkpoint_files:
         from blockqc.checkpoint_inputs import check_blocks, load_checkpoint_files

@@ -263,14 +263,25 @@ def _document_problems(
     ]
 
 
+def _not_read(names: list[str], what: str) -> str:
+    """A note naming the blocks some of whose ids could not be read (so not checked)."""
+    return f" ({what} of {', '.join(names)} could not be read)" if names else ""
+
+
 def _scene_problems(
-    inp: InspectorInput, loc: tuple[Any, ...], waiver: Waiver, scenes: set[str], where: str
+    inp: InspectorInput, loc: tuple[Any, ...], waiver: Waiver, ids: list[DeliveryIds], where: str
 ) -> list[Problem]:
-    """Every scene a waiver names must be a scene of the block(s) it applies to."""
+    """Every scene a waiver names must be a scene of the block(s) it applies to, among those
+    whose scenes could be read (none read: not checked)."""
+    read = [d for d in ids if d.scenes is not None]
+    if not read:
+        return []
+    scenes = set().union(*(d.scenes or set() for d in read))
+    note = _not_read([d.block_id for d in ids if d.scenes is None], "the scenes")
     return [
         inp.problem(
             (*loc, *at),
-            f"a waiver for scene '{s}', which is not a scene of {where}" + _hint(s, scenes),
+            f"a waiver for scene '{s}', which is not a scene of {where}{note}" + _hint(s, scenes),
         )
         for at, s in waiver.scene_ids()
         if s not in scenes
@@ -281,12 +292,17 @@ def _scene_problems(
 HINT_LIMIT = 10_000
 
 
-def _labels_of(ids: list[DeliveryIds], table: str, columns: list[str]) -> set[str] | None:
-    """The labels of the units of a table in these deliveries (None: none could be read)."""
-    frames = [f for f in (d.units(table, tuple(columns)) for d in ids) if f is not None]
-    if not frames:
-        return None
-    return set().union(*(set(unit_labels(f, columns)) for f in frames))
+def _labels_of(
+    ids: list[DeliveryIds], table: str, columns: list[str]
+) -> tuple[set[str] | None, list[str]]:
+    """The labels of the units of a table in these deliveries (None: none could be read), and
+    the blocks whose table could not be read."""
+    frames = {d.block_id: d.units(table, tuple(columns)) for d in ids}
+    unread = [b for b, f in frames.items() if f is None]
+    read = [f for f in frames.values() if f is not None]
+    if not read:
+        return None, unread
+    return set().union(*(set(unit_labels(f, columns)) for f in read)), unread
 
 
 def _unit_hint(name: str, have: set[str], pair_first: bool) -> str:
@@ -328,42 +344,49 @@ def _named_unit_problems(
     scope = rule_scope(rule)
     if scope is None or not scope.table:
         return []
-    scenes = None if any(d.scenes is None for d in ids) else set().union(*(d.scenes for d in ids))
+    read = [d.scenes for d in ids if d.scenes is not None]
+    scenes = set().union(*read) if read else None
     out = []
     allowed = unit_columns(scope.keys)
     for kind, columns in allowed.items():
         if kind == "scenes" or not getattr(waiver, kind):
             continue
-        have = _labels_of(ids, scope.table, columns)
+        have, unread = _labels_of(ids, scope.table, columns)
         if have is None:
             continue
+        note = _not_read(unread, f"the {scope.table} table")
         noun = {"pairs": "pair", "points": "point", "units": "unit"}[kind]
         for at, name in _unmatched(waiver, kind, have, scenes):
             hint = _unit_hint(name, have, kind == "units" and "pairs" in allowed)
             msg = f"a waiver for {noun} '{name}', which is not a {noun} in the {scope.table} table"
             if kind == "units":
                 msg += f" ({'/'.join(columns)})"
-            out.append(inp.problem((*loc, *at), f"{msg} of {where}{hint}"))
+            out.append(inp.problem((*loc, *at), f"{msg} of {where}{note}{hint}"))
     return out
 
 
 def check_inspector_input(
-    inp: InspectorInput, rules: Mapping[str, Any], blocks: Mapping[str, DeliveryIds | None]
+    inp: InspectorInput,
+    rules: Mapping[str, Any],
+    blocks: Mapping[str, DeliveryIds | None],
+    unread: Sequence[Path] = (),
 ) -> None:
     """Refuse what would otherwise be dropped: verdicts on automatic or unknown rules, waivers
     of rules that are not waivable, unknown block ids, scenes and units. `rules` maps rule ids
     to rules; `blocks` maps the block ids inspected to their deliveries' ids (None where not
-    known)."""
+    known); `unread`: deliveries whose block.yaml cannot be read. Block ids are checked when
+    every block id is known; scenes and units against the deliveries where they could be read
+    (a unit is refused only where some delivery could be read, naming those that could not)."""
     problems: list[Problem] = []
-    known = all(d is not None and d.scenes is not None for d in blocks.values())
     every = [d for d in blocks.values() if d is not None]
-    parts = [((), inp.verdicts, inp.waivers, every if known else None, "any block inspected")]
+    anywhere = "any block inspected" + _not_read([str(p) for p in unread], "the block.yaml")
+    parts = [((), inp.verdicts, inp.waivers, every, anywhere)]
     for bid, own in inp.blocks.items():
-        if bid not in blocks and known:
+        if bid not in blocks and not unread:
             msg = f"block '{bid}' is not one of the blocks inspected ({', '.join(blocks)})"
             problems.append(inp.problem(("blocks", bid), msg + _hint(bid, blocks)))
         d = blocks.get(bid)
-        ids = [d] if d is not None and d.scenes is not None else None
+        ids = [d] if d is not None else []
         parts.append((("blocks", bid), own.verdicts, own.waivers, ids, f"block {bid}"))
     for loc, verdicts, waivers, ids, where in parts:
         for rid in verdicts:
@@ -381,19 +404,16 @@ def _waiver_problems(
     waiver: Waiver,
     rules: Mapping[str, Any],
     rid: str,
-    ids: list[DeliveryIds] | None,
+    ids: list[DeliveryIds],
     where: str,
 ) -> list[Problem]:
     """A waiver's problems: its rule, the keys it names units under, the units themselves
-    (checked against the deliveries' ids, when known)."""
+    (checked against the deliveries' ids, where they could be read)."""
     rule = rules.get(rid)
     out = _rule_problems(inp, at, rid, rules, True)
     kinds = _unit_kind_problems(inp, at, waiver, rule)
     out += kinds + _document_problems(inp, at, waiver, rule)
-    if ids is None:
-        return out
-    scenes = set().union(*(d.scenes or set() for d in ids))
-    out += _scene_problems(inp, at, waiver, scenes, where)
+    out += _scene_problems(inp, at, waiver, ids, where)
     return out if kinds else out + _named_unit_problems(inp, at, waiver, rule, ids, where)
 
 
