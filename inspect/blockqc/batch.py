@@ -76,6 +76,7 @@ class Outcome:
     grade: BlockGrade | None = None  # §QE, for the batch decision
     key: str | None = None  # incremental mode: the key its outputs were reused or written under
     errors: list[str] = field(default_factory=list)  # rules in error: "RULE: why"
+    block_id: str | None = None  # not inspected: its block id, when its block.yaml was read
 
 
 @dataclass
@@ -366,9 +367,10 @@ class Job:
         """A delivery that could not be inspected: the outputs of its block id (from an earlier
         run, or written by this one before it failed) are removed, so that none is taken for
         its results."""
-        if manifest is not None:
-            self.writer.discard(manifest.block_id)
-        return Outcome(path, problems=problems)
+        if manifest is None:
+            return Outcome(path, problems=problems)
+        self.writer.discard(manifest.block_id)
+        return Outcome(path, problems=problems, block_id=manifest.block_id)
 
     def _key(self, path: Path, manifest: Manifest | None) -> str | None:
         if self.digest is None or manifest is None:
@@ -382,7 +384,9 @@ def decision(outcomes: list[Outcome], pack: Pack, plan: Plan | None) -> BatchDec
     if pack.acceptance is None:
         return None
     grades = [o.grade for o in outcomes if o.grade is not None]
-    return decide(grades, pack.acceptance, "plan" if plan else "checkpoints")
+    unread = [o.block_id or o.path.name for o in outcomes if o.entry is None]
+    source, planned = ("plan", plan.sampled) if plan else ("checkpoints", None)
+    return decide(grades, pack.acceptance, source, unread, planned)
 
 
 def summarize(
@@ -481,7 +485,8 @@ class Runner:
             if m is not None:
                 job.writer.discard(m.block_id)  # what it wrote before it died
             why = "could not be inspected: its worker process died, again when it ran alone"
-            done(Outcome(p, problems=[Problem(str(p), f"{why} (killed, or out of memory)")]))
+            problem = Problem(str(p), f"{why} (killed, or out of memory)")
+            done(Outcome(p, problems=[problem], block_id=m.block_id if m else None))
 
 
 def _pooled(
@@ -527,7 +532,8 @@ def run(
             progress(o)
 
     for p, problem in got.refused.items():
-        finished(Outcome(p, problems=[problem]))
+        manifest = got.manifests.get(p)
+        finished(Outcome(p, problems=[problem], block_id=manifest.block_id if manifest else None))
     _discard_refused(writer, list(got.refused))
     extra = Extra(checkpoints, len(got.deliveries) == 1, plan, meta)
     name = inspector.inspector if inspector else None

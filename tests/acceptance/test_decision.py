@@ -56,3 +56,27 @@ def test_unsampled_failures_do_not_decide() -> None:
 def test_no_sample_is_incomplete() -> None:
     d = decide([blk(1, 91, "excellent", sampled=False)], ACC, "checkpoints")
     assert d.decision == "incomplete" and d.mean_score is None
+
+
+def test_a_sampled_block_not_read_leaves_the_decision_incomplete() -> None:
+    """The plan samples B1 and B2; B2 could not be read: nothing is known of it."""
+    d = decide([blk(1, 95, "excellent")], ACC, "plan", ["B2"], ["B1", "B2"])
+    assert d.decision == "incomplete" and d.batch_grade is None and d.mean_score is None
+    assert d.sample == ["B1", "B2"] and d.unreadable == ["B2"]
+
+
+def test_a_block_not_sampled_and_not_read_does_not_decide() -> None:
+    d = decide([blk(1, 95, "excellent"), blk(2, 80, "good", False)], ACC, "plan", ["B3"], ["B1"])
+    assert d.decision == "pass" and d.mean_score == 95 and d.unreadable == ["B3"]
+
+
+def test_without_a_plan_any_block_not_read_leaves_the_decision_incomplete() -> None:
+    """B3 was not read: whether it carries checkpoints, so is of the sample, is not known."""
+    d = decide([blk(1, 95, "excellent"), blk(2, 80, "good", False)], ACC, "checkpoints", ["B3"])
+    assert d.decision == "incomplete" and d.sample == ["B1"] and d.unreadable == ["B3"]
+
+
+def test_a_failing_sampled_block_fails_the_batch_whatever_was_not_read() -> None:
+    blocks = [blk(1, 95, "excellent"), blk(2, 50, "fail", fails=True)]
+    d = decide(blocks, ACC, "plan", ["B3"], ["B1", "B2", "B3"])
+    assert d.decision == "fail" and [b.block_id for b in d.failing] == ["B2"]

@@ -3,8 +3,10 @@
 Readings (docs/acceptance.md): the sample is the plan's sampled blocks (without a plan, the
 blocks that carry checkpoints); the batch grade's shares are taken over the sampled units;
 unsampled blocks that fail their general inspection are listed to be returned for correction
-and do not change the decision; a sampled block whose evaluation is incomplete leaves the
-decision incomplete unless some sampled block already fails.
+and do not change the decision; a sampled block whose evaluation is incomplete, or that could
+not be read, leaves the decision incomplete unless some sampled block already fails. Without a
+plan a delivery that could not be read may carry checkpoints, so be one of the sample: any such
+delivery leaves the decision incomplete.
 """
 
 from __future__ import annotations
@@ -29,26 +31,44 @@ def batch_grade(acc: Acceptance, grades: list[str]) -> tuple[str, float, float]:
     return acc.batch_default, better, top
 
 
-def decide(blocks: list[BlockGrade], acc: Acceptance, source: str) -> BatchDecision:
-    """A sample fails with any failing sampled block; else its mean score, grade, batch grade."""
+def decide(
+    blocks: list[BlockGrade],
+    acc: Acceptance,
+    source: str,
+    unreadable: list[str] | None = None,
+    planned: list[str] | None = None,
+) -> BatchDecision:
+    """A sample fails with any failing sampled block; else its mean score, grade, batch grade.
+
+    `unreadable`: the deliveries not read (block ids); `planned`: the plan's sampled blocks
+    (None without a plan: the sample is the blocks read that carry checkpoints)."""
     sample = [b for b in blocks if b.sampled]
+    unreadable = unreadable or []
     out = BatchDecision(
         standard=acc.standard,
         sample_source=source,
-        sample=[b.block_id for b in sample],
+        sample=[b.block_id for b in sample] if planned is None else list(planned),
         failing=[b for b in sample if b.fails],
         incomplete=[b.block_id for b in sample if not b.complete or b.score is None],
         returned=[b for b in blocks if not b.sampled and b.fails],
+        unreadable=unreadable,
         blocks=blocks,
     )
     if out.failing:
         out.decision = "fail"
         out.sample_grade = out.batch_grade = acc.fail_grade.id
         return out
-    if not sample or out.incomplete:
+    if not sample or out.incomplete or unread_in_sample(out):
         return out
     out.mean_score = sum(b.score for b in sample) / len(sample)
     out.sample_grade = acc.grade(out.mean_score).id
     out.batch_grade, out.better_pct, out.top_pct = batch_grade(acc, [b.grade for b in sample])
     out.decision = "pass"
     return out
+
+
+def unread_in_sample(d: BatchDecision) -> list[str]:
+    """The deliveries not read that belong, or (without a plan) may belong, to the sample."""
+    if d.sample_source != "plan":
+        return list(d.unreadable)
+    return [u for u in d.unreadable if u in d.sample]

@@ -296,6 +296,9 @@ class BatchDecision(_M):
     batch_grade: str | None = None
     decision: Literal["pass", "fail", "incomplete"] = "incomplete"
     returned: list[BlockGrade] = Field(default_factory=list)  # unsampled blocks that fail
+    # deliveries that could not be read, by block id (by folder name when block.yaml could not
+    # be): a sampled one leaves the decision incomplete; without a plan any one does
+    unreadable: list[str] = Field(default_factory=list)
     blocks: list[BlockGrade] = Field(default_factory=list)
 
 

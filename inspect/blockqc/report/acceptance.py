@@ -11,6 +11,7 @@ from collections.abc import Sequence
 from pathlib import PurePath
 from typing import Any
 
+from blockqc.acceptance.decision import unread_in_sample
 from blockqc.acceptance.model import BatchDecision, ErrorRecord, Evaluation
 from blockqc.report.format import Formatter
 from blockqc.results import BlockResults, Summary
@@ -173,6 +174,7 @@ def decision_context(s: Summary, f: Formatter) -> dict[str, Any] | None:
         "failing": [_block_line(b, f) for b in d.failing],
         "returned": [_block_line(b, f) for b in d.returned],
         "incomplete": id_list(d.incomplete, empty=""),
+        "unread": _unread(d, f),
         "blocks": [
             {
                 **_block_line(b, f),
@@ -183,6 +185,23 @@ def decision_context(s: Summary, f: Formatter) -> dict[str, Any] | None:
         ],
         "standard": d.standard,
     }
+
+
+def _unread(d: BatchDecision, f: Formatter) -> list[dict[str, str]]:
+    """The deliveries not read, as the decision sees them: sampled or not (by the plan), or,
+    without a plan, perhaps of the sample; one line each kind, with the block ids."""
+    bearing = unread_in_sample(d)
+    other = [u for u in d.unreadable if u not in bearing]
+    plan = d.sample_source == "plan"
+    lines = [
+        ("unread_sampled" if plan else "unread_no_plan", bearing, f.num(True) if plan else "–"),
+        ("unread_not_sampled", other, f.num(False)),
+    ]
+    return [
+        {"label": f.t(k), "blocks": id_list(ids), "ids": ids, "sampled": sampled}
+        for k, ids, sampled in lines
+        if ids
+    ]
 
 
 def _block_line(b: Any, f: Formatter) -> dict[str, Any]:

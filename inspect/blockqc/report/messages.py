@@ -381,6 +381,20 @@ MESSAGES.update(
             "概查不合格、退回修改的区域网",
         ),
         "incomplete_blocks": ("Sampled blocks not fully evaluated", "评价不完整的样本单位"),
+        "unread_sampled": ("Sampled blocks that could not be read", "无法读取的样本单位"),
+        "unread_not_sampled": (
+            "Blocks not sampled that could not be read (returned for correction)",
+            "无法读取的非样本区域网（退回修改）",
+        ),
+        "unread_no_plan": (
+            "Blocks that could not be read: without a sampling plan, whether they carry "
+            "checkpoints, so belong to the sample, is not known",
+            "无法读取的区域网：未给出抽样方案，无法确定其是否带检查点、是否属于样本",
+        ),
+        "could_not_be_read": (
+            "could not be read (see summary.json)",
+            "无法读取（见 summary.json）",
+        ),
         "reasons": ("Reasons", "原因"),
         "failed_items": ("Failed items", "不合格项"),
         "failed_items_none": ("No item failed.", "无不合格项。"),
