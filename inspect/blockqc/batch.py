@@ -22,7 +22,7 @@ import jinja2
 from blockqc import __version__, pieces
 from blockqc.acceptance.decision import decide
 from blockqc.acceptance.evaluate import evaluate_results
-from blockqc.acceptance.model import BatchDecision, BlockGrade, ReportMeta
+from blockqc.acceptance.model import BatchDecision, BlockGrade, PlanNote, ReportMeta
 from blockqc.acceptance.plan import Plan, apply_plan
 from blockqc.acceptance.scoring import a_class_errors
 from blockqc.cache import (
@@ -161,6 +161,7 @@ class Extra:
     single: bool = True
     plan: Plan | None = None  # §QE-1: the sampled blocks get the detailed inspection
     meta: ReportMeta | None = None  # the filed report's particulars
+    plan_notes: tuple[PlanNote, ...] = ()  # where the plan differs from the batch inspected
 
 
 def inspect_one(
@@ -379,14 +380,18 @@ class Job:
         return delivery_fingerprint(path, self.digest, block_input)
 
 
-def decision(outcomes: list[Outcome], pack: Pack, plan: Plan | None) -> BatchDecision | None:
-    """§QE-5: the batch decision over the blocks inspected (None without acceptance)."""
+def decision(outcomes: list[Outcome], pack: Pack, extra: Extra) -> BatchDecision | None:
+    """§QE-5: the batch decision over the blocks inspected (None without acceptance), with where
+    the plan differs from the batch."""
     if pack.acceptance is None:
         return None
     grades = [o.grade for o in outcomes if o.grade is not None]
     unread = [o.block_id or o.path.name for o in outcomes if o.entry is None]
+    plan = extra.plan
     source, planned = ("plan", plan.sampled) if plan else ("checkpoints", None)
-    return decide(grades, pack.acceptance, source, unread, planned)
+    out = decide(grades, pack.acceptance, source, unread, planned)
+    out.plan_notes = list(extra.plan_notes)
+    return out
 
 
 def summarize(
@@ -436,7 +441,7 @@ def _acceptance_fields(outcomes: list[Outcome], pack: Pack, extra: Extra) -> dic
     """§QE: the batch decision, the sampling plan, the report's particulars."""
     table = pack.acceptance.sampling.table if pack.acceptance else []
     return {
-        "acceptance": decision(outcomes, pack, extra.plan),
+        "acceptance": decision(outcomes, pack, extra),
         "sampling": extra.plan.model_dump(mode="json") if extra.plan else None,
         "meta": _meta(extra.meta, pack),
         "elements": pack.elements,
@@ -517,6 +522,7 @@ def run(
     checkpoints: InspectorCheckpoints | None = None,
     plan: Plan | None = None,
     meta: ReportMeta | None = None,
+    plan_notes: list[PlanNote] | None = None,
 ) -> tuple[list[Outcome], Summary | None]:
     """Inspect every delivery collected, writing its outputs as it goes; for a batch, the summary.
 
@@ -535,7 +541,7 @@ def run(
         manifest = got.manifests.get(p)
         finished(Outcome(p, problems=[problem], block_id=manifest.block_id if manifest else None))
     _discard_refused(writer, list(got.refused))
-    extra = Extra(checkpoints, len(got.deliveries) == 1, plan, meta)
+    extra = Extra(checkpoints, len(got.deliveries) == 1, plan, meta, tuple(plan_notes or ()))
     name = inspector.inspector if inspector else None
     digest = run_digest(pack, writer, extra, name) if incremental else None
     todo = [(p, got.manifests.get(p)) for p in got.deliveries if p not in got.refused]

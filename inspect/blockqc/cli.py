@@ -250,7 +250,7 @@ def inspect_cmd(
 
         checkpoints = load_checkpoint_files(list(checkpoint_files))
         check_blocks(checkpoints, got.deliveries)
-    plan, meta = _acceptance_inputs(plan_file, meta_file, got)
+    plan, meta, notes = _acceptance_inputs(plan_file, meta_file, got, paths, pack)
     with empty_removed(out):
         out = check_out_dir(out, paths)  # created once every input is read
         writer = batch.Writer(out, templates, lang, pdf, pdf_engine)
@@ -261,7 +261,7 @@ def inspect_cmd(
                 click.echo(f"warning: {outdated}", err=True)
             outcomes, summary = batch.run(
                 got, pack, writer, inspector, runner=runner, incremental=incremental,
-                progress=tick, checkpoints=checkpoints, plan=plan, meta=meta,
+                progress=tick, checkpoints=checkpoints, plan=plan, meta=meta, plan_notes=notes,
             )  # fmt: skip
     _closing_lines(outcomes, summary, out)
     return batch.exit_status(outcomes)
@@ -279,16 +279,28 @@ def _refuse_conflicts(no_pdf: bool, pdf: str, scheduler: str | None) -> None:
         )
 
 
-def _acceptance_inputs(plan_file: Path | None, meta_file: Path | None, got):
-    """§QE: the sampling plan (its blocks checked against those inspected), report particulars."""
-    from blockqc.acceptance.plan import check_blocks, load_meta, load_plan
+def _acceptance_inputs(plan_file: Path | None, meta_file: Path | None, got, paths, pack):
+    """§QE: the sampling plan checked against the batch inspected (where it differs without
+    changing the sample: notes, each said as a warning), the report's particulars."""
+    from blockqc.acceptance.plan import load_meta, load_plan
+    from blockqc.acceptance.plan_check import check_blocks, check_strata, plan_notes
+    from blockqc.delivery import is_delivery
 
     plan = load_plan(plan_file) if plan_file else None
     meta = load_meta(meta_file) if meta_file else None
-    if plan is not None:
-        ids = [m.block_id for m in got.manifests.values()]
-        check_blocks(plan, plan_file, ids, got.is_batch)
-    return plan, meta
+    if plan is None:
+        return plan, meta, []
+    ids = [m.block_id for m in got.manifests.values()]
+    check_blocks(plan, plan_file, ids, got.is_batch)
+    blocks = {m.block_id: m.model_dump(mode="json") for m in got.manifests.values()}
+    check_strata(plan, plan_file, blocks)
+    if not got.is_batch:
+        return plan, meta, []
+    batch = paths[0].resolve().name if len(paths) == 1 and not is_delivery(paths[0]) else None
+    notes, warnings = plan_notes(plan, plan_file, ids, batch, f"{pack.name} {pack.version}")
+    for w in warnings:
+        click.echo(f"warning: {w}", err=True)
+    return plan, meta, notes
 
 
 def _style(text: str, **how) -> str:

@@ -158,3 +158,55 @@ def test_a_missing_strata_key_is_named_as_a_key_of_block_yaml(tmp_path: Path) ->
         assert [str(p) for p in exc.value.problems] == [
             f"{manifest}{where}: no key '{key}' in block.yaml to stratify by"
         ]
+
+
+def _refused(tmp_path: Path, edits: list[tuple[str, str]]) -> list[str]:
+    """The problems of PLAN with every edit made (each `old` once)."""
+    text = PLAN
+    for old, new in edits:
+        assert old in text, old
+        text = text.replace(old, new, 1)
+    path = tmp_path / "plan.yaml"
+    path.write_text(text, "utf-8")
+    with pytest.raises(InputError) as exc:
+        load_plan(path)
+    return [str(p).removeprefix(f"{path}, ") for p in exc.value.problems]
+
+
+def test_a_block_sampled_twice_is_refused_where_it_is_listed_again(tmp_path: Path) -> None:
+    """Every count made to agree: F2-B02 would be counted twice in a sample of 4 blocks."""
+    edits = [
+        ("    sample: 1\n", "    sample: 2\n"),
+        ("sampled: [F2-B02]", "sampled: [F2-B02, F2-B02]"),
+        ("  sample_size: 3\n  census: false", "  sample_size: 4\n  census: true"),
+        ("sample_size: 3\n", "sample_size: 4\n"),
+        ("  sampled: [F1-B01, F1-B02, F2-B02]", "  sampled: [F1-B01, F1-B02, F2-B02, F2-B02]"),
+        ("\nsampled: [F1-B01, F1-B02, F2-B02]", "\nsampled: [F1-B01, F1-B02, F2-B02, F2-B02]"),
+    ]
+    assert _refused(tmp_path, edits) == [
+        "line 24: lots.0.strata.1.sampled.1: F2-B02 is listed more than once",
+        "line 25: lots.0.sampled.3: F2-B02 is listed more than once",
+        "line 26: sampled.3: F2-B02 is listed more than once",
+    ]
+
+
+def test_a_unit_listed_twice_in_its_stratum_is_refused(tmp_path: Path) -> None:
+    edits = [
+        ("units: [F2-B01, F2-B02]", "units: [F2-B01, F2-B02, F2-B02]"),
+        ("    size: 2\n    sample: 1\n", "    size: 3\n    sample: 1\n"),
+        ("- size: 4\n", "- size: 5\n"),
+        ("units: 4\n", "units: 5\n"),
+    ]
+    assert _refused(tmp_path, edits) == [
+        "line 23: lots.0.strata.1.units.2: F2-B02 is listed more than once"
+    ]
+
+
+def test_strata_without_a_strata_key_are_refused(tmp_path: Path) -> None:
+    edits = [
+        ("strata_key: test_field", "strata_key: null"),
+        ("method: stratified proportional random", "method: simple random"),
+    ]
+    assert _refused(tmp_path, edits) == [
+        "line 14: lots.0.strata: without strata_key a lot is one stratum, of value ''"
+    ]

@@ -23,7 +23,7 @@ def _lookup(data: dict[str, Any], key: str) -> Any:
     return value
 
 
-def _stratum(data: dict[str, Any], key: str) -> str:
+def stratum_of(data: dict[str, Any], key: str) -> str:
     """A block's stratum: the key's value, text or a number; ValueError for anything else."""
     value = _lookup(data, key)
     if isinstance(value, (str, int, float)) and not isinstance(value, bool):
@@ -55,7 +55,7 @@ def read_units(batch: Path, key: str | None) -> tuple[list[str], dict[str, str] 
         m = got.manifests[path]
         if key:
             try:
-                strata[m.block_id] = _stratum(m.model_dump(mode="json"), key)
+                strata[m.block_id] = stratum_of(m.model_dump(mode="json"), key)
             except KeyError:
                 why = f"no key '{key}' in block.yaml to stratify by"
                 problems.append(_key_problem(path / MANIFEST, key.split(".")[:-1], why))

@@ -281,6 +281,16 @@ class BlockGrade(_M):
     low_elements: list[dict[str, Any]] = Field(default_factory=list)  # id, titles, score
 
 
+class PlanNote(_M):
+    """Where the sampling plan differs from the batch inspected without changing its sample: its
+    `units` that no delivery is (none sampled), another `batch` or `rule_pack` named."""
+
+    about: Literal["units", "batch", "rule_pack"]
+    plan: str  # what the plan says (units: its number of units)
+    inspected: str  # what was inspected (units: the number of deliveries)
+    blocks: list[str] = Field(default_factory=list)  # units: those no delivery is
+
+
 class BatchDecision(_M):
     """§QE-5: the sample judged, its mean score and grade, the batch grade and the acceptance."""
 
@@ -299,6 +309,7 @@ class BatchDecision(_M):
     # deliveries that could not be read, by block id (by folder name when block.yaml could not
     # be): a sampled one leaves the decision incomplete; without a plan any one does
     unreadable: list[str] = Field(default_factory=list)
+    plan_notes: list[PlanNote] = Field(default_factory=list)  # the plan against the batch
     blocks: list[BlockGrade] = Field(default_factory=list)
 
 

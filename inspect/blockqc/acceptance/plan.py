@@ -124,7 +124,7 @@ def load_plan(path: Path) -> Plan:
     if found:
         raise InputError(
             [
-                Problem(str(path), f"{_key(loc)}: {msg}", line=line_of(data, loc))
+                Problem(str(path), f"{key_path(loc)}: {msg}", line=line_of(data, loc))
                 for loc, msg in found
             ]
         )
@@ -136,11 +136,11 @@ def load_plan(path: Path) -> Plan:
 Mismatch = tuple[tuple[str | int, ...], str]
 
 
-def _key(loc: tuple[str | int, ...]) -> str:
+def key_path(loc: tuple[str | int, ...]) -> str:
     return ".".join(str(p) for p in loc)
 
 
-def _names(units: list[str], most: int = 10) -> str:
+def listed(units: list[str], most: int = 10) -> str:
     more = f", … ({len(units)} in all)" if len(units) > most else ""
     return ", ".join(units[:most]) + more if units else "none"
 
@@ -149,7 +149,7 @@ def _count(loc: tuple[str | int, ...], given: int, units: list[str], what: str) 
     """`given` must be the number of `units` (what they are, for the message)."""
     if given == len(units):
         return []
-    return [(loc, f"{given}, but {what} {len(units)} unit(s): {_names(units)}")]
+    return [(loc, f"{given}, but {what} {len(units)} unit(s): {listed(units)}")]
 
 
 def _same(
@@ -158,11 +158,23 @@ def _same(
     """`given` must list the same blocks as `units` (any order, each once)."""
     if sorted(given) == sorted(units):
         return []
-    return [(loc, f"{_names(given)} disagrees with {what}: {_names(sorted(units))}")]
+    return [(loc, f"{listed(given)} disagrees with {what}: {listed(sorted(units))}")]
+
+
+def _once(loc: tuple[str | int, ...], units: list[str]) -> list[Mismatch]:
+    """Each block once in a list of units: a repeat, at its line, would count one block twice."""
+    seen: set[str] = set()
+    out = []
+    for i, u in enumerate(units):
+        if u in seen:
+            out.append(((*loc, i), f"{u} is listed more than once"))
+        seen.add(u)
+    return out
 
 
 def _stratum_problems(s: StratumPlan, at: tuple[str | int, ...]) -> list[Mismatch]:
-    out = _count((*at, "size"), s.size, s.units, "the stratum lists")
+    out = _once((*at, "units"), s.units) + _once((*at, "sampled"), s.sampled)
+    out += _count((*at, "size"), s.size, s.units, "the stratum lists")
     out += _count((*at, "sample"), s.sample, s.sampled, "the stratum samples")
     out += [
         ((*at, "sampled"), f"{u} is not among the stratum's units")
@@ -177,6 +189,7 @@ def _lot_problems(lot: LotPlan, at: tuple[str | int, ...]) -> list[Mismatch]:
     units = [u for s in lot.strata for u in s.units]
     drawn = [u for s in lot.strata for u in s.sampled]
     out += _count((*at, "size"), lot.size, units, "its strata list")
+    out += _once((*at, "sampled"), lot.sampled)
     out += _same((*at, "sampled"), lot.sampled, drawn, "the sampled blocks of its strata")
     out += _count((*at, "sample_size"), lot.sample_size, lot.sampled, "the lot samples")
     if lot.census != (lot.sample_size == lot.size):
@@ -187,49 +200,30 @@ def _lot_problems(lot: LotPlan, at: tuple[str | int, ...]) -> list[Mismatch]:
 
 def plan_problems(plan: Plan) -> list[Mismatch]:
     """Every disagreement between the parts of a plan: counts against the lists they count,
-    the sampled blocks against those of the lots and strata, the method against the key."""
+    the sampled blocks against those of the lots and strata, each block once in every list, the
+    method against the key (without a key, one stratum per lot)."""
     out = [p for i, lot in enumerate(plan.lots) for p in _lot_problems(lot, ("lots", i))]
     units = [u for lot in plan.lots for s in lot.strata for u in s.units]
-    twice = sorted(u for u, n in Counter(units).items() if n > 1)
+    places = Counter(u for lot in plan.lots for s in lot.strata for u in set(s.units))
+    twice = sorted(u for u, n in places.items() if n > 1)
     if twice:
-        out.append((("lots",), f"{_names(twice)} listed in more than one stratum or lot"))
+        out.append((("lots",), f"{listed(twice)} listed in more than one stratum or lot"))
     out += _count(("units",), plan.units, units, "its lots list")
     lots_sampled = [u for lot in plan.lots for u in lot.sampled]
     out += _count(("sample_size",), plan.sample_size, lots_sampled, "its lots sample")
+    out += _once(("sampled",), plan.sampled)
     out += _same(("sampled",), plan.sampled, lots_sampled, "the sampled blocks of its lots")
     method = STRATIFIED if plan.strata_key else SIMPLE
     if plan.method != method:
         key = f"strata_key {plan.strata_key}" if plan.strata_key else "no strata_key"
         out.append((("method",), f"{plan.method}, but with {key} the method is {method}"))
-    return out
-
-
-def check_blocks(plan: Plan, path: Path, block_ids: list[str], whole_batch: bool) -> None:
-    """Every block inspected is in the plan's batch; with a whole batch, every sampled block too.
-    Each problem names the plan's line: its `units`, or the sampled block's."""
-    units = f"its {plan.units} units: {_names(sorted(plan.population))}"
-    problems = [
-        Problem(
-            str(path),
-            f"units: block {b} is not in the plan's batch ({units})",
-            line=plan.line("units"),
-        )
-        for b in block_ids
-        if b not in plan.population
-    ]
-    if whole_batch:
-        problems += [
-            Problem(
-                str(path),
-                f"sampled: block {b} is sampled by the plan but not among the deliveries "
-                f"inspected ({_names(sorted(block_ids))})",
-                line=plan.line("sampled", i),
-            )
-            for i, b in enumerate(plan.sampled)
-            if b not in block_ids
+    elif not plan.strata_key:
+        out += [
+            (("lots", i, "strata"), "without strata_key a lot is one stratum, of value ''")
+            for i, lot in enumerate(plan.lots)
+            if [s.value for s in lot.strata] != [""]
         ]
-    if problems:
-        raise InputError(problems)
+    return out
 
 
 def apply_plan(results: BlockResults, sampled: bool) -> BlockResults:

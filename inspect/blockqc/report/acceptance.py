@@ -12,7 +12,7 @@ from pathlib import PurePath
 from typing import Any
 
 from blockqc.acceptance.decision import unread_in_sample
-from blockqc.acceptance.model import BatchDecision, ErrorRecord, Evaluation
+from blockqc.acceptance.model import BatchDecision, ErrorRecord, Evaluation, PlanNote
 from blockqc.report.format import Formatter
 from blockqc.results import BlockResults, Summary
 
@@ -175,6 +175,7 @@ def decision_context(s: Summary, f: Formatter) -> dict[str, Any] | None:
         "returned": [_block_line(b, f) for b in d.returned],
         "incomplete": id_list(d.incomplete, empty=""),
         "unread": _unread(d, f),
+        "plan_notes": [_plan_note(n, f) for n in d.plan_notes],
         "blocks": [
             {
                 **_block_line(b, f),
@@ -202,6 +203,12 @@ def _unread(d: BatchDecision, f: Formatter) -> list[dict[str, str]]:
         for k, ids, sampled in lines
         if ids
     ]
+
+
+def _plan_note(n: PlanNote, f: Formatter) -> str:
+    """Where the plan differs from the batch inspected, in the page's language."""
+    extra = {"n": len(n.blocks), "blocks": id_list(n.blocks)} if n.about == "units" else {}
+    return f.t(f"plan_note_{n.about}", plan=n.plan, inspected=n.inspected, **extra)
 
 
 def _block_line(b: Any, f: Formatter) -> dict[str, Any]:

@@ -409,6 +409,21 @@ MESSAGES.update(
             "{n} of {units} blocks drawn by {method} sampling (seed {seed}).",
             "采用{method}从 {units} 个区域网中抽取 {n} 个（随机种子 {seed}）。",
         ),
+        "sampling_plan": ("Sampling plan", "抽样方案"),
+        "plan_note_units": (
+            "Units of the plan not among the {inspected} deliveries inspected ({n} of its {plan}; "
+            "withdrawn after sampling?), none of them sampled, so the sample stands: {blocks}.",
+            "抽样方案的 {plan} 个单位中有 {n} 个不在所检的 {inspected} 个成果中（抽样后撤回？），"
+            "均未被抽中，样本不变：{blocks}。",
+        ),
+        "plan_note_batch": (
+            "The plan was drawn from batch '{plan}'; the batch inspected is '{inspected}'.",
+            "抽样方案抽自批“{plan}”，所检批为“{inspected}”。",
+        ),
+        "plan_note_rule_pack": (
+            "The plan was drawn with rule pack {plan}; the batch is inspected with {inspected}.",
+            "抽样方案按规则包 {plan} 抽取，本次检查使用 {inspected}。",
+        ),
         "strata_by": ("Strata by block.yaml key '{name}'.", "按 block.yaml 的“{name}”分层。"),
         "sampling_none": (
             "No sampling plan was given: the sample is the blocks with checkpoints ({sample}).",

@@ -1,0 +1,151 @@
+"""A sampling plan against the batch it is applied to (`inspect --plan`, §QE-1).
+
+Refused, naming the plan file and its line: a block inspected that is not one of the plan's
+units, a sampled block that no delivery is, a unit placed in a stratum its block.yaml does not
+give by the plan's `strata_key`. Stated, as a warning and a note of the acceptance report: units
+of the plan that no delivery is (none sampled: deliveries withdrawn after sampling), a plan
+drawn from another batch or with another rule pack.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+from blockqc.acceptance.command import stratum_of
+from blockqc.acceptance.model import PlanNote
+from blockqc.acceptance.plan import Plan, key_path, listed
+from blockqc.errors import InputError, Problem
+
+Loc = tuple[str | int, ...]
+
+
+def check_blocks(plan: Plan, path: Path, block_ids: list[str], whole_batch: bool) -> None:
+    """Every block inspected is in the plan's batch; with a whole batch, every sampled block too.
+    Each problem names the plan's line: its `units`, or the sampled block's."""
+    units = f"its {plan.units} units: {listed(sorted(plan.population))}"
+    problems = [
+        Problem(
+            str(path),
+            f"units: block {b} is not in the plan's batch ({units})",
+            line=plan.line("units"),
+        )
+        for b in block_ids
+        if b not in plan.population
+    ]
+    if whole_batch:
+        problems += [
+            Problem(
+                str(path),
+                f"sampled: block {b} is sampled by the plan but not among the deliveries "
+                f"inspected ({listed(sorted(block_ids))})",
+                line=plan.line("sampled", i),
+            )
+            for i, b in enumerate(plan.sampled)
+            if b not in block_ids
+        ]
+    if problems:
+        raise InputError(problems)
+
+
+def _placed(plan: Plan) -> Iterator[tuple[Loc, str, str]]:
+    """Every unit of the plan: where it is listed, its id and its stratum's value."""
+    for i, lot in enumerate(plan.lots):
+        for j, s in enumerate(lot.strata):
+            for k, u in enumerate(s.units):
+                yield ("lots", i, "strata", j, "units", k), u, s.value
+
+
+def _gives(block: dict[str, Any], key: str) -> str:
+    """What a block's block.yaml gives by the strata key, as the message says it."""
+    try:
+        return f"its block.yaml gives {key}: '{stratum_of(block, key)}'"
+    except KeyError:
+        return f"its block.yaml has no key '{key}'"
+    except ValueError as exc:
+        return f"in its block.yaml {exc}"
+
+
+def _in_stratum(block: dict[str, Any], key: str, value: str) -> bool:
+    try:
+        return stratum_of(block, key) == value
+    except (KeyError, ValueError):
+        return False
+
+
+def check_strata(plan: Plan, path: Path, blocks: dict[str, dict[str, Any]]) -> None:
+    """Each unit of a stratified plan that is in the batch lies in the stratum its block.yaml
+    gives by `strata_key` (`blocks`: block.yaml of each block read, by block id). When none
+    does, the key itself is named: the plan was drawn by another."""
+    key = plan.strata_key
+    if not key:
+        return
+    placed = [(loc, u, value) for loc, u, value in _placed(plan) if u in blocks]
+    wrong = [(loc, u, v) for loc, u, v in placed if not _in_stratum(blocks[u], key, v)]
+    if not wrong:
+        return
+    if len(wrong) == len(placed) > 1:
+        _, u, value = wrong[0]
+        why = (
+            f"strata_key: {key}, but no block inspected lies in the stratum its block.yaml gives "
+            f"by this key (e.g. {u}, in stratum '{value}': {_gives(blocks[u], key)}): the plan "
+            "was not drawn by this key"
+        )
+        raise InputError(Problem(str(path), why, line=plan.line("strata_key")))
+    raise InputError(
+        [
+            Problem(
+                str(path),
+                f"{key_path(loc)}: block {u} is in the stratum {key} = '{value}', but "
+                f"{_gives(blocks[u], key)}",
+                line=plan.line(*loc),
+            )
+            for loc, u, value in wrong
+        ]
+    )
+
+
+def plan_notes(
+    plan: Plan, path: Path, block_ids: list[str], batch: str | None, rule_pack: str
+) -> tuple[list[PlanNote], list[Problem]]:
+    """Where the plan differs from the batch inspected (`batch`: its folder's name, None when
+    the deliveries were named one by one) without changing the sample; each also as a warning
+    naming the plan's line. Sampled blocks missing are refused before (`check_blocks`)."""
+    notes, warnings = _absent(plan, path, block_ids)
+    named = (("batch", plan.batch, batch), ("rule_pack", plan.rule_pack, rule_pack))
+    for about, given, found in named:
+        if found is not None and given != found:
+            notes.append(PlanNote(about=about, plan=given, inspected=found))
+            warnings.append(Problem(str(path), _other(about, given, found), line=plan.line(about)))
+    return notes, warnings
+
+
+def _absent(plan: Plan, path: Path, block_ids: list[str]) -> tuple[list[PlanNote], list[Problem]]:
+    """The plan's units that no delivery is (none sampled): a note, and a warning for each."""
+    ids = set(block_ids)
+    absent = [(loc, u) for loc, u, _ in _placed(plan) if u not in ids]
+    if not absent:
+        return [], []
+    note = PlanNote(
+        about="units",
+        plan=str(plan.units),
+        inspected=str(len(ids)),
+        blocks=[u for _, u in absent],
+    )
+    warnings = [
+        Problem(
+            str(path),
+            f"{key_path(loc)}: no delivery of the batch is block {u}, a unit of the plan "
+            "(a delivery withdrawn after sampling?); it is not sampled: the sample stands",
+            line=plan.line(*loc),
+        )
+        for loc, u in absent
+    ]
+    return [note], warnings
+
+
+def _other(about: str, given: str, found: str) -> str:
+    if about == "batch":
+        return f"batch: the plan was drawn from batch '{given}'; the batch inspected is '{found}'"
+    return f"rule_pack: the plan was drawn with {given}; the batch is inspected with {found}"

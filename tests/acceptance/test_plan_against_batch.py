@@ -1,0 +1,144 @@
+"""`inspect --plan` checks the plan against the batch it is applied to: a unit placed in a
+stratum its block.yaml does not give is refused, naming the plan's line; units no delivery is
+(none sampled), another batch's name or another rule pack are said as warnings and noted in the
+acceptance report, which otherwise would print the plan's numbers as if they were the batch's."""
+
+from __future__ import annotations
+
+import json
+import re
+from html import unescape
+from pathlib import Path
+
+import pytest
+
+from blockqc.acceptance.plan import load_plan
+from blockqc.acceptance.plan_check import check_strata, plan_notes
+from blockqc.errors import InputError
+from casekit import run_blockqc, write_delivery
+
+#: a plan by block.yaml's `terrain`: B00, B02 flat, B01, B03 hilly; B00 and B01 sampled
+PLAN = """\
+plan: sampling plan
+standard: GB/T 24356-2023
+rule_pack: global-project 1.0
+batch: batch
+seed: 3
+strata_key: terrain
+method: stratified proportional random
+units: 4
+sample_size: 2
+lots:
+- size: 4
+  sample_size: 2
+  census: false
+  strata:
+  - value: flat
+    size: 2
+    sample: 1
+    units: [B00, B02]
+    sampled: [B00]
+  - value: hilly
+    size: 2
+    sample: 1
+    units: [B01, B03]
+    sampled: [B01]
+  sampled: [B00, B01]
+sampled: [B00, B01]
+"""
+
+BLOCKS = {f"B{i:02d}": {"terrain": "flat" if i % 2 == 0 else "hilly"} for i in range(4)}
+
+
+def _plan(tmp_path: Path, *edits: tuple[str, str]):
+    text = PLAN
+    for old, new in edits:
+        assert old in text, old
+        text = text.replace(old, new, 1)
+    path = tmp_path / "plan.yaml"
+    path.write_text(text, "utf-8")
+    return load_plan(path), path
+
+
+def _strata_problems(tmp_path: Path, blocks: dict, *edits: tuple[str, str]) -> list[str]:
+    plan, path = _plan(tmp_path, *edits)
+    with pytest.raises(InputError) as exc:
+        check_strata(plan, path, blocks)
+    return [str(p).removeprefix(f"{path}, ") for p in exc.value.problems]
+
+
+def test_units_in_the_strata_their_block_yaml_gives_are_accepted(tmp_path: Path) -> None:
+    plan, path = _plan(tmp_path)
+    check_strata(plan, path, BLOCKS)
+    check_strata(plan, path, {"B00": BLOCKS["B00"]})  # blocks not in the batch are not checked
+
+
+def test_a_unit_in_another_stratum_is_refused_at_its_line(tmp_path: Path) -> None:
+    """B02 (flat) and B03 (hilly) swapped: each is named where the plan lists it."""
+    edits = ("units: [B00, B02]", "units: [B00, B03]"), ("units: [B01, B03]", "units: [B01, B02]")
+    assert _strata_problems(tmp_path, BLOCKS, *edits) == [
+        "line 18: lots.0.strata.0.units.1: block B03 is in the stratum terrain = 'flat', but its "
+        "block.yaml gives terrain: 'hilly'",
+        "line 23: lots.0.strata.1.units.1: block B02 is in the stratum terrain = 'hilly', but its "
+        "block.yaml gives terrain: 'flat'",
+    ]
+
+
+def test_a_strata_key_no_block_agrees_with_is_named_once(tmp_path: Path) -> None:
+    """The strata are terrain's, the key another: no unit is in its stratum by that key."""
+    blocks = {b: {**d, "sensor": "GF-7"} for b, d in BLOCKS.items()}
+    assert _strata_problems(tmp_path, blocks, ("strata_key: terrain", "strata_key: sensor")) == [
+        "line 6: strata_key: sensor, but no block inspected lies in the stratum its block.yaml "
+        "gives by this key (e.g. B00, in stratum 'flat': its block.yaml gives sensor: 'GF-7'): "
+        "the plan was not drawn by this key"
+    ]
+    assert _strata_problems(tmp_path, BLOCKS, ("strata_key: terrain", "strata_key: zone"))[0] == (
+        "line 6: strata_key: zone, but no block inspected lies in the stratum its block.yaml "
+        "gives by this key (e.g. B00, in stratum 'flat': its block.yaml has no key 'zone'): "
+        "the plan was not drawn by this key"
+    )
+
+
+def test_units_no_delivery_is_another_batch_and_pack_are_noted(tmp_path: Path) -> None:
+    plan, path = _plan(tmp_path)
+    notes, warnings = plan_notes(plan, path, ["B00", "B01", "B02"], "batch-2", "asprs-2023 1.0")
+    assert [n.model_dump() for n in notes] == [
+        {"about": "units", "plan": "4", "inspected": "3", "blocks": ["B03"]},
+        {"about": "batch", "plan": "batch", "inspected": "batch-2", "blocks": []},
+        {"about": "rule_pack", "plan": "global-project 1.0", "inspected": "asprs-2023 1.0",
+         "blocks": []},
+    ]  # fmt: skip
+    assert [str(w).removeprefix(f"{path}, ") for w in warnings] == [
+        "line 23: lots.0.strata.1.units.1: no delivery of the batch is block B03, a unit of the "
+        "plan (a delivery withdrawn after sampling?); it is not sampled: the sample stands",
+        "line 4: batch: the plan was drawn from batch 'batch'; the batch inspected is 'batch-2'",
+        "line 3: rule_pack: the plan was drawn with global-project 1.0; the batch is inspected "
+        "with asprs-2023 1.0",
+    ]
+    assert plan_notes(plan, path, list(BLOCKS), "batch", "global-project 1.0") == ([], [])
+    assert plan_notes(plan, path, list(BLOCKS), None, "global-project 1.0") == ([], [])
+
+
+def test_inspect_states_a_unit_withdrawn_in_its_warnings_and_reports(tmp_path: Path) -> None:
+    """B03 was withdrawn after sampling: 2 of the plan's 4 units drawn, 3 inspected, said why."""
+    for b in ("B00", "B01", "B02"):
+        write_delivery(tmp_path / "batch" / b, {"manifest": {"block_id": b, **BLOCKS[b]}})
+    (tmp_path / "plan.yaml").write_text(PLAN, "utf-8")
+    out = tmp_path / "out"
+    r = run_blockqc(
+        "inspect", tmp_path / "batch", "--plan", tmp_path / "plan.yaml", "--out", out, "--no-pdf"
+    )
+    assert r.returncode == 0, r.stderr
+    assert (
+        f"warning: {tmp_path / 'plan.yaml'}, line 23: lots.0.strata.1.units.1: no delivery of "
+        "the batch is block B03"
+    ) in r.stderr
+    notes = json.loads((out / "summary.json").read_text())["acceptance"]["plan_notes"]
+    assert notes == [{"about": "units", "plan": "4", "inspected": "3", "blocks": ["B03"]}]
+    page = (out / "acceptance.html").read_text()
+    text = re.sub(r"\s+", " ", unescape(re.sub(r"<[^>]+>", " ", page.split("</style>")[1])))
+    assert (
+        "2 of 4 blocks drawn by stratified proportional random sampling (seed 3). Strata by "
+        "block.yaml key 'terrain'. Units of the plan not among the 3 deliveries inspected (1 of "
+        "its 4; withdrawn after sampling?), none of them sampled, so the sample stands: B03."
+    ) in text
