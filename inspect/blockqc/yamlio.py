@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -189,8 +189,15 @@ def yaml_kind(value: Any) -> str:
     return "a mapping" if isinstance(value, dict) else type(value).__name__
 
 
-def pydantic_problems(exc: Any, file: Path, data: Any, prefix: Sequence[Any] = ()) -> list[Problem]:
-    """Turn a pydantic ValidationError into problems naming the file, the line and the key path."""
+def pydantic_problems(
+    exc: Any,
+    file: Path,
+    data: Any,
+    prefix: Sequence[Any] = (),
+    say: Callable[[dict[str, Any]], str | None] | None = None,
+) -> list[Problem]:
+    """Turn a pydantic ValidationError into problems naming the file, the line and the key path;
+    `say` words an error its own way (None: pydantic's message)."""
     problems = []
     for err in exc.errors():
         loc = tuple(prefix) + tuple(err["loc"])
@@ -200,5 +207,6 @@ def pydantic_problems(exc: Any, file: Path, data: Any, prefix: Sequence[Any] = (
             msg = "unknown key"
         elif err["type"] in ("model_type", "model_attributes_type", "dataclass_type"):
             msg = f"expected a mapping of keys, got {yaml_kind(err.get('input'))}"
+        msg = (say(err) if say else None) or msg
         problems.append(Problem(str(file), f"{path}: {msg}", line=line_of(data, loc)))
     return problems

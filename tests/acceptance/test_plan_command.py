@@ -48,6 +48,18 @@ def test_sample_command_names_a_missing_key(tmp_path: Path) -> None:
     assert not (tmp_path / "p.yaml").exists()
 
 
+def test_sample_refuses_an_empty_strata_key(tmp_path: Path) -> None:
+    """An empty --strata is no key: it would draw a simple random sample, said to be none."""
+    batch = _batch(tmp_path / "batch", 2)
+    r = run_blockqc("sample", batch, "--seed", 1, "--strata", "", "--out", tmp_path / "p.yaml")
+    assert r.returncode == 2, r.stderr
+    assert (
+        "error: --strata '': expected a block.yaml key to stratify by (e.g. test_field); "
+        "leave --strata out for simple random sampling"
+    ) in r.stderr
+    assert not (tmp_path / "p.yaml").exists()
+
+
 def test_sample_refuses_a_plan_inside_a_delivery_the_batch_links_to(tmp_path: Path) -> None:
     real = _batch(tmp_path / "real", 1) / "B00"
     batch = tmp_path / "batch"

@@ -210,3 +210,30 @@ def test_strata_without_a_strata_key_are_refused(tmp_path: Path) -> None:
     assert _refused(tmp_path, edits) == [
         "line 14: lots.0.strata: without strata_key a lot is one stratum, of value ''"
     ]
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "expected"),
+    [
+        ("seed: 7", "seed: -5", "line 5: seed: expected a whole number ≥ 0, got -5"),
+        ("seed: 7", "seed: true", "line 5: seed: expected a whole number, got true (true/false)"),
+        ("seed: 7", 'seed: "7"', "line 5: seed: expected a whole number, got '7' (text)"),
+        ("units: 4", 'units: "4"', "line 8: units: expected a whole number, got '4' (text)"),
+        ("units: 4", "units: 4.0", "line 8: units: expected a whole number, got 4.0"),
+        (
+            "census: false",
+            'census: "no"',
+            "line 13: lots.0.census: expected true or false, got 'no' (text)",
+        ),
+        ("census: false", "census: 0", "line 13: lots.0.census: expected true or false, got 0"),
+        (
+            "strata_key: test_field",
+            'strata_key: ""',
+            "line 6: strata_key: expected a block.yaml key (not empty), got '' (text)",
+        ),
+        ("value: '1'", "value: 1", "line 15: lots.0.strata.0.value: expected text, got 1"),
+    ],
+)
+def test_types_blockqc_sample_would_not_write_are_refused(tmp_path: Path, old, new, expected):
+    """Each read as `blockqc sample` writes it: never converted (true is not seed 1)."""
+    assert _refusal(tmp_path, old, new) == [expected]

@@ -117,6 +117,11 @@ def command(batch: Path, seed: int, key: str | None, rules_ref: str, out: Path) 
     pack = load_pack(rules_ref)
     if pack.acceptance is None:
         raise RuleError(f"pack {pack.name} has no acceptance section (sampling table)", rules_ref)
+    if key is not None and not key.strip():
+        raise UsageError(
+            f"--strata '{key}': expected a block.yaml key to stratify by (e.g. test_field); "
+            "leave --strata out for simple random sampling"
+        )
     if out.suffix not in (".yaml", ".yml"):
         raise UsageError(f"--out {out}: the plan is a YAML file (.yaml)")
     refuse_inside(out.parent, [batch])  # before reading; its folder is made once the batch is read

@@ -9,9 +9,9 @@ from __future__ import annotations
 
 from collections import Counter
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, PrivateAttr, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError
 
 from blockqc.acceptance.model import ReportMeta
 from blockqc.acceptance.sampling import Lot
@@ -27,7 +27,10 @@ NO_CHECKPOINTS = (
 
 
 class _M(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    """Types as `blockqc sample` writes them: a number written as text ("7"), true/false for a
+    number or 0/"no" for true/false is refused, never converted."""
+
+    model_config = ConfigDict(extra="forbid", strict=True)
 
 
 class StratumPlan(_M):
@@ -59,8 +62,8 @@ class Plan(_M):
     standard: str
     rule_pack: str
     batch: str  # the batch folder's name (never an absolute path)
-    seed: int
-    strata_key: str | None
+    seed: int = Field(ge=0)  # as `blockqc sample --seed` takes it
+    strata_key: Annotated[str, Field(min_length=1)] | None
     method: Literal["simple random", "stratified proportional random"]
     units: int
     sample_size: int
@@ -119,7 +122,7 @@ def load_plan(path: Path) -> Plan:
     try:
         plan = Plan.model_validate(data)
     except ValidationError as exc:
-        raise InputError(pydantic_problems(exc, path, data)) from None
+        raise InputError(pydantic_problems(exc, path, data, say=_expected)) from None
     found = plan_problems(plan)
     if found:
         raise InputError(
@@ -130,6 +133,37 @@ def load_plan(path: Path) -> Plan:
         )
     plan._data = data
     return plan
+
+
+#: what a field of a plan holds, by pydantic's error type
+EXPECTED = {
+    "int_type": "a whole number",
+    "bool_type": "true or false",
+    "string_type": "text",
+    "list_type": "a list",
+    "greater_than_equal": "a whole number ≥ {ge}",
+    "string_too_short": "a block.yaml key (not empty)",
+}
+
+
+def _expected(err: dict[str, Any]) -> str | None:
+    """A type error in the project's words: what was expected, what the file gives."""
+    what = EXPECTED.get(err["type"])
+    if what is None:
+        return None
+    return f"expected {what.format(**err.get('ctx', {}))}, got {_given(err['input'])}"
+
+
+def _given(value: Any) -> str:
+    """A value of the plan file as its YAML reads, with its kind when that is the problem."""
+    if isinstance(value, bool):
+        return f"{str(value).lower()} (true/false)"
+    if isinstance(value, str):
+        return f"'{value}' (text)"
+    if isinstance(value, (int, float)):
+        return str(value)
+    kinds = {dict: "a mapping", list: "a list", type(None): "nothing (an empty value)"}
+    return kinds.get(type(value), type(value).__name__)
 
 
 #: a disagreement between parts of a plan: where (a key path) and what
