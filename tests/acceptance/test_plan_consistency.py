@@ -215,23 +215,31 @@ def test_strata_without_a_strata_key_are_refused(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("old", "new", "expected"),
     [
-        ("seed: 7", "seed: -5", "line 5: seed: expected a whole number ≥ 0, got -5"),
-        ("seed: 7", "seed: true", "line 5: seed: expected a whole number, got true (true/false)"),
-        ("seed: 7", 'seed: "7"', "line 5: seed: expected a whole number, got '7' (text)"),
-        ("units: 4", 'units: "4"', "line 8: units: expected a whole number, got '4' (text)"),
-        ("units: 4", "units: 4.0", "line 8: units: expected a whole number, got 4.0"),
+        ("seed: 7", "seed: -5", "line 5: seed: expected a whole number ≥ 0, got a number (-5)"),
+        ("seed: 7", "seed: true", "line 5: seed: expected a whole number, got true/false (true)"),
+        ("seed: 7", 'seed: "7"', "line 5: seed: expected a whole number, got text '7'"),
+        ("units: 4", 'units: "4"', "line 8: units: expected a whole number, got text '4'"),
+        ("units: 4", "units: 4.0", "line 8: units: expected a whole number, got a number (4.0)"),
         (
             "census: false",
             'census: "no"',
-            "line 13: lots.0.census: expected true or false, got 'no' (text)",
+            "line 13: lots.0.census: expected true or false, got text 'no'",
         ),
-        ("census: false", "census: 0", "line 13: lots.0.census: expected true or false, got 0"),
+        (
+            "census: false",
+            "census: 0",
+            "line 13: lots.0.census: expected true or false, got a number (0)",
+        ),
         (
             "strata_key: test_field",
             'strata_key: ""',
-            "line 6: strata_key: expected a block.yaml key (not empty), got '' (text)",
+            "line 6: strata_key: expected a block.yaml key (not empty), got text ''",
         ),
-        ("value: '1'", "value: 1", "line 15: lots.0.strata.0.value: expected text, got 1"),
+        (
+            "value: '1'",
+            "value: 1",
+            "line 15: lots.0.strata.0.value: expected text, got a number (1)",
+        ),
     ],
 )
 def test_types_blockqc_sample_would_not_write_are_refused(tmp_path: Path, old, new, expected):

@@ -17,7 +17,7 @@ from blockqc.acceptance.model import ReportMeta
 from blockqc.acceptance.sampling import Lot
 from blockqc.errors import InputError, Problem
 from blockqc.results import BlockResults, tally
-from blockqc.yamlio import line_of, load_yaml, pydantic_problems
+from blockqc.yamlio import line_of, load_yaml, pydantic_problems, yaml_kind
 
 NOT_SAMPLED = "not sampled for detailed inspection (sampling plan)"
 NO_CHECKPOINTS = (
@@ -151,19 +151,7 @@ def _expected(err: dict[str, Any]) -> str | None:
     what = EXPECTED.get(err["type"])
     if what is None:
         return None
-    return f"expected {what.format(**err.get('ctx', {}))}, got {_given(err['input'])}"
-
-
-def _given(value: Any) -> str:
-    """A value of the plan file as its YAML reads, with its kind when that is the problem."""
-    if isinstance(value, bool):
-        return f"{str(value).lower()} (true/false)"
-    if isinstance(value, str):
-        return f"'{value}' (text)"
-    if isinstance(value, (int, float)):
-        return str(value)
-    kinds = {dict: "a mapping", list: "a list", type(None): "nothing (an empty value)"}
-    return kinds.get(type(value), type(value).__name__)
+    return f"expected {what.format(**err.get('ctx', {}))}, got {yaml_kind(err['input'])}"
 
 
 #: a disagreement between parts of a plan: where (a key path) and what
