@@ -13,12 +13,13 @@ import pandas as pd
 
 from blockqc import __version__
 from blockqc.delivery import Delivery, summary
-from blockqc.inspector import BlockInput, Waiver, unit_labels
+from blockqc.inspector import BlockInput, Waiver
 from blockqc.metrics import REGISTRY, Measurement, Table
 from blockqc.outputs import jsonable, records
 from blockqc.results import BlockResults, MeasurementRecord, RuleResult, tally
 from blockqc.rules.expr import ExpressionError, evaluate, resolve_params
 from blockqc.rules.model import Pack, Rule, Threshold, selected
+from blockqc.schema import key_labels
 from blockqc.verification import annotate, prepare
 
 #: tables up to this many rows are kept in results.json for the report
@@ -282,7 +283,7 @@ class Judge:
         if self.waiver is None or not self.rule.waivable:
             return np.zeros(len(units), dtype=bool), pd.Series([], dtype=object)
         units = table.complete(units, table.keys)
-        labels = unit_labels(units, table.keys)
+        labels = key_labels(units, table.keys)
         if self.waiver.whole_rule:  # no units named: the waiver covers every unit
             return np.ones(len(units), dtype=bool), labels
         return self.waiver.covers(units, table.keys), labels

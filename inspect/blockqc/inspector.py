@@ -29,7 +29,7 @@ from pydantic import (
 )
 
 from blockqc.errors import InputError, Problem
-from blockqc.schema import TABLES
+from blockqc.schema import TABLES, key_labels
 from blockqc.yamlio import line_of, load_yaml, pydantic_problems
 
 if TYPE_CHECKING:
@@ -86,7 +86,7 @@ class Waiver(BaseModel):
         for kind, columns in unit_columns(keys).items():
             names = self.named(kind)
             if names:
-                out |= unit_labels(units, columns).isin(names).to_numpy(dtype=bool)
+                out |= key_labels(units, columns).isin(names).to_numpy(dtype=bool)
         return out
 
     def scene_ids(self) -> list[tuple[tuple[Any, ...], str]]:
@@ -124,14 +124,6 @@ def unit_columns(keys: Sequence[str]) -> dict[str, list[str]]:
     if "point_id" in keys:
         out["points"] = ["point_id"]
     return {**out, "units": keys} if keys else out
-
-
-def unit_labels(units: pd.DataFrame, columns: Sequence[str]) -> pd.Series:
-    """Each unit's label: its values of `columns` as text, joined by '/'."""
-    labels = units[columns[0]].astype(str)
-    for c in columns[1:]:
-        labels = labels + "/" + units[c].astype(str)
-    return labels
 
 
 class BlockInput(BaseModel):
@@ -302,7 +294,7 @@ def _labels_of(
     read = [f for f in frames.values() if f is not None]
     if not read:
         return None, unread
-    return set().union(*(set(unit_labels(f, columns)) for f in read)), unread
+    return set().union(*(set(key_labels(f, columns)) for f in read)), unread
 
 
 def _unit_hint(name: str, have: set[str], pair_first: bool) -> str:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import difflib
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -433,8 +433,9 @@ def _stem(name: str) -> str:
     return base if base and last in UNIT_WORDS else name
 
 
-def _labels(table: pd.DataFrame, cols: list[str]) -> pd.Series:
-    """Each row's key as text, "a/b" for a key of several columns (vectorized)."""
+def key_labels(table: pd.DataFrame, cols: Sequence[str]) -> pd.Series:
+    """Each row's key as text, "a/b" for a key of several columns (vectorized; a missing cell
+    as empty text): a unit's label, as messages and waivers name it."""
     parts = [table[c].astype("string").fillna("") for c in cols]
     out = parts[0]
     for s in parts[1:]:
@@ -462,7 +463,7 @@ def _check_unique(
             schema.unique[0] if len(schema.unique) == 1 else None,
             dup,
             f"duplicated key ({key})",
-            _labels(table, list(schema.unique)),
+            key_labels(table, list(schema.unique)),
             csv,
         )
 
