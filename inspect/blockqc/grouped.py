@@ -92,30 +92,44 @@ class Groups:
         """The median of each group's values, NaN values passed over (NaN where it has none),
         as pandas gives it (the mean of the two middle values of an even count).
 
-        Selection by bins, in two passes over the rows a piece at a time (no row-sized copy):
-        the values' bits ordered as integers give each value a bin (`_Window`); one bincount
-        per piece over (group, bin) tells each group the bins of its middle ranks, and only
-        the values of those bins are taken and sorted."""
+        Selection by bins, in two passes over the rows a piece at a time: the values' bits
+        ordered as integers give each value a bin (`_Window`); the first pass counts the
+        values per (group, bin) cell and keeps each row's cell, which tells each group the
+        bins of its middle ranks; the second takes the values of those cells alone (one
+        look-up per row), and only they are sorted."""
         values, codes, k = self._in(values), self.codes, self.k
         window = _Window.about(values, k)
-        cells = np.zeros(k * window.width, dtype=np.int64)
-        cum = pieces.total(partial(window.count, values, codes, k), len(values), cells)
-        cum = np.cumsum(cum.reshape(k, window.width), axis=1)
+        width, cells = window.width, k * window.width
+        keys = np.empty(len(values), dtype=np.int32 if cells < 1 << 31 else np.int64)
+        count = partial(window.count, values, codes, keys, k)
+        cum = pieces.total(count, len(values), np.zeros(cells + 1, dtype=np.int64))
+        cum = np.cumsum(cum[:cells].reshape(k, width), axis=1)  # the last cell: NaN values
         n = cum[:, -1]
         ranks = np.stack([(n - 1) // 2, n // 2])  # the middle ranks of each group
         middle = (cum[None] <= ranks[..., None]).sum(axis=2)  # their bins
         before = np.where(middle[0] > 0, cum[np.arange(k), np.maximum(middle[0] - 1, 0)], 0)
-        taken = pieces.each(partial(window.take, values, codes, middle), len(values))
+        has = n > 0
+        picked = np.zeros(cells + 1, dtype=bool)  # the cells of the middle ranks
+        for m in middle:
+            picked[np.flatnonzero(has) * width + m[has]] = True
+        taken = pieces.each(partial(_picked, values, codes, keys, picked), len(values))
         v = np.concatenate([t[0] for t in taken]) if taken else values[:0]
         c = np.concatenate([t[1] for t in taken]) if taken else codes[:0]
         v = v[np.lexsort((v, c))]  # by group, then value
         start = np.concatenate([[0], np.cumsum(np.bincount(c, minlength=k))[:-1]]) - before
-        has = n > 0
         lower, upper = v[(start + ranks[0])[has]], v[(start + ranks[1])[has]]
         out = np.full(k, np.nan)
         with np.errstate(over="ignore"):  # as pandas: the sum of two middle values may overflow
             out[has] = np.where(n[has] % 2, lower, (lower + upper) / 2)
         return out
+
+
+def _picked(
+    values: np.ndarray, codes: np.ndarray, keys: np.ndarray, picked: np.ndarray, a: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """The values, and their groups, of the piece of rows from a whose cell is picked."""
+    pick = picked[keys[a : a + pieces.CHUNK]]
+    return values[a : a + pieces.CHUNK][pick], codes[a : a + pieces.CHUNK][pick]
 
 
 #: the median's bins: 2**BIN_BITS per octave of the values, at most BINS of them about their
@@ -148,23 +162,19 @@ class _Window:
         b -= self.low
         return np.clip(b, 0, self.width - 1, out=b)
 
-    def count(self, values: np.ndarray, codes: np.ndarray, k: int, a: int) -> np.ndarray:
-        """The values per (group, bin) of the piece of rows from a, NaN left out."""
+    def count(
+        self, values: np.ndarray, codes: np.ndarray, keys: np.ndarray, k: int, a: int
+    ) -> np.ndarray:
+        """The values per (group, bin) cell of the piece of rows from a, each row's cell kept
+        in `keys`; NaN values are given the cell after the last (k × width)."""
         v, c = values[a : a + pieces.CHUNK], codes[a : a + pieces.CHUNK]
         key = self.bins(v)
         key += c.astype(np.int64) * self.width
-        return np.bincount(key[~np.isnan(v)], minlength=k * self.width)
-
-    def take(
-        self, values: np.ndarray, codes: np.ndarray, middle: np.ndarray, a: int
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """The values, and their groups, of the piece from a that lie in their group's bins
-        `middle` (two per group)."""
-        v, c = values[a : a + pieces.CHUNK], codes[a : a + pieces.CHUNK]
-        b = self.bins(v)
-        pick = (b == middle[0][c]) | (b == middle[1][c])
-        pick &= ~np.isnan(v)
-        return v[pick], c[pick]
+        nan = np.isnan(v)
+        if nan.any():
+            key[nan] = k * self.width
+        keys[a : a + len(key)] = key
+        return np.bincount(key, minlength=k * self.width + 1)
 
 
 def _bins(values: np.ndarray) -> np.ndarray:
