@@ -239,3 +239,48 @@ def test_dictionary_indices_as_codes(chunks: list[list[int | None]], n: int) -> 
     want = pd.Categorical.from_codes(flat, categories=pd.RangeIndex(n)).codes
     got = _codes(indices, n)
     assert got.dtype == want.dtype and got.tolist() == want.tolist()
+
+
+@given(
+    st.lists(st.sampled_from(["a", "b", "c", "m"]), min_size=1, max_size=80),
+    st.lists(st.floats(-0.5, 1000.5, allow_nan=False), min_size=160, max_size=160),
+    st.integers(1, 4),
+    st.booleans(),
+    st.sampled_from([1, 7, 1 << 20]),
+)
+@settings(max_examples=200, deadline=None)
+def test_cells_per_scene_as_counted_row_by_row(ids, positions, k, categorical, chunk) -> None:
+    """Observations and covered cells of each PAN scene as counted one row at a time with the
+    formula of _cell_along; rows on the MS scene m (not checked) are left out, whether or not
+    any row lies on one, and whether the scene ids are a Categorical or not."""
+    import pandas as pd
+
+    from blockqc import pieces
+    from blockqc.metrics.tiepoints import DistributionParams, _per_scene_cells
+
+    scenes = pd.DataFrame(
+        {
+            "scene_id": ["c", "a", "b"],
+            "band": "pan",
+            "lines": [1000, 400, 3],
+            "samples": [7, 900, 1000],
+        }
+    )
+    sid = pd.Series(ids, dtype="category" if categorical else object)
+    tp = pd.DataFrame(
+        {"scene_id": sid, "line": positions[: len(ids)], "sample": positions[80 : 80 + len(ids)]}
+    )
+    old, pieces.CHUNK = pieces.CHUNK, chunk
+    try:
+        got = _per_scene_cells(scenes, tp, DistributionParams(grid=k))
+    finally:
+        pieces.CHUNK = old
+    size = scenes.set_index("scene_id")
+    cells: dict[str, list[tuple[int, int]]] = {s: [] for s in size.index}
+    for s, line, sample in tp.itertuples(index=False):
+        if s in cells:
+            i = min(max(int(line / size.loc[s, "lines"] * k), 0), k - 1)
+            j = min(max(int(sample / size.loc[s, "samples"] * k), 0), k - 1)
+            cells[s].append((i, j))
+    assert got["n_points"].tolist() == [len(cells[s]) for s in scenes["scene_id"]]
+    assert got["cells_covered"].tolist() == [len(set(cells[s])) for s in scenes["scene_id"]]

@@ -537,16 +537,20 @@ def _per_scene_cells(scenes: pd.DataFrame, tp: pd.DataFrame, p: DistributionPara
     out = scenes[["scene_id", "band", "lines", "samples"]].reset_index(drop=True)
     lines, samples = out["lines"].to_numpy(dtype=float), out["samples"].to_numpy(dtype=float)
     codes, lookup = scene_lookup(tp["scene_id"], out["scene_id"])  # positions piece by piece
+    every = bool((lookup[:-1] >= 0).all()) and codes.min(initial=0) >= 0  # all rows on them
     line, sample = tp["line"].to_numpy(), tp["sample"].to_numpy()
     n_cells = len(out) * k * k
 
     def count(a: int) -> np.ndarray:  # the observations per cell of these rows
-        c = lookup[codes[a : a + pieces.CHUNK]]
-        on = c >= 0
-        c = c[on]
-        cell = c.astype(np.int64) * (k * k)  # the (scene, row, column) cell, summed in place
-        cell += k * _cell_along(line[a : a + pieces.CHUNK][on], lines, c, k)
-        cell += _cell_along(sample[a : a + pieces.CHUNK][on], samples, c, k)
+        piece = slice(a, a + pieces.CHUNK)
+        c, along, across = lookup[codes[piece]], line[piece], sample[piece]
+        if not every:
+            on = c >= 0
+            c, along, across = c[on], along[on], across[on]
+        cell = _cell_along(along, lines, c, k)  # the (scene, row, column) cell, in place
+        cell *= k
+        cell += _cell_along(across, samples, c, k)
+        cell += c * np.int64(k * k)
         return np.bincount(cell, minlength=n_cells)
 
     per_cell = pieces.total(count, len(codes), np.zeros(n_cells, dtype=np.int64))
