@@ -220,6 +220,8 @@ def inspect_cmd(
     meta_file: Path | None,
 ) -> int:
     """Inspect one delivery or a batch (a folder of deliveries) with a rule pack."""
+    if len(paths) == 1 and scheduler is None and not incremental:
+        _read_ahead(paths[0])
     from blockqc import batch
     from blockqc.delivery import block_ids
     from blockqc.inspector import check_inspector_input, load_inspector_input
@@ -265,6 +267,16 @@ def inspect_cmd(
             )  # fmt: skip
     _closing_lines(outcomes, summary, out)
     return batch.exit_status(outcomes)
+
+
+def _read_ahead(path: Path) -> None:
+    """One delivery's tie points begin to be read while the modules below import (not in a
+    batch, whose deliveries are read one after another or by other processes, nor when its
+    earlier outputs may be reused: then they would be read for nothing)."""
+    if (path / "block.yaml").is_file():
+        from blockqc import prefetch
+
+        prefetch.start(path)
 
 
 def _refuse_conflicts(no_pdf: bool, pdf: str, scheduler: str | None) -> None:

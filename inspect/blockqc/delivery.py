@@ -28,7 +28,7 @@ from pydantic import (
     model_validator,
 )
 
-from blockqc import grouped
+from blockqc import grouped, prefetch
 from blockqc.errors import InputError, Problem
 from blockqc.geometry_inputs import (
     GEOMETRY_DIRS,
@@ -665,21 +665,29 @@ def _parquet_table(
     path: Path, schema: TableSchema, found: pa.Schema
 ) -> tuple[pa.Table, dict[str, Future]]:
     """The columns of `found` of a Parquet file, each column in one piece (so that a float
-    column becomes a numpy array without a copy), not read ahead into memory. In a large file,
-    the key columns that are not decoded into a dictionary (point ids: millions of distinct
-    values) are read first and encoded by a second thread while the other columns are read
-    (`_to_pandas` takes the encodings)."""
+    column becomes a numpy array without a copy), not read ahead into memory (pre_buffer), but
+    those read while the modules imported (`blockqc.prefetch`) taken as they are. In a large
+    file, the key columns that are not decoded into a dictionary (point ids: millions of
+    distinct values) are read first and encoded by a second thread while the other columns are
+    read (`_to_pandas` takes the encodings)."""
     dictionary = _bounded_keys(schema, found)
+    ahead = prefetch.take(path, found.names, dictionary)
+    parts = [] if ahead is None else [ahead]
+    names = [n for n in found.names if ahead is None or n not in ahead.column_names]
     parquet = pq.ParquetFile(path, read_dictionary=dictionary, pre_buffer=False)
-    first = [name for name in _text_keys(schema, found) if name not in dictionary]
-    if not first or parquet.metadata.num_rows < EARLY_ROWS:
-        return parquet.read(columns=found.names), {}
-    head = parquet.read(columns=first)
-    with ThreadPoolExecutor(1) as encoder:
-        early = {name: encoder.submit(_categorical, head.column(name)) for name in first}
-        rest = parquet.read(columns=[n for n in found.names if n not in first])
-    both = [head.column(n) if n in first else rest.column(n) for n in found.names]
-    return pa.table(both, names=found.names), early
+    first = [n for n in _text_keys(schema, found) if n in names and n not in dictionary]
+    early: dict[str, Future] = {}
+    if first and parquet.metadata.num_rows >= EARLY_ROWS:
+        parts.append(parquet.read(columns=first))
+        with ThreadPoolExecutor(1) as encoder:
+            early = {n: encoder.submit(_categorical, parts[-1].column(n)) for n in first}
+            parts.append(parquet.read(columns=[n for n in names if n not in first]))
+    elif names or not parts:  # no column at all: the file's rows, without columns
+        parts.append(parquet.read(columns=names))
+    if len(parts) == 1 and parts[0].column_names == found.names:
+        return parts[0], early
+    where = {n: part for part in parts for n in part.column_names}
+    return pa.table([where[n].column(n) for n in found.names], names=found.names), early
 
 
 def read_rows(path: Path, column: str, rows: np.ndarray) -> pa.Array:
