@@ -43,6 +43,7 @@ def test_a_symbolic_link_loop_or_a_name_too_long_is_named(tmp_path):
     _refused(run_blockqc("inspect", tmp_path / "a", "--out", tmp_path / "o"), "Symlink loop")
     long = tmp_path / ("x" * 300)  # NAME_MAX is 255 bytes
     _refused(run_blockqc("inspect", SAMPLE, "--out", long), "File name too long")
+    _refused(run_blockqc("inspect", long, "--out", tmp_path / "o"), "File name too long")
 
 
 def test_a_reader_that_stops_reading_does_not_stop_the_run(tmp_path):

@@ -272,8 +272,13 @@ def inspect_cmd(
 def _read_ahead(path: Path) -> None:
     """One delivery's tie points begin to be read while the modules below import (not in a
     batch, whose deliveries are read one after another or by other processes, nor when its
-    earlier outputs may be reused: then they would be read for nothing)."""
-    if (path / "block.yaml").is_file():
+    earlier outputs may be reused: then they would be read for nothing). A path that cannot
+    be looked at is left to the checks below, which say why."""
+    try:
+        delivery = (path / "block.yaml").is_file()
+    except OSError:
+        return
+    if delivery:
         from blockqc import prefetch
 
         prefetch.start(path)
