@@ -124,3 +124,21 @@ def test_one_delivery_is_read_ahead_a_batch_or_a_reuse_not(
     assert _taken(monkeypatch, "inspect", delivery.parent, *out, tmp_path / "b") == [[]]
     again = ["inspect", delivery, *out, tmp_path / "c", "--incremental"]
     assert _taken(monkeypatch, *again) == [[]]
+
+
+def test_the_names_read_ahead_are_the_contracts_and_the_metrics(delivery: Path) -> None:
+    """prefetch names again, without importing pandas, what delivery.py and the tie-point
+    metrics own: the columns every tie-point metric reads, the text columns read as Arrow
+    dictionaries, the Parquet file of the tie points and the file that makes a delivery."""
+    import inspect as source
+
+    from blockqc import cli
+    from blockqc.delivery import MANIFEST, _bounded_keys, _table_file
+    from blockqc.metrics.tiepoints import DISTRIBUTION_COLUMNS, ERROR_COLUMNS
+    from blockqc.schema import TABLES
+
+    assert prefetch.COLUMNS == ERROR_COLUMNS and set(DISTRIBUTION_COLUMNS) <= set(COLUMNS)
+    read = pa.schema([(n, pa.string() if n == "scene_id" else pa.float64()) for n in COLUMNS])
+    assert list(prefetch.DICTIONARY) == _bounded_keys(TABLES["tie_points"], read)
+    assert _table_file(delivery, "tie_points") == delivery / prefetch.FILE
+    assert f'"{MANIFEST}"' in source.getsource(cli._read_ahead)

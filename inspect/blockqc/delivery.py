@@ -671,10 +671,12 @@ def _parquet_table(
     distinct values) are read first and encoded by a second thread while the other columns are
     read (`_to_pandas` takes the encodings)."""
     dictionary = _bounded_keys(schema, found)
+    parquet = pq.ParquetFile(path, read_dictionary=dictionary, pre_buffer=False)
+    if not found.names:  # no column at all: the file's rows, without columns
+        return parquet.read(columns=[]), {}
     ahead = prefetch.take(path, found.names, dictionary)
     parts = [] if ahead is None else [ahead]
     names = [n for n in found.names if ahead is None or n not in ahead.column_names]
-    parquet = pq.ParquetFile(path, read_dictionary=dictionary, pre_buffer=False)
     first = [n for n in _text_keys(schema, found) if n in names and n not in dictionary]
     early: dict[str, Future] = {}
     if first and parquet.metadata.num_rows >= EARLY_ROWS:
@@ -682,10 +684,8 @@ def _parquet_table(
         with ThreadPoolExecutor(1) as encoder:
             early = {n: encoder.submit(_categorical, parts[-1].column(n)) for n in first}
             parts.append(parquet.read(columns=[n for n in names if n not in first]))
-    elif names or not parts:  # no column at all: the file's rows, without columns
+    elif names:
         parts.append(parquet.read(columns=names))
-    if len(parts) == 1 and parts[0].column_names == found.names:
-        return parts[0], early
     where = {n: part for part in parts for n in part.column_names}
     return pa.table([where[n].column(n) for n in found.names], names=found.names), early
 

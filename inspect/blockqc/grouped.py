@@ -110,8 +110,8 @@ class Groups:
         before = np.where(middle[0] > 0, cum[np.arange(k), np.maximum(middle[0] - 1, 0)], 0)
         has = n > 0
         picked = np.zeros(cells + 1, dtype=bool)  # the cells of the middle ranks
-        for m in middle:
-            picked[np.flatnonzero(has) * width + m[has]] = True
+        first = np.flatnonzero(has) * width  # each group's first cell
+        picked[first + middle[0][has]] = picked[first + middle[1][has]] = True
         taken = pieces.each(partial(_picked, values, codes, keys, picked), len(values))
         v = np.concatenate([t[0] for t in taken]) if taken else values[:0]
         c = np.concatenate([t[1] for t in taken]) if taken else codes[:0]

@@ -18,7 +18,7 @@ of a few (`blockqc.pieces`). Defaults of Linux make each of them cost fresh page
   the Parquet read's system time from 0.14–0.45 s (mimalloc, Arrow's default) to 0.20–0.27 s.
 
 On a 10.8 M-observation block (TP-1..TP-4) the first and the third took the system time of a run
-from 0.7–2.0 s to 0.3–0.9 s; the second and the fourth, from a median of 0.88 s to 0.50 s and
+from 0.7–2.0 s to 0.3–0.7 s; the second and the fourth, from a median of 0.88 s to 0.50 s and
 the run's wall time by a tenth. Results are the same either way: only where memory comes from
 changes.
 """

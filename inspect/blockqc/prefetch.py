@@ -13,24 +13,26 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Collection
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import pyarrow as pa
 import pyarrow.parquet as pq
 
 #: the tie-point columns read ahead: those the error and distribution metrics read
+#: (metrics.tiepoints.ERROR_COLUMNS, which imports pandas: named again here, a test keeps them
+#: equal)
 COLUMNS = ("scene_id", "line", "sample", "v_line", "v_sample")
 #: read ahead as Arrow dictionaries (text referring to scenes.csv, as the reader reads them)
 DICTIONARY = ("scene_id",)
-FILE = "tie_points.parquet"
+FILE = "tie_points.parquet"  # the Parquet form of the contract's tie_points table
 
 
 @dataclass
 class _Ahead:
-    thread: threading.Thread
     stamp: tuple[int, int]  # the file's size and modification time when the read began
-    table: list[pa.Table] = field(default_factory=list)
+    thread: threading.Thread | None = None
+    table: pa.Table | None = None  # set by the thread once read
 
 
 _ahead: dict[Path, _Ahead] = {}
@@ -47,10 +49,10 @@ def start(delivery: Path) -> None:
     try:
         if not path.is_file():
             return
-        key, stamp = path.resolve(), _stamp(path)
+        key, ahead = path.resolve(), _Ahead(_stamp(path))
     except (OSError, RuntimeError):  # the reader says what is wrong with the path
         return
-    ahead = _Ahead(threading.Thread(target=lambda: _read(path, ahead), daemon=True), stamp)
+    ahead.thread = threading.Thread(target=_read, args=(path, ahead), daemon=True)
     _ahead[key] = ahead
     ahead.thread.start()
 
@@ -60,7 +62,7 @@ def _read(path: Path, ahead: _Ahead) -> None:
         parquet = pq.ParquetFile(path, read_dictionary=DICTIONARY, pre_buffer=False)
         names = parquet.schema_arrow.names
         wanted = [n for n in COLUMNS if names.count(n) == 1]
-        ahead.table.append(parquet.read(columns=wanted, use_threads=False))
+        ahead.table = parquet.read(columns=wanted, use_threads=False)
     except Exception:  # whatever it is, the reader meets it again and says so
         return
 
@@ -75,13 +77,14 @@ def take(path: Path, names: Collection[str], dictionary: Collection[str]) -> pa.
         return None
     if ahead is None:
         return None
+    assert ahead.thread is not None
     ahead.thread.join()
+    table, ahead.table = ahead.table, None
     try:
-        if not ahead.table or _stamp(path) != ahead.stamp:
+        if table is None or _stamp(path) != ahead.stamp:
             return None
     except OSError:
         return None
-    table = ahead.table.pop()
     same = [
         f.name
         for f in table.schema
