@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from blockqc.adjust.geometry import RPCStack, project_adjusted
+from blockqc.adjust.run import weak_height_prior
 from blockqc.adjust.solver import Observations, Priors, Settings, adjust
 from blockqc.adjust.synthetic import SyntheticConfig, simulate_truth
 from blockqc.errors import InputError
@@ -17,7 +18,7 @@ DATA = Path(__file__).parents[1] / "data" / "rfm" / "phr_ventoux"
 MODELS = [read_rpc(DATA / "left_image.geom"), read_rpc(DATA / "right_image.geom")]
 
 
-def _problem(truth, cfg, fixed=None, height_sigma=None):
+def _problem(truth, cfg, fixed=None):
     order = np.argsort(truth.obs_scene, kind="stable")
     n = len(truth.scene_ids)
     obs = Observations(
@@ -29,10 +30,9 @@ def _problem(truth, cfg, fixed=None, height_sigma=None):
         truth.point_lon.size,
     )
     stack = RPCStack.from_models(truth.models)
-    h0 = np.full(obs.n_points, stack.offsets[:, 4].mean())
-    hs = np.full(obs.n_points, height_sigma or stack.scales[:, 4].max())
+    h0, hs, text = weak_height_prior(stack, obs.n_points)
     fixed = np.zeros(n, bool) if fixed is None else fixed
-    priors = Priors(cfg.sigma_shift_px, cfg.sigma_linear_px, fixed, h0, hs, "weak")
+    priors = Priors(cfg.sigma_shift_px, cfg.sigma_linear_px, fixed, h0, hs, text)
     return stack, obs, priors, order
 
 
@@ -99,6 +99,25 @@ def test_two_image_block_without_heights_stays_bounded():
     sig_h = sol.ground_sigma[used, 2]
     assert np.all(np.isfinite(sig_h)) and sig_h.max() < 200.0
     assert np.mean(np.abs(sol.h[used] - truth.point_h[used]) <= 3 * sig_h) > 0.95
+
+
+def test_weak_height_prior_keeps_the_heights_of_the_rays():
+    """No DEM, the ground 600 m above the RPCs' HEIGHT_OFF, thousands of points: the weak
+    prior weighs as one observation of the block's mean height, so the heights and the shifts
+    stay those the rays and the affine priors give (a prior at HEIGHT_OFF on every point, summed
+    over the points, pulled the block hundreds of metres down and the shifts far beyond their
+    a-priori σ)."""
+    cfg = SyntheticConfig(
+        scenes=2, observations_per_scene=3000, outlier_rate=0.0, terrain_above_m=600.0, seed=13
+    )
+    truth = simulate_truth(MODELS, cfg)
+    stack, obs, priors, _ = _problem(truth, cfg)
+    sol, _, _ = adjust(stack, obs, truth.lines, truth.samples, priors, Settings())
+    assert sol.converged
+    used = sol.point_used
+    error = sol.h[used] - truth.point_h[used]
+    assert abs(np.mean(error)) <= 3 * np.median(sol.ground_sigma[used, 2])
+    assert np.all(np.abs(sol.affine[:, [0, 3]]) <= 3 * cfg.sigma_shift_px)  # a0, b0
 
 
 def test_free_datum_is_reported_singular():

@@ -82,18 +82,26 @@ def index_block(data: AdjustInput) -> Block:
     return Block(data, stack, obs, order, np.asarray(point_ids), lines, samples)
 
 
-def _weak_height(stack: RPCStack, n_points: int) -> tuple[np.ndarray, np.ndarray, str]:
+def weak_height_prior(stack: RPCStack, n_points: int) -> tuple[np.ndarray, np.ndarray, str]:
+    """The height prior of n points without a DEM: the block's mean height at the mean RPC
+    HEIGHT_OFF ± the largest HEIGHT_SCALE, as one observation. Each point gets σ·√n, so that
+    the n priors together weigh as that one: a prior of σ on every point, summed over thousands
+    of points, outweighed the affine priors and pulled the block to HEIGHT_OFF."""
     h0 = float(np.mean(stack.offsets[:, 4]))
     sig = float(np.max(np.abs(stack.scales[:, 4])))
-    text = f"weak height prior {h0:.1f} ± {sig:.1f} m (mean HEIGHT_OFF ± largest HEIGHT_SCALE)"
-    return np.full(n_points, h0), np.full(n_points, sig), text
+    each = sig * np.sqrt(max(n_points, 1))
+    text = (
+        f"weak height prior: the block's mean height {h0:.1f} ± {sig:.1f} m (mean HEIGHT_OFF ± "
+        f"largest HEIGHT_SCALE), ± {each:.1f} m at each of its {n_points} points"
+    )
+    return np.full(n_points, h0), np.full(n_points, each), text
 
 
 def height_priors(block: Block, cfg: AdjustConfig) -> tuple[np.ndarray, np.ndarray, str]:
     """Per point height prior: the DEM under the point (two passes of intersection on the
     DEM), or the weak prior from the RPC height range where there is no DEM value. A DEM that
     gives no height at any point is refused, as `rfm-accuracy` refuses one under no pixel."""
-    h, sig, text = _weak_height(block.stack, block.obs.n_points)
+    h, sig, text = weak_height_prior(block.stack, block.obs.n_points)
     if cfg.dem is None:
         return h, sig, text
     obs = block.obs
@@ -126,9 +134,12 @@ def height_priors(block: Block, cfg: AdjustConfig) -> tuple[np.ndarray, np.ndarr
         on |= here
     if not on.any():
         raise InputError(Problem(str(cfg.dem), _no_height(obs.n_points, box)))
+    rest = int(np.count_nonzero(~on))  # the points the weak prior is left to
+    _, weak, text = weak_height_prior(block.stack, rest)
+    sig = np.where(on, sig, weak[0] if rest else 0.0)
     text = (
         f"DEM height prior ± {cfg.dem_sigma_m:g} m from {Path(cfg.dem).name} ({dem.vertical}) "
-        f"at {int(on.sum())} of {obs.n_points} points; elsewhere {text}"
+        f"at {int(on.sum())} of {obs.n_points} points" + (f"; elsewhere {text}" if rest else "")
     )
     return h, sig, text
 

@@ -49,6 +49,7 @@ class SyntheticConfig:
     sigma_shift_px: float = 10.0
     sigma_linear_px: float = 2.0
     relief_m: float = 400.0
+    terrain_above_m: float = 0.0  # the ground's mean height above the RPCs' HEIGHT_OFF
     checkpoints: int = 0
     producer_residuals: bool = True
     seed: int = 0
@@ -181,14 +182,15 @@ def _observe(
 
 
 def _draw_points(
-    n: int, scenes: list[RPCModel], layout: tuple, rng: np.random.Generator, relief: float
+    n: int, scenes: list[RPCModel], layout: tuple, rng: np.random.Generator, cfg: SyntheticConfig
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     nr, nc, step, lon_w, lat_w = layout
     west = scenes[0].lon_off - lon_w / 2
     north = scenes[0].lat_off + lat_w / 2
     lon = west + rng.uniform(0.0, (nc - 1) * step[0] + lon_w, n)
     lat = north - rng.uniform(0.0, (nr - 1) * step[1] + lat_w, n)
-    return lon, lat, terrain(lon, lat, scenes[0].height_off, relief)
+    h0 = scenes[0].height_off + cfg.terrain_above_m
+    return lon, lat, terrain(lon, lat, h0, cfg.relief_m)
 
 
 def simulate_truth(models: Sequence[RPCModel], cfg: SyntheticConfig) -> Truth:
@@ -198,13 +200,13 @@ def simulate_truth(models: Sequence[RPCModel], cfg: SyntheticConfig) -> Truth:
     stack = RPCStack.from_models(scenes)
     target = cfg.scenes * cfg.observations_per_scene
     pilot = 20000
-    lon, lat, h = _draw_points(pilot, scenes, layout, rng, cfg.relief_m)
+    lon, lat, h = _draw_points(pilot, scenes, layout, rng, cfg)
     pt, *_ = _observe(
         stack, affine, lines, samples, lon, lat, h, _candidates(lon, lat, scenes, layout)
     )
     per_candidate = max(pt.size / pilot, 1e-3)
     n = int(target / per_candidate)
-    lon, lat, h = _draw_points(n, scenes, layout, rng, cfg.relief_m)
+    lon, lat, h = _draw_points(n, scenes, layout, rng, cfg)
     cand = _candidates(lon, lat, scenes, layout)
     pt, sc, line, samp = _observe(stack, affine, lines, samples, lon, lat, h, cand)
     used, pt = np.unique(pt, return_inverse=True)
