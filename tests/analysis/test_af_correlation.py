@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 from scipy import stats
@@ -82,3 +84,15 @@ def test_pairwise_deletion(appendix):
     few = appendix.copy()
     few.loc[2:, "h_rmse_m"] = np.nan
     assert pearson(few, F, IND).r["h_rmse_m"].isna().all()
+
+
+def test_an_indicator_never_given_is_nan_without_a_warning(appendix_path):
+    """An indicator missing on every row (no checkpoints in any block) gives NaN, and numpy's
+    'Mean of empty slice' does not reach the user's console."""
+    t = read_table(appendix_path)
+    t["h_rmse_m"] = np.nan
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        c = pearson(t, F, IND)
+    assert c.r["h_rmse_m"].isna().all()
+    assert c.r["l_rmse_px"].notna().all()

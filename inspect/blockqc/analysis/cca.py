@@ -30,6 +30,12 @@ class Correlation:
 MIN_CORRELATION_ROWS = 3
 
 
+def _present_mean(v: np.ndarray, present: np.ndarray) -> np.ndarray:
+    """Each column's mean over its present values (NaN, and no warning, where none is)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(present, v, 0.0).sum(axis=0) / present.sum(axis=0)
+
+
 def pearson(table: pd.DataFrame, factors: list[str], indicators: list[str]) -> Correlation:
     """Pearson r of each factor with each indicator over the rows where both are present
     (pairwise deletion), and its two-sided t-test p-value on n − 2 degrees of freedom.
@@ -39,10 +45,9 @@ def pearson(table: pd.DataFrame, factors: list[str], indicators: list[str]) -> C
     x = table[factors].to_numpy(dtype=float)
     y = table[indicators].to_numpy(dtype=float)
     mx, my = np.isfinite(x), np.isfinite(y)
-    with np.errstate(invalid="ignore"):
-        # centre first (any constant per column keeps r exact) for numerical stability
-        x = np.where(mx, x - np.nanmean(np.where(mx, x, np.nan), axis=0), 0.0) if x.size else x
-        y = np.where(my, y - np.nanmean(np.where(my, y, np.nan), axis=0), 0.0) if y.size else y
+    # centre first (any constant per column keeps r exact) for numerical stability
+    x = np.where(mx, x - _present_mean(x, mx), 0.0)
+    y = np.where(my, y - _present_mean(y, my), 0.0)
     fx, fy = mx.astype(float), my.astype(float)
     n = fx.T @ fy
     sx, sy = x.T @ fy, fx.T @ y
