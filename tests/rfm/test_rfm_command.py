@@ -574,3 +574,14 @@ def test_an_input_error_leaves_no_empty_out_it_made(tmp_path: Path):
     assert not out.exists()
     out.mkdir()
     assert isinstance(CliRunner().invoke(command, args).exception, InputError) and out.is_dir()
+
+
+def test_a_reference_without_rpcs_is_refused_before_any_output(tmp_path: Path):
+    """A reference in sensor geometry that carries no RPCs, none given: exit 2 before the image
+    is orthorectified, so the --out the run made is removed again (no ortho.tif left in it)."""
+    out = tmp_path / "out"
+    args = base_args(out) + ["--reference", str(VENTOUX / "right_image.tif")]
+    result = CliRunner().invoke(command, args)
+    assert isinstance(result.exception, InputError)  # exit 2
+    assert "carries no RPCs" in str(result.exception)
+    assert not out.exists()

@@ -194,23 +194,30 @@ def _raster_shape(path: Path) -> tuple[tuple[int, int], bool]:
         return (ds.height, ds.width), ds.crs is not None
 
 
+def reference_model(cfg: RfmAccuracyConfig) -> RPCModel | None:
+    """The reference's RPCs when it is in sensor geometry or `reference_rpc` is given (None: a
+    georeferenced reference, reprojected)."""
+    _, georeferenced = _raster_shape(cfg.reference)
+    if cfg.reference_rpc is not None or not georeferenced:
+        return read_rpc(cfg.reference_rpc or cfg.reference)
+    return None
+
+
 def reference_on_grid(
-    cfg: RfmAccuracyConfig, grid: OrthoGrid, dem: DEM, out_path: Path
+    cfg: RfmAccuracyConfig, grid: OrthoGrid, dem: DEM, out_path: Path, rpc: RPCModel | None
 ) -> tuple[str, str]:
     """§RA-2: the reference on the image's CRS and GSD, `cfg.margin` px larger on every side.
 
     A georeferenced reference is reprojected (bilinear); a reference in sensor geometry with
-    RPCs (a same-accuracy stereo mate) is orthorectified with its own RPCs and the same DEM.
-    Either way it is matched on `grey_bands`, as the image is.
+    RPCs (a same-accuracy stereo mate; `rpc`, from `reference_model`) is orthorectified with its
+    own RPCs and the same DEM. Either way it is matched on `grey_bands`, as the image is.
     Returns (how, rpc source).
     """
     import rasterio
     from rasterio.warp import Resampling, reproject
 
     ref_grid = grid.expanded(cfg.margin)
-    _, georeferenced = _raster_shape(cfg.reference)
-    if cfg.reference_rpc is not None or not georeferenced:
-        rpc = read_rpc(cfg.reference_rpc or cfg.reference)
+    if rpc is not None:
         orthorectify(
             cfg.reference,
             rpc,
@@ -538,6 +545,7 @@ class _Run:
     cell_how: str = ""
     how: str = ""
     ref_rpc: Any = None
+    reference: RPCModel | None = None  # the reference's RPCs, if it is orthorectified with them
     no_height: tuple[float, float] = (0.0, 0.0)
     """Shares of the image outside the DEM and on its voids."""
 
@@ -559,7 +567,8 @@ def _prepare(cfg: RfmAccuracyConfig) -> _Run:
         fill=cfg.dem_fill,
         plane_per_m=plane_per_height(rpc, shape, offset),
     )
-    run = _Run(cfg, rpc, offset, dem)
+    reference = reference_model(cfg)  # refused now, not after the image is orthorectified
+    run = _Run(cfg, rpc, offset, dem, reference=reference)
     run.grid = ortho_grid(rpc, shape, dem, crop_offset=offset, crs=cfg.crs, gsd=cfg.gsd)
     run.no_height = image_without_height(rpc, shape, offset, dem)
     for name in OUTPUT_NAMES:  # an earlier run's outputs never lie beside this run's
@@ -574,7 +583,9 @@ def _correct_and_match(run: _Run, matcher: Matcher | None) -> None:
         cfg.image, run.rpc, run.dem, out / "ortho.tif", grid=run.grid,
         crop_offset=run.offset, chunk=cfg.ortho_chunk,
     )  # fmt: skip
-    run.how, run.ref_rpc = reference_on_grid(cfg, run.grid, run.dem, out / "reference_on_grid.tif")
+    run.how, run.ref_rpc = reference_on_grid(
+        cfg, run.grid, run.dem, out / "reference_on_grid.tif", run.reference
+    )
     image, run.grid = read_ortho(out / "ortho.tif")
     reference, ref_grid = read_ortho(out / "reference_on_grid.tif")
     overlap = overlap_mask(image, reference, cfg.margin)
