@@ -140,3 +140,38 @@ def test_under_a_profiler_the_process_ends_as_python_does(tmp_path):
     )  # fmt: skip
     assert p.returncode == 0, p.stderr
     assert out.stat().st_size > 0
+
+
+def _files(folder):
+    return {p.relative_to(folder): p.read_bytes() for p in folder.rglob("*") if p.is_file()}
+
+
+def test_output_whose_block_folder_is_the_delivery_is_refused(tmp_path):
+    """--out the folder that holds the delivery: <out>/<block_id> would be the delivery itself,
+    its checkpoints.csv replaced by the export of the same name. Refused before anything is
+    written, for one delivery and for a batch given beside it."""
+    batch = tmp_path / "batch"
+    shutil.copytree(SAMPLE, batch / "F1-B01")
+    before = _files(tmp_path)
+    p = run_blockqc("inspect", batch / "F1-B01", "--out", batch, "--pdf", "none")
+    _refused(
+        p,
+        f"error: --out {batch}: the outputs of block F1-B01 would go into {batch / 'F1-B01'}, "
+        "a delivery (it holds block.yaml); blockqc never writes into a delivery",
+    )
+    assert _files(tmp_path) == before
+
+
+def test_writer_never_writes_into_nor_clears_a_delivery(tmp_path):
+    """The last guard, wherever a block's folder is named (a worker, a re-run's clean-up): a
+    block folder that is a delivery is refused, and nothing of it is removed."""
+    from blockqc.batch import Writer
+    from blockqc.errors import InputError
+    from blockqc.outputs import safe_child
+
+    shutil.copytree(SAMPLE, tmp_path / "F1-B01")
+    before = _files(tmp_path)
+    with pytest.raises(InputError, match="is the delivery .* never written into"):
+        safe_child(tmp_path, "F1-B01")
+    Writer(tmp_path).discard("F1-B01")
+    assert _files(tmp_path) == before

@@ -225,7 +225,13 @@ def inspect_cmd(
     from blockqc import batch
     from blockqc.delivery import block_ids
     from blockqc.inspector import check_inspector_input, load_inspector_input
-    from blockqc.outputs import check_out_dir, empty_removed, out_lock, refuse_inside
+    from blockqc.outputs import (
+        check_out_dir,
+        empty_removed,
+        out_lock,
+        refuse_block_folders,
+        refuse_inside,
+    )
     from blockqc.rules import load_pack
 
     _refuse_conflicts(no_pdf, pdf, scheduler)
@@ -236,6 +242,7 @@ def inspect_cmd(
     pack = load_pack(rules_ref)
     inspector = load_inspector_input(verdicts) if verdicts else None
     got = batch.collect(paths)
+    refuse_block_folders(out, [m.block_id for m in got.manifests.values()])
     for f in got.files:
         click.echo(f"warning: {f}: a file beside the deliveries of a batch, not read", err=True)
     for d in got.repeated:

@@ -162,6 +162,30 @@ def refuse_delivery(out: Path, option: str = "--out") -> None:
         )
 
 
+def refuse_block_folders(out: Path, block_ids: Iterable[str]) -> None:
+    """Refuse an output folder where a block's folder, `<out>/<block_id>`, is a delivery (holds
+    block.yaml): the block's outputs would be written into it, and a re-run's clean-up would
+    remove files of the same names (checkpoints.csv) from it."""
+    for block_id in block_ids:
+        delivery = _delivery_at(out / str(block_id))
+        if delivery is not None:
+            raise UsageError(
+                f"--out {out}: the outputs of block {block_id} would go into {delivery}, a "
+                "delivery (it holds block.yaml); blockqc never writes into a delivery: choose an "
+                "output folder outside the inputs"
+            )
+
+
+def _delivery_at(folder: Path) -> Path | None:
+    """The folder's real path when it is a delivery (holds block.yaml)."""
+    from blockqc.delivery import MANIFEST
+
+    with suppress(OSError, ValueError):
+        if (folder / MANIFEST).is_file():
+            return Path(os.path.realpath(folder))
+    return None
+
+
 def refuse_replacing(out: Path, names: Iterable[str], inputs: Iterable[Path]) -> None:
     """Refuse an output folder where an output file (`names`) would be one of the input files:
     writing it would replace the input."""
@@ -330,6 +354,8 @@ def safe_child(out_dir: Path, name: str, *, source: str | Path | None = None) ->
         root = out_dir.resolve()
         if child.resolve().parent != root:
             why = "would lead outside the output folder"
+        elif (delivery := _delivery_at(child)) is not None:
+            why = f"is the delivery {delivery} (it holds block.yaml), never written into"
     if why:
         raise InputError(
             Problem(

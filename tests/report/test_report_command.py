@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -283,3 +284,24 @@ def test_out_inside_a_delivery_is_refused(tmp_path, results_file, capsys):
         "delivery; choose an output folder outside it\n"
     )
     assert sorted(p.name for p in delivery.iterdir()) == ["block.yaml"]
+
+
+def test_block_folder_that_is_a_delivery_is_refused(tmp_path, results_file, capsys):
+    """results.json copied into its delivery and re-rendered "in place": <out>/<block_id> is
+    the delivery, whose checkpoints.csv the export would replace. Refused, nothing written."""
+    block_id = json.loads(results_file.read_text(encoding="utf-8"))["block_id"]
+    delivery = tmp_path / block_id
+    delivery.mkdir()
+    (delivery / "block.yaml").write_text(f"block_id: {block_id}\n", encoding="utf-8")
+    (delivery / "checkpoints.csv").write_text("the producer's table\n", encoding="utf-8")
+    shutil.copy(results_file, delivery / "results.json")
+    assert run("report", str(delivery / "results.json"), "--out", str(tmp_path), "--no-pdf") == 2
+    assert f"the outputs of block {block_id} would go into {delivery}, a delivery" in (
+        capsys.readouterr().err
+    )
+    assert sorted(p.name for p in delivery.iterdir()) == [
+        "block.yaml",
+        "checkpoints.csv",
+        "results.json",
+    ]
+    assert (delivery / "checkpoints.csv").read_text(encoding="utf-8") == "the producer's table\n"

@@ -11,7 +11,7 @@ from pydantic import ValidationError
 
 from blockqc.cli import OutPath, TemplatesPath, check_pdf_engine, pdf_engine_option
 from blockqc.errors import InputError, Problem, UsageError
-from blockqc.outputs import refuse_delivery
+from blockqc.outputs import refuse_block_folders, refuse_delivery
 from blockqc.report.messages import LANGUAGES
 from blockqc.results import BlockResults, Summary, json_path, parse, tally
 
@@ -227,6 +227,7 @@ def _check_out(out: Path, named: tuple[Path, ...], docs: list, summary: tuple | 
     it would be written, `<out>/<block_id>/results.json` (`<out>/summary.json`). Never inside a
     delivery."""
     refuse_delivery(out)
+    refuse_block_folders(out, [d.block_id for _, d, _ in docs])
     here = [(out / d.block_id / "results.json", p) for p, d, _ in docs]
     here += [(out / "summary.json", summary[0])] if summary is not None else []
     if all(target.resolve() == p.resolve() for target, p in here):
