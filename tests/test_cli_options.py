@@ -13,6 +13,7 @@ import pytest
 from casekit import SAMPLES, run_blockqc
 
 SAMPLE = SAMPLES / "batch" / "F1-B01"
+DEM = SAMPLES.parent / "tests" / "data" / "rfm" / "phr_ventoux" / "srtm_N44E005_crop.tif"
 
 
 def _refused(p: subprocess.CompletedProcess, *words: str) -> None:
@@ -175,3 +176,24 @@ def test_writer_never_writes_into_nor_clears_a_delivery(tmp_path):
         safe_child(tmp_path, "F1-B01")
     Writer(tmp_path).discard("F1-B01")
     assert _files(tmp_path) == before
+
+
+def test_a_delivery_path_that_is_not_utf8_is_refused_by_name(tmp_path):
+    """A folder name that is no UTF-8 text (bytes a Linux file system keeps as given): the
+    outputs name each delivery by its path in UTF-8, so it is refused up front with its bytes
+    shown, for one delivery, a batch and the factor analysis; nothing is written."""
+    batch = tmp_path / "batch"
+    shutil.copytree(SAMPLES / "batch" / "F1-B02", batch / "F1-B02")
+    bad = os.fsdecode(os.fsencode(batch) + b"/x\xff")
+    try:
+        shutil.copytree(SAMPLE, bad)
+    except OSError:  # a file system that keeps only UTF-8 names
+        pytest.skip("this file system refuses a name that is not UTF-8")
+    words = f"error: {batch}/x\\xff: a path that is not UTF-8 text"
+    for args in (
+        ("inspect", bad, "--out", tmp_path / "o", "--pdf", "none"),
+        ("inspect", batch, "--out", tmp_path / "o", "--pdf", "none"),
+        ("factors", batch, "--out", tmp_path / "o", "--dem", DEM),
+    ):
+        _refused(run_blockqc(*args), words)
+        assert not (tmp_path / "o").exists()

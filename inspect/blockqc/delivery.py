@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import difflib
 import io
+import os
 import re
 from collections.abc import Collection
 from concurrent.futures import Future, ThreadPoolExecutor
@@ -253,7 +254,7 @@ def find_deliveries(path: Path) -> list[Path]:
             )
         )
     if is_delivery(path):
-        return [path]
+        return refuse_undecodable([path])
     found = [p for p in _members(path) if p.is_dir()]
     if not any(is_delivery(p) for p in found):
         raise InputError(
@@ -263,7 +264,23 @@ def find_deliveries(path: Path) -> list[Path]:
                 f"(no sub-folder holds a {MANIFEST})",
             )
         )
-    return found
+    return refuse_undecodable(found)
+
+
+def refuse_undecodable(deliveries: list[Path]) -> list[Path]:
+    """The deliveries, refused where a path is no UTF-8 text: the outputs (results.json, the
+    summary) name each delivery by its path, in UTF-8."""
+    problems = []
+    for path in deliveries:
+        try:
+            str(path).encode("utf-8")
+        except UnicodeEncodeError:
+            shown = os.fsencode(path).decode("utf-8", "backslashreplace")
+            message = "a path that is not UTF-8 text: the outputs name each delivery by its path"
+            problems.append(Problem(shown, f"{message}, in UTF-8; rename the folder"))
+    if problems:
+        raise InputError(problems)
+    return deliveries
 
 
 def batch_files(path: Path) -> list[Path]:
@@ -817,7 +834,7 @@ def load_delivery(
     others are listed in `Delivery.not_read`, and their checks are not made. A delivery that
     gives its geometry (contract v1.1) is read whole: the verification needs every column.
     """
-    path = Path(path)
+    path = refuse_undecodable([Path(path)])[0]
     problems: list[Problem] = []
     try:
         manifest = manifest or load_manifest(path / MANIFEST)
