@@ -576,3 +576,41 @@ def test_a_value_of_the_wrong_kind_is_named_in_the_words_of_yaml(
     proc = blockqc("inspect", block, "--verdicts", verdicts, "--out", tmp_path / "o", "--no-pdf")
     _refused(proc, f"{verdicts}, {message}")
     assert "instance of" not in proc.stderr and "LineList" not in proc.stderr
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        "checkpoints (1).csv",
+        "checkpoints_v2.csv",
+        "checkpoints-final.csv",
+        "F1-B01_checkpoints.csv",
+    ],
+)
+def test_a_table_under_another_name_is_refused_where_the_table_is_not_given(
+    blockqc, block, tmp_path, name
+):
+    """Without checkpoints.csv, a file whose name holds the table's (a copy's suffix, a
+    version, the block id) is the table misnamed: left out, the block would pass unsampled."""
+    (block / "checkpoints.csv").rename(block / name)
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    _refused(p, name, "checkpoints.csv or checkpoints.parquet")
+
+
+def test_a_table_in_a_sub_folder_is_refused_where_the_table_is_not_given(blockqc, block, tmp_path):
+    (block / "tables").mkdir()
+    (block / "checkpoints.csv").rename(block / "tables" / "checkpoints.csv")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    _refused(p, "F1-B01/tables: holds a checkpoints table, not read there")
+
+
+def test_a_sampled_block_without_checkpoints_is_refused(blockqc, block, tmp_path):
+    """block.yaml says sampled: true and the checkpoints are gone: not judged as a block that
+    was not sampled (CP rules not applicable, the block passing) but refused, naming the key."""
+    (block / "checkpoints.csv").unlink()
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    _refused(p, "F1-B01/block.yaml: sampled: true, but the delivery gives no checkpoints")
+    manifest = (block / "block.yaml").read_text(encoding="utf-8")
+    (block / "block.yaml").write_text(manifest.replace("sampled: true", "sampled: false"))
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    assert p.returncode == 0, p.stderr

@@ -164,6 +164,13 @@ class Extra:
     plan_notes: tuple[PlanNote, ...] = ()  # where the plan differs from the batch inspected
 
 
+SAMPLED_WITHOUT_CHECKPOINTS = (
+    "sampled: true, but the delivery gives no checkpoints (checkpoints.csv or .parquet, or the "
+    "inspector's --checkpoints): a sampled block is judged on its checkpoints; give them, or "
+    "sampled: false"
+)
+
+
 def inspect_one(
     path: Path,
     pack: Pack,
@@ -175,6 +182,8 @@ def inspect_one(
     delivery = load_delivery(path, manifest=manifest, tie_point_columns=tie_point_columns(pack))
     if extra is not None and extra.checkpoints is not None:
         merge_checkpoints(delivery, extra.checkpoints.for_block(delivery.block_id, extra.single))
+    if delivery.manifest.sampled and (delivery.checkpoints is None or delivery.checkpoints.empty):
+        raise InputError(Problem(str(path / MANIFEST), SAMPLED_WITHOUT_CHECKPOINTS))
     block_input = inspector.for_block(delivery.block_id) if inspector else None
     results = inspect_delivery(
         delivery, pack, block_input, inspector.inspector if inspector else None

@@ -918,10 +918,13 @@ def _read_tables(path: Path, tie_point_columns: Collection[str] | None) -> _Tabl
 
 def _misnamed_tables(path: Path) -> list[Problem]:
     """Files that look like a table of the contract but are not named <table>.csv|.parquet
-    (checkpoints.CSV, checkpoints.csv.gz, checkpoint.csv): not read, so an optional table
-    would be left out unsaid (a sampled block judged without its checkpoints). Likewise a
-    folder named like rpc/ or rpc_adjusted/ (RPC/, rpcs/): its geometry would pass for absent."""
+    (checkpoints.CSV, checkpoints.csv.gz, checkpoint.csv; and, where the table is not given,
+    checkpoints (1).csv, F1-B01_checkpoints.csv or tables/checkpoints.csv): not read, so an
+    optional table would be left out unsaid (a sampled block judged without its checkpoints).
+    Likewise a folder named like rpc/ or rpc_adjusted/ (RPC/, rpcs/): its geometry would pass
+    for absent."""
     exact = {f"{n}.{ext}" for n in TABLES for ext in ("csv", "parquet")} | set(GEOMETRY_DIRS)
+    absent = [n for n in TABLES if _table_file(path, n) is None]
     problems = []
     for f in sorted(path.iterdir()):
         if f.name in exact or f.name.startswith("."):
@@ -930,8 +933,18 @@ def _misnamed_tables(path: Path) -> list[Problem]:
         if f.is_dir():
             close = difflib.get_close_matches(stem, GEOMETRY_DIRS, n=1, cutoff=0.8)
             why = "not read: the geometry of contract v1.1 is read from {0}/ (lower case)"
+            inner = [n for n in absent for e in ("csv", "parquet") if (f / f"{n}.{e}").is_file()]
+            if not close and inner:
+                close = inner
+                why = (
+                    "holds a {0} table, not read there: tables are read from the delivery's own "
+                    "folder ({0}.csv or {0}.parquet beside block.yaml)"
+                )
         else:
             close = difflib.get_close_matches(stem, list(TABLES), n=1, cutoff=0.9)
+            close = close or [
+                n for n in absent if re.search(rf"(?<![a-z0-9]){n}(?![a-z0-9])", stem)
+            ]
             why = "not read: a table is named {0}.csv or {0}.parquet (lower case, not compressed)"
         if close:
             problems.append(Problem(str(f), why.format(close[0])))
