@@ -305,3 +305,43 @@ def test_block_folder_that_is_a_delivery_is_refused(tmp_path, results_file, caps
         "results.json",
     ]
     assert (delivery / "checkpoints.csv").read_text(encoding="utf-8") == "the producer's table\n"
+
+
+@pytest.fixture(scope="module")
+def batch_out(tmp_path_factory) -> Path:
+    """summary.json and results of two sample blocks, as inspect writes them."""
+    out = tmp_path_factory.mktemp("batch") / "out"
+    samples = Path(__file__).parents[2] / "samples" / "batch"
+    assert run("inspect", str(samples / "F1-B01"), str(samples / "F1-B02"), "--out", str(out),
+               "--pdf", "none") in (0, 1)  # fmt: skip
+    return out
+
+
+def _tampered(batch_out: Path, tmp_path: Path, edit) -> Path:
+    out = Path(shutil.copytree(batch_out, tmp_path / "in"))
+    doc = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+    edit(doc)
+    (out / "summary.json").write_text(json.dumps(doc), encoding="utf-8")
+    return out
+
+
+def test_a_summary_that_is_not_its_blocks_is_refused(batch_out, tmp_path, capsys):
+    """A block left out of summary.json (its counts still of two), or a block whose results
+    file says otherwise than the summary: the page would show a batch that is not the one
+    inspected. Refused, naming the counts and the block; the untouched summary re-renders."""
+    assert run("report", str(batch_out), "--out", str(tmp_path / "ok"), "--no-pdf") == 0
+    capsys.readouterr()
+    fewer = _tampered(batch_out, tmp_path, lambda d: d["blocks"].pop())
+    assert run("report", str(fewer / "summary.json"), "--out", str(tmp_path / "o"), "--no-pdf") == 2
+    err = capsys.readouterr().err
+    assert f"{fewer / 'summary.json'}: $.counts.blocks is 2, but its blocks make it 1" in err
+    assert not (tmp_path / "o").exists()
+
+    def other(d):
+        d["blocks"][0]["verdict"] = "fail"
+        d["counts"].update({"pass": d["counts"]["pass"] - 1, "fail": d["counts"]["fail"] + 1})
+
+    shutil.rmtree(fewer)
+    changed = _tampered(batch_out, tmp_path, other)
+    assert run("report", str(changed), "--out", str(tmp_path / "o"), "--no-pdf") == 2
+    assert "lists block F1-B01 as fail, with counts" in capsys.readouterr().err

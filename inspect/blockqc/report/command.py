@@ -13,7 +13,7 @@ from blockqc.cli import OutPath, TemplatesPath, check_pdf_engine, pdf_engine_opt
 from blockqc.errors import InputError, Problem, UsageError
 from blockqc.outputs import refuse_block_folders, refuse_delivery
 from blockqc.report.messages import LANGUAGES
-from blockqc.results import BlockResults, Summary, json_path, parse, tally
+from blockqc.results import BlockResults, Summary, block_fails, json_path, parse, tally
 
 
 def _read_json(path: Path) -> tuple[Any, bytes]:
@@ -207,9 +207,52 @@ def gather(
             continue
         seen[bid] = f
         results.append((f, doc, raw))
+    if summary is not None:
+        problems += _summary_contradictions(
+            summary[0], summary[1], {d.block_id: d for _, d, _ in results}
+        )
     if problems:
         raise InputError(problems)
     return results, summary, repeated
+
+
+def _summary_contradictions(
+    path: Path, summary: Summary, results: dict[str, BlockResults]
+) -> list[Problem]:
+    """The summary's counts must be those of its blocks, and each block's verdict and counts
+    those of its results file (as `inspect` writes them)."""
+    blocks = summary.blocks
+    c = summary.counts
+    expected = {
+        "blocks": len(blocks) + len(summary.unreadable),
+        "pass": sum(not block_fails(b.verdict) for b in blocks),
+        "fail": sum(block_fails(b.verdict) for b in blocks),
+        "error": sum(b.verdict == "error" for b in blocks),
+        "unreadable": len(summary.unreadable),
+    }
+    given = {"blocks": c.blocks, "pass": c.pass_, "fail": c.fail, "error": c.error}
+    given["unreadable"] = c.unreadable
+    out = [
+        Problem(str(path), f"$.counts.{k} is {given[k]}, but its blocks make it {n}")
+        for k, n in expected.items()
+        if given[k] != n
+    ]
+    for b in blocks:
+        r = results.get(b.block_id)
+        if r is None:
+            continue
+        counted = b.counts and any(b.counts.get(s, 0) != n for s, n in r.counts.items())
+        if b.verdict != r.verdict or counted:
+            out.append(
+                Problem(
+                    str(path),
+                    f"lists block {b.block_id} as {b.verdict}, with counts {dict(b.counts)}, but "
+                    f"its results file says {r.verdict}, with {dict(r.counts)}: the summary is not "
+                    "that of these results (inspect again, or name the results files without "
+                    "the summary)",
+                )
+            )
+    return out
 
 
 def _second_summary(path: Path, first: Path) -> Problem:
