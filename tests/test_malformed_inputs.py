@@ -614,3 +614,16 @@ def test_a_sampled_block_without_checkpoints_is_refused(blockqc, block, tmp_path
     (block / "block.yaml").write_text(manifest.replace("sampled: true", "sampled: false"))
     p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
     assert p.returncode == 0, p.stderr
+
+
+def test_a_nan_coordinate_in_a_footprint_is_refused_without_a_library_warning(
+    blockqc, block, tmp_path
+):
+    lines = (block / "scenes.csv").read_text(encoding="utf-8").splitlines()
+    start = lines[1].index("((") + 2
+    end = lines[1].index(" ", start)
+    lines[1] = lines[1][:start] + "NaN" + lines[1][end:]
+    (block / "scenes.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    _refused(p, "scenes.csv, row 1 (line 2), column 'footprint_wkt': expected a WKT polygon")
+    assert "RuntimeWarning" not in p.stderr and "shapely" not in p.stderr

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import difflib
+import warnings
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Literal
@@ -319,13 +320,21 @@ def _clean_floats(raw: pd.Series, col: Column) -> bool:
     )
 
 
+def _from_wkt(text: np.ndarray) -> np.ndarray:
+    """Geometries of WKT texts, None where a text is none; a NaN coordinate is read as given
+    (and refused by the checks), without shapely's RuntimeWarning on the console."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return shapely.from_wkt(text, on_invalid="ignore")
+
+
 def _check_polygons(
     wkt: pd.Series, ok: np.ndarray, file: str, column: str, csv: bool, problems: list[Problem]
 ) -> None:
     """Footprints must be valid polygons: not self-intersecting, no repeated rings, no holes
     (an image's outline has none; its corners and area would be read from different rings)."""
     text = wkt.where(ok, "").fillna("").to_numpy(dtype=object)
-    geoms = shapely.from_wkt(text, on_invalid="ignore")
+    geoms = _from_wkt(text)
     invalid = ok & ~shapely.is_valid(geoms)
     rings = shapely.get_exterior_ring(geoms)
     few = ok & ~invalid & (shapely.get_num_coordinates(rings) < 5)
@@ -555,7 +564,7 @@ def _convert(raw: pd.Series, col: Column, blank: np.ndarray) -> tuple[pd.Series,
     if col.kind == "wkt":
         stripped = raw.astype("string").str.strip().astype(object)
         text = stripped.fillna("").to_numpy(dtype=object)
-        geoms = shapely.from_wkt(text, on_invalid="ignore")
+        geoms = _from_wkt(text)
         one = (shapely.get_type_id(geoms) == 6) & (shapely.get_num_geometries(geoms) == 1)
         if one.any():  # a MULTIPOLYGON of one part (as GIS exports write any polygon): its part
             geoms[one] = shapely.get_geometry(geoms[one], 0)

@@ -87,6 +87,8 @@ def test_no_pdf_leaves_no_pdf_of_an_earlier_run_behind(tmp_path, results_doc):
     "content, expected",
     [
         ('{"block_id": "X",\n  "verdict": }', "line 2"),
+        ('{"block_id": "X", "value": NaN}', "NaN is not JSON"),
+        ('{"block_id": "X", "value": -Infinity}', "-Infinity is not JSON"),
         ("[1, 2, 3]", "at $: Input should be a valid dictionary"),
         ('{"block_id": "X", "rule_pack": "p", "results": []}', "at $.verdict: Field required"),
         (

@@ -16,6 +16,14 @@ from blockqc.report.messages import LANGUAGES
 from blockqc.results import BlockResults, Summary, block_fails, json_path, parse, tally
 
 
+class _NotJSON(ValueError):
+    """NaN, Infinity or -Infinity: Python's json reads them, JSON has none."""
+
+
+def _no_constant(name: str) -> Any:
+    raise _NotJSON(name)
+
+
 def _read_json(path: Path) -> tuple[Any, bytes]:
     try:
         raw = path.read_bytes()
@@ -23,9 +31,17 @@ def _read_json(path: Path) -> tuple[Any, bytes]:
         raise InputError(Problem(str(path), f"cannot be read: {exc.strerror or exc}")) from None
     try:
         text = raw.decode("utf-8-sig")  # a byte-order mark, as some editors save, is read
-        return json.loads(text, object_pairs_hook=_no_duplicates), raw
+        return json.loads(text, object_pairs_hook=_no_duplicates, parse_constant=_no_constant), raw
     except _DuplicateKey as exc:
         raise InputError(Problem(str(path), f"is not accepted: key '{exc}' given twice")) from None
+    except _NotJSON as exc:
+        raise InputError(
+            Problem(
+                str(path),
+                f"is not accepted: {exc} is not JSON (blockqc writes a value that is not finite "
+                "as null)",
+            )
+        ) from None
     except UnicodeDecodeError as exc:
         raise InputError(Problem(str(path), f"is not UTF-8 text (byte {exc.start})")) from None
     except RecursionError:
