@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from blockqc.delivery import MANIFEST, Delivery, _check_consistency, load_manifest, read_table
@@ -67,6 +68,12 @@ def load_checkpoint_files(paths: list[Path]) -> InspectorCheckpoints:
             )
             problems.append(Problem(str(path), f"{what} (expected a checkpoints table)"))
             continue
+        if path.suffix.lower() not in (".csv", ".parquet"):
+            what = "a checkpoints table: a .csv file (with a header row) or a .parquet file"
+            problems.append(
+                Problem(str(path), f"named {path.suffix or 'without a suffix'}; expected {what}")
+            )
+            continue
         try:
             df, found = read_table(path, CHECKPOINTS)
         except InputError as exc:
@@ -78,6 +85,7 @@ def load_checkpoint_files(paths: list[Path]) -> InspectorCheckpoints:
         with_block.append(BLOCK in df.columns)
         if BLOCK in df.columns:
             df[BLOCK] = df[BLOCK].astype("string").str.strip().astype(object)
+            problems.extend(_blank_blocks(path, df[BLOCK]))
         parts.append(df.assign(_file=str(path), _row=range(1, len(df) + 1)))
     if problems:
         raise InputError(problems)
@@ -90,6 +98,13 @@ def load_checkpoint_files(paths: list[Path]) -> InspectorCheckpoints:
     if problems:
         raise InputError(problems)
     return InspectorCheckpoints(rows, with_block[0], [str(p) for p in paths])
+
+
+def _blank_blocks(path: Path, block: pd.Series) -> list[Problem]:
+    """Rows with an empty block_id: they name no block (the first ten)."""
+    blank = np.flatnonzero((block.isna() | (block == "")).to_numpy())
+    message = "empty: every row names the block of its checkpoint"
+    return [Problem(str(path), message, row=int(i) + 1, column=BLOCK) for i in blank[:10]]
 
 
 def _misspelt_block(path: Path, df: pd.DataFrame) -> list[Problem]:

@@ -47,6 +47,28 @@ def test_inspect_refuses_it_before_any_block_is_read(tmp_path: Path) -> None:
     assert not list(out.glob("**/*.json"))
 
 
+def test_an_empty_block_id_is_named_by_row(tmp_path: Path) -> None:
+    path = tmp_path / "mine.csv"
+    cps = base_tables()["checkpoints"].head(3).assign(method="recalculation", block_id="B00")
+    cps.loc[1, "block_id"] = " "
+    cps.to_csv(path, index=False)
+    with pytest.raises(InputError) as exc:
+        load_checkpoint_files([path])
+    assert [str(p) for p in exc.value.problems] == [
+        f"{path}, row 2, column 'block_id': empty: every row names the block of its checkpoint"
+    ]
+
+
+def test_a_checkpoints_file_neither_csv_nor_parquet_is_named_so(tmp_path: Path) -> None:
+    path = _checkpoints(tmp_path).rename(tmp_path / "mine.txt")
+    with pytest.raises(InputError) as exc:
+        load_checkpoint_files([path])
+    assert [str(p) for p in exc.value.problems] == [
+        f"{path}: named .txt; expected a checkpoints table: a .csv file (with a header row) or "
+        "a .parquet file"
+    ]
+
+
 @pytest.fixture(scope="module")
 def rules():
     return {r.id: r for r in load_pack("global-project").rules}
