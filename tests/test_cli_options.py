@@ -3,6 +3,7 @@ colours are handled with a message (exit 2) or quietly, never an internal error.
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import subprocess
@@ -197,3 +198,19 @@ def test_a_delivery_path_that_is_not_utf8_is_refused_by_name(tmp_path):
     ):
         _refused(run_blockqc(*args), words)
         assert not (tmp_path / "o").exists()
+
+
+def test_a_link_to_nothing_in_a_batch_is_an_unreadable_delivery(tmp_path):
+    """A batch's delivery given as a link whose folder moved: not a file beside the deliveries
+    (a warning, the batch complete without it) but a delivery that cannot be read (exit 2)."""
+    batch = tmp_path / "batch"
+    shutil.copytree(SAMPLES / "batch" / "F1-B02", batch / "F1-B02")
+    (batch / "F9-B09").symlink_to(tmp_path / "moved")
+    p = run_blockqc("inspect", batch, "--out", tmp_path / "o", "--pdf", "none")
+    _refused(
+        p,
+        f"error: {batch / 'F9-B09'}: a link to {tmp_path / 'moved'}, which does not exist",
+    )
+    assert "beside the deliveries" not in p.stderr
+    summary = json.loads((tmp_path / "o" / "summary.json").read_text(encoding="utf-8"))
+    assert summary["counts"]["unreadable"] == 1 and not summary["complete"]

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import datetime as dt
 import json
+import os
 from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
@@ -124,6 +125,14 @@ def collect(paths: Iterable[Path]) -> Collected:
     )
     seen: dict[str, tuple[Path, str]] = {}
     for path in found:
+        if path.is_symlink() and not path.exists():
+            target = os.readlink(path)
+            got.refused[path] = Problem(
+                str(path),
+                f"a link to {target}, which does not exist: a delivery of the batch moved or "
+                "removed? (give it again, or remove the link)",
+            )
+            continue
         if not is_delivery(path):
             got.refused[path] = Problem(
                 str(path / MANIFEST),

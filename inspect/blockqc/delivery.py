@@ -241,8 +241,8 @@ def find_deliveries(path: Path) -> list[Path]:
     """A delivery folder gives itself; a batch folder gives its sub-folders, sorted.
 
     Every sub-folder of a batch is a delivery: one without block.yaml is given too, so that it
-    is refused by name when read rather than left out unseen. Hidden folders (a name starting
-    with '.') are not part of a batch."""
+    is refused by name when read rather than left out unseen; so is a link to nothing. Hidden
+    folders (a name starting with '.') are not part of a batch."""
     path = Path(path)
     if not path.exists():
         raise InputError(Problem(str(path), "no such file or folder"))
@@ -255,7 +255,7 @@ def find_deliveries(path: Path) -> list[Path]:
         )
     if is_delivery(path):
         return refuse_undecodable([path])
-    found = [p for p in _members(path) if p.is_dir()]
+    found = [p for p in _members(path) if p.is_dir() or _dangling(p)]
     if not any(is_delivery(p) for p in found):
         raise InputError(
             Problem(
@@ -288,7 +288,12 @@ def batch_files(path: Path) -> list[Path]:
     path = Path(path)
     if not path.is_dir() or is_delivery(path):
         return []
-    return [p for p in _members(path) if not p.is_dir()]
+    return [p for p in _members(path) if not p.is_dir() and not _dangling(p)]
+
+
+def _dangling(path: Path) -> bool:
+    """A link to nothing (in a batch: a delivery moved or removed since the link was made)."""
+    return path.is_symlink() and not path.exists()
 
 
 def _members(batch: Path) -> list[Path]:
