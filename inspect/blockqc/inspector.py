@@ -411,17 +411,22 @@ def _waiver_problems(
 
 def load_inspector_input(path: Path) -> InspectorInput:
     data = load_yaml(path)
-    if data is None:
-        out = InspectorInput()
-    elif not isinstance(data, dict):
+    if data is None:  # given on purpose, it says nothing: a file saved empty, or a template
+        raise InputError(
+            Problem(
+                str(path),
+                "holds no verdicts (empty, or comments only): expected a mapping (inspector, "
+                "verdicts, waivers); leave --verdicts out to give none",
+            )
+        )
+    if not isinstance(data, dict):
         raise InputError(
             Problem(str(path), "expected a mapping (inspector, verdicts, waivers)", line=1)
         )
-    else:
-        try:
-            out = InspectorInput.model_validate(data)
-        except ValidationError as exc:
-            raise InputError(pydantic_problems(exc, path, data)) from None
+    try:
+        out = InspectorInput.model_validate(data)
+    except ValidationError as exc:
+        raise InputError(pydantic_problems(exc, path, data)) from None
     out._file, out._data = str(path), data
     return out
 

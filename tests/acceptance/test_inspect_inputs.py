@@ -107,3 +107,17 @@ def test_a_waiver_for_a_document_kind_the_rule_checks(tmp_path: Path, rules) -> 
     check_inspector_input(
         load_inspector_input(path), rules, {"B00": DeliveryIds("B00", tmp_path, {"S1"})}
     )
+
+
+@pytest.mark.parametrize("text", ["", "# verdicts to come\n"])
+def test_a_verdicts_file_that_says_nothing_is_refused(tmp_path: Path, text: str) -> None:
+    """--verdicts given with a file saved empty (or a template of comments): refused, not
+    taken for an inspector who gave no verdict."""
+    path = tmp_path / "verdicts.yaml"
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(InputError) as exc:
+        load_inspector_input(path)
+    assert [str(p) for p in exc.value.problems] == [
+        f"{path}: holds no verdicts (empty, or comments only): expected a mapping (inspector, "
+        "verdicts, waivers); leave --verdicts out to give none"
+    ]
