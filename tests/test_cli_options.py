@@ -214,3 +214,18 @@ def test_a_link_to_nothing_in_a_batch_is_an_unreadable_delivery(tmp_path):
     assert "beside the deliveries" not in p.stderr
     summary = json.loads((tmp_path / "o" / "summary.json").read_text(encoding="utf-8"))
     assert summary["counts"]["unreadable"] == 1 and not summary["complete"]
+
+
+def test_a_rule_pack_from_a_pipe_is_read_and_a_device_without_end_is_refused(tmp_path):
+    """--rules <(…) names a pipe, not a regular file: read as the file it stands for; a
+    device that never ends (/dev/zero) is read up to the limit of YAML files, then refused."""
+    pack = (SAMPLES.parent / "rules" / "global-project.yaml").read_text(encoding="utf-8")
+    p = subprocess.run(
+        [sys.executable, "-m", "blockqc", "rules", "list", "--rules", "/dev/stdin"],
+        input=pack, capture_output=True, text=True, timeout=600,
+    )  # fmt: skip
+    assert p.returncode == 0, p.stderr
+    assert "MB-1" in p.stdout
+    if os.path.exists("/dev/zero"):
+        p = run_blockqc("rules", "list", "--rules", "/dev/zero")
+        _refused(p, "/dev/zero: gives more than 2 MiB, the limit for files of this kind")

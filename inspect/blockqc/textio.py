@@ -51,14 +51,23 @@ def read_bytes(path: Path, max_bytes: int | None, error: type[BlockqcError] = In
                 Problem(
                     str(path),
                     f"is {size / 2**20:.1f} MiB: files of this kind are limited to "
-                    f"{max_bytes / 2**20:g} MiB",
+                    f"{_mib(max_bytes)} MiB",
                 )
             )
-        return path.read_bytes()
+        with path.open("rb") as fh:  # at most the limit from a pipe or a device too
+            data = fh.read() if max_bytes is None else fh.read(max_bytes + 1)
+        if max_bytes is not None and len(data) > max_bytes:
+            message = f"gives more than {_mib(max_bytes)} MiB, the limit for files of this kind"
+            raise error(Problem(str(path), message))
+        return data
     except FileNotFoundError:
         raise error(Problem(str(path), "file not found")) from None
     except OSError as exc:
         raise error(Problem(str(path), f"cannot be read: {exc.strerror or exc}")) from None
+
+
+def _mib(n: int) -> str:
+    return f"{n / 2**20:g}"
 
 
 def check_utf8(path: Path, data: bytes, error: type[BlockqcError] = InputError) -> None:

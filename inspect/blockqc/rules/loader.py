@@ -55,7 +55,7 @@ def resolve_pack_path(
     if not ref_s.endswith((".yaml", ".yml")):
         candidates.append(rules_dir() / f"{ref_s}.yaml")
     for c in candidates:
-        if c.is_file():
+        if c.is_file() or (c.exists() and not c.is_dir()):  # a pipe too: --rules <(...)
             return c
     message = (
         f"give a file path or one of the stock packs ({', '.join(available_packs()) or 'none'})"
