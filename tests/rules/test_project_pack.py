@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import textwrap
 from pathlib import Path
 
 import pytest
@@ -136,3 +137,23 @@ def test_a_project_rule_is_reported_under_its_content_in_both_languages(blockqc,
         html = (out / "F1-B01" / "report.html").read_text(encoding="utf-8")
         title = "每景影像连接点误差大于1像素的比例不超过10%" if lang == "zh" else "At most 10 %"
         assert escape(title) in html
+
+
+def test_the_readme_example_lints_and_its_cases_pass(tmp_path: Path) -> None:
+    """The rule and cases README's "Adding a rule" shows, as a user would copy them into a
+    pack extending the stock one: `rules lint` finds nothing, `rules test` passes both cases."""
+    from casekit import ROOT, run_blockqc
+
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    section = readme[readme.index("## Adding a rule") :]
+    rule, cases = (b.split("\n", 1)[1] for b in section.split("```yaml")[1:3])
+    rule, cases = (textwrap.dedent(b.split("```")[0]) for b in (rule, cases))
+    header = 'pack: project\nversion: "1.0"\nextends: global-project\nrules:\n'
+    (tmp_path / "project.yaml").write_text(header + textwrap.indent(rule, "  "), "utf-8")
+    (tmp_path / "project.cases").mkdir()
+    (tmp_path / "project.cases" / "PR-1.yaml").write_text(cases, "utf-8")
+    lint = run_blockqc("rules", "lint", tmp_path / "project.yaml")
+    assert lint.returncode == 0, lint.stdout + lint.stderr
+    test = run_blockqc("rules", "test", tmp_path / "project.yaml")
+    assert test.returncode == 0, test.stdout + test.stderr
+    assert "pass  PR-1     13 of S1's 121 observations at 1.2 px (10.74 %)" in test.stdout
