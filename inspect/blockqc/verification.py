@@ -151,7 +151,8 @@ def prepare(d: Delivery) -> dict[str, Any]:
     d.process_data["prepared"] = True
     if d.geometry is None or d.geometry.adjusted is None or d.tie_points.empty:
         return notes
-    pdata = compute(d)
+    with np.errstate(all="ignore"):  # a geometry that overflows: its points are not intersected
+        pdata = compute(d)
     notes.update(pdata.notes)
     if "v_line" not in d.tie_points.columns:
         _with_computed_residuals(d, pdata.observations, notes)

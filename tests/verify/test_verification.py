@@ -84,6 +84,33 @@ def test_doctored_residuals_fail_naming_the_worst(tmp_path, observations) -> Non
     assert set(zip(big["point_id"], big["scene_id"], strict=True)) <= named
 
 
+def test_rays_the_geometry_cannot_intersect_fail_rc1(tmp_path) -> None:
+    """A shift of a million pixels in one scene's adjustment (a four-scene synthetic block):
+    rays that no longer meet under the delivered geometry. RC-1 does not pass over what is
+    left: their observations are judged (not reproduced, an infinite difference: null in JSON),
+    the worst of its evidence."""
+    from geokit import FILES
+
+    from blockqc.adjust.synthetic import SyntheticConfig, synthetic_block
+    from blockqc.rfm.readers import read_rpc
+
+    models = [read_rpc(f) for f in FILES.values()]
+    cfg = SyntheticConfig(scenes=4, observations_per_scene=300, checkpoints=25, seed=21)
+    _, folder = synthetic_block(models, cfg, tmp_path / "d")
+    adjustment = pd.read_csv(folder / "adjustment.csv")
+    adjustment.loc[1, "a0"] = 1e6
+    adjustment.to_csv(folder / "adjustment.csv", index=False)
+    doc = _results(folder)
+    rc1 = _rule(doc, "RC-1")[0]
+    assert rc1["status"] == "fail"
+    detail = next(m for m in doc["measurements"] if m["key"] == "residual_reproduction")["detail"]
+    lost = detail["not_intersected_observations"]
+    judged = len(pd.read_csv(folder / "tie_points.csv")) - detail["single_ray_observations"]
+    assert lost > 0 and rc1["detail"]["n_units"] == judged  # none left out
+    first = rc1["evidence"][: min(lost, len(rc1["evidence"]))]  # infinite: the worst, first
+    assert all(e["intersected"] is False and e["difference_px"] is None for e in first)
+
+
 def test_overlaps_derived_from_geometry(tmp_path, observations) -> None:
     """RO-3/RO-4 run without overlaps.csv; values checked by an independent computation."""
     ground, _ = observations
@@ -157,9 +184,10 @@ def test_synthetic_v11_delivery(tmp_path) -> None:
     assert np.allclose(d.tie_points["v_sample"], delivered["v_sample"], atol=1e-3)
 
 
-def test_observations_the_geometry_cannot_reproduce_are_left_out_and_counted() -> None:
-    """A point seen once (its ray fixes it) and one whose rays do not meet (no computed
-    residual) are not compared; the counts say so, the others are compared."""
+def test_observations_the_geometry_cannot_reproduce_fail_and_single_rays_are_left_out() -> None:
+    """A point seen once (its ray fixes it) is not compared; one whose rays the delivered
+    geometry cannot intersect (no computed residual) is not reproduced: its observations are
+    kept at an infinite difference, so RC-1 fails on them. The counts say which is which."""
     from types import SimpleNamespace
 
     from blockqc.metrics.geometry import _verifiable
@@ -174,11 +202,13 @@ def test_observations_the_geometry_cannot_reproduce_are_left_out_and_counted() -
             "n_rays": [2, 2, 1, 2, 2],
         }
     )
-    kept, unverified = _verifiable(table)
-    assert kept["point_id"].tolist() == ["A", "A"]
+    kept, unverified = _verifiable(table.assign(difference_px=[0.0, 0.0, 0.0, nan, nan]))
+    assert kept["point_id"].tolist() == ["A", "A", "X", "X"]
+    assert kept["difference_px"].tolist() == [0.0, 0.0, float("inf"), float("inf")]
     assert unverified["single_ray_observations"] == 1
     assert unverified["not_intersected_observations"] == 2
     assert "not compared" in unverified["not_verified"]
+    assert "not reproduced" in unverified["not_reproduced"]
     # residuals to compute: point X's two observations have none and are left out, counted
     d = SimpleNamespace(tie_points=table[["point_id"]].copy())
     notes: dict = {}

@@ -25,6 +25,7 @@ _OBSERVATION_COLUMNS = (
     "v_line_computed",
     "v_sample_computed",
     "n_rays",
+    "intersected",
 )
 
 
@@ -76,9 +77,8 @@ def residual_reproduction(d: Delivery, p: NoParams, measure: Measure) -> Measure
     table, unverified = _verifiable(table)
     if table.empty:
         return not_applicable(
-            "no tie point is seen on two or more scenes and intersected "
-            f"({unverified['single_ray_observations']} observations of single-ray points, "
-            f"{unverified['not_intersected_observations']} of points not intersected)"
+            "no tie point is seen on two or more scenes "
+            f"({unverified['single_ray_observations']} observations of single-ray points)"
         )
     diff = table["difference_px"]
     block = pd.DataFrame(
@@ -100,18 +100,27 @@ def residual_reproduction(d: Delivery, p: NoParams, measure: Measure) -> Measure
 
 
 def _verifiable(table: pd.DataFrame) -> tuple[pd.DataFrame, dict[str, Any]]:
-    """The observations whose residuals the geometry gives (points on two or more scenes, their
-    rays intersected), and how many are left out and why: a point seen once is fixed by its one
-    ray (nothing to reproduce), one whose rays do not meet has no computed residual."""
+    """The observations whose residuals the geometry must give (points on two or more scenes),
+    and how many are left out: a point seen once is fixed by its one ray (nothing to reproduce).
+    A point whose rays the delivered geometry cannot intersect has no computed residual: its
+    observations are not reproduced, at an infinite difference (they fail, as evidence)."""
     multi = (table["n_rays"] >= 2).to_numpy()
     computed = np.isfinite(table[["v_line_computed", "v_sample_computed"]].to_numpy()).all(axis=1)
     unverified = {
         "single_ray_observations": int((~multi).sum()),
         "not_intersected_observations": int((multi & ~computed).sum()),
     }
-    if any(unverified.values()):
+    if unverified["single_ray_observations"]:
         unverified["not_verified"] = (
-            "observations of points seen on one scene only (their one ray fixes the point) and "
-            "of points whose rays could not be intersected are not compared"
+            "observations of points seen on one scene only are not compared (their one ray "
+            "fixes the point)"
         )
-    return table[multi & computed].reset_index(drop=True), unverified
+    if unverified["not_intersected_observations"]:
+        unverified["not_reproduced"] = (
+            "observations of points whose rays the delivered geometry cannot intersect: no "
+            "residual is computed, so the delivered one is not reproduced (difference ∞)"
+        )
+    table = table[multi].reset_index(drop=True)
+    table["intersected"] = computed[multi]
+    table.loc[~table["intersected"], "difference_px"] = np.inf
+    return table, unverified

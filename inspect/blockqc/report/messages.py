@@ -311,6 +311,11 @@ MESSAGES.update(
         "col_sample": ("Sample (px)", "列（像素）"),
         "col_v_line": ("v line (px)", "行残差（像素）"),
         "col_v_sample": ("v sample (px)", "列残差（像素）"),
+        "col_v_line_computed": ("v line computed (px)", "复算行残差（像素）"),
+        "col_v_sample_computed": ("v sample computed (px)", "复算列残差（像素）"),
+        "col_difference_px": ("Difference (px)", "差值（像素）"),
+        "col_n_rays": ("Rays", "光线数"),
+        "col_intersected": ("Intersected", "可交会"),
         "col_error_px": ("Error (px)", "误差（像素）"),
         "agreement_rule": (
             "Criterion: the methods agree when their medium errors are on the same side of the "
