@@ -248,3 +248,16 @@ def test_observations_without_a_second_ray_are_not_counted_as_outliers(
     assert (
         "observations left without a second ray</th><td>" + str(res["n_without_second_ray"]) in page
     )
+
+
+def test_a_rejection_that_leaves_no_redundancy_is_refused_without_outputs(tmp_path, blockqc):
+    """--reject 0.01 rejects every observation of a block whose points all have two rays: σ0
+    cannot be estimated. Exit 2 saying so, and no adjust.json with a null σ0 presented as
+    converged."""
+    cfg = SyntheticConfig(scenes=4, observations_per_scene=300, checkpoints=25, seed=21)
+    _, block = synthetic_block(MODELS, cfg, tmp_path / "blk")
+    out = tmp_path / "out"
+    r = blockqc("adjust", block, "--out", out, "--reject", "0.01")
+    assert r.returncode == 2, r.stdout + r.stderr
+    assert "σ0 cannot be estimated: 0 of" in r.stderr and "(--reject 0.01)" in r.stderr
+    assert "internal error" not in r.stderr and not out.exists()

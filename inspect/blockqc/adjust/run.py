@@ -329,6 +329,7 @@ def run_adjust(cfg: AdjustConfig) -> dict:
     clock.lap("datum")
     sol, v0l, v0s = adjust(block.stack, block.obs, block.lines, block.samples, priors, cfg.settings)
     clock.lap("adjust")
+    _refuse_without_redundancy(sol, cfg.settings)
     cps, cp_info = checkpoints(block, sol, priors, cfg.checkpoints)
     clock.lap("checkpoints")
     summary = summarize(block, sol, v0l, v0s, datum_desc, cp_info)
@@ -338,6 +339,23 @@ def run_adjust(cfg: AdjustConfig) -> dict:
     summary["timings"] = clock.laps
     write_outputs(out, block, sol, cps, summary, np.hypot(v0l, v0s))
     return summary
+
+
+def _refuse_without_redundancy(sol: Solution, settings: Settings) -> None:
+    """No output of an adjustment whose σ0 cannot be estimated (every observation rejected, or
+    too few left for any redundancy): its figures would be no estimate."""
+    if np.isfinite(sol.sigma0_px):
+        return
+    kept, n = int((~sol.outlier).sum()), sol.outlier.size
+    raise InputError(
+        Problem(
+            "<options>",
+            f"σ0 cannot be estimated: {kept} of {n} observations are kept after rejection "
+            f"(--reject {settings.reject_k:g}), which leaves the adjustment no redundancy; "
+            "--reject below about 3 rejects good observations (default 4), and a block needs "
+            "points seen on two or more scenes",
+        )
+    )
 
 
 class Clock:
