@@ -283,3 +283,20 @@ def test_a_factors_template_that_cannot_be_read_is_named(appendix_path, tmp_path
         "'no_such_filter'."
     )
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize(
+    "options", [["--dem", "{table}"], ["--overlap", "union", "--edge-correction"]]
+)
+def test_options_of_a_batch_are_refused_with_a_table(appendix_path, tmp_path, options):
+    """--table gives the experiments table itself: the options that build it from deliveries
+    would be ignored, so they are refused by name (exit 2), nothing written."""
+    out = tmp_path / "out"
+    options = [o.format(table=appendix_path) for o in options]  # an existing file for --dem
+    result = CliRunner().invoke(
+        command, ["--table", str(appendix_path), "--out", str(out), *options]
+    )
+    assert isinstance(result.exception, UsageError), result.output
+    named = [o for o in options if o.startswith("--")]
+    assert str(result.exception).startswith(f"{', '.join(named)}: options that build the table")
+    assert not out.exists()

@@ -170,6 +170,26 @@ def _struct_frame(
     )
 
 
+def _refuse_batch_options() -> None:
+    """With --table, the options that build the table from deliveries would be ignored."""
+    ctx = click.get_current_context()
+    given = [
+        p.opts[0]
+        for p in ctx.command.params
+        if p.name in _BATCH_ONLY
+        and ctx.get_parameter_source(p.name) not in (None, click.core.ParameterSource.DEFAULT)
+    ]
+    if given:
+        raise UsageError(
+            f"{', '.join(given)}: options that build the table from BATCH's deliveries; --table "
+            "gives the table itself (leave them out)"
+        )
+
+
+#: the options of BATCH alone (the parameters of `command` they set)
+_BATCH_ONLY = ("dems", "images_band", "period_gap_days", "overlap", "stereo_iou", "edge_correction")
+
+
 @click.command("factors")
 @click.argument("batch", required=False, type=click.Path(exists=True, path_type=Path))
 @click.option(
@@ -252,6 +272,8 @@ def command(
     """
     if (batch is None) == (table_path is None):
         raise UsageError("give either BATCH (with --dem) or --table CSV, not both or neither")
+    if table_path is not None:
+        _refuse_batch_options()
     options = FactorOptions(
         images_band=images_band,
         period_gap_days=period_gap_days,
