@@ -259,3 +259,18 @@ def test_inspect_plan_names_the_line_of_its_units_for_a_block_outside_it(tmp_pat
         f"{plan}, line {_line(plan, 'units: 4')}: units: block B04 is not in the plan's batch "
         "(its 4 units: B00, B01, B02, B03)"
     ) in r.stderr
+
+
+def test_sample_names_a_stray_file_and_a_strata_key_left_out(tmp_path: Path) -> None:
+    """As inspect does, sample warns of a file beside the deliveries (not drawn from); a block
+    whose block.yaml leaves the strata key out is told so ("no key"), not that it is empty."""
+    batch = _batch(tmp_path / "batch", 3)
+    (batch / "notes.txt").write_text("x", encoding="utf-8")
+    p = run_blockqc("sample", batch, "--seed", 1, "--out", tmp_path / "a.yaml")
+    assert p.returncode == 0, p.stderr
+    assert f"warning: {batch / 'notes.txt'}: a file beside the deliveries" in p.stderr
+    p = run_blockqc(
+        "sample", batch, "--seed", 1, "--strata", "sampled", "--out", tmp_path / "b.yaml"
+    )
+    assert p.returncode == 2
+    assert "block.yaml: no key 'sampled' in block.yaml to stratify by" in p.stderr

@@ -55,7 +55,8 @@ def read_units(batch: Path, key: str | None) -> tuple[list[str], dict[str, str] 
         m = got.manifests[path]
         if key:
             try:
-                strata[m.block_id] = stratum_of(m.model_dump(mode="json"), key)
+                given = m.model_dump(mode="json", exclude_unset=True)  # a key left out: absent
+                strata[m.block_id] = stratum_of(given, key)
             except KeyError:
                 why = f"no key '{key}' in block.yaml to stratify by"
                 problems.append(_key_problem(path / MANIFEST, key.split(".")[:-1], why))
@@ -111,6 +112,7 @@ def _echo_plan(plan: Plan, out: Path) -> None:
 @click.option("--out", required=True, type=click.Path(path_type=Path), help="Plan file (YAML).")
 def command(batch: Path, seed: int, key: str | None, rules_ref: str, out: Path) -> None:
     """Draw the blocks of a batch to inspect in detail (§QE-1) and write the plan."""
+    from blockqc.delivery import batch_files
     from blockqc.outputs import check_out_dir, refuse_inside, write_text_atomic
     from blockqc.rules import load_pack
 
@@ -126,6 +128,8 @@ def command(batch: Path, seed: int, key: str | None, rules_ref: str, out: Path) 
         raise UsageError(f"--out {out}: the plan is a YAML file (.yaml)")
     refuse_inside(out.parent, [batch])  # before reading; its folder is made once the batch is read
     ids, strata = read_units(batch, key)
+    for f in batch_files(batch):  # as inspect says of them: the plan draws from the deliveries
+        click.echo(f"warning: {f}: a file beside the deliveries of a batch, not read", err=True)
     check_out_dir(out.parent, [batch])
     lots = draw(ids, pack.acceptance.sampling, seed, strata)
     plan = make_plan(
