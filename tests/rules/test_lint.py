@@ -255,6 +255,42 @@ def test_broken_case_file_is_named_with_its_line(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(
+    ("edit", "why"),
+    [
+        ("set: {tie_points: [{values: {v_lien: 1.2}}]}", "tie_points has no column 'v_lien'"),
+        ("set: {tie_pointz: [{values: {v_line: 1.2}}]}", "no table 'tie_pointz'"),
+        (
+            "set: {tie_points: [{where: {scene_id: {equals: S1}}, values: {v_line: 1.2}}]}",
+            "unknown comparison 'equals'",
+        ),
+        (
+            "set: {tie_points: [{where: {scene_id: S9}, values: {v_line: 1.2}}]}",
+            "set tie_points: where/any matches no row",
+        ),
+        ('files: {"../../escape.txt": x}', "files: '../../escape.txt' is outside the delivery"),
+    ],
+)
+def test_a_case_whose_edits_cannot_be_made_is_named_by_lint(tmp_path, edit, why) -> None:
+    """What `rules test` would stop on, lint finds first, every case of the file at once."""
+    pack = _pack(
+        tmp_path, "rules:\n  - id: PR-1\n    title: t\n    clause: §TP-1\n    manual: true\n"
+    )
+    cases = tmp_path / "project.cases"
+    cases.mkdir()
+    (cases / "PR-1.yaml").write_text(
+        "rule: PR-1\ncases:\n  - name: awaiting\n    expect: manual\n"
+        f"  - name: broken\n    {edit}\n    expect: fail\n"
+        f"  - name: broken again\n    {edit}\n    expect: pass\n",
+        "utf-8",
+    )
+    msgs = _messages(pack)
+    assert len(msgs) == 2
+    for msg, (i, line) in zip(msgs, ((1, 5), (2, 8)), strict=True):
+        where = f"{cases / 'PR-1.yaml'}, line {line}: cases.{i}"
+        assert msg.startswith(f"{where}: cannot be made on the base delivery: {why}")
+
+
+@pytest.mark.parametrize(
     ("expr", "why"),
     [
         ("9" * 150, "a literal beyond"),

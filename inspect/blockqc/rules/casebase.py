@@ -234,7 +234,8 @@ def edited_tables(case: dict[str, Any]) -> dict[str, pd.DataFrame]:
     return tables
 
 
-def _inside(folder: Path, rel: str) -> Path:
+def inside(folder: Path, rel: str) -> Path:
+    """`folder / rel`, refused (EditError) when it leads outside the folder."""
     path = (folder / rel).resolve()
     if folder.resolve() not in path.parents:
         raise EditError(f"files: '{rel}' is outside the delivery")
@@ -254,7 +255,7 @@ def write_delivery(folder: Path, case: dict[str, Any] | None = None) -> Path:
         (folder / rel).parent.mkdir(parents=True, exist_ok=True)
         (folder / rel).write_bytes(minimal_pdf(["test document"]))
     for rel, content in (case.get("files") or {}).items():
-        path = _inside(folder, rel)
+        path = inside(folder, rel)
         if content is None:
             path.unlink(missing_ok=True)
         else:

@@ -31,7 +31,7 @@ from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError,
 
 from blockqc.errors import BlockqcError, Problem, RuleError
 from blockqc.metrics import REGISTRY
-from blockqc.rules.casebase import EditError, write_delivery
+from blockqc.rules.casebase import EditError, edited_tables, inside, write_delivery
 from blockqc.rules.lint import did_you_mean
 from blockqc.rules.model import Pack, Rule
 from blockqc.yamlio import Text, line_of, load_yaml, pydantic_problems
@@ -178,6 +178,7 @@ def case_problems(path: Path, doc: CaseFile, pack: Pack, pack_file: Path) -> lis
                 where = ".".join(map(str, ("cases", i, *loc)))
                 out.append(Problem(str(path), f"{where}: {message}", line=doc.line(i, *loc)))
 
+            _check_edits(case, Path(tmp), bad)
             case_pack = _case_rule_pack(pack, pack_file, doc.rule, case, Path(tmp), bad)
             if case_pack is None:
                 continue
@@ -186,6 +187,18 @@ def case_problems(path: Path, doc: CaseFile, pack: Pack, pack_file: Path) -> lis
             _check_value(case.value, rule, bad)
             _check_group(case.group, rule, bad)
     return out
+
+
+def _check_edits(case: Case, work: Path, bad: Callable[..., None]) -> None:
+    """A case's edits made on the base tables (no delivery written): an unknown table, column
+    or comparison, a selection of no row, a file outside the delivery."""
+    edits = _plain(case.model_dump(by_alias=True, exclude_none=True))
+    try:
+        edited_tables(edits)
+        for rel in edits.get("files") or {}:
+            inside(work / "delivery", rel)
+    except EditError as exc:
+        bad(f"cannot be made on the base delivery: {exc}")
 
 
 def _case_rule_pack(
