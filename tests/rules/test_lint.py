@@ -243,13 +243,8 @@ def test_a_rule_without_cases(tmp_path: Path) -> None:
 
 
 def test_broken_case_file_is_named_with_its_line(tmp_path: Path) -> None:
-    pack = _pack(
-        tmp_path, "rules:\n  - id: PR-1\n    title: t\n    clause: §TP-1\n    manual: true\n"
-    )
-    cases = tmp_path / "project.cases"
-    cases.mkdir()
-    (cases / "PR-1.yaml").write_text(
-        "rule: PR-1\ncases:\n  - name: a\n    expect: pass\n    query: 'line > 3'\n", "utf-8"
+    pack, cases = _manual_rule_with_cases(
+        tmp_path, "rule: PR-1\ncases:\n  - name: a\n    expect: pass\n    query: 'line > 3'\n"
     )
     assert _messages(pack) == [f"{cases / 'PR-1.yaml'}, line 5: cases.0.query: unknown key"]
 
@@ -272,16 +267,11 @@ def test_broken_case_file_is_named_with_its_line(tmp_path: Path) -> None:
 )
 def test_a_case_whose_edits_cannot_be_made_is_named_by_lint(tmp_path, edit, why) -> None:
     """What `rules test` would stop on, lint finds first, every case of the file at once."""
-    pack = _pack(
-        tmp_path, "rules:\n  - id: PR-1\n    title: t\n    clause: §TP-1\n    manual: true\n"
-    )
-    cases = tmp_path / "project.cases"
-    cases.mkdir()
-    (cases / "PR-1.yaml").write_text(
+    pack, cases = _manual_rule_with_cases(
+        tmp_path,
         "rule: PR-1\ncases:\n  - name: awaiting\n    expect: manual\n"
         f"  - name: broken\n    {edit}\n    expect: fail\n"
         f"  - name: broken again\n    {edit}\n    expect: pass\n",
-        "utf-8",
     )
     msgs = _messages(pack)
     assert len(msgs) == 2
@@ -372,6 +362,18 @@ def test_a_list_constant_as_a_bound_is_refused(tmp_path: Path) -> None:
     ]
     with pytest.raises(RuleError):
         load_pack(pack)
+
+
+def _manual_rule_with_cases(tmp_path: Path, cases_text: str) -> tuple[Path, Path]:
+    """A pack adding one manual rule, PR-1, with `cases_text` as its case file; the pack file
+    and its cases folder."""
+    pack = _pack(
+        tmp_path, "rules:\n  - id: PR-1\n    title: t\n    clause: §TP-1\n    manual: true\n"
+    )
+    cases = tmp_path / "project.cases"
+    cases.mkdir()
+    (cases / "PR-1.yaml").write_text(cases_text, "utf-8")
+    return pack, cases
 
 
 def _line_of(path: Path, text: str) -> int:
@@ -497,15 +499,10 @@ def test_blank_titles_and_case_names_are_refused(tmp_path: Path) -> None:
     assert _messages(grade) == [
         f"{grade}, line 4: acceptance.fail_grade.title: expected a text, got a blank one"
     ]
-    pack = _pack(
-        tmp_path, "rules:\n  - id: PR-1\n    title: t\n    clause: §TP-1\n    manual: true\n"
-    )
-    cases = tmp_path / "project.cases"
-    cases.mkdir()
-    (cases / "PR-1.yaml").write_text(
+    pack, cases = _manual_rule_with_cases(
+        tmp_path,
         'rule: PR-1\ncases:\n  - name: "  "\n    expect: manual\n'
         "  - name: rejected\n    verdicts: {verdicts: {PR-1: {status: fail}}}\n    expect: fail\n",
-        "utf-8",
     )
     assert _messages(pack) == [
         f"{cases / 'PR-1.yaml'}, line 3: cases.0.name: expected a text, got a blank one"
