@@ -163,6 +163,19 @@ def test_zero_scale_is_refused_naming_the_field(tmp_path: Path):
     assert "HEIGHT_SCALE" in refused(bad).message
 
 
+def test_a_coefficient_far_beyond_order_one_is_refused_naming_it(tmp_path: Path):
+    """1e300 in a numerator: the model overflows wherever it is evaluated (rays that never
+    meet, a singular adjustment): refused at the file, naming the coefficient."""
+    old = "LINE_NUM_COEFF_2: +2.040590314623190E-02"
+    bad = edited(tmp_path, GF_TXT, "huge_rpc.txt", old, "LINE_NUM_COEFF_2: 1e300")
+    assert refused(bad).message.startswith("LINE_NUM holds 1e+300: the coefficients of a")
+
+
+def test_a_vanishing_scale_is_refused_naming_it(tmp_path: Path):
+    bad = edited(tmp_path, GF_TXT, "tiny_rpc.txt", "HEIGHT_SCALE: +885", "HEIGHT_SCALE: 1e-300")
+    assert refused(bad).message.startswith("HEIGHT_SCALE must be a finite number of magnitude")
+
+
 # -- line ends, encodings, folders -------------------------------------------------------------
 @pytest.mark.parametrize("source", [GF_TXT, GEOM, FORMATS / "sample.RPB"], ids=lambda p: p.name)
 def test_cr_only_line_ends_are_read(tmp_path: Path, source: Path):

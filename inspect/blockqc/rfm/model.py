@@ -114,6 +114,14 @@ OFFSET_SCALE_KEYS = (
 )
 
 
+#: the largest coefficient accepted: those of a normalized RPC are of order 1 (the largest
+#: among 47 real ones of seven vendors is 235); far beyond, the model overflows (1e300)
+MAX_COEFFICIENT = 1e6
+#: the smallest scale accepted: a line/sample scale is about half the image, a lat/lon one at
+#: least thousandths of a degree (the smallest met: 0.002°), a height one metres
+MIN_SCALE = 1e-9
+
+
 @dataclass(frozen=True, eq=False)
 class RPCModel:
     """One scene's RPC00B model: ten offsets/scales and the 4×20 coefficients (§3).
@@ -151,6 +159,15 @@ class RPCModel:
                         message=f"{name} must hold 20 finite numbers, got shape {arr.shape}",
                     )
                 )
+            if np.abs(arr).max() > MAX_COEFFICIENT:
+                raise InputError(
+                    Problem(
+                        file=self.source or "<rpc>",
+                        message=f"{name.upper()} holds {arr[np.abs(arr).argmax()]:g}: the "
+                        "coefficients of a normalized RPC are of order 1 (at most "
+                        f"{MAX_COEFFICIENT:g} is accepted)",
+                    )
+                )
             if name.endswith("_den") and not np.any(arr):
                 raise InputError(
                     Problem(
@@ -162,12 +179,13 @@ class RPCModel:
             object.__setattr__(self, name, arr)
         for name in OFFSET_SCALE_KEYS:
             value = float(getattr(self, name))
-            if not np.isfinite(value) or (name.endswith("_scale") and value == 0.0):
+            scale = name.endswith("_scale")
+            if not np.isfinite(value) or (scale and abs(value) < MIN_SCALE):
                 raise InputError(
                     Problem(
                         file=self.source or "<rpc>",
                         message=f"{name.upper()} must be a finite number"
-                        + (" different from 0" if name.endswith("_scale") else "")
+                        + (f" of magnitude at least {MIN_SCALE:g}" if scale else "")
                         + f", got {value!r}",
                     )
                 )
