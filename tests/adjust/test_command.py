@@ -261,3 +261,16 @@ def test_a_rejection_that_leaves_no_redundancy_is_refused_without_outputs(tmp_pa
     assert r.returncode == 2, r.stdout + r.stderr
     assert "σ0 cannot be estimated: 0 of" in r.stderr and "(--reject 0.01)" in r.stderr
     assert "internal error" not in r.stderr and not out.exists()
+
+
+def test_a_fit_that_is_no_estimate_is_warned_of(small_block, tmp_path, blockqc):
+    """One scene given another's RPC: the adjustment converges on nonsense (σ0 of kilopixels,
+    residuals larger after than before). Said on the console and in adjust.json."""
+    blk = _copy(small_block, tmp_path)
+    shutil.copy(blk / "rpc" / "S0004.json", blk / "rpc" / "S0001.json")
+    r = blockqc("adjust", blk, "--out", tmp_path / "out")
+    assert r.returncode == 0, r.stderr
+    assert "px, far above a tie-point measurement precision (above 5 px)" in r.stderr
+    assert "warning: the residual RMS grew in the adjustment" in r.stderr
+    warnings = json.loads((tmp_path / "out" / "adjust.json").read_text())["warnings"]
+    assert any("far above a tie-point measurement precision" in w for w in warnings)

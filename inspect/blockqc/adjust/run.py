@@ -311,7 +311,13 @@ def checkpoints(block: Block, sol: Solution, priors: Priors, n: int) -> tuple[pd
         }
     )
     info["n"] = int(len(table))
-    if len(table) < 20:
+    if len(table) == 0:
+        info["warning"] = (
+            "no point could be compared, so checkpoints.csv holds its header only: the "
+            "producer's positions come from tie_points lon/lat/h or from its adjustment "
+            "(adjustment.csv, rpc_adjusted/)"
+        )
+    elif len(table) < 20:
         info["warning"] = f"only {len(table)} points could be compared (§CP-1 asks for 20–50)"
     return table, info
 
@@ -431,6 +437,34 @@ def scene_warnings(scenes: list[dict]) -> list[str]:
     return out
 
 
+#: σ0 beyond this (px) is no tie-point measurement precision (0.2–0.5 px for real blocks): the
+#: RPCs and the tie points do not fit one another
+MAX_SIGMA0_PX = 5.0
+
+
+def fit_warnings(
+    sol: Solution, v0l: np.ndarray, v0s: np.ndarray, kept: np.ndarray, cp_info: dict
+) -> list[str]:
+    """What makes the adjustment's figures no estimate of the block, though it converged: a σ0
+    far above any measurement precision, residuals larger after than before, no checkpoint."""
+    out = []
+    if sol.sigma0_px > MAX_SIGMA0_PX:
+        out.append(
+            f"σ0 {sol.sigma0_px:.3g} px, far above a tie-point measurement precision (above "
+            f"{MAX_SIGMA0_PX:g} px): the RPCs (rpc/) and the tie points do not fit one another; "
+            "check that each scene's RPC is its own"
+        )
+    before, after = _rms(v0l, v0s, kept), _rms(sol.v_line, sol.v_sample, kept)
+    if after > before:
+        out.append(
+            f"the residual RMS grew in the adjustment ({before:.3f} → {after:.3f} px): the "
+            "corrections the data ask for are beyond the priors, or the data do not fit"
+        )
+    if cp_info.get("warning"):
+        out.append(cp_info["warning"])
+    return out
+
+
 def summarize(
     block: Block,
     sol: Solution,
@@ -465,6 +499,6 @@ def summarize(
         "producer_adjustment": block.data.producer_source,
         "history": sol.history,
         "scenes": scenes,
-        "warnings": scene_warnings(scenes),
+        "warnings": scene_warnings(scenes) + fit_warnings(sol, v0l, v0s, kept, cp_info),
         "residual_convention": "v = computed − measured, image pixels (contract v1.1)",
     }
