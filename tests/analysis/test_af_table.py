@@ -33,6 +33,28 @@ def test_bad_cells_name_row_and_column(tmp_path, appendix_path):
     assert all(p.file == str(bad) for p in err.value.problems)
 
 
+def test_values_no_factor_or_indicator_takes_are_named(tmp_path, appendix_path):
+    """A negative RMS error or count, a slope above 90°: refused by row and column; a mean
+    elevation below sea level is a value it takes."""
+    lines = appendix_path.read_text(encoding="utf-8").splitlines()
+    header = lines[0].split(",")
+    cells = lines[2].split(",")
+    for col, value in (
+        ("h_rmse_m", "-3"), ("tp_number", "-1"), ("mean_slope_deg", "95"),
+        ("mean_elevation_m", "-400"),
+    ):  # fmt: skip
+        cells[header.index(col)] = value
+    lines[2] = ",".join(cells)
+    bad = tmp_path / "bad.csv"
+    bad.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    with pytest.raises(InputError) as err:
+        read_table(bad)
+    found = {(p.row, p.column): p.message for p in err.value.problems}
+    assert set(found) == {(2, "h_rmse_m"), (2, "tp_number"), (2, "mean_slope_deg")}
+    assert found[(2, "mean_slope_deg")] == "'95': a mean slope (°) is at least 0 and at most 90"
+    assert found[(2, "h_rmse_m")] == "'-3': a δ_H (m) is at least 0"
+
+
 def test_missing_column_is_named(tmp_path, appendix_path):
     text = appendix_path.read_text(encoding="utf-8").replace("tp_nn_coefficient", "tp_nn")
     bad = tmp_path / "renamed.csv"

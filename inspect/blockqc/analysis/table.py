@@ -41,6 +41,13 @@ INDICATOR_COLUMNS: tuple[str, ...] = (
 
 TABLE_COLUMNS: tuple[str, ...] = ID_COLUMNS + FACTOR_COLUMNS + INDICATOR_COLUMNS
 
+#: the values a column can hold (the others are any finite number: a mean elevation may be
+#: below sea level): RMS errors, counts, areas, densities and a Clark–Evans R are not negative
+RANGES: dict[str, tuple[float, float]] = {
+    "mean_slope_deg": (0.0, 90.0),
+    **{c: (0.0, np.inf) for c in FACTOR_COLUMNS[2:] + INDICATOR_COLUMNS},
+}
+
 #: Short labels with units, for plots and pages.
 LABELS: dict[str, str] = {
     "mean_elevation_m": "mean elevation (m)",
@@ -169,6 +176,11 @@ def validate_table(raw: pd.DataFrame, file: str, lines: list[int] | None = None)
                 if shown == ""
                 else f"'{shown}' is not a finite number of magnitude at most {MAX_MAGNITUDE:g}"
             )
+            problems.append(_cell_problem(file, int(i), lines, col, what))
+        low, high = RANGES.get(col, (-np.inf, np.inf))
+        for i in np.flatnonzero(~bad & ((values < low) | (values > high))):
+            most = f" and at most {high:g}" if np.isfinite(high) else ""
+            what = f"'{text.iloc[i]}': a {LABELS[col]} is at least {low:g}{most}"
             problems.append(_cell_problem(file, int(i), lines, col, what))
         table[col] = values
     if problems:
