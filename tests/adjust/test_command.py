@@ -143,26 +143,62 @@ def test_output_inside_the_delivery_is_refused(small_block, blockqc):
 @pytest.mark.parametrize(
     "option, value, expected",
     [
-        ("--reject", "0", "Invalid value for '--reject': '0' is not a finite number > 0"),
-        ("--reject", "-1", "Invalid value for '--reject': '-1' is not a finite number > 0"),
-        ("--reject", "nan", "Invalid value for '--reject': 'nan' is not a finite number > 0"),
-        ("--dem-sigma", "-5", "Invalid value for '--dem-sigma': '-5' is not a finite number > 0"),
-        ("--dem-sigma", "0", "Invalid value for '--dem-sigma': '0' is not a finite number > 0"),
-        ("--sigma-image", "0", "Invalid value for '--sigma-image': '0' is not a finite number > 0"),
+        (
+            "--reject",
+            "0",
+            "Invalid value for '--reject': '0' is not a number of at least 1e-06, finite",
+        ),
+        (
+            "--reject",
+            "-1",
+            "Invalid value for '--reject': '-1' is not a number of at least 1e-06, finite",
+        ),
+        (
+            "--reject",
+            "nan",
+            "Invalid value for '--reject': 'nan' is not a number of at least 1e-06, finite",
+        ),
+        (
+            "--dem-sigma",
+            "-5",
+            "Invalid value for '--dem-sigma': '-5' is not a number of at least 1e-06, finite",
+        ),
+        (
+            "--dem-sigma",
+            "0",
+            "Invalid value for '--dem-sigma': '0' is not a number of at least 1e-06, finite",
+        ),
+        (
+            "--sigma-image",
+            "0",
+            "Invalid value for '--sigma-image': '0' is not a number of at least 1e-06, finite",
+        ),
         (
             "--sigma-image",
             "inf",
-            "Invalid value for '--sigma-image': 'inf' is not a finite number > 0",
+            "Invalid value for '--sigma-image': 'inf' is not a number of at least 1e-06, finite",
         ),
         (
             "--sigma-shift",
             "nan",
-            "Invalid value for '--sigma-shift': 'nan' is not a number > 0 (inf allowed)",
+            "Invalid value for '--sigma-shift': 'nan' is not a number of at least 1e-06 (inf "
+            "allowed)",
+        ),
+        (
+            "--sigma-shift",
+            "1e-300",
+            "Invalid value for '--sigma-shift': '1e-300' is not a number of at least 1e-06",
+        ),
+        (
+            "--sigma-image",
+            "1e-300",
+            "Invalid value for '--sigma-image': '1e-300' is not a number of at least 1e-06",
         ),
         (
             "--sigma-linear",
             "0",
-            "Invalid value for '--sigma-linear': '0' is not a number > 0 (inf allowed)",
+            "Invalid value for '--sigma-linear': '0' is not a number of at least 1e-06 (inf "
+            "allowed)",
         ),
     ],
 )

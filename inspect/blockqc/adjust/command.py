@@ -14,10 +14,14 @@ from blockqc.cli import OutPath
 from blockqc.errors import UsageError
 from blockqc.outputs import empty_removed, refuse_inside
 
+#: the smallest σ or factor an option takes: below a millionth (of a pixel, of a metre) the
+#: weights overflow the normal equations (1e-300 made them singular)
+SMALLEST = 1e-6
+
 
 class Positive(click.ParamType):
-    """A number > 0, refused (exit 2, the option named) before anything is read; finite unless
-    `infinite` (an infinite prior σ leaves its parameters free)."""
+    """A number of at least SMALLEST, refused (exit 2, the option named) before anything is
+    read; finite unless `infinite` (an infinite prior σ leaves its parameters free)."""
 
     name = "float"
 
@@ -26,9 +30,11 @@ class Positive(click.ParamType):
 
     def convert(self, value, param, ctx) -> float:
         number = click.FLOAT.convert(value, param, ctx)
-        if number > 0 and (self.infinite or math.isfinite(number)):
+        if number >= SMALLEST and (self.infinite or math.isfinite(number)):
             return number
-        expected = "a number > 0 (inf allowed)" if self.infinite else "a finite number > 0"
+        expected = f"a number of at least {SMALLEST:g}" + (
+            " (inf allowed)" if self.infinite else ", finite"
+        )
         self.fail(f"{value!r} is not {expected}", param, ctx)
 
 
