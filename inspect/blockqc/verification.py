@@ -130,15 +130,22 @@ def radii(lat_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _with_computed_residuals(d: Delivery, obs: pd.DataFrame, notes: dict[str, Any]) -> None:
-    """The residuals blockqc computed stand in for the delivery's; observations of points whose
-    rays do not intersect (parallel, no convergence) have none: they are left out of the
-    tie-point rules, and the notes count them (`observations_without_residual`)."""
+    """The residuals blockqc computed stand in for the delivery's, where they measure something:
+    observations of points whose rays do not intersect (parallel, no convergence) have none, and
+    those of points seen on one scene only a zero by construction (the point lies on its ray).
+    Both are left out of the tie-point rules, and the notes count them
+    (`observations_without_residual`, `observations_single_ray`)."""
     v_l, v_s = obs["v_line_computed"].to_numpy(), obs["v_sample_computed"].to_numpy()
     tp = d.tie_points.assign(v_line=v_l, v_sample=v_s)
     computed = np.isfinite(v_l) & np.isfinite(v_s)
+    single = obs["n_rays"].to_numpy() < 2
+    measured = computed & ~single
+    if not measured.all():
+        tp = tp[measured].reset_index(drop=True)
     if not computed.all():
-        tp = tp[computed].reset_index(drop=True)
         notes["observations_without_residual"] = int((~computed).sum())
+    if single.any():
+        notes["observations_single_ray"] = int(single.sum())
     d.tie_points = tp
     notes["tie_point_residuals"] = COMPUTED_RESIDUALS
 
@@ -173,5 +180,7 @@ def annotate(results: list[Any], metric_of: dict[str, str], notes: dict) -> None
         source = SOURCES.get(metric_of.get(res.rule, ""))
         if source in computed:
             res.detail["computed_by_blockqc"] = computed[source]
-            if source == "tie_point_residuals" and "observations_without_residual" in notes:
-                res.detail["observations_without_residual"] = notes["observations_without_residual"]
+            if source == "tie_point_residuals":
+                for key in ("observations_without_residual", "observations_single_ray"):
+                    if key in notes:
+                        res.detail[key] = notes[key]

@@ -55,6 +55,19 @@ def test_residuals_computed_when_absent(tmp_path, observations) -> None:
     assert _rule(doc, "RC-1")[0]["status"] == "not_applicable"
 
 
+def test_a_point_seen_once_is_not_judged_on_its_zero_residual(tmp_path, observations) -> None:
+    """Residuals computed: a point seen on one scene lies on its ray, a residual of 0 that
+    measures nothing. Left out of TP-1..3 (counted), it does not pull the median down."""
+    _, ref = observations
+    once = ref.iloc[:1].assign(point_id="ONCE")  # one observation of a point of its own
+    ties = pd.concat([ref, once], ignore_index=True).drop(columns=["v_line", "v_sample"])
+    doc = _results(write_v11(tmp_path / "d", ties))
+    tp1 = _rule(doc, "TP-1")[0]
+    assert tp1["detail"]["observations_single_ray"] == 1
+    err = np.hypot(ref["v_line"], ref["v_sample"])
+    assert tp1["value"] == pytest.approx(float(np.median(err)), abs=2e-3)
+
+
 def test_delivered_residuals_reproduce(tmp_path, observations) -> None:
     _, ref = observations
     doc = _results(write_v11(tmp_path / "d", ref))
@@ -209,10 +222,12 @@ def test_observations_the_geometry_cannot_reproduce_fail_and_single_rays_are_lef
     assert unverified["not_intersected_observations"] == 2
     assert "not compared" in unverified["not_verified"]
     assert "not reproduced" in unverified["not_reproduced"]
-    # residuals to compute: point X's two observations have none and are left out, counted
+    # residuals to compute: point X's two observations have none, point S's one a zero that
+    # measures nothing (its one ray fixes it): both left out of the tie-point rules, counted
     d = SimpleNamespace(tie_points=table[["point_id"]].copy())
     notes: dict = {}
     _with_computed_residuals(d, table, notes)
-    assert d.tie_points["point_id"].tolist() == ["A", "A", "S"]
-    assert d.tie_points["v_sample"].tolist() == [0.2, -0.2, 0.0]
+    assert d.tie_points["point_id"].tolist() == ["A", "A"]
+    assert d.tie_points["v_sample"].tolist() == [0.2, -0.2]
     assert notes["observations_without_residual"] == 2
+    assert notes["observations_single_ray"] == 1
