@@ -290,6 +290,7 @@ def block_entry(path: Path, r: BlockResults, pdf: bool) -> BlockEntry:
         warned_rules=sorted({x.rule for x in r.results if x.status == "warn"}),
         pending_manual=r.pending_manual,
         counts=r.counts,
+        complete=r.complete,
         checkpoints=checkpoint_rows(r),
         extent_wkt=block_extent(r.scenes),
         pdf=pdf,
@@ -440,7 +441,7 @@ def summarize(
         generated_at=dt.datetime.now(dt.UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
         inspector=inspector.inspector if inspector else None,
         verdict=verdict,
-        complete=not rejected and not any(b.pending_manual for b in blocks),
+        complete=not rejected and all(b.complete and not b.pending_manual for b in blocks),
         counts=BatchCounts(
             blocks=len(outcomes),
             **{"pass": len(blocks) - len(failing)},

@@ -176,6 +176,7 @@ class BlockEntry(_Model):
     warned_rules: list[str] = Field(default_factory=list)
     pending_manual: list[str] = Field(default_factory=list)
     counts: dict[Status, int] = Field(default_factory=dict)
+    complete: bool = True  # its results.json's: False for a sampled block not fully evaluated
 
     @field_validator("block_id")
     @classmethod

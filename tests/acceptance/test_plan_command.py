@@ -125,6 +125,9 @@ def test_inspect_with_plan(tmp_path: Path) -> None:
     summary = json.loads((out / "summary.json").read_text())
     assert summary["acceptance"]["sample"] == ["B00", "B02"]
     assert summary["acceptance"]["decision"] == "incomplete"
+    # the batch is not complete either: B02 is not fully evaluated (the summary said complete)
+    assert summary["complete"] is False
+    assert {b["block_id"]: b["complete"] for b in summary["blocks"]}["B02"] is False
 
 
 def test_inspect_plan_refuses_a_block_outside_it(tmp_path: Path) -> None:
