@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 
 from blockqc import batch
+from blockqc.errors import OutputError
 from blockqc.inspector import load_inspector_input
 from blockqc.rules import load_pack
 from casekit import SAMPLES, run_blockqc
@@ -287,10 +288,8 @@ def test_a_report_failing_after_results_json_leaves_no_results(small_batch, tmp_
 
     monkeypatch.setattr(batch, "write_block_report", broken)
     got = batch.collect([small_batch / "F1-B02"])
-    outcomes, _ = batch.run(got, load_pack("global-project"), batch.Writer(tmp_path / "out"))
-    assert (
-        outcomes[0].entry is None and "simulated report defect" in outcomes[0].problems[0].message
-    )
+    with pytest.raises(OutputError, match="simulated report defect"):  # no fault of the delivery
+        batch.run(got, load_pack("global-project"), batch.Writer(tmp_path / "out"))
     assert not (tmp_path / "out" / "F1-B02").exists()
 
 
@@ -421,14 +420,21 @@ def test_a_block_inspected_alone_keeps_a_summary_that_does_not_list_it(small_bat
     assert (out / "summary.json").is_file() and "summary" not in alone.stderr
 
 
-def test_a_file_where_a_block_folder_goes_does_not_stop_the_batch(small_batch, tmp_path):
+@pytest.mark.parametrize("jobs", ["1", "2"])
+def test_a_file_where_a_block_folder_goes_stops_the_batch_blaming_no_delivery(
+    small_batch, tmp_path, jobs
+):
+    """The outputs of a block cannot be written: the run stops (exit 2) naming the folder. The
+    delivery is not listed as unreadable (the filed report would return it to its producer),
+    and no summary presents the blocks written before as the batch."""
     out = tmp_path / "out"
     out.mkdir()
     (out / "F1-B02").write_text("not a folder", encoding="utf-8")
-    p = run_blockqc("inspect", small_batch, "--out", out, "--no-pdf")
+    p = run_blockqc("inspect", small_batch, "--out", out, "--no-pdf", "--jobs", jobs)
     assert p.returncode == 2 and "internal error" not in p.stderr, p.stderr
-    summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
-    assert [b["block_id"] for b in summary["blocks"]] == ["F3-B02", "F4-B02"]
+    assert f"{out / 'F1-B02'}: the outputs of block F1-B02 could not be written" in p.stderr
+    assert "UNREADABLE" not in p.stdout + p.stderr
+    assert not (out / "summary.json").exists()
     assert (out / "F1-B02").read_text(encoding="utf-8") == "not a folder"
 
 

@@ -539,14 +539,23 @@ def test_a_quote_never_closed_names_the_line_it_opens_on(blockqc, block, tmp_pat
     assert "C error" not in p.stderr and "line 4" not in p.stderr
 
 
-def test_a_template_that_fails_on_a_block_says_so(blockqc, block, tmp_path):
-    """Not 'could not be inspected: UndefinedError': the delivery is fine, the template not."""
+@pytest.mark.parametrize(
+    "text, why", [("{{ no_such_name }}", "UndefinedError: 'no_such_name' is undefined"),
+                  ("x\n{{ 1 / 0 }}", "ZeroDivisionError: division by zero")]
+)  # fmt: skip
+def test_a_template_that_fails_on_a_block_says_so(blockqc, block, tmp_path, text, why):
+    """Not 'could not be inspected' of the delivery, nor an internal error: the delivery is
+    fine, the template not. Named by file and line; the run stops, no block is listed as
+    unreadable, and nothing of the block nor a summary is left as if complete."""
     mine = tmp_path / "templates"
     mine.mkdir()
-    (mine / "block.html.j2").write_text("{{ no_such_name }}\n", encoding="utf-8")
+    (mine / "block.html.j2").write_text(text + "\n", encoding="utf-8")
+    line = text.count("\n") + 1
     p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none", "--templates", mine)
-    _refused(p, "F1-B01: its report could not be rendered:", "'no_such_name' is undefined")
-    assert "could not be inspected:" not in p.stderr
+    _refused(p, f"{mine / 'block.html.j2'}, line {line}: a template fails on block F1-B01: {why}")
+    assert "could not be inspected" not in p.stderr and "UNREADABLE" not in p.stdout + p.stderr
+    assert not (tmp_path / "out" / "F1-B01").exists()
+    assert not (tmp_path / "out" / "summary.json").exists()
 
 
 @pytest.mark.parametrize(
@@ -627,3 +636,15 @@ def test_a_nan_coordinate_in_a_footprint_is_refused_without_a_library_warning(
     p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
     _refused(p, "scenes.csv, row 1 (line 2), column 'footprint_wkt': expected a WKT polygon")
     assert "RuntimeWarning" not in p.stderr and "shapely" not in p.stderr
+
+
+def test_an_output_folder_that_cannot_be_made_stops_the_run_naming_it(blockqc, block, tmp_path):
+    """A file where the block's output folder goes: the delivery was inspected and is fine, so
+    it is not listed as unreadable; the run stops naming the folder, the file left as it is."""
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "F1-B01").write_text("mine", encoding="utf-8")
+    p = blockqc("inspect", block, "--out", out, "--pdf", "none")
+    _refused(p, f"{out / 'F1-B01'}: the outputs of block F1-B01 could not be written:")
+    assert "UNREADABLE" not in p.stdout + p.stderr
+    assert (out / "F1-B01").read_text(encoding="utf-8") == "mine"

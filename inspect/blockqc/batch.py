@@ -18,8 +18,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import jinja2
-
 from blockqc import __version__, pieces
 from blockqc.acceptance.decision import decide
 from blockqc.acceptance.evaluate import evaluate_results
@@ -46,9 +44,15 @@ from blockqc.delivery import (
     load_manifest,
 )
 from blockqc.engine import inspect_delivery, tie_point_columns
-from blockqc.errors import InputError, Problem
+from blockqc.errors import InputError, OutputError, Problem
 from blockqc.inspector import InspectorInput
-from blockqc.outputs import BATCH_OUTPUTS, BLOCK_OUTPUTS, safe_child, write_json_atomic
+from blockqc.outputs import (
+    BATCH_OUTPUTS,
+    BLOCK_OUTPUTS,
+    safe_child,
+    template_problem,
+    write_json_atomic,
+)
 from blockqc.report import checkpoint_rows, write_block_report, write_summary_report
 from blockqc.results import (
     STATUSES,
@@ -353,11 +357,26 @@ class Job:
         try:
             key = self._key(path, manifest)
             if key and (hit := read_cached(safe_child(self.writer.out, manifest.block_id), key)):
-                o = Outcome(path, hit.entry, hit.rules, cached=True, grade=hit.grade, key=key)
-                o.errors = hit.errors or []  # why its rules in error are, said again
-                return o
+                if hit.entry.block_id == manifest.block_id:  # a cache edited by hand is not
+                    o = Outcome(path, hit.entry, hit.rules, cached=True, grade=hit.grade, key=key)
+                    o.errors = hit.errors or []  # why its rules in error are, said again
+                    return o
             results = inspect_one(path, self.pack, self.inspector, manifest, self.extra)
-            forget_block(safe_child(self.writer.out, results.block_id, source=results.delivery))
+            return self._written(path, results, key)
+        except (InputError, OutputError) as exc:
+            if isinstance(exc, OutputError):
+                raise
+            return self._not_inspected(path, manifest, exc.problems)
+        except Exception as exc:  # one block's failure must not stop the batch
+            reason = f"could not be inspected: {type(exc).__name__}: {exc}"
+            return self._not_inspected(path, manifest, [Problem(str(path), reason)])
+
+    def _written(self, path: Path, results: BlockResults, key: str | None) -> Outcome:
+        """The block's outputs written, and its outcome; a failure to write them stops the run
+        (OutputError): it is no fault of the delivery, which was inspected."""
+        try:
+            folder = safe_child(self.writer.out, results.block_id, source=results.delivery)
+            forget_block(folder)
             forget_summary(self.writer.out)  # both rewritten: no key may vouch for them meanwhile
             pdf = self.writer.block(results)
             grade = block_grade(results, self.pack)
@@ -369,17 +388,16 @@ class Job:
             ]
             o.key = key
             if key:
-                folder = safe_child(self.writer.out, results.block_id)
                 write_cached(folder, Cached(key, o.entry, o.rules, grade, errors=o.errors))
             return o
-        except InputError as exc:
-            return self._not_inspected(path, manifest, exc.problems)
-        except jinja2.TemplateError as exc:  # a template of --templates that fails on this block
-            reason = f"its report could not be rendered: {type(exc).__name__}: {exc}"
-            return self._not_inspected(path, manifest, [Problem(str(path), reason)])
-        except Exception as exc:  # one block's failure must not stop the batch
-            reason = f"could not be inspected: {type(exc).__name__}: {exc}"
-            return self._not_inspected(path, manifest, [Problem(str(path), reason)])
+        except InputError:
+            raise  # an output name the block id cannot give (safe_child): the delivery's own
+        except Exception as exc:
+            self.writer.discard(results.block_id)  # none of its outputs is taken for complete
+            for name in BATCH_OUTPUTS:  # nor an earlier summary for this run's
+                with suppress(OSError):
+                    (self.writer.out / name).unlink(missing_ok=True)
+            raise output_error(results.block_id, self.writer.out, exc) from None
 
     def _not_inspected(
         self, path: Path, manifest: Manifest | None, problems: list[Problem]
@@ -397,6 +415,16 @@ class Job:
             return None
         block_input = self.inspector.for_block(manifest.block_id) if self.inspector else None
         return delivery_fingerprint(path, self.digest, block_input)
+
+
+def output_error(block_id: str, out: Path, exc: Exception) -> OutputError:
+    """Why the outputs of a block could not be written: at the template's file and line when
+    a template failed, else at the block's output folder."""
+    found = template_problem(exc, f" on block {block_id}")
+    if found is not None:
+        return OutputError(found)
+    message = f"the outputs of block {block_id} could not be written: {type(exc).__name__}: {exc}"
+    return OutputError(Problem(str(out / block_id), message))
 
 
 def decision(outcomes: list[Outcome], pack: Pack, extra: Extra) -> BatchDecision | None:
@@ -526,6 +554,10 @@ def _pooled(
                 done(future.result())
             except BrokenProcessPool:
                 lost.append(futures[future])
+            except BaseException:  # the run stops (outputs that cannot be written): the jobs
+                for other in futures:  # not begun are dropped, those running end
+                    other.cancel()
+                raise
     return lost
 
 

@@ -530,6 +530,11 @@ def main(argv: list[str] | None = None) -> None:
         if isinstance(exc, RuntimeError) and str(exc).startswith("Symlink loop"):
             click.echo(f"error: {exc}: a symbolic link leads back to itself", err=True)
             sys.exit(2)
+        from blockqc.outputs import template_problem
+
+        if (found := template_problem(exc)) is not None:
+            click.echo(f"error: {found}", err=True)
+            sys.exit(2)
         if _template_error(exc):
             why = f"{type(exc).__name__}: {exc}"
             click.echo(f"error: a template of --templates failed: {why}", err=True)

@@ -47,6 +47,11 @@ class InputError(BlockqcError):
     """A delivery, an inspector's file or another input could not be read as its contract says."""
 
 
+class OutputError(BlockqcError):
+    """The outputs could not be written (a folder that refuses them, a template of --templates
+    that fails): the run stops, and no delivery is blamed for it."""
+
+
 class RuleError(BlockqcError):
     """A rule pack could not be read, validated or evaluated."""
 

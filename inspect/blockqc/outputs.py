@@ -7,6 +7,7 @@ import math
 import os
 import socket
 import tempfile
+import traceback
 from collections.abc import Iterable, Iterator, Mapping
 from contextlib import contextmanager, suppress
 from pathlib import Path
@@ -160,6 +161,21 @@ def refuse_delivery(out: Path, option: str = "--out") -> None:
             f"{option} {out} lies inside the delivery {delivery}: blockqc never writes into a "
             "delivery; choose an output folder outside it"
         )
+
+
+def template_problem(exc: BaseException, context: str = "") -> Problem | None:
+    """Where a page's rendering failed, when a template did (a user's of --templates, or a stock
+    one): the template's file and line, and why; None when no template is in the cause."""
+    import jinja2
+
+    what = f"{type(exc).__name__}: {exc}"
+    if isinstance(exc, jinja2.TemplateSyntaxError) and exc.filename:
+        return Problem(exc.filename, f"a template of --templates: {what}", line=exc.lineno)
+    frames = traceback.extract_tb(exc.__traceback__)
+    frame = next((f for f in reversed(frames) if f.filename.endswith(".j2")), None)
+    if frame is None:
+        return None
+    return Problem(frame.filename, f"a template fails{context}: {what}", line=frame.lineno)
 
 
 def refuse_block_folders(out: Path, block_ids: Iterable[str]) -> None:

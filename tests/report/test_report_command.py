@@ -236,7 +236,8 @@ def test_a_template_that_fails_on_the_results_is_an_error_not_an_internal_one(
     out = tmp_path / "out"
     assert run("report", str(results_file), "--out", str(out), "--no-pdf", "--templates", mine) == 2
     assert capsys.readouterr().err == (
-        "error: a template of --templates failed: UndefinedError: 'no_such_name' is undefined\n"
+        f"error: {mine / 'block.html.j2'}, line 1: a template fails: UndefinedError: "
+        "'no_such_name' is undefined\n"
     )
 
 
