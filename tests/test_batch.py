@@ -490,3 +490,25 @@ def test_a_second_run_into_the_same_output_folder_is_refused(tmp_path: Path):
             assert lock.read_text(encoding="utf-8").endswith(f" {os.getpid()}")
         assert not lock.exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == []  # no temporary lock left
+
+
+@pytest.mark.parametrize("command", ["report", "factors"])
+def test_report_and_factors_take_the_output_folders_lock(tmp_path: Path, command: str):
+    """Not only inspect: a report re-rendered, or a factor analysis, into a folder another run
+    is writing into is refused, nothing of it written there (they wrote beside it)."""
+    from blockqc.outputs import LOCK_FILE
+
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / LOCK_FILE).write_text(f"{socket.gethostname()} {os.getppid()}", encoding="utf-8")
+    if command == "report":
+        first = tmp_path / "first"
+        sample = SAMPLES / "batch" / "F1-B02"
+        assert run_blockqc("inspect", sample, "--out", first, "--no-pdf").returncode == 0
+        args = ["report", first, "--out", out, "--no-pdf"]
+    else:
+        table = SAMPLES / "factors" / "gf7_adjustment_experiments.csv"
+        args = ["factors", "--table", table, "--out", out]
+    p = run_blockqc(*args)
+    assert p.returncode == 2 and "another blockqc run is writing into it" in p.stderr, p.stderr
+    assert sorted(f.name for f in out.iterdir()) == [LOCK_FILE]

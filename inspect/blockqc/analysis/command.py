@@ -20,6 +20,7 @@ from blockqc.errors import UsageError
 from blockqc.outputs import (
     check_out_dir,
     empty_removed,
+    out_lock,
     refuse_inside,
     refuse_replacing,
     write_bytes_atomic,
@@ -298,8 +299,9 @@ def command(
         results = analyse(table, source)
         if batch is not None:
             results["options"] = asdict(options) | {"dem": [str(d) for d in dems]}
-        written = write_outputs(out, table, results, user_templates)
-    _remove_stale(out, written)
+        with out_lock(out):  # one run at a time writes into a folder, as inspect's
+            written = write_outputs(out, table, results, user_templates)
+            _remove_stale(out, written)
     n_f, n_i = len(FACTOR_COLUMNS), len(INDICATOR_COLUMNS)
     if results["cca"]:
         r1 = results["cca"]["tests"][0]

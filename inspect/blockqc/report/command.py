@@ -338,8 +338,7 @@ def command(
 
     A batch folder (or its summary.json) re-renders the batch summary as well.
     """
-    from blockqc.outputs import BATCH_OUTPUTS, make_out_dir, safe_child, write_bytes_atomic
-    from blockqc.report import write_block_report, write_summary_report
+    from blockqc.outputs import make_out_dir, out_lock
 
     check_pdf_engine(pdf_engine, pdf)
     docs, summary, repeated = gather(list(results))
@@ -347,6 +346,25 @@ def command(
         click.echo(f"warning: {f}: named more than once, rendered once", err=True)
     _check_out(out, results, docs, summary)
     make_out_dir(out, out.resolve())
+    with out_lock(out):  # one run at a time writes into a folder, as inspect's
+        written = _render(out, docs, summary, lang, templates, pdf, pdf_engine)
+    click.echo(f"{len(written)} files written in {out}")
+    return 0
+
+
+def _render(
+    out: Path,
+    docs: list[tuple[Path, BlockResults, bytes]],
+    summary: tuple[Path, Summary, bytes] | None,
+    lang: str,
+    templates: Path | None,
+    pdf: bool,
+    pdf_engine: str,
+) -> list[Path]:
+    """Each block's report, and the batch summary's pages; the files written."""
+    from blockqc.outputs import BATCH_OUTPUTS, safe_child, write_bytes_atomic
+    from blockqc.report import write_block_report, write_summary_report
+
     written: list[Path] = []
     for path, doc, raw in docs:
         folder = safe_child(out, doc.block_id, source=path)
@@ -369,8 +387,7 @@ def command(
             if name != "summary.json" and out / name not in written:
                 (out / name).unlink(missing_ok=True)
         click.echo(f"summary      {out / 'summary.html'}")
-    click.echo(f"{len(written)} files written in {out}")
-    return 0
+    return written
 
 
 __all__ = ["command", "gather"]
