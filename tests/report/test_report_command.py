@@ -348,3 +348,18 @@ def test_a_summary_that_is_not_its_blocks_is_refused(batch_out, tmp_path, capsys
     changed = _tampered(batch_out, tmp_path, other)
     assert run("report", str(changed), "--out", str(tmp_path / "o"), "--no-pdf") == 2
     assert "lists block F1-B01 as fail, with counts" in capsys.readouterr().err
+
+
+def test_a_summary_naming_a_block_by_another_id_is_refused(batch_out, tmp_path, capsys):
+    """A block renamed in summary.json (its results file still F1-B01's): the page would list
+    a block no results file is of."""
+
+    def rename(d):
+        d["blocks"][0]["block_id"] = "ZZZ"
+
+    renamed = _tampered(batch_out, tmp_path, rename)
+    assert run("report", str(renamed), "--out", str(tmp_path / "o"), "--no-pdf") == 2
+    assert (
+        "lists block ZZZ with the results file F1-B01/results.json, which is block F1-B01's"
+        in capsys.readouterr().err
+    )

@@ -224,19 +224,18 @@ def gather(
         seen[bid] = f
         results.append((f, doc, raw))
     if summary is not None:
-        problems += _summary_contradictions(
-            summary[0], summary[1], {d.block_id: d for _, d, _ in results}
-        )
+        by_file = {f.resolve(): d for f, d, _ in results}
+        problems += _summary_contradictions(summary[0], summary[1], by_file)
     if problems:
         raise InputError(problems)
     return results, summary, repeated
 
 
 def _summary_contradictions(
-    path: Path, summary: Summary, results: dict[str, BlockResults]
+    path: Path, summary: Summary, results: dict[Path, BlockResults]
 ) -> list[Problem]:
-    """The summary's counts must be those of its blocks, and each block's verdict and counts
-    those of its results file (as `inspect` writes them)."""
+    """The summary's counts must be those of its blocks, and each block's id, verdict and counts
+    those of the results file it names (as `inspect` writes them); `results`: by real path."""
     blocks = summary.blocks
     c = summary.counts
     expected = {
@@ -254,8 +253,17 @@ def _summary_contradictions(
         if given[k] != n
     ]
     for b in blocks:
-        r = results.get(b.block_id)
+        r = results.get((path.parent / b.results).resolve())
         if r is None:
+            continue
+        if r.block_id != b.block_id:
+            out.append(
+                Problem(
+                    str(path),
+                    f"lists block {b.block_id} with the results file {b.results}, which is block "
+                    f"{r.block_id}'s: the summary is not that of these results",
+                )
+            )
             continue
         counted = b.counts and any(b.counts.get(s, 0) != n for s, n in r.counts.items())
         if b.verdict != r.verdict or counted:
