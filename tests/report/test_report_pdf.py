@@ -122,3 +122,23 @@ def test_pdf_pages_carry_the_title_and_verdict_as_running_head(zh_pdf):
     ).stdout
     head = next(line for line in page_two.splitlines() if line.strip())
     assert "T-B01" in head and "验收报告" in head and "不合格" in head, head
+
+
+@pytest.mark.parametrize("engine", ["weasyprint", "chromium"])
+def test_a_long_unbroken_particular_wraps_within_the_page(tmp_path, engine):
+    """A project id of 287 characters without a space (--meta): wrapped in its cell, every
+    character on the page (it ran off the A4 page, cut at 117 or 167 characters)."""
+    from report_helpers import make_results
+
+    if engine == "chromium":
+        require_chromium()
+    results = make_results()
+    project = "Project_" + "_".join(f"seg{i:03d}" for i in range(40))
+    results["meta"] = {"project": project}
+    write_block_report(tmp_path / "T-B01", results, pdf_engine=engine)
+    pdf = tmp_path / "T-B01" / "report.pdf"
+    text = subprocess.run(
+        [require_tool("pdftotext"), "-f", "1", "-l", "1", str(pdf), "-"],
+        capture_output=True, text=True, check=True,
+    ).stdout  # fmt: skip
+    assert project in re.sub(r"\s+", "", text)
