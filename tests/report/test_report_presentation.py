@@ -213,6 +213,24 @@ def test_zh_report_translates_fixed_phrases_of_the_results():
     assert Formatter("en").text("(mostly sea)") == "(mostly sea)"
 
 
+def test_zh_report_translates_the_sampling_reasons():
+    """The reasons the sampling gives a checkpoint rule (not sampled by the plan; sampled
+    without checkpoints; no checkpoints at all), as results.json writes them: in Chinese on a
+    zh page. They are the code's own phrases, so a phrase changed there is caught here."""
+    from blockqc.acceptance.plan import NO_CHECKPOINTS, NOT_SAMPLED
+    from blockqc.metrics import NO_CHECKPOINTS as NO_CPS
+
+    f = Formatter("zh")
+    assert f.text(NOT_SAMPLED) == "未抽为详查样本（抽样方案）"
+    assert f.text(NO_CHECKPOINTS) == "已抽为详查样本，但成果中没有检查点：详查不完整"
+    assert f.text(NO_CPS) == "无检查点：本区域网未抽为详查样本"
+    doc = make_results()
+    cp2 = _result(doc, "CP-2")
+    cp2.update(status="not_applicable", value=None, detail={"reason": NOT_SAMPLED})
+    text = _text(render_block(doc, lang="zh"))
+    assert "未抽为详查样本（抽样方案）" in text and NOT_SAMPLED not in text
+
+
 def test_zh_summary_translates_the_unreadable_reason():
     summary = make_summary([summary_entry("T-B01", "pass")])
     summary["counts"]["unreadable"] = 1

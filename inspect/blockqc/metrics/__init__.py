@@ -133,6 +133,11 @@ def metric(
     return register
 
 
+#: why a checkpoint metric measures nothing on a block without checkpoints (the reports'
+#: catalogue translates it: `ph_no_cps_not_sampled`)
+NO_CHECKPOINTS = "no checkpoints: the block was not sampled for detailed inspection"
+
+
 def not_applicable(reason: str) -> Measurement:
     return Measurement(tables={}, not_applicable=reason)
 

@@ -10,7 +10,15 @@ import pandas as pd
 from pydantic import BaseModel, ConfigDict, Field
 
 from blockqc.delivery import Delivery
-from blockqc.metrics import Measure, Measurement, Scope, Table, metric, not_applicable
+from blockqc.metrics import (
+    NO_CHECKPOINTS,
+    Measure,
+    Measurement,
+    Scope,
+    Table,
+    metric,
+    not_applicable,
+)
 from blockqc.schema import METHODS
 
 Method = Literal["high_precision", "same_accuracy", "recalculation"]
@@ -194,7 +202,7 @@ _GROUPS = {"component": ("plane", "height"), "method": METHODS}
 def checkpoint_accuracy(d: Delivery, p: AccuracyParams, measure: Measure) -> Measurement:
     """Checkpoint accuracy per component and method: M1/M2 or mean, max, gross errors (§CP-3..8)."""
     if d.checkpoints is None or d.checkpoints.empty:
-        return not_applicable("no checkpoints: the block was not sampled for detailed inspection")
+        return not_applicable(NO_CHECKPOINTS)
     points = checkpoint_errors(d.checkpoints)
     groups, points = accuracy_by_group(points, p)
     block = pd.DataFrame(

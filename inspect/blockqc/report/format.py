@@ -44,8 +44,11 @@ def bound(v: Any) -> str:
 #: fixed English phrases of results.json (the contract's text) and their catalogue keys, the
 #: longest first: translated when a page is rendered, the results left as they are
 PHRASES = (
+    "ph_plan_no_cps",
     "ph_no_block_yaml",
     "ph_no_geometry",
+    "ph_no_cps_not_sampled",
+    "ph_not_sampled_plan",
     "ph_awaiting",
     "ph_mostly_sea",
     "ph_water_fraction",

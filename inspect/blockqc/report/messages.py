@@ -521,6 +521,19 @@ MESSAGES.update(
             "成果中没有几何模型（rpc/ 及 adjustment.csv，或 rpc_adjusted/）",
         ),
         "ph_mostly_sea": (" (mostly sea)", "（大部分为水域）"),
+        "ph_plan_no_cps": (
+            "sampled for detailed inspection, but the delivery has no checkpoints: "
+            "the detailed inspection is incomplete",
+            "已抽为详查样本，但成果中没有检查点：详查不完整",
+        ),
+        "ph_no_cps_not_sampled": (
+            "no checkpoints: the block was not sampled for detailed inspection",
+            "无检查点：本区域网未抽为详查样本",
+        ),
+        "ph_not_sampled_plan": (
+            "not sampled for detailed inspection (sampling plan)",
+            "未抽为详查样本（抽样方案）",
+        ),
         "ph_water_fraction": ("water_fraction", "水域比例"),
         "ph_no_block_yaml": (
             "missing: every sub-folder of a batch is a delivery and needs its block.yaml "
