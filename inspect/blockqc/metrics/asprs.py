@@ -14,16 +14,9 @@ import numpy as np
 import pandas as pd
 from pydantic import BaseModel, ConfigDict, Field
 
+from blockqc import metrics
 from blockqc.delivery import Delivery
-from blockqc.metrics import (
-    NO_CHECKPOINTS,
-    Measure,
-    Measurement,
-    Scope,
-    Table,
-    metric,
-    not_applicable,
-)
+from blockqc.metrics import Measure, Measurement, Scope, Table, metric, not_applicable
 
 Method = Literal["high_precision", "same_accuracy", "recalculation"]
 
@@ -130,7 +123,7 @@ def component_table(axes: pd.DataFrame, p: AsprsParams) -> pd.DataFrame:
 def asprs_accuracy(d: Delivery, p: AsprsParams, measure: Measure) -> Measurement:
     """ASPRS (2023) positional accuracy: RMSE_H, RMSE_V, bias, NSSDA 95 % figures."""
     if d.checkpoints is None or d.checkpoints.empty:
-        return not_applicable(NO_CHECKPOINTS)
+        return not_applicable(metrics.NO_CHECKPOINTS)
     e = errors(d.checkpoints, p.methods)
     if not any(v.size for v in e.values()):
         return not_applicable(f"no checkpoints of the methods {', '.join(p.methods)}")

@@ -9,16 +9,9 @@ import numpy as np
 import pandas as pd
 from pydantic import BaseModel, ConfigDict, Field
 
+from blockqc import metrics
 from blockqc.delivery import Delivery
-from blockqc.metrics import (
-    NO_CHECKPOINTS,
-    Measure,
-    Measurement,
-    Scope,
-    Table,
-    metric,
-    not_applicable,
-)
+from blockqc.metrics import Measure, Measurement, Scope, Table, metric, not_applicable
 from blockqc.schema import METHODS
 
 Method = Literal["high_precision", "same_accuracy", "recalculation"]
@@ -202,7 +195,7 @@ _GROUPS = {"component": ("plane", "height"), "method": METHODS}
 def checkpoint_accuracy(d: Delivery, p: AccuracyParams, measure: Measure) -> Measurement:
     """Checkpoint accuracy per component and method: M1/M2 or mean, max, gross errors (§CP-3..8)."""
     if d.checkpoints is None or d.checkpoints.empty:
-        return not_applicable(NO_CHECKPOINTS)
+        return not_applicable(metrics.NO_CHECKPOINTS)
     points = checkpoint_errors(d.checkpoints)
     groups, points = accuracy_by_group(points, p)
     block = pd.DataFrame(
