@@ -229,3 +229,16 @@ def test_a_rule_pack_from_a_pipe_is_read_and_a_device_without_end_is_refused(tmp
     if os.path.exists("/dev/zero"):
         p = run_blockqc("rules", "list", "--rules", "/dev/zero")
         _refused(p, "/dev/zero: gives more than 2 MiB, the limit for files of this kind")
+
+
+def test_a_scheduler_nothing_answers_at_is_refused_at_once(tmp_path):
+    """Connection refused, or a host no name service knows: said so (the client waited its 20 s
+    timeout, then spoke of a timeout), exit 2, nothing written."""
+    pytest.importorskip("dask.distributed")
+    for address, words in (
+        ("tcp://127.0.0.1:1", "no scheduler answers there (Connection refused)"),
+        ("tcp://no-such-host.invalid:8786", "unknown host no-such-host.invalid"),
+    ):
+        p = run_blockqc("inspect", SAMPLE, "--scheduler", address, "--out", tmp_path / "o")
+        _refused(p, f"--scheduler {address}: {words}")
+        assert not (tmp_path / "o").exists()

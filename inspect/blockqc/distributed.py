@@ -8,6 +8,7 @@ worker dies is retried on another (`retries`). `blockqc[dask]` installs what it 
 
 from __future__ import annotations
 
+import socket
 from collections.abc import Callable
 from contextlib import contextmanager
 from pathlib import Path
@@ -38,6 +39,24 @@ def check_scheduler(address: str) -> str:
     return address
 
 
+def _probe(address: str) -> None:
+    """A tcp:// address whose host is unknown, or where nothing listens, refused at once (the
+    client would try for its whole timeout); one that answers is left to the client."""
+    scheme, _, rest = address.partition("://")
+    if scheme != "tcp":
+        return
+    host, _, port = rest.rpartition(":")
+    try:
+        socket.create_connection((host.strip("[]"), int(port)), timeout=5).close()
+    except socket.gaierror as exc:
+        raise UsageError(f"--scheduler {address}: unknown host {host} ({exc.strerror})") from None
+    except (ConnectionRefusedError, OSError) as exc:
+        if isinstance(exc, TimeoutError):
+            return  # slow to answer: the client waits its own timeout
+        why = exc.strerror or type(exc).__name__
+        raise UsageError(f"--scheduler {address}: no scheduler answers there ({why})") from None
+
+
 @contextmanager
 def client_for(scheduler: str):
     """A client of the scheduler at `scheduler`, or of a LocalCluster for 'local'."""
@@ -51,6 +70,7 @@ def client_for(scheduler: str):
         with LocalCluster(processes=True, threads_per_worker=1) as cluster, Client(cluster) as c:
             yield c
         return
+    _probe(scheduler)
     try:
         client = Client(scheduler, timeout="20s")
     except (OSError, ValueError) as exc:
