@@ -46,12 +46,28 @@ class TemplatesPath(click.Path):
         if self.page == "factors":
             from blockqc.analysis.render import TEMPLATE, environment
 
-            check_templates(folder, environment(folder), [TEMPLATE])
+            used = check_templates(folder, environment(folder), [TEMPLATE])
         else:
             from blockqc.report.html import environment
 
-            check_templates(folder, environment(folder), PAGES)
+            used = check_templates(folder, environment(folder), PAGES)
+        _warn_unknown_templates(folder, used)
         return folder
+
+
+def _warn_unknown_templates(folder: Path, used: set[str]) -> None:
+    """A template in the folder that no page of blockqc has (a misspelt block.html.j2 would be
+    left unused, the stock page rendered): said, with the name it resembles."""
+    from blockqc.resources import templates_dir
+    from blockqc.rules.lint import did_you_mean
+
+    known = {p.name for p in templates_dir().iterdir()} | used
+    for f in sorted(folder.glob("*.j2")):
+        if f.name not in known:
+            hint = did_you_mean(f.name, sorted(known))
+            click.echo(
+                f"warning: {f}: no page of blockqc has this template, not used{hint}", err=True
+            )
 
 
 class LazyGroup(click.Group):

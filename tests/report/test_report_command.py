@@ -363,3 +363,17 @@ def test_a_summary_naming_a_block_by_another_id_is_refused(batch_out, tmp_path, 
         "lists block ZZZ with the results file F1-B01/results.json, which is block F1-B01's"
         in capsys.readouterr().err
     )
+
+
+def test_a_template_no_page_has_is_warned_of(tmp_path, results_file, capsys):
+    """A misspelt block.html.j2 in --templates would be left unused and the stock page
+    rendered without a word: it is named, with the template it resembles."""
+    mine = tmp_path / "templates"
+    mine.mkdir()
+    (mine / "blok.html.j2").write_text("{{ r.block_id }}\n", encoding="utf-8")
+    out = tmp_path / "out"
+    assert run("report", str(results_file), "--out", str(out), "--no-pdf", "--templates", mine) == 0
+    assert (
+        f"warning: {mine / 'blok.html.j2'}: no page of blockqc has this template, not used "
+        "(did you mean block.html.j2?)"
+    ) in capsys.readouterr().err

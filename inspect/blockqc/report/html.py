@@ -91,11 +91,14 @@ def _bytecode_cache() -> jinja2.BytecodeCache | None:
 PAGES = ("block.html.j2", "summary.html.j2", "acceptance.html.j2")
 
 
-def check_templates(folder: Path, env: jinja2.Environment, pages: Sequence[str] = PAGES) -> None:
+def check_templates(
+    folder: Path, env: jinja2.Environment, pages: Sequence[str] = PAGES
+) -> set[str]:
     """The pages, and every template they include, import or extend, compiled once in `env`
     (the user's `folder` first): one that cannot be read is refused with its file and line before
     anything is inspected or written (not taken, block after block, for a delivery that could
-    not be inspected). Templates of other pages in the folder are left alone."""
+    not be inspected). Templates of other pages in the folder are left alone. The names of the
+    templates the pages use."""
     todo, seen = [(name, None) for name in pages], set()
     while todo:
         name, by = todo.pop()
@@ -116,6 +119,7 @@ def check_templates(folder: Path, env: jinja2.Environment, pages: Sequence[str] 
         except UnicodeDecodeError:
             where = folder / name if (folder / name).is_file() else name
             raise InputError(Problem(str(where), "not a template: expected UTF-8 text")) from None
+    return seen
 
 
 def render_page(
