@@ -242,3 +242,10 @@ def test_a_scheduler_nothing_answers_at_is_refused_at_once(tmp_path):
         p = run_blockqc("inspect", SAMPLE, "--scheduler", address, "--out", tmp_path / "o")
         _refused(p, f"--scheduler {address}: {words}")
         assert not (tmp_path / "o").exists()
+
+
+def test_an_empty_plan_path_is_refused_as_such(tmp_path):
+    """`sample --out ''` named the current folder: "--out .: the plan is a YAML file"."""
+    p = run_blockqc("sample", SAMPLES / "batch", "--seed", "1", "--out", "", cwd=tmp_path)
+    _refused(p, "Invalid value for '--out': an empty path: give the plan's file (plan.yaml)")
+    assert list(tmp_path.iterdir()) == []

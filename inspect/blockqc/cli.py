@@ -19,14 +19,15 @@ STATUS_STYLE = {"pass": "green", "fail": "red", "error": "red", "warn": "yellow"
 
 class OutPath(click.Path):
     """An output path: a Path, and never empty (`--out ''` would write into the current
-    folder)."""
+    folder); `what` it names, in the message."""
 
-    def __init__(self, **how) -> None:
+    def __init__(self, what: str = "an output folder", **how) -> None:
         super().__init__(path_type=Path, **how)
+        self.what = what
 
     def convert(self, value, param, ctx):
         if isinstance(value, str) and not value.strip():
-            self.fail("an empty path: give an output folder", param, ctx)
+            self.fail(f"an empty path: give {self.what}", param, ctx)
         return super().convert(value, param, ctx)
 
 

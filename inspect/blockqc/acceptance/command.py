@@ -10,6 +10,7 @@ import yaml
 
 from blockqc.acceptance.plan import Plan, make_plan
 from blockqc.acceptance.sampling import draw
+from blockqc.cli import OutPath
 from blockqc.errors import InputError, Problem, RuleError, UsageError
 
 
@@ -109,7 +110,12 @@ def _echo_plan(plan: Plan, out: Path) -> None:
 @click.option(
     "--rules", "rules_ref", default="global-project", show_default=True, help="Rule pack."
 )
-@click.option("--out", required=True, type=click.Path(path_type=Path), help="Plan file (YAML).")
+@click.option(
+    "--out",
+    required=True,
+    type=OutPath(what="the plan's file (plan.yaml)"),
+    help="Plan file (YAML).",
+)
 def command(batch: Path, seed: int, key: str | None, rules_ref: str, out: Path) -> None:
     """Draw the blocks of a batch to inspect in detail (§QE-1) and write the plan."""
     from blockqc.delivery import batch_files
