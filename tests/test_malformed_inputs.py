@@ -648,3 +648,18 @@ def test_an_output_folder_that_cannot_be_made_stops_the_run_naming_it(blockqc, b
     _refused(p, f"{out / 'F1-B01'}: the outputs of block F1-B01 could not be written:")
     assert "UNREADABLE" not in p.stdout + p.stderr
     assert (out / "F1-B01").read_text(encoding="utf-8") == "mine"
+
+
+def test_a_table_given_twice_is_listed_with_the_other_problems(blockqc, block, tmp_path):
+    """checkpoints.csv and checkpoints.parquet both, and a bad band in scenes.csv: both are
+    said at once (the look for misnamed tables stopped on the first and hid the second)."""
+    shutil.copy(block / "checkpoints.csv", block / "checkpoints.parquet")
+    lines = (block / "scenes.csv").read_text(encoding="utf-8").splitlines()
+    lines[1] = lines[1].replace(",pan,", ",panx,", 1)
+    (block / "scenes.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    _refused(
+        p,
+        "both checkpoints.csv and checkpoints.parquet are present",
+        "column 'band': expected one of pan, ms, got 'panx'",
+    )

@@ -255,7 +255,7 @@ def find_deliveries(path: Path) -> list[Path]:
         )
     if is_delivery(path):
         return refuse_undecodable([path])
-    found = [p for p in _members(path) if p.is_dir() or _dangling(p)]
+    found = [p for p in _members(path) if p.is_dir() or dangling(p)]
     if not any(is_delivery(p) for p in found):
         raise InputError(
             Problem(
@@ -288,10 +288,10 @@ def batch_files(path: Path) -> list[Path]:
     path = Path(path)
     if not path.is_dir() or is_delivery(path):
         return []
-    return [p for p in _members(path) if not p.is_dir() and not _dangling(p)]
+    return [p for p in _members(path) if not p.is_dir() and not dangling(p)]
 
 
-def _dangling(path: Path) -> bool:
+def dangling(path: Path) -> bool:
     """A link to nothing (in a batch: a delivery moved or removed since the link was made)."""
     return path.is_symlink() and not path.exists()
 
@@ -929,7 +929,8 @@ def _misnamed_tables(path: Path) -> list[Problem]:
     Likewise a folder named like rpc/ or rpc_adjusted/ (RPC/, rpcs/): its geometry would pass
     for absent."""
     exact = {f"{n}.{ext}" for n in TABLES for ext in ("csv", "parquet")} | set(GEOMETRY_DIRS)
-    absent = [n for n in TABLES if _table_file(path, n) is None]
+    given = {f.name for f in path.iterdir()}
+    absent = [n for n in TABLES if not {f"{n}.csv", f"{n}.parquet"} & given]
     problems = []
     for f in sorted(path.iterdir()):
         if f.name in exact or f.name.startswith("."):
