@@ -38,6 +38,7 @@ from blockqc.delivery import (
     MANIFEST,
     Manifest,
     batch_files,
+    dangling,
     find_deliveries,
     is_delivery,
     load_delivery,
@@ -129,7 +130,7 @@ def collect(paths: Iterable[Path]) -> Collected:
     )
     seen: dict[str, tuple[Path, str]] = {}
     for path in found:
-        if path.is_symlink() and not path.exists():
+        if dangling(path):
             target = os.readlink(path)
             got.refused[path] = Problem(
                 str(path),
@@ -265,6 +266,14 @@ class Writer:
         with suppress(OSError):
             folder.rmdir()
 
+    def drop_summary(self) -> None:
+        """Remove the batch outputs (summary, acceptance pages) and the key that vouched for
+        them: no summary of an earlier run is taken for this one's."""
+        forget_summary(self.out)
+        for name in BATCH_OUTPUTS:
+            with suppress(OSError):
+                (self.out / name).unlink(missing_ok=True)
+
     def summary(self, summary: Summary, jobs: int = 1) -> list[Path]:
         """summary.json and the summary reports; the files written."""
         write_json_atomic(self.out / "summary.json", summary)
@@ -363,9 +372,9 @@ class Job:
                     return o
             results = inspect_one(path, self.pack, self.inspector, manifest, self.extra)
             return self._written(path, results, key)
-        except (InputError, OutputError) as exc:
-            if isinstance(exc, OutputError):
-                raise
+        except OutputError:
+            raise  # no fault of the delivery: the run stops
+        except InputError as exc:
             return self._not_inspected(path, manifest, exc.problems)
         except Exception as exc:  # one block's failure must not stop the batch
             reason = f"could not be inspected: {type(exc).__name__}: {exc}"
@@ -394,9 +403,7 @@ class Job:
             raise  # an output name the block id cannot give (safe_child): the delivery's own
         except Exception as exc:
             self.writer.discard(results.block_id)  # none of its outputs is taken for complete
-            for name in BATCH_OUTPUTS:  # nor an earlier summary for this run's
-                with suppress(OSError):
-                    (self.writer.out / name).unlink(missing_ok=True)
+            self.writer.drop_summary()  # nor an earlier summary for this run's
             raise output_error(results.block_id, self.writer.out, exc) from None
 
     def _not_inspected(
@@ -638,9 +645,7 @@ def drop_outdated_summary(writer: Writer, got: Collected) -> str | None:
         return None  # no summary (or not one of ours)
     if not hit:
         return None
-    forget_summary(writer.out)
-    for name in BATCH_OUTPUTS:
-        (writer.out / name).unlink(missing_ok=True)
+    writer.drop_summary()
     return (
         f"{writer.out / 'summary.json'}: it listed {', '.join(hit)}, inspected again on its own: "
         "the batch's summary and acceptance pages are removed (inspect the batch to remake them)"

@@ -50,9 +50,9 @@ def _probe(address: str) -> None:
         socket.create_connection((host.strip("[]"), int(port)), timeout=5).close()
     except socket.gaierror as exc:
         raise UsageError(f"--scheduler {address}: unknown host {host} ({exc.strerror})") from None
-    except (ConnectionRefusedError, OSError) as exc:
-        if isinstance(exc, TimeoutError):
-            return  # slow to answer: the client waits its own timeout
+    except TimeoutError:
+        return  # slow to answer: the client waits its own timeout
+    except OSError as exc:  # refused, unreachable
         why = exc.strerror or type(exc).__name__
         raise UsageError(f"--scheduler {address}: no scheduler answers there ({why})") from None
 

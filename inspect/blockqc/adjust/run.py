@@ -442,26 +442,26 @@ def scene_warnings(scenes: list[dict]) -> list[str]:
 MAX_SIGMA0_PX = 5.0
 
 
-def fit_warnings(
-    sol: Solution, v0l: np.ndarray, v0s: np.ndarray, kept: np.ndarray, cp_info: dict
-) -> list[str]:
-    """What makes the adjustment's figures no estimate of the block, though it converged: a σ0
-    far above any measurement precision, residuals larger after than before, no checkpoint."""
+def fit_warnings(summary: dict) -> list[str]:
+    """What makes the adjustment's figures (`summarize`'s) no estimate of the block, though it
+    converged: a σ0 far above any measurement precision, residuals larger after than before, no
+    checkpoint."""
     out = []
-    if sol.sigma0_px > MAX_SIGMA0_PX:
+    sigma0 = summary["sigma0_px"]
+    if sigma0 > MAX_SIGMA0_PX:
         out.append(
-            f"σ0 {sol.sigma0_px:.3g} px, far above a tie-point measurement precision (above "
+            f"σ0 {sigma0:.3g} px, far above a tie-point measurement precision (above "
             f"{MAX_SIGMA0_PX:g} px): the RPCs (rpc/) and the tie points do not fit one another; "
             "check that each scene's RPC is its own"
         )
-    before, after = _rms(v0l, v0s, kept), _rms(sol.v_line, sol.v_sample, kept)
+    before, after = summary["rms_px_before"], summary["rms_px_after"]
     if after > before:
         out.append(
             f"the residual RMS grew in the adjustment ({before:.3f} → {after:.3f} px): the "
             "corrections the data ask for are beyond the priors, or the data do not fit"
         )
-    if cp_info.get("warning"):
-        out.append(cp_info["warning"])
+    if summary["checkpoints"].get("warning"):
+        out.append(summary["checkpoints"]["warning"])
     return out
 
 
@@ -476,7 +476,7 @@ def summarize(
     """adjust.json: the counts, convergence, σ0, residual RMS before/after and the datum."""
     kept = ~sol.outlier
     scenes = per_scene(block, sol)
-    return {
+    out = {
         "block_id": block.data.manifest.block_id,
         "delivery": str(block.data.path),
         "n_scenes": block.obs.n_scenes,
@@ -499,6 +499,8 @@ def summarize(
         "producer_adjustment": block.data.producer_source,
         "history": sol.history,
         "scenes": scenes,
-        "warnings": scene_warnings(scenes) + fit_warnings(sol, v0l, v0s, kept, cp_info),
+        "warnings": scene_warnings(scenes),
         "residual_convention": "v = computed − measured, image pixels (contract v1.1)",
     }
+    out["warnings"] += fit_warnings(out)
+    return out

@@ -248,15 +248,10 @@ def reason_text(reason: str, f: Formatter) -> str:
         ("A-class error", "a_class_error"),
         ("(fails its threshold)", "err_fails_p"),
         ("(beyond the norm)", "err_beyond_norm_p"),
-        (
-            "sampled for detailed inspection, but the delivery has no checkpoints: "
-            "the detailed inspection is incomplete",
-            "plan_no_cps",
-        ),
         ("awaiting the inspector's verdict on", "awaiting_on"),
     ):
         reason = reason.replace(en, f.t(key))
-    return reason
+    return f.text(reason)  # the fixed phrases of results.json (a sampled block's, …)
 
 
 def _sampling_rows(s: Summary, f: Formatter) -> list[dict[str, Any]]:

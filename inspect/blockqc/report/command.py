@@ -245,8 +245,7 @@ def _summary_contradictions(
         "error": sum(b.verdict == "error" for b in blocks),
         "unreadable": len(summary.unreadable),
     }
-    given = {"blocks": c.blocks, "pass": c.pass_, "fail": c.fail, "error": c.error}
-    given["unreadable"] = c.unreadable
+    given = c.model_dump(by_alias=True)  # blocks, pass, fail, error, unreadable
     out = [
         Problem(str(path), f"$.counts.{k} is {given[k]}, but its blocks make it {n}")
         for k, n in expected.items()

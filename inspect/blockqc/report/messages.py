@@ -349,11 +349,6 @@ MESSAGES.update(
         "err_beyond_norm_p": ("(beyond the norm)", "（超过规定中误差）"),
         "err_fails_p": ("(fails its threshold)", "（超出限值）"),
         "a_class_error": ("A-class error", "A 类错漏"),
-        "plan_no_cps": (
-            "sampled for detailed inspection, but the delivery has no checkpoints: "
-            "the detailed inspection is incomplete",
-            "已抽为详查样本，但成果中没有检查点：详查不完整",
-        ),
         "awaiting_on": ("awaiting the inspector's verdict on", "等待检查员判定："),
         "element_below": ("{name} scores {score} (below 60)", "{name}得分 {score}（低于 60 分）"),
         "evaluation_fails": ("The block fails", "单位成果不合格"),
