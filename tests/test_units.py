@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 from blockqc.metrics.spatial_ref import (
     SpatialParams,
     expected_epsg,
+    lon_extent,
     normalize_datum,
     normalize_height_datum,
     utm_zone,
@@ -25,7 +26,11 @@ P = SpatialParams()
 
 @pytest.mark.parametrize(
     ("lon", "zone"),
-    [(-180.0, 1), (-177.0, 1), (-174.0, 2), (0.0, 31), (116.3, 50), (179.99, 60), (180.0, 60)],
+    [
+        *[(-180.0, 1), (-177.0, 1), (-174.0, 2), (0.0, 31), (116.3, 50), (179.99, 60)],
+        # beyond ±180°: round the globe
+        *[(180.0, 60), (180.01, 1), (200.0, 4), (-185.0, 60), (-190.0, 59), (540.0, 1)],
+    ],
 )
 def test_utm_zone(lon: float, zone: int) -> None:
     assert utm_zone(lon) == zone
@@ -38,6 +43,63 @@ def test_expected_epsg_north_south_straddle_and_polar() -> None:
     assert expected_epsg(10.0, 20.0, 85.0, P) == [32661]  # UPS north
     assert expected_epsg(10.0, 20.0, -81.0, P) == [32761]  # UPS south
     assert expected_epsg(10.0, 20.0, 83.9, P) == [32632, 32633, 32634]
+
+
+def test_a_block_across_180_degrees_is_in_zones_60_and_1() -> None:
+    """Fiji: footprints from 179.8°E to 179.6°W; the plain mean of the bounds (0.1°) would ask
+    for zone 31 and the zones between."""
+    west, east = lon_extent(np.array([179.8, 179.9, -179.9, -179.6]))
+    assert (west, east) == pytest.approx((179.8, 180.4))
+    assert expected_epsg(west, east, -17.8, P) == [32701, 32760]
+    assert expected_epsg(*lon_extent(np.array([178.0, 179.5])), -17.8, P) == [32760]
+    assert expected_epsg(*lon_extent(np.array([-179.5, -178.0])), -17.8, P) == [32701]
+
+
+def test_a_block_across_180_degrees_is_judged_on_its_own_zone() -> None:
+    from types import SimpleNamespace
+
+    from blockqc.metrics.spatial_ref import spatial_reference
+
+    def judged(epsg: int) -> pd.Series:
+        sr = SimpleNamespace(epsg=epsg, geodetic_datum="WGS84", height_datum="EGM96")
+        sr.projection = "UTM"
+        footprints = [
+            "POLYGON((179.80 -18, 179.95 -18, 179.95 -17.8, 179.80 -17.8, 179.80 -18))",
+            "POLYGON((179.90 -18, -179.9 -18, -179.9 -17.8, 179.90 -17.8, 179.90 -18))",
+        ]
+        d = SimpleNamespace(
+            manifest=SimpleNamespace(spatial_reference=sr),
+            scenes=pd.DataFrame({"footprint_wkt": footprints}),
+        )
+        m = spatial_reference(d, P, None)
+        return m.tables["block"].df.iloc[0], m.detail
+
+    for epsg in (32760, 32701):
+        block, detail = judged(epsg)
+        assert block["projection_ok"], detail["note"]
+    assert detail["extent_lonlat"] == [179.8, -18.0, -179.9, -17.8]  # west > east: across 180°
+    assert detail["centre_lon"] == pytest.approx(179.95)
+    block, detail = judged(32730)  # the Greenwich zone, half the globe away
+    assert not block["projection_ok"]
+    assert detail["expected_epsg"] == [32701, 32760]
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    west=st.floats(-180.0, 179.999),
+    span=st.floats(0.0, 179.0),
+    at=st.lists(st.floats(0.0, 1.0), min_size=1, max_size=30),
+)
+def test_lon_extent_is_the_shortest_arc_holding_every_longitude(west, span, at) -> None:
+    """Longitudes drawn on an arc of less than 180° from `west`, written in −180…180: the
+    extent found lies on that arc, holds every one, and is no longer than the arc."""
+    on_arc = west + span * np.array(at)
+    written = (on_arc + 180.0) % 360.0 - 180.0
+    lo, hi = lon_extent(written)
+    assert hi - lo <= span + 1e-9
+    assert lo >= -180.0 and hi < lo + 180.0
+    assert np.all((written - lo) % 360.0 <= (hi - lo) + 1e-9)
+    assert (lo - on_arc.min() + 1e-9) % 360.0 <= 2e-9
 
 
 def test_datum_names() -> None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import re
 
+import numpy as np
 import pandas as pd
 import shapely
 from pydantic import BaseModel, ConfigDict
@@ -50,8 +51,30 @@ def normalize_height_datum(text: str | None) -> str | None:
 
 
 def utm_zone(lon: float) -> int:
-    """UTM zone number of a longitude (1..60); the Norway/Svalbard exceptions are not applied."""
-    return int(min(60, max(1, math.floor((lon + 180.0) / 6.0) + 1)))
+    """UTM zone number of a longitude (1..60; 180° is zone 60's east edge, a longitude beyond
+    ±180° is taken round the globe); the Norway/Svalbard exceptions are not applied."""
+    if not -180.0 <= lon <= 180.0:
+        lon = (lon + 180.0) % 360.0 - 180.0
+    return int(min(60, math.floor((lon + 180.0) / 6.0) + 1))
+
+
+def lon_extent(lon: np.ndarray) -> tuple[float, float]:
+    """West and east ends of the shortest arc of longitude holding every `lon` (degrees): the
+    circle less its widest gap between neighbouring longitudes, so that a block across ±180°
+    spans 179.8…180.4, not −179.6…179.8 round the globe; east may exceed 180."""
+    lon = np.sort(np.mod(np.asarray(lon, np.float64) + 180.0, 360.0) - 180.0)
+    if lon.size == 0:
+        return math.nan, math.nan
+    gaps = np.append(np.diff(lon), lon[0] + 360.0 - lon[-1])  # the last: across ±180°
+    widest = int(np.argmax(gaps))
+    if widest == len(lon) - 1:
+        return float(lon[0]), float(lon[-1])
+    return float(lon[widest + 1]), float(lon[widest] + 360.0)
+
+
+def wrap_lon(lon: float) -> float:
+    """A longitude in −180…180 (180 kept)."""
+    return lon if -180.0 <= lon <= 180.0 else (lon + 180.0) % 360.0 - 180.0
 
 
 def expected_epsg(lon_min: float, lon_max: float, lat: float, p: SpatialParams) -> list[int]:
@@ -62,7 +85,8 @@ def expected_epsg(lon_min: float, lon_max: float, lat: float, p: SpatialParams) 
     if lat < p.ups_south_lat:
         return [32761]
     base = 32600 if lat >= 0 else 32700
-    zones = sorted({utm_zone((lon_min + lon_max) / 2), utm_zone(lon_min), utm_zone(lon_max)})
+    centre = (lon_min + lon_max) / 2  # an extent across ±180° ends east of 180 (lon_extent)
+    zones = sorted({utm_zone(centre), utm_zone(lon_min), utm_zone(lon_max)})
     return [base + z for z in zones]
 
 
@@ -145,7 +169,8 @@ def spatial_reference(d: Delivery, p: SpatialParams, measure: Measure) -> Measur
     """The block's stated datum, height datum and projection against its extent (§MB-1..3)."""
     sr = d.manifest.spatial_reference
     geoms = shapely.from_wkt(d.scenes["footprint_wkt"].to_numpy(dtype=object))
-    lon_min, lat_min, lon_max, lat_max = shapely.total_bounds(geoms)
+    _, lat_min, _, lat_max = shapely.total_bounds(geoms)
+    lon_min, lon_max = lon_extent(shapely.get_coordinates(geoms)[:, 0])
     lat_c = (lat_min + lat_max) / 2
     allowed = expected_epsg(lon_min, lon_max, lat_c, p)
     code = delivered_epsg(sr)
@@ -158,7 +183,7 @@ def spatial_reference(d: Delivery, p: SpatialParams, measure: Measure) -> Measur
         note = "block.yaml states no EPSG code (nor projection UTM with a zone such as 50N)"
     elif ok and straddles:
         note = (
-            f"the block straddles a zone edge (lon {lon_min:.3f}…{lon_max:.3f}); "
+            f"the block straddles a zone edge (lon {lon_min:.3f}…{wrap_lon(lon_max):.3f}); "
             f"{describe_epsg(code)} is one of the neighbours allowed"
         )
     elif ok:
@@ -181,9 +206,12 @@ def spatial_reference(d: Delivery, p: SpatialParams, measure: Measure) -> Measur
     return Measurement(
         tables={"block": Table(block)},
         detail={
-            "centre_lon": round(float((lon_min + lon_max) / 2), 6),
+            "centre_lon": round(wrap_lon((lon_min + lon_max) / 2), 6),
             "centre_lat": round(float(lat_c), 6),
-            "extent_lonlat": [round(float(v), 6) for v in (lon_min, lat_min, lon_max, lat_max)],
+            # west > east for a block across ±180° (as a GeoJSON bbox gives it)
+            "extent_lonlat": [
+                round(float(v), 6) for v in (lon_min, lat_min, wrap_lon(lon_max), lat_max)
+            ],
             "expected_epsg": allowed,
             "straddles_zone_edge": straddles,
             "note": note,
