@@ -13,7 +13,13 @@ from rfm_helpers import VENTOUX
 
 from blockqc.errors import InputError
 from blockqc.rfm.dem import load_dem
-from blockqc.rfm.geoid import EGM96_GRID, constant_geoid, declared_reference, egm96
+from blockqc.rfm.geoid import (
+    EGM96_GRID,
+    constant_geoid,
+    declared_reference,
+    egm96,
+    geoid_from_file,
+)
 
 SRTM = VENTOUX / "srtm_N44E005_crop.tif"
 GEOID_15 = VENTOUX / "egm96_15_crop.gtx"
@@ -43,6 +49,36 @@ def test_shipped_grid_is_in_the_package_and_wraps_at_the_antimeridian():
     np.testing.assert_allclose(g.undulation(np.full(4, 180.0), lat), g.undulation(-180.0, lat))
     np.testing.assert_allclose(g.undulation(359.75, lat), g.undulation(-0.25, lat))
     assert np.all(np.isfinite(g.undulation(np.array([179.9, -179.9, 0.0]), [90.0, -90.0, 0.0])))
+
+
+def test_shipped_grid_interpolates_between_its_last_two_nodes_before_180_degrees():
+    """Between the nodes at 179.5° and 180° the undulation is the linear mix of the two (it
+    was the value at 180° from 179.75° on)."""
+    with rasterio.open(EGM96_GRID) as ds:
+        nodes = ds.read(1).astype(float) * ds.scales[0] + ds.offsets[0]
+        t = ds.transform
+    row = int(round((t.f - (-17.5)) / -t.e - 0.5))  # the nodes at 17.5° S
+    lat = t.f + (row + 0.5) * t.e
+    west, east = nodes[row, -2], nodes[row, -1]  # 179.5° and 180°
+    f = np.array([0.0, 0.25, 0.5, 0.8, 0.98])
+    n = egm96().undulation(179.5 + 0.5 * f, np.full(f.shape, lat))
+    np.testing.assert_allclose(n, (1 - f) * west + f * east, atol=1e-9)
+
+
+def test_a_geoid_file_round_the_globe_is_closed_across_180_degrees(tmp_path: Path):
+    """A 2° grid with nodes from 180° W to 178° E (as egm96_15.gtx has 180° W to 179.75° E):
+    N = the node's column number, so across the seam N goes from 179 to 0 and back to 1."""
+    path = tmp_path / "global.tif"
+    values = np.tile(np.arange(180.0), (91, 1))
+    write_dem(path, values, "EPSG:4326", west=-181.0, north=91.0, step=2.0)
+    lon = np.array([176.0, 178.0, 179.0, 179.9, 180.0, -180.0, -179.0, -178.0])
+    expected = np.array([178.0, 179.0, 89.5, 0.05 * 179, 0.0, 0.0, 0.5, 1.0])
+    for bounds in ((176.0, -1.0, 180.0, 1.0), (-180.0, -1.0, -178.0, 1.0)):
+        geoid = geoid_from_file(path, bounds)
+        np.testing.assert_allclose(geoid.undulation(lon, np.zeros(lon.shape)), expected)
+    inner = geoid_from_file(path, (10.0, -1.0, 12.0, 1.0))  # away from the seam: a window
+    assert inner.grid.values.shape[1] < 10
+    np.testing.assert_allclose(inner.undulation([11.0], [0.0]), [95.5])
 
 
 def test_shipped_grid_agrees_with_the_15_minute_grid_at_ventoux():

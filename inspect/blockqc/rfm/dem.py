@@ -12,7 +12,7 @@ NaN. A DEM in a projected CRS (e.g. a UTM DSM) is sampled after converting lon/l
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -34,13 +34,19 @@ class Grid:
     transform: Affine
     crs: CRS
     source: str = ""
+    wraps: bool = False
+    """A lon/lat grid round the globe, its first column repeated as its last (CLOSED)."""
 
     def sample(self, x: ArrayLike, y: ArrayLike) -> FloatArray:
         """Bilinear value at (x, y) in the grid's CRS; NaN outside the outermost pixel centres
-        (a half-pixel border is sampled from the edge pixels)."""
+        (a half-pixel border is sampled from the edge pixels). A grid that wraps takes every
+        longitude round the globe, between its first and last column."""
         x = np.asarray(x, np.float64)
         y = np.asarray(y, np.float64)
         t = self.transform  # north-up (checked at load): pixel-centre indices
+        if self.wraps:
+            first = t.c + t.a / 2
+            x = first + np.mod(x - first, 360.0)
         col = (x - t.c) / t.a - 0.5
         row = (y - t.f) / t.e - 0.5
         nr, nc = self.values.shape
@@ -201,6 +207,7 @@ def _read_grid(path: Path, bounds: tuple[float, float, float, float] | None, wha
         if len(crs.axis_info) > 2:
             crs = crs.to_2d()  # heights are the values; the grid is horizontal
         window = Window(0, 0, ds.width, ds.height)
+        closing = _round_the_globe(crs, t, ds.width)
         if bounds is not None:
             west, south, east, north = bounds
             if not crs.is_geographic:
@@ -213,6 +220,8 @@ def _read_grid(path: Path, bounds: tuple[float, float, float, float] | None, wha
             row0 = max(int(np.floor(w.row_off)) - 2, 0)
             col1 = min(int(np.ceil(w.col_off + w.width)) + 2, ds.width)
             row1 = min(int(np.ceil(w.row_off + w.height)) + 2, ds.height)
+            if closing is not None and (col0 == 0 or col1 == ds.width):
+                col0, col1 = 0, ds.width  # at the seam: every column, to close the globe
             if col1 <= col0 or row1 <= row0:
                 raise InputError(
                     Problem(
@@ -225,7 +234,23 @@ def _read_grid(path: Path, bounds: tuple[float, float, float, float] | None, wha
         values = ds.read(1, window=window, masked=True).astype(np.float64).filled(np.nan)
         transform = ds.window_transform(window)
         check_heights(path, values, transform, what, (int(window.row_off), int(window.col_off)))
-        return Grid(values, transform, crs, str(path))
+        wraps = closing is not None and window.width == ds.width
+        if wraps and closing:
+            values = np.concatenate([values, values[:, :1]], axis=1)
+        return Grid(values, transform, crs, str(path), wraps=wraps)
+
+
+def _round_the_globe(crs: CRS, t: Affine, width: int) -> int | None:
+    """For a lon/lat grid whose columns go round the globe, the columns to add to close it:
+    0 when its last repeats its first (nodes at both −180° and 180°), 1 when not (−180° to
+    179.75° on a 15' grid); None for any other grid."""
+    if not crs.is_geographic:
+        return None
+    span = width * t.a
+    for closing, full in ((1, 360.0), (0, 360.0 + t.a)):
+        if abs(span - full) <= 1e-6 * full:
+            return closing
+    return None
 
 
 def fill_voids(values: FloatArray, max_steps: int) -> FloatArray:
@@ -388,7 +413,7 @@ def load_dem(
     declared, how = geoid_mod.declared_reference(path)
     grid = _read_grid(path, bounds, "DEM")
     if fill > 0:
-        grid = Grid(fill_voids(grid.values, fill), grid.transform, grid.crs, grid.source)
+        grid = replace(grid, values=fill_voids(grid.values, fill))
     g = _resolve_geoid(
         path, grid, declared, how, geoid, geoid_offset, vertical, plane_per_m, offset_option
     )
@@ -403,7 +428,7 @@ def load_dem(
         )
     source = f"declared by {how}" if declared not in (None, geoid_mod.ELLIPSOID) else "stated"
     return DEM(
-        Grid(grid.values + n, grid.transform, grid.crs, str(path)),
+        replace(grid, values=grid.values + n, source=str(path)),
         f"geoid heights from {path.name} ({declared or 'geoid'}, {source}) + undulation N "
         f"from {g.description} (N {np.nanmin(n):.2f}..{np.nanmax(n):.2f} m) = ellipsoidal (WGS-84)",
     )

@@ -71,7 +71,7 @@ def egm96() -> Geoid:
         transform = ds.transform
     from blockqc.rfm.dem import Grid
 
-    grid = Grid(values, transform, CRS.from_epsg(4326), str(EGM96_GRID))
+    grid = Grid(values, transform, CRS.from_epsg(4326), str(EGM96_GRID), wraps=True)
     return Geoid("EGM96 (blockqc's 30' global grid, bilinear)", grid=grid, model="EGM96")
 
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -171,8 +171,6 @@ def image_without_height(
 ) -> tuple[float, float]:
     """Shares of the image (n×n positions, taken to the ground at the DEM's mean height) outside
     the DEM and on its voids: those pixels stay empty in the ortho and give no CP."""
-    from blockqc.rfm.dem import Grid
-
     rows, cols = np.meshgrid(
         np.linspace(0.0, shape[0] - 1.0, n) + offset[0],
         np.linspace(0.0, shape[1] - 1.0, n) + offset[1],
@@ -183,7 +181,7 @@ def image_without_height(
         return 0.0, 0.0
     lon, lat = lon[ok], lat[ok]
     g = dem.grid
-    cover = DEM(Grid(np.ones_like(g.values), g.transform, g.crs), "coverage")
+    cover = DEM(replace(g, values=np.ones_like(g.values)), "coverage")
     outside = ~np.isfinite(cover.height(lon, lat))
     void = ~outside & ~np.isfinite(dem.height(lon, lat))
     return float(outside.mean()), float(void.mean())
