@@ -190,3 +190,14 @@ def test_warnings_waivers_and_manual_are_not_errors() -> None:
     ]
     ev = run(f)
     assert ev.score == 100 and ev.counts == {"A": 0, "B": 0, "C": 0, "D": 0}
+
+
+def test_a_waived_accuracy_result_beyond_its_norm_is_not_an_a_class_error() -> None:
+    """The inspector waived RO-3 at 7.90 m against 7.07: no error, and nothing to score beyond
+    the norm (within it, a waived result scores as any: 5.0 of 10 → 60 + 40·5/7)."""
+    beyond = run(base() + [acc("RO-3", "within_block", 7.90, 7.07, status="waived")])
+    assert not beyond.fails and beyond.counts["A"] == 0 and beyond.score == 100
+    within = run(base() + [acc("RO-3", "within_block", 5.0, 10.0, status="waived")])
+    assert scores(within)["edge_accuracy"] == pytest.approx(60 + 40 * 5 / 7)
+    failed = run(base() + [acc("RO-3", "within_block", 7.90, 7.07, status="fail")])
+    assert failed.fails and failed.counts["A"] == 1

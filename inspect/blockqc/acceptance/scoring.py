@@ -78,6 +78,8 @@ def _judge_finding(f: Finding, acc: Acceptance) -> tuple[AccuracyRecord | None, 
     """A finding's accuracy score and its error, if any."""
     if f.norm is not None and isinstance(f.value, (int, float)) and f.status in JUDGED:
         s = accuracy_score(float(f.value), f.norm, acc.accuracy)
+        if s is None and f.status == "waived":
+            return None, None  # waived by the inspector: no error, nothing to score beyond
         rec = AccuracyRecord(rule=f.rule, group=f.group, value=f.value, norm=f.norm, score=s)
         if s is None:
             return rec, _error(f, "A", "beyond the norm")
