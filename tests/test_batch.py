@@ -65,6 +65,31 @@ def test_incremental_rerun_recomputes_only_the_changed_block(small_batch: Path, 
     )
 
 
+def test_incremental_rerun_sees_a_new_folder_and_files_in_a_linked_folder(
+    small_batch: Path, tmp_path: Path
+):
+    """An empty `RPC/` makes the reader refuse the delivery (contract v1.1 reads `rpc/`), and a
+    document changed in a linked folder is a changed delivery: neither reuses the outputs."""
+    out = tmp_path / "out"
+    args = ("inspect", small_batch, "--out", out, "--no-pdf", "--incremental")
+    assert run_blockqc(*args).returncode == 1
+    (small_batch / "F1-B02" / "RPC").mkdir()
+    again = run_blockqc(*args)
+    assert again.returncode == 2 and "RPC" in again.stderr, again.stderr
+    assert again.stdout.count("outputs reused") == 2, again.stdout
+    (small_batch / "F1-B02" / "RPC").rmdir()
+    docs = small_batch / "F4-B02" / "documents"
+    shutil.move(docs, tmp_path / "documents")
+    docs.symlink_to(tmp_path / "documents", target_is_directory=True)
+    assert run_blockqc(*args).returncode == 1
+    report = next(p for p in (tmp_path / "documents").iterdir() if p.is_file())
+    report.write_bytes(report.read_bytes() + b" ")
+    third = run_blockqc(*args)
+    assert third.stdout.count("outputs reused") == 2 and "F4-B02" not in [
+        line.split()[0] for line in third.stdout.splitlines() if "reused" in line
+    ], third.stdout
+
+
 def test_pdf_only_for_failing_blocks(small_batch: Path, tmp_path: Path):
     out = tmp_path / "out"
     proc = run_blockqc("inspect", small_batch, "--out", out, "--pdf", "failing")

@@ -54,10 +54,22 @@ def _sha(*parts: Any) -> str:
 
 
 def _tree(folder: Path) -> list[tuple[str, int, int]]:
-    """(relative path, size, mtime in ns) of every file under `folder`, in path order."""
-    out = []
-    for root, dirs, files in os.walk(folder):
+    """(relative path, size, mtime in ns) of every file and folder under `folder`, in path
+    order: a folder's name counts (size -2), since the reader reads an empty one too (a
+    misnamed `RPC/` is refused); linked folders are followed, each real folder once."""
+    out, seen = [], set()
+    for root, dirs, files in os.walk(folder, followlinks=True):
+        try:
+            st = os.stat(root)
+        except OSError:
+            continue
+        if (st.st_dev, st.st_ino) in seen:  # a link back to a folder already walked
+            dirs.clear()
+            continue
+        seen.add((st.st_dev, st.st_ino))
         dirs.sort()
+        here = Path(root).relative_to(folder)
+        out += [(f"{here / name}{os.sep}", -2, 0) for name in dirs]
         for name in sorted(files):
             p = Path(root) / name
             try:
