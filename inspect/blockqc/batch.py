@@ -338,9 +338,11 @@ def block_grade(r: BlockResults, pack: Pack) -> BlockGrade | None:
         for e in ev.elements
         if e.score is not None and e.score < pack.acceptance.element_fail_below
     ]
+    failed = sorted({x.rule for x in r.results if x.status in ("fail", "error")})  # cf. tally
     return BlockGrade(
         block_id=r.block_id, sampled=_sampled(r), score=ev.score, grade=ev.grade, fails=ev.fails,
-        complete=ev.complete, reasons=ev.reasons, a_errors=a_class_errors(ev), low_elements=low,
+        complete=ev.complete, reasons=ev.reasons, failed_rules=failed,
+        a_errors=a_class_errors(ev), low_elements=low,
     )  # fmt: skip
 
 

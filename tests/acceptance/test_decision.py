@@ -53,6 +53,17 @@ def test_unsampled_failures_do_not_decide() -> None:
     )
 
 
+def test_an_unsampled_block_failing_a_rule_is_returned_though_its_grade_passes() -> None:
+    """docs/acceptance.md: blocks not sampled that fail their general inspection are returned;
+    a rule failed (TP-2: a tie point at 9 px) makes the verdict fail, whatever the score."""
+    failed_tp2 = BlockGrade(
+        block_id="B2", sampled=False, score=97.3, grade="excellent", failed_rules=["TP-2"]
+    )
+    d = decide([blk(1, 91, "excellent"), failed_tp2, blk(3, 93, "excellent", False)], ACC, "plan")
+    assert d.decision == "pass" and d.mean_score == 91  # the sample decides
+    assert [b.block_id for b in d.returned] == ["B2"]
+
+
 def test_no_sample_is_incomplete() -> None:
     d = decide([blk(1, 91, "excellent", sampled=False)], ACC, "checkpoints")
     assert d.decision == "incomplete" and d.mean_score is None

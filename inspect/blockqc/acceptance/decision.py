@@ -2,11 +2,12 @@
 
 Readings (docs/acceptance.md): the sample is the plan's sampled blocks (without a plan, the
 blocks that carry checkpoints); the batch grade's shares are taken over the sampled units;
-unsampled blocks that fail their general inspection are listed to be returned for correction
-and do not change the decision; a sampled block whose evaluation is incomplete, or that could
-not be read, leaves the decision incomplete unless some sampled block already fails. Without a
-plan a delivery that could not be read may carry checkpoints, so be one of the sample: any such
-delivery leaves the decision incomplete.
+unsampled blocks that fail their general inspection (a rule failed: the verdict is not pass)
+or their evaluation are listed to be returned for correction and do not change the decision;
+a sampled block whose evaluation is incomplete, or that could not be read, leaves the decision
+incomplete unless some sampled block already fails. Without a plan a delivery that could not be
+read may carry checkpoints, so be one of the sample: any such delivery leaves the decision
+incomplete.
 """
 
 from __future__ import annotations
@@ -50,7 +51,7 @@ def decide(
         sample=[b.block_id for b in sample] if planned is None else list(planned),
         failing=[b for b in sample if b.fails],
         incomplete=[b.block_id for b in sample if not b.complete or b.score is None],
-        returned=[b for b in blocks if not b.sampled and b.fails],
+        returned=[b for b in blocks if not b.sampled and (b.fails or b.failed_rules)],
         unreadable=unreadable,
         blocks=blocks,
     )

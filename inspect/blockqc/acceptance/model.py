@@ -277,6 +277,8 @@ class BlockGrade(_M):
     fails: bool = False
     complete: bool = True
     reasons: list[str] = Field(default_factory=list)
+    # its general inspection: the rules that failed (fail or error); any makes its verdict fail
+    failed_rules: list[str] = Field(default_factory=list)
     a_errors: list[ErrorRecord] = Field(default_factory=list)  # the A-class errors, named
     low_elements: list[dict[str, Any]] = Field(default_factory=list)  # id, titles, score
 

@@ -237,6 +237,12 @@ def _reasons(b: Any, f: Formatter) -> list[str]:
         for e in b.low_elements
     ]
     out += [reason_text(r, f) for r in b.reasons if not r.startswith(("A-class error", "element "))]
+    failed = getattr(b, "failed_rules", None)
+    out += (
+        [f.t("failed_general", rules=("、" if f.lang == "zh" else ", ").join(failed))]
+        if failed
+        else []
+    )
     return out
 
 

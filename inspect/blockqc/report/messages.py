@@ -350,6 +350,10 @@ MESSAGES.update(
         "err_fails_p": ("(fails its threshold)", "（超出限值）"),
         "a_class_error": ("A-class error", "A 类错漏"),
         "awaiting_on": ("awaiting the inspector's verdict on", "等待检查员判定："),
+        "failed_general": (
+            "rules failed: {rules}",
+            "未通过的规则：{rules}",
+        ),
         "element_below": ("{name} scores {score} (below 60)", "{name}得分 {score}（低于 60 分）"),
         "evaluation_fails": ("The block fails", "单位成果不合格"),
         "evaluation_incomplete": ("The evaluation is not final", "评价尚不完整"),
