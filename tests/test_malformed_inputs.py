@@ -663,3 +663,28 @@ def test_a_table_given_twice_is_listed_with_the_other_problems(blockqc, block, t
         "both checkpoints.csv and checkpoints.parquet are present",
         "column 'band': expected one of pan, ms, got 'panx'",
     )
+
+
+def test_checkpoints_without_heights_leave_the_height_rules_not_applicable_not_unsaid(
+    blockqc, block, tmp_path
+):
+    """ref_z_m empty throughout (plane-only references, which the contract allows): CP-3 and the
+    height group of CP-4 are judged not applicable, by name; they used to vanish from the
+    results while the report's height accuracy row said pass."""
+    (block / "checkpoints.parquet").unlink(missing_ok=True)
+    table = block / "checkpoints.csv"
+    lines = table.read_text(encoding="utf-8").splitlines()
+    at = lines[0].split(",").index("ref_z_m")
+    cells = [line.split(",") for line in lines]
+    for row in cells[1:]:
+        row[at] = ""
+    table.write_text("\n".join(",".join(r) for r in cells) + "\n", encoding="utf-8")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    assert p.returncode == 0, p.stderr
+    results = json.loads((tmp_path / "out" / "F1-B01" / "results.json").read_text("utf-8"))
+    by = {(r["rule"], r["group"].get("component")): r for r in results["results"]}
+    for key in (("CP-3", "height"), ("CP-4", "height")):
+        assert by[key]["status"] == "not_applicable", key
+        assert by[key]["detail"]["reason"] == "nothing measured for this group"
+    assert by[("CP-2", "plane")]["status"] == "pass"
+    assert by[("CP-4", "plane")]["status"] == "pass"

@@ -170,6 +170,10 @@ def _order(df: pd.DataFrame, stat: str | None, sort: str | None, hi: float | Non
     )
 
 
+#: the reason of a rule, or a group of it, that its metric measured nothing for
+NOTHING = "nothing measured for this group"
+
+
 class Judge:
     """Judges one rule against its measurement, producing results in the contract's shape."""
 
@@ -252,15 +256,14 @@ class Judge:
             group = {**fixed, **group}
             self.bind(group)
             if sub.empty:
-                out.append(
-                    self.result(
-                        group, "not_applicable", None, {"reason": "nothing measured for this group"}
-                    )
-                )
+                out.append(self.result(group, "not_applicable", None, {"reason": NOTHING}))
             elif table.keys:
                 out.append(self._units(group, sub, table))
             else:
                 out.extend(self._rows(group, sub, m))
+        if not out:  # nothing selected, no group expected: said, never a rule gone unsaid
+            self.bind(fixed)
+            out.append(self.result(fixed, "not_applicable", None, {"reason": NOTHING}))
         return out
 
     def _groups(self, df: pd.DataFrame, table: Table, cols: list[str]):

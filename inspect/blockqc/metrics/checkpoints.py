@@ -201,11 +201,14 @@ def checkpoint_accuracy(d: Delivery, p: AccuracyParams, measure: Measure) -> Mea
     block = pd.DataFrame(
         {"n_points": [d.checkpoints["point_id"].nunique()], "n_rows": [len(d.checkpoints)]}
     )
-    present = groups[["component", "method"]].to_dict("records")
+    # every component of every method delivered: one with no difference (ref_z_m left empty
+    # throughout) is judged not applicable, not left out unsaid
+    methods = d.checkpoints["method"].drop_duplicates().tolist()
+    present = [{"component": c, "method": m} for m in methods for c in ("plane", "height")]
     return Measurement(
         tables={
             "block": Table(block),
-            "component_method": Table(groups, group=["component", "method"]),
+            "component_method": Table(groups, group=["component", "method"], groups=present),
             "point": Table(
                 points,
                 group=["component", "method"],

@@ -50,6 +50,7 @@ PHRASES = (
     "ph_no_cps_not_sampled",
     "ph_not_sampled_plan",
     "ph_awaiting",
+    "ph_nothing_measured",
     "ph_mostly_sea",
     "ph_water_fraction",
 )

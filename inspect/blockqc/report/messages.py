@@ -520,6 +520,7 @@ MESSAGES.update(
             "成果中没有几何模型（rpc/ 及 adjustment.csv，或 rpc_adjusted/）",
         ),
         "ph_mostly_sea": (" (mostly sea)", "（大部分为水域）"),
+        "ph_nothing_measured": ("nothing measured for this group", "该组无测量数据"),
         "ph_plan_no_cps": (
             "sampled for detailed inspection, but the delivery has no checkpoints: "
             "the detailed inspection is incomplete",
