@@ -294,3 +294,18 @@ def test_summary_headings_do_not_break_inside_words(tmp_path):
     ).stdout
     assert "Checkpoints" in text and "Component" in text
     assert "Checkpo" not in text.replace("Checkpoints", "")
+
+
+def test_scores_are_shown_rounded_down_never_onto_a_grade_bound_they_miss():
+    """§QE-5: excellent ≥ 90. A score of 89.962878 is graded good and must not read 90.0."""
+    from blockqc.acceptance.model import BlockGrade, Evaluation
+    from blockqc.report.acceptance import _block_line, evaluation_context
+
+    f = Formatter("en")
+    shown = [f.score(v) for v in (89.962878, 90.0, 74.95, 59.999, 100.0, 0.04, None)]
+    assert shown == ["89.9", "90.0", "74.9", "59.9", "100.0", "0.0", "–"]
+    assert f.score(None, "A") == "A"
+    line = _block_line(BlockGrade(block_id="B1", sampled=True, score=89.962878, grade="good"), f)
+    assert line["score"] == "89.9" and line["grade_text"] == "Good"
+    ev = Evaluation(score=89.962878, grade="good")
+    assert evaluation_context(ev, f)["score"] == "89.9"

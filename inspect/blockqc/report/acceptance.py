@@ -56,13 +56,13 @@ def _part(p: Any, f: Formatter, level: str) -> dict[str, Any]:
         "level": level,
         "name": f.pick(p.title, p.title_zh) or p.id,
         "weight": f.num(p.weight, 2),
-        "score": f.num(p.score, 1) if p.score is not None else f.t("not_inspected"),
+        "score": f.score(p.score, f.t("not_inspected")),
         "errors": " ".join(f"{c}{counts[c]}" for c in CLASSES if counts.get(c)) or "–",
         "deduction": f.num(getattr(p, "deduction", 0.0), 1) if level == "item" else "",
         "accuracy": "; ".join(
             f"{a.rule}{(' ' + f.group(a.group)) if a.group else ''}: "
             f"{f.num(a.value, 2)}/{f.num(a.norm, 2)} → "
-            f"{f.num(a.score, 1) if a.score is not None else 'A'}"
+            f"{f.score(a.score, 'A')}"
             for a in acc
         ),
     }
@@ -80,7 +80,7 @@ def evaluation_context(ev: Evaluation | None, f: Formatter) -> dict[str, Any] | 
             unique.append(x)
     unique.sort(key=lambda x: x.error_class)
     return {
-        "score": f.num(ev.score, 1) if ev.score is not None else "–",
+        "score": f.score(ev.score),
         "grade": ev.grade or "none",
         "grade_text": grade_text(f, ev.grade, ev.grade_title, ev.grade_title_zh),
         "fails": ev.fails,
@@ -89,7 +89,7 @@ def evaluation_context(ev: Evaluation | None, f: Formatter) -> dict[str, Any] | 
         "errors": [_error_row(x, f) for x in unique],
         "rows": _items(ev, f),
         "low_elements": [
-            f.t("element_below", name=f.pick(e.title, e.title_zh), score=f.num(e.score, 1))
+            f.t("element_below", name=f.pick(e.title, e.title_zh), score=f.score(e.score))
             for e in ev.elements
             if e.score is not None
             and ev.fails
@@ -165,7 +165,7 @@ def decision_context(s: Summary, f: Formatter) -> dict[str, Any] | None:
         "decision_text": f._key("decision", d.decision, d.decision),
         "source": f.t("sample_by_plan") if d.sample_source == "plan" else f.t("sample_by_cps"),
         "sample": id_list(d.sample),
-        "mean": f.num(d.mean_score, 1) if d.mean_score is not None else "–",
+        "mean": f.score(d.mean_score),
         "sample_grade": grade_text(f, d.sample_grade),
         "batch_grade": grade_text(f, d.batch_grade),
         "shares": ""
@@ -215,7 +215,7 @@ def _block_line(b: Any, f: Formatter) -> dict[str, Any]:
     return {
         "block_id": b.block_id,
         "sampled": f.num(b.sampled),
-        "score": f.num(b.score, 1) if b.score is not None else "–",
+        "score": f.score(b.score),
         "grade": b.grade or "none",
         "grade_text": grade_text(f, b.grade),
         "fails": b.fails,
@@ -233,7 +233,7 @@ def _reasons(b: Any, f: Formatter) -> list[str]:
         for x in b.a_errors
     ]
     out += [
-        f.t("element_below", name=f.pick(e["title"], e["title_zh"]), score=f.num(e["score"], 1))
+        f.t("element_below", name=f.pick(e["title"], e["title_zh"]), score=f.score(e["score"]))
         for e in b.low_elements
     ]
     out += [reason_text(r, f) for r in b.reasons if not r.startswith(("A-class error", "element "))]

@@ -390,7 +390,7 @@ def _summary_block(b: Any, f: Formatter, pdf: bool) -> dict[str, Any]:
         "verdict_text": f.verdict(b.verdict),
         "pdf": b.report[: -len(".html")] + ".pdf" if b.pdf and b.report.endswith(".html") else None,
         "sampled_text": f.num(b.sampled),
-        "score_text": f.num(b.score, 1) if b.score is not None else "–",
+        "score_text": f.score(b.score),
         "grade_text": grade_text(f, b.grade),
         "failed": ", ".join(b.failed_rules),
         "warned": ", ".join(b.warned_rules),

@@ -86,6 +86,13 @@ class Formatter:
             self.t(key) if key in MESSAGES else (fallback if fallback is not None else str(value))
         )
 
+    def score(self, v: float | None, missing: str = "–") -> str:
+        """A score to one decimal, rounded down: 89.96 shows 89.9, never the 90.0 of a grade it
+        does not reach (§QE-5 bounds are ≥ 90, 75, 60)."""
+        if v is None or not math.isfinite(v):
+            return missing
+        return f"{math.floor(v * 10 + 1e-9) / 10:.1f}"
+
     def num(self, v: Any, digits: int | None = None) -> str:
         if isinstance(v, bool):
             return self.t("yes") if v else self.t("no")
