@@ -34,11 +34,33 @@ def test_a_csv_row_short_of_fields_is_refused(blockqc, block, tmp_path):
     _refused(p, "checkpoints.csv", "line 3", "fields where the header has")
 
 
-@pytest.mark.parametrize("name", ["checkpoints.CSV", "checkpoints.csv.gz", "checkpoint.csv"])
-def test_a_misnamed_table_is_refused_not_left_out(blockqc, block, tmp_path, name):
-    (block / "checkpoints.csv").rename(block / name)
+@pytest.mark.parametrize(
+    ("table", "name"),
+    [
+        *[("checkpoints", n) for n in ("checkpoints.CSV", "checkpoints.csv.gz", "checkpoint.csv")],
+        *[("edges", "edge.csv"), ("overlaps", "overlap.csv")],  # an optional table, singular
+    ],
+)
+def test_a_misnamed_table_is_refused_not_left_out(blockqc, block, tmp_path, table, name):
+    (block / f"{table}.csv").rename(block / name)
     p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
-    _refused(p, name, "checkpoints.csv or checkpoints.parquet")
+    _refused(p, name, f"{table}.csv or {table}.parquet")
+
+
+def test_a_document_that_is_a_loop_of_links_fails_doc_1_by_name(blockqc, block, tmp_path):
+    (block / "documents" / "loop.pdf").symlink_to("loop.pdf")
+    text = (block / "block.yaml").read_text(encoding="utf-8")
+    first = next(
+        line.split(":", 1)[1].strip() for line in text.splitlines() if "documents/" in line
+    )
+    (block / "block.yaml").write_text(text.replace(first, "documents/loop.pdf"), encoding="utf-8")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    assert p.returncode == 1 and "Symlink loop" not in p.stderr + p.stdout, p.stderr
+    results = json.loads((tmp_path / "out" / "F1-B01" / "results.json").read_text("utf-8"))
+    (doc1,) = [r for r in results["results"] if r["rule"] == "DOC-1"]
+    assert doc1["status"] == "fail"
+    assert any("loop.pdf: a symbolic link that leads back to itself" in e["problem"]
+               for e in doc1["evidence"])  # fmt: skip
 
 
 @pytest.mark.parametrize(

@@ -948,6 +948,7 @@ def _misnamed_tables(path: Path) -> list[Problem]:
                 )
         else:
             close = difflib.get_close_matches(stem, list(TABLES), n=1, cutoff=0.9)
+            close = close or difflib.get_close_matches(stem, absent, n=1, cutoff=0.8)  # edge.csv
             close = close or [
                 n for n in absent if re.search(rf"(?<![a-z0-9]){n}(?![a-z0-9])", stem)
             ]

@@ -39,7 +39,10 @@ def check_document(root: Path, rel: str | None) -> tuple[bool, bool, int, str]:
     """(present, readable, size, problem) of one declared document path inside the delivery."""
     if not rel:
         return False, False, 0, "not declared in block.yaml documents"
-    path = document_path(root, rel).resolve()
+    try:
+        path = document_path(root, rel).resolve()
+    except (OSError, RuntimeError):  # Python 3.11 raises RuntimeError on a loop of links
+        return False, False, 0, f"{rel}: a symbolic link that leads back to itself"
     if root.resolve() not in path.parents:
         return False, False, 0, f"{rel} points outside the delivery"
     if not path.is_file():
