@@ -116,6 +116,15 @@ def test_a_crashing_block_is_recorded_and_the_others_go_on(small_batch, tmp_path
     assert summary.counts.unreadable == 1 and summary.verdict == "error"
     assert "simulated defect" in summary.unreadable[0].problems[0]
     assert batch.exit_status(outcomes) == 2
+    # the spreadsheet has a row for it too: 3 deliveries, not 2 that pass or fail
+    import pandas as pd
+
+    table = pd.read_csv(tmp_path / "out" / "summary.csv", encoding="utf-8-sig")
+    assert table["block_id"].tolist() == ["F1-B02", "F4-B02", "F3-B02"]
+    assert table["verdict"].tolist()[-1] == "unreadable"
+    assert "simulated defect" in table["problems"].iloc[-1]
+    parquet = pd.read_parquet(tmp_path / "out" / "summary.parquet")
+    assert parquet["verdict"].tolist() == table["verdict"].tolist()
     assert (tmp_path / "out" / "F4-B02" / "report.html").is_file()
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+from pathlib import PurePath
 from typing import Any
 
 from blockqc.report.checkpoints import checkpoint_points
@@ -112,11 +113,25 @@ def evidence_csv(results: BlockResults) -> str:
 
 
 SUMMARY_COLUMNS = ["block_id", "verdict", "sampled", "failed_rules", "warned_rules",
-                   "pending_manual", *(f"n_{s}" for s in STATUSES), "report", "path"]  # fmt: skip
+                   "pending_manual", *(f"n_{s}" for s in STATUSES), "report", "path",
+                   "problems"]  # fmt: skip
 
 
 def summary_rows(summary: Summary) -> list[dict[str, Any]]:
-    """One row per block of the batch (lists joined with spaces), for spreadsheets."""
+    """One row per delivery of the batch (lists joined with spaces), for spreadsheets: a
+    delivery that could not be read is a row too, verdict `unreadable`, named by its folder,
+    with its problems."""
+    unread = [
+        {
+            "block_id": PurePath(u.path).name,
+            "verdict": "unreadable",
+            "sampled": None,
+            **{f"n_{s}": 0 for s in STATUSES},
+            "path": u.path,
+            "problems": "; ".join(u.problems),
+        }
+        for u in summary.unreadable
+    ]
     return [
         {
             "block_id": b.block_id,
@@ -130,7 +145,7 @@ def summary_rows(summary: Summary) -> list[dict[str, Any]]:
             "path": b.path,
         }
         for b in summary.blocks
-    ]
+    ] + unread
 
 
 def summary_csv(summary: Summary) -> str:
