@@ -333,10 +333,11 @@ def block_grade(r: BlockResults, pack: Pack) -> BlockGrade | None:
     ev = r.evaluation
     if ev is None or pack.acceptance is None:
         return None
+    below = pack.acceptance.element_fail_below
     low = [
-        e.model_dump(include={"id", "title", "title_zh", "score"})
+        e.model_dump(include={"id", "title", "title_zh", "score"}) | {"below": below}
         for e in ev.elements
-        if e.score is not None and e.score < pack.acceptance.element_fail_below
+        if e.score is not None and e.score < below
     ]
     failed = sorted({x.rule for x in r.results if x.status in ("fail", "error")})  # cf. tally
     return BlockGrade(

@@ -78,3 +78,41 @@ def test_summary_and_filed_pdfs_side_by_side_are_the_same(out, tmp_path) -> None
     assert write_summary_report(tmp_path, doc, pdf=True, jobs=2) == written
     for p in written:
         assert p.read_bytes() == first[p], p.name
+
+
+PACK_OWN_NAMES = """\
+pack: own-names
+version: "1.0"
+extends: global-project
+acceptance:
+  element_fail_below: 97
+  grades:
+    - {id: A1, min: 90, title: Top, title_zh: 顶级}
+    - {id: B1, min: 75, title: Mid, title_zh: 中级}
+    - {id: C1, min: 60, title: Low, title_zh: 低级}
+  fail_grade: {id: rejected, min: 0, title: Rejected, title_zh: 拒收}
+  better_than: B1
+  batch_grades:
+    - {grade: A1, better_pct: 90, top_pct: 50}
+  batch_default: C1
+"""
+
+
+def test_the_packs_grade_names_and_element_bound_are_what_the_pages_show(tmp_path) -> None:
+    """F1-B01 scores 97.44 with its data element at 95.7 (< 97: it fails); the pages said
+    'below 60' and showed the grade ids (rejected, A1) instead of the pack's titles."""
+    pack = tmp_path / "own-names.yaml"
+    pack.write_text(PACK_OWN_NAMES, encoding="utf-8")
+    out = tmp_path / "out"
+    args = ("--rules", pack, "--verdicts", SAMPLES / "verdicts.yaml", "--no-pdf")
+    assert run_blockqc("inspect", SAMPLES / "batch", *args, "--out", out).returncode == 1
+    block = (out / "F1-B01" / "report.html").read_text(encoding="utf-8")
+    assert "Rejected" in block and "(below 97)" in block and "(below 60)" not in block
+    for page in ("summary.html", "acceptance.html"):
+        html = (out / page).read_text(encoding="utf-8")
+        assert "(below 97)" in html and "Rejected" in html and "Top" in html, page
+        assert "rejected 5" not in html and ">rejected<" not in html, page
+    zh = tmp_path / "zh"
+    assert run_blockqc("report", out, "--out", zh, "--lang", "zh", "--no-pdf").returncode == 0
+    html = (zh / "summary.html").read_text(encoding="utf-8")
+    assert "拒收" in html and "顶级" in html and "（低于 97 分）" in html

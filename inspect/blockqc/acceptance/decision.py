@@ -47,6 +47,7 @@ def decide(
     unreadable = unreadable or []
     out = BatchDecision(
         standard=acc.standard,
+        grades=[*acc.grades, acc.fail_grade],
         sample_source=source,
         sample=[b.block_id for b in sample] if planned is None else list(planned),
         failing=[b for b in sample if b.fails],

@@ -263,6 +263,7 @@ class Evaluation(_M):
     fails: bool = False
     complete: bool = True
     reasons: list[str] = Field(default_factory=list)  # why it fails or is incomplete
+    element_fail_below: float = 60.0  # the pack's bound below which an element fails (§QE-2)
     counts: dict[str, int] = Field(default_factory=dict)  # errors by class over the block
     elements: list[ElementScore] = Field(default_factory=list)
 
@@ -297,6 +298,8 @@ class BatchDecision(_M):
     """§QE-5: the sample judged, its mean score and grade, the batch grade and the acceptance."""
 
     standard: str = ""
+    # the pack's grades, the fail grade last: their titles are what the pages show
+    grades: list[Grade] = Field(default_factory=list)
     sample_source: str = ""  # "plan" (a sampling plan) or "checkpoints" (blocks that have them)
     sample: list[str] = Field(default_factory=list)
     failing: list[BlockGrade] = Field(default_factory=list)  # sampled blocks that fail

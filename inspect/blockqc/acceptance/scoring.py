@@ -9,6 +9,7 @@ elements with nothing judged are left out and the weights re-normalised over the
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any
@@ -160,7 +161,8 @@ def evaluate_block(
         if x.error_class == "A"
     ]
     reasons += [
-        f"element {e.id} scores {e.score:.1f} < {acc.element_fail_below:g}"
+        f"element {e.id} scores {math.floor(e.score * 10 + 1e-9) / 10:.1f} < "
+        f"{acc.element_fail_below:g}"
         for e in els
         if e.score is not None and e.score < acc.element_fail_below
     ]
@@ -176,6 +178,7 @@ def evaluate_block(
         fails=fails,
         complete=not incomplete and score is not None,
         reasons=reasons + list(incomplete),
+        element_fail_below=acc.element_fail_below,
         counts=counts,
         elements=els,
     )

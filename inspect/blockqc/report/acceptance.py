@@ -23,7 +23,7 @@ def grade_text(f: Formatter, grade: str | None, en: str = "", zh: str = "") -> s
     """A grade in the page's language: the pack's titles, else the catalogue's, else its id."""
     if grade is None:
         return "–"
-    return f.pick(en, zh) or f._key("grade", grade, grade)
+    return f.pick(en, zh) or f.pick(*f.grades.get(grade, ("", ""))) or f._key("grade", grade, grade)
 
 
 def _why(x: ErrorRecord, f: Formatter) -> str:
@@ -89,12 +89,17 @@ def evaluation_context(ev: Evaluation | None, f: Formatter) -> dict[str, Any] | 
         "errors": [_error_row(x, f) for x in unique],
         "rows": _items(ev, f),
         "low_elements": [
-            f.t("element_below", name=f.pick(e.title, e.title_zh), score=f.score(e.score))
+            f.t(
+                "element_below",
+                name=f.pick(e.title, e.title_zh),
+                score=f.score(e.score),
+                below=f.num(ev.element_fail_below),
+            )
             for e in ev.elements
             if e.score is not None
             and ev.fails
             and not any(x.error_class == "A" for x in unique)
-            and e.score < 60
+            and e.score < ev.element_fail_below
         ],
         "notes": [r for r in ev.reasons if not r.startswith(("A-class", "element "))],
         "standard": f.pick(ev.standard, ev.standard_zh),
@@ -233,7 +238,12 @@ def _reasons(b: Any, f: Formatter) -> list[str]:
         for x in b.a_errors
     ]
     out += [
-        f.t("element_below", name=f.pick(e["title"], e["title_zh"]), score=f.score(e["score"]))
+        f.t(
+            "element_below",
+            name=f.pick(e["title"], e["title_zh"]),
+            score=f.score(e["score"]),
+            below=f.num(e.get("below", 60)),
+        )
         for e in b.low_elements
     ]
     out += [reason_text(r, f) for r in b.reasons if not r.startswith(("A-class error", "element "))]
@@ -308,7 +318,7 @@ def _grade_counts(s: Summary, f: Formatter) -> str:
 
 def filed_context(s: Summary, lang: str) -> dict[str, Any]:
     """Everything acceptance.html.j2 shows: the batch acceptance report as a filed document."""
-    f = Formatter(lang)
+    f = Formatter(lang, s.acceptance.grades if s.acceptance else ())
     meta = s.meta
     d = decision_context(s, f)
     return {

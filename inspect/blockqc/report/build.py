@@ -421,7 +421,7 @@ def summary_context(
 ) -> dict[str, Any]:
     """Everything summary.html.j2 shows: verdicts, counts per rule, the sampled blocks."""
     summary = Summary.model_validate(summary)
-    f = Formatter(lang)
+    f = Formatter(lang, summary.acceptance.grades if summary.acceptance else ())
     t = f.t
     sampled = [_sampled_row(b, s, f) for b in summary.blocks if b.sampled for s in b.checkpoints]
     c = summary.counts

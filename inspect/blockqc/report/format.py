@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from typing import Any
 
 import numpy as np
@@ -76,9 +77,11 @@ SYMBOLS = {"<=": "≤", "<": "<", ">=": "≥", ">": ">", "equals": "="}
 class Formatter:
     """The formatter of one language."""
 
-    def __init__(self, lang: str):
+    def __init__(self, lang: str, grades: Iterable[Any] = ()):
         self.lang = lang
         self.t = translator(lang)
+        #: the pack's grades (id, title, title_zh), so that its own names are shown
+        self.grades = {g.id: (g.title, g.title_zh) for g in grades}
 
     def _key(self, prefix: str, value: Any, fallback: str | None = None) -> str:
         key = f"{prefix}_{value}"

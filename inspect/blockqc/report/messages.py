@@ -354,7 +354,10 @@ MESSAGES.update(
             "rules failed: {rules}",
             "未通过的规则：{rules}",
         ),
-        "element_below": ("{name} scores {score} (below 60)", "{name}得分 {score}（低于 60 分）"),
+        "element_below": (
+            "{name} scores {score} (below {below})",
+            "{name}得分 {score}（低于 {below} 分）",
+        ),
         "evaluation_fails": ("The block fails", "单位成果不合格"),
         "evaluation_incomplete": ("The evaluation is not final", "评价尚不完整"),
         "grade_excellent": ("Excellent", "优"),
