@@ -309,3 +309,34 @@ def test_scores_are_shown_rounded_down_never_onto_a_grade_bound_they_miss():
     assert line["score"] == "89.9" and line["grade_text"] == "Good"
     ev = Evaluation(score=89.962878, grade="good")
     assert evaluation_context(ev, f)["score"] == "89.9"
+
+
+@pytest.mark.parametrize(
+    "reason",
+    [
+        "no high_precision checkpoints",
+        "no same_accuracy checkpoints",
+        "no checkpoints of the methods high_precision, same_accuracy",
+        "no PAN–MS registration table (pan_ms.csv) in the delivery",
+        "no overlaps table (overlaps.csv) in the delivery",
+        "no edges table (edges.csv) in the delivery",
+        "block.yaml states no reported figures",
+        "no scenes of the bands checked",
+        "the delivery gives no residuals: blockqc computed them (§RC-1)",
+        "rpc/ is given but not the producer's adjustment (adjustment.csv or rpc_adjusted/)",
+        "no tie-point observations on the scenes checked (bands pan; 12 on scenes of other "
+        "bands, not judged)",
+        "no tie point is seen on two or more scenes (305 observations of single-ray points)",
+        "nothing measured for this group",
+        "awaiting the inspector's verdict on DOC-3",
+    ],
+)
+def test_not_applicable_reasons_and_notes_read_in_chinese_on_zh_pages(reason):
+    """docs/report.md: the reasons of results.json (English there) are translated when a page
+    is rendered; what is left is names (files, folders, bands, rules, methods' ids none)."""
+    zh = Formatter("zh").text(reason)
+    words = re.findall(r"[A-Za-z_]{3,}", zh)
+    names = {"pan_ms", "csv", "overlaps", "edges", "block", "yaml", "blockqc", "rpc", "adjustment",
+             "rpc_adjusted", "pan", "DOC"}  # fmt: skip
+    assert set(words) <= names, (reason, zh)
+    assert Formatter("en").text(reason) == reason

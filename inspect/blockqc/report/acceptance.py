@@ -101,7 +101,9 @@ def evaluation_context(ev: Evaluation | None, f: Formatter) -> dict[str, Any] | 
             and not any(x.error_class == "A" for x in unique)
             and e.score < ev.element_fail_below
         ],
-        "notes": [r for r in ev.reasons if not r.startswith(("A-class", "element "))],
+        "notes": [
+            reason_text(r, f) for r in ev.reasons if not r.startswith(("A-class", "element "))
+        ],
         "standard": f.pick(ev.standard, ev.standard_zh),
     }
 
@@ -264,7 +266,6 @@ def reason_text(reason: str, f: Formatter) -> str:
         ("A-class error", "a_class_error"),
         ("(fails its threshold)", "err_fails_p"),
         ("(beyond the norm)", "err_beyond_norm_p"),
-        ("awaiting the inspector's verdict on", "awaiting_on"),
     ):
         reason = reason.replace(en, f.t(key))
     return f.text(reason)  # the fixed phrases of results.json (a sampled block's, …)

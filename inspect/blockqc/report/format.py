@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Iterable
 from typing import Any
 
@@ -50,11 +51,27 @@ PHRASES = (
     "ph_no_geometry",
     "ph_no_cps_not_sampled",
     "ph_not_sampled_plan",
+    "awaiting_on",  # before its shorter "awaiting the inspector's verdict"
     "ph_awaiting",
     "ph_nothing_measured",
+    "ph_no_adjustment",
+    "ph_no_pan_ms",
+    "ph_no_overlaps",
+    "ph_no_edges",
+    "ph_no_reported",
+    "ph_no_scenes_bands",
+    "ph_residuals_computed",
+    "ph_no_observations_checked",
+    "ph_on_other_bands",
+    "ph_single_ray",
+    "ph_observations_single_ray",
+    "ph_bands",
     "ph_mostly_sea",
     "ph_water_fraction",
 )
+_METHOD = r"(?:high_precision|same_accuracy|recalculation)"
+_NO_METHOD = re.compile(rf"\bno ({_METHOD}) checkpoints\b")
+_NO_METHODS = re.compile(rf"\bno checkpoints of the methods ({_METHOD}(?:, {_METHOD})*)")
 #: units of a statistic written after its column label; counts name the column instead
 SHOWN_UNITS = ("px", "m", "%", "degrees")
 #: a cell holding a word longer than this wraps anywhere (long scene, point and block ids)
@@ -182,7 +199,15 @@ class Formatter:
             return s
         for key in PHRASES:
             s = s.replace(MESSAGES[key][0], self.t(key))
-        return s
+        # "no high_precision checkpoints" (§CP: a method's rule with none of its points)
+        s = _NO_METHOD.sub(lambda m: self.t("no_method_cps", method=self.method(m[1])), s)
+        s = _NO_METHODS.sub(
+            lambda m: self.t(
+                "no_methods_cps", methods="、".join(self.method(x) for x in m[1].split(", "))
+            ),
+            s,
+        )
+        return s.replace("： ", "：")  # a full-width colon takes no space after it
 
     def method(self, m: str) -> str:
         return self._key("method", m, m)

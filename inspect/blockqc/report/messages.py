@@ -236,6 +236,11 @@ MESSAGES: dict[str, tuple[str, str]] = {
     "method_high_precision": ("High-precision data", "高精度数据法"),
     "method_same_accuracy": ("Same-accuracy data", "同精度数据法"),
     "method_recalculation": ("Recalculation with other software", "其他软件重新计算法"),
+    "no_method_cps": ("no {method} checkpoints", "没有{method}检查点"),
+    "no_methods_cps": (
+        "no checkpoints of the methods {methods}",
+        "没有以下检查方法的检查点：{methods}",
+    ),
     "component_plane": ("Plane", "平面"),
     "component_height": ("Height", "高程"),
     "stat_M1": ("M1 = √(ΣΔ²/n)", "M1 = √(ΣΔ²/n)"),
@@ -524,6 +529,42 @@ MESSAGES.update(
         ),
         "ph_mostly_sea": (" (mostly sea)", "（大部分为水域）"),
         "ph_nothing_measured": ("nothing measured for this group", "该组无测量数据"),
+        "ph_no_pan_ms": (
+            "no PAN–MS registration table (pan_ms.csv) in the delivery",
+            "成果中没有全色–多光谱配准表（pan_ms.csv）",
+        ),
+        "ph_no_overlaps": (
+            "no overlaps table (overlaps.csv) in the delivery",
+            "成果中没有影像重叠表（overlaps.csv）",
+        ),
+        "ph_no_edges": (
+            "no edges table (edges.csv) in the delivery",
+            "成果中没有接边表（edges.csv）",
+        ),
+        "ph_no_reported": (
+            "block.yaml states no reported figures",
+            "block.yaml 未给出报告的精度指标",
+        ),
+        "ph_no_scenes_bands": ("no scenes of the bands checked", "没有所检查波段的影像"),
+        "ph_residuals_computed": (
+            "the delivery gives no residuals: blockqc computed them",
+            "成果未给出残差，残差由 blockqc 计算",
+        ),
+        "ph_no_adjustment": (
+            "rpc/ is given but not the producer's adjustment (adjustment.csv or rpc_adjusted/)",
+            "给出了 rpc/，但没有生产单位的平差结果（adjustment.csv 或 rpc_adjusted/）",
+        ),
+        "ph_no_observations_checked": (
+            "no tie-point observations on the scenes checked",
+            "所检查的影像上没有连接点观测",
+        ),
+        "ph_on_other_bands": ("on scenes of other bands, not judged", "在其他波段影像上，未判定"),
+        "ph_single_ray": (
+            "no tie point is seen on two or more scenes",
+            "没有在两景及以上影像上观测到的连接点",
+        ),
+        "ph_observations_single_ray": ("observations of single-ray points", "个单像点观测"),
+        "ph_bands": (" (bands ", "（波段 "),
         "ph_plan_no_cps": (
             "sampled for detailed inspection, but the delivery has no checkpoints: "
             "the detailed inspection is incomplete",
