@@ -338,7 +338,10 @@ def _acceptance_inputs(plan_file: Path | None, meta_file: Path | None, got, path
     if not got.is_batch:
         return plan, meta, []
     batch = paths[0].resolve().name if len(paths) == 1 and not is_delivery(paths[0]) else None
-    notes, warnings = plan_notes(plan, plan_file, ids, batch, f"{pack.name} {pack.version}")
+    sampling = pack.acceptance.sampling if pack.acceptance else None
+    notes, warnings = plan_notes(
+        plan, plan_file, ids, batch, f"{pack.name} {pack.version}", sampling
+    )
     for w in warnings:
         click.echo(f"warning: {w}", err=True)
     return plan, meta, notes

@@ -119,6 +119,36 @@ def test_units_no_delivery_is_another_batch_and_pack_are_noted(tmp_path: Path) -
     assert plan_notes(plan, path, list(BLOCKS), None, "global-project 1.0") == ([], [])
 
 
+def test_a_lot_sampled_below_the_packs_table_is_noted_and_warned(tmp_path: Path) -> None:
+    """§QE-1 (stock table): a lot of 4 units is sampled with 3; the plan draws 2 (edited by
+    hand, or drawn with another table). The sample stands, and this is said at its line."""
+    from blockqc.rules import load_pack
+
+    sampling = load_pack("global-project").acceptance.sampling
+    plan, path = _plan(tmp_path)
+    notes, warnings = plan_notes(plan, path, list(BLOCKS), "batch", "global-project 1.0", sampling)
+    assert [n.model_dump() for n in notes] == [
+        {"about": "sample_size", "plan": "2", "inspected": "3", "blocks": []}
+    ]
+    assert [str(w).removeprefix(f"{path}, ") for w in warnings] == [
+        "line 25: lots[0]: 2 of the lot's 4 units sampled; the pack's table (§QE-1) asks 3: "
+        "the batch is judged on the smaller sample"
+    ]
+    three, path = _plan(
+        tmp_path,
+        ("sample_size: 2\nlots", "sample_size: 3\nlots"),
+        ("  sample_size: 2\n", "  sample_size: 3\n"),
+        ("    sample: 1\n    units: [B00, B02]\n    sampled: [B00]",
+         "    sample: 2\n    units: [B00, B02]\n    sampled: [B00, B02]"),
+        ("  sampled: [B00, B01]\nsampled: [B00, B01]",
+         "  sampled: [B00, B01, B02]\nsampled: [B00, B01, B02]"),
+    )  # fmt: skip
+    assert plan_notes(three, path, list(BLOCKS), "batch", "global-project 1.0", sampling) == (
+        [],
+        [],
+    )
+
+
 def test_inspect_states_a_unit_withdrawn_in_its_warnings_and_reports(tmp_path: Path) -> None:
     """B03 was withdrawn after sampling: 2 of the plan's 4 units drawn, 3 inspected, said why."""
     for b in ("B00", "B01", "B02"):
@@ -134,7 +164,11 @@ def test_inspect_states_a_unit_withdrawn_in_its_warnings_and_reports(tmp_path: P
         "the batch is block B03"
     ) in r.stderr
     notes = json.loads((out / "summary.json").read_text())["acceptance"]["plan_notes"]
-    assert notes == [{"about": "units", "plan": "4", "inspected": "3", "blocks": ["B03"]}]
+    assert notes == [
+        {"about": "units", "plan": "4", "inspected": "3", "blocks": ["B03"]},
+        # 2 of 4 drawn where the stock table asks 3 (batches of 1–20: 3, or every unit)
+        {"about": "sample_size", "plan": "2", "inspected": "3", "blocks": []},
+    ]
     page = (out / "acceptance.html").read_text()
     text = re.sub(r"\s+", " ", unescape(re.sub(r"<[^>]+>", " ", page.split("</style>")[1])))
     assert (

@@ -286,9 +286,10 @@ class BlockGrade(_M):
 
 class PlanNote(_M):
     """Where the sampling plan differs from the batch inspected without changing its sample: its
-    `units` that no delivery is (none sampled), another `batch` or `rule_pack` named."""
+    `units` that no delivery is (none sampled), another `batch` or `rule_pack` named, a lot's
+    `sample_size` below the pack's table (`plan`: units sampled, `inspected`: the table's)."""
 
-    about: Literal["units", "batch", "rule_pack"]
+    about: Literal["units", "batch", "rule_pack", "sample_size"]
     plan: str  # what the plan says (units: its number of units)
     inspected: str  # what was inspected (units: the number of deliveries)
     blocks: list[str] = Field(default_factory=list)  # units: those no delivery is

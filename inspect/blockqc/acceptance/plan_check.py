@@ -4,7 +4,7 @@ Refused, naming the plan file and its line: a block inspected that is not one of
 units, a sampled block that no delivery is, a unit placed in a stratum its block.yaml does not
 give by the plan's `strata_key`. Stated, as a warning and a note of the acceptance report: units
 of the plan that no delivery is (none sampled: deliveries withdrawn after sampling), a plan
-drawn from another batch or with another rule pack.
+drawn from another batch or with another rule pack, a lot sampled below the pack's table.
 """
 
 from __future__ import annotations
@@ -14,8 +14,9 @@ from pathlib import Path
 from typing import Any
 
 from blockqc.acceptance.command import stratum_of
-from blockqc.acceptance.model import PlanNote
+from blockqc.acceptance.model import PlanNote, Sampling
 from blockqc.acceptance.plan import Plan, key_path, listed
+from blockqc.acceptance.sampling import sample_size
 from blockqc.errors import InputError, Problem
 
 Loc = tuple[str | int, ...]
@@ -107,12 +108,22 @@ def check_strata(plan: Plan, path: Path, blocks: dict[str, dict[str, Any]]) -> N
 
 
 def plan_notes(
-    plan: Plan, path: Path, block_ids: list[str], batch: str | None, rule_pack: str
+    plan: Plan,
+    path: Path,
+    block_ids: list[str],
+    batch: str | None,
+    rule_pack: str,
+    sampling: Sampling | None = None,
 ) -> tuple[list[PlanNote], list[Problem]]:
     """Where the plan differs from the batch inspected (`batch`: its folder's name, None when
-    the deliveries were named one by one) without changing the sample; each also as a warning
-    naming the plan's line. Sampled blocks missing are refused before (`check_blocks`)."""
+    the deliveries were named one by one) or from the pack's sampling table (`sampling`)
+    without changing the sample; each also as a warning naming the plan's line. Sampled blocks
+    missing are refused before (`check_blocks`)."""
     notes, warnings = _absent(plan, path, block_ids)
+    if sampling is not None:
+        for note, warning in _undersized(plan, path, sampling):
+            notes.append(note)
+            warnings.append(warning)
     named = (("batch", plan.batch, batch), ("rule_pack", plan.rule_pack, rule_pack))
     for about, given, found in named:
         if found is not None and given != found:
@@ -143,6 +154,26 @@ def _absent(plan: Plan, path: Path, block_ids: list[str]) -> tuple[list[PlanNote
         for loc, u in absent
     ]
     return [note], warnings
+
+
+def _undersized(plan: Plan, path: Path, sampling: Sampling) -> Iterator[tuple[PlanNote, Problem]]:
+    """Lots whose sample is smaller than the pack's table asks for their size (§QE-1): a plan
+    edited by hand, or drawn with another table. The sample is judged as drawn, and this said."""
+    for i, lot in enumerate(plan.lots):
+        if not 1 <= lot.size <= sampling.max_batch:
+            continue
+        wanted = sample_size(lot.size, sampling)
+        drawn = len(lot.sampled)
+        if drawn < wanted:
+            yield (
+                PlanNote(about="sample_size", plan=str(drawn), inspected=str(wanted)),
+                Problem(
+                    str(path),
+                    f"lots[{i}]: {drawn} of the lot's {lot.size} units sampled; the pack's "
+                    f"table (§QE-1) asks {wanted}: the batch is judged on the smaller sample",
+                    line=plan.line("lots", i, "sampled"),
+                ),
+            )
 
 
 def _other(about: str, given: str, found: str) -> str:

@@ -432,6 +432,12 @@ MESSAGES.update(
             "The plan was drawn from batch '{plan}'; the batch inspected is '{inspected}'.",
             "抽样方案抽自批“{plan}”，所检批为“{inspected}”。",
         ),
+        "plan_note_sample_size": (
+            "A lot of the plan samples {plan} of its units where the pack's table asks "
+            "{inspected} (§QE-1): the batch is judged on the smaller sample.",
+            "抽样方案的一个批次抽取 {plan} 个单位，规则包的抽样表要求 {inspected} 个（§QE-1）："
+            "按较小的样本评定。",
+        ),
         "plan_note_rule_pack": (
             "The plan was drawn with rule pack {plan}; the batch is inspected with {inspected}.",
             "抽样方案按规则包 {plan} 抽取，本次检查使用 {inspected}。",
