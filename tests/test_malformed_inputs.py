@@ -4,6 +4,7 @@ and line named (exit 2) or read correctly, never an internal error or a silent o
 from __future__ import annotations
 
 import json
+import re
 import shutil
 from pathlib import Path
 
@@ -710,3 +711,19 @@ def test_checkpoints_without_heights_leave_the_height_rules_not_applicable_not_u
         assert by[key]["detail"]["reason"] == "nothing measured for this group"
     assert by[("CP-2", "plane")]["status"] == "pass"
     assert by[("CP-4", "plane")]["status"] == "pass"
+
+
+def test_an_id_column_whose_header_is_padded_keeps_its_leading_zeros(blockqc, block, tmp_path):
+    """' scene_id' (a space before the name, accepted as scene_id) with ids 0001…: read as text
+    as under the bare name; it was type-guessed (0001 → 1) and the delivery refused."""
+    ids = {}
+    for name in ("scenes.csv", "tie_points.csv", "pan_ms.csv", "overlaps.csv"):
+        text = (block / name).read_text(encoding="utf-8")
+        for scene in sorted(set(re.findall(r"GF7-\d{7}-[FBM]", text))):
+            ids.setdefault(scene, f"{len(ids) + 1:04d}")
+        text = re.sub(r"GF7-\d{7}-[FBM]", lambda m: ids[m[0]], text)
+        (block / name).write_text(text, encoding="utf-8")
+    scenes = block / "scenes.csv"
+    scenes.write_text(" " + scenes.read_text(encoding="utf-8"), encoding="utf-8")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    assert p.returncode == 0, p.stderr

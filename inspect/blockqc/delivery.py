@@ -344,7 +344,8 @@ def _read_csv(
     text_cols = {
         c.name: pa.string() for c in schema.columns if c.kind in ("str", "enum", "date", "wkt")
     }
-    text_cols |= {h: pa.string() for h in include or () if h.strip() in text_cols}
+    # a name padded with spaces (' scene_id') is read as text too: ids keep '0001' and 'NA'
+    text_cols |= {h: pa.string() for h in first if h.strip() in text_cols}
     try:
         table = pacsv.read_csv(
             pa.BufferReader(data),
