@@ -546,3 +546,22 @@ def test_report_and_factors_take_the_output_folders_lock(tmp_path: Path, command
     p = run_blockqc(*args)
     assert p.returncode == 2 and "another blockqc run is writing into it" in p.stderr, p.stderr
     assert sorted(f.name for f in out.iterdir()) == [LOCK_FILE]
+
+
+def test_outputs_of_a_withdrawn_delivery_are_said_and_not_rendered_again(
+    small_batch: Path, tmp_path: Path
+):
+    """F4-B02 withdrawn between two runs into the same folder: its old outputs stay (never
+    deleted) but are said, and `blockqc report OUT` renders the summary's blocks only."""
+    out = tmp_path / "out"
+    assert run_blockqc("inspect", small_batch, "--out", out, "--no-pdf").returncode == 1
+    shutil.move(small_batch / "F4-B02", tmp_path / "F4-B02")
+    again = run_blockqc("inspect", small_batch, "--out", out, "--no-pdf")
+    assert again.returncode == 1
+    assert f"warning: {out / 'F4-B02'}: outputs of block F4-B02, which this batch" in again.stderr
+    assert (out / "F4-B02" / "results.json").is_file()
+    rendered = tmp_path / "rendered"
+    r = run_blockqc("report", out, "--out", rendered, "--no-pdf")
+    assert r.returncode == 0, r.stderr
+    assert f"warning: {out / 'F4-B02' / 'results.json'}: a block the summary" in r.stderr
+    assert sorted(p.parent.name for p in rendered.glob("*/report.html")) == ["F1-B02", "F3-B02"]

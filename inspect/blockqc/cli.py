@@ -409,6 +409,7 @@ def _closing_lines(outcomes, summary, out: Path) -> None:
         for e in o.errors:  # a rule that could not be judged: why, beside the block's line
             click.echo(f"error: {o.path}: {e}", err=True)
     if summary is not None:
+        _warn_other_blocks(out, {b.block_id for b in summary.blocks})
         c = summary.counts
         _echo(
             f"{c.blocks} blocks: {c.pass_} pass, {c.fail} fail, "
@@ -418,6 +419,19 @@ def _closing_lines(outcomes, summary, out: Path) -> None:
         click.echo("nothing was written: the delivery could not be inspected", err=True)
     else:
         _echo(f"results in {out}")
+
+
+def _warn_other_blocks(out: Path, blocks: set[str]) -> None:
+    """Block outputs in `out` of no block of this batch (an earlier run's, of a delivery since
+    withdrawn): left as they are, never deleted, but said, since `blockqc report OUT` would
+    otherwise find them beside the summary."""
+    for folder in sorted(out.iterdir()):
+        if folder.name not in blocks and (folder / "results.json").is_file():
+            click.echo(
+                f"warning: {folder}: outputs of block {folder.name}, which this batch does not "
+                "hold (an earlier run's?): left as they are, not in the summary",
+                err=True,
+            )
 
 
 # ---------------------------------------------------------------------------------- schema

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import click
 from pydantic import ValidationError
@@ -154,15 +154,23 @@ def _once(files: list[Path]) -> tuple[list[Path], list[Path]]:
     return list(first.values()), list(dict.fromkeys(again))
 
 
-def gather(
-    paths: list[Path],
-) -> tuple[list[tuple[Path, BlockResults, bytes]], tuple[Path, Summary, bytes] | None, list[Path]]:
-    """The results documents named (files or folders holding them), a summary if any, and the
-    files named more than once (read once)."""
+class Gathered(NamedTuple):
+    results: list[tuple[Path, BlockResults, bytes]]
+    summary: tuple[Path, Summary, bytes] | None
+    repeated: list[Path]  # named more than once: read once
+    left_out: list[Path]  # results beside a summary that does not list their block
+
+
+def gather(paths: list[Path]) -> Gathered:
+    """The results documents named (files or folders holding them), a summary if any, the
+    files named more than once (read once), and those left out: a folder with a summary gives
+    the summary's blocks, another block's results there (a delivery since withdrawn) is not
+    rendered."""
     results: list[tuple[Path, BlockResults, bytes]] = []
     summary: tuple[Path, Summary, bytes] | None = None
     problems: list[Problem] = []
     files: list[Path] = []
+    beside: list[Path] = []  # results beside a summary, read only when it lists them
     for p in paths:
         if p.is_dir():
             if (p / "results.json").is_file():
@@ -171,7 +179,9 @@ def gather(
                 found = sorted(p.glob("*/results.json"))
                 if (p / "summary.json").is_file():
                     files.append(p / "summary.json")
-                if not found and not (p / "summary.json").is_file():
+                    beside += found
+                    found = []
+                elif not found:
                     problems.append(
                         Problem(
                             str(p), "holds no results.json (nor */results.json or summary.json)"
@@ -228,7 +238,8 @@ def gather(
         problems += _summary_contradictions(summary[0], summary[1], by_file)
     if problems:
         raise InputError(problems)
-    return results, summary, repeated
+    read = {f.resolve() for f in files}
+    return Gathered(results, summary, repeated, [f for f in beside if f.resolve() not in read])
 
 
 def _summary_contradictions(
@@ -348,9 +359,15 @@ def command(
     from blockqc.outputs import make_out_dir, out_lock
 
     check_pdf_engine(pdf_engine, pdf)
-    docs, summary, repeated = gather(list(results))
+    docs, summary, repeated, left_out = gather(list(results))
     for f in repeated:
         click.echo(f"warning: {f}: named more than once, rendered once", err=True)
+    for f in left_out:
+        click.echo(
+            f"warning: {f}: a block the summary beside it does not list (an earlier run's, of "
+            "a delivery since withdrawn?): not rendered",
+            err=True,
+        )
     _check_out(out, results, docs, summary)
     make_out_dir(out, out.resolve())
     with out_lock(out):  # one run at a time writes into a folder, as inspect's
