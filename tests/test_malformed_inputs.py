@@ -727,3 +727,20 @@ def test_an_id_column_whose_header_is_padded_keeps_its_leading_zeros(blockqc, bl
     scenes.write_text(" " + scenes.read_text(encoding="utf-8"), encoding="utf-8")
     p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
     assert p.returncode == 0, p.stderr
+
+
+def test_an_observation_outside_its_scene_names_the_scenes_file_given(blockqc, block, tmp_path):
+    """scenes given as Parquet: the message names scenes.parquet, not scenes.csv."""
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+    import pyarrow.parquet as pq
+
+    text = {"scene_id": pa.string()}
+    scenes = pacsv.read_csv(
+        block / "scenes.csv", convert_options=pacsv.ConvertOptions(column_types=text)
+    )
+    pq.write_table(scenes, block / "scenes.parquet")
+    (block / "scenes.csv").unlink()
+    _set_cell(block / "tie_points.csv", 1, "line", "1e7")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    _refused(p, "tie_points.csv, row 1 (line 2), column 'line'", "lines in scenes.parquet)")

@@ -188,3 +188,14 @@ def test_tie_point_statistics_properties(v, rnd, k) -> None:
     for col in ("median", "rms", "max", "mean"):
         assert scaled[col] == pytest.approx(k * base[col], rel=1e-9, abs=1e-12)
     assert base["median"] <= base["max"] and base["rms"] <= base["max"] + 1e-12
+
+
+def test_a_value_differing_only_by_case_is_suggested_before_a_near_one() -> None:
+    """gf7-1010000-f meant GF7-1010000-F, not -M (closer by difflib's ratio, case counted)."""
+    from blockqc.schema import did_you_mean
+
+    hint = did_you_mean(["GF7-1010000-M", "GF7-1010000-F", "GF7-1010000-B"])
+    assert hint("gf7-1010000-f") == "; did you mean 'GF7-1010000-F'?"
+    assert hint("GF7-1010000-X") == "; did you mean 'GF7-1010000-M'?"
+    assert did_you_mean(["DOC-1", "DOC-3"])("doc-3") == "; did you mean 'DOC-3'?"
+    assert did_you_mean(["DOC-1"])("TP-9") == ""

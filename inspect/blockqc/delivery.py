@@ -1084,6 +1084,9 @@ def _check_consistency(tables: dict[str, pd.DataFrame], files: dict[str, Path]) 
         f = files[name]
         shown = ("line", "sample", "pan_scene_id", "ms_scene_id")
         values = tables[name][column] if column in shown else None
+        message = (
+            message.replace("scenes.csv", files["scenes"].name) if "scenes" in files else message
+        )
         report_rows(problems, str(f), column, mask, message, values, f.suffix == ".csv")
     return problems
 

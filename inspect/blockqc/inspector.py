@@ -11,7 +11,6 @@ Verdict statuses (README "Readings"):
 
 from __future__ import annotations
 
-import difflib
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
@@ -29,7 +28,7 @@ from pydantic import (
 )
 
 from blockqc.errors import InputError, Problem
-from blockqc.schema import TABLES, key_labels
+from blockqc.schema import TABLES, did_you_mean, key_labels
 from blockqc.yamlio import line_of, load_yaml, pydantic_problems
 
 if TYPE_CHECKING:
@@ -155,8 +154,7 @@ class InspectorInput(BaseModel):
 
 
 def _hint(value: str, choices: Iterable[str]) -> str:
-    close = difflib.get_close_matches(value, list(choices), n=1, cutoff=0.6)
-    return f"; did you mean '{close[0]}'?" if close else ""
+    return did_you_mean(choices)(value)
 
 
 def _rule_problems(

@@ -214,11 +214,15 @@ def report_rows(
 
 
 def did_you_mean(choices: Iterable[object]) -> Callable[[object], str]:
-    """A hint for a misspelt value: "; did you mean 'x'?" when one choice is close."""
+    """A hint for a misspelt value: "; did you mean 'x'?" when one choice is the same but for
+    case (gf7-1010000-f for GF7-1010000-F), else when one is close."""
     pool = [str(c) for c in choices]
+    folded = {c.casefold(): c for c in reversed(pool)}  # the first of those alike
 
     def hint(value: object) -> str:
-        close = difflib.get_close_matches(str(value).strip(), pool, n=1, cutoff=0.6)
+        text = str(value).strip()
+        same = folded.get(text.casefold())
+        close = [same] if same else difflib.get_close_matches(text, pool, n=1, cutoff=0.6)
         return f"; did you mean '{close[0]}'?" if close else ""
 
     return hint
