@@ -119,3 +119,24 @@ def test_utm_zone():
     assert utm_crs(55.7, -21.2).to_epsg() == 32740
     with pytest.raises(InputError):
         utm_crs(0.0, 85.0)
+
+
+def test_a_finer_image_is_smoothed_before_it_is_sampled_coarser_and_nothing_shifts():
+    """A reference of 0.5 m put on a 2 m grid (step 4): a checkerboard of 1-pixel squares,
+    sampled every 4 pixels, aliases to all-black or all-white; smoothed (σ = 1.5) it is grey.
+    A ramp keeps its values (the kernel is symmetric: no shift), a void stays a void, and an
+    image on a grid of its own size is not touched."""
+    from blockqc.rfm.ortho import antialiased
+
+    rows, cols = np.mgrid[0:64, 0:64]
+    board = ((rows + cols) % 2).astype(np.float32)
+    assert np.all(board[::4, ::4] == 0)  # sampled as it is: black, though half is white
+    smooth = antialiased(board, 4.0)
+    np.testing.assert_allclose(smooth[8:-8:4, 8:-8:4], 0.5, atol=0.01)
+    ramp = (3.0 * cols + 0.5 * rows).astype(np.float32)
+    np.testing.assert_allclose(antialiased(ramp, 4.0)[8:-8, 8:-8], ramp[8:-8, 8:-8], atol=1e-3)
+    holed = ramp.copy()
+    holed[30:33, 30:33] = np.nan
+    out = antialiased(holed, 4.0)
+    assert np.isnan(out[30:33, 30:33]).all() and np.isfinite(out[:20]).all()
+    assert antialiased(board, 1.2) is board

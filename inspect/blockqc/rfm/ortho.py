@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from pyproj import CRS, Transformer
 from rasterio.transform import Affine
-from scipy.ndimage import map_coordinates
+from scipy.ndimage import gaussian_filter, map_coordinates
 
 from blockqc.errors import InputError, Problem
 from blockqc.rfm.dem import DEM
@@ -265,15 +265,31 @@ def band_mean(values: np.ma.MaskedArray) -> NDArray[np.float32]:
     return np.ma.masked_invalid(values.astype(np.float32)).mean(axis=0).filled(np.nan)
 
 
+def antialiased(values: NDArray[np.float32], step: float) -> NDArray[np.float32]:
+    """`values` smoothed for sampling every `step` pixels (> 1: an output pixel `step` source
+    pixels wide): a Gaussian of σ = (step − 1)/2, symmetric so that nothing shifts, weighted
+    over the valid pixels (NaN stays NaN). Unsmoothed for steps below 1.5."""
+    if step < 1.5:
+        return values
+    sigma = (step - 1.0) / 2.0
+    ok = np.isfinite(values)
+    total = gaussian_filter(np.where(ok, values, 0.0).astype(np.float64), sigma, mode="nearest")
+    weight = gaussian_filter(ok.astype(np.float64), sigma, mode="nearest")
+    out = np.where(ok & (weight > 0), total / np.where(weight > 0, weight, 1.0), np.nan)
+    return out.astype(np.float32)
+
+
 def _resample(
     ds: object,
     bands: tuple[int, ...],
     row: FloatArray,
     col: FloatArray,
     order: int,
+    step: float = 1.0,
 ) -> NDArray[np.float32]:
     """Sample the mean of `bands` of the open dataset at file positions (row, col), NaN outside
-    (the mean of bilinear samples is the bilinear sample of the mean)."""
+    (the mean of bilinear samples is the bilinear sample of the mean); `antialiased` first
+    where an output pixel is `step` ≥ 1.5 source pixels wide."""
     from rasterio.windows import Window
 
     out = np.full(row.shape, np.nan, dtype=np.float32)
@@ -288,7 +304,7 @@ def _resample(
     )
     if not ok.any():
         return out
-    pad = 2 + order
+    pad = 2 + order + (int(np.ceil(2 * step)) if step >= 1.5 else 0)  # the smoothing's reach
     wr0 = max(int(np.floor(row[ok].min())) - pad, 0)
     wc0 = max(int(np.floor(col[ok].min())) - pad, 0)
     wr1 = min(int(np.ceil(row[ok].max())) + pad + 1, nrows)
@@ -298,9 +314,22 @@ def _resample(
             list(bands), window=Window(wc0, wr0, wc1 - wc0, wr1 - wr0), masked=True
         )
     )
+    src = antialiased(src, step)
     coords = np.stack([row[ok] - wr0, col[ok] - wc0])
     out[ok] = map_coordinates(src, coords, order=order, mode="nearest", prefilter=order > 1)
     return out
+
+
+def _centre_gsd(
+    model: GroundToImage,
+    shape: tuple[int, int],
+    crop_offset: tuple[float, float],
+    dem: DEM,
+    grid: OrthoGrid,
+) -> float:
+    """The image's GSD (m) at its centre, in the grid's CRS: what one of its pixels covers."""
+    centre = (crop_offset[0] + (shape[0] - 1) / 2, crop_offset[1] + (shape[1] - 1) / 2)
+    return image_gsd(model, *centre, dem, grid.crs, dem.mean_height)
 
 
 def orthorectify(
@@ -335,6 +364,7 @@ def orthorectify(
         bands = grey_bands(src) if band is None else (band,)
         if grid is None:
             grid = ortho_grid(model, (src.height, src.width), dem, crop_offset=crop_offset)
+        step = grid.gsd / _centre_gsd(model, (src.height, src.width), crop_offset, dem, grid)
         profile = {
             "driver": "GTiff",
             "dtype": "float32",
@@ -358,7 +388,7 @@ def orthorectify(
                 for window in grid.chunks(chunk):
                     row, col = sensor_positions(model, grid, dem, window)
                     values = _resample(
-                        src, bands, row - crop_offset[0], col - crop_offset[1], order
+                        src, bands, row - crop_offset[0], col - crop_offset[1], order, step
                     )
                     r0, c0, nr, nc = window
                     dst.write(values, 1, window=rasterio.windows.Window(c0, r0, nc, nr))
