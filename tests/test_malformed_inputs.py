@@ -744,3 +744,20 @@ def test_an_observation_outside_its_scene_names_the_scenes_file_given(blockqc, b
     _set_cell(block / "tie_points.csv", 1, "line", "1e7")
     p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
     _refused(p, "tie_points.csv, row 1 (line 2), column 'line'", "lines in scenes.parquet)")
+
+
+def test_a_reported_figure_no_rule_recomputes_is_said(blockqc, block, tmp_path):
+    """block.yaml `reported` holding a figure the pack does not define: exempt in DOC-2, and now
+    a warning at its line (it was visible only in the report's exemptions)."""
+    text = (block / "block.yaml").read_text(encoding="utf-8")
+    text = text.replace("reported:\n", "reported:\n  tie_point_error: 0.9\n  banana_count: 3\n")
+    (block / "block.yaml").write_text(text, encoding="utf-8")
+    line = text.splitlines().index("  tie_point_error: 0.9") + 1
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    assert p.returncode == 0, p.stderr
+    assert (
+        f"warning: {block / 'block.yaml'}, line {line}: reported.tie_point_error: no rule of the "
+        "pack recomputes a figure of this name (exempt in DOC-2); did you mean"
+    ) in p.stderr
+    assert f"line {line + 1}: reported.banana_count: no rule of the pack" in p.stderr
+    assert "reported.tie_point_error_px" not in p.stderr  # a figure the pack recomputes

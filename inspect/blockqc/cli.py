@@ -241,6 +241,7 @@ def inspect_cmd(
         _read_ahead(paths[0])
     from blockqc import batch
     from blockqc.delivery import block_ids
+    from blockqc.engine import reported_figure_names
     from blockqc.inspector import check_inspector_input, load_inspector_input
     from blockqc.outputs import (
         check_out_dir,
@@ -264,8 +265,9 @@ def inspect_cmd(
         click.echo(f"warning: {f}: a file beside the deliveries of a batch, not read", err=True)
     for d in got.repeated:
         click.echo(f"warning: {d}: named more than once, inspected once", err=True)
+    figures = reported_figure_names(pack)
     for manifest in got.manifests.values():
-        for w in manifest.unknown_keys:
+        for w in manifest.unknown_keys + unread_figures(manifest, figures):
             click.echo(f"warning: {w}", err=True)
     if inspector is not None:
         ids, unread = block_ids(got.deliveries, got.manifests)
@@ -291,6 +293,22 @@ def inspect_cmd(
             )  # fmt: skip
     _closing_lines(outcomes, summary, out)
     return batch.exit_status(outcomes)
+
+
+def unread_figures(manifest, figures: set[str] | None) -> list[str]:
+    """block.yaml's reported figures that no rule of the pack recomputes (`figures`: those
+    its rules do, None: no rule reads them): said, as an unknown key is."""
+    from blockqc.schema import did_you_mean
+
+    if figures is None:
+        why = "not read: the rule pack has no rule recomputing reported figures (§DOC-2)"
+        return [f"{at}: {why}" for at in manifest.reported_at.values()]
+    hint = did_you_mean(sorted(figures - set(manifest.reported)))
+    return [
+        f"{at}: no rule of the pack recomputes a figure of this name (exempt in DOC-2){hint(k)}"
+        for k, at in manifest.reported_at.items()
+        if k not in figures
+    ]
 
 
 def _read_ahead(path: Path) -> None:

@@ -153,6 +153,8 @@ class Manifest(BaseModel):
 
     #: keys block.yaml gives that no part of blockqc reads (stated as warnings)
     unknown_keys: list[Problem] = Field(default_factory=list, exclude=True)
+    #: each reported figure's place in block.yaml (file, line), for what the pack does not read
+    reported_at: dict[str, Problem] = Field(default_factory=dict, exclude=True)
 
     @field_validator("block_id", mode="before")
     @classmethod
@@ -780,6 +782,10 @@ def load_manifest(path: Path) -> Manifest:
     if problems:
         raise InputError(problems)
     manifest.unknown_keys = _unknown_keys(path, data, manifest)
+    manifest.reported_at = {
+        k: Problem(str(path), f"reported.{k}", line=line_of(data, ("reported", k)))
+        for k in manifest.reported
+    }
     return manifest
 
 

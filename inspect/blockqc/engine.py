@@ -419,6 +419,19 @@ def judge_all(ctx: Context, pack: Pack, block_input: BlockInput) -> list[RuleRes
     return results
 
 
+def reported_figure_names(pack: Pack) -> set[str] | None:
+    """The figures of block.yaml's `reported` that the pack's rules recompute (§DOC-2); None
+    when no rule reads them."""
+    from blockqc.rules.loader import DELIVERY_NAMES
+
+    names = {**pack.constants, **DELIVERY_NAMES}
+    rules = [r for r in pack.rules if not r.manual and r.metric == "reported_figures"]
+    if not rules:
+        return None
+    spec = REGISTRY["reported_figures"]
+    return {f for r in rules for f in resolve_params(spec.params, r.params, names).figures}
+
+
 def tie_point_columns(pack: Pack) -> set[str] | None:
     """The tie_points columns to read for this pack: every column (None) unless the pack says
     `columns: used`; then those its automatic rules' metrics read, and the scene id (checked
