@@ -116,3 +116,25 @@ def test_the_packs_grade_names_and_element_bound_are_what_the_pages_show(tmp_pat
     assert run_blockqc("report", out, "--out", zh, "--lang", "zh", "--no-pdf").returncode == 0
     html = (zh / "summary.html").read_text(encoding="utf-8")
     assert "拒收" in html and "顶级" in html and "（低于 97 分）" in html
+
+
+def test_a_rule_placed_by_its_quality_element_alone_counts_in_the_grade(tmp_path) -> None:
+    """A rule deciding no content, placed with `quality_element: layout`, A-class, failing on
+    F1-B01 (its smallest PAN scene holds 271 points < 280): the block fails its evaluation
+    (its errors count in every item of the element); it was graded excellent, 97.44."""
+    pack = tmp_path / "by-element.yaml"
+    pack.write_text(
+        "pack: by-element\nversion: '1'\nextends: global-project\nrules:\n"
+        "  - {id: PR-1, title: t, clause: §TP-4, metric: tie_point_distribution,\n"
+        "     params: {bands: [pan]}, scope: scene, statistic: n_points,\n"
+        "     threshold: {min: 280}, unit: points, error_class: A, quality_element: layout}\n",
+        encoding="utf-8",
+    )
+    out = tmp_path / "out"
+    p = run_blockqc("inspect", SAMPLES / "batch" / "F1-B01", "--rules", pack, "--out", out,
+                    "--pdf", "none")  # fmt: skip
+    assert p.returncode == 1, p.stderr
+    ev = json.loads((out / "F1-B01" / "results.json").read_text())["evaluation"]
+    assert ev["fails"] and ev["grade"] == "fail" and ev["counts"]["A"] == 1
+    layout = next(e for e in ev["elements"] if e["id"] == "layout")
+    assert layout["score"] == 0

@@ -12,10 +12,12 @@ from blockqc.rules.model import Pack, Rule
 
 
 def _places(res: RuleResult, tree: dict[str, tuple[str, str]]) -> tuple[tuple[str, str], ...]:
-    """(element, item) of every content the result decides; its element alone otherwise."""
+    """(element, item) of every content the result decides; else every item of its element (a
+    rule placed by `quality_element` alone decides the element: its errors count in each of its
+    items, as a content's count in its item)."""
     got = {tree[c] for c in res.content if c in tree}
     if not got and res.quality_element:
-        got = {(res.quality_element, res.quality_element)}
+        got = {place for place in tree.values() if place[0] == res.quality_element}
     return tuple(sorted(got))
 
 
