@@ -199,3 +199,22 @@ def test_a_value_differing_only_by_case_is_suggested_before_a_near_one() -> None
     assert hint("GF7-1010000-X") == "; did you mean 'GF7-1010000-M'?"
     assert did_you_mean(["DOC-1", "DOC-3"])("doc-3") == "; did you mean 'DOC-3'?"
     assert did_you_mean(["DOC-1"])("TP-9") == ""
+
+
+def test_the_worst_of_units_between_two_bounds_is_the_farthest_outside_them() -> None:
+    """threshold {min: 280, max: 400} on per-scene counts: the worst is the count farthest
+    beyond either bound (271, 9 below; 277 was reported, as if only a maximum were set)."""
+    from blockqc.engine import _order, worst
+    from blockqc.rules.model import Threshold
+
+    th = Threshold(min=280, max=400)
+    counts = pd.Series([277, 271, 300, 405], index=[10, 11, 12, 13])  # ints, not from 0
+    ok = np.array([False, False, True, False])
+    assert worst(counts, ok, th, 280.0, 400.0) == 271  # 9 below, against 405: 5 above
+    assert worst(counts.iloc[[0, 3]], ok[[0, 3]], th, 280.0, 400.0) == 405  # 5 above, 3 below
+    assert worst(counts.iloc[[2]], ok[[2]], th, 280.0, 400.0) == 300  # all pass: the nearest
+    frame = pd.DataFrame({"n_points": counts})
+    ordered = _order(frame, "n_points", None, 280.0, 400.0)["n_points"].tolist()
+    assert ordered == [271, 405, 277, 300]
+    assert worst(counts, ok, Threshold(min=280), 280.0, None) == 271
+    assert worst(counts, ok, Threshold(max=400), None, 400.0) == 405

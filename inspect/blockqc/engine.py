@@ -102,8 +102,9 @@ def passes(values: pd.Series, th: Threshold, lo: float | None, hi: float | None)
     return ok
 
 
-def worst(values: pd.Series, ok: np.ndarray, th: Threshold, hi: float | None) -> Any:
-    """The worst case of the values: the largest against an upper bound, else the smallest."""
+def worst(values: pd.Series, ok: np.ndarray, th: Threshold, lo: Any, hi: Any) -> Any:
+    """The worst case of the values: the one farthest beyond its bounds (nearest to them when
+    all pass): the largest against an upper bound, the smallest against a lower one."""
     if values.empty:
         return None
     if th.equals is not None or th.in_ is not None:
@@ -111,7 +112,15 @@ def worst(values: pd.Series, ok: np.ndarray, th: Threshold, hi: float | None) ->
     v = values.to_numpy() if _floats(values) else pd.to_numeric(values, errors="coerce")
     if pd.isna(v).any():  # a float column: not copied
         return None
+    if hi is not None and lo is not None:
+        at = int(np.argmax(_beyond(np.asarray(v, dtype=float), lo, hi)))
+        return np.asarray(v)[at]
     return v.max() if hi is not None else v.min()
+
+
+def _beyond(v: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """How far each value lies beyond [lo, hi] (negative inside: its margin to the nearer)."""
+    return np.maximum(lo - v, v - hi)
 
 
 def _floats(values: pd.Series) -> bool:
@@ -157,11 +166,14 @@ def _filter(df: pd.DataFrame, where: Mapping[str, Any]) -> pd.DataFrame:
     return df
 
 
-def _order(df: pd.DataFrame, stat: str | None, sort: str | None, hi: float | None) -> pd.DataFrame:
+def _order(df: pd.DataFrame, stat: str | None, sort: str | None, lo: Any, hi: Any) -> pd.DataFrame:
+    """Worst first: by the statistic against its bounds (by `sort`, in magnitude, else)."""
     col = stat if stat in df.columns and pd.api.types.is_numeric_dtype(df[stat]) else sort
     if col is None or col not in df.columns or not pd.api.types.is_numeric_dtype(df[col]):
         return df
     key = df[col].abs() if stat is None or col != stat else df[col]
+    if stat == col and lo is not None and hi is not None:
+        key = pd.Series(_beyond(_numbers(df[col]), lo, hi), index=df.index)
     asc = stat == col and hi is None
     return (
         df.assign(_k=key.to_numpy())
@@ -316,10 +328,10 @@ class Judge:
         status = _severity_status(r) if failing.any() else "waived" if waived.any() else "pass"
         sel = _deciding(failing, waived)
         units = judged if sel is None else judged[sel]
-        value = worst(units[r.statistic], ok if sel is None else ok[sel], self.th, self.hi)
+        value = worst(units[r.statistic], ok if sel is None else ok[sel], self.th, self.lo, self.hi)
         evidence = []
         if status != "pass":
-            bad = _order(units, r.statistic, table.sort, self.hi)
+            bad = _order(units, r.statistic, table.sort, self.lo, self.hi)
             bad = _filter(table.complete(bad, r.evidence_where), r.evidence_where)
             shown = table.complete(bad.head(r.evidence_limit))
             evidence = records(
@@ -364,7 +376,7 @@ class Judge:
             df = df[~df["exempt"].to_numpy(dtype=bool)]
         if r.statistic in df.columns:
             df = df[~passes(df[r.statistic], self.th, self.lo, self.hi)]
-        df = _order(df, r.statistic, table.sort, self.hi)
+        df = _order(df, r.statistic, table.sort, self.lo, self.hi)
         more = max(0, len(df) - r.evidence_limit)
         return records(table.complete(df.head(r.evidence_limit))), more
 

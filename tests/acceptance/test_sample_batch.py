@@ -138,3 +138,29 @@ def test_a_rule_placed_by_its_quality_element_alone_counts_in_the_grade(tmp_path
     assert ev["fails"] and ev["grade"] == "fail" and ev["counts"]["A"] == 1
     layout = next(e for e in ev["elements"] if e["id"] == "layout")
     assert layout["score"] == 0
+
+
+def test_an_accuracy_rule_given_a_range_keeps_its_upper_bound_as_norm(tmp_path) -> None:
+    """RO-4 bounded {min: 0, max: √2·m} instead of {max: √2·m}: the same norm, so the same
+    accuracy scores and block score (97.44 on F1-B01); the range dropped them (98.13)."""
+
+    def score(*pack_text: str) -> tuple[float, list]:
+        out = tmp_path / f"out{len(pack_text)}"
+        args = ("--out", out, "--pdf", "none")
+        if pack_text:
+            pack = tmp_path / "range.yaml"
+            pack.write_text("\n".join(pack_text) + "\n", encoding="utf-8")
+            args += ("--rules", pack)
+        assert run_blockqc("inspect", SAMPLES / "batch" / "F1-B01", *args).returncode == 0
+        ev = json.loads((out / "F1-B01" / "results.json").read_text())["evaluation"]
+        acc = [a for e in ev["elements"] for i in e["items"] for a in i["accuracy"]]
+        return ev["score"], sorted((a["rule"], a["norm"], a["score"]) for a in acc)
+
+    ranged = score(
+        "pack: range", "version: '1'", "extends: global-project", "overrides:", "  RO-4:",
+        "    thresholds:", "      plane: {min: 0, max: sqrt(2) * norm.plane_m}",
+        "      height: {min: 0, max: sqrt(2) * norm.height_m}",
+    )  # fmt: skip
+    stock = score()
+    assert ranged[0] == pytest.approx(stock[0]) and ranged[1] == stock[1]
+    assert any(rule == "RO-4" for rule, _, _ in stock[1])

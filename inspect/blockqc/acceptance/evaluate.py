@@ -22,12 +22,15 @@ def _places(res: RuleResult, tree: dict[str, tuple[str, str]]) -> tuple[tuple[st
 
 
 def _norm(rule: Rule, res: RuleResult, constants: dict[str, Any]) -> float | None:
-    """The norm m0 of a mathematical-accuracy result: the rule's `score.norm`, else its bound."""
+    """The norm m0 of a mathematical-accuracy result: the rule's `score.norm`, else its bound
+    (of a range [min, max], the upper: an error is never accurate for being small)."""
     if rule.score is None or rule.score.kind != "accuracy":
         return None
     if rule.score.norm is not None:
         return float(evaluate(rule.score.norm, constants))
     th = res.threshold
+    if isinstance(th, list | tuple) and len(th) == 2:
+        th = th[1]
     return float(th) if isinstance(th, (int, float)) and not isinstance(th, bool) else None
 
 
