@@ -20,20 +20,22 @@ SMALLEST = 1e-6
 
 
 class Positive(click.ParamType):
-    """A number of at least SMALLEST, refused (exit 2, the option named) before anything is
-    read; finite unless `infinite` (an infinite prior σ leaves its parameters free)."""
+    """A number from SMALLEST to `largest`, refused (exit 2, the option named) before anything
+    is read; or infinite where `infinite` (an infinite prior σ leaves its parameters free).
+    Beyond `largest` a σ means nothing of an image or a DEM, and its square overflows."""
 
     name = "float"
 
-    def __init__(self, infinite: bool = False) -> None:
+    def __init__(self, largest: float, infinite: bool = False) -> None:
+        self.largest = largest
         self.infinite = infinite
 
     def convert(self, value, param, ctx) -> float:
         number = click.FLOAT.convert(value, param, ctx)
-        if number >= SMALLEST and (self.infinite or math.isfinite(number)):
+        if SMALLEST <= number <= self.largest or (self.infinite and number == math.inf):
             return number
-        expected = f"a number of at least {SMALLEST:g}" + (
-            " (inf allowed)" if self.infinite else ", finite"
+        expected = f"a number from {SMALLEST:g} to {self.largest:g}" + (
+            " (inf: a free parameter)" if self.infinite else ""
         )
         self.fail(f"{value!r} is not {expected}", param, ctx)
 
@@ -74,7 +76,7 @@ def check_dem_options(dem: Path | None, geoid: Path | None) -> None:
 )
 @click.option(
     "--dem-sigma",
-    type=Positive(),
+    type=Positive(1e5),
     default=DEFAULT_DEM_SIGMA_M,
     show_default=True,
     help="σ of DEM (m).",
@@ -82,27 +84,31 @@ def check_dem_options(dem: Path | None, geoid: Path | None) -> None:
 @click.option("--fix", multiple=True, help="Hold this scene's affine at zero (repeatable).")
 @click.option(
     "--sigma-shift",
-    type=Positive(infinite=True),
+    type=Positive(1e6, infinite=True),
     default=10.0,
     show_default=True,
     help="A-priori σ of a0, b0 (px).",
 )
 @click.option(
     "--sigma-linear",
-    type=Positive(infinite=True),
+    type=Positive(1e6, infinite=True),
     default=2.0,
     show_default=True,
     help="A-priori σ of the linear terms, in px at the image edge.",
 )
 @click.option(
     "--sigma-image",
-    type=Positive(),
+    type=Positive(1e4),
     default=0.5,
     show_default=True,
     help="Starting σ of a measurement (px).",
 )
 @click.option(
-    "--reject", type=Positive(), default=4.0, show_default=True, help="Reject |v| > k·σ0: this k."
+    "--reject",
+    type=Positive(1e6),
+    default=4.0,
+    show_default=True,
+    help="Reject |v| > k·σ0: this k.",
 )
 @click.option("--max-iterations", default=20, show_default=True, type=click.IntRange(1, 1000))
 @click.option(

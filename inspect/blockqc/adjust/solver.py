@@ -466,7 +466,7 @@ def sigma0(
     n_kept = int(np.count_nonzero(w > 0))
     r = 2 * n_kept - 3 * int(used.sum()) + float(np.sum(wh * np.nan_to_num(q_hh)))
     r += affine_share - 6 * priors.fixed.size
-    return float(np.sqrt(vpv / r)) if r > 0 else float("nan")
+    return float(np.sqrt(vpv / r)) if r >= 1.0 else float("nan")  # below one: no estimate
 
 
 def iterate(

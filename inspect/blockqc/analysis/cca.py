@@ -153,7 +153,7 @@ def cca(table: pd.DataFrame, factors: list[str], indicators: list[str]) -> CCARe
     """CCA via QR of each standardized group and SVD of Q_xᵀQ_y; Bartlett's χ² for each k."""
     reasons = cca_requirements(table, factors, indicators)
     if reasons:
-        raise AnalysisError("CCA not computed: " + "; ".join(reasons))
+        raise AnalysisError("; ".join(reasons))  # the callers say "CCA not computed: …"
     x = _standardize(table[factors].to_numpy(dtype=float))
     y = _standardize(table[indicators].to_numpy(dtype=float))
     n, p = x.shape
@@ -165,7 +165,7 @@ def cca(table: pd.DataFrame, factors: list[str], indicators: list[str]) -> CCARe
     r = np.clip(s[:m], 0.0, 1.0)
     if r[0] > 1.0 - 1e-10:
         raise AnalysisError(
-            "CCA not computed: the first canonical correlation is 1, so a combination of the "
+            "the first canonical correlation is 1, so a combination of the "
             "factors reproduces a combination of the indicators exactly (collinear groups)"
         )
     scale = np.sqrt(n - 1.0)

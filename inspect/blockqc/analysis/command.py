@@ -47,7 +47,8 @@ DEM_COVERAGE_WARN = 0.99
 def _dem_coverage(table: pd.DataFrame, dems: list[Path]) -> None:
     """A DEM that covers none of the blocks is refused; a block it covers only in part, or not
     at all, is named in a warning (its terrain factors come from the part covered, or are
-    missing and the block is left out of the analysis)."""
+    missing: the block is left out of the terrain factors' correlations and of the CCA, and kept
+    in the others, pairwise)."""
     share = table["dem_coverage"].to_numpy(dtype=float)
     given = ", ".join(str(d) for d in dems)
     if not (share > 0).any():
@@ -57,7 +58,12 @@ def _dem_coverage(table: pd.DataFrame, dems: list[Path]) -> None:
         )
     for block, covered in zip(table["experiment"], share, strict=True):
         if covered < DEM_COVERAGE_WARN:
-            what = "left out of the analysis" if covered == 0 else "terrain from that part"
+            what = (
+                "no terrain factors: left out of their correlations and of the CCA, kept in "
+                "the others"
+                if covered == 0
+                else "terrain from that part"
+            )
             click.echo(
                 f"warning: {block}: the DEM covers {100 * covered:.0f} % of its footprint ({what})",
                 err=True,
