@@ -44,7 +44,7 @@ from blockqc.delivery import (
     load_delivery,
     load_manifest,
 )
-from blockqc.engine import inspect_delivery, tie_point_columns
+from blockqc.engine import inspect_delivery, names_for, tie_point_columns
 from blockqc.errors import InputError, OutputError, Problem
 from blockqc.inspector import InspectorInput
 from blockqc.outputs import (
@@ -204,7 +204,7 @@ def inspect_one(
     )
     if extra is not None and extra.plan is not None:
         apply_plan(results, results.block_id in extra.plan.sampled)
-    results.evaluation = evaluate_results(results, pack)
+    results.evaluation = evaluate_results(results, pack, names_for(delivery, pack))
     if extra is not None and extra.meta is not None:
         results.meta = _meta(extra.meta, pack)
     return results

@@ -164,3 +164,25 @@ def test_an_accuracy_rule_given_a_range_keeps_its_upper_bound_as_norm(tmp_path) 
     stock = score()
     assert ranged[0] == pytest.approx(stock[0]) and ranged[1] == stock[1]
     assert any(rule == "RO-4" for rule, _, _ in stock[1])
+
+
+def test_an_accuracy_norm_may_name_the_deliverys_gsd(tmp_path) -> None:
+    """RO-1 scored against norm gsd.ms (2.6 m on F1-B01), as thresholds may name it: the
+    score is 60 + 40·(2.6 − m)/(0.7·2.6) by hand; every delivery was reported unreadable."""
+    pack = tmp_path / "gsd-norm.yaml"
+    pack.write_text(
+        "pack: gsd-norm\nversion: '1'\nextends: global-project\noverrides:\n"
+        "  RO-1: {score: {kind: accuracy, norm: gsd.ms}}\n",
+        encoding="utf-8",
+    )
+    out = tmp_path / "out"
+    p = run_blockqc("inspect", SAMPLES / "batch" / "F1-B01", "--rules", pack, "--out", out,
+                    "--pdf", "none")  # fmt: skip
+    assert p.returncode == 0, p.stderr
+    doc = json.loads((out / "F1-B01" / "results.json").read_text())
+    (ro1,) = [r for r in doc["results"] if r["rule"] == "RO-1"]
+    acc = [a for e in doc["evaluation"]["elements"] for i in e["items"] for a in i["accuracy"]]
+    (rec,) = [a for a in acc if a["rule"] == "RO-1"]
+    m = ro1["value"]
+    assert rec["norm"] == pytest.approx(2.6)
+    assert rec["score"] == pytest.approx(60 + 40 * (2.6 - m) / (0.7 * 2.6))

@@ -34,6 +34,17 @@ def test_a_new_constant_used_by_a_new_rule_is_fine(tmp_path: Path) -> None:
     assert load_pack(pack).rule("PR-1").threshold.max == "mine.share_pct"
 
 
+def test_a_new_constant_used_only_as_an_accuracy_norm_is_fine(tmp_path: Path) -> None:
+    """It was refused as "used by no rule": the lint did not look into `score`."""
+    pack = _pack(
+        tmp_path,
+        "constants:\n  acc: {ro4_norm_m: 12}\noverrides:\n"
+        "  RO-4: {score: {kind: accuracy, norm: acc.ro4_norm_m}}\n",
+    )
+    assert _messages(pack) == []
+    assert load_pack(pack).rule("RO-4").score.norm == "acc.ro4_norm_m"
+
+
 def test_unknown_disable_does_not_stop_the_lint(tmp_path: Path) -> None:
     pack = _pack(tmp_path, "disable: [XX-1]\noverrides:\n  TP-1: {statistic: medain}\n")
     msgs = _messages(pack)

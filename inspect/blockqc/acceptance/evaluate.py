@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 from blockqc.acceptance.model import Evaluation
 from blockqc.acceptance.scoring import Finding, evaluate_block
 from blockqc.results import BlockResults, RuleResult
-from blockqc.rules.expr import evaluate
+from blockqc.rules.expr import ExpressionError, evaluate
 from blockqc.rules.model import Pack, Rule
 
 
@@ -21,21 +22,27 @@ def _places(res: RuleResult, tree: dict[str, tuple[str, str]]) -> tuple[tuple[st
     return tuple(sorted(got))
 
 
-def _norm(rule: Rule, res: RuleResult, constants: dict[str, Any]) -> float | None:
+def _norm(rule: Rule, res: RuleResult, names: Mapping[str, Any]) -> float | None:
     """The norm m0 of a mathematical-accuracy result: the rule's `score.norm`, else its bound
     (of a range [min, max], the upper: an error is never accurate for being small)."""
     if rule.score is None or rule.score.kind != "accuracy":
         return None
-    if rule.score.norm is not None:
-        return float(evaluate(rule.score.norm, constants))
+    if rule.score.norm is not None:  # it may name the delivery's GSD, as thresholds do
+        try:
+            return float(evaluate(rule.score.norm, names))
+        except ExpressionError:  # a band the delivery gives no GSD for: nothing to score by
+            return None
     th = res.threshold
     if isinstance(th, list | tuple) and len(th) == 2:
         th = th[1]
     return float(th) if isinstance(th, (int, float)) and not isinstance(th, bool) else None
 
 
-def findings(results: BlockResults, pack: Pack) -> list[Finding]:
-    """Every result of the block as scoring sees it: places, class, norm."""
+def findings(
+    results: BlockResults, pack: Pack, names: Mapping[str, Any] | None = None
+) -> list[Finding]:
+    """Every result of the block as scoring sees it: places, class, norm (`names`: what a norm
+    may name, the pack's constants and the delivery's GSDs; the constants alone by default)."""
     assert pack.acceptance is not None
     tree = {c.id: (e.id, i.id) for e in results.elements for i in e.items for c in i.contents}
     rules = {r.id: r for r in pack.rules}
@@ -52,7 +59,7 @@ def findings(results: BlockResults, pack: Pack) -> list[Finding]:
                 error_class=rule.error_class or pack.acceptance.default_error_class,
                 value=res.value,
                 threshold=res.threshold,
-                norm=_norm(rule, res, pack.constants),
+                norm=_norm(rule, res, pack.constants if names is None else names),
                 group=res.group,
             )
         )
@@ -71,10 +78,11 @@ def incomplete_reasons(results: BlockResults) -> list[str]:
     return out
 
 
-def evaluate_results(results: BlockResults, pack: Pack) -> Evaluation | None:
+def evaluate_results(
+    results: BlockResults, pack: Pack, names: Mapping[str, Any] | None = None
+) -> Evaluation | None:
     """§QE-2..5 for one block (None when the pack has no acceptance section)."""
     if pack.acceptance is None:
         return None
-    return evaluate_block(
-        results.elements, findings(results, pack), pack.acceptance, incomplete_reasons(results)
-    )
+    got = findings(results, pack, names)
+    return evaluate_block(results.elements, got, pack.acceptance, incomplete_reasons(results))

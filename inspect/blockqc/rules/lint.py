@@ -180,7 +180,7 @@ def unused_constants(
     `plane_m`): refused, with the inherited name it most resembles."""
     used: set[str] = set()
     for raw in rules:
-        for key in ("threshold", "thresholds", "params"):
+        for key in ("threshold", "thresholds", "params", "score"):  # score: its norm
             used |= referenced_names(raw.get(key))
         used |= _text_names(raw)
     out = []
