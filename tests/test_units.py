@@ -218,3 +218,17 @@ def test_the_worst_of_units_between_two_bounds_is_the_farthest_outside_them() ->
     assert ordered == [271, 405, 277, 300]
     assert worst(counts, ok, Threshold(min=280), 280.0, None) == 271
     assert worst(counts, ok, Threshold(max=400), None, 400.0) == 405
+
+
+def test_a_filter_of_text_on_a_true_false_or_number_column_is_refused() -> None:
+    """where: {gross: "no"} selected no row, silently (the rule then not applicable, or its
+    evidence empty); a text value against true/false or numbers is now the rule's error."""
+    from blockqc.engine import _filter
+
+    df = pd.DataFrame({"gross": [True, False], "n": [1.0, 2.0], "component": ["plane", "h"]})
+    for where, kind in (({"gross": "no"}, "true/false"), ({"n": "2"}, "numbers")):
+        with pytest.raises(ValueError, match=f"selects nothing: the column .* holds {kind}"):
+            _filter(df, where)
+    assert _filter(df, {"gross": False})["n"].tolist() == [2.0]
+    assert _filter(df, {"gross": 0})["n"].tolist() == [2.0]  # as pandas compares
+    assert _filter(df, {"component": "plane", "n": 1})["n"].tolist() == [1.0]

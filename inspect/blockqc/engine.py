@@ -162,8 +162,21 @@ def _filter(df: pd.DataFrame, where: Mapping[str, Any]) -> pd.DataFrame:
                 f"'where' names column '{col}' which the metric does not give "
                 f"(it gives: {', '.join(map(str, df.columns))})"
             )
+        _same_kind(df[col], col, val)
         df = df[df[col] == val]
     return df
+
+
+def _same_kind(column: pd.Series, name: str, value: Any) -> None:
+    """A filter's value of the column's kind: text against a true/false or number column
+    (gross: "no") would select nothing, silently; refused (ValueError: the rule in error)."""
+    if not isinstance(value, str) or not pd.api.types.is_numeric_dtype(column.dtype):
+        return  # (numeric covers true/false; 0 and 1 select them as pandas compares)
+    if pd.api.types.is_bool_dtype(column.dtype):
+        kind = "true/false: write true or false, unquoted"
+    else:
+        kind = "numbers: write a number, unquoted"
+    raise ValueError(f"where.{name}: {value!r} selects nothing: the column {name} holds {kind}")
 
 
 def _order(df: pd.DataFrame, stat: str | None, sort: str | None, lo: Any, hi: Any) -> pd.DataFrame:

@@ -45,6 +45,22 @@ def test_a_new_constant_used_only_as_an_accuracy_norm_is_fine(tmp_path: Path) ->
     assert load_pack(pack).rule("RO-4").score.norm == "acc.ro4_norm_m"
 
 
+def test_thresholds_keyed_by_two_group_columns_are_refused(tmp_path: Path) -> None:
+    """plane/height (component) beside same_accuracy (method): a group took the first key that
+    matched, so the 0.5 m of same_accuracy never applied, and the lint said ok."""
+    pack = _pack(
+        tmp_path,
+        "rules:\n  - id: PR-5\n    title: t\n    clause: §CP-5\n    content: cp_plane\n"
+        "    metric: checkpoint_accuracy\n    scope: component_method\n"
+        "    statistic: medium_error\n    thresholds:\n      plane: {max: 10}\n"
+        "      height: {max: 6}\n      same_accuracy: {max: 0.5}\n    unit: m\n",
+    )
+    assert (
+        f"{pack}, line 11: rule PR-5: thresholds: keys of more than one group column "
+        "(component: plane, height; method: same_accuracy)"
+    ) in "\n".join(_messages(pack))
+
+
 def test_unknown_disable_does_not_stop_the_lint(tmp_path: Path) -> None:
     pack = _pack(tmp_path, "disable: [XX-1]\noverrides:\n  TP-1: {statistic: medain}\n")
     msgs = _messages(pack)

@@ -476,6 +476,16 @@ def _check_groups(rule: Rule, spec: MetricSpec, scope: Scope, bad: Callable[...,
             groups = "; ".join(f"{c}: {', '.join(v)}" for c, v in values.items())
             hint = did_you_mean(key, every)
             bad(f"thresholds.{key}: no group '{key}'{hint} ({groups})", "thresholds", key)
+    known = [k for k in rule.thresholds if k in every]
+    if known and not any(set(known) <= set(vals) for vals in values.values()):
+        by = "; ".join(f"{c}: {', '.join(k for k in known if k in v)}" for c, v in values.items())
+        bad(
+            f"thresholds: keys of more than one group column ({by}): a group takes the first "
+            "that matches, so the others would never apply; give them per value of one column "
+            "(filter the other with where:, or write a rule per value)",
+            "thresholds",
+        )
+        return
     if any(set(vals) <= set(rule.thresholds) for vals in values.values()):
         return
     col, vals = max(values.items(), key=lambda cv: len(set(cv[1]) & set(rule.thresholds)))
