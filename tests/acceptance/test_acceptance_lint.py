@@ -11,9 +11,9 @@ from blockqc.rules import load_pack
 from casekit import extension_pack as _pack
 from casekit import lint_messages as _messages
 
-KNOWN = (
-    "['attachment', 'data', 'documents', 'edge_accuracy', 'height_accuracy', 'layout', "
-    "'mathematical_basis', 'plane_accuracy', 'points_distribution', 'report']"
+ITEMS = (
+    "mathematical_basis, plane_accuracy, height_accuracy, edge_accuracy, points_distribution, "
+    "report, documents"
 )
 
 
@@ -22,7 +22,8 @@ def test_unknown_weight_key_is_named_at_its_line(tmp_path: Path) -> None:
         tmp_path, "acceptance:\n  weights:\n    items: {report: 0.7, documents: 0.3, reprot: 1}\n"
     )
     assert _messages(pack) == [
-        f"{pack}, line 5: acceptance.weights.items: 'reprot' is no element or item (known: {KNOWN})"
+        f"{pack}, line 5: acceptance.weights.items: 'reprot' is no item (did you mean report?); "
+        f"the items: {ITEMS}"
     ]
 
 
@@ -30,8 +31,19 @@ def test_unknown_weight_key_is_named_in_the_file_that_writes_it(tmp_path: Path) 
     parent = _pack(tmp_path, "acceptance:\n  weights:\n    elements: {dta: 1}\n", "parent")
     child = _pack(tmp_path, "acceptance:\n  deduction: {B: 10}\n", "child", "parent.yaml")
     assert _messages(child) == [
-        f"{parent}, line 5: acceptance.weights.elements: 'dta' is no element or item "
-        f"(known: {KNOWN})"
+        f"{parent}, line 5: acceptance.weights.elements: 'dta' is no element (did you mean "
+        "data?); the elements: data, layout, attachment"
+    ]
+
+
+def test_an_element_weighted_among_the_items_is_refused_saying_where_it_belongs(
+    tmp_path: Path,
+) -> None:
+    """items: {data: 0} was taken and read by nothing: the data element kept its 0.6."""
+    pack = _pack(tmp_path, "acceptance:\n  weights:\n    items: {data: 0}\n")
+    assert _messages(pack) == [
+        f"{pack}, line 5: acceptance.weights.items: 'data' is no item (it is one of the "
+        f"elements); the items: {ITEMS}"
     ]
 
 

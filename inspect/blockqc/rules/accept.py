@@ -14,6 +14,7 @@ from pydantic import ValidationError
 
 from blockqc.acceptance.model import Acceptance
 from blockqc.errors import Problem
+from blockqc.rules.lint import did_you_mean
 from blockqc.rules.model import ElementDef
 from blockqc.yamlio import LineDict, LineList, line_of, pydantic_problems
 
@@ -57,14 +58,22 @@ def validate(merged: dict[str, Any], sources: Sources) -> tuple[Acceptance | Non
 
 
 def check_weights(acc: Acceptance, elements: list[ElementDef], sources: Sources) -> list[Problem]:
-    """Weights name elements and items of the tree; no group re-normalised is weighted all 0."""
-    known = {e.id for e in elements} | {i.id for e in elements for i in e.items}
-    out = [
-        _at(sources, ("weights", group, k), f"'{k}' is no element or item (known: {sorted(known)})")
-        for group in ("elements", "items")
-        for k in getattr(acc.weights, group)
-        if k not in known
-    ]
+    """Weights name elements under `elements` and items under `items`; no group re-normalised
+    is weighted all 0. An element's id under items (or an item's under elements) would be read
+    by nothing: refused, saying where it belongs."""
+    ids = {"elements": [e.id for e in elements], "items": [i.id for e in elements for i in e.items]}
+    other = {"elements": "items", "items": "elements"}
+    out = []
+    for group, known in ids.items():
+        for k in getattr(acc.weights, group):
+            if k in known:
+                continue
+            if k in ids[other[group]]:
+                where = f" (it is one of the {other[group]})"
+            else:
+                where = did_you_mean(k, known)
+            message = f"'{k}' is no {group[:-1]}{where}; the {group}: {', '.join(known)}"
+            out.append(_at(sources, ("weights", group, k), message))
     groups = [("elements", "the quality elements", [e.id for e in elements])]
     groups += [("items", f"the items of element {e.id}", [i.id for i in e.items]) for e in elements]
     for group, what, ids in groups:
