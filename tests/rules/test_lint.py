@@ -61,6 +61,18 @@ def test_thresholds_keyed_by_two_group_columns_are_refused(tmp_path: Path) -> No
     ) in "\n".join(_messages(pack))
 
 
+def test_a_threshold_override_replaces_the_inherited_per_group_thresholds(tmp_path: Path) -> None:
+    """README: overrides replace a threshold whole. RO-3 has thresholds per component; one
+    threshold given over it was refused as "give either threshold or thresholds, not both"."""
+    pack = _pack(tmp_path, "overrides:\n  RO-3: {threshold: {max: 20}}\n")
+    assert _messages(pack) == []
+    rule = load_pack(pack).rule("RO-3")
+    assert rule.threshold.max == 20 and not rule.thresholds
+    again = "overrides:\n  RO-3: {thresholds: {plane: {max: 30}, height: {max: 9}}}\n"
+    back = _pack(tmp_path, again, "back", "project.yaml")  # over the one threshold, by group
+    assert load_pack(back).rule("RO-3").thresholds["plane"].max == 30
+
+
 def test_unknown_disable_does_not_stop_the_lint(tmp_path: Path) -> None:
     pack = _pack(tmp_path, "disable: [XX-1]\noverrides:\n  TP-1: {statistic: medain}\n")
     msgs = _messages(pack)

@@ -85,8 +85,13 @@ def _deep_merge(base: dict[str, Any], extra: dict[str, Any]) -> dict[str, Any]:
 
 
 def _merge_rule(base: dict[str, Any], override: dict[str, Any]) -> dict[str, Any]:
-    """Params merge key by key; every other field (threshold included) is replaced whole."""
+    """Params merge key by key; every other field (threshold included) is replaced whole. The
+    bound is one field given two ways: `threshold:` replaces inherited `thresholds:` (one per
+    group) and the other way round."""
     out = copy.deepcopy(base)
+    for one, other in (("threshold", "thresholds"), ("thresholds", "threshold")):
+        if one in override and other not in override:
+            out.pop(other, None)
     for k, v in override.items():
         if k == "params" and isinstance(v, dict):
             out[k] = _deep_merge(out.get(k, {}), v)
