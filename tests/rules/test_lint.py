@@ -213,8 +213,8 @@ def test_a_true_false_statistic_is_compared_with_true_or_false(tmp_path: Path) -
         "with equals: true or equals: false",
         f"{pack}, line 7: rule MB-3: threshold: statistic projection_ok is true/false: compare "
         "it with equals: true or equals: false",
-        f"{pack}, line 9: rule DOC-1: threshold: statistic ok is true/false: compare it with "
-        "equals: true or equals: false",
+        f"{pack}, line 9: rule DOC-1: threshold.in: true (YAML reads yes/no so): for true/false "
+        "write equals: true or equals: false; a text, in quotes",
     ]
 
 
@@ -546,3 +546,31 @@ def test_blank_titles_and_case_names_are_refused(tmp_path: Path) -> None:
     assert _messages(pack) == [
         f"{cases / 'PR-1.yaml'}, line 3: cases.0.name: expected a text, got a blank one"
     ]
+
+
+@pytest.mark.parametrize(
+    ("threshold", "words"),
+    [
+        ("{in: [.nan]}", "threshold.in: nan matches nothing"),  # every block failed CP-1
+        ("{in: [no]}", "threshold.in: false (YAML reads yes/no so)"),  # it was read as 0.0
+        ("{equals: 3, inclusive: false}", "inclusive applies to min and max only"),  # ignored
+    ],
+)
+def test_threshold_values_that_would_mean_something_else_are_refused(
+    tmp_path: Path, threshold: str, words: str
+) -> None:
+    pack = _pack(tmp_path, f"overrides:\n  CP-1: {{threshold: {threshold}}}\n")
+    msgs = _messages(pack)
+    assert (
+        len(msgs) == 1 and msgs[0].startswith(f"{pack}, line 4: rule CP-1: ") and words in msgs[0]
+    )
+
+
+def test_two_grades_from_the_same_score_are_refused(tmp_path: Path) -> None:
+    grades = "".join(
+        f"    - {{id: {g}, min: {m}, title: {g}}}\n"
+        for g, m in (("excellent", 90), ("good", 90), ("pass", 60))
+    )
+    pack = _pack(tmp_path, f"acceptance:\n  grades:\n{grades}")
+    (msg,) = _messages(pack)
+    assert "each lowest score below the one before" in msg

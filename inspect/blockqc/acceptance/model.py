@@ -183,8 +183,11 @@ class Acceptance(_M):
     @model_validator(mode="after")
     def _grades(self) -> Acceptance:
         mins = [g.min for g in self.grades]
-        if mins != sorted(mins, reverse=True):
-            raise ValueError("grades: list them best first, lowest scores descending")
+        if any(a <= b for a, b in zip(mins, mins[1:], strict=False)):
+            raise ValueError(
+                "grades: list them best first, each lowest score below the one before (of two "
+                "grades from the same score the second would never be given)"
+            )
         listed = [g.id for g in self.grades]
         twice = sorted({i for i in listed if listed.count(i) > 1})
         if twice:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Annotated, Any, Literal
 
@@ -91,12 +92,29 @@ class Threshold(BaseModel):
     equals: bool | str | float | None = None
     in_: list[str | float] | None = Field(default=None, alias="in")
 
+    @field_validator("in_", mode="before")
+    @classmethod
+    def _listed(cls, value: Any) -> Any:
+        """Values of `in:` are numbers or texts: YAML's yes/no is no value (it was read as
+        0.0), a NaN matches nothing."""
+        for v in value if isinstance(value, list) else []:
+            if isinstance(v, bool):
+                raise ValueError(
+                    f"{str(v).lower()} (YAML reads yes/no so): for true/false write equals: "
+                    "true or equals: false; a text, in quotes"
+                )
+            if isinstance(v, float) and not math.isfinite(v):
+                raise ValueError(f"{v} matches nothing: expected finite numbers or texts")
+        return value
+
     @model_validator(mode="after")
     def _one_kind(self) -> Threshold:
         bounds = self.min is not None or self.max is not None
         kinds = sum([bounds, self.equals is not None, self.in_ is not None])
         if kinds != 1:
             raise ValueError("give exactly one of: min and/or max; equals; in")
+        if "inclusive" in self.model_fields_set and not bounds:
+            raise ValueError("inclusive applies to min and max only (equals and in match exactly)")
         return self
 
     def describe(self, lo: float | str | None = None, hi: float | str | None = None) -> str:
