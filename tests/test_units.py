@@ -232,3 +232,23 @@ def test_a_filter_of_text_on_a_true_false_or_number_column_is_refused() -> None:
     assert _filter(df, {"gross": False})["n"].tolist() == [2.0]
     assert _filter(df, {"gross": 0})["n"].tolist() == [2.0]  # as pandas compares
     assert _filter(df, {"component": "plane", "n": 1})["n"].tolist() == [1.0]
+
+
+def test_yaml_merge_keys_are_overridden_by_keys_of_their_own(tmp_path) -> None:
+    """`<<: *base` then `id: PR-2` (standard YAML) was refused as a duplicate key 'id'; a key
+    written twice in one mapping still is."""
+    from blockqc.errors import InputError
+    from blockqc.yamlio import load_yaml
+
+    path = tmp_path / "merge.yaml"
+    path.write_text(
+        "rules:\n  - &base {id: PR-1, unit: points, threshold: {min: 280}}\n"
+        "  - <<: *base\n    id: PR-2\n    threshold: {min: 250}\n",
+        encoding="utf-8",
+    )
+    first, second = load_yaml(path)["rules"]
+    assert second == {"id": "PR-2", "unit": "points", "threshold": {"min": 250}}
+    assert first["id"] == "PR-1" and second.key_lines["id"] == 4
+    path.write_text("a: 1\nb: 2\na: 3\n", encoding="utf-8")
+    with pytest.raises(InputError, match="duplicate key 'a' \\(first on line 1\\)"):
+        load_yaml(path)

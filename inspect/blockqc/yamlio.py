@@ -52,11 +52,16 @@ class _Loader(_BaseLoader):  # type: ignore[misc, valid-type]
 
 
 def _mapping(loader: _Loader, node: yaml.MappingNode) -> LineDict:
-    loader.flatten_mapping(node)
+    """A mapping; a key written twice is refused, but a key of its own overrides one merged
+    in (`<<: *base` then `id: PR-2`), as YAML's merge keys have it."""
+    explicit = sum(k.tag != "tag:yaml.org,2002:merge" for k, _ in node.value)
+    loader.flatten_mapping(node)  # the merged pairs first, then the mapping's own
+    merged = len(node.value) - explicit
     out = LineDict()
     out.line = node.start_mark.line + 1
     out.key_lines = {}
-    for key_node, value_node in node.value:
+    own: set[Any] = set()
+    for i, (key_node, value_node) in enumerate(node.value):
         key = loader.construct_object(key_node, deep=True)
         if not isinstance(key, (str, int, float, bool)) and key is not None:
             raise yaml.constructor.ConstructorError(
@@ -65,13 +70,14 @@ def _mapping(loader: _Loader, node: yaml.MappingNode) -> LineDict:
                 f"a mapping key must be a plain value (text or a number), got {yaml_kind(key)}",
                 key_node.start_mark,
             )
-        if key in out:
+        if i >= merged and key in own:
             raise yaml.constructor.ConstructorError(
                 None,
                 None,
                 f"duplicate key '{key}' (first on line {out.key_lines[key]})",
                 key_node.start_mark,
             )
+        own |= {key} if i >= merged else set()
         out[key] = loader.construct_object(value_node, deep=True)
         out.key_lines[key] = key_node.start_mark.line + 1
     return out
