@@ -267,7 +267,7 @@ def inspect_cmd(
         click.echo(f"warning: {d}: named more than once, inspected once", err=True)
     figures = reported_figure_names(pack)
     for manifest in got.manifests.values():
-        for w in manifest.unknown_keys + unread_figures(manifest, figures):
+        for w in manifest.unknown_keys + _unread_figures(manifest, figures):
             click.echo(f"warning: {w}", err=True)
     if inspector is not None:
         ids, unread = block_ids(got.deliveries, got.manifests)
@@ -295,7 +295,7 @@ def inspect_cmd(
     return batch.exit_status(outcomes)
 
 
-def unread_figures(manifest, figures: set[str] | None) -> list[str]:
+def _unread_figures(manifest, figures: set[str] | None) -> list[str]:
     """block.yaml's reported figures that no rule of the pack recomputes (`figures`: those
     its rules do, None: no rule reads them): said, as an unknown key is."""
     from blockqc.schema import did_you_mean

@@ -244,17 +244,15 @@ def _reasons(b: Any, f: Formatter) -> list[str]:
             "element_below",
             name=f.pick(e["title"], e["title_zh"]),
             score=f.score(e["score"]),
-            below=f.num(e.get("below", 60)),
+            below=f.num(e.get("below", 60)),  # (a summary written before it was recorded)
         )
         for e in b.low_elements
     ]
     out += [reason_text(r, f) for r in b.reasons if not r.startswith(("A-class error", "element "))]
-    failed = getattr(b, "failed_rules", None)
-    out += (
-        [f.t("failed_general", rules=("、" if f.lang == "zh" else ", ").join(failed))]
-        if failed
-        else []
-    )
+    if b.failed_rules:
+        out.append(
+            f.t("rules_failed", rules=("、" if f.lang == "zh" else ", ").join(b.failed_rules))
+        )
     return out
 
 

@@ -355,7 +355,7 @@ MESSAGES.update(
         "err_fails_p": ("(fails its threshold)", "（超出限值）"),
         "a_class_error": ("A-class error", "A 类错漏"),
         "awaiting_on": ("awaiting the inspector's verdict on", "等待检查员判定："),
-        "failed_general": (
+        "rules_failed": (
             "rules failed: {rules}",
             "未通过的规则：{rules}",
         ),
