@@ -118,23 +118,31 @@ def test_the_packs_grade_names_and_element_bound_are_what_the_pages_show(tmp_pat
     assert "拒收" in html and "顶级" in html and "（低于 97 分）" in html
 
 
+def _inspect_f1(tmp_path, pack_text: str | None, status: int) -> dict:
+    """F1-B01 inspected with a pack of `pack_text` (None: the stock pack), expecting `status`;
+    its results.json."""
+    out = tmp_path / ("stock" if pack_text is None else "own")
+    args = ("--out", out, "--pdf", "none")
+    if pack_text is not None:
+        pack = tmp_path / "pack.yaml"
+        pack.write_text(pack_text, encoding="utf-8")
+        args += ("--rules", pack)
+    p = run_blockqc("inspect", SAMPLES / "batch" / "F1-B01", *args)
+    assert p.returncode == status, p.stderr
+    return json.loads((out / "F1-B01" / "results.json").read_text())
+
+
 def test_a_rule_placed_by_its_quality_element_alone_counts_in_the_grade(tmp_path) -> None:
     """A rule deciding no content, placed with `quality_element: layout`, A-class, failing on
     F1-B01 (its smallest PAN scene holds 271 points < 280): the block fails its evaluation
     (its errors count in every item of the element); it was graded excellent, 97.44."""
-    pack = tmp_path / "by-element.yaml"
-    pack.write_text(
+    pack = (
         "pack: by-element\nversion: '1'\nextends: global-project\nrules:\n"
         "  - {id: PR-1, title: t, clause: §TP-4, metric: tie_point_distribution,\n"
         "     params: {bands: [pan]}, scope: scene, statistic: n_points,\n"
-        "     threshold: {min: 280}, unit: points, error_class: A, quality_element: layout}\n",
-        encoding="utf-8",
+        "     threshold: {min: 280}, unit: points, error_class: A, quality_element: layout}\n"
     )
-    out = tmp_path / "out"
-    p = run_blockqc("inspect", SAMPLES / "batch" / "F1-B01", "--rules", pack, "--out", out,
-                    "--pdf", "none")  # fmt: skip
-    assert p.returncode == 1, p.stderr
-    ev = json.loads((out / "F1-B01" / "results.json").read_text())["evaluation"]
+    ev = _inspect_f1(tmp_path, pack, 1)["evaluation"]
     assert ev["fails"] and ev["grade"] == "fail" and ev["counts"]["A"] == 1
     layout = next(e for e in ev["elements"] if e["id"] == "layout")
     assert layout["score"] == 0
@@ -145,14 +153,8 @@ def test_an_accuracy_rule_given_a_range_keeps_its_upper_bound_as_norm(tmp_path) 
     accuracy scores and block score (97.44 on F1-B01); the range dropped them (98.13)."""
 
     def score(*pack_text: str) -> tuple[float, list]:
-        out = tmp_path / f"out{len(pack_text)}"
-        args = ("--out", out, "--pdf", "none")
-        if pack_text:
-            pack = tmp_path / "range.yaml"
-            pack.write_text("\n".join(pack_text) + "\n", encoding="utf-8")
-            args += ("--rules", pack)
-        assert run_blockqc("inspect", SAMPLES / "batch" / "F1-B01", *args).returncode == 0
-        ev = json.loads((out / "F1-B01" / "results.json").read_text())["evaluation"]
+        text = "\n".join(pack_text) + "\n" if pack_text else None
+        ev = _inspect_f1(tmp_path, text, 0)["evaluation"]
         acc = [a for e in ev["elements"] for i in e["items"] for a in i["accuracy"]]
         return ev["score"], sorted((a["rule"], a["norm"], a["score"]) for a in acc)
 
@@ -169,17 +171,11 @@ def test_an_accuracy_rule_given_a_range_keeps_its_upper_bound_as_norm(tmp_path) 
 def test_an_accuracy_norm_may_name_the_deliverys_gsd(tmp_path) -> None:
     """RO-1 scored against norm gsd.ms (2.6 m on F1-B01), as thresholds may name it: the
     score is 60 + 40·(2.6 − m)/(0.7·2.6) by hand; every delivery was reported unreadable."""
-    pack = tmp_path / "gsd-norm.yaml"
-    pack.write_text(
+    pack = (
         "pack: gsd-norm\nversion: '1'\nextends: global-project\noverrides:\n"
-        "  RO-1: {score: {kind: accuracy, norm: gsd.ms}}\n",
-        encoding="utf-8",
+        "  RO-1: {score: {kind: accuracy, norm: gsd.ms}}\n"
     )
-    out = tmp_path / "out"
-    p = run_blockqc("inspect", SAMPLES / "batch" / "F1-B01", "--rules", pack, "--out", out,
-                    "--pdf", "none")  # fmt: skip
-    assert p.returncode == 0, p.stderr
-    doc = json.loads((out / "F1-B01" / "results.json").read_text())
+    doc = _inspect_f1(tmp_path, pack, 0)
     (ro1,) = [r for r in doc["results"] if r["rule"] == "RO-1"]
     acc = [a for e in doc["evaluation"]["elements"] for i in e["items"] for a in i["accuracy"]]
     (rec,) = [a for a in acc if a["rule"] == "RO-1"]

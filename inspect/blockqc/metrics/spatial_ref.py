@@ -53,9 +53,7 @@ def normalize_height_datum(text: str | None) -> str | None:
 def utm_zone(lon: float) -> int:
     """UTM zone number of a longitude (1..60; 180° is zone 60's east edge, a longitude beyond
     ±180° is taken round the globe); the Norway/Svalbard exceptions are not applied."""
-    if not -180.0 <= lon <= 180.0:
-        lon = (lon + 180.0) % 360.0 - 180.0
-    return int(min(60, math.floor((lon + 180.0) / 6.0) + 1))
+    return int(min(60, math.floor((wrap_lon(lon) + 180.0) / 6.0) + 1))
 
 
 def lon_extent(lon: np.ndarray) -> tuple[float, float]:
