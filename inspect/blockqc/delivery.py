@@ -1006,7 +1006,7 @@ PIXEL_SLACK = 0.5
 
 
 def _consistency_masks(
-    tables: dict[str, pd.DataFrame],
+    tables: dict[str, pd.DataFrame], scenes_file: str = "scenes.csv"
 ) -> list[tuple[str, str | None, np.ndarray, str]]:
     """Rows whose cells contradict each other, per table: (table, column, mask, message)."""
     out = []
@@ -1035,7 +1035,7 @@ def _consistency_masks(
             limit = size[extent].to_numpy(dtype=float, na_value=np.nan)
             top = np.append(limit, np.nan)[lookup]  # position −1, no scene: reported apart
             outside = _outside(v, codes, -PIXEL_SLACK, top + PIXEL_SLACK)
-            msg = f"{col} lies outside its scene (0 to the scene's {extent} in scenes.csv)"
+            msg = f"{col} lies outside its scene (0 to the scene's {extent} in {scenes_file})"
             out.append(("tie_points", col, outside, msg))
     pm = tables.get("pan_ms")
     if pm is not None and sc is not None:
@@ -1043,7 +1043,7 @@ def _consistency_masks(
         for col, want in (("pan_scene_id", "pan"), ("ms_scene_id", "ms")):
             got = pm[col].astype(object).map(band)
             wrong = (got.notna() & (got != want)).to_numpy(dtype=bool)
-            msg = f"{col} names a scene whose band in scenes.csv is not {want}"
+            msg = f"{col} names a scene whose band in {scenes_file} is not {want}"
             out.append(("pan_ms", col, wrong, msg))
     ov = tables.get("overlaps")
     if ov is not None and {"scene_a", "scene_b"} <= set(ov.columns):
@@ -1086,13 +1086,11 @@ def _outside(v: np.ndarray, at: np.ndarray, low: float, high: np.ndarray) -> np.
 def _check_consistency(tables: dict[str, pd.DataFrame], files: dict[str, Path]) -> list[Problem]:
     """Cells of one row that contradict each other (else their rows would be dropped unsaid)."""
     problems: list[Problem] = []
-    for name, column, mask, message in _consistency_masks(tables):
+    scenes_file = files["scenes"].name if "scenes" in files else "scenes.csv"
+    for name, column, mask, message in _consistency_masks(tables, scenes_file):
         f = files[name]
         shown = ("line", "sample", "pan_scene_id", "ms_scene_id")
         values = tables[name][column] if column in shown else None
-        message = (
-            message.replace("scenes.csv", files["scenes"].name) if "scenes" in files else message
-        )
         report_rows(problems, str(f), column, mask, message, values, f.suffix == ".csv")
     return problems
 
