@@ -83,6 +83,23 @@ def test_no_pdf_leaves_no_pdf_of_an_earlier_run_behind(tmp_path, results_doc):
     assert not (out / "acceptance.html").exists()  # the summary has no acceptance section
 
 
+def test_summary_links_the_pdfs_the_rerendering_leaves(tmp_path, results_doc):
+    """A batch inspected with PDFs, re-rendered without: its summary linked the PDFs just
+    removed. The summary.json and page written say which blocks have a PDF now."""
+    batch = tmp_path / "batch"
+    (batch / "T-B01").mkdir(parents=True)
+    (batch / "T-B01" / "results.json").write_text(json.dumps(results_doc), encoding="utf-8")
+    summary = make_summary([summary_entry("T-B01", "fail", sampled=True, pdf=True)])
+    (batch / "summary.json").write_text(json.dumps(summary), encoding="utf-8")
+    out = tmp_path / "o"
+    assert run("report", str(batch), "--out", str(out), "--no-pdf") == 0
+    assert not (out / "T-B01" / "report.pdf").exists()
+    written = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+    assert [b["pdf"] for b in written["blocks"]] == [False]
+    assert "report.pdf" not in (out / "summary.html").read_text(encoding="utf-8")
+    assert json.loads((batch / "summary.json").read_text(encoding="utf-8")) == summary
+
+
 @pytest.mark.parametrize(
     "content, expected",
     [

@@ -386,7 +386,7 @@ def _render(
     pdf_engine: str,
 ) -> list[Path]:
     """Each block's report, and the batch summary's pages; the files written."""
-    from blockqc.outputs import BATCH_OUTPUTS, safe_child, write_bytes_atomic
+    from blockqc.outputs import BATCH_OUTPUTS, safe_child, write_bytes_atomic, write_json_atomic
     from blockqc.report import write_block_report, write_summary_report
 
     written: list[Path] = []
@@ -402,7 +402,11 @@ def _render(
         click.echo(f"{doc.block_id:12} {doc.verdict.upper():5}  {folder}")
     if summary is not None:
         path, doc, raw = summary
-        if (out / "summary.json").resolve() != path.resolve():
+        doc = _with_pdfs(doc, pdf)
+        if doc is not summary[1]:  # its PDF links say what is now beside each report
+            write_json_atomic(out / "summary.json", doc)
+            written.append(out / "summary.json")
+        elif (out / "summary.json").resolve() != path.resolve():
             write_bytes_atomic(out / "summary.json", raw)
         written += write_summary_report(
             out, doc, lang=lang, templates=templates, pdf=pdf, pdf_engine=pdf_engine
@@ -412,6 +416,16 @@ def _render(
                 (out / name).unlink(missing_ok=True)
         click.echo(f"summary      {out / 'summary.html'}")
     return written
+
+
+def _with_pdfs(summary: Summary, pdf: bool) -> Summary:
+    """The summary with each block's PDF flag as the re-rendering left it (every summary's
+    block is rendered: each has its report.pdf with --pdf, none with --no-pdf); the summary
+    itself when no flag changes."""
+    if all(b.pdf == pdf for b in summary.blocks):
+        return summary
+    blocks = [b.model_copy(update={"pdf": pdf}) for b in summary.blocks]
+    return summary.model_copy(update={"blocks": blocks})
 
 
 __all__ = ["command", "gather"]
