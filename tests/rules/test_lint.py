@@ -7,7 +7,6 @@ from pathlib import Path
 import pytest
 
 from blockqc.errors import RuleError
-from blockqc.resources import rules_dir
 from blockqc.rules import load_pack
 from casekit import extension_pack as _pack
 from casekit import lint_messages as _messages
@@ -391,14 +390,46 @@ def test_a_list_constant_as_a_bound_is_refused(tmp_path: Path) -> None:
         "constants:\n  tp: {error_px: [0.5, 0.7]}\n"
         "overrides:\n  CP-2:\n    score: {kind: accuracy, norm: tp.share_interval_px}\n",
     )
-    stock = rules_dir() / "global-project.yaml"
-    tp1 = _line_of(stock, "    threshold: {max: tp.error_px}")
     assert _messages(pack) == [
-        f"{stock}, line {tp1}: rule TP-1: threshold.max: tp.error_px is a list of numbers "
-        "(0.5, 0.7): expected one number",
+        f"{pack}, line 4: constants.tp.error_px: a list of numbers [0.5, 0.7], where the pack "
+        "it extends gives one number (0.5): give the same shape",
         f"{pack}, line 7: rule CP-2: score.norm: tp.share_interval_px is a list of numbers "
         "(1, 1.5): expected one number",
     ]
+    with pytest.raises(RuleError):
+        load_pack(pack)
+
+
+@pytest.mark.parametrize(
+    ("constants", "line", "message"),
+    [
+        (
+            "  norm: 5\n",
+            4,
+            "constants.norm: one number (5), where the pack it extends gives a group of "
+            "constants (norm.plane_m, norm.height_m)",
+        ),
+        (
+            "  tp:\n    share_interval_px: 1.2\n",
+            5,
+            "constants.tp.share_interval_px: one number (1.2), where the pack it extends gives "
+            "a list of numbers [1.0, 1.5]",
+        ),
+        (
+            "  rc:\n    residual_tolerance_px: {pan: 0.1}\n",
+            5,
+            "constants.rc.residual_tolerance_px: a group of constants "
+            "(rc.residual_tolerance_px.pan), where the pack it extends gives one number (0.1)",
+        ),
+    ],
+)
+def test_a_constant_given_another_shape_is_refused_once_at_the_users_line(
+    tmp_path: Path, constants: str, line: int, message: str
+) -> None:
+    """The stock rules read a stock constant in its own shape: a project pack giving the norms
+    as one number was refused with 27 problems, each at a line of the stock pack."""
+    pack = _pack(tmp_path, "constants:\n" + constants)
+    assert _messages(pack) == [f"{pack}, line {line}: {message}: give the same shape"]
     with pytest.raises(RuleError):
         load_pack(pack)
 

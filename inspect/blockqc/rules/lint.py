@@ -112,20 +112,68 @@ def without_reserved(consts: Mapping[str, Any], reserved: Mapping[str, Any]) -> 
 
 
 def stand_in_invalid(consts: Mapping[str, Any], inherited: Mapping[str, Any]) -> dict[str, Any]:
-    """The constants with each invalid value replaced by the inherited one (or 1.0), so that an
-    invalid constant is reported once, where it is written, and not again at every use."""
+    """The constants with each invalid value replaced by the inherited one (or 1.0), and each
+    one given another shape than it inherits replaced by the inherited one, so that such a
+    constant is reported once, where it is written, and not again at every use."""
     out: dict[str, Any] = {}
     for key, value in consts.items():
         before = inherited.get(key) if isinstance(inherited, Mapping) else None
-        if isinstance(value, Mapping):
+        if before is not None and _valid(value) and _shape(value) != _shape(before):
+            out[key] = before
+        elif isinstance(value, Mapping):
             out[key] = stand_in_invalid(value, before if isinstance(before, Mapping) else {})
-        elif _is_number(value) or (
-            isinstance(value, list) and value and all(_is_number(v) for v in value)
-        ):
+        elif _valid(value):
             out[key] = value
         else:
             out[key] = before if before is not None and not isinstance(before, Mapping) else 1.0
     return out
+
+
+def reshaped_constants(
+    consts: Mapping[str, Any], inherited: Mapping[str, Any], data: Any, path: Path
+) -> list[Problem]:
+    """Constants given another shape than the one they inherit (a group of constants, a list of
+    numbers, one number), each at its own line: the inherited rules read them in that shape."""
+    out: list[Problem] = []
+
+    def walk(node: Mapping[str, Any], before: Mapping[str, Any], loc: tuple[str, ...]) -> None:
+        for key, value in node.items():
+            if key not in before or not _valid(value):
+                continue
+            here, old = (*loc, key), before[key]
+            if isinstance(value, Mapping) and isinstance(old, Mapping):
+                walk(value, old, here)
+            elif _shape(value) != _shape(old):
+                where = ".".join(here)
+                message = (
+                    f"constants.{where}: {_described(value, where)}, where the pack it extends "
+                    f"gives {_described(old, where)}: give the same shape"
+                )
+                out.append(Problem(str(path), message, line=line_of(data, ("constants", *here))))
+
+    walk(consts, inherited, ())
+    return out
+
+
+def _valid(value: Any) -> bool:
+    """A group of constants, a number or a non-empty list of numbers (each checked apart)."""
+    if isinstance(value, Mapping):
+        return True
+    return _is_number(value) or (
+        isinstance(value, list) and bool(value) and all(_is_number(v) for v in value)
+    )
+
+
+def _shape(value: Any) -> str:
+    return "group" if isinstance(value, Mapping) else "list" if isinstance(value, list) else "one"
+
+
+def _described(value: Any, where: str) -> str:
+    if isinstance(value, Mapping):
+        return f"a group of constants ({', '.join(flatten(value, where + '.'))})"
+    if isinstance(value, list):
+        return f"a list of numbers {value}"
+    return f"one number ({value})"
 
 
 def _valid_name(key: str) -> bool:
@@ -135,11 +183,13 @@ def _valid_name(key: str) -> bool:
 def new_constant_sites(
     consts: Mapping[str, Any], inherited: Mapping[str, Any], data: Any, path: Path
 ) -> list[ConstantSite]:
-    """The constants a file adds to those it inherits, with their lines."""
+    """The constants a file adds to those it inherits, with their lines (not those under an
+    inherited number or list made a group: `reshaped_constants` reports them)."""
     known = flatten(inherited)
     sites = []
     for name in flatten(consts):
-        if name not in known:
+        parts = name.split(".")
+        if not any(".".join(parts[:i]) in known for i in range(1, len(parts) + 1)):
             line = line_of(data, ("constants", *name.split(".")))
             sites.append(ConstantSite(name, str(path), line, tuple(known)))
     return sites

@@ -23,6 +23,7 @@ from blockqc.rules.lint import (
     check_rule,
     did_you_mean,
     new_constant_sites,
+    reshaped_constants,
     stand_in_invalid,
     unused_constants,
     without_reserved,
@@ -153,6 +154,7 @@ def _load_raw(path: Path, seen: tuple[Path, ...]) -> _Loaded:
     # aside: the delivery's value is the one expressions read
     consts = without_reserved(pf.constants, DELIVERY_NAMES)
     sites = new_constant_sites(consts, out.constants, data, path)
+    out.problems += reshaped_constants(consts, out.constants, data, path)
     # an invalid constant is reported once, at its own line; its uses evaluate a stand-in
     out.constants = _deep_merge(out.constants, stand_in_invalid(consts, out.constants))
     out.chain.insert(0, str(path))
