@@ -200,7 +200,9 @@ def load_geometry(
             )
         )
     if adj_dir.exists():
-        _refined(geometry, _read_models(adj_dir, needed, scene_ids, problems), needed)
+        refined = _read_models(adj_dir, needed, scene_ids, problems)
+        problems.extend(domain_problems(scenes, refined, files["scenes"].name))
+        _refined(geometry, refined, needed)
         geometry.source = f"{ADJUSTED_DIR}/"
     elif adjustment is not None and rpc_dir.exists():
         if not {"scene_id", *AFFINE_KEYS} <= set(adjustment.columns):

@@ -9,13 +9,13 @@ discrepancies. `prepare` runs once per delivery, before any metric.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from blockqc.adjust.geometry import RPCStack, intersect, intersect_at_height
+from blockqc.adjust.geometry import Intersection, RPCStack, intersect, intersect_at_height
 from blockqc.delivery import Delivery, scene_positions
 
 WGS84_A = 6378137.0
@@ -53,8 +53,8 @@ def compute(d: Delivery) -> ProcessData:
     point, point_ids = pd.factorize(tp["point_id"])
     line = tp["line"].to_numpy(dtype=float)
     sample = tp["sample"].to_numpy(dtype=float)
-    x = intersect(stack, geo.affine, scene, point, line, sample)
     n_rays = np.bincount(point, minlength=len(point_ids))
+    x, weak = _intersected(stack, geo.affine, scene, point, line, sample, n_rays)
     ok = x.converged & (n_rays >= 2)
     h = np.where(ok, x.h, np.nan)
     obs = tp[["point_id", "scene_id", "line", "sample"]].copy()
@@ -77,6 +77,7 @@ def compute(d: Delivery) -> ProcessData:
         "n_points": int(len(point_ids)),
         "n_points_single_ray": int((n_rays < 2).sum()),
         "n_points_not_intersected": int(((n_rays >= 2) & ~ok).sum()),
+        "n_points_height_undetermined": int((weak & ok).sum()),
         "iterations": int(x.iterations),
     }
     overlaps = None
@@ -84,6 +85,46 @@ def compute(d: Delivery) -> ProcessData:
         lon_a, lat_a, _ = intersect_at_height(stack, geo.affine, scene, line, sample, h[point])
         overlaps = derive_overlaps(obs, scene, lon_a, lat_a, h[point])
     return ProcessData(obs, points, overlaps, notes)
+
+
+#: σ of the height prior given to the points whose rays alone fix no height (parallel rays: PAN
+#: and MS of one pass): weak enough to leave any height the rays measure to them
+WEAK_HEIGHT_SIGMA_M = 1e4
+
+
+def _intersected(
+    stack: RPCStack,
+    affine: np.ndarray,
+    scene: np.ndarray,
+    point: np.ndarray,
+    line: np.ndarray,
+    sample: np.ndarray,
+    n_rays: np.ndarray,
+) -> tuple[Intersection, np.ndarray]:
+    """Each point intersected from its rays; the points of ≥ 2 rays that fix no height (rays
+    parallel within round-off, as the PAN and MS images of one pass see a point) intersected
+    again with a weak prior at their scenes' mean HEIGHT_OFF: their residuals hardly depend on
+    the height. The intersection, and which points took the prior."""
+    x = intersect(stack, affine, scene, point, line, sample)
+    weak = (n_rays >= 2) & ~x.converged
+    if not weak.any():
+        return x, weak
+    rows = weak[point]
+    again, sub = np.unique(point[rows], return_inverse=True)
+    h0 = np.bincount(sub, stack.offsets[scene[rows], 4]) / np.bincount(sub)
+    y = intersect(
+        stack, affine, scene[rows], sub, line[rows], sample[rows], (h0, WEAK_HEIGHT_SIGMA_M)
+    )
+    fields = {}
+    for name, at, new in (("lon", again, y.lon), ("lat", again, y.lat), ("h", again, y.h)):
+        fields[name] = getattr(x, name).copy()
+        fields[name][at] = new
+    for name in ("v_line", "v_sample"):
+        fields[name] = getattr(x, name).copy()
+        fields[name][rows] = getattr(y, name)
+    converged = x.converged.copy()
+    converged[again] = y.converged
+    return replace(x, converged=converged, **fields), weak
 
 
 def derive_overlaps(
@@ -130,18 +171,17 @@ def radii(lat_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _with_computed_residuals(d: Delivery, obs: pd.DataFrame, notes: dict[str, Any]) -> None:
-    """The residuals blockqc computed stand in for the delivery's, where they measure something:
-    observations of points whose rays do not intersect (parallel, no convergence) have none, and
-    those of points seen on one scene only a zero by construction (the point lies on its ray).
-    Both are left out of the tie-point rules, and the notes count them
-    (`observations_without_residual`, `observations_single_ray`)."""
+    """The residuals blockqc computed stand in for the delivery's. Observations of points seen
+    on one scene only have a zero by construction (the point lies on its ray): they are left out
+    of the tie-point rules. Those of points whose rays do not intersect (no convergence) have
+    none (NaN): the rules judging residuals are in error with them, the others count them. The
+    notes count both (`observations_single_ray`, `observations_without_residual`)."""
     v_l, v_s = obs["v_line_computed"].to_numpy(), obs["v_sample_computed"].to_numpy()
     tp = d.tie_points.assign(v_line=v_l, v_sample=v_s)
     computed = np.isfinite(v_l) & np.isfinite(v_s)
     single = obs["n_rays"].to_numpy() < 2
-    measured = computed & ~single
-    if not measured.all():
-        tp = tp[measured].reset_index(drop=True)
+    if single.any():
+        tp = tp[~single].reset_index(drop=True)
     if not computed.all():
         notes["observations_without_residual"] = int((~computed).sum())
     if single.any():

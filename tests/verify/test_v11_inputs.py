@@ -72,6 +72,29 @@ def test_rpc_for_unknown_scene_and_no_residuals_without_adjustment(tmp_path, tie
     assert any("missing column 'v_line'" in m and "rpc_adjusted" in m for m in msgs)
 
 
+def test_refined_rpc_of_another_place_is_refused(tmp_path, tie_points) -> None:
+    """rpc_adjusted/R with its latitude and longitude offsets swapped (lon ~44°, lat ~5°): its
+    ground domain was checked for rpc/ only, so every point was left not intersected and,
+    without delivered residuals, the tie-point rules judged none of them."""
+    import dataclasses
+
+    from geokit import FILES
+
+    from blockqc.adjust.synthetic import rpc_json
+    from blockqc.rfm.readers import read_rpc
+
+    folder = write_v11(tmp_path / "d", tie_points, adjustment=False)
+    (folder / "rpc_adjusted").mkdir()
+    for sid, f in FILES.items():
+        rpc = read_rpc(f)
+        if sid == "R":
+            rpc = dataclasses.replace(rpc, lat_off=rpc.lon_off, lon_off=rpc.lat_off)
+        (folder / "rpc_adjusted" / f"{sid}.json").write_text(rpc_json(rpc))
+    (msg,) = _problems(folder)
+    assert msg.startswith(f"{folder / 'rpc_adjusted' / 'R.json'}: the RPC's ground domain")
+    assert "does not overlap the footprint_wkt of scene 'R' in scenes.csv" in msg
+
+
 def test_bad_geometry_exits_2(tmp_path, tie_points, blockqc) -> None:
     folder = write_v11(tmp_path / "d", tie_points)
     (folder / "rpc" / "L.geom").unlink()

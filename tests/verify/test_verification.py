@@ -4,12 +4,20 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import shutil
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
-from geokit import adjusted_models, ground_points, observe, reference_residuals, write_v11
+from geokit import (
+    KEYS,
+    adjusted_models,
+    ground_points,
+    observe,
+    reference_residuals,
+    write_v11,
+)
 from pyproj import Geod
 
 from blockqc.delivery import load_delivery
@@ -124,6 +132,69 @@ def test_rays_the_geometry_cannot_intersect_fail_rc1(tmp_path) -> None:
     assert all(e["intersected"] is False and e["difference_px"] is None for e in first)
 
 
+def test_without_residuals_rays_that_do_not_intersect_put_the_residual_rules_in_error(
+    tmp_path,
+) -> None:
+    """The same broken adjustment, no residuals delivered: the observations of the points not
+    intersected have no residual. TP-1..3 were judged on the others as if complete (and with
+    every point lost, the block could pass with TP-4/TP-5 waived); they are now in error,
+    naming the count, while TP-4 counts every delivered observation."""
+    from geokit import FILES
+
+    from blockqc.adjust.synthetic import SyntheticConfig, synthetic_block
+    from blockqc.rfm.readers import read_rpc
+
+    models = [read_rpc(f) for f in FILES.values()]
+    cfg = SyntheticConfig(scenes=4, observations_per_scene=300, checkpoints=25, seed=21)
+    _, folder = synthetic_block(models, cfg, tmp_path)
+    tie_points = pd.read_csv(folder / "tie_points.csv").drop(columns=["v_line", "v_sample"])
+    tie_points.to_csv(folder / "tie_points.csv", index=False)
+    adjustment = pd.read_csv(folder / "adjustment.csv")
+    adjustment.loc[1, "a0"] = 1e6
+    adjustment.to_csv(folder / "adjustment.csv", index=False)
+    doc = _results(folder)
+    lost = doc["process_data"]["n_points_not_intersected"]
+    assert lost > 0
+    for rule in ("TP-1", "TP-2", "TP-3"):
+        (res,) = _rule(doc, rule)
+        assert res["status"] == "error", rule
+        assert "observations have no residual" in res["detail"]["reason"]
+    counts = tie_points.groupby("point_id")["scene_id"].transform("size")
+    kept = tie_points[counts >= 2]["scene_id"].value_counts()  # single rays left out
+    assert doc["summary"]["tie_point_observations"] == len(tie_points[counts >= 2])
+    assert _rule(doc, "TP-4")[0]["value"] == kept.min()
+
+
+def test_rays_of_one_pass_are_intersected_at_a_weak_height(tmp_path, observations) -> None:
+    """Two scenes of one pass (PAN and MS: the same line of sight) see a point along parallel
+    rays, which fix no height. Their residuals are still defined: both observations project to
+    their mean, v = ±(difference)/2 by hand. RC-1 failed them as not intersected."""
+    ground, _ = observations
+    on_l = observe(ground, noise_px=0.0, seed=7).query("scene_id == 'L'")
+    rng = np.random.default_rng(5)
+    d_line, d_sample = rng.normal(0, 0.3, len(on_l)), rng.normal(0, 0.3, len(on_l))
+    on_r = on_l.assign(scene_id="R", line=on_l["line"] + d_line, sample=on_l["sample"] + d_sample)
+    ties = pd.concat(
+        [
+            on_l.assign(v_line=d_line / 2, v_sample=d_sample / 2),
+            on_r.assign(v_line=-d_line / 2, v_sample=-d_sample / 2),
+        ],
+        ignore_index=True,
+    )
+    folder = write_v11(tmp_path / "d", ties)
+    shutil.copy(folder / "rpc" / "L.geom", folder / "rpc" / "R.geom")  # one pass: one geometry
+    adjustment = pd.read_csv(folder / "adjustment.csv")
+    adjustment.loc[adjustment["scene_id"] == "R", list(KEYS)] = adjustment.loc[
+        adjustment["scene_id"] == "L", list(KEYS)
+    ].to_numpy()
+    adjustment.to_csv(folder / "adjustment.csv", index=False)
+    doc = _results(folder)
+    assert doc["process_data"]["n_points_not_intersected"] == 0
+    assert doc["process_data"]["n_points_height_undetermined"] == N_POINTS
+    rc1 = _rule(doc, "RC-1")[0]
+    assert rc1["status"] == "pass" and rc1["value"] < 1e-3, rc1
+
+
 def test_overlaps_derived_from_geometry(tmp_path, observations) -> None:
     """RO-3/RO-4 run without overlaps.csv; values checked by an independent computation."""
     ground, _ = observations
@@ -222,12 +293,31 @@ def test_observations_the_geometry_cannot_reproduce_fail_and_single_rays_are_lef
     assert unverified["not_intersected_observations"] == 2
     assert "not compared" in unverified["not_verified"]
     assert "not reproduced" in unverified["not_reproduced"]
-    # residuals to compute: point X's two observations have none, point S's one a zero that
-    # measures nothing (its one ray fixes it): both left out of the tie-point rules, counted
+    # residuals to compute: point S's one observation a zero that measures nothing (its one
+    # ray fixes it), left out of the tie-point rules; point X's two have none, kept (the rules
+    # judging residuals are in error with them, the counting ones count them); both counted
     d = SimpleNamespace(tie_points=table[["point_id"]].copy())
     notes: dict = {}
     _with_computed_residuals(d, table, notes)
-    assert d.tie_points["point_id"].tolist() == ["A", "A"]
-    assert d.tie_points["v_sample"].tolist() == [0.2, -0.2]
+    assert d.tie_points["point_id"].tolist() == ["A", "A", "X", "X"]
+    assert d.tie_points["v_sample"].tolist()[:2] == [0.2, -0.2]
+    assert d.tie_points["v_sample"].isna().tolist() == [False, False, True, True]
     assert notes["observations_without_residual"] == 2
     assert notes["observations_single_ray"] == 1
+
+
+def test_no_derived_overlap_is_said_for_what_it_is() -> None:
+    """Overlaps derived from the geometry, none found: not 'no overlaps.csv in the delivery'.
+    With points whose rays do not intersect, RO-3/RO-4 cannot be judged (an error)."""
+    from types import SimpleNamespace
+
+    from blockqc.metrics.discrepancies import overlap_discrepancy
+
+    empty = pd.DataFrame(columns=["scene_a", "scene_b", "point_id", "dx_m", "dy_m"])
+    notes = {"overlaps": DERIVED_OVERLAPS, "n_points_not_intersected": 0}
+    d = SimpleNamespace(overlaps=empty, process_data={"notes": notes})
+    reason = overlap_discrepancy(d, None, None).not_applicable
+    assert reason.startswith("no overlaps table (overlaps.csv), and no tie point seen on two")
+    notes["n_points_not_intersected"] = 7
+    with pytest.raises(ValueError, match="the rays of 7 tie points do not intersect"):
+        overlap_discrepancy(d, None, None)

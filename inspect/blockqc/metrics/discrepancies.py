@@ -15,6 +15,7 @@ from blockqc.metrics import (
     metric,
     not_applicable,
 )
+from blockqc.verification import DERIVED_OVERLAPS
 
 COMPONENTS = ("plane", "height")
 _STATS = {"n": "points", "rms_m": "m", "max_m": "m", "mean_m": "m"}
@@ -98,6 +99,18 @@ def _scopes(unit: tuple[str, ...], table: str) -> dict[str, Scope]:
 @metric("overlap_discrepancy", scopes=_scopes(("scene_a", "scene_b"), "overlaps"), tie_points=())
 def overlap_discrepancy(d: Delivery, p: NoParams, measure: Measure) -> Measurement:
     """Discrepancies between adjacent overlapping images, per point and pair (§RO-3)."""
+    notes = d.process_data.get("notes", {})
+    if notes.get("overlaps") == DERIVED_OVERLAPS and d.overlaps is not None and d.overlaps.empty:
+        if notes.get("n_points_not_intersected"):
+            raise ValueError(
+                "no adjacent-image discrepancy could be derived from the delivered geometry: "
+                f"the rays of {notes['n_points_not_intersected']} tie points do not intersect "
+                "(process_data.n_points_not_intersected)"
+            )
+        return not_applicable(
+            "no overlaps table (overlaps.csv), and no tie point seen on two scenes to derive "
+            "the adjacent-image discrepancies from"
+        )
     return _measure(d.overlaps, ["scene_a", "scene_b"], "overlaps table (overlaps.csv)")
 
 

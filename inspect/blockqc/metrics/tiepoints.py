@@ -374,6 +374,20 @@ def _fill_observations(
     return out[[c for c in OBSERVATION_COLUMNS if c in out] + ["error_px"]]
 
 
+def _all_residuals(err: np.ndarray) -> None:
+    """Refuse to judge the errors when some observations have none: blockqc computed the
+    residuals from the delivered geometry (the delivery gives none), and the rays of their
+    tie points did not intersect (delivered residuals are never missing)."""
+    missing = int(np.count_nonzero(np.isnan(err)))
+    if missing:
+        raise ValueError(
+            f"{missing} of {err.size} observations have no residual: the delivery gives none, "
+            "and the rays of their tie points do not intersect with the delivered geometry "
+            "(process_data.n_points_not_intersected); the errors of the others alone would "
+            "be judged as if complete"
+        )
+
+
 @metric(
     "tie_point_errors",
     params=ErrorParams,
@@ -397,6 +411,7 @@ def tie_point_errors(d: Delivery, p: ErrorParams, measure: Measure) -> Measureme
     """Tie-point error statistics: per observation, per scene and over the block (§TP-1..3)."""
     scenes, on = _on(d, p.bands)
     codes, err = _errors(d.tie_points, on)
+    _all_residuals(err)
     if not err.size:
         others = 0 if on is None else int(on.size)
         return not_applicable(
