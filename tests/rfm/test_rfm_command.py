@@ -178,18 +178,17 @@ def phase_correlation_matcher(
     )
 
 
-def test_pipeline_measures_a_known_reference_shift(tmp_path: Path):
-    """Reference = the image's own ortho georeferenced 3 px east and 2 px south: every CP must
-    show dx = −3 px, dy = +2 px, so RMSE = √13 px; a refined RFM removes the shift."""
+def _shifted_config(tmp_path: Path, east_px: int, south_px: int, **options) -> tuple:
+    """The image's own ortho georeferenced `east_px` east and `south_px` south as the reference:
+    the run's configuration (`options` added) and the ortho's GSD."""
     rpc = read_rpc(VENTOUX / "left_image.geom")
     dem = load_dem(VENTOUX / "srtm_N44E005_crop.tif", geoid=VENTOUX / "egm96_15_crop.gtx")
     grid = orthorectify(VENTOUX / "left_image.tif", rpc, dem, tmp_path / "own.tif")
     g = grid.gsd
     with rasterio.open(tmp_path / "own.tif") as src:
-        profile = src.profile
-        data = src.read()
+        profile, data = src.profile, src.read()
     t = grid.transform
-    profile["transform"] = rasterio.Affine(t.a, 0, t.c + 3 * g, 0, t.e, t.f - 2 * g)
+    profile["transform"] = rasterio.Affine(t.a, 0, t.c + east_px * g, 0, t.e, t.f - south_px * g)
     with rasterio.open(tmp_path / "reference.tif", "w", **profile) as dst:
         dst.write(data)
     cfg = RfmAccuracyConfig(
@@ -199,10 +198,15 @@ def test_pipeline_measures_a_known_reference_shift(tmp_path: Path):
         geoid=VENTOUX / "egm96_15_crop.gtx",
         reference=tmp_path / "reference.tif",
         out=tmp_path / "out",
-        match_grid=50,
-        refined_ortho=True,
-        repeats=3,
+        **options,
     )
+    return cfg, g
+
+
+def test_pipeline_measures_a_known_reference_shift(tmp_path: Path):
+    """Reference = the image's own ortho georeferenced 3 px east and 2 px south: every CP must
+    show dx = −3 px, dy = +2 px, so RMSE = √13 px; a refined RFM removes the shift."""
+    cfg, g = _shifted_config(tmp_path, 3, 2, match_grid=50, refined_ortho=True, repeats=3)
     results = run_rfm_accuracy(cfg, matcher=phase_correlation_matcher)
     cps = pd.read_csv(tmp_path / "out" / "cps.csv")
     assert len(cps) > 50
@@ -226,6 +230,26 @@ def test_pipeline_measures_a_known_reference_shift(tmp_path: Path):
     affine = ImageAffine(**results["refined_rfm"]["all_cps"]["affine"])
     d_line, d_sample = affine.delta(5250.0, 5250.0)
     assert d_line == pytest.approx(2.0, abs=0.3) and d_sample == pytest.approx(3.0, abs=0.3)
+
+
+def test_rmse_is_in_image_pixels_whatever_the_output_grid(tmp_path: Path):
+    """§RA-4 divides by d_s, the image's GSD: a shift of about 4 px east, 4 px south found on a
+    grid of twice the image's GSD (--gsd) is about √32 image pixels, not √8 grid pixels (a
+    coarse grid turned a failing image into a passing one)."""
+    cfg, g = _shifted_config(tmp_path, 4, 4, match_grid=25, repeats=2)
+    cfg.gsd = 2 * g
+    results = run_rfm_accuracy(cfg, matcher=phase_correlation_matcher)
+    assert results["grid"]["gsd_m"] == pytest.approx(2 * g)
+    assert results["accuracy"]["image_gsd_m"] == pytest.approx(g)
+    cps = pd.read_csv(tmp_path / "out" / "cps.csv")
+    # the shift found (whole grid pixels: the stand-in matcher rounds) is about the one made
+    assert np.hypot(cps.dx_m.median(), cps.dy_m.median()) == pytest.approx(
+        np.sqrt(32) * g, abs=2.5 * g
+    )
+    rmse_m = np.sqrt(np.mean(cps.dx_m**2 + cps.dy_m**2))
+    assert results["accuracy"]["rmse_m"] == pytest.approx(rmse_m, rel=1e-5)
+    assert results["accuracy"]["rmse_px"] == pytest.approx(rmse_m / g, rel=1e-5)
+    np.testing.assert_allclose(cps.gev_px, np.hypot(cps.dx_m, cps.dy_m) / g, rtol=1e-5)
 
 
 def _four_bands(single: Path, path: Path, colour: bool) -> None:

@@ -110,7 +110,10 @@ def _bad_nan(param: click.Parameter) -> float:
     help="Output CRS (e.g. EPSG:32631, the block's); default: UTM zone of the scene centre.",
 )
 @click.option(
-    "--gsd", type=float, help="Output GSD in metres; default: the image GSD at its centre."
+    "--gsd",
+    type=float,
+    help="Output GSD in metres; default: the image GSD at its centre (errors in pixels are "
+    "always the image's).",
 )
 @click.option(
     "--crop-offset",

@@ -320,7 +320,7 @@ def _resample(
     return out
 
 
-def _centre_gsd(
+def centre_gsd(
     model: GroundToImage,
     shape: tuple[int, int],
     crop_offset: tuple[float, float],
@@ -364,7 +364,7 @@ def orthorectify(
         bands = grey_bands(src) if band is None else (band,)
         if grid is None:
             grid = ortho_grid(model, (src.height, src.width), dem, crop_offset=crop_offset)
-        step = grid.gsd / _centre_gsd(model, (src.height, src.width), crop_offset, dem, grid)
+        step = grid.gsd / centre_gsd(model, (src.height, src.width), crop_offset, dem, grid)
         profile = {
             "driver": "GTiff",
             "dtype": "float32",

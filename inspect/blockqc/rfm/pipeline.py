@@ -26,6 +26,7 @@ from blockqc.rfm.ortho import (
     OrthoGrid,
     band_mean,
     bands_used,
+    centre_gsd,
     crop_offset_from_file,
     grey_bands,
     image_border,
@@ -269,8 +270,10 @@ def build_cp_table(
     ref_grid: OrthoGrid,
     rpc: RPCModel,
     dem: DEM,
+    image_gsd: float,
 ) -> pd.DataFrame:
-    """Matches (ortho and reference pixels) → CPs with map, geographic and image coordinates."""
+    """Matches (ortho and reference pixels) → CPs with map, geographic and image coordinates;
+    GEV in pixels of `image_gsd` (d_s, §RA-4)."""
     row = matches["row"].to_numpy(np.float64)
     col = matches["col"].to_numpy(np.float64)
     x, y = grid.xy(row, col)
@@ -307,7 +310,7 @@ def build_cp_table(
             "sample": sample,
             "dx_m": dx,
             "dy_m": dy,
-            "gev_px": accuracy.gev(dx, dy, grid.gsd),
+            "gev_px": accuracy.gev(dx, dy, image_gsd),
         }
     )
     table = table[np.isfinite(table["h_m"]) & np.isfinite(table["ref_h_m"])].reset_index(drop=True)
@@ -546,6 +549,8 @@ class _Run:
     reference: RPCModel | None = None  # the reference's RPCs, if it is orthorectified with them
     no_height: tuple[float, float] = (0.0, 0.0)
     """Shares of the image outside the DEM and on its voids."""
+    image_gsd: float = 0.0
+    """d_s of §RA-4: the image's GSD at its centre (the grid's unless --gsd gives another)."""
 
 
 def _prepare(cfg: RfmAccuracyConfig) -> _Run:
@@ -568,6 +573,9 @@ def _prepare(cfg: RfmAccuracyConfig) -> _Run:
     reference = reference_model(cfg)  # refused now, not after the image is orthorectified
     run = _Run(cfg, rpc, offset, dem, reference=reference)
     run.grid = ortho_grid(rpc, shape, dem, crop_offset=offset, crs=cfg.crs, gsd=cfg.gsd)
+    run.image_gsd = (
+        run.grid.gsd if cfg.gsd is None else round(centre_gsd(rpc, shape, offset, dem, run.grid), 3)
+    )
     run.no_height = image_without_height(rpc, shape, offset, dem)
     for name in OUTPUT_NAMES:  # an earlier run's outputs never lie beside this run's
         (cfg.out / name).unlink(missing_ok=True)
@@ -588,7 +596,7 @@ def _correct_and_match(run: _Run, matcher: Matcher | None) -> None:
     reference, ref_grid = read_ortho(out / "reference_on_grid.tif")
     overlap = overlap_mask(image, reference, cfg.margin)
     matches, run.cell, run.cell_how = match_cps(cfg, image, reference, overlap, matcher)
-    run.cps = build_cp_table(matches, run.grid, ref_grid, run.rpc, run.dem)
+    run.cps = build_cp_table(matches, run.grid, ref_grid, run.rpc, run.dem, run.image_gsd)
     if run.cps.empty:
         reason = no_cp_reason(image, overlap, run.dem, len(matches))
         raise InputError(Problem(file=str(cfg.image), message=reason))
@@ -599,7 +607,7 @@ def _plots(run: _Run, dx: np.ndarray, dy: np.ndarray, gev: np.ndarray) -> None:
     """§RA-5 the error-vector plot over the ortho and the GEV histogram."""
     cfg, cps, grid = run.cfg, run.cps, run.grid
     vectors = accuracy.plot_error_vectors(
-        cps["col"], cps["row"], dx, dy, grid.gsd, (grid.height, grid.width),
+        cps["col"], cps["row"], dx, dy, run.image_gsd, (grid.height, grid.width),
         title=f"CP error vectors, {cfg.image.name} vs {cfg.reference.name}",
         background=_preview(cfg.out / "ortho.tif"),
     )  # fmt: skip
@@ -618,7 +626,7 @@ def _refine(run: _Run) -> tuple[pd.DataFrame, Any]:
         ref_x=cps["ref_x_m"].to_numpy(), ref_y=cps["ref_y_m"].to_numpy(),
     )  # fmt: skip
     table = accuracy.refined_rfm_table(
-        run.rpc, control, run.dem, run.grid.crs, run.grid.gsd,
+        run.rpc, control, run.dem, run.grid.crs, run.image_gsd,
         ks=cfg.ks, repeats=cfg.repeats, seed=cfg.seed,
     )  # fmt: skip
     write_text_atomic(cfg.out / "refined_rfm.csv", table.to_csv(index=False, float_format="%.4f"))
@@ -660,7 +668,8 @@ def _accuracy(run: _Run, rmse: float, gev: np.ndarray) -> dict[str, object]:
         "clause": "§RA-4",
         "n": n,
         "rmse_px": rmse,
-        "rmse_m": rmse * run.grid.gsd,
+        "rmse_m": rmse * run.image_gsd,
+        "image_gsd_m": run.image_gsd,
         "rmse_px_per_image_if_same_accuracy": rmse / math.sqrt(2)
         if cfg.method != "high_precision"
         else None,
@@ -729,7 +738,7 @@ def run_rfm_accuracy(cfg: RfmAccuracyConfig, matcher: Matcher | None = None) -> 
     """Run §RA-1..6 for one image and write every output into `cfg.out`; returns the results."""
     run = _prepare(cfg)
     _correct_and_match(run, matcher)
-    cps, gsd = run.cps, run.grid.gsd
+    cps, gsd = run.cps, run.image_gsd
     dx, dy, gev = cps["dx_m"].to_numpy(), cps["dy_m"].to_numpy(), cps["gev_px"].to_numpy()
     rmse = accuracy.rmse_px(dx, dy, gsd)
     summary = accuracy.distortion_summary(
