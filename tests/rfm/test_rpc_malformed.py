@@ -221,3 +221,38 @@ def test_folder_is_not_called_missing(tmp_path: Path):
     folder.mkdir()
     message = refused(folder).message
     assert "folder" in message and "no such file" not in message
+
+
+# -- an OSSIM adjustment in force ---------------------------------------------------------------
+def test_geom_with_an_ossim_adjustment_in_force_is_refused(tmp_path: Path):
+    """OSSIM moves the image by center + parameter·sigma (0.1 × 50 = 5 px in track): read as
+    the RPC alone, an adjusted image was measured as if unadjusted."""
+    old = "adjustment_0.adj_param_0.parameter:  0\n"
+    bad = edited(tmp_path, GEOM, "adjusted.geom", old, old.replace("0\n", "0.1\n"))
+    problem = refused(bad)
+    assert problem.line == 4 and problem.message.startswith(
+        "adjustment_0.adj_param_0.parameter: an OSSIM adjustment in force (intrack_offset: "
+        "center + parameter·sigma = 5)"
+    )
+    # parameters at 0 (every .geom of the Pléiades data) move nothing: the RPC alone is read
+    assert_identical(read_rpc(GEOM), read_rpc(edited(tmp_path, GEOM, "zero.geom", old, old)))
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "line", "expected"),
+    [
+        ("HEIGHT_OFF: +0028.000 meters", "HEIGHT_OFF: +0.028 kilometers", 5, "'meters'"),
+        ("LAT_OFF: -34.90300000 degrees", "LAT_OFF: -34.90300000 pixels", 3, "'degrees'"),
+        ("LAT_SCALE: +00.06610000 degrees", "LAT_SCALE: +00.0011537 radians", 8, "'degrees'"),
+        ("LINE_OFF: +005124.00 pixels", "LINE_OFF: +005124.00 meters", 1, "'pixels'"),
+    ],
+)
+def test_a_unit_word_of_another_unit_is_refused(tmp_path: Path, old, new, line, expected):
+    """The unit word was read as any word: 0.028 kilometers became 0.028 m, radians degrees."""
+    problem = refused(edited(tmp_path, FORMATS / "rpc_IKONOS.txt", "unit_rpc.txt", old, new))
+    key = new.split(":")[0]
+    assert problem.line == line
+    assert problem.message == (
+        f"{key}: expected one number, optionally followed by its unit ({expected}), got "
+        f"{new.split(': ')[1]!r}"
+    )

@@ -51,30 +51,44 @@ def _duplicate(path: Path | str, key: str, first: int, second: int) -> InputErro
     return _error(path, f"{key} given twice, on lines {first} and {second}: expected once", second)
 
 
-_UNIT = re.compile(r"[^\W\d_]+")
+#: the unit words an RPC text may write after a value, by what the value measures
+_UNITS = {
+    "pixels": ("pixel", "pixels", "pix", "px"),
+    "degrees": ("degree", "degrees", "deg"),
+    "meters": ("meter", "meters", "metre", "metres", "m"),
+}
 
 
-def _is_unit(token: str) -> bool:
-    """A unit word after a number ('pixels', 'degrees', 'meters'), not a second number."""
-    try:
-        float(token)
-    except ValueError:
-        return bool(_UNIT.fullmatch(token))
-    return False
+def _units_of(key: str) -> tuple[str, ...]:
+    """The unit words a key's value may carry: pixels for LINE/SAMP offsets and scales, degrees
+    for LAT/LONG, meters for HEIGHT; a coefficient (no unit) is let carry any of them."""
+    k = key.lower()
+    if "coef" in k:
+        return ("pixels", "degrees", "meters")
+    for start, kind in (("line", "pixels"), ("samp", "pixels"), ("lat", "degrees")):
+        if k.startswith(start):
+            return (kind,)
+    if k.startswith("lon"):
+        return ("degrees",)
+    return ("meters",) if k.startswith("height") else ("pixels", "degrees", "meters")
 
 
 def _number(path: Path | str, key: str, text: str, line: int | None = None) -> float:
-    """Parse one number, tolerating a trailing unit word ('+005124.00 pixels')."""
+    """Parse one number, tolerating a trailing unit word of the key's unit ('+005124.00
+    pixels'); another unit ('1.075 kilometers') would be misread, so it is refused."""
     tokens = text.split()
     try:
         value = float(tokens[0] if tokens else "")
     except ValueError:
         raise _error(path, f"{key}: expected a number, got {text.strip()!r}", line) from None
-    if len(tokens) > 2 or (len(tokens) == 2 and not _is_unit(tokens[1])):
+    kinds = _units_of(key)
+    if len(tokens) > 2 or (
+        len(tokens) == 2 and tokens[1].lower() not in {w for k in kinds for w in _UNITS[k]}
+    ):
         raise _error(
             path,
-            f"{key}: expected one number, optionally followed by a unit word such as 'pixels', "
-            f"got {text.strip()!r}",
+            f"{key}: expected one number, optionally followed by its unit ("
+            f"{' or '.join(repr(k) for k in kinds)}), got {text.strip()!r}",
             line,
         )
     if not np.isfinite(value):
@@ -228,7 +242,34 @@ def read_rpc_geom(path: Path, text: str | None = None) -> RPCModel:
         name: _kv_number(path, kv, key) for key, name in _GEOM_NAMES.items()
     }
     values.update(_kv_coeffs(path, kv, _geom_coeff_key, range(20), _GEOM_COEFF))
+    _no_geom_adjustment(path, kv)
     return _build(path, values)
+
+
+_GEOM_ADJUSTMENT = re.compile(r"(adjustment_\d+\.adj_param_\d+)\.parameter")
+
+
+def _no_geom_adjustment(path: Path, kv: Mapping[str, tuple[str, int]]) -> None:
+    """Refuse an OSSIM adjustment in force (a parameter whose offset center + parameter·sigma
+    is not 0: OSSIM moves the image by it, in pixels, scale or rotation): blockqc reads the RPC
+    alone, and would measure the model as unadjusted."""
+    for key, (value, line) in kv.items():
+        m = _GEOM_ADJUSTMENT.fullmatch(key)
+        if m is None:
+            continue
+        param = m.group(1)
+        parts = {f: kv.get(f"{param}.{f}", ("0", line)) for f in ("center", "sigma")}
+        offset = _number(path, key, value, line) * _number(path, f"{param}.sigma", *parts["sigma"])
+        offset += _number(path, f"{param}.center", *parts["center"])
+        if offset != 0:
+            what = kv.get(f"{param}.description", ("an adjustable parameter", line))[0].strip()
+            raise _error(
+                path,
+                f"{key}: an OSSIM adjustment in force ({what}: center + parameter·sigma = "
+                f"{offset:g}), which blockqc does not apply: expected the RPC without it (every "
+                "adj_param parameter and center 0), or the adjusted model as RPCs",
+                line,
+            )
 
 
 # -- DigitalGlobe .RPB ------------------------------------------------------------------------
