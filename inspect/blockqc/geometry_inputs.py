@@ -117,27 +117,27 @@ def _with_affine(
     return problems
 
 
-#: the determinant of a scene's affine M = [[1 − a2, −a1], [−b2, 1 − b1]] lies in this range: an
-#: adjustment corrects the image by parts per thousand, not by halving, doubling or mirroring it
-DET_RANGE = (0.5, 2.0)
+#: the largest size of an affine's terms per pixel (a1, a2, b1, b2): an adjustment corrects the
+#: image by parts per thousand or less; terms beyond rotate, scale, collapse or mirror it (or
+#: were written per normalised coordinate, not per pixel)
+AFFINE_LIMIT = 0.1
 
 
 def _distorting(table: pd.DataFrame, file: Path) -> list[Problem]:
-    """Rows whose affine cannot be inverted, or scales or mirrors the image (det M outside
-    DET_RANGE): its residuals would be divided by nearly zero (non-finite values are the
-    table's own problems)."""
-    a = table[list(AFFINE_KEYS)].to_numpy(dtype=float)
-    with np.errstate(invalid="ignore", over="ignore"):  # inf cells: the table's own problem
-        det = (1.0 - a[:, 2]) * (1.0 - a[:, 4]) - a[:, 1] * a[:, 5]
-        bad = np.flatnonzero(np.isfinite(det) & ((det < DET_RANGE[0]) | (det > DET_RANGE[1])))
+    """Rows whose affine is no correction: a term per pixel beyond ±AFFINE_LIMIT (non-finite
+    values are the table's own problems)."""
+    linear = ("a1", "a2", "b1", "b2")
+    a = table[list(linear)].to_numpy(dtype=float)
+    with np.errstate(invalid="ignore"):  # NaN cells: the table's own problem
+        bad = np.flatnonzero((np.abs(a) > AFFINE_LIMIT).any(axis=1))
     csv = file.suffix.lower() == ".csv"
     return [
         Problem(
             str(file),
-            f"scene '{table['scene_id'].iloc[i]}': the affine's determinant (1 − a2)(1 − b1) − "
-            f"a1·b2 is {det[i]:.6g}; expected {DET_RANGE[0]:g} … {DET_RANGE[1]:g} (an affine that "
-            "corrects the image, not one that collapses, scales or mirrors it; a1, a2, b1, b2 "
-            "are per pixel)",
+            f"scene '{table['scene_id'].iloc[i]}': the affine's terms per pixel (a1, a2, b1, b2) "
+            f"are ({', '.join(f'{v:g}' for v in a[i])}); expected each within ±{AFFINE_LIMIT:g} "
+            "(an adjustment corrects the image by parts per thousand; larger terms rotate, "
+            "scale, collapse or mirror it, or are not per pixel)",
             row=int(i) + 1,
             line=int(i) + 2 if csv else None,
             column="a1, a2, b1, b2",
