@@ -605,3 +605,12 @@ def test_two_grades_from_the_same_score_are_refused(tmp_path: Path) -> None:
     pack = _pack(tmp_path, f"acceptance:\n  grades:\n{grades}")
     (msg,) = _messages(pack)
     assert "each lowest score below the one before" in msg
+
+
+def test_a_rule_disabled_and_overridden_in_one_file_is_refused(tmp_path: Path) -> None:
+    """The override was read by nothing, and lint said ok."""
+    pack = _pack(tmp_path, "disable: [TP-1]\noverrides:\n  TP-1: {statistic: rms}\n")
+    assert _messages(pack) == [
+        f"{pack}, line 3: disable: TP-1 is also overridden in this file (overrides.TP-1, "
+        "line 5): disable it or override it"
+    ]

@@ -232,6 +232,15 @@ def _apply_disable(out: _Loaded, pf: PackFile, data: Any, path: Path) -> None:
         if rid not in out.rules:
             out.problems.append(Problem(str(path), _not_disabled(out, rid), line=line))
             continue
+        if rid in pf.overrides:  # the override would be read by nothing
+            out.problems.append(
+                Problem(
+                    str(path),
+                    f"disable: {rid} is also overridden in this file (overrides.{rid}, line "
+                    f"{line_of(data, ('overrides', rid))}): disable it or override it",
+                    line=line,
+                )
+            )
         del out.rules[rid]
         out.disabled.append(rid)
         out.disabled_at[rid] = (str(path), line)
