@@ -367,6 +367,28 @@ def test_a_summary_that_is_not_its_blocks_is_refused(batch_out, tmp_path, capsys
     assert "lists block F1-B01 as fail, with counts" in capsys.readouterr().err
 
 
+def test_a_summary_whose_verdict_is_not_its_blocks_is_refused(batch_out, tmp_path, capsys):
+    """Both blocks pass, the summary says fail (or the other way round): the page showed the
+    summary's word in colour over counts that contradict it."""
+    wrong = _tampered(batch_out, tmp_path, lambda d: d.update(verdict="fail"))
+    assert run("report", str(wrong), "--out", str(tmp_path / "o"), "--no-pdf") == 2
+    assert (
+        f"{wrong / 'summary.json'}: $.verdict is fail, but its blocks make it pass (0 failing, "
+        "0 unreadable)" in capsys.readouterr().err
+    )
+    assert not (tmp_path / "o").exists()
+
+
+def test_results_without_any_rule_result_are_refused(tmp_path, results_doc, capsys):
+    """No rule judged: the page said PASS over nothing."""
+    empty = tmp_path / "results.json"
+    doc = {**results_doc, "results": [], "verdict": "pass"}
+    doc["counts"] = dict.fromkeys(doc["counts"], 0)
+    empty.write_text(json.dumps(doc), encoding="utf-8")
+    assert run("report", str(empty), "--out", str(tmp_path / "o"), "--no-pdf") == 2
+    assert f"{empty}: $.results is empty" in capsys.readouterr().err
+
+
 def test_a_summary_naming_a_block_by_another_id_is_refused(batch_out, tmp_path, capsys):
     """A block renamed in summary.json (its results file still F1-B01's): the page would list
     a block no results file is of."""

@@ -87,6 +87,14 @@ def _strict(path: Path, doc: Any, kind: str) -> None:
 
 def _contradictions(path: Path, doc: BlockResults) -> list[Problem]:
     """The verdict and the counts must be those of the rule results (as the engine makes them)."""
+    if not doc.results:
+        return [
+            Problem(
+                str(path),
+                "$.results is empty: inspect gives every rule of its pack a "
+                "result, so a block's results hold at least one",
+            )
+        ]
     counts, verdict = tally(r.status for r in doc.results)
     out = [
         Problem(
@@ -262,6 +270,15 @@ def _summary_contradictions(
         for k, n in expected.items()
         if given[k] != n
     ]
+    verdict = "error" if summary.unreadable else "fail" if expected["fail"] else "pass"
+    if summary.verdict != verdict:
+        out.append(
+            Problem(
+                str(path),
+                f"$.verdict is {summary.verdict}, but its blocks make it {verdict} ("
+                f"{expected['fail']} failing, {expected['unreadable']} unreadable)",
+            )
+        )
     for b in blocks:
         r = results.get((path.parent / b.results).resolve())
         if r is None:
