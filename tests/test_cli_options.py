@@ -249,3 +249,25 @@ def test_an_empty_plan_path_is_refused_as_such(tmp_path):
     p = run_blockqc("sample", SAMPLES / "batch", "--seed", "1", "--out", "", cwd=tmp_path)
     _refused(p, "Invalid value for '--out': an empty path: give the plan's file (plan.yaml)")
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (("factors", SAMPLES / "batch", "--out", "o", "--period-gap-days", "nan"),
+         "'--period-gap-days': nan is not a finite number"),
+        (("simulate", "o", "--obs-per-scene", "1000000000"),
+         "1000000000 is not in the range 10<=x<=100000"),
+        (("simulate",), "Missing argument 'OUT'"),
+    ],
+)  # fmt: skip
+def test_values_no_run_can_take_are_refused(tmp_path, args, words):
+    """NaN days made every date one period, recorded as null; a billion observations per scene
+    ran out of memory (an internal error)."""
+    _refused(run_blockqc(*args, cwd=tmp_path), words)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_the_faults_are_listed_without_an_output_folder(tmp_path):
+    p = run_blockqc("simulate", "--list-faults", cwd=tmp_path)
+    assert p.returncode == 0 and "sparse-scene" in p.stdout, p.stderr

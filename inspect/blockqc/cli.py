@@ -465,8 +465,14 @@ def schema_cmd(kind: str) -> None:
 
 
 # ------------------------------------------------------------------------------ simulate
+#: footprints per side of a simulated block (3 scenes each), and tie-point observations per
+#: scene: bound memory and time
+MAX_GRID = 20
+MAX_OBS_PER_SCENE = 100_000
+
+
 @cli.command("simulate")
-@click.argument("out", type=OutPath())
+@click.argument("out", type=OutPath(), required=False)
 @click.option(
     "--seed", default=20231, show_default=True, type=click.IntRange(min=0), help="Random seed."
 )
@@ -476,7 +482,13 @@ def schema_cmd(kind: str) -> None:
     show_default=True,
     help="Published test fields to mirror (comma separated).",
 )
-@click.option("--blocks-per-field", default=2, show_default=True, type=click.IntRange(1, 50))
+@click.option(
+    "--blocks-per-field",
+    default=2,
+    show_default=True,
+    type=click.IntRange(1, 50),
+    help="Blocks written per field.",
+)
 @click.option(
     "--grid",
     default="4x4",
@@ -487,8 +499,8 @@ def schema_cmd(kind: str) -> None:
     "--obs-per-scene",
     default=300,
     show_default=True,
-    type=click.IntRange(10),
-    help="Tie-point observations per PAN scene (about).",
+    type=click.IntRange(10, MAX_OBS_PER_SCENE),
+    help=f"Tie-point observations per PAN scene (about; at most {MAX_OBS_PER_SCENE}).",
 )
 @click.option(
     "--fault",
@@ -503,7 +515,7 @@ def schema_cmd(kind: str) -> None:
     help="Folder of the DEM tiles (default: samples/dem of the checkout).",
 )
 def simulate_cmd(
-    out: Path,
+    out: Path | None,
     seed: int,
     fields: str,
     blocks_per_field: int,
@@ -520,6 +532,8 @@ def simulate_cmd(
         for name, what in FAULTS.items():
             click.echo(f"{name:18} {what}")
         return
+    if out is None:
+        raise UsageError("Missing argument 'OUT': the folder to write the deliveries into")
     try:
         rows, cols = (int(v) for v in grid.lower().split("x"))
         chosen = tuple(int(f) for f in fields.split(","))
@@ -540,10 +554,6 @@ def simulate_cmd(
     )
     ids = simulate(out, opts, dem_dir)
     click.echo(f"wrote {len(ids)} deliveries to {out}: {', '.join(ids)}")
-
-
-#: footprints per side of a simulated block (3 scenes each): bounds memory and time
-MAX_GRID = 20
 
 
 def _template_error(exc: Exception) -> bool:

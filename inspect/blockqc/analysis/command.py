@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any
@@ -28,6 +29,14 @@ from blockqc.outputs import (
     write_text_atomic,
 )
 from blockqc.verification import prepare
+
+
+def _finite(value: float, param: click.Parameter) -> float:
+    """A number option refused when not finite (a range lets NaN through: inf would count every
+    date as one period, unsaid)."""
+    if not math.isfinite(value):
+        raise click.BadParameter(f"{value!r} is not a finite number", param=param)
+    return value
 
 
 def build_table(batch: Path, dem_paths: list[Path], options: FactorOptions) -> pd.DataFrame:
@@ -229,6 +238,7 @@ _BATCH_ONLY = ("dems", "images_band", "period_gap_days", "overlap", "stereo_iou"
 @click.option(
     "--period-gap-days",
     type=click.FloatRange(min=0),
+    callback=lambda ctx, param, v: _finite(v, param),
     default=0.0,
     show_default=True,
     help="Acquisition dates at most this many days apart form one period (§AF-6).",
