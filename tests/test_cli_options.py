@@ -271,3 +271,26 @@ def test_values_no_run_can_take_are_refused(tmp_path, args, words):
 def test_the_faults_are_listed_without_an_output_folder(tmp_path):
     p = run_blockqc("simulate", "--list-faults", cwd=tmp_path)
     assert p.returncode == 0 and "sparse-scene" in p.stdout, p.stderr
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (("--rules", "global-project", "--rules", SAMPLES / "packs" / "strict-project.yaml"),
+         "--rules given twice: give it once"),
+        (("--out=a", "--no-pdf"), "--out given twice: give it once"),
+        (("--verdicts", SAMPLES / "verdicts.yaml", "--verdicts=x.yaml"), "--verdicts given twice"),
+    ],
+)  # fmt: skip
+def test_an_option_of_one_value_given_twice_is_refused(tmp_path, args, words):
+    """The last one was used, the first dropped unsaid (the strict pack replaced by the stock
+    one, the outputs written into the second folder only)."""
+    _refused(run_blockqc("inspect", SAMPLE, "--out", "o", *args, cwd=tmp_path), words)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_pdf_engine_for_no_pdf_is_said_unused(tmp_path):
+    p = run_blockqc("inspect", SAMPLE, "--out", "o", "--no-pdf", "--pdf-engine", "chromium",
+                    cwd=tmp_path)  # fmt: skip
+    assert p.returncode in (0, 1), p.stderr
+    assert "warning: --pdf-engine chromium: not used, no PDF is written" in p.stderr

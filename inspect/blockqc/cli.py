@@ -98,6 +98,38 @@ class LazyGroup(click.Group):
                 return None
         return super().get_command(ctx, name)
 
+    def resolve_command(self, ctx: click.Context, args: list[str]):
+        name, command, rest = super().resolve_command(ctx, args)
+        if command is not None and not isinstance(command, click.Group):
+            refuse_repeated(command, rest)
+        return name, command, rest
+
+
+def refuse_repeated(command: click.Command, args: list[str]) -> None:
+    """An option taking one value given twice (`--rules a.yaml --rules b.yaml`): click keeps the
+    last and drops the first unsaid, so it is refused, naming the option."""
+    once = {
+        name: p.name
+        for p in command.params
+        if isinstance(p, click.Option) and not (p.multiple or p.count or p.is_flag)
+        for name in p.opts
+    }
+    seen: dict[str, str] = {}
+    for arg in args:
+        if arg == "--":
+            break
+        given = arg.split("=", 1)[0] if arg.startswith("--") else arg
+        if given not in once:
+            continue
+        if once[given] in seen:
+            first = seen[once[given]]
+            also = "" if first == given else f" (also as {first})"
+            raise click.UsageError(
+                f"{given} given twice{also}: give it once, the one meant (the second would "
+                "replace the first unsaid)"
+            )
+        seen[once[given]] = given
+
 
 @click.group(
     cls=LazyGroup,
@@ -121,7 +153,11 @@ def pdf_engine_option(command):
 
 
 def check_pdf_engine(engine: str, pdf: bool) -> None:
-    """Chromium is looked for before any block is inspected."""
+    """Chromium is looked for before any block is inspected; an engine given for no PDF is
+    said to be unused."""
+    given = click.get_current_context().get_parameter_source("pdf_engine")
+    if not pdf and given is ParameterSource.COMMANDLINE:
+        click.echo(f"warning: --pdf-engine {engine}: not used, no PDF is written", err=True)
     if engine == "chromium" and pdf:
         from blockqc.report.chromium import ChromiumProblem, find_chromium
 
