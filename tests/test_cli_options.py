@@ -294,3 +294,15 @@ def test_a_pdf_engine_for_no_pdf_is_said_unused(tmp_path):
                     cwd=tmp_path)  # fmt: skip
     assert p.returncode in (0, 1), p.stderr
     assert "warning: --pdf-engine chromium: not used, no PDF is written" in p.stderr
+
+
+@pytest.mark.parametrize("option", ["--verdicts", "--checkpoints"])
+def test_an_inspectors_input_from_inside_the_delivery_is_refused(tmp_path, option):
+    """The DOC-3 verdict was taken from a verdicts file the producer delivered."""
+    delivery = shutil.copytree(SAMPLE, tmp_path / "d")
+    source = SAMPLES / "verdicts.yaml" if option == "--verdicts" else SAMPLE / "checkpoints.csv"
+    planted = delivery / "documents" / f"inspector{source.suffix}"
+    shutil.copy(source, planted)
+    p = run_blockqc("inspect", delivery, "--out", tmp_path / "o", option, planted)
+    _refused(p, f"{option} {planted} lies inside the delivery {delivery}")
+    assert not (tmp_path / "o").exists()

@@ -284,6 +284,7 @@ def inspect_cmd(
         empty_removed,
         out_lock,
         refuse_block_folders,
+        refuse_delivered,
         refuse_inside,
     )
     from blockqc.rules import load_pack
@@ -293,6 +294,10 @@ def inspect_cmd(
     pdf = "none" if no_pdf else pdf
     check_pdf_engine(pdf_engine, pdf != "none")
     refuse_inside(out, paths)
+    refuse_delivered(
+        [("--verdicts", verdicts), ("--plan", plan_file), ("--meta", meta_file)]
+        + [("--checkpoints", f) for f in checkpoint_files]
+    )
     pack = load_pack(rules_ref)
     inspector = load_inspector_input(verdicts) if verdicts else None
     got = batch.collect(paths)

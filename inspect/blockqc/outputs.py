@@ -149,18 +149,35 @@ def refuse_inside(out: Path, inputs: Iterable[Path]) -> None:
     refuse_delivery(out)
 
 
+def _holding_delivery(path: Path) -> Path | None:
+    """The delivery (a folder holding block.yaml) that is or holds `path`, by its real path."""
+    from blockqc.delivery import MANIFEST
+
+    real = Path(os.path.realpath(path))
+    return next((p for p in (real, *real.parents) if (p / MANIFEST).is_file()), None)
+
+
 def refuse_delivery(out: Path, option: str = "--out") -> None:
     """Refuse an output folder that is or lies inside a delivery (a folder holding block.yaml),
     by its real path: also one a batch links in from elsewhere."""
-    from blockqc.delivery import MANIFEST
-
-    real = Path(os.path.realpath(out))
-    delivery = next((p for p in (real, *real.parents) if (p / MANIFEST).is_file()), None)
+    delivery = _holding_delivery(out)
     if delivery is not None:
         raise UsageError(
             f"{option} {out} lies inside the delivery {delivery}: blockqc never writes into a "
             "delivery; choose an output folder outside it"
         )
+
+
+def refuse_delivered(inputs: Iterable[tuple[str, Path | None]]) -> None:
+    """Refuse an inspector's input (option, file) that lies inside a delivery: the verdicts,
+    checkpoints and plan are the inspector's, never the producer's."""
+    for option, path in inputs:
+        delivery = None if path is None else _holding_delivery(path)
+        if delivery is not None:
+            raise UsageError(
+                f"{option} {path} lies inside the delivery {delivery}: the inspector's inputs "
+                "never come from a delivery; keep them outside it"
+            )
 
 
 def template_problem(exc: BaseException, context: str = "") -> Problem | None:
