@@ -256,3 +256,39 @@ def test_a_unit_word_of_another_unit_is_refused(tmp_path: Path, old, new, line, 
         f"{key}: expected one number, optionally followed by its unit ({expected}), got "
         f"{new.split(': ')[1]!r}"
     )
+
+
+def test_dimap_21st_coefficient_is_refused(tmp_path: Path):
+    """Every other format refused it; DIMAP read the 20 it looked for and ignored the rest."""
+    source = FORMATS / "rpc_PLEIADES.xml"
+    text = source.read_text()
+    at = text.rindex("</LINE_NUM_COEFF_20>") + len("</LINE_NUM_COEFF_20>")  # Inverse_Model's
+    bad = tmp_path / "c21.xml"
+    bad.write_text(text[:at] + "<LINE_NUM_COEFF_21>1e-05</LINE_NUM_COEFF_21>" + text[at:])
+    problem = refused(bad)
+    assert problem.message == (
+        "Rational_Function_Model/Global_RFM/Inverse_Model/LINE_NUM_COEFF_21: an RPC00B "
+        "polynomial has 20 coefficients, numbered 1 to 20"
+    )
+
+
+@pytest.mark.parametrize(
+    ("name", "text", "message"),
+    [
+        ("cut.geom", "adjustment_0.adj_param_0.center:  0\nline_off:  21110.5\n",
+         "missing key samp_off"),
+        ("cut_rpc.txt", "LINE_OFF: +005124.00 pixels\n", "missing key SAMP_OFF"),
+    ],
+)  # fmt: skip
+def test_a_cut_rpc_file_is_read_and_its_missing_key_named(tmp_path: Path, name, text, message):
+    """A .geom header or a text of one key was 'not a known RPC format'."""
+    path = tmp_path / name
+    path.write_text(text)
+    assert refused(path).message == message
+
+
+def test_utf16_text_without_its_byte_order_mark_is_named(tmp_path: Path):
+    """It went to GDAL as a raster: 'not recognized as being in a supported file format'."""
+    path = tmp_path / "le_rpc.txt"
+    path.write_bytes(GF_TXT.read_text().encode("utf-16-le"))
+    assert refused(path).message.startswith("UTF-16 text without a byte-order mark")

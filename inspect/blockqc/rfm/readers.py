@@ -349,6 +349,13 @@ def _read_dimap(path: Path, root: ElementTree.Element) -> RPCModel:
         raise _error(path, f"missing element {base}/Inverse_Model (ground→image RPCs)")
     if validity is None:
         raise _error(path, f"missing element {base}/RFM_Validity (offsets and scales)")
+    extra = [c.tag for c in inverse if _TXT_COEFF.fullmatch(c.tag) and not _in_1_to_20(c.tag)]
+    if extra:
+        raise _error(
+            path,
+            f"{base}/Inverse_Model/{extra[0]}: an RPC00B polynomial has 20 coefficients, "
+            "numbered 1 to 20",
+        )
     values: dict[str, object] = {}
     for kind in ("LINE", "SAMP"):
         for part in ("NUM", "DEN"):
@@ -363,6 +370,10 @@ def _read_dimap(path: Path, root: ElementTree.Element) -> RPCModel:
     values["line_off"] = float(values["line_off"]) - 1.0  # type: ignore[arg-type]
     values["samp_off"] = float(values["samp_off"]) - 1.0  # type: ignore[arg-type]
     return _build(path, values)
+
+
+def _in_1_to_20(tag: str) -> bool:
+    return 1 <= int(tag.rsplit("_", 1)[1]) <= 20
 
 
 _DG_NAMES = {
@@ -561,6 +572,12 @@ def sniff_format(path: Path) -> str:
     if head[:4] in _TIFF_MAGIC or head[:4] in _NITF_MAGIC:
         return "gdal"
     if b"\x00" in head and not head.startswith(_UTF16_BOMS):
+        if _utf16_without_bom(head):
+            raise _error(
+                path,
+                "UTF-16 text without a byte-order mark: save it as UTF-8 (or UTF-16 with its "
+                "byte-order mark)",
+            )
         return "gdal"
     text = _read_text(path)
     stripped = text.lstrip()
@@ -574,7 +591,18 @@ def sniff_format(path: Path) -> str:
         return "geom"
     if re.search(r"^\s*LINE_NUM_COEFF_1\s*:", text, re.M | re.I):
         return "txt"
+    # a file cut short: read by the reader its keys point to, which names what is missing
+    if re.search(r"^\s*(line_off|polynomial_format|adjustment_\d+\.[\w.]+)\s*:", text, re.M):
+        return "geom"
+    if re.search(r"^\s*LINE_OFF\s*:", text, re.M | re.I):
+        return "txt"
     return "unknown"
+
+
+def _utf16_without_bom(head: bytes) -> bool:
+    """Text of ASCII characters in UTF-16 without its byte-order mark: every other byte 0."""
+    pairs = head[: len(head) // 2 * 2][:200]
+    return len(pairs) >= 8 and (not any(pairs[1::2]) or not any(pairs[0::2]))
 
 
 _READERS: dict[str, Callable[[Path], RPCModel]] = {
