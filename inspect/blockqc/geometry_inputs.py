@@ -8,6 +8,7 @@ RPCs in `rpc_adjusted/<scene_id>.<ext>`. Nothing here writes to the delivery.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Collection
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -107,6 +108,17 @@ def _with_affine(
         Problem(str(file), f"no row for scene '{sid}', which has tie-point observations")
         for sid in needed
         if sid not in rows.index
+    ]
+    problems += [
+        Problem(
+            str(file),
+            f"a term {c!r} the contract's affine does not have (a0, a1, a2, b0, b1, b2): the "
+            "residuals would be those of another model than the producer's; give the affine "
+            f"in the contract's form, or the adjusted model as refined RPCs in {ADJUSTED_DIR}/",
+            column=c,
+        )
+        for c in table.columns
+        if re.fullmatch(r"[ab]\d+", str(c).strip(), re.I) and c not in AFFINE_KEYS
     ]
     problems += _distorting(table, file)
     if problems or any(sid not in geometry.original for sid in needed):

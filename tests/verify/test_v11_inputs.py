@@ -57,6 +57,19 @@ def test_adjustment_non_finite_and_missing_row(tmp_path, tie_points) -> None:
     assert any("no row for scene 'R'" in m for m in msgs)
 
 
+def test_adjustment_with_terms_the_affine_has_not_is_refused(tmp_path, tie_points) -> None:
+    """a3, b3 (a second-order model) were kept and ignored: the residuals judged were those of
+    the affine alone, not of the producer's model."""
+    folder = write_v11(tmp_path / "d", tie_points)
+    table = pd.read_csv(folder / "adjustment.csv").assign(a3=1e-6, B3=0.0, note="v2")
+    table.to_csv(folder / "adjustment.csv", index=False)
+    msgs = _problems(folder)
+    assert [m.split(": a term")[0] for m in msgs] == [
+        f"{folder / 'adjustment.csv'}, column 'a3'",
+        f"{folder / 'adjustment.csv'}, column 'B3'",
+    ]  # the note, a column of no model, is kept and ignored as in any table
+
+
 def test_adjustment_without_rpc_folder(tmp_path, tie_points) -> None:
     folder = write_v11(tmp_path / "d", tie_points)
     shutil.rmtree(folder / "rpc")
