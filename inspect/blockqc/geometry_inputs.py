@@ -12,6 +12,7 @@ import re
 from collections.abc import Collection
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -272,15 +273,44 @@ def domain_problem(model: RPCModel, sid: str, wkt: object, table: str) -> Proble
 def domain_problems(
     scenes: pd.DataFrame, models: dict[str, RPCModel], table: str = "scenes.csv"
 ) -> list[Problem]:
-    """`domain_problem` of every scene with both an RPC and a footprint."""
-    if "footprint_wkt" not in scenes:
-        return []
+    """`domain_problem` of every scene with both an RPC and a footprint, and `extent_problem`
+    of every scene with an RPC and its size."""
     problems = []
-    for sid, wkt in zip(scenes["scene_id"].astype(str), scenes["footprint_wkt"], strict=True):
-        found = domain_problem(models[sid], sid, wkt, table) if sid in models else None
-        if found is not None:
-            problems.append(found)
+    ids = scenes["scene_id"].astype(str)
+    if "footprint_wkt" in scenes:
+        for sid, wkt in zip(ids, scenes["footprint_wkt"], strict=True):
+            found = domain_problem(models[sid], sid, wkt, table) if sid in models else None
+            if found is not None:
+                problems.append(found)
+    if {"lines", "samples"} <= set(scenes.columns):
+        for sid, lines, samples in zip(ids, scenes["lines"], scenes["samples"], strict=True):
+            found = (
+                extent_problem(models[sid], sid, lines, samples, table) if sid in models else None
+            )
+            if found is not None:
+                problems.append(found)
     return problems
+
+
+def extent_problem(
+    model: RPCModel, sid: str, lines: Any, samples: Any, table: str
+) -> Problem | None:
+    """A problem when the scene's image (lines × samples) reaches beyond the RPC's image domain
+    (LINE_OFF + REACH·LINE_SCALE, SAMP_OFF + REACH·SAMP_SCALE): the RPC of a smaller image
+    (the MS image's given for the PAN); None when it fits or the size is missing."""
+    if pd.isna(lines) or pd.isna(samples):
+        return None
+    last_line = model.line_off + REACH * abs(model.line_scale)
+    last_sample = model.samp_off + REACH * abs(model.samp_scale)
+    if lines <= last_line and samples <= last_sample:
+        return None
+    return Problem(
+        model.source,
+        f"the RPC's image domain (lines to {last_line:.0f}, samples to {last_sample:.0f}: "
+        f"LINE_OFF + {REACH:g}·LINE_SCALE, SAMP_OFF + {REACH:g}·SAMP_SCALE) does not hold scene "
+        f"'{sid}' of {table} ({int(lines)} lines × {int(samples)} samples): expected the RPC of "
+        "this scene (another scene's file, e.g. the MS image's given for the PAN?)",
+    )
 
 
 def residual_column_problems(

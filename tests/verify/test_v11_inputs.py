@@ -108,6 +108,27 @@ def test_refined_rpc_of_another_place_is_refused(tmp_path, tie_points) -> None:
     assert "does not overlap the footprint_wkt of scene 'R' in scenes.csv" in msg
 
 
+def test_the_rpc_of_a_smaller_image_is_refused(tmp_path, tie_points) -> None:
+    """The MS image's RPC (10,556 lines) given for the PAN scene R (about 42,000): same place,
+    so the ground domain passed; RC-1 then failed at 20,000 px, naming no file."""
+    from geokit import RPCS
+
+    from blockqc.rfm.readers import read_rpc
+
+    folder = write_v11(tmp_path / "d", tie_points)
+    shutil.copy(RPCS / "lowres_color_image.geom", folder / "rpc" / "R.geom")
+    ms = read_rpc(RPCS / "lowres_color_image.geom")
+    lines, samples = (
+        pd.read_csv(folder / "scenes.csv").set_index("scene_id").loc["R", ["lines", "samples"]]
+    )
+    (msg,) = _problems(folder)
+    assert msg.startswith(
+        f"{folder / 'rpc' / 'R.geom'}: the RPC's image domain (lines to "
+        f"{ms.line_off + 2 * ms.line_scale:.0f}, samples to {ms.samp_off + 2 * ms.samp_scale:.0f}"
+    )
+    assert f"does not hold scene 'R' of scenes.csv ({lines} lines × {samples} samples)" in msg
+
+
 def test_bad_geometry_exits_2(tmp_path, tie_points, blockqc) -> None:
     folder = write_v11(tmp_path / "d", tie_points)
     (folder / "rpc" / "L.geom").unlink()
