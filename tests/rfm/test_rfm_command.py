@@ -538,13 +538,15 @@ def test_no_cp_reasons_name_dem_voids_and_overlap():
 
 def test_an_earlier_runs_outputs_do_not_stay_beside_a_failed_run(tmp_path: Path, capsys):
     """A run that finds no CP in a folder holding an earlier run's outputs: the earlier
-    results.json, cps.csv and checkpoints.csv (of another image) went with them, not kept
-    beside this run's ortho.tif as if they were its results."""
+    results.json, cps.csv and checkpoints.csv stay as they were, and nothing of the failed run
+    (its ortho.tif) is put beside them as if they were its results."""
     from blockqc.cli import main
 
     out = tmp_path / "out"
     out.mkdir()
-    for name in ("results.json", "cps.csv", "checkpoints.csv", "report.html", "notes.txt"):
+    earlier = '{"kind": "rfm_accuracy", "run": "earlier"}'
+    (out / "results.json").write_text(earlier, encoding="utf-8")
+    for name in ("cps.csv", "checkpoints.csv", "report.html", "notes.txt"):
         (out / name).write_text("earlier run", encoding="utf-8")
     args = base_args(out) + [
         "--reference", str(VENTOUX / "right_image.tif"),
@@ -555,10 +557,14 @@ def test_an_earlier_runs_outputs_do_not_stay_beside_a_failed_run(tmp_path: Path,
         main(["rfm-accuracy", *args])
     assert exc.value.code == 2 and "no control point found" in capsys.readouterr().err
     assert sorted(p.name for p in out.iterdir()) == [
+        "checkpoints.csv",
+        "cps.csv",
         "notes.txt",  # not an output: left alone
-        "ortho.tif",
-        "reference_on_grid.tif",
+        "report.html",
+        "results.json",
     ]
+    assert (out / "results.json").read_text(encoding="utf-8") == earlier
+    assert (out / "cps.csv").read_text(encoding="utf-8") == "earlier run"
 
 
 def test_an_input_an_output_would_replace_is_refused(tmp_path: Path, capsys):

@@ -192,3 +192,17 @@ def test_srtm_hgt_is_read_as_egm96_heights(tmp_path: Path):
     np.testing.assert_allclose(said.height(lon, lat), crop.height(lon, lat), atol=1e-6)
     with pytest.raises(InputError, match="declares EGM96"):
         load_dem(tmp_path / "N44E005.hgt", vertical="ellipsoid")
+
+
+def test_a_geoid_file_of_another_model_than_the_dem_declares_is_refused(tmp_path: Path):
+    """A DEM declaring EGM2008 heights (EPSG:4326+3855) with NGA's EGM96 grid file: refused as
+    `--geoid egm96` is, naming both models; a grid of EGM2008 (by its name) is taken."""
+    write_dem(tmp_path / "dem.tif", np.full((20, 20), 500.0), "EPSG:4326+3855")
+    with pytest.raises(InputError, match="declares EGM2008 heights") as exc:
+        load_dem(tmp_path / "dem.tif", geoid=GEOID_15)
+    assert f"the geoid grid {GEOID_15.name} is EGM96" in str(exc.value)
+    egm2008 = tmp_path / "egm08_25_crop.gtx"
+    egm2008.write_bytes(GEOID_15.read_bytes())
+    dem = load_dem(tmp_path / "dem.tif", geoid=egm2008)
+    n = float(geoid_from_file(GEOID_15, (4.5, 43.5, 6.0, 45.0)).undulation(5.2, 44.2)[()])
+    assert dem.height(5.2, 44.2) == pytest.approx(500.0 + n)

@@ -119,6 +119,20 @@ def systematic_field(
     }
 
 
+MIN_FIELD_CPS = 4
+"""Fewest CPs the low-order field of §RA-5 is fitted to (the affine has 3 terms a component)."""
+NO_FIELD: dict[str, float | int | str | None] = {
+    "model": f"not computed: fewer than {MIN_FIELD_CPS} CPs",
+    "affine_explained_share": None,
+    "explained_share": None,
+    "f_statistic": None,
+    "p_value": None,
+    "field_rms_px": None,
+    "noise_robust_px": None,
+}
+"""The field's figures with too few CPs: every key `systematic_field` gives, none measured."""
+
+
 def distortion_summary(
     col: ArrayLike,
     row: ArrayLike,
@@ -127,13 +141,14 @@ def distortion_summary(
     gsd: float,
     threshold_px: float = DISTORTION_THRESHOLD_PX,
     alpha: float = DISTORTION_ALPHA,
-) -> dict[str, float | int | bool | str]:
+) -> dict[str, float | int | bool | str | None]:
     """§RA-5: how error vectors vary across the image.
 
     Splits each CP's error (px) into the mean vector (systematic shift), a low-order field over
     the image (systematic distortion, `systematic_field`) and the scatter about it (noise);
     also the RMS about the mean, the mean resultant length of the error directions (1: all
-    point the same way, 0: no common direction) and the GEV percentiles.
+    point the same way, 0: no common direction) and the GEV percentiles. With fewer than
+    MIN_FIELD_CPS CPs the field is not fitted: its figures are None (`NO_FIELD`).
     """
     col = np.asarray(col, np.float64)
     row = np.asarray(row, np.float64)
@@ -149,11 +164,13 @@ def distortion_summary(
     resultant = (
         float(np.hypot(np.mean(ex[nz] / g[nz]), np.mean(ey[nz] / g[nz]))) if nz.any() else 1.0
     )
-    field: dict[str, float | int | str] = {"model": "none (fewer than 4 CPs)", "p_value": 1.0}
-    if n >= 4:
+    field = NO_FIELD
+    if n >= MIN_FIELD_CPS:
         field = systematic_field(col, row, np.column_stack([ex, ey]), alpha)
     p50, p90, p_max = np.percentile(g, [50, 90, 100])
-    significant = field["p_value"] < alpha and field.get("field_rms_px", 0.0) >= threshold_px
+    significant = field is not NO_FIELD and (
+        field["p_value"] < alpha and field["field_rms_px"] >= threshold_px
+    )
     return {
         "n": int(n),
         "mean_dx_px": mx,

@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+import json
 import math
+import os
 from pathlib import Path
 
 import click
 from pyproj import CRS
 from pyproj.exceptions import CRSError
 
+from blockqc.cli import OutPath
 from blockqc.errors import UsageError
 from blockqc.outputs import check_out_dir, empty_removed, refuse_replacing
 from blockqc.rfm.pipeline import METHODS, OUTPUT_NAMES, RfmAccuracyConfig, run_rfm_accuracy
@@ -24,6 +27,11 @@ def _offset(value: str | None) -> tuple[float, float] | None:
     return row, col
 
 
+MAX_REPEATS = 10_000
+"""Most random draws per k of §RA-6 (--repeats): all draws of a k are solved at once, and
+10^8 of them took 23 GB; beyond 10^4 the mean RMSE of a row no longer changes."""
+
+
 def _ks(value: str) -> tuple[int, ...]:
     try:
         ks = tuple(int(v) for v in value.split(",") if v.strip())
@@ -33,7 +41,57 @@ def _ks(value: str) -> tuple[int, ...]:
         raise UsageError(
             f"--k values must be at least 3 (the affine has 6 parameters), got {value!r}"
         )
+    twice = sorted({k for k in ks if ks.count(k) > 1})
+    if twice:
+        shown = ", ".join(str(k) for k in twice)
+        raise UsageError(f"--k gives {shown} more than once ({value!r}): give each k once")
     return ks
+
+
+def _crs(text: str | None) -> CRS | None:
+    """--crs: a projected CRS pyproj knows; None (not given) for the UTM zone of the scene."""
+    if text is None:
+        return None
+    if not text.strip():
+        raise UsageError(
+            "--crs is empty: give a projected CRS (e.g. EPSG:32631), or leave --crs out for "
+            "the UTM zone of the scene centre"
+        )
+    try:
+        crs = CRS.from_user_input(text)
+    except CRSError:
+        raise UsageError(f"--crs {text!r} is not a CRS pyproj knows") from None
+    if not crs.is_projected:
+        raise UsageError(f"--crs {text!r} must be a projected CRS (metres)")
+    return crs
+
+
+def refuse_self_reference(image: Path, reference: Path) -> None:
+    """The image given as its own reference would measure nothing but the resampling."""
+    if os.path.samefile(image, reference):
+        raise UsageError(
+            f"--reference {reference} is the image {image} itself: a reference must be "
+            "independent of the image (a reference orthoimage, or another image of the scene "
+            "with its own RPCs)"
+        )
+
+
+def refuse_foreign_results(out: Path) -> None:
+    """Refuse an --out holding a results.json that rfm-accuracy did not write (an `inspect`
+    block's, another tool's): the run would replace it and the files beside it."""
+    found = out / "results.json"
+    if not found.is_file():
+        return
+    try:
+        kind = json.loads(found.read_text(encoding="utf-8")).get("kind")
+    except (OSError, UnicodeDecodeError, ValueError, AttributeError):
+        kind = None
+    if kind != "rfm_accuracy":
+        raise UsageError(
+            f"--out {out}: {found} is not the results of an rfm-accuracy run (another tool's, "
+            "e.g. an inspect block's); the run would replace it and the files beside it: "
+            "choose another output folder"
+        )
 
 
 def _geoid(value: str | None, offset: float | None) -> str | Path | None:
@@ -53,8 +111,11 @@ def _geoid(value: str | None, offset: float | None) -> str | Path | None:
 _path = click.Path(exists=True, dir_okay=False, path_type=Path)
 
 
-def _bad_nan(param: click.Parameter) -> float:
-    raise click.BadParameter("expected a finite number, got nan", param=param)
+def _finite(ctx: click.Context, param: click.Parameter, value: float | None) -> float | None:
+    """A FloatRange lets nan and inf pass: refused here."""
+    if value is not None and not math.isfinite(value):
+        raise click.BadParameter(f"expected a finite number, got {value}", param=param)
+    return value
 
 
 @click.command("rfm-accuracy")
@@ -101,8 +162,8 @@ def _bad_nan(param: click.Parameter) -> float:
     "--out",
     "out",
     required=True,
-    type=click.Path(file_okay=False, path_type=Path),
-    help="Output folder.",
+    type=OutPath(file_okay=False),
+    help="Output folder (not one holding another tool's results.json).",
 )
 @click.option(
     "--crs",
@@ -111,9 +172,10 @@ def _bad_nan(param: click.Parameter) -> float:
 )
 @click.option(
     "--gsd",
-    type=float,
-    help="Output GSD in metres; default: the image GSD at its centre (errors in pixels are "
-    "always the image's).",
+    type=click.FloatRange(min=0, min_open=True),
+    callback=_finite,
+    help="Output GSD in metres (a finite number > 0); default: the image GSD at its centre "
+    "(errors in pixels are always the image's).",
 )
 @click.option(
     "--crop-offset",
@@ -155,20 +217,26 @@ def _bad_nan(param: click.Parameter) -> float:
     "k_text",
     default="6,12,16,20",
     show_default=True,
-    help="Numbers of CPs used to refine the RFM (§RA-6).",
+    help="Numbers of CPs used to refine the RFM (§RA-6), each at least 3 and given once.",
 )
 @click.option(
     "--repeats",
-    type=click.IntRange(min=1),
+    type=click.IntRange(1, MAX_REPEATS),
     default=100,
     show_default=True,
-    help="Random draws per k.",
+    help=f"Random draws per k (at most {MAX_REPEATS}).",
 )
-@click.option("--seed", type=int, default=0, show_default=True)
+@click.option(
+    "--seed",
+    type=click.IntRange(min=0),
+    default=0,
+    show_default=True,
+    help="Seed of the random draws (§RA-6), ≥ 0.",
+)
 @click.option(
     "--requirement",
     type=click.FloatRange(min=0, min_open=True, max=1e6),
-    callback=lambda ctx, param, v: v if v == v else _bad_nan(param),  # FloatRange lets nan pass
+    callback=_finite,
     default=1.0,
     show_default=True,
     help="RMSE requirement in pixels.",
@@ -188,7 +256,7 @@ def _bad_nan(param: click.Parameter) -> float:
 @click.option(
     "--dem-fill-voids",
     "dem_fill",
-    type=int,
+    type=click.IntRange(min=0),
     default=0,
     show_default=True,
     help="Close DEM voids up to ~2·N cells across (holes of a photogrammetric DSM); 0: none.",
@@ -231,19 +299,15 @@ def command(
     plot, the GEV histogram, the refined-RFM table and report.html into --out.
     Exit status 0 when the RMSE meets the requirement, 1 when it does not.
     """
-    crs = None
-    if crs_text:
-        try:
-            crs = CRS.from_user_input(crs_text)
-        except CRSError:
-            raise UsageError(f"--crs {crs_text!r} is not a CRS pyproj knows") from None
-        if not crs.is_projected:
-            raise UsageError(f"--crs {crs_text!r} must be a projected CRS (metres)")
+    crs = _crs(crs_text)
+    ks = _ks(k_text)
+    refuse_self_reference(image, reference)
     geoid_path = _geoid(geoid, geoid_offset)
     inputs = [p for p in (image, rpc, dem, reference, reference_rpc) if p is not None]
     if isinstance(geoid_path, Path):
         inputs.append(geoid_path)
     refuse_replacing(out, OUTPUT_NAMES, inputs)
+    refuse_foreign_results(out)
     with empty_removed(out):  # an input error leaves no empty folder the run made
         out_dir = check_out_dir(out, inputs)
         cfg = RfmAccuracyConfig(
@@ -263,7 +327,7 @@ def command(
             margin=margin,
             match_chunk=match_chunk,
             match_grid=match_grid,
-            ks=_ks(k_text),
+            ks=ks,
             repeats=repeats,
             seed=seed,
             requirement_px=requirement,

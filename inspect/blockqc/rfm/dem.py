@@ -350,6 +350,23 @@ def _check_choice(
         )
 
 
+def _check_model(
+    path: Path, declared: str | None, how: str, g: geoid_mod.Geoid, grid_file: Path
+) -> None:
+    """Refuse a geoid grid of another model than the one the DEM declares, both being known
+    (an EGM96 grid for EGM2008 heights is off by up to metres)."""
+    unknown = (None, geoid_mod.ELLIPSOID, "an unnamed vertical datum")  # `vertical_model`'s
+    if declared in unknown or g.model is None or g.model == declared:
+        return
+    raise InputError(
+        Problem(
+            file=str(path),
+            message=f"the DEM declares {declared} heights ({how}), but the geoid grid "
+            f"{grid_file.name} is {g.model}: give a {declared} grid with --geoid FILE",
+        )
+    )
+
+
 def _resolve_geoid(
     path: Path,
     grid: Grid,
@@ -370,7 +387,9 @@ def _resolve_geoid(
     if geoid is not None:
         lon, lat = _node_lonlat(grid)
         box = (np.min(lon) - 0.5, np.min(lat) - 0.5, np.max(lon) + 0.5, np.max(lat) + 0.5)
-        return geoid_mod.geoid_from_file(Path(geoid), tuple(float(v) for v in box))
+        g = geoid_mod.geoid_from_file(Path(geoid), tuple(float(v) for v in box))
+        _check_model(path, declared, how, g, Path(geoid))
+        return g
     if vertical == "ellipsoid" or declared == geoid_mod.ELLIPSOID:
         return None
     if declared == "EGM96":

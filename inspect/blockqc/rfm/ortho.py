@@ -151,6 +151,31 @@ def image_gsd(
     return float(np.sqrt(d_row * d_col))
 
 
+MAX_GRID_PIXELS = 2_000_000_000
+"""Most pixels of an output grid (the reference's, margin included): a Pléiades scene, 20 km
+at 0.5 m, is 1.6e9; the matching holds both grids in memory (8 GB each at this size)."""
+
+
+def check_grid_size(grid: OrthoGrid, margin: int, gsd_given: bool) -> None:
+    """Refuse a grid (with `margin` pixels more on every side for the reference) of more than
+    MAX_GRID_PIXELS, naming --gsd and --margin, before a file that size is opened."""
+    ref = grid.expanded(margin)
+    if ref.width * ref.height <= MAX_GRID_PIXELS:
+        return
+    spacing = f"--gsd {grid.gsd:g} m" if gsd_given else f"the image's GSD {grid.gsd:g} m"
+    fine = grid.width * grid.height > MAX_GRID_PIXELS  # even without the margin
+    fix = "a larger --gsd" if fine else "a smaller --margin"
+    raise InputError(
+        Problem(
+            file="<arguments>",
+            message=f"{spacing} and --margin {margin} px give an output grid of {grid.width} × "
+            f"{grid.height} px and a reference grid of {ref.width} × {ref.height} px "
+            f"({ref.width * ref.height:.3g} px): more than {MAX_GRID_PIXELS:.0e} px (a Pléiades "
+            f"scene, 20 km at 0.5 m, is 1.6e9 px); give {fix}",
+        )
+    )
+
+
 def ortho_grid(
     model: GroundToImage,
     shape: tuple[int, int],
@@ -159,6 +184,7 @@ def ortho_grid(
     crop_offset: tuple[float, float] = (0.0, 0.0),
     crs: CRS | None = None,
     gsd: float | None = None,
+    margin: int = 0,
 ) -> OrthoGrid:
     """The output grid covering the image footprint on the DEM, at the image GSD.
 
@@ -166,7 +192,8 @@ def ortho_grid(
     Where the DEM does not reach the image border, the footprint is taken at the mean DEM height
     found over the image; a DEM with no value over the image is refused.
     The CRS defaults to the UTM zone of the footprint centre; the GSD to `image_gsd` at the
-    image centre, rounded to the millimetre. Grid edges are multiples of the GSD.
+    image centre, rounded to the millimetre. Grid edges are multiples of the GSD. A grid
+    that, with `margin` pixels more on every side, exceeds MAX_GRID_PIXELS is refused.
     """
     rows, cols = shape
     r0, c0 = crop_offset
@@ -199,10 +226,12 @@ def ortho_grid(
         )
     if crs is None:
         crs = utm_crs(float(np.mean(lon)), float(np.mean(lat)))
+    gsd_given = gsd is not None
     if gsd is None:
         gsd = round(image_gsd(model, centre[0], centre[1], dem, crs, mean_height), 3)
-    if not gsd > 0:
-        raise InputError(Problem(file="<arguments>", message=f"GSD must be positive, got {gsd}"))
+    if not (np.isfinite(gsd) and gsd > 0):
+        why = f"GSD must be a finite number > 0, got {gsd}"
+        raise InputError(Problem(file="<arguments>", message=why))
     x, y = Transformer.from_crs(CRS.from_epsg(4326), crs, always_xy=True).transform(lon, lat)
     x0 = np.floor(np.min(x) / gsd) * gsd
     x1 = np.ceil(np.max(x) / gsd) * gsd
@@ -210,7 +239,9 @@ def ortho_grid(
     y1 = np.ceil(np.max(y) / gsd) * gsd
     width = int(round((x1 - x0) / gsd))
     height = int(round((y1 - y0) / gsd))
-    return OrthoGrid(crs, Affine(gsd, 0.0, x0, 0.0, -gsd, y1), width, height)
+    grid = OrthoGrid(crs, Affine(gsd, 0.0, x0, 0.0, -gsd, y1), width, height)
+    check_grid_size(grid, margin, gsd_given)
+    return grid
 
 
 def sensor_positions(

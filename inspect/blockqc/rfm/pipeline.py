@@ -8,6 +8,9 @@ results.json only (`blockqc.rfm.report`).
 from __future__ import annotations
 
 import math
+import os
+import shutil
+import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -555,9 +558,6 @@ class _Run:
 
 def _prepare(cfg: RfmAccuracyConfig) -> _Run:
     """Read the RPC and the image size, and the DEM over the footprint (heights ellipsoidal)."""
-    if cfg.method not in METHODS:
-        raise InputError(Problem(file="<arguments>", message=f"method must be one of {METHODS}"))
-    cfg.out.mkdir(parents=True, exist_ok=True)
     rpc = read_rpc(cfg.rpc or cfg.image)
     shape, _ = _raster_shape(cfg.image)
     offset = cfg.crop_offset if cfg.crop_offset is not None else crop_offset_from_file(cfg.image)
@@ -572,13 +572,13 @@ def _prepare(cfg: RfmAccuracyConfig) -> _Run:
     )
     reference = reference_model(cfg)  # refused now, not after the image is orthorectified
     run = _Run(cfg, rpc, offset, dem, reference=reference)
-    run.grid = ortho_grid(rpc, shape, dem, crop_offset=offset, crs=cfg.crs, gsd=cfg.gsd)
+    run.grid = ortho_grid(
+        rpc, shape, dem, crop_offset=offset, crs=cfg.crs, gsd=cfg.gsd, margin=cfg.margin
+    )
     run.image_gsd = (
         run.grid.gsd if cfg.gsd is None else round(centre_gsd(rpc, shape, offset, dem, run.grid), 3)
     )
     run.no_height = image_without_height(rpc, shape, offset, dem)
-    for name in OUTPUT_NAMES:  # an earlier run's outputs never lie beside this run's
-        (cfg.out / name).unlink(missing_ok=True)
     return run
 
 
@@ -735,7 +735,42 @@ def _refined_doc(run: _Run, table: pd.DataFrame, refined_all: Any) -> dict[str, 
 
 
 def run_rfm_accuracy(cfg: RfmAccuracyConfig, matcher: Matcher | None = None) -> dict[str, object]:
-    """Run §RA-1..6 for one image and write every output into `cfg.out`; returns the results."""
+    """Run §RA-1..6 for one image and write every output into `cfg.out`; returns the results.
+
+    The outputs are written into a hidden folder of `cfg.out` and moved into place only once
+    all of them, the page included, are written (`_publish`): a run that fails leaves an
+    earlier run's outputs as they were, and never a results.json without its page."""
+    if cfg.method not in METHODS:
+        raise InputError(Problem(file="<arguments>", message=f"method must be one of {METHODS}"))
+    cfg.out.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(prefix=".rfm-accuracy.", suffix=".partial", dir=cfg.out))
+    try:
+        results = _measure(replace(cfg, out=staging), matcher)
+        _publish(staging, cfg.out)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+    return results
+
+
+def _publish(staging: Path, out: Path) -> None:
+    """Move a finished run's outputs from `staging` into `out`, results.json last; an earlier
+    run's outputs this run did not make are removed, so that two runs never mix. Until the new
+    results.json is in place, none is there (renames within one folder: nothing to fail)."""
+    (out / "results.json").unlink(missing_ok=True)
+    for name in OUTPUT_NAMES:
+        if name == "results.json":
+            continue
+        if (staging / name).exists():
+            os.replace(staging / name, out / name)
+        else:
+            (out / name).unlink(missing_ok=True)
+    os.replace(staging / "results.json", out / "results.json")
+
+
+def _measure(cfg: RfmAccuracyConfig, matcher: Matcher | None) -> dict[str, object]:
+    """§RA-1..6 with every output written into `cfg.out`, the page before results.json."""
+    from blockqc.rfm.report import render_html
+
     run = _prepare(cfg)
     _correct_and_match(run, matcher)
     cps, gsd = run.cps, run.image_gsd
@@ -764,8 +799,6 @@ def run_rfm_accuracy(cfg: RfmAccuracyConfig, matcher: Matcher | None = None) -> 
         + accuracy.k_warnings(cfg.ks, n),
     }
     results = _clean(results)  # type: ignore[assignment]
-    write_json_atomic(cfg.out / "results.json", results)
-    from blockqc.rfm.report import render_html
-
     write_text_atomic(cfg.out / "report.html", render_html(results))
+    write_json_atomic(cfg.out / "results.json", results)
     return results
