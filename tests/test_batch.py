@@ -565,3 +565,66 @@ def test_outputs_of_a_withdrawn_delivery_are_said_and_not_rendered_again(
     assert r.returncode == 0, r.stderr
     assert f"warning: {out / 'F4-B02' / 'results.json'}: a block the summary" in r.stderr
     assert sorted(p.parent.name for p in rendered.glob("*/report.html")) == ["F1-B02", "F3-B02"]
+
+
+def _earlier_run(small_batch: Path, out: Path) -> dict[str, bytes]:
+    """A first run's outputs, with an earlier PDF beside F1-B02's results; their bytes."""
+    got = batch.collect([small_batch])
+    batch.run(got, load_pack("global-project"), batch.Writer(out, pdf="none"))
+    (out / "F1-B02" / "report.pdf").write_bytes(b"%PDF-1.7 an earlier run's")
+    (out / "F1-B02" / "notes.txt").write_text("the inspector's", encoding="utf-8")
+    return {str(p.relative_to(out)): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+
+
+def test_a_run_stopped_half_way_leaves_no_summary_over_blocks_it_does_not_describe(
+    small_batch, tmp_path, monkeypatch
+):
+    """Interrupted after rewriting F1-B02: its folder is this run's whole (the earlier PDF not
+    beside its new results, the inspector's file kept), the others the earlier run's, and the
+    earlier summary, which no longer describes them, set aside rather than left or deleted."""
+    out = tmp_path / "out"
+    earlier = _earlier_run(small_batch, out)
+    real = batch.inspect_one
+
+    def stopped(path, *args, **kwargs):
+        if path.name == "F3-B02":
+            raise KeyboardInterrupt
+        return real(path, *args, **kwargs)
+
+    monkeypatch.setattr(batch, "inspect_one", stopped)
+    with pytest.raises(KeyboardInterrupt):
+        batch.run(batch.collect([small_batch]), load_pack("global-project"),
+                  batch.Writer(out, pdf="none"))  # fmt: skip
+    assert sorted(p.name for p in (out / "F1-B02").iterdir()) == [
+        "checkpoints.csv", "evidence.csv", "notes.txt", "report.html", "results.json",
+    ]  # fmt: skip
+    for name in ("F3-B02/results.json", "F4-B02/report.html"):
+        assert (out / name).read_bytes() == earlier[name]
+    assert not list(out.glob("summary.*"))
+    aside = out / ".blockqc-previous-summary"
+    assert (aside / "summary.json").read_bytes() == earlier["summary.json"]
+    # the next run writes its own summary and leaves nothing hidden behind
+    monkeypatch.setattr(batch, "inspect_one", real)
+    batch.run(batch.collect([small_batch]), load_pack("global-project"),
+              batch.Writer(out, pdf="none"))  # fmt: skip
+    assert (out / "summary.json").is_file()
+    assert not aside.exists() and not (out / ".blockqc-staging").exists()
+
+
+def test_outputs_that_cannot_be_written_leave_the_earlier_ones_whole(small_batch, tmp_path):
+    """A template failing on a block: exit 2, and the earlier run's outputs are all there as
+    they were (they were removed), the summary set aside and said where."""
+    out = tmp_path / "out"
+    earlier = _earlier_run(small_batch, out)
+    mine = tmp_path / "templates"
+    mine.mkdir()
+    (mine / "block.html.j2").write_text("{{ no_such_name.x }}\n", encoding="utf-8")
+    p = run_blockqc("inspect", small_batch, "--out", out, "--no-pdf", "--templates", mine)
+    assert p.returncode == 2 and "a template fails" in p.stderr, p.stderr
+    assert (
+        f"note: the earlier run's batch summary is kept in {out / '.blockqc-previous-summary'}"
+        in p.stderr
+    )
+    now = {str(q.relative_to(out)): q.read_bytes() for q in out.rglob("*") if q.is_file()}
+    moved = {k.replace(".blockqc-previous-summary/", ""): v for k, v in now.items()}
+    assert moved == earlier

@@ -10,6 +10,7 @@ from __future__ import annotations
 import datetime as dt
 import json
 import os
+import shutil
 from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
@@ -50,7 +51,12 @@ from blockqc.inspector import InspectorInput
 from blockqc.outputs import (
     BATCH_OUTPUTS,
     BLOCK_OUTPUTS,
+    clear_staging,
+    restore_summary,
     safe_child,
+    set_aside_summary,
+    staged_folder,
+    swap_in,
     template_problem,
     write_json_atomic,
 )
@@ -242,16 +248,21 @@ class Writer:
         return self.pdf == "all"
 
     def block(self, results: BlockResults) -> bool:
-        """results.json first, the report rendered from it; whether a PDF was written."""
+        """results.json first, the report rendered from it, written apart and swapped in
+        whole (`swap_in`: never an earlier PDF beside new results; a failure leaves the
+        earlier outputs); whether a PDF was written."""
         folder = safe_child(self.out, results.block_id, source=results.delivery)
-        write_json_atomic(folder / "results.json", results)
-        pdf = self.wants_pdf(results)
-        write_block_report(
-            folder, results, lang=self.lang, templates=self.templates, pdf=pdf,
-            pdf_engine=self.pdf_engine,
-        )  # fmt: skip
-        if not pdf:
-            (folder / "report.pdf").unlink(missing_ok=True)  # never a stale PDF beside
+        staged = staged_folder(self.out, results.block_id)
+        try:
+            write_json_atomic(staged / "results.json", results)
+            pdf = self.wants_pdf(results)
+            write_block_report(
+                staged, results, lang=self.lang, templates=self.templates, pdf=pdf,
+                pdf_engine=self.pdf_engine,
+            )  # fmt: skip
+            swap_in(staged, folder, (*BLOCK_OUTPUTS, CACHE_FILE))
+        finally:
+            shutil.rmtree(staged, ignore_errors=True)
         return pdf
 
     def discard(self, block_id: str) -> None:
@@ -404,9 +415,7 @@ class Job:
             return o
         except InputError:
             raise  # an output name the block id cannot give (safe_child): the delivery's own
-        except Exception as exc:
-            self.writer.discard(results.block_id)  # none of its outputs is taken for complete
-            self.writer.drop_summary()  # nor an earlier summary for this run's
+        except Exception as exc:  # its earlier outputs are left whole (`Writer.block`)
             raise output_error(results.block_id, self.writer.out, exc) from None
 
     def _not_inspected(
@@ -607,11 +616,18 @@ def run(
     digest = run_digest(pack, writer, extra, name) if incremental else None
     todo = [(p, got.manifests.get(p)) for p in got.deliveries if p not in got.refused]
     runner = runner or Runner()
-    runner.run(Job(pack, inspector, writer, digest, extra), todo, finished)
+    clear_staging(writer.out)  # what a run killed half-way left
+    if got.is_batch:
+        set_aside_summary(writer.out)  # put back once the blocks are written
+    try:
+        runner.run(Job(pack, inspector, writer, digest, extra), todo, finished)
+    finally:
+        clear_staging(writer.out)
     outcomes = [done[p] for p in got.deliveries]
     summary = None
     if got.is_batch:
         summary = summarize(outcomes, pack, inspector, extra)
+        restore_summary(writer.out)
         _write_summary(writer, summary, outcomes, digest, runner.jobs)
     return outcomes, summary
 

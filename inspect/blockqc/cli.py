@@ -115,7 +115,7 @@ def refuse_repeated(command: click.Command, args: list[str]) -> None:
         for name in p.opts
     }
     seen: dict[str, str] = {}
-    for arg in args:
+    for arg in map(str, args):  # a caller of main() may pass paths
         if arg == "--":
             break
         given = arg.split("=", 1)[0] if arg.startswith("--") else arg
@@ -328,12 +328,34 @@ def inspect_cmd(
             outdated = batch.drop_outdated_summary(writer, got)
             if outdated:
                 click.echo(f"warning: {outdated}", err=True)
-            outcomes, summary = batch.run(
-                got, pack, writer, inspector, runner=runner, incremental=incremental,
-                progress=tick, checkpoints=checkpoints, plan=plan, meta=meta, plan_notes=notes,
-            )  # fmt: skip
+            with _said_if_stopped(out):
+                outcomes, summary = batch.run(
+                    got, pack, writer, inspector, runner=runner, incremental=incremental,
+                    progress=tick, checkpoints=checkpoints, plan=plan, meta=meta,
+                    plan_notes=notes,
+                )  # fmt: skip
     _closing_lines(outcomes, summary, out)
     return batch.exit_status(outcomes)
+
+
+@contextlib.contextmanager
+def _said_if_stopped(out: Path):
+    """A batch run that stops (an output it cannot write, interrupted) says where the earlier
+    run's summary is: set aside, since the blocks rewritten so far are no longer those it
+    describes (`batch.run`)."""
+    from blockqc.outputs import PREVIOUS_SUMMARY_DIR
+
+    try:
+        yield
+    except BaseException:
+        if (out / PREVIOUS_SUMMARY_DIR).is_dir():
+            click.echo(
+                f"note: the earlier run's batch summary is kept in {out / PREVIOUS_SUMMARY_DIR}:"
+                " this run stopped before writing its own (its blocks written so far are in "
+                f"{out}, each whole)",
+                err=True,
+            )
+        raise
 
 
 def _unread_figures(manifest, figures: set[str] | None) -> list[str]:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import datetime as dt
 import math
 import os
+import shutil
 import socket
 import tempfile
 import traceback
@@ -345,6 +346,68 @@ BATCH_OUTPUTS = (
     "acceptance.html",
     "acceptance.pdf",
 )
+
+
+#: hidden folders of the outputs: a block's outputs written before they are swapped in, and
+#: the earlier run's batch outputs set aside while a batch run rewrites its blocks
+STAGING_DIR = ".blockqc-staging"
+PREVIOUS_SUMMARY_DIR = ".blockqc-previous-summary"
+
+
+def staged_folder(out: Path, name: str) -> Path:
+    """A new empty folder under `out`/.blockqc-staging to write `name`'s outputs into."""
+    root = out / STAGING_DIR
+    root.mkdir(parents=True, exist_ok=True)
+    return Path(tempfile.mkdtemp(prefix=f"{name}.", dir=root))
+
+
+def swap_in(staged: Path, folder: Path, ours: Iterable[str]) -> None:
+    """Put the `staged` folder in `folder`'s place, whole: a block's outputs are either all the
+    earlier run's or all this one's, never a mix (an earlier PDF beside new results). What the
+    folder holds besides the files named `ours` is carried over."""
+    if not folder.is_dir():
+        os.replace(staged, folder)
+        return
+    ours = set(ours)
+    for p in folder.iterdir():
+        if p.name not in ours and not (staged / p.name).exists():
+            os.replace(p, staged / p.name)
+    old = Path(tempfile.mkdtemp(prefix=f"{folder.name}.replaced.", dir=staged.parent))
+    os.replace(folder, old)
+    os.replace(staged, folder)
+    shutil.rmtree(old, ignore_errors=True)
+
+
+def clear_staging(out: Path) -> None:
+    """Remove what a run stopped half-way left staged (never a block's outputs in place)."""
+    shutil.rmtree(out / STAGING_DIR, ignore_errors=True)
+
+
+def set_aside_summary(out: Path) -> None:
+    """Move the earlier run's batch outputs into `out`/.blockqc-previous-summary while this run
+    rewrites the blocks: a run that stops half-way leaves no summary that looks complete over
+    blocks it does not describe (nor destroys it). Without batch outputs in `out`, what an
+    earlier stopped run set aside stays there."""
+    present = [n for n in BATCH_OUTPUTS if (out / n).is_file()]
+    if not present:
+        return
+    aside = out / PREVIOUS_SUMMARY_DIR
+    shutil.rmtree(aside, ignore_errors=True)
+    aside.mkdir()
+    for name in present:
+        os.replace(out / name, aside / name)
+
+
+def restore_summary(out: Path) -> None:
+    """Put the batch outputs set aside back where this run wrote none (the run then keeps or
+    rewrites them), and remove the folder they were kept in."""
+    aside = out / PREVIOUS_SUMMARY_DIR
+    if not aside.is_dir():
+        return
+    for p in aside.iterdir():
+        if p.name in BATCH_OUTPUTS and not (out / p.name).exists():
+            os.replace(p, out / p.name)
+    shutil.rmtree(aside, ignore_errors=True)
 
 
 def block_id_problem(value: str) -> str | None:
