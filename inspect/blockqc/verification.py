@@ -213,10 +213,21 @@ def prepare(d: Delivery) -> dict[str, Any]:
     return notes
 
 
+#: said of RC-1 (after the count of points) when some points' rays do not intersect
+NOT_REPRODUCED = (
+    "tie points whose rays the delivered geometry cannot intersect: their observations are "
+    "not reproduced (difference ∞, shown as –)"
+)
+
+
 def annotate(results: list[Any], metric_of: dict[str, str], notes: dict) -> None:
-    """Say in each result judged on inputs blockqc computed itself where they came from."""
+    """Say in each result judged on inputs blockqc computed itself where they came from, and
+    in RC-1's why its value is infinite (no number in JSON) when rays do not intersect."""
     computed = {k: v for k, v in notes.items() if v in (COMPUTED_RESIDUALS, DERIVED_OVERLAPS)}
+    lost = notes.get("n_points_not_intersected", 0)
     for res in results:
+        if lost and metric_of.get(res.rule) == "residual_reproduction":
+            res.detail["note"] = f"{lost} {NOT_REPRODUCED}"
         source = SOURCES.get(metric_of.get(res.rule, ""))
         if source in computed:
             res.detail["computed_by_blockqc"] = computed[source]

@@ -130,6 +130,18 @@ def test_rays_the_geometry_cannot_intersect_fail_rc1(tmp_path) -> None:
     assert lost > 0 and rc1["detail"]["n_units"] == judged  # none left out
     first = rc1["evidence"][: min(lost, len(rc1["evidence"]))]  # infinite: the worst, first
     assert all(e["intersected"] is False and e["difference_px"] is None for e in first)
+    # its value, infinite, is null in JSON ("–" on the page): the result says why, in the
+    # page's language
+    from blockqc.report.format import Formatter
+
+    points = doc["process_data"]["n_points_not_intersected"]
+    assert rc1["value"] is None and rc1["detail"]["note"] == (
+        f"{points} tie points whose rays the delivered geometry cannot intersect: their "
+        "observations are not reproduced (difference ∞, shown as –)"
+    )
+    assert Formatter("zh").text(rc1["detail"]["note"]) == (
+        f"{points} 个连接点的光线无法由所交几何模型前方交会：其观测未能复现（差值为 ∞，显示为 –）"
+    )
 
 
 def test_without_residuals_rays_that_do_not_intersect_put_the_residual_rules_in_error(

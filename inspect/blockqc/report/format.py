@@ -56,6 +56,8 @@ PHRASES = (
     "ph_nothing_measured",
     "ph_no_adjustment",
     "ph_no_pan_ms",
+    "ph_not_reproduced",
+    "ph_no_overlaps_derived",  # before its shorter "no overlaps table (overlaps.csv) …"
     "ph_no_overlaps",
     "ph_no_edges",
     "ph_no_reported",

@@ -539,6 +539,16 @@ MESSAGES.update(
             "no PAN–MS registration table (pan_ms.csv) in the delivery",
             "成果中没有全色–多光谱配准表（pan_ms.csv）",
         ),
+        "ph_not_reproduced": (
+            "tie points whose rays the delivered geometry cannot intersect: their observations "
+            "are not reproduced (difference ∞, shown as –)",
+            "个连接点的光线无法由所交几何模型前方交会：其观测未能复现（差值为 ∞，显示为 –）",
+        ),
+        "ph_no_overlaps_derived": (
+            "no overlaps table (overlaps.csv), and no tie point seen on two scenes to derive the "
+            "adjacent-image discrepancies from",
+            "成果中没有影像重叠表（overlaps.csv），也没有位于两景及以上影像上的连接点可用于推算相邻影像接边差",
+        ),
         "ph_no_overlaps": (
             "no overlaps table (overlaps.csv) in the delivery",
             "成果中没有影像重叠表（overlaps.csv）",
