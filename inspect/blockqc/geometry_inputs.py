@@ -53,7 +53,8 @@ def _scan(folder: Path, scene_ids: set[str], problems: list[Problem]) -> dict[st
     """The RPC files of a folder by scene id; unknown names and doubles are problems."""
     found: dict[str, Path] = {}
     for f in sorted(p for p in folder.iterdir() if not p.name.startswith(".")):
-        sid = f.name.rsplit(".", 1)[0] if "." in f.name else f.name
+        # the file's whole name when it is a scene's (ZY3.L, no extension), else its stem
+        sid = f.name if f.name in scene_ids or "." not in f.name else f.name.rsplit(".", 1)[0]
         if not f.is_file():
             problems.append(Problem(str(f), "expected an RPC file named <scene_id>.<ext>"))
         elif sid not in scene_ids:

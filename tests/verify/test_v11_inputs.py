@@ -129,6 +129,22 @@ def test_the_rpc_of_a_smaller_image_is_refused(tmp_path, tie_points) -> None:
     assert f"does not hold scene 'R' of scenes.csv ({lines} lines × {samples} samples)" in msg
 
 
+def test_rpc_files_of_dotted_scene_ids_with_or_without_extension(tmp_path, tie_points) -> None:
+    """Scene ids ZY3.L and ZY3.R: rpc/ZY3.L.geom was read, rpc/ZY3.L (no extension) refused
+    as 'no scene ZY3'."""
+    folder = write_v11(tmp_path / "d", tie_points.assign(scene_id="ZY3." + tie_points["scene_id"]))
+    scenes = pd.read_csv(folder / "scenes.csv")
+    scenes.assign(scene_id="ZY3." + scenes["scene_id"]).to_csv(folder / "scenes.csv", index=False)
+    adjustment = pd.read_csv(folder / "adjustment.csv")
+    adjustment.assign(scene_id="ZY3." + adjustment["scene_id"]).to_csv(
+        folder / "adjustment.csv", index=False
+    )
+    (folder / "rpc" / "L.geom").rename(folder / "rpc" / "ZY3.L")
+    (folder / "rpc" / "R.geom").rename(folder / "rpc" / "ZY3.R.geom")
+    d = load_delivery(folder)
+    assert sorted(d.geometry.original) == ["ZY3.L", "ZY3.R"]
+
+
 def test_bad_geometry_exits_2(tmp_path, tie_points, blockqc) -> None:
     folder = write_v11(tmp_path / "d", tie_points)
     (folder / "rpc" / "L.geom").unlink()
