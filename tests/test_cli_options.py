@@ -306,3 +306,17 @@ def test_an_inspectors_input_from_inside_the_delivery_is_refused(tmp_path, optio
     p = run_blockqc("inspect", delivery, "--out", tmp_path / "o", option, planted)
     _refused(p, f"{option} {planted} lies inside the delivery {delivery}")
     assert not (tmp_path / "o").exists()
+
+
+def test_empty_inputs_and_a_folder_for_an_output_file_are_named(tmp_path):
+    """'' was read as the current folder ("--out lies inside the input ."), an empty --rules
+    gave "is a folder" naming nothing, and a folder in the place of sample's --out file was
+    named by a temporary file of blockqc's."""
+    _refused(run_blockqc("inspect", "", "--out", "o", cwd=tmp_path),
+             "'PATHS...': an empty path: give a delivery or a batch folder")  # fmt: skip
+    _refused(run_blockqc("inspect", SAMPLE, "--rules", "", "--out", "o", cwd=tmp_path),
+             "error: <rules>: an empty rule pack name")  # fmt: skip
+    (tmp_path / "plan.yaml").mkdir()
+    p = run_blockqc("sample", SAMPLES / "batch", "--seed", "7", "--out", "plan.yaml", cwd=tmp_path)
+    _refused(p, "error: plan.yaml: a folder is there: expected a file")
+    assert ".tmp" not in p.stderr

@@ -64,6 +64,22 @@ def test_a_document_that_is_a_loop_of_links_fails_doc_1_by_name(blockqc, block, 
                for e in doc1["evidence"])  # fmt: skip
 
 
+def test_a_document_path_naming_a_folder_is_said_to_be_one(blockqc, block, tmp_path):
+    """It read 'documents does not exist (documents is there: …)'."""
+    text = (block / "block.yaml").read_text(encoding="utf-8")
+    first = next(
+        line.split(":", 1)[1].strip() for line in text.splitlines() if "documents/" in line
+    )
+    (block / "block.yaml").write_text(text.replace(first, "documents"), encoding="utf-8")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    assert p.returncode == 1, p.stderr
+    results = json.loads((tmp_path / "out" / "F1-B01" / "results.json").read_text("utf-8"))
+    (doc1,) = [r for r in results["results"] if r["rule"] == "DOC-1"]
+    assert doc1["status"] == "fail"
+    assert any(e["problem"] == "documents is a folder, not a document file"
+               for e in doc1["evidence"])  # fmt: skip
+
+
 @pytest.mark.parametrize(
     ("name", "meant"), [("RPC", "rpc"), ("rpcs", "rpc"), ("RPC_Adjusted", "rpc_adjusted")]
 )

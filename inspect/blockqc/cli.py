@@ -18,8 +18,8 @@ STATUS_STYLE = {"pass": "green", "fail": "red", "error": "red", "warn": "yellow"
 
 
 class OutPath(click.Path):
-    """An output path: a Path, and never empty (`--out ''` would write into the current
-    folder); `what` it names, in the message."""
+    """A path never empty (`--out ''` would write into the current folder, a delivery '' read
+    it): a Path; `what` it names, in the message."""
 
     def __init__(self, what: str = "an output folder", **how) -> None:
         super().__init__(path_type=Path, **how)
@@ -171,7 +171,7 @@ def check_pdf_engine(engine: str, pdf: bool) -> None:
 
 # ------------------------------------------------------------------------------- inspect
 @cli.command("inspect")
-@click.argument("paths", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.argument("paths", nargs=-1, required=True, type=OutPath("a delivery or a batch folder"))
 @click.option(
     "--rules",
     "rules_ref",

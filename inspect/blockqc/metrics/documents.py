@@ -45,6 +45,8 @@ def check_document(root: Path, rel: str | None) -> tuple[bool, bool, int, str]:
         return False, False, 0, f"{rel}: a symbolic link that leads back to itself"
     if root.resolve() not in path.parents:
         return False, False, 0, f"{rel} points outside the delivery"
+    if path.is_dir():
+        return False, False, 0, f"{rel} is a folder, not a document file"
     if not path.is_file():
         return False, False, 0, f"{rel} does not exist{other_case(root, rel)}"
     size = path.stat().st_size

@@ -49,6 +49,14 @@ def resolve_pack_path(
     `site` is the file and line that names the reference (an `extends:`), for the message.
     """
     ref_s = str(ref)
+    if not ref_s.strip():
+        raise RuleError(
+            Problem(
+                "<rules>",
+                "an empty rule pack name: give a stock pack name "
+                f"({', '.join(available_packs())}) or a file path",
+            )
+        )
     candidates = []
     if base is not None:
         candidates.append(base / ref_s)
