@@ -7,6 +7,7 @@ from pathlib import Path
 import pytest
 
 from blockqc.errors import RuleError
+from blockqc.resources import rules_dir
 from blockqc.rules import load_pack
 from casekit import extension_pack as _pack
 from casekit import lint_messages as _messages
@@ -614,3 +615,16 @@ def test_a_rule_disabled_and_overridden_in_one_file_is_refused(tmp_path: Path) -
         f"{pack}, line 3: disable: TP-1 is also overridden in this file (overrides.TP-1, "
         "line 5): disable it or override it"
     ]
+
+
+def test_a_stock_rule_failing_on_a_constant_the_project_sets_names_where_it_is_set(
+    tmp_path: Path,
+) -> None:
+    """norm.plane_m: -5 was reported only at the stock pack's lines (CP-1's params …), with no
+    word of the project pack's line that set it."""
+    pack = _pack(tmp_path, "constants:\n  norm: {plane_m: -5}\n")
+    msgs = _messages(pack)
+    where = f"(constants set elsewhere: norm.plane_m = -5, set in {pack}, line 4)"
+    stock = str(rules_dir() / "global-project.yaml")
+    assert msgs and all(m.startswith(stock) and m.endswith(where) for m in msgs), msgs
+    assert any("rule CP-1: params.plane_norm_m: Input should be greater than 0" in m for m in msgs)

@@ -18,11 +18,13 @@ from blockqc.acceptance.model import Acceptance
 from blockqc.errors import Problem, RuleError
 from blockqc.resources import rules_dir
 from blockqc.rules import accept
+from blockqc.rules.expr import flatten
 from blockqc.rules.lint import (
     check_constants,
     check_rule,
     did_you_mean,
     new_constant_sites,
+    referenced_names,
     reshaped_constants,
     stand_in_invalid,
     unused_constants,
@@ -128,6 +130,8 @@ class _Loaded:
     disabled: list[str] = field(default_factory=list)
     disabled_at: dict[str, tuple[str, int | None]] = field(default_factory=dict)  # file, line
     problems: list[Problem] = field(default_factory=list)
+    # where each constant was last set: dotted name → (file, line, value)
+    constant_set_at: dict[str, tuple[str, int | None, Any]] = field(default_factory=dict)
     # every file of the chain as read, the root pack first: (file, its YAML, its model)
     sources: list[tuple[str, Any, PackFile]] = field(default_factory=list)
 
@@ -165,6 +169,12 @@ def _load_raw(path: Path, seen: tuple[Path, ...]) -> _Loaded:
     out.problems += reshaped_constants(consts, out.constants, data, path)
     # an invalid constant is reported once, at its own line; its uses evaluate a stand-in
     out.constants = _deep_merge(out.constants, stand_in_invalid(consts, out.constants))
+    for name, value in flatten(consts).items():
+        out.constant_set_at[name] = (
+            str(path),
+            line_of(data, ("constants", *name.split("."))),
+            value,
+        )
     out.chain.insert(0, str(path))
     out.sources.append((str(path), data, pf))
     _add_rules(out, pf, data, path)
@@ -285,8 +295,8 @@ def read_pack(ref: str | Path) -> tuple[Pack | None, list[Problem]]:
                 )
             continue
         rule, found = render_rule(rule, loaded.constants, raw.file, partial(_line, raw))
-        problems.extend(found)
-        problems.extend(check_rule(rule, names, raw.file, partial(_line, raw), notes))
+        found += check_rule(rule, names, raw.file, partial(_line, raw), notes)
+        problems.extend(_with_constants_set(found, raw, loaded))
         problems.extend(_check_contents(rule, elements, raw))
         rules.append(rule)
     if not loaded.rules:
@@ -309,6 +319,26 @@ def read_pack(ref: str | Path) -> tuple[Pack | None, list[Problem]]:
         notes=notes,
     )
     return pack, problems
+
+
+def _with_constants_set(found: list[Problem], raw: _Raw, loaded: _Loaded) -> list[Problem]:
+    """A rule's problems at its own file, with the constants it reads that a pack extending
+    that file set (a project pack's `norm: {plane_m: -5}` makes stock rules fail at their
+    lines): named with their value, file and line, so that the user finds what to change."""
+    names = referenced_names(raw.data)
+    chain = loaded.chain  # the pack named first, the stock pack last
+    later = set(chain[: chain.index(raw.file)]) if raw.file in chain else set()
+    set_elsewhere = [
+        f"{n} = {v}, set in {f}, line {line}"
+        for n, (f, line, v) in sorted(loaded.constant_set_at.items())
+        if n in names and f in later
+    ]
+    if not set_elsewhere:
+        return found
+    hint = f" (constants set elsewhere: {'; '.join(set_elsewhere)})"
+    return [
+        Problem(p.file, p.message + hint, line=p.line) if p.file == raw.file else p for p in found
+    ]
 
 
 def _no_rules(path: Path, loaded: _Loaded) -> Problem:
