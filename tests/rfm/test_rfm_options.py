@@ -178,6 +178,8 @@ def test_an_out_holding_a_results_json_that_is_no_json_is_refused(tmp_path: Path
         ("--gsd", "0"),
         ("--gsd", "-2"),
         ("--dem-fill-voids", "-1"),
+        ("--chunk", "0"),
+        ("--chunk", "47"),
     ],
 )
 def test_a_number_out_of_its_range_is_refused(tmp_path: Path, capsys, option: str, value: str):

@@ -13,6 +13,7 @@ from pyproj.exceptions import CRSError
 
 from blockqc.cli import OutPath
 from blockqc.errors import UsageError
+from blockqc.matching.settings import MatchSettings
 from blockqc.outputs import check_out_dir, empty_removed, refuse_replacing
 from blockqc.rfm.pipeline import METHODS, OUTPUT_NAMES, RfmAccuracyConfig, run_rfm_accuracy
 
@@ -27,6 +28,8 @@ def _offset(value: str | None) -> tuple[float, float] | None:
     return row, col
 
 
+#: the smallest matching chunk: the matcher's BRIEF patch and NCC template must fit in it
+MIN_CHUNK = max(MatchSettings().template, MatchSettings().brief_patch)
 MAX_REPEATS = 10_000
 """Most random draws per k of §RA-6 (--repeats): all draws of a k are solved at once, and
 10^8 of them took 23 GB; beyond 10^4 the mean RMSE of a row no longer changes."""
@@ -200,10 +203,10 @@ def _finite(ctx: click.Context, param: click.Parameter, value: float | None) -> 
 @click.option(
     "--chunk",
     "match_chunk",
-    type=int,
+    type=click.IntRange(min=MIN_CHUNK),
     default=5000,
     show_default=True,
-    help="Matching chunk B (px) (§RA-3).",
+    help=f"Matching chunk B (px) (§RA-3), at least {MIN_CHUNK} (the BRIEF patch).",
 )
 @click.option(
     "--margin",
