@@ -115,16 +115,14 @@ def _intersected(
     y = intersect(
         stack, affine, scene[rows], sub, line[rows], sample[rows], (h0, WEAK_HEIGHT_SIGMA_M)
     )
-    fields = {}
-    for name, at, new in (("lon", again, y.lon), ("lat", again, y.lat), ("h", again, y.h)):
-        fields[name] = getattr(x, name).copy()
-        fields[name][at] = new
-    for name in ("v_line", "v_sample"):
-        fields[name] = getattr(x, name).copy()
-        fields[name][rows] = getattr(y, name)
-    converged = x.converged.copy()
-    converged[again] = y.converged
-    return replace(x, converged=converged, **fields), weak
+    fields = {
+        n: getattr(x, n).copy() for n in ("lon", "lat", "h", "converged", "v_line", "v_sample")
+    }
+    for n in ("lon", "lat", "h", "converged"):  # per point
+        fields[n][again] = getattr(y, n)
+    for n in ("v_line", "v_sample"):  # per observation
+        fields[n][rows] = getattr(y, n)
+    return replace(x, **fields), weak
 
 
 def derive_overlaps(
