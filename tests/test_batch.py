@@ -611,16 +611,22 @@ def test_a_run_stopped_half_way_leaves_no_summary_over_blocks_it_does_not_descri
     assert not aside.exists() and not (out / ".blockqc-staging").exists()
 
 
+def _with_a_failing_template(batch_dir: Path, out: Path, tmp_path: Path, page: str):
+    """inspect with `--templates` whose `page` fails on every results: exit 2, said."""
+    mine = tmp_path / "templates"
+    mine.mkdir()
+    (mine / page).write_text("{{ no_such_name.x }}\n", encoding="utf-8")
+    p = run_blockqc("inspect", batch_dir, "--out", out, "--no-pdf", "--templates", mine)
+    assert p.returncode == 2 and "a template fails" in p.stderr, p.stderr
+    return p
+
+
 def test_outputs_that_cannot_be_written_leave_the_earlier_ones_whole(small_batch, tmp_path):
     """A template failing on a block: exit 2, and the earlier run's outputs are all there as
     they were (they were removed), the summary set aside and said where."""
     out = tmp_path / "out"
     earlier = _earlier_run(small_batch, out)
-    mine = tmp_path / "templates"
-    mine.mkdir()
-    (mine / "block.html.j2").write_text("{{ no_such_name.x }}\n", encoding="utf-8")
-    p = run_blockqc("inspect", small_batch, "--out", out, "--no-pdf", "--templates", mine)
-    assert p.returncode == 2 and "a template fails" in p.stderr, p.stderr
+    p = _with_a_failing_template(small_batch, out, tmp_path, "block.html.j2")
     assert (
         f"note: the earlier run's batch summary is kept in {out / '.blockqc-previous-summary'}"
         in p.stderr
@@ -628,3 +634,73 @@ def test_outputs_that_cannot_be_written_leave_the_earlier_ones_whole(small_batch
     now = {str(q.relative_to(out)): q.read_bytes() for q in out.rglob("*") if q.is_file()}
     moved = {k.replace(".blockqc-previous-summary/", ""): v for k, v in now.items()}
     assert moved == earlier
+
+
+def test_a_block_folder_keeps_its_link_mode_and_other_files(small_batch, tmp_path):
+    """Outputs are put into the block's folder, not the folder replaced: a link to a folder
+    kept beside it in OUT stays a link, the inspector's files and subfolders stay, and a new
+    folder takes the mode the umask gives (a staged folder was 0700: nobody else could read
+    the reports)."""
+    out = tmp_path / "out"
+    real = out / "F1-B02.kept"
+    (real / "photos").mkdir(parents=True)
+    (real / "notes.txt").write_text("the inspector's", encoding="utf-8")
+    (out / "F1-B02").symlink_to(real)
+    batch.run(batch.collect([small_batch]), load_pack("global-project"),
+              batch.Writer(out, pdf="none"))  # fmt: skip
+    assert (out / "F1-B02").is_symlink() and (real / "results.json").is_file()
+    assert (real / "notes.txt").read_text(encoding="utf-8") == "the inspector's"
+    assert (real / "photos").is_dir()
+    umask = os.umask(0)
+    os.umask(umask)
+    assert (out / "F4-B02").stat().st_mode & 0o777 == 0o777 & ~umask
+    assert (out / "F4-B02" / "report.html").stat().st_mode & 0o777 == 0o644
+
+
+def test_a_summary_that_fails_to_be_written_leaves_no_mix_of_two_runs(small_batch, tmp_path):
+    """The summary page failing once the blocks are written: the earlier run's summary.csv,
+    .parquet, .html were put back and then only partly replaced, beside this run's
+    summary.json. Now the earlier ones stay set aside, said so."""
+    out = tmp_path / "out"
+    earlier = _earlier_run(small_batch, out)
+    p = _with_a_failing_template(small_batch, out, tmp_path, "summary.html.j2")
+    assert "note: the earlier run's batch summary is kept in" in p.stderr
+    aside = out / ".blockqc-previous-summary"
+    for name in ("summary.json", "summary.html", "summary.csv", "summary.parquet"):
+        assert (aside / name).read_bytes() == earlier[name], name
+        assert not (out / name).exists() or (out / name).read_bytes() != earlier[name], name
+
+
+def test_outputs_that_cannot_be_written_are_not_retried_on_dask():
+    """Dask runs a failed task again (meant for a worker that died): a template failing on a
+    block failed three times. The task hands the failure back; the run stops at once."""
+    from blockqc.distributed import _Stopped, _task
+    from blockqc.errors import OutputError, Problem
+
+    def failing(path, manifest):
+        raise OutputError(Problem(str(path), "cannot be written"))
+
+    stopped = _task(failing, Path("F1-B01"), None)
+    assert isinstance(stopped, _Stopped) and stopped.problems[0].message == "cannot be written"
+    assert _task(lambda path, manifest: "outcome", Path("F1-B01"), None) == "outcome"
+
+
+def test_sigterm_stops_a_run_as_ctrl_c_does(small_batch, tmp_path):
+    """Terminated, a run left its lock, its staged outputs and the summary set aside unsaid.
+    It now ends as on Ctrl-C: exit 143, said, the lock and staging cleared."""
+    import signal
+
+    out = tmp_path / "out"
+    _earlier_run(small_batch, out)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "blockqc", "inspect", small_batch, "--out", out, "--pdf", "none"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    proc.stdout.readline()  # the first block written
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=120)
+    if proc.returncode in (0, 1):
+        pytest.skip("the run ended before the signal reached it")
+    assert proc.returncode == 143 and "terminated" in err, err
+    assert not (out / ".blockqc-lock").exists() and not (out / ".blockqc-staging").exists()
+    assert "note: the earlier run's batch summary is kept in" in err

@@ -168,12 +168,12 @@ def test_writer_never_writes_into_nor_clears_a_delivery(tmp_path):
     """The last guard, wherever a block's folder is named (a worker, a re-run's clean-up): a
     block folder that is a delivery is refused, and nothing of it is removed."""
     from blockqc.batch import Writer
-    from blockqc.errors import InputError
+    from blockqc.errors import OutputError
     from blockqc.outputs import safe_child
 
     shutil.copytree(SAMPLE, tmp_path / "F1-B01")
     before = _files(tmp_path)
-    with pytest.raises(InputError, match="is the delivery .* never written into"):
+    with pytest.raises(OutputError, match="is the delivery .* never written into"):
         safe_child(tmp_path, "F1-B01")
     Writer(tmp_path).discard("F1-B01")
     assert _files(tmp_path) == before

@@ -555,14 +555,16 @@ def test_report_refuses_an_unsafe_block_id(blockqc, delivery: Path, tmp_path: Pa
 
 
 def test_safe_child(tmp_path: Path) -> None:
-    from blockqc.errors import InputError
+    from blockqc.errors import InputError, OutputError
     from blockqc.outputs import safe_child
 
     assert safe_child(tmp_path, "F1-B01") == tmp_path / "F1-B01"
-    (tmp_path / "link").symlink_to(tmp_path.parent)
-    for name in ("..", "../x", "/etc", "a/b", "a\0b", "", "x" * 300, "link", ".hidden"):
-        with pytest.raises(InputError):
+    for name in ("..", "../x", "/etc", "a/b", "a\0b", "", "x" * 300, ".hidden"):
+        with pytest.raises(InputError):  # the name's own fault
             safe_child(tmp_path, name)
+    (tmp_path / "link").symlink_to(tmp_path.parent)
+    with pytest.raises(OutputError, match="leads outside the output folder"):  # the folder's
+        safe_child(tmp_path, "link")
 
 
 # ------------------------------------------------------------------------ verdicts file

@@ -11,6 +11,7 @@ import datetime as dt
 import json
 import os
 import shutil
+import signal
 from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
@@ -51,12 +52,14 @@ from blockqc.inspector import InspectorInput
 from blockqc.outputs import (
     BATCH_OUTPUTS,
     BLOCK_OUTPUTS,
+    PREVIOUS_SUMMARY_DIR,
     clear_staging,
+    drop_set_aside,
+    publish,
     restore_summary,
     safe_child,
     set_aside_summary,
     staged_folder,
-    swap_in,
     template_problem,
     write_json_atomic,
 )
@@ -248,9 +251,9 @@ class Writer:
         return self.pdf == "all"
 
     def block(self, results: BlockResults) -> bool:
-        """results.json first, the report rendered from it, written apart and swapped in
-        whole (`swap_in`: never an earlier PDF beside new results; a failure leaves the
-        earlier outputs); whether a PDF was written."""
+        """results.json first, the report rendered from it, written apart and put in place
+        (`publish`: never an earlier PDF beside new results; a failure leaves the earlier
+        outputs); whether a PDF was written."""
         folder = safe_child(self.out, results.block_id, source=results.delivery)
         staged = staged_folder(self.out, results.block_id)
         try:
@@ -260,7 +263,7 @@ class Writer:
                 staged, results, lang=self.lang, templates=self.templates, pdf=pdf,
                 pdf_engine=self.pdf_engine,
             )  # fmt: skip
-            swap_in(staged, folder, (*BLOCK_OUTPUTS, CACHE_FILE))
+            publish(staged, folder, (*BLOCK_OUTPUTS, CACHE_FILE), last="results.json")
         finally:
             shutil.rmtree(staged, ignore_errors=True)
         return pdf
@@ -269,8 +272,8 @@ class Writer:
         """Remove the block's outputs (and its folder, when nothing else is left in it)."""
         try:
             folder = safe_child(self.out, block_id)
-        except InputError:
-            return  # an id that cannot name a folder of the outputs has none
+        except (InputError, OutputError):
+            return  # an id that cannot name a folder of the outputs has none, nor a link out
         for name in (*BLOCK_OUTPUTS, CACHE_FILE):
             with suppress(OSError):  # a file in the folder's place: nothing of ours to remove
                 (folder / name).unlink(missing_ok=True)
@@ -413,8 +416,9 @@ class Job:
             if key:
                 write_cached(folder, Cached(key, o.entry, o.rules, grade, errors=o.errors))
             return o
-        except InputError:
-            raise  # an output name the block id cannot give (safe_child): the delivery's own
+        except (InputError, OutputError):
+            raise  # an output name the block id cannot give (safe_child): the delivery's own;
+            # or a folder refused there (a link out of `--out`): the output folder's
         except Exception as exc:  # its earlier outputs are left whole (`Writer.block`)
             raise output_error(results.block_id, self.writer.out, exc) from None
 
@@ -560,13 +564,20 @@ class Runner:
             done(Outcome(p, problems=[problem], block_id=m.block_id if m else None))
 
 
+def _worker_start() -> None:
+    """A worker process: one thread (the processes share the cores), and SIGTERM left to end
+    it, not raised as the main process raises it (`blockqc.cli`)."""
+    pieces.single_thread()
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
 def _pooled(
     job: Job, todo: list[tuple[Path, Manifest | None]], done: Callable, workers: int
 ) -> list[tuple[Path, Manifest | None]]:
     """done(outcome) of each job run in a pool of `workers` processes; the jobs lost to a
     process that died."""
     lost = []
-    with ProcessPoolExecutor(workers, initializer=pieces.single_thread) as pool:
+    with ProcessPoolExecutor(workers, initializer=_worker_start) as pool:
         futures = {pool.submit(job, p, m): (p, m) for p, m in todo}
         for future in as_completed(futures):
             try:
@@ -627,7 +638,6 @@ def run(
     summary = None
     if got.is_batch:
         summary = summarize(outcomes, pack, inspector, extra)
-        restore_summary(writer.out)
         _write_summary(writer, summary, outcomes, digest, runner.jobs)
     return outcomes, summary
 
@@ -678,13 +688,15 @@ def _write_summary(
     one they were written from (an unchanged batch of a thousand blocks rewrites nothing)."""
     from blockqc.cache import forget_summary, remember_summary, summary_key, summary_unchanged
 
-    key = None
+    key, aside = None, writer.out / PREVIOUS_SUMMARY_DIR
     if digest is not None:
         key = summary_key(digest, [o.key for o in outcomes], summary.inspector)
-        if summary_unchanged(writer.out, key):
+        if aside.is_dir() and summary_unchanged(writer.out, key, held=aside):
+            restore_summary(writer.out)
             return
     forget_summary(writer.out)
     remember_summary(writer.out, key, writer.summary(summary, jobs))
+    drop_set_aside(writer.out)  # this run's written whole: the earlier one's no longer kept
 
 
 def exit_status(outcomes: list[Outcome]) -> int:

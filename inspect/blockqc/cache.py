@@ -174,15 +174,17 @@ def summary_key(digest: str, block_keys: list[str | None], inspector: str | None
     return _sha(digest, inspector, block_keys)
 
 
-def summary_unchanged(out: Path, key: str | None) -> bool:
-    """Whether the summary outputs in `out` were written from the same blocks' lines and are
-    all still there: an unchanged batch then rewrites nothing."""
+def summary_unchanged(out: Path, key: str | None, held: Path | None = None) -> bool:
+    """Whether the summary outputs of `out` (held in `held`, where they were set aside while
+    the blocks were written) were written from the same blocks' lines and are all still there:
+    an unchanged batch then rewrites nothing."""
     if key is None:
         return False
+    held = out if held is None else held
     try:
         doc = json.loads((out / SUMMARY_CACHE_FILE).read_text(encoding="utf-8"))
         files = [str(f) for f in doc["files"]]
-        return doc["key"] == key and all((out / f).is_file() for f in [*SUMMARY_OUTPUTS, *files])
+        return doc["key"] == key and all((held / f).is_file() for f in [*SUMMARY_OUTPUTS, *files])
     except (OSError, ValueError, KeyError, TypeError):
         return False  # none, or a broken one: write the summary again
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import atexit
 import contextlib
 import os
+import signal
 import sys
 from pathlib import Path
 
@@ -627,24 +628,38 @@ def _template_error(exc: Exception) -> bool:
     return isinstance(exc, jinja2.TemplateError)
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where the process is, so that a run stops as on Ctrl-C: its workers
+    finish the blocks they write, its staged outputs and lock are cleared, and it says so."""
+
+
+def _terminated(signum, frame) -> None:
+    raise Terminated
+
+
 def main(argv: list[str] | None = None) -> None:
     """Entry point: run the command group, turning blockqc's errors into messages and exit 2."""
     memory.tune()  # before any command imports numpy
+    signal.signal(signal.SIGTERM, _terminated)
     try:
         rc = cli.main(args=argv, prog_name="blockqc", standalone_mode=False)
     except BlockqcError as exc:
         for problem in exc.problems:
             click.echo(f"error: {problem}", err=True)
         sys.exit(exc.exit_code)
-    except click.exceptions.Abort:
+    except click.exceptions.Abort as exc:
+        if isinstance(exc.__cause__, Terminated):
+            click.echo("terminated", err=True)
+            sys.exit(143)
         click.echo("aborted", err=True)
         sys.exit(130)
     except click.ClickException as exc:
         exc.show()
         sys.exit(2)
-    except KeyboardInterrupt:
-        click.echo("interrupted", err=True)
-        sys.exit(130)
+    except KeyboardInterrupt as exc:
+        terminated = isinstance(exc, Terminated)
+        click.echo("terminated" if terminated else "interrupted", err=True)
+        sys.exit(143 if terminated else 130)
     except OSError as exc:  # the system refused a path: too long, a link loop, no space …
         where = f"{exc.filename}: " if exc.filename else ""  # a raster library's names the file
         click.echo(f"error: {where}{exc.strerror or exc}", err=True)

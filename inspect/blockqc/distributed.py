@@ -3,7 +3,8 @@
 Paths go in and each block's line of the summary comes out — no data frame enters the task
 graph; the workers read the deliveries and write the outputs themselves, so every worker must
 see the batch and the output folder under the same paths (a shared file system). A task whose
-worker dies is retried on another (`retries`). `blockqc[dask]` installs what it needs.
+worker dies is retried on another (`retries`); one whose outputs cannot be written is not (the
+run stops). `blockqc[dask]` installs what it needs.
 """
 
 from __future__ import annotations
@@ -11,10 +12,11 @@ from __future__ import annotations
 import socket
 from collections.abc import Callable
 from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from blockqc.errors import UsageError
+from blockqc.errors import OutputError, Problem, UsageError
 
 RETRIES = 2
 #: the transports a dask scheduler listens on over a network
@@ -90,8 +92,28 @@ def run_on_dask(
 
     with client_for(scheduler) as client:
         futures = [
-            client.submit(job, path, manifest, key=f"inspect-{i}", retries=RETRIES, pure=False)
+            client.submit(
+                _task, job, path, manifest, key=f"inspect-{i}", retries=RETRIES, pure=False
+            )
             for i, (path, manifest) in enumerate(todo)
         ]
         for future in as_completed(futures):
-            done(future.result())
+            outcome = future.result()
+            if isinstance(outcome, _Stopped):
+                raise OutputError(outcome.problems)
+            done(outcome)
+
+
+@dataclass(frozen=True)
+class _Stopped:
+    """A task's outputs that could not be written: handed back, not raised, since dask runs a
+    failed task again (`retries`, meant for a worker that died) and this would fail again."""
+
+    problems: list[Problem]
+
+
+def _task(job: Callable[..., Any], path: Path, manifest: Any) -> Any:
+    try:
+        return job(path, manifest)
+    except OutputError as exc:
+        return _Stopped(exc.problems)

@@ -20,7 +20,7 @@ import pandas as pd
 import pydantic_core
 from pydantic import BaseModel
 
-from blockqc.errors import InputError, Problem, UsageError
+from blockqc.errors import InputError, OutputError, Problem, UsageError
 
 _PLAIN = frozenset({str, int, bool, type(None)})
 
@@ -355,39 +355,48 @@ BATCH_OUTPUTS = (
 )
 
 
-#: hidden folders of the outputs: a block's outputs written before they are swapped in, and
+#: hidden folders of the outputs: a block's outputs written before they are put in place, and
 #: the earlier run's batch outputs set aside while a batch run rewrites its blocks
 STAGING_DIR = ".blockqc-staging"
 PREVIOUS_SUMMARY_DIR = ".blockqc-previous-summary"
 
 
+def _own_folder(path: Path) -> Path:
+    """`path`, a folder blockqc keeps (made when missing); a file in its place is named."""
+    if path.exists() and not path.is_dir():
+        raise UsageError(
+            f"{path}: a file where blockqc keeps a folder of its own: move the file away"
+        )
+    path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
 def staged_folder(out: Path, name: str) -> Path:
     """A new empty folder under `out`/.blockqc-staging to write `name`'s outputs into."""
-    root = out / STAGING_DIR
-    root.mkdir(parents=True, exist_ok=True)
-    return Path(tempfile.mkdtemp(prefix=f"{name}.", dir=root))
+    return Path(tempfile.mkdtemp(prefix=f"{name}.", dir=_own_folder(out / STAGING_DIR)))
 
 
-def swap_in(staged: Path, folder: Path, ours: Iterable[str]) -> None:
-    """Put the `staged` folder in `folder`'s place, whole: a block's outputs are either all the
-    earlier run's or all this one's, never a mix (an earlier PDF beside new results). What the
-    folder holds besides the files named `ours` is carried over."""
-    if not folder.is_dir():
-        os.replace(staged, folder)
-        return
-    ours = set(ours)
-    for p in folder.iterdir():
-        if p.name not in ours and not (staged / p.name).exists():
-            os.replace(p, staged / p.name)
-    old = Path(tempfile.mkdtemp(prefix=f"{folder.name}.replaced.", dir=staged.parent))
-    os.replace(folder, old)
-    os.replace(staged, folder)
-    shutil.rmtree(old, ignore_errors=True)
+def publish(staged: Path, folder: Path, ours: Iterable[str], last: str) -> None:
+    """Move the outputs written in `staged` into `folder`: `last` (results.json) removed first
+    and moved in last, the others put in between, and those of `ours` this run did not write
+    (an earlier PDF) removed. Whenever it stops, the folder holds no `last` or this run's
+    outputs whole; the folder itself, and what else it holds, are left as they are."""
+    folder.mkdir(exist_ok=True)
+    (folder / last).unlink(missing_ok=True)
+    for name in ours:
+        if name == last:
+            continue
+        if (staged / name).exists():
+            os.replace(staged / name, folder / name)
+        else:
+            (folder / name).unlink(missing_ok=True)
+    os.replace(staged / last, folder / last)
 
 
 def clear_staging(out: Path) -> None:
-    """Remove what a run stopped half-way left staged (never a block's outputs in place)."""
-    shutil.rmtree(out / STAGING_DIR, ignore_errors=True)
+    """Remove what a run stopped half-way left staged (only blockqc's own outputs are there)."""
+    if (out / STAGING_DIR).is_dir():
+        shutil.rmtree(out / STAGING_DIR, ignore_errors=True)
 
 
 def set_aside_summary(out: Path) -> None:
@@ -398,23 +407,24 @@ def set_aside_summary(out: Path) -> None:
     present = [n for n in BATCH_OUTPUTS if (out / n).is_file()]
     if not present:
         return
-    aside = out / PREVIOUS_SUMMARY_DIR
-    shutil.rmtree(aside, ignore_errors=True)
-    aside.mkdir()
+    aside = _own_folder(out / PREVIOUS_SUMMARY_DIR)
+    for old in aside.iterdir():  # what an earlier stopped run set aside: older than these
+        shutil.rmtree(old) if old.is_dir() else old.unlink()
     for name in present:
         os.replace(out / name, aside / name)
 
 
 def restore_summary(out: Path) -> None:
-    """Put the batch outputs set aside back where this run wrote none (the run then keeps or
-    rewrites them), and remove the folder they were kept in."""
+    """Put the batch outputs set aside back (an incremental run found them unchanged)."""
     aside = out / PREVIOUS_SUMMARY_DIR
-    if not aside.is_dir():
-        return
     for p in aside.iterdir():
-        if p.name in BATCH_OUTPUTS and not (out / p.name).exists():
-            os.replace(p, out / p.name)
-    shutil.rmtree(aside, ignore_errors=True)
+        os.replace(p, out / p.name)
+    aside.rmdir()
+
+
+def drop_set_aside(out: Path) -> None:
+    """Remove the batch outputs set aside, once this run's are written."""
+    shutil.rmtree(out / PREVIOUS_SUMMARY_DIR, ignore_errors=True)
 
 
 def block_id_problem(value: str) -> str | None:
@@ -455,10 +465,13 @@ def safe_child(out_dir: Path, name: str, *, source: str | Path | None = None) ->
     else:
         child = out_dir / text
         root = out_dir.resolve()
+        where = None  # the output folder's own problem, no fault of the input
         if child.resolve().parent != root:
-            why = "would lead outside the output folder"
+            where = f"{child} leads outside the output folder (a link to {child.resolve()})"
         elif (delivery := _delivery_at(child)) is not None:
-            why = f"is the delivery {delivery} (it holds block.yaml), never written into"
+            where = f"{child} is the delivery {delivery} (it holds block.yaml), never written into"
+        if where:
+            raise OutputError(Problem(str(child), f"{where}: the outputs of {text!r} are refused"))
     if why:
         raise InputError(
             Problem(
