@@ -7,6 +7,7 @@ import contextlib
 import os
 import signal
 import sys
+import threading
 from pathlib import Path
 
 import click
@@ -640,7 +641,8 @@ def _terminated(signum, frame) -> None:
 def main(argv: list[str] | None = None) -> None:
     """Entry point: run the command group, turning blockqc's errors into messages and exit 2."""
     memory.tune()  # before any command imports numpy
-    signal.signal(signal.SIGTERM, _terminated)
+    if threading.current_thread() is threading.main_thread():  # signals go to the main one
+        signal.signal(signal.SIGTERM, _terminated)
     try:
         rc = cli.main(args=argv, prog_name="blockqc", standalone_mode=False)
     except BlockqcError as exc:
