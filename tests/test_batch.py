@@ -704,3 +704,40 @@ def test_sigterm_stops_a_run_as_ctrl_c_does(small_batch, tmp_path):
     assert proc.returncode == 143 and "terminated" in err, err
     assert not (out / ".blockqc-lock").exists() and not (out / ".blockqc-staging").exists()
     assert "note: the earlier run's batch summary is kept in" in err
+
+
+class _Slow:
+    """A job of half a second that leaves a mark when it runs (picklable, for a pool)."""
+
+    def __init__(self, marks: Path):
+        self.marks = marks
+
+    def __call__(self, path, manifest):
+        import time
+
+        (self.marks / path.name).touch()
+        time.sleep(0.5)
+        return path
+
+
+def test_an_interrupt_while_waiting_drops_the_jobs_not_begun(tmp_path):
+    """Ctrl-C or SIGTERM reaching the main process while it waits for the pool: the `with`
+    waited for every job of the batch (hours on a large one) before stopping."""
+    import signal
+
+    marks = tmp_path / "marks"
+    marks.mkdir()
+    todo = [(tmp_path / f"B{i:02d}", None) for i in range(12)]
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+
+    before = signal.signal(signal.SIGALRM, interrupt)
+    signal.setitimer(signal.ITIMER_REAL, 1.2)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            batch._pooled(_Slow(marks), todo, lambda outcome: None, 2)
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, before)
+    assert len(list(marks.iterdir())) < len(todo)

@@ -320,3 +320,15 @@ def test_empty_inputs_and_a_folder_for_an_output_file_are_named(tmp_path):
     p = run_blockqc("sample", SAMPLES / "batch", "--seed", "7", "--out", "plan.yaml", cwd=tmp_path)
     _refused(p, "error: plan.yaml: a folder is there: expected a file")
     assert ".tmp" not in p.stderr
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ("inspect", SAMPLE, "--out", "o", "-j2", "-j1"),
+        ("rules", "list", "--rules", "global-project", "--rules", "global-project"),
+    ],
+)
+def test_repeated_short_options_and_rules_subcommands_are_refused_too(tmp_path, args):
+    """-j2 -j1 kept the last unsaid, and the rules subcommands were not checked at all."""
+    _refused(run_blockqc(*args, cwd=tmp_path), "given twice: give it once")

@@ -579,15 +579,15 @@ def _pooled(
     lost = []
     with ProcessPoolExecutor(workers, initializer=_worker_start) as pool:
         futures = {pool.submit(job, p, m): (p, m) for p, m in todo}
-        for future in as_completed(futures):
-            try:
-                done(future.result())
-            except BrokenProcessPool:
-                lost.append(futures[future])
-            except BaseException:  # the run stops (outputs that cannot be written): the jobs
-                for other in futures:  # not begun are dropped, those running end
-                    other.cancel()
-                raise
+        try:
+            for future in as_completed(futures):
+                try:
+                    done(future.result())
+                except BrokenProcessPool:
+                    lost.append(futures[future])
+        except BaseException:  # the run stops (outputs that cannot be written, interrupted,
+            pool.shutdown(wait=True, cancel_futures=True)  # terminated): the jobs not begun
+            raise  # are dropped, those running end
     return lost
 
 

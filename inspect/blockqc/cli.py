@@ -73,7 +73,17 @@ def _warn_unknown_templates(folder: Path, used: set[str]) -> None:
             )
 
 
-class LazyGroup(click.Group):
+class OnceGroup(click.Group):
+    """A group whose commands refuse an option of one value given twice (`refuse_repeated`)."""
+
+    def resolve_command(self, ctx: click.Context, args: list[str]):
+        name, command, rest = super().resolve_command(ctx, args)
+        if command is not None and not isinstance(command, click.Group):
+            refuse_repeated(command, rest)
+        return name, command, rest
+
+
+class LazyGroup(OnceGroup):
     """Commands of the numerical methods load their (heavy) modules only when invoked."""
 
     lazy = {
@@ -100,12 +110,6 @@ class LazyGroup(click.Group):
                 return None
         return super().get_command(ctx, name)
 
-    def resolve_command(self, ctx: click.Context, args: list[str]):
-        name, command, rest = super().resolve_command(ctx, args)
-        if command is not None and not isinstance(command, click.Group):
-            refuse_repeated(command, rest)
-        return name, command, rest
-
 
 def refuse_repeated(command: click.Command, args: list[str]) -> None:
     """An option taking one value given twice (`--rules a.yaml --rules b.yaml`): click keeps the
@@ -120,7 +124,10 @@ def refuse_repeated(command: click.Command, args: list[str]) -> None:
     for arg in map(str, args):  # a caller of main() may pass paths
         if arg == "--":
             break
-        given = arg.split("=", 1)[0] if arg.startswith("--") else arg
+        if arg.startswith("--"):
+            given = arg.split("=", 1)[0]
+        else:  # -j, and -j2 (a short option with its value)
+            given = arg[:2] if arg.startswith("-") else arg
         if given not in once:
             continue
         if once[given] in seen:

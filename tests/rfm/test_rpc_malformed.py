@@ -292,3 +292,32 @@ def test_utf16_text_without_its_byte_order_mark_is_named(tmp_path: Path):
     path = tmp_path / "le_rpc.txt"
     path.write_bytes(GF_TXT.read_text().encode("utf-16-le"))
     assert refused(path).message.startswith("UTF-16 text without a byte-order mark")
+
+
+def test_only_the_current_ossim_adjustment_counts(tmp_path: Path):
+    """OSSIM applies the adjustment `current_adjustment` names: another one saved in the file
+    is not in force (it was refused as if it were)."""
+    saved = (
+        "adjustment_1.adj_param_0.center:  0\nadjustment_1.adj_param_0.description:  "
+        "intrack_offset\nadjustment_1.adj_param_0.parameter:  0.2\n"
+        "adjustment_1.adj_param_0.sigma:  50\n"
+    )
+    inactive = appended(tmp_path, GEOM, "saved.geom", saved)
+    assert_identical(read_rpc(inactive), read_rpc(GEOM))
+    old = "current_adjustment:  0"
+    current = edited(tmp_path, inactive, "current.geom", old, "current_adjustment:  1")
+    assert refused(current).message.startswith(
+        "adjustment_1.adj_param_0.parameter: an OSSIM adjustment in force (intrack_offset: "
+        "center + parameter·sigma = 10)"
+    )
+
+
+def test_a_binary_of_small_values_is_not_taken_for_utf16_text():
+    """A raw raster whose first values are 0 or below 256 (every other byte 0) went to the
+    UTF-16 message, not to GDAL, which reads its RPCs from a sidecar."""
+    from blockqc.rfm.readers import _utf16_without_bom
+
+    assert not _utf16_without_bom(bytes(200))
+    assert not _utf16_without_bom(np.arange(100, dtype="<u2").tobytes())
+    assert _utf16_without_bom("LINE_OFF: 5124 pixels\nSAMP_OFF: 1\n".encode("utf-16-le"))
+    assert _utf16_without_bom("LINE_OFF: 5124 pixels\nSAMP_OFF: 1\n".encode("utf-16-be"))

@@ -250,12 +250,15 @@ _GEOM_ADJUSTMENT = re.compile(r"(adjustment_\d+\.adj_param_\d+)\.parameter")
 
 
 def _no_geom_adjustment(path: Path, kv: Mapping[str, tuple[str, int]]) -> None:
-    """Refuse an OSSIM adjustment in force (a parameter whose offset center + parameter·sigma
-    is not 0: OSSIM moves the image by it, in pixels, scale or rotation): blockqc reads the RPC
-    alone, and would measure the model as unadjusted."""
+    """Refuse an OSSIM adjustment in force (a parameter of the current adjustment whose offset
+    center + parameter·sigma is not 0: OSSIM moves the image by it, in pixels, scale or
+    rotation): blockqc reads the RPC alone, and would measure the model as unadjusted. Other
+    adjustments saved in the file are not applied by OSSIM either."""
+    current = kv.get("current_adjustment") or kv.get("current_adjustement") or ("0", None)
+    in_force = f"adjustment_{current[0].strip()}."
     for key, (value, line) in kv.items():
         m = _GEOM_ADJUSTMENT.fullmatch(key)
-        if m is None:
+        if m is None or not key.startswith(in_force):
             continue
         param = m.group(1)
         parts = {f: kv.get(f"{param}.{f}", ("0", line)) for f in ("center", "sigma")}
@@ -266,8 +269,8 @@ def _no_geom_adjustment(path: Path, kv: Mapping[str, tuple[str, int]]) -> None:
             raise _error(
                 path,
                 f"{key}: an OSSIM adjustment in force ({what}: center + parameter·sigma = "
-                f"{offset:g}), which blockqc does not apply: expected the RPC without it (every "
-                "adj_param parameter and center 0), or the adjusted model as RPCs",
+                f"{offset:g}), which blockqc does not apply: expected the RPC without it (the "
+                "current adjustment's parameters and centers 0), or the adjusted model as RPCs",
                 line,
             )
 
@@ -600,9 +603,16 @@ def sniff_format(path: Path) -> str:
 
 
 def _utf16_without_bom(head: bytes) -> bool:
-    """Text of ASCII characters in UTF-16 without its byte-order mark: every other byte 0."""
+    """Text of ASCII characters in UTF-16 without its byte-order mark: every other byte 0, the
+    others printable text with a key's colon or equals sign and a line end (a raster of small
+    or no-data values also has every other byte 0, but not text)."""
     pairs = head[: len(head) // 2 * 2][:200]
-    return len(pairs) >= 8 and (not any(pairs[1::2]) or not any(pairs[0::2]))
+    for zeros, text in ((pairs[1::2], pairs[0::2]), (pairs[0::2], pairs[1::2])):
+        if len(text) >= 8 and not any(zeros):
+            printable = all(32 <= b < 127 or b in b"\t\r\n" for b in text)
+            if printable and b"\n" in text and (b":" in text or b"=" in text):
+                return True
+    return False
 
 
 _READERS: dict[str, Callable[[Path], RPCModel]] = {

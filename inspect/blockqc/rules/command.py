@@ -7,11 +7,12 @@ from typing import Any
 
 import click
 
+from blockqc.cli import OnceGroup
 from blockqc.errors import RuleError
 from blockqc.rules.model import Pack, Rule
 
 
-@click.group("rules")
+@click.group("rules", cls=OnceGroup)
 def command() -> None:
     """List, explain, lint and test rule packs; list the metrics rules may use."""
 
