@@ -8,6 +8,7 @@ import re
 import shutil
 from pathlib import Path
 
+import pandas as pd
 import pytest
 
 from blockqc.report.svg import cut, text_width
@@ -777,3 +778,46 @@ def test_a_reported_figure_no_rule_recomputes_is_said(blockqc, block, tmp_path):
     ) in p.stderr
     assert f"line {line + 1}: reported.banana_count: no rule of the pack" in p.stderr
     assert "reported.tie_point_error_px" not in p.stderr  # a figure the pack recomputes
+
+
+@pytest.mark.parametrize(("scale", "unit"), [(1e-3, "kilometres"), (1e3, "millimetres")])
+def test_checkpoints_in_another_unit_put_the_accuracy_rules_in_error(blockqc, block, tmp_path,
+                                                                   scale, unit):  # fmt: skip
+    """Coordinates in km passed CP-2 at 0.02 "m" (and CP-4 at 0 %); in mm they failed with
+    100 % gross errors, unexplained. Checkpoints beyond the block's footprints (5 km or a
+    quarter of its extent about them, in its EPSG) cannot be its metres: CP-1..CP-4 are in
+    error, saying why."""
+    cp = pd.read_csv(block / "checkpoints.csv", dtype={"point_id": str})
+    cols = ["x_m", "y_m", "z_m", "ref_x_m", "ref_y_m", "ref_z_m"]
+    cp[cols] = cp[cols] * scale
+    cp.to_csv(block / "checkpoints.csv", index=False)
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    assert p.returncode == 2 and "Traceback" not in p.stderr, p.stderr
+    results = json.loads((tmp_path / "out" / "F1-B01" / "results.json").read_text("utf-8"))
+    for rule in ("CP-1", "CP-2", "CP-3", "CP-4"):
+        (res,) = [r for r in results["results"] if r["rule"] == rule]
+        assert res["status"] == "error", rule
+        reason = res["detail"]["reason"]
+        assert f"{len(cp)} of {len(cp)} checkpoints have x_m, y_m outside the block" in reason
+        assert (
+            "expected metres in EPSG:" in reason
+            and "(degrees, kilometres or millimetres?)" in reason
+        )
+
+
+def test_a_dz_column_in_pan_ms_is_not_averaged_into_ro1(blockqc, block, tmp_path):
+    """pan_ms.csv in the overlaps' layout (dx_m, dy_m, dz_m): its heights were taken in with
+    the plane values, so an RMS of 3.0 m against 2.6 m read 3/√2 = 2.12 m and passed. RO-1 is
+    plane only (§RO-1); dz_m is an extra column, kept and ignored."""
+    pm = pd.read_csv(block / "pan_ms.csv", dtype=str)
+    pair = pm.iloc[0][["pan_scene_id", "ms_scene_id"]]
+    rows = pd.DataFrame(
+        {"pan_scene_id": pair.iloc[0], "ms_scene_id": pair.iloc[1],
+         "point_id": [f"Q{i:02d}" for i in range(20)], "dx_m": 3.0, "dy_m": 0.0, "dz_m": 0.0}
+    )  # fmt: skip
+    rows.to_csv(block / "pan_ms.csv", index=False)
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    assert "Traceback" not in p.stderr, p.stderr
+    results = json.loads((tmp_path / "out" / "F1-B01" / "results.json").read_text("utf-8"))
+    (ro1,) = [r for r in results["results"] if r["rule"] == "RO-1"]
+    assert ro1["status"] == "fail" and ro1["value"] == pytest.approx(3.0)  # √(Σ 3² / 20)

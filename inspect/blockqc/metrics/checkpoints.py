@@ -196,6 +196,9 @@ def checkpoint_accuracy(d: Delivery, p: AccuracyParams, measure: Measure) -> Mea
     """Checkpoint accuracy per component and method: M1/M2 or mean, max, gross errors (§CP-3..8)."""
     if d.checkpoints is None or d.checkpoints.empty:
         return not_applicable(metrics.NO_CHECKPOINTS)
+    beyond = beyond_block(d)
+    if beyond:
+        raise ValueError(beyond)
     points = checkpoint_errors(d.checkpoints)
     groups, points = accuracy_by_group(points, p)
     block = pd.DataFrame(
@@ -219,6 +222,67 @@ def checkpoint_accuracy(d: Delivery, p: AccuracyParams, measure: Measure) -> Mea
         },
         detail={"agreement": method_agreement(groups)},
     )
+
+
+#: checkpoints may lie this far beyond the bounding box of the block's footprints in its
+#: projection (metres, or this share of the box's larger side): farther, they are in another
+#: unit or CRS than the block's metres, and their differences would be judged as metres
+BLOCK_MARGIN_M = 5000.0
+BLOCK_MARGIN_SHARE = 0.25
+
+
+def beyond_block(d: Delivery) -> str | None:
+    """Why the checkpoints' positions cannot be metres in the block's projection (None when
+    they lie about its scenes' footprints, or the block gives no projected CRS to say)."""
+    from blockqc.metrics.spatial_ref import delivered_epsg
+
+    box = _footprint_box(d, delivered_epsg(d.manifest.spatial_reference))
+    if box is None:
+        return None
+    code, x0, x1, y0, y1 = box
+    margin = max(BLOCK_MARGIN_M, BLOCK_MARGIN_SHARE * max(x1 - x0, y1 - y0))
+    cp = d.checkpoints
+    for xc, yc in (("x_m", "y_m"), ("ref_x_m", "ref_y_m")):
+        if xc not in cp or yc not in cp:
+            continue
+        x, y = cp[xc].to_numpy(dtype=float), cp[yc].to_numpy(dtype=float)
+        with np.errstate(invalid="ignore"):
+            out = (x < x0 - margin) | (x > x1 + margin) | (y < y0 - margin) | (y > y1 + margin)
+        if out.any():
+            i = int(np.flatnonzero(out)[0])
+            return (
+                f"{int(out.sum())} of {len(cp)} checkpoints have {xc}, {yc} outside the block "
+                f"(its scenes' footprints span x {x0:.0f} to {x1:.0f}, y {y0:.0f} to {y1:.0f} "
+                f"in EPSG:{code}, {margin:.0f} m about them), e.g. point "
+                f"{cp['point_id'].iloc[i]} at ({x[i]:.6g}, {y[i]:.6g}): expected metres in "
+                f"EPSG:{code} (degrees, kilometres or millimetres?)"
+            )
+    return None
+
+
+def _footprint_box(d: Delivery, code: int | None) -> tuple | None:
+    """The EPSG code and the bounding box (x0, x1, y0, y1) of the scenes' footprints in that
+    projection; None without a projected CRS or footprints."""
+    import shapely
+    from pyproj import CRS, Transformer
+    from pyproj.exceptions import CRSError
+
+    if code is None or "footprint_wkt" not in d.scenes:
+        return None
+    try:
+        crs = CRS.from_epsg(code)
+    except CRSError:
+        return None
+    if not crs.is_projected:
+        return None
+    geoms = shapely.from_wkt(d.scenes["footprint_wkt"].to_numpy(dtype=object))
+    lon, lat = shapely.get_coordinates(geoms).T
+    x, y = Transformer.from_crs(4326, crs, always_xy=True).transform(lon, lat)
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    ok = np.isfinite(x) & np.isfinite(y)
+    if not ok.any():
+        return None
+    return code, x[ok].min(), x[ok].max(), y[ok].min(), y[ok].max()
 
 
 @metric(

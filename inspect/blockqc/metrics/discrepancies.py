@@ -142,7 +142,9 @@ def pan_ms_discrepancy(d: Delivery, p: NoParams, measure: Measure) -> Measuremen
     if d.pan_ms is None or d.pan_ms.empty:
         return not_applicable("no PAN–MS registration table (pan_ms.csv) in the delivery")
     unit = ["pan_scene_id", "ms_scene_id"]
-    long = _long(d.pan_ms, unit + ["point_id"])
+    # plane only: a dz_m column (the overlaps' layout) is not the contract's, kept and ignored
+    # as any extra column; its heights would otherwise be averaged in with the plane values
+    long = _long(d.pan_ms.drop(columns="dz_m", errors="ignore"), unit + ["point_id"])
     return Measurement(
         tables={
             "point": Table(long, keys=unit + ["point_id"], sort="value_m"),
