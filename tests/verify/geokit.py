@@ -107,7 +107,8 @@ def write_v11(
     folder: Path, tie_points: pd.DataFrame, adjustment: bool = True, overlaps: bool = False
 ) -> Path:
     """A delivery (casekit's manifest and documents) with the Ventoux scenes and geometry."""
-    remove = ["pan_ms"] + ([] if overlaps else ["overlaps"])
+    # the base tables' checkpoints are another area's metres, not about Ventoux
+    remove = ["pan_ms", "checkpoints"] + ([] if overlaps else ["overlaps"])
     write_delivery(folder, {"remove_tables": remove})
     manifest = yaml.safe_load((folder / "block.yaml").read_text())
     manifest["spatial_reference"]["epsg"] = 32631
