@@ -30,6 +30,9 @@ class SpatialParams(BaseModel):
     model_config = ConfigDict(extra="forbid")
     ups_north_lat: float = 84.0  # UPS north of this latitude (§MB-3)
     ups_south_lat: float = -80.0  # UPS south of this latitude
+    # also allow the zones of the UTM grid's exceptions (Norway 32V, Svalbard 31X…37X), as the
+    # official grid and GIS tools give them
+    grid_exceptions: bool = True
 
 
 def _key(text: str | None) -> str:
@@ -52,7 +55,7 @@ def normalize_height_datum(text: str | None) -> str | None:
 
 def utm_zone(lon: float) -> int:
     """UTM zone number of a longitude (1..60; 180° is zone 60's east edge, a longitude beyond
-    ±180° is taken round the globe); the Norway/Svalbard exceptions are not applied."""
+    ±180° is taken round the globe); the Norway/Svalbard exceptions are `exception_zone`'s."""
     return int(min(60, math.floor((wrap_lon(lon) + 180.0) / 6.0) + 1))
 
 
@@ -77,15 +80,35 @@ def wrap_lon(lon: float) -> float:
 
 def expected_epsg(lon_min: float, lon_max: float, lat: float, p: SpatialParams) -> list[int]:
     """EPSG codes a block may use: UTM of its extent's centre longitude, either neighbour when
-    the extent straddles a zone edge (Reading of §MB-3), UPS in polar regions."""
+    the extent straddles a zone edge (Reading of §MB-3), and the zone of the grid's exceptions
+    there (Norway, Svalbard); UPS in polar regions."""
     if lat > p.ups_north_lat:
         return [32661]
     if lat < p.ups_south_lat:
         return [32761]
     base = 32600 if lat >= 0 else 32700
     centre = (lon_min + lon_max) / 2  # an extent across ±180° ends east of 180 (lon_extent)
-    zones = sorted({utm_zone(centre), utm_zone(lon_min), utm_zone(lon_max)})
-    return [base + z for z in zones]
+    ends = (centre, lon_min, lon_max)
+    zones = {utm_zone(x) for x in ends}
+    if p.grid_exceptions:
+        zones |= {z for x in ends if (z := exception_zone(x, lat)) is not None}
+    return [base + z for z in sorted(zones)]
+
+
+#: the UTM grid's exceptions: (south, north, west, east, zone), degrees
+GRID_EXCEPTIONS = (
+    (56.0, 64.0, 3.0, 12.0, 32),  # south-west Norway: 32V widened west to 3° E
+    (72.0, 84.0, 0.0, 9.0, 31),  # Svalbard: 31X, 33X, 35X, 37X, 12° wide
+    (72.0, 84.0, 9.0, 21.0, 33),
+    (72.0, 84.0, 21.0, 33.0, 35),
+    (72.0, 84.0, 33.0, 42.0, 37),
+)
+
+
+def exception_zone(lon: float, lat: float) -> int | None:
+    """The zone the UTM grid's exceptions give at (lon, lat), or None outside them."""
+    lon = wrap_lon(lon)
+    return next((z for s, n, w, e, z in GRID_EXCEPTIONS if s <= lat < n and w <= lon < e), None)
 
 
 def delivered_epsg(sr) -> int | None:
@@ -174,11 +197,17 @@ def spatial_reference(d: Delivery, p: SpatialParams, measure: Measure) -> Measur
     code = delivered_epsg(sr)
     named = _projection_problem(sr.projection if sr else None, code)
     ok = code in allowed and named is None
-    straddles = len(allowed) > 1
+    plain = expected_epsg(lon_min, lon_max, lat_c, p.model_copy(update={"grid_exceptions": False}))
+    straddles = len(plain) > 1
     if named is not None:
         note = named
     elif code is None:
         note = "block.yaml states no EPSG code (nor projection UTM with a zone such as 50N)"
+    elif ok and code not in plain:
+        note = (
+            f"{describe_epsg(code)} is the zone the UTM grid's exceptions give here (Norway, "
+            "Svalbard)"
+        )
     elif ok and straddles:
         note = (
             f"the block straddles a zone edge (lon {lon_min:.3f}…{wrap_lon(lon_max):.3f}); "
