@@ -780,9 +780,10 @@ def test_a_reported_figure_no_rule_recomputes_is_said(blockqc, block, tmp_path):
     assert "reported.tie_point_error_px" not in p.stderr  # a figure the pack recomputes
 
 
-@pytest.mark.parametrize(("scale", "unit"), [(1e-3, "kilometres"), (1e3, "millimetres")])
-def test_checkpoints_in_another_unit_put_the_accuracy_rules_in_error(blockqc, block, tmp_path,
-                                                                   scale, unit):  # fmt: skip
+@pytest.mark.parametrize("scale", [1e-3, 1e3], ids=["kilometres", "millimetres"])
+def test_checkpoints_in_another_unit_put_the_accuracy_rules_in_error(
+    blockqc, block, tmp_path, scale
+):
     """Coordinates in km passed CP-2 at 0.02 "m" (and CP-4 at 0 %); in mm they failed with
     100 % gross errors, unexplained. Checkpoints beyond the block's footprints (5 km or a
     quarter of its extent about them, in its EPSG) cannot be its metres: CP-1..CP-4 are in

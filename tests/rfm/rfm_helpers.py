@@ -24,6 +24,23 @@ REAL_RPC_FILES = sorted(
     ]
 )
 
+
+def ventoux_config(out: Path, **options):
+    """The Ventoux left image against the right one as a same-accuracy reference (EGM96),
+    writing into `out`; `options` set (or replace) the run's other fields."""
+    from blockqc.rfm.pipeline import RfmAccuracyConfig
+
+    fields = {
+        "image": VENTOUX / "left_image.tif",
+        "rpc": VENTOUX / "left_image.geom",
+        "dem": VENTOUX / "srtm_N44E005_crop.tif",
+        "geoid": "egm96",
+        "reference": VENTOUX / "right_image.tif",
+        "reference_rpc": VENTOUX / "right_image.geom",
+    }
+    return RfmAccuracyConfig(out=out, **(fields | options))
+
+
 # ASP's sample.RPB has denominators reaching -15 inside the normalized cube: it is one-to-one
 # (and physical) only near its centre, so its round trips use that part of the domain.
 DOMAIN = {"sample.RPB": 0.25}

@@ -12,7 +12,7 @@ import pandas as pd
 import pytest
 import rasterio
 from click.testing import CliRunner
-from rfm_helpers import VENTOUX
+from rfm_helpers import VENTOUX, ventoux_config
 
 from blockqc.errors import InputError
 from blockqc.rfm.command import command, console_line
@@ -463,15 +463,7 @@ def test_no_texture_is_an_input_error_with_its_reason(tmp_path: Path):
     def nothing(image, reference, **_):
         return pd.DataFrame(columns=["row", "col", "ref_row", "ref_col", "kind", "score"])
 
-    cfg = RfmAccuracyConfig(
-        image=VENTOUX / "left_image.tif",
-        rpc=VENTOUX / "left_image.geom",
-        dem=VENTOUX / "srtm_N44E005_crop.tif",
-        geoid="egm96",
-        reference=VENTOUX / "right_image.tif",
-        reference_rpc=VENTOUX / "right_image.geom",
-        out=tmp_path / "out",
-    )
+    cfg = ventoux_config(tmp_path / "out")
     with pytest.raises(InputError, match="no control point found: no texture"):
         run_rfm_accuracy(cfg, matcher=nothing)
 
@@ -485,14 +477,8 @@ def test_cell_is_chosen_from_the_image_size(tmp_path: Path):
     rpc = read_rpc(VENTOUX / "left_image.geom")
     dem = load_dem(VENTOUX / "srtm_N44E005_crop.tif", geoid="egm96")
     orthorectify(VENTOUX / "left_image.tif", rpc, dem, tmp_path / "own.tif")
-    cfg = RfmAccuracyConfig(
-        image=VENTOUX / "left_image.tif",
-        rpc=VENTOUX / "left_image.geom",
-        dem=VENTOUX / "srtm_N44E005_crop.tif",
-        geoid="egm96",
-        reference=tmp_path / "own.tif",
-        out=tmp_path / "out",
-        repeats=3,
+    cfg = ventoux_config(
+        tmp_path / "out", reference=tmp_path / "own.tif", reference_rpc=None, repeats=3
     )
     results = run_rfm_accuracy(cfg, matcher=phase_correlation_matcher)
     m = results["matching"]

@@ -11,13 +11,13 @@ import pytest
 from affine import Affine
 from click.testing import CliRunner
 from pyproj import CRS
-from rfm_helpers import VENTOUX
+from rfm_helpers import VENTOUX, ventoux_config
 
 from blockqc.errors import InputError
 from blockqc.rfm.accuracy import distortion_summary
 from blockqc.rfm.command import command
 from blockqc.rfm.ortho import OrthoGrid, check_grid_size
-from blockqc.rfm.pipeline import RfmAccuracyConfig, run_rfm_accuracy
+from blockqc.rfm.pipeline import run_rfm_accuracy
 
 pytestmark = pytest.mark.filterwarnings("ignore::rasterio.errors.NotGeoreferencedWarning")
 
@@ -48,18 +48,17 @@ def refused(args: list[str], capsys) -> str:
     return err
 
 
-def ventoux_config(out: Path) -> RfmAccuracyConfig:
-    return RfmAccuracyConfig(
-        image=VENTOUX / "left_image.tif",
-        rpc=VENTOUX / "left_image.geom",
-        dem=VENTOUX / "srtm_N44E005_crop.tif",
-        geoid="egm96",
-        reference=VENTOUX / "right_image.tif",
-        reference_rpc=VENTOUX / "right_image.geom",
-        out=out,
-        match_grid=100_000,
-        repeats=5,
-    )
+def one_cell_config(out: Path):
+    """The Ventoux pair matched in one cell (one CP), five draws per k."""
+    return ventoux_config(out, match_grid=100_000, repeats=5)
+
+
+def filled(folder: Path, files: dict[str, str]) -> dict[str, str]:
+    """`folder` made and holding `files` (name: text); the files."""
+    folder.mkdir(exist_ok=True)
+    for name, text in files.items():
+        (folder / name).write_text(text, encoding="utf-8")
+    return files
 
 
 # -- 1. fewer than 4 CPs; a run that fails leaves the earlier outputs ---------------------------
@@ -89,21 +88,21 @@ def test_a_run_failing_at_its_page_leaves_the_earlier_outputs(tmp_path: Path, mo
     """The page fails to render: no new results.json is left without its page, and the
     earlier run's outputs are there as they were (nothing of the failed run beside them)."""
     out = tmp_path / "out"
-    out.mkdir()
-    earlier = {
-        "results.json": '{"kind": "rfm_accuracy", "run": "earlier"}',
-        "report.html": "earlier page",
-        "cps.csv": "earlier cps",
-    }
-    for name, text in earlier.items():
-        (out / name).write_text(text, encoding="utf-8")
+    earlier = filled(
+        out,
+        {
+            "results.json": '{"kind": "rfm_accuracy", "run": "earlier"}',
+            "report.html": "earlier page",
+            "cps.csv": "earlier cps",
+        },
+    )
 
     def broken(results: dict) -> str:
         raise RuntimeError("the page fails")
 
     monkeypatch.setattr("blockqc.rfm.report.render_html", broken)
     with pytest.raises(RuntimeError, match="the page fails"):
-        run_rfm_accuracy(ventoux_config(out))
+        run_rfm_accuracy(one_cell_config(out))
     assert sorted(p.name for p in out.iterdir()) == sorted(earlier)
     for name, text in earlier.items():
         assert (out / name).read_text(encoding="utf-8") == text, name
@@ -117,7 +116,7 @@ def test_a_second_run_replaces_the_outputs_it_does_not_make_again(tmp_path: Path
     (out / "results.json").write_text('{"kind": "rfm_accuracy"}', encoding="utf-8")
     (out / "checkpoints.csv").write_text("earlier", encoding="utf-8")
     (out / "notes.txt").write_text("mine", encoding="utf-8")
-    run_rfm_accuracy(ventoux_config(out))
+    run_rfm_accuracy(one_cell_config(out))
     names = sorted(p.name for p in out.iterdir())
     assert "checkpoints.csv" not in names and "notes.txt" in names
     assert not [n for n in names if n.startswith(".")]
@@ -147,14 +146,14 @@ def test_an_out_holding_an_inspect_blocks_results_is_refused(tmp_path: Path, cap
     """An `inspect` block folder: its results.json (block_id), report.html and checkpoints.csv
     would be replaced by this run's."""
     block = tmp_path / "F4-B01"
-    block.mkdir()
-    files = {
-        "results.json": '{"block_id": "F4-B01", "status": "pass"}',
-        "report.html": "inspect page",
-        "checkpoints.csv": "point_id,method\n",
-    }
-    for name, text in files.items():
-        (block / name).write_text(text, encoding="utf-8")
+    files = filled(
+        block,
+        {
+            "results.json": '{"block_id": "F4-B01", "status": "pass"}',
+            "report.html": "inspect page",
+            "checkpoints.csv": "point_id,method\n",
+        },
+    )
     err = refused(ventoux_args(block), capsys)
     assert str(block / "results.json") in err and "not the results of an rfm-accuracy" in err
     assert sorted(p.name for p in block.iterdir()) == sorted(files)
