@@ -19,9 +19,9 @@ from blockqc.errors import BlockqcError, UsageError
 STATUS_STYLE = {"pass": "green", "fail": "red", "error": "red", "warn": "yellow"}
 
 
-class OutPath(click.Path):
+class GivenPath(click.Path):
     """A path never empty (`--out ''` would write into the current folder, a delivery '' read
-    it): a Path; `what` it names, in the message."""
+    it), of outputs or inputs: a Path; `what` it names, in the message."""
 
     def __init__(self, what: str = "an output folder", **how) -> None:
         super().__init__(path_type=Path, **how)
@@ -180,7 +180,7 @@ def check_pdf_engine(engine: str, pdf: bool) -> None:
 
 # ------------------------------------------------------------------------------- inspect
 @cli.command("inspect")
-@click.argument("paths", nargs=-1, required=True, type=OutPath("a delivery or a batch folder"))
+@click.argument("paths", nargs=-1, required=True, type=GivenPath("a delivery or a batch folder"))
 @click.option(
     "--rules",
     "rules_ref",
@@ -196,7 +196,7 @@ def check_pdf_engine(engine: str, pdf: bool) -> None:
 @click.option(
     "--out",
     required=True,
-    type=OutPath(),
+    type=GivenPath(),
     help="Output folder (never inside a delivery).",
 )
 @click.option(
@@ -544,7 +544,7 @@ MAX_OBS_PER_SCENE = 100_000
 
 
 @cli.command("simulate")
-@click.argument("out", type=OutPath(), required=False)
+@click.argument("out", type=GivenPath(), required=False)
 @click.option(
     "--seed", default=20231, show_default=True, type=click.IntRange(min=0), help="Random seed."
 )

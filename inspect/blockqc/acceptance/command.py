@@ -10,7 +10,7 @@ import yaml
 
 from blockqc.acceptance.plan import Plan, make_plan
 from blockqc.acceptance.sampling import draw
-from blockqc.cli import OutPath
+from blockqc.cli import GivenPath
 from blockqc.errors import InputError, Problem, RuleError, UsageError
 
 
@@ -113,7 +113,7 @@ def _echo_plan(plan: Plan, out: Path) -> None:
 @click.option(
     "--out",
     required=True,
-    type=OutPath(what="the plan's file (plan.yaml)"),
+    type=GivenPath(what="the plan's file (plan.yaml)"),
     help="Plan file (YAML).",
 )
 def command(batch: Path, seed: int, key: str | None, rules_ref: str, out: Path) -> None:

@@ -10,7 +10,7 @@ from click.core import ParameterSource
 
 from blockqc.adjust.run import DEFAULT_DEM_SIGMA_M, AdjustConfig, run_adjust
 from blockqc.adjust.solver import Settings
-from blockqc.cli import OutPath
+from blockqc.cli import GivenPath
 from blockqc.errors import UsageError
 from blockqc.outputs import empty_removed, refuse_inside
 
@@ -60,7 +60,7 @@ def check_dem_options(dem: Path | None, geoid: Path | None) -> None:
 
 @click.command("adjust")
 @click.argument("delivery", type=click.Path(path_type=Path))
-@click.option("--out", required=True, type=OutPath(), help="Output folder.")
+@click.option("--out", required=True, type=GivenPath(), help="Output folder.")
 @click.option("--dem", type=click.Path(path_type=Path), help="DEM for height priors.")
 @click.option(
     "--geoid",

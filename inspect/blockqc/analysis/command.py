@@ -15,7 +15,7 @@ from blockqc.analysis.factors import FactorOptions, experiments_table
 from blockqc.analysis.render import correlation_heatmap, render_html, structure_plot
 from blockqc.analysis.table import FACTOR_COLUMNS, INDICATOR_COLUMNS, read_table, write_table_csv
 from blockqc.analysis.terrain import DemSet
-from blockqc.cli import OutPath, TemplatesPath
+from blockqc.cli import GivenPath, TemplatesPath
 from blockqc.delivery import find_deliveries, load_delivery
 from blockqc.errors import UsageError
 from blockqc.outputs import (
@@ -224,7 +224,7 @@ _BATCH_ONLY = ("dems", "images_band", "period_gap_days", "overlap", "stereo_iou"
 @click.option(
     "--out",
     required=True,
-    type=OutPath(file_okay=False),
+    type=GivenPath(file_okay=False),
     help="Output folder: never inside BATCH; it may be the folder of --table unless one of "
     "its outputs would replace the table.",
 )

@@ -9,7 +9,7 @@ from typing import Any, NamedTuple
 import click
 from pydantic import ValidationError
 
-from blockqc.cli import OutPath, TemplatesPath, check_pdf_engine, pdf_engine_option
+from blockqc.cli import GivenPath, TemplatesPath, check_pdf_engine, pdf_engine_option
 from blockqc.errors import InputError, Problem, UsageError
 from blockqc.outputs import refuse_block_folders, refuse_delivery
 from blockqc.report.messages import LANGUAGES
@@ -342,7 +342,7 @@ def _check_out(out: Path, named: tuple[Path, ...], docs: list, summary: tuple | 
 @click.option(
     "--out",
     required=True,
-    type=OutPath(file_okay=False),
+    type=GivenPath(file_okay=False),
     help="Output folder: <out>/<block_id>/report.html, report.pdf, CSV exports; "
     "<out>/summary.html for a batch. Never inside an input, unless it is the folder the "
     "results are in (<out>/<block_id>/results.json): the reports are then re-rendered in place.",

@@ -11,7 +11,7 @@ import click
 from pyproj import CRS
 from pyproj.exceptions import CRSError
 
-from blockqc.cli import OutPath
+from blockqc.cli import GivenPath
 from blockqc.errors import UsageError
 from blockqc.matching.settings import MatchSettings
 from blockqc.outputs import check_out_dir, empty_removed, refuse_replacing
@@ -165,7 +165,7 @@ def _finite(ctx: click.Context, param: click.Parameter, value: float | None) -> 
     "--out",
     "out",
     required=True,
-    type=OutPath(file_okay=False),
+    type=GivenPath(file_okay=False),
     help="Output folder (not one holding another tool's results.json).",
 )
 @click.option(
