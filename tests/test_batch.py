@@ -741,3 +741,56 @@ def test_an_interrupt_while_waiting_drops_the_jobs_not_begun(tmp_path):
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, before)
     assert len(list(marks.iterdir())) < len(todo)
+
+
+class _Pid:
+    """A job that writes its worker's process id, then waits a minute (picklable)."""
+
+    def __init__(self, marks: Path):
+        self.marks = marks
+
+    def __call__(self, path, manifest):
+        import os
+        import time
+
+        (self.marks / path.name).write_text(str(os.getpid()))
+        time.sleep(60)
+        return path
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="the parent's death is signalled on Linux")
+def test_workers_end_when_the_main_process_is_killed(tmp_path):
+    """The main process of a `--jobs` run killed (SIGKILL, out of memory): its workers went on
+    writing into --out, then waited for ever, holding their memory."""
+    import os
+    import time
+
+    marks = tmp_path / "marks"
+    marks.mkdir()
+    script = (
+        "import sys; from pathlib import Path; import test_batch as t; from blockqc import batch; "
+        "todo = [(Path(f'B{i}'), None) for i in range(2)]; "
+        "batch._pooled(t._Pid(Path(sys.argv[1])), todo, lambda outcome: None, 2)"
+    )
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(Path(__file__).parent), *sys.path])}
+    main = subprocess.Popen([sys.executable, "-c", script, str(marks)], env=env)
+    deadline = time.monotonic() + 60
+    while len(list(marks.iterdir())) < 2 and time.monotonic() < deadline:
+        time.sleep(0.1)
+    workers = [int(p.read_text()) for p in marks.iterdir() if p.read_text()]
+    assert len(workers) == 2
+    main.kill()
+    main.wait(timeout=30)
+    deadline = time.monotonic() + 10
+    while any(_alive(pid) for pid in workers) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not any(_alive(pid) for pid in workers)
+
+
+def _alive(pid: int) -> bool:
+    """Whether the process runs (a zombie, ended but not yet reaped, does not)."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except FileNotFoundError:
+        return False

@@ -7,11 +7,13 @@ line of the summary: a batch never holds the results of all its blocks.
 
 from __future__ import annotations
 
+import ctypes
 import datetime as dt
 import json
 import os
 import shutil
 import signal
+import sys
 from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
@@ -76,6 +78,7 @@ from blockqc.results import (
 from blockqc.rules.model import Pack
 
 PDF_POLICIES = ("all", "failing", "sampled", "none")
+_PR_SET_PDEATHSIG = 1  # Linux prctl: the signal a process gets when its parent dies
 
 
 @dataclass
@@ -564,11 +567,18 @@ class Runner:
             done(Outcome(p, problems=[problem], block_id=m.block_id if m else None))
 
 
-def _worker_start() -> None:
+def _worker_start(parent: int) -> None:
     """A worker process: one thread (the processes share the cores), and SIGTERM left to end
-    it, not raised as the main process raises it (`blockqc.cli`)."""
+    it, not raised as the main process raises it (`blockqc.cli`); on Linux, also sent to it
+    when the main process dies without stopping its workers (SIGKILL, out of memory), so that
+    no orphan goes on writing into the output folder (they used to, then wait for ever)."""
     pieces.single_thread()
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if sys.platform == "linux":
+        with suppress(OSError, AttributeError):
+            ctypes.CDLL(None).prctl(_PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0)
+        if os.getppid() != parent:  # it died before the worker asked
+            os.kill(os.getpid(), signal.SIGTERM)
 
 
 def _pooled(
@@ -577,7 +587,8 @@ def _pooled(
     """done(outcome) of each job run in a pool of `workers` processes; the jobs lost to a
     process that died."""
     lost = []
-    with ProcessPoolExecutor(workers, initializer=_worker_start) as pool:
+    start = {"initializer": _worker_start, "initargs": (os.getpid(),)}
+    with ProcessPoolExecutor(workers, **start) as pool:
         futures = {pool.submit(job, p, m): (p, m) for p, m in todo}
         try:
             for future in as_completed(futures):
