@@ -438,6 +438,22 @@ def test_a_misspelt_required_column_is_named_with_the_one_meant(blockqc, block, 
     _refused(p, "scenes.csv: missing column 'lines'", "is 'Lines' meant to be it?")
 
 
+def test_a_header_in_capitals_names_each_column_meant(blockqc, block, tmp_path):
+    """REF_X_M is the ref_x_m meant, not REF_Y_M, which differs from it by a letter too."""
+    from blockqc.schema import near_column
+
+    assert near_column("ref_x_m", ["REF_Y_M", "REF_X_M"]) == "REF_X_M"
+    assert near_column("dz_m", ["dzm", "dz"]) == "dz"  # a unit dropped, before a letter
+    lines = (block / "checkpoints.csv").read_text(encoding="utf-8").splitlines()
+    lines[0] = lines[0].upper()
+    (block / "checkpoints.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    _refused(p, *(f"missing column '{c}'" for c in ("ref_x_m", "ref_y_m", "ref_z_m")))
+    for column in ("x_m", "ref_x_m", "ref_y_m", "ref_z_m"):
+        (said,) = [x for x in p.stderr.splitlines() if f"missing column '{column}'" in x]
+        assert said.endswith(f"is '{column.upper()}' meant to be it?)"), said
+
+
 def test_an_unrelated_extra_column_is_still_read_as_before(blockqc, block, tmp_path):
     lines = (block / "overlaps.csv").read_text(encoding="utf-8").splitlines()
     lines = [lines[0] + ",remark"] + [x + ",checked" for x in lines[1:]]

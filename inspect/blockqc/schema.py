@@ -378,7 +378,9 @@ def validate_table(
             )
         )
     out: dict[str, pd.Series] = {}
-    extra = [c for c in given if c not in {col.name for col in schema.columns}]
+    known = {col.name for col in schema.columns}
+    in_order = dict.fromkeys([*df.columns, *(h.strip() for h in header or ())])
+    extra = [c for c in in_order if c not in known]  # as the header has them
     problems += _other_case(extra, given, schema, file)
     for col in schema.columns:
         if col.name in df.columns:
@@ -428,16 +430,19 @@ UNIT_WORDS = {"m", "mm", "cm", "km", "px", "pix", "pixel", "pixels", "deg", "deg
 
 
 def near_column(name: str, columns: list[str]) -> str | None:
-    """The first of `columns` that looks like `name` misspelt: in other case, with its unit
-    dropped, added or changed (`dz`, `dz_mm` for `dz_m`; `h_m` for `h`), or differing in a
-    letter or two. (`water` is not `water_fraction`: 'fraction' is no unit.)"""
+    """The one of `columns` that looks most like `name` misspelt: in other case (REF_X_M for
+    ref_x_m, before REF_Y_M), else with its unit dropped, added or changed (`dz`, `dz_mm` for
+    `dz_m`; `h_m` for `h`), else differing in a letter or two, the closest first. (`water` is
+    not `water_fraction`: 'fraction' is no unit.)"""
     want = name.casefold()
-    for column in columns:
-        c = str(column).casefold()
-        close = difflib.SequenceMatcher(None, c, want).ratio() >= 0.8
-        if c == want or close or _stem(c) == _stem(want):
-            return column
-    return None
+    folded = [(str(column).casefold(), column) for column in columns]
+    for same in (lambda c: c == want, lambda c: _stem(c) == _stem(want)):
+        found = [column for c, column in folded if same(c)]
+        if found:
+            return found[0]
+    ratios = [(difflib.SequenceMatcher(None, c, want).ratio(), column) for c, column in folded]
+    close = [(r, column) for r, column in ratios if r >= 0.8]
+    return max(close, key=lambda rc: rc[0])[1] if close else None
 
 
 def _stem(name: str) -> str:
