@@ -14,11 +14,26 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from blockqc.delivery import MANIFEST, Delivery, _check_consistency, load_manifest, read_table
+from blockqc.delivery import (
+    MANIFEST,
+    Delivery,
+    _check_consistency,
+    header_names,
+    load_manifest,
+    read_table,
+)
 from blockqc.errors import InputError, Problem
-from blockqc.schema import CHECKPOINTS, near_column
+from blockqc.schema import CHECKPOINTS, Column, TableSchema, near_column
 
 BLOCK = "block_id"
+
+#: a file of several blocks' checkpoints: its block ids are text as block.yaml's ('0012' stays
+#: '0012'), and a point id may come again in another block (each block numbers its own points)
+BY_BLOCK = TableSchema(
+    CHECKPOINTS.name,
+    (*CHECKPOINTS.columns, Column(BLOCK, "str", nullable=True)),
+    unique=(BLOCK, *CHECKPOINTS.unique),
+)
 
 
 @dataclass
@@ -75,7 +90,7 @@ def load_checkpoint_files(paths: list[Path]) -> InspectorCheckpoints:
             )
             continue
         try:
-            df, found = read_table(path, CHECKPOINTS)
+            df, found = read_table(path, _schema(path))
         except InputError as exc:
             problems.extend(exc.problems)
             continue
@@ -98,6 +113,11 @@ def load_checkpoint_files(paths: list[Path]) -> InspectorCheckpoints:
     if problems:
         raise InputError(problems)
     return InspectorCheckpoints(rows, with_block[0], [str(p) for p in paths])
+
+
+def _schema(path: Path) -> TableSchema:
+    """The checkpoints table, keyed and typed per block when the file has a block_id column."""
+    return BY_BLOCK if BLOCK in header_names(path) else CHECKPOINTS
 
 
 def _blank_blocks(path: Path, block: pd.Series) -> list[Problem]:

@@ -749,6 +749,17 @@ def _bounded_keys(schema: TableSchema, found: pa.Schema) -> list[str]:
     return [f.name for f in found if f.name in refs and _is_text(f.type)]
 
 
+def header_names(path: Path) -> list[str]:
+    """A table file's column names, stripped ([] when the file cannot be read: reading the
+    table says why)."""
+    try:
+        if path.suffix.lower() == ".csv":
+            return [h.strip() for h in _csv_header(read_bytes(path, None).removeprefix(BOM))]
+        return [name.strip() for name in pq.read_schema(path).names]
+    except (InputError, pa.ArrowException, OSError):
+        return []
+
+
 def read_table(path: Path, schema: TableSchema) -> tuple[pd.DataFrame, list[Problem]]:
     """Read and validate one table file (CSV or Parquet) against its schema."""
     df, problems, _ = read_columns(path, schema)

@@ -218,6 +218,27 @@ def test_checkpoints_conflicts_and_blocks_exit_2(tmp_path, blockqc) -> None:
     )
 
 
+def test_a_file_of_several_blocks_numbers_each_blocks_points(tmp_path, blockqc) -> None:
+    """Block ids are text as block.yaml gives them ('0012', not 12), and each block may number
+    its points as the others do: a point id given again in one block is still refused."""
+    batch = tmp_path / "batch"
+    for block_id in ("0012", "0013"):
+        write_delivery(batch / block_id, {"manifest": {"block_id": block_id}})
+    both = tmp_path / "recalc.csv"
+    rows = [_recalculation(3).assign(block_id=b) for b in ("0012", "0013")]
+    pd.concat(rows).to_csv(both, index=False)
+    out = tmp_path / "out"
+    proc = blockqc("inspect", batch, "--out", out, "--no-pdf", "--checkpoints", both)
+    assert proc.returncode in (0, 1), proc.stderr
+    for block_id in ("0012", "0013"):
+        doc = json.loads((out / block_id / "results.json").read_text())
+        assert doc["process_data"]["inspector_checkpoints"] == {str(both): 3}
+    pd.concat([*rows, rows[0].head(1)]).to_csv(both, index=False)
+    proc = blockqc("inspect", batch, "--out", tmp_path / "o2", "--no-pdf", "--checkpoints", both)
+    assert proc.returncode == 2
+    assert f"{both}, row 7 (line 8): duplicated key (block_id, point_id, method)" in proc.stderr
+
+
 @pytest.mark.parametrize("header", ["Block_ID", "blockid", "block-id"])
 def test_a_misspelt_block_id_column_is_refused(tmp_path, blockqc, header) -> None:
     """Its blocks would go unread and every row be merged into the one block inspected."""
