@@ -115,6 +115,22 @@ def test_acquired_dates_with_and_without_time_zone_are_read(blockqc, block, tmp_
     assert p.returncode == 0, p.stderr
 
 
+@pytest.mark.parametrize(
+    ("date", "read"),
+    [("2021", False), ("2021-04", False), ("2021/04/11", True), ("20210411", True)],
+)
+def test_an_acquired_date_without_its_day_is_refused(blockqc, block, tmp_path, date, read):
+    """A year or a month alone would be read as its first day (2021 as 2021-01-01)."""
+    scenes = pd.read_csv(block / "scenes.csv", dtype=str)
+    scenes.loc[0, "acquired"] = date
+    scenes.to_csv(block / "scenes.csv", index=False)
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    if read:
+        assert p.returncode == 0, p.stderr
+    else:
+        _refused(p, "scenes.csv, row 1 (line 2), column 'acquired': expected an ISO date", date)
+
+
 @pytest.mark.parametrize("text", ["C10\n1-01", "id\x00with nul", "x" * 200_000])
 def test_figure_text_with_control_characters_or_of_great_length(text):
     assert text_width(text, 8.0) > 0

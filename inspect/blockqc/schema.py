@@ -536,6 +536,11 @@ def _expected(col: Column) -> str:
     }[col.kind]
 
 
+#: a date that names its day (2021-04-11, 2021/04/11, 20210411, with a time or not): a year or a
+#: month alone (2021, 2021-04), reduced precision to ISO 8601, would be read as its first day
+WITH_DAY = r"\d{4}(?:[-/.]\d{1,2}[-/.]\d{1,2}|\d{4})(?:[T ].*)?"
+
+
 def _convert(raw: pd.Series, col: Column, blank: np.ndarray) -> tuple[pd.Series, np.ndarray | None]:
     """Convert one column to its kind; return the converted series and the unconvertible cells."""
     if col.kind == "str" and col.category:
@@ -569,7 +574,8 @@ def _convert(raw: pd.Series, col: Column, blank: np.ndarray) -> tuple[pd.Series,
         except (ValueError, TypeError):  # time zones mixed with naive dates: compared in UTC
             d = pd.to_datetime(text, errors="coerce", format="ISO8601", utc=True)
             d = d.dt.tz_localize(None)
-        return d, ~blank & d.isna().to_numpy()
+        partial = ~text.str.fullmatch(WITH_DAY).fillna(False).to_numpy(dtype=bool)
+        return d, ~blank & (d.isna().to_numpy() | partial)
     if col.kind == "wkt":
         stripped = raw.astype("string").str.strip().astype(object)
         text = stripped.fillna("").to_numpy(dtype=object)
