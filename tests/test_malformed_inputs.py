@@ -854,3 +854,16 @@ def test_a_dz_column_in_pan_ms_is_not_averaged_into_ro1(blockqc, block, tmp_path
     results = json.loads((tmp_path / "out" / "F1-B01" / "results.json").read_text("utf-8"))
     (ro1,) = [r for r in results["results"] if r["rule"] == "RO-1"]
     assert ro1["status"] == "fail" and ro1["value"] == pytest.approx(3.0)  # √(Σ 3² / 20)
+
+
+@pytest.mark.parametrize("sep", [",", ";"])
+def test_a_spreadsheets_separator_line_above_the_header_is_named_as_one(
+    blockqc, block, tmp_path, sep
+):
+    """Excel writes `sep=,` above a table to be opened in another locale: it is no header (it
+    was said to be a header of two fields, or a table separated by semicolons)."""
+    cp = block / "checkpoints.csv"
+    cp.write_text(f"sep={sep}\r\n" + cp.read_text(encoding="utf-8"))
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    _refused(p, f"checkpoints.csv, line 1: a spreadsheet's separator line ('sep={sep}')")
+    assert "separated by" not in p.stderr and "fields where" not in p.stderr

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -98,8 +99,8 @@ OTHER_SEPARATORS = {";": "semicolons", "\t": "tabs", "|": "vertical bars", " ": 
 
 def header_problem(path: Path, header: list[str], columns: int = 2) -> Problem | None:
     """What makes a CSV's first record no header, to report once rather than every column
-    missing: a comment line, or (for a table of more than one column) another dialect's
-    separator. None when the header is not such."""
+    missing: a comment line, a spreadsheet's `sep=,` line, or (for a table of more than one
+    column) another dialect's separator. None when the header is not such."""
     line = ",".join(header)
     if line.lstrip().startswith("#"):
         shown = line.strip() if len(line.strip()) <= 60 else line.strip()[:59] + "…"
@@ -107,6 +108,14 @@ def header_problem(path: Path, header: list[str], columns: int = 2) -> Problem |
             str(path),
             f"a comment line ('{shown}') where the header row is expected: contract tables "
             "have no comment lines; remove it so that the first line names the columns",
+            line=1,
+        )
+    if re.fullmatch(r"sep=.?", line.strip(), re.IGNORECASE):  # Excel's dialect line
+        return Problem(
+            str(path),
+            f"a spreadsheet's separator line ('{line.strip()}') where the header row is "
+            "expected: contract tables have none; remove it so that the first line names the "
+            "columns",
             line=1,
         )
     return separator_problem(path, header) if columns > 1 else None
