@@ -245,6 +245,12 @@ def test_block_yaml_unknown_key_is_a_stated_warning(blockqc, block, tmp_path):
     ("old", "new", "words"),
     [
         ("sampled: true", "sampeld: true", ("block.yaml", "did you mean 'sampled'")),
+        (  # a known key in other case: a warning only, and MB-3 failed for want of the EPSG
+            "  epsg: 32637",
+            "  EPSG: 32637",
+            ("block.yaml, line 10: spatial_reference.EPSG: unknown key; did you mean 'epsg'?",),
+        ),
+        ("block_id: F1-B01", "Block_ID: F1-B01", ("Block_ID: unknown key; did you mean",)),
         ("sampled: true", "sampled: maybe", ("block.yaml", "sampled")),
         ("pan: 0.8", "pan: true", ("block.yaml", "expected a number of metres, got true")),
         ("pan: 0.8", "pan: 1.0e+30", ("block.yaml", "gsd_m.pan")),

@@ -819,16 +819,18 @@ def _unknown_keys(path: Path, data: dict, manifest: Manifest) -> list[Problem]:
 
 
 def _misspelt_keys(path: Path, data: dict) -> list[Problem]:
-    """Extra keys are allowed in block.yaml, but not one that looks like a misspelt known key
-    (it would be ignored while the key meant is missed)."""
+    """Extra keys are allowed in block.yaml, but not one that looks like a misspelt known key,
+    in other case or close (it would be ignored while the key meant is missed)."""
     sections: list[tuple[tuple[str, ...], Any, set[str]]] = [((), data, set(Manifest.model_fields))]
     sr = data.get("spatial_reference")
     if isinstance(sr, dict):
         sections.append((("spatial_reference",), sr, {*SpatialReference.model_fields, "zone"}))
     problems = []
     for loc, section, known in sections:
+        folded = {k.casefold(): k for k in known}  # EPSG, Block_ID: a known key in other case
         for key in section:
-            close = difflib.get_close_matches(str(key), known, n=1, cutoff=0.75)
+            same = folded.get(str(key).casefold())
+            close = [same] if same else difflib.get_close_matches(str(key), known, n=1, cutoff=0.75)
             if key not in known and close:
                 where = ".".join((*loc, str(key)))
                 problems.append(
