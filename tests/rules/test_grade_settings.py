@@ -109,3 +109,54 @@ def test_grade_settings_in_range_and_in_order_are_kept(tmp_path: Path) -> None:
     assert _messages(pack) == []
     acc = load_pack(pack).acceptance
     assert acc is not None and acc.fail_grade.id == "rejected"
+
+
+def test_an_unknown_grade_is_refused_at_the_line_naming_it(tmp_path: Path) -> None:
+    """A misspelt grade was refused at the `acceptance:` line, the grades listed in no set
+    order; each is named at its own line, the grades best first, with a "did you mean"."""
+    pack = _pack(
+        tmp_path,
+        "acceptance:\n  better_than: god\n  batch_default: passs\n  batch_grades:\n"
+        "    - {grade: excellent, better_pct: 90, top_pct: 50}\n"
+        "    - {grade: goo, better_pct: 80, top_pct: 30}\n",
+    )
+    grades = "is not one of the grades (excellent, good, pass)"
+    assert _messages(pack) == [
+        f"{pack}, line 4: acceptance.better_than: grade 'god' {grades}; did you mean 'good'?",
+        f"{pack}, line 8: acceptance.batch_grades.1: grade 'goo' {grades}; did you mean 'good'?",
+        f"{pack}, line 5: acceptance.batch_default: grade 'passs' {grades}; did you mean 'pass'?",
+    ]
+
+
+def test_grades_replaced_name_the_inherited_settings_left_naming_old_ones(tmp_path: Path) -> None:
+    pack = _pack(
+        tmp_path,
+        "acceptance:\n  grades:\n    - {id: top, min: 90, title: Top}\n"
+        "    - {id: ok, min: 60, title: OK}\n",
+    )
+    stock = Path(__file__).parents[2] / "rules" / "global-project.yaml"
+    lines = stock.read_text("utf-8").splitlines()
+    line = next(n for n, text in enumerate(lines, 1) if text.startswith("  better_than:"))
+    assert _messages(pack)[0] == (
+        f"{stock}, line {line}: acceptance.better_than: grade 'good' is not one of the grades "
+        "(top, ok)"
+    )
+
+
+def test_a_default_grade_setting_naming_no_grade_is_refused() -> None:
+    """A setting left at its default names a grade too (`good` for better_than)."""
+    from pydantic import ValidationError
+
+    from blockqc.acceptance.model import Acceptance
+
+    grades = [{"id": "top", "min": 90, "title": "Top"}, {"id": "ok", "min": 60, "title": "OK"}]
+    with pytest.raises(ValidationError) as err:
+        Acceptance.model_validate(
+            {
+                "sampling": {"table": [{"batch": 20, "sample": 3}]},
+                "grades": grades,
+                "fail_grade": {"id": "fail", "min": 0, "title": "Fail"},
+                "batch_default": "ok",
+            }
+        )
+    assert [e["loc"] for e in err.value.errors()] == [("better_than",)]

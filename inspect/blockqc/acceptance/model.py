@@ -14,6 +14,7 @@ from pydantic import (
     model_validator,
 )
 
+from blockqc.schema import did_you_mean
 from blockqc.yamlio import Text
 
 ErrorClass = Literal["A", "B", "C", "D"]
@@ -113,12 +114,33 @@ class Grade(_M):
     title_zh: str = ""
 
 
+def _known_grade(gid: str, info: ValidationInfo) -> str:
+    """A grade named by `better_than`, `batch_default` or a batch grade is one of `grades`
+    (listed best first; nothing to check against when the grades themselves are refused)."""
+    if "grades" not in info.data:
+        return gid
+    ids = [g.id for g in info.data["grades"]]
+    if gid not in ids:
+        hint = did_you_mean(ids)(gid)
+        raise ValueError(f"grade '{gid}' is not one of the grades ({', '.join(ids)}){hint}")
+    return gid
+
+
+#: a grade's id where one of the pack's grades is meant
+GradeRef = Annotated[str, AfterValidator(_known_grade)]
+
+
 class BatchGrade(_M):
     """§QE-5: a batch grade when enough of the sample's units are good or better and excellent."""
 
     grade: str
     better_pct: float = Field(ge=0, le=100)  # units graded `better_than` or above, in %
     top_pct: float = Field(ge=0, le=100)  # units of the top grade, in %
+
+
+def _batch_grade_known(v: BatchGrade, info: ValidationInfo) -> BatchGrade:
+    _known_grade(v.grade, info)
+    return v
 
 
 class Weights(_M):
@@ -142,9 +164,12 @@ class Acceptance(_M):
     element_fail_below: Score = 60  # §QE-2: a unit fails with any element below this
     grades: list[Grade] = Field(min_length=1)  # best first; below the last: the fail grade
     fail_grade: Grade
-    better_than: str = "good"  # §QE-5 "good or better"
-    batch_grades: list[BatchGrade] = Field(default_factory=list)  # best first
-    batch_default: str = "pass"
+    # §QE-5 "good or better"; a default too must name a grade
+    better_than: GradeRef = Field(default="good", validate_default=True)
+    batch_grades: list[Annotated[BatchGrade, AfterValidator(_batch_grade_known)]] = Field(
+        default_factory=list
+    )  # best first
+    batch_default: GradeRef = Field(default="pass", validate_default=True)
     weights: Weights = Field(default_factory=Weights)
 
     @field_validator("fail_grade")
@@ -192,10 +217,6 @@ class Acceptance(_M):
         twice = sorted({i for i in listed if listed.count(i) > 1})
         if twice:
             raise ValueError(f"grades: each grade has an id of its own: {', '.join(twice)} twice")
-        ids = set(listed)
-        for ref in [self.better_than, self.batch_default, *(b.grade for b in self.batch_grades)]:
-            if ref not in ids:
-                raise ValueError(f"grade '{ref}' is not one of the grades ({', '.join(ids)})")
         return self
 
     def grade(self, score: float) -> Grade:
