@@ -114,3 +114,17 @@ def test_an_accuracy_score_without_norm_needs_an_upper_bound(tmp_path: Path) -> 
         f"{pack}, line 5: rule TP-4: score: without score.norm the norm m0 is the upper bound, "
         "and threshold has no max: give score.norm"
     ]
+
+
+def test_a_sampling_table_whose_sample_falls_is_refused(tmp_path: Path) -> None:
+    """`sample: 2` for 20 (a digit lost) drew 2 blocks of a batch of 250 and passed lint."""
+    pack = _pack(
+        tmp_path,
+        "acceptance:\n  sampling:\n    table:\n      - {batch: 232, sample: 17}\n"
+        "      - {batch: 282, sample: 2}\n",
+    )
+    assert _messages(pack) == [
+        f"{pack}, line 4: acceptance.sampling: sampling.table: batches of up to 282 give a "
+        "sample of 2, below the 17 of batches of up to 232: the sample grows with the batch "
+        "(a digit missing?)"
+    ]

@@ -81,6 +81,13 @@ class Sampling(_M):
         sizes = [r.batch for r in self.table]
         if sizes != sorted(set(sizes)):
             raise ValueError("sampling.table: batch sizes must be strictly ascending")
+        for a, b in zip(self.table, self.table[1:], strict=False):
+            if b.sample < a.sample:  # §QE-1: a larger batch never gets a smaller sample
+                raise ValueError(
+                    f"sampling.table: batches of up to {b.batch} give a sample of {b.sample}, "
+                    f"below the {a.sample} of batches of up to {a.batch}: the sample grows with "
+                    "the batch (a digit missing?)"
+                )
         return self
 
     @property
