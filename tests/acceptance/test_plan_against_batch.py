@@ -176,3 +176,23 @@ def test_inspect_states_a_unit_withdrawn_in_its_warnings_and_reports(tmp_path: P
         "block.yaml key 'terrain'. Units of the plan not among the 3 deliveries inspected (1 of "
         "its 4; withdrawn after sampling?), none of them sampled, so the sample stands: B03."
     ) in text
+
+
+def test_a_lot_above_the_packs_largest_batch_is_noted_when_sampled_below_it(
+    tmp_path: Path,
+) -> None:
+    """A pack whose table stops at batches of 2 splits a lot of 4 into two lots of 2, and asks
+    2 of each: the plan's 2 of 4 (drawn with another table) were judged with nothing said."""
+    from blockqc.acceptance.model import Sampling
+
+    sampling = Sampling.model_validate({"table": [{"batch": 2, "sample": 2}]})
+    plan, path = _plan(tmp_path)
+    notes, warnings = plan_notes(plan, path, list(BLOCKS), "batch", "global-project 1.0", sampling)
+    assert [n.model_dump() for n in notes] == [
+        {"about": "sample_size", "plan": "2", "inspected": "4", "blocks": []}
+    ]
+    assert [str(w).removeprefix(f"{path}, ") for w in warnings] == [
+        "line 25: lots[0]: 2 of the lot's 4 units sampled; the pack's table (§QE-1) asks 4 (the "
+        "lot is above its largest batch, 2: it splits it into 2 lots of 2, 2): the batch is "
+        "judged on the smaller sample"
+    ]

@@ -16,7 +16,7 @@ from typing import Any
 from blockqc.acceptance.command import stratum_of
 from blockqc.acceptance.model import PlanNote, Sampling
 from blockqc.acceptance.plan import Plan, key_path, listed
-from blockqc.acceptance.sampling import sample_size
+from blockqc.acceptance.sampling import sample_size, split_sizes
 from blockqc.errors import InputError, Problem
 
 Loc = tuple[str | int, ...]
@@ -160,9 +160,9 @@ def _undersized(plan: Plan, path: Path, sampling: Sampling) -> Iterator[tuple[Pl
     """Lots whose sample is smaller than the pack's table asks for their size (§QE-1): a plan
     edited by hand, or drawn with another table. The sample is judged as drawn, and this said."""
     for i, lot in enumerate(plan.lots):
-        if not 1 <= lot.size <= sampling.max_batch:
+        if lot.size < 1:
             continue
-        wanted = sample_size(lot.size, sampling)
+        wanted, split = _wanted(lot.size, sampling)
         drawn = len(lot.sampled)
         if drawn < wanted:
             yield (
@@ -170,10 +170,25 @@ def _undersized(plan: Plan, path: Path, sampling: Sampling) -> Iterator[tuple[Pl
                 Problem(
                     str(path),
                     f"lots[{i}]: {drawn} of the lot's {lot.size} units sampled; the pack's "
-                    f"table (§QE-1) asks {wanted}: the batch is judged on the smaller sample",
+                    f"table (§QE-1) asks {wanted}{split}: the batch is judged on the smaller "
+                    "sample",
                     line=plan.line("lots", i, "sampled"),
                 ),
             )
+
+
+def _wanted(size: int, sampling: Sampling) -> tuple[int, str]:
+    """The sample the pack's table asks of a lot; one above its largest batch, split as
+    `blockqc sample` splits a batch, asks each part's (said)."""
+    parts = split_sizes(size, sampling.max_batch)
+    wanted = sum(sample_size(n, sampling) for n in parts)
+    if len(parts) == 1:
+        return wanted, ""
+    sizes = ", ".join(str(n) for n in parts)
+    return wanted, (
+        f" (the lot is above its largest batch, {sampling.max_batch}: it splits it into "
+        f"{len(parts)} lots of {sizes})"
+    )
 
 
 def _other(about: str, given: str, found: str) -> str:
