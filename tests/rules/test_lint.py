@@ -628,3 +628,23 @@ def test_a_stock_rule_failing_on_a_constant_the_project_sets_names_where_it_is_s
     stock = str(rules_dir() / "global-project.yaml")
     assert msgs and all(m.startswith(stock) and m.endswith(where) for m in msgs), msgs
     assert any("rule CP-1: params.plane_norm_m: Input should be greater than 0" in m for m in msgs)
+
+
+def test_a_unit_other_than_the_statistics_is_refused(tmp_path: Path) -> None:
+    """`unit: m` on a share in % printed "≤ 10 m" for the share, and `mm` on a medium error in
+    metres "≤ 10 mm": the values are never converted, so the unit must be the statistic's."""
+    pack = _pack(
+        tmp_path,
+        "overrides:\n  CP-2: {unit: mm}\nrules:\n  - id: PR-1\n    title: Share above 1 px\n"
+        "    clause: §TP-3\n    content: ro_report\n    metric: tie_point_errors\n"
+        "    scope: scene\n    statistic: share_in_interval\n    threshold: {max: 10}\n"
+        "    unit: m\n",
+    )
+    assert _messages(pack)[:2] == [
+        f"{pack}, line 4: rule CP-2: unit: 'mm', but statistic medium_error is measured in m: "
+        "write unit: 'm' or leave it out (units are not converted)",
+        f"{pack}, line 14: rule PR-1: unit: 'm', but statistic share_in_interval is measured in "
+        "%: write unit: '%' or leave it out (units are not converted)",
+    ]
+    with pytest.raises(RuleError):
+        load_pack(pack)

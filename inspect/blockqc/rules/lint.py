@@ -292,6 +292,7 @@ def check_rule(
             "statistic",
         )
     _check_threshold_kinds(rule, scope, bad)
+    _check_unit(rule, scope, bad)
     _check_where(rule.where, scope, f"{spec.name} at scope {rule.scope}", "where", bad)
     _check_content_groups(rule, scope, f"{spec.name} at scope {rule.scope}", bad)
     _check_groups(rule, spec, scope, bad)
@@ -443,6 +444,18 @@ def _check_threshold_kinds(rule: Rule, scope: Scope, bad: Callable[..., None]) -
             kind = f"is a number ({unit}): compare it with min/max or numbers"
         if wrong:
             bad(f"{'.'.join(loc)}: statistic {rule.statistic} {kind}", *loc)
+
+
+def _check_unit(rule: Rule, scope: Scope, bad: Callable[..., None]) -> None:
+    """A rule's `unit`, shown beside its value and threshold, is the unit its statistic is
+    measured in: `unit: m` on a share in % would print a share as metres."""
+    unit = scope.statistics.get(rule.statistic or "", "")
+    if rule.unit and unit not in NON_NUMERIC_UNITS and rule.unit != unit:
+        bad(
+            f"unit: '{rule.unit}', but statistic {rule.statistic} is measured in {unit}: "
+            f"write unit: '{unit}' or leave it out (units are not converted)",
+            "unit",
+        )
 
 
 def _check_where(
