@@ -419,6 +419,8 @@ def _acceptance_inputs(plan_file: Path | None, meta_file: Path | None, got, path
 
     plan = load_plan(plan_file) if plan_file else None
     meta = load_meta(meta_file) if meta_file else None
+    if meta is not None:
+        _page_not_written(meta, meta_file, got.is_batch, pack)
     if plan is None:
         return plan, meta, []
     ids = [m.block_id for m in got.manifests.values()]
@@ -435,6 +437,28 @@ def _acceptance_inputs(plan_file: Path | None, meta_file: Path | None, got, path
     for w in warnings:
         click.echo(f"warning: {w}", err=True)
     return plan, meta, notes
+
+
+#: the particulars of --meta that only the batch's acceptance page shows
+ACCEPTANCE_PAGE_ONLY = (
+    "inspection_unit", "inspection_unit_zh", "basis", "basis_zh", "handling", "handling_zh",
+    "annexes",
+)  # fmt: skip
+
+
+def _page_not_written(meta, meta_file: Path, is_batch: bool, pack) -> None:
+    """Warn of particulars given for the acceptance page when this run writes none (one
+    delivery, or a pack without `acceptance:`): they are kept in results.json only."""
+    if is_batch and pack.acceptance is not None:
+        return
+    given = [k for k in ACCEPTANCE_PAGE_ONLY if getattr(meta, k)]
+    if given:
+        why = "a batch" if pack.acceptance is not None else "a pack with an acceptance: section"
+        click.echo(
+            f"warning: {meta_file}: {', '.join(given)}: shown on the batch's acceptance page "
+            f"only, which this run does not write (it needs {why}); kept in results.json",
+            err=True,
+        )
 
 
 def _style(text: str, **how) -> str:

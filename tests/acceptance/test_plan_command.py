@@ -216,6 +216,26 @@ def test_meta_in_block_report_and_filed_report(tmp_path: Path) -> None:
     assert r.returncode == 2 and "bad.yaml" in r.stderr and "report_numbr" in r.stderr
 
 
+def test_particulars_of_an_acceptance_page_not_written_are_warned_of(tmp_path: Path) -> None:
+    """`handling` and `annexes` are shown on the batch's acceptance page only: given for one
+    delivery, or with a pack without `acceptance:`, they went unused with nothing said."""
+    batch = _batch(tmp_path / "batch", 2, with_cps={0, 1})
+    meta = tmp_path / "meta.yaml"
+    meta.write_text("report_number: QC-7\nhandling: returned\nannexes: [a.pdf]\n")
+    one = run_blockqc("inspect", batch / "B00", "--meta", meta, "--out", tmp_path / "a", "--no-pdf")
+    other = run_blockqc(
+        "inspect", batch, "--rules", "asprs-2023", "--meta", meta, "--out", tmp_path / "b",
+        "--no-pdf",
+    )  # fmt: skip
+    for r, why in ((one, "a batch"), (other, "a pack with an acceptance: section")):
+        assert r.returncode in (0, 1), r.stderr
+        assert "meta.yaml: handling, annexes: shown on the batch's acceptance page" in r.stderr
+        assert f"(it needs {why})" in r.stderr
+    whole = run_blockqc("inspect", batch, "--meta", meta, "--out", tmp_path / "c", "--no-pdf")
+    assert whole.returncode == 0 and "acceptance page only" not in whole.stderr
+    assert "a.pdf" in (tmp_path / "c" / "acceptance.html").read_text()
+
+
 def test_pdf_sampled_follows_the_plan(tmp_path: Path) -> None:
     """`--pdf sampled`: the plan's blocks (B00 with checkpoints, B02 without); without a plan,
     the blocks that carry checkpoints (B00, B01)."""
