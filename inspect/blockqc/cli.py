@@ -470,7 +470,8 @@ def _outcome_line(o) -> str:
     """One line per delivery: the verdict and the rules behind it, or why it was not read."""
     e = o.entry
     if e is None:
-        return _style(f"{o.path}  UNREADABLE  ({len(o.problems)} problem(s))", fg="red")
+        n = len(o.problems)
+        return _style(f"{o.path}  UNREADABLE  ({n} problem{'' if n == 1 else 's'})", fg="red")
     failed = "failed or in error" if e.verdict == "error" else "failed"  # failed_rules: both
     notes = [f"{failed}: {', '.join(e.failed_rules)}"] if e.failed_rules else []
     notes += [f"warnings: {', '.join(e.warned_rules)}"] if e.warned_rules else []
@@ -526,7 +527,7 @@ def _closing_lines(outcomes, summary, out: Path) -> None:
         _warn_other_blocks(out, {b.block_id for b in summary.blocks})
         c = summary.counts
         _echo(
-            f"{c.blocks} blocks: {c.pass_} pass, {c.fail} fail, "
+            f"{c.blocks} block{'' if c.blocks == 1 else 's'}: {c.pass_} pass, {c.fail} fail, "
             f"{c.unreadable} unreadable — {out / 'summary.html'}"
         )
     elif all(o.entry is None for o in outcomes):

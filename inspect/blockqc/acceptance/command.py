@@ -90,7 +90,8 @@ def _has(data: dict[str, Any], loc: list[str]) -> bool:
 
 def _echo_plan(plan: Plan, out: Path) -> None:
     click.echo(
-        f"{plan.units} blocks, {len(plan.lots)} lot(s), {plan.method}: "
+        f"{plan.units} block{'' if plan.units == 1 else 's'}, {len(plan.lots)} "
+        f"lot{'' if len(plan.lots) == 1 else 's'}, {plan.method}: "
         f"sample of {plan.sample_size} — {out}"
     )
     for i, lot in enumerate(plan.lots, 1):
