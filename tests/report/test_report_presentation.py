@@ -340,3 +340,29 @@ def test_not_applicable_reasons_and_notes_read_in_chinese_on_zh_pages(reason):
              "rpc_adjusted", "pan", "DOC"}  # fmt: skip
     assert set(words) <= names, (reason, zh)
     assert Formatter("en").text(reason) == reason
+
+
+@pytest.mark.parametrize("lang", ["en", "zh"])
+def test_quality_evaluation_errors_show_units_and_comparison(lang):
+    """§QE: the table of errors by class shows each value and threshold as its rule does, with
+    unit and comparison; '37.50' against '5' left the reader to guess a share or metres."""
+    from blockqc.acceptance.model import ErrorRecord, Evaluation
+
+    doc = make_results()
+    errors = [
+        ErrorRecord(rule=r["rule"], error_class="A", group=r["group"], value=r["value"],
+                    threshold=r["threshold"], reason="fails its threshold")
+        for r in (_result(doc, "CP-4", method="high_precision"), _result(doc, "RO-3"))
+    ]  # fmt: skip
+    doc["evaluation"] = Evaluation(score=40.0, grade="fail", fails=True).model_dump()
+    doc["evaluation"]["elements"] = [
+        {"id": "data", "title": "Data quality", "weight": 1.0, "inspected": True, "score": 0.0,
+         "items": [{"id": "plane_accuracy", "title": "Plane accuracy", "weight": 1.0,
+                    "inspected": True, "score": 0.0,
+                    "errors": [e.model_dump() for e in errors]}]}
+    ]  # fmt: skip
+    rows = block_context(doc, lang, figures=False)["evaluation"]["errors"]
+    assert [(x["rule"], x["value"], x["threshold"]) for x in rows] == [
+        ("CP-4", "37.50 %", "< 5 %"),
+        ("RO-3", "38.98 m", "< 28.28 m"),
+    ]

@@ -14,7 +14,7 @@ from typing import Any
 from blockqc.acceptance.decision import unread_in_sample
 from blockqc.acceptance.model import BatchDecision, ErrorRecord, Evaluation, PlanNote
 from blockqc.report.format import Formatter
-from blockqc.results import BlockResults, Summary
+from blockqc.results import BlockResults, RuleResult, Summary
 
 CLASSES = ("A", "B", "C", "D")
 
@@ -30,13 +30,21 @@ def _why(x: ErrorRecord, f: Formatter) -> str:
     return f.t("err_beyond_norm") if x.reason == "beyond the norm" else f.t("err_fails")
 
 
-def _error_row(x: ErrorRecord, f: Formatter) -> dict[str, Any]:
+def _error_row(x: ErrorRecord, f: Formatter, results: Sequence[RuleResult] = ()) -> dict[str, Any]:
+    """An error with its value and threshold as the rule that found it shows them: with its
+    unit and comparison ("37.50 %", "< 5 %"), else as recorded."""
+    res = next((r for r in results if r.rule == x.rule and r.group == x.group), None)
+    if res is None:
+        value, threshold = f.cell(x.value), f.cell(x.threshold)
+    else:
+        shown = res.model_copy(update={"value": x.value, "threshold": x.threshold})
+        value, threshold = f.value(shown), f.threshold(shown)
     return {
         "rule": x.rule,
         "group": f.group(x.group),
         "cls": x.error_class,
-        "value": f.cell(x.value),
-        "threshold": f.cell(x.threshold),
+        "value": value,
+        "threshold": threshold,
         "why": _why(x, f),
     }
 
@@ -68,8 +76,11 @@ def _part(p: Any, f: Formatter, level: str) -> dict[str, Any]:
     }
 
 
-def evaluation_context(ev: Evaluation | None, f: Formatter) -> dict[str, Any] | None:
-    """A block's §QE evaluation for its report (None when the pack has no acceptance)."""
+def evaluation_context(
+    ev: Evaluation | None, f: Formatter, results: Sequence[RuleResult] = ()
+) -> dict[str, Any] | None:
+    """A block's §QE evaluation for its report (None when the pack has no acceptance); its
+    errors are shown with the units and comparisons of the rule `results` that found them."""
     if ev is None:
         return None
     errors = [x for e in ev.elements for i in e.items for x in i.errors]
@@ -86,7 +97,7 @@ def evaluation_context(ev: Evaluation | None, f: Formatter) -> dict[str, Any] | 
         "fails": ev.fails,
         "complete": ev.complete,
         "counts": " · ".join(f"{c}: {ev.counts.get(c, 0)}" for c in CLASSES),
-        "errors": [_error_row(x, f) for x in unique],
+        "errors": [_error_row(x, f, results) for x in unique],
         "rows": _items(ev, f),
         "low_elements": [
             f.t(

@@ -375,7 +375,7 @@ def block_context(
         "failures": _failures(results, f),
         "figures": block_figures(results, f, scene_statuses(results)) if figures else NO_FIGURES,
         "pending": results.pending_manual,
-        "evaluation": evaluation_context(results.evaluation, f),
+        "evaluation": evaluation_context(results.evaluation, f, results.results),
         "colon": "：" if lang == "zh" else ": ",
         "sep": "；" if lang == "zh" else "; ",
         "failed_items": failed_items(results, f),
