@@ -316,3 +316,16 @@ def test_long_column_labels_are_cut_and_the_figure_stays_its_size():
     assert shown.endswith("…") and svg.text_width(shown, 6.5) <= svgplot.COLUMN_LABEL_PT
     assert float(root.get("height").removesuffix("pt")) <= 2.5 * 72 + svgplot.COLUMN_LABEL_PT + 4
     assert svg.cut("short", 7, 100) == "short"
+
+
+def test_residual_histogram_marks_name_the_unit_in_the_page_language():
+    """A zh page's histogram marks read '0.5 像素' as its axis does, not the English 'px'."""
+    from blockqc.report.messages import translator
+
+    edges = [0.5 * i for i in range(25)]  # to 12 px: the bins beyond 10 px drawn as one
+    hist = {"edges_px": edges, "counts": [5] * 24}
+    for lang, px in (("en", "px"), ("zh", "像素")):
+        labels = re.findall(r"<text[^>]*>([^<]*)</text>", plots.residual_histogram(
+            hist, [0.5, 1.0, 1.5], translator(lang), "h"))  # fmt: skip
+        assert {f"0.5 {px}", f"1 {px}", f"1.5 {px}", f"&gt; 10 {px}: 20"} <= set(labels), labels
+        assert lang == "en" or not any("px" in x for x in labels)

@@ -225,6 +225,7 @@ def residual_histogram(
     """Tie-point residual histogram with the 0.5 / 1.0 / 1.5 px marks (§TP-1..3)."""
     plot = Plot(2.3, title=t("fig_tp_hist"), xlabel=t("ax_residual_px"))
     plot.ylabel = t("ax_observations")
+    px = t("unit_px")
     edges, counts, over = _bounded_bins(hist)
     blue = np.full(len(counts), "#7a9cc6", dtype=object)
     edge = ' stroke="#4f6f99" stroke-width="0.4"'
@@ -233,13 +234,14 @@ def residual_histogram(
     if over:  # errors beyond the drawn range: one grey bar at its end, with their count
         grey = np.array(["#d9d9d9"], dtype=object)
         plot.add(bars(edges[-1:], np.array([HIST_BIN_PX]), np.array([over]), grey, edge))
-        plot.add(label(edges[-1], over, f"> {edges[-1]:g} px: {over:g}", 7, anchor="end"), z=4)
+        beyond = f"> {edges[-1]:g} {px}: {over:g}"
+        plot.add(label(edges[-1], over, beyond, 7, anchor="end"), z=4)
         edges = np.append(edges, edges[-1] + HIST_BIN_PX)
     for m in marks:
         red = m >= 1.5
         colour = STATUS_COLOURS["fail"] if red else "#555"
         plot.add(vline(m, colour, 0.9, "" if red else DASHED), z=3)
-        plot.add(label(m, top * 1.02, f"{m:g} px", 7, anchor="middle"), z=4)
+        plot.add(label(m, top * 1.02, f"{m:g} {px}", 7, anchor="middle"), z=4)
     plot.ylim = (0, top * 1.15)
     plot.xlim = (0, max(float(edges[-1]) if edges.size else 2.0, max(marks, default=0) + 0.1))
     return plot.svg(name)
