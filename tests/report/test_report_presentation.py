@@ -366,3 +366,14 @@ def test_quality_evaluation_errors_show_units_and_comparison(lang):
         ("CP-4", "37.50 %", "< 5 %"),
         ("RO-3", "38.98 m", "< 28.28 m"),
     ]
+
+
+@pytest.mark.parametrize(("lang", "grid"), [("en", "4×4 grid"), ("zh", "4×4 格网")])
+def test_scene_map_caption_names_the_grid_of_the_pack(lang, grid):
+    """A pack judging TP-5 on a 4×4 grid: the scene maps draw it and their captions say so
+    (they said 3×3 whatever the grid)."""
+    doc = make_results()
+    m = next(x for x in doc["measurements"] if x["metric"] == "tie_point_distribution")
+    m["detail"]["grid"] = 4
+    maps = block_context(doc, lang)["figures"]["scene_maps"]
+    assert maps and all(grid in x["caption"] and "3×3" not in x["caption"] for x in maps)

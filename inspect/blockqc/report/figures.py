@@ -127,7 +127,7 @@ def _scene_maps(results: BlockResults, f: Formatter, figs: dict[str, Any]) -> No
         svg = plots.scene_points(
             sid, lines, samples, scene["lines"], scene["samples"], grid, f.t, f"scene-{i}"
         )
-        caption = f.t("scene_points_caption", n=len(lines))
+        caption = f.t("scene_points_caption", n=len(lines), k=grid)
         figs["scene_maps"].append({**_scene_names(sid), "svg": svg, "caption": caption})
     if len(failing) > MAX_SCENE_MAPS:
         figs["notes"].append(f.t("maps_capped", n=MAX_SCENE_MAPS, total=len(failing)))

@@ -284,8 +284,8 @@ MESSAGES: dict[str, tuple[str, str]] = {
         "results.json 中没有该影像的连接点。",
     ),
     "scene_points_caption": (
-        "{n} points shown; 3×3 grid, land cells must each hold points (TP-5).",
-        "显示 {n} 个点；3×3 格网，每个陆地格网须有连接点（TP-5）。",
+        "{n} points shown; {k}×{k} grid, land cells must each hold points (TP-5).",
+        "显示 {n} 个点；{k}×{k} 格网，每个陆地格网须有连接点（TP-5）。",
     ),
     "vector_no_positions": (
         "The checkpoints' positions are not in results.json: the plane "
