@@ -377,3 +377,17 @@ def test_scene_map_caption_names_the_grid_of_the_pack(lang, grid):
     m["detail"]["grid"] = 4
     maps = block_context(doc, lang)["figures"]["scene_maps"]
     assert maps and all(grid in x["caption"] and "3×3" not in x["caption"] for x in maps)
+
+
+@pytest.mark.parametrize(
+    ("lang", "stop"), [("en", "&gt;. 40 points"), ("zh", "&gt; 的连接点分布。显示")]
+)
+def test_scene_map_caption_is_punctuated_in_the_page_language(lang, stop):
+    """A zh caption's sentences end with '。', not an English full stop and space."""
+    from blockqc.results import BlockResults
+
+    page = render_block(BlockResults.model_validate(make_results()), lang=lang)
+    captions = re.findall(r"<figcaption[^>]*>(.*?)</figcaption>", page, re.S)
+    scene = [c for c in captions if "TP-5" in c]
+    assert scene and all(stop in c for c in scene), scene
+    assert lang == "en" or not any(". " in c for c in scene)
