@@ -391,3 +391,19 @@ def test_scene_map_caption_is_punctuated_in_the_page_language(lang, stop):
     scene = [c for c in captions if "TP-5" in c]
     assert scene and all(stop in c for c in scene), scene
     assert lang == "en" or not any(". " in c for c in scene)
+
+
+def test_scene_maps_capped_note_stands_under_the_scene_maps():
+    """With more failing scenes than maps drawn, the note saying so stands under the scene maps
+    (general inspection), not under the checkpoints of the detailed inspection."""
+    from blockqc.report.figures import MAX_SCENE_MAPS
+    from blockqc.results import BlockResults
+
+    doc = make_results()
+    tp5 = _result(doc, "TP-5")
+    row = tp5["evidence"][0]
+    tp5["evidence"] = [{**row, "scene_id": f"S-{i:03d}"} for i in range(MAX_SCENE_MAPS + 2)]
+    page = render_block(BlockResults.model_validate(doc), lang="en")
+    general = page[page.index('<section id="general">') : page.index('<section id="detailed">')]
+    note = f"The first {MAX_SCENE_MAPS} of "  # TP-5's failing scenes and TP-4's
+    assert note in general and page.count(note) == 1

@@ -37,7 +37,13 @@ from blockqc.results import (
     status_rank,
 )
 
-NO_FIGURES: dict[str, list] = {"general": [], "detailed": [], "scene_maps": [], "notes": []}
+NO_FIGURES: dict[str, list] = {
+    "general": [],
+    "detailed": [],
+    "scene_maps": [],
+    "general_notes": [],
+    "notes": [],
+}
 
 
 #: the statistics a checkpoint rule judges that the mean error replaces below 20 points (§CP-7)

@@ -130,12 +130,19 @@ def _scene_maps(results: BlockResults, f: Formatter, figs: dict[str, Any]) -> No
         caption = f.t("scene_points_caption", n=len(lines), k=grid)
         figs["scene_maps"].append({**_scene_names(sid), "svg": svg, "caption": caption})
     if len(failing) > MAX_SCENE_MAPS:
-        figs["notes"].append(f.t("maps_capped", n=MAX_SCENE_MAPS, total=len(failing)))
+        figs["general_notes"].append(f.t("maps_capped", n=MAX_SCENE_MAPS, total=len(failing)))
 
 
 def block_figures(results: BlockResults, f: Formatter, statuses: dict[str, str]) -> dict[str, Any]:
-    """The SVG figures of a block report, by section."""
-    figs: dict[str, Any] = {"general": [], "detailed": [], "scene_maps": [], "notes": []}
+    """The SVG figures of a block report, by section, and the notes of each (`general_notes`
+    under the general inspection's figures, `notes` under the checkpoints')."""
+    figs: dict[str, Any] = {
+        "general": [],
+        "detailed": [],
+        "scene_maps": [],
+        "general_notes": [],
+        "notes": [],
+    }
     _checkpoint_figures(results, f, figs)
     _histogram(results, f, figs)
     _scene_counts(results, f, figs)
