@@ -407,3 +407,25 @@ def test_scene_maps_capped_note_stands_under_the_scene_maps():
     general = page[page.index('<section id="general">') : page.index('<section id="detailed">')]
     note = f"The first {MAX_SCENE_MAPS} of "  # TP-5's failing scenes and TP-4's
     assert note in general and page.count(note) == 1
+
+
+@pytest.mark.parametrize("lang", ["en", "zh"])
+def test_maps_results_do_not_keep_are_said_to_be_left_out(lang):
+    """A block of more than 500 scenes keeps no residual cells and a large overlap table is not
+    kept in results.json: the report says which maps are not drawn and why, rather than
+    leaving them out unsaid."""
+    from blockqc.metrics.tiepoints import MAX_SCENES_FOR_CELLS
+
+    doc = make_results()
+    n = MAX_SCENES_FOR_CELLS + 1
+    doc["scenes"] = [{**doc["scenes"][0], "scene_id": f"S-{i:04d}"} for i in range(n)]
+    doc["measurements"].append(
+        {"key": "overlap_discrepancy", "metric": "overlap_discrepancy", "params": {},
+         "detail": {}, "tables": {}, "rows": {"point": 30400, "pair": 1520}}
+    )  # fmt: skip
+    notes = block_context(doc, lang)["figures"]["general_notes"]
+    assert len(notes) == 2
+    assert str(n) in notes[0] and str(MAX_SCENES_FOR_CELLS) in notes[0]
+    assert "30400" in notes[1]
+    kept = block_context(make_results(), lang)["figures"]["general_notes"]
+    assert kept == []  # a small block: nothing left out, nothing said

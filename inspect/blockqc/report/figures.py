@@ -154,4 +154,25 @@ def block_figures(results: BlockResults, f: Formatter, statuses: dict[str, str])
     for draw in (residual_map, overlap_map):
         if (svg := draw(results, f)) is not None:
             figs["general"].append(svg)
+        elif note := _map_not_kept(results, f, draw is residual_map):
+            figs["general_notes"].append(note)
     return figs
+
+
+def _map_not_kept(results: BlockResults, f: Formatter, residuals: bool) -> str | None:
+    """Why a map is not drawn when the block has what it shows but results.json does not keep
+    it (a large block): the residual cells of more than MAX_SCENES_FOR_CELLS scenes, an overlap
+    table of too many points. None when there is nothing to draw."""
+    from blockqc.metrics.tiepoints import MAX_SCENES_FOR_CELLS
+
+    metric = "tie_point_errors" if residuals else "overlap_discrepancy"
+    m = next((x for x in results.measurements if x.metric == metric), None)
+    if m is None:
+        return None
+    if residuals:
+        n = len(results.scenes)
+        if m.detail.get("residual_cells") or n <= MAX_SCENES_FOR_CELLS:
+            return None
+        return f.t("residual_map_not_kept", n=n, most=MAX_SCENES_FOR_CELLS)
+    n = m.rows.get("point", 0)
+    return f.t("overlap_map_not_kept", n=n) if n and "point" not in m.tables else None

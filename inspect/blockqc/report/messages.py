@@ -221,6 +221,17 @@ MESSAGES: dict[str, tuple[str, str]] = {
     "whole_rule": ("the whole rule", "整条规则"),
     "waiver_ignored": ("Waiver ignored", "豁免无效"),
     "truncated": ("{n} more not listed in results.json", "另有 {n} 行未列入 results.json"),
+    "residual_map_not_kept": (
+        "The map of tie-point residuals is drawn for blocks of at most {most} scenes; this "
+        "block has {n}.",
+        "连接点残差矢量图仅对不超过 {most} 景影像的区域网绘制；本区域网有 {n} 景。",
+    ),
+    "overlap_map_not_kept": (
+        "The map of adjacent-image discrepancies is not drawn: results.json does not keep the "
+        "{n} discrepancy points of this block (the failing ones are listed under the failures).",
+        "未绘制相邻影像接边差图：results.json 未保存本区域网的 {n} 个接边点"
+        "（不合格者列于不合格项中）。",
+    ),
     "maps_capped": (
         "The first {n} of {total} failing scenes are drawn.",
         "仅绘出 {total} 景不合格影像中的前 {n} 景。",
