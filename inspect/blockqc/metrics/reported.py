@@ -20,6 +20,9 @@ from blockqc.metrics import (
     not_applicable,
 )
 
+# relative slack on the agreement bound for the binary rounding of decimal figures
+ROUNDING = 1e-9
+
 
 class Figure(BaseModel):
     """Where a reported figure is recomputed: a metric, its parameters, a scope and statistic."""
@@ -58,9 +61,12 @@ def recompute(fig: Figure, measure: Measure) -> tuple[float, str]:
 
 
 def _agree(diff: float, value_r: float, p: ReportedParams) -> bool:
-    """|Δ| ≤ max(abs_tol, rel_tol·|recomputed|); a difference that is not a finite number
-    (an infinite recomputed value) never agrees."""
-    return bool(math.isfinite(diff) and abs(diff) <= max(p.abs_tol, p.rel_tol * abs(value_r)))
+    """|Δ| ≤ max(abs_tol, rel_tol·|recomputed|), the bound included: a difference within
+    ROUNDING of the bound counts as on it (0.315 − 0.30 is 0.015000000000000013 in binary, 5 %
+    of 0.30 is 0.015); a difference that is not a finite number (an infinite recomputed value)
+    never agrees."""
+    bound = max(p.abs_tol, p.rel_tol * abs(value_r))
+    return bool(math.isfinite(diff) and abs(diff) <= bound * (1.0 + ROUNDING))
 
 
 def _undefined(name: str, value: float, figures: dict, reported: dict) -> dict[str, Any]:
