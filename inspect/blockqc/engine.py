@@ -86,8 +86,15 @@ def bounds(th: Threshold, names: Mapping[str, Any]) -> tuple[float | None, float
     return lo, hi
 
 
+#: a value within this share of a bound's magnitude is on the bound: the binary rounding of
+#: decimal inputs (an RMS of exactly 1.2 m computed as 1.2000000000000002) neither fails an
+#: inclusive bound nor passes an exclusive one
+ON_BOUND = 1e-9
+
+
 def passes(values: pd.Series, th: Threshold, lo: float | None, hi: float | None) -> np.ndarray:
-    """Vectorized judgement of values against a threshold; missing values never pass."""
+    """Vectorized judgement of values against a threshold (a value within ON_BOUND of a bound
+    is on it); missing values never pass."""
     if th.equals is not None:
         return (values == th.equals).fillna(False).to_numpy(dtype=bool)
     if th.in_ is not None:
@@ -96,9 +103,11 @@ def passes(values: pd.Series, th: Threshold, lo: float | None, hi: float | None)
     ok = np.isfinite(v)
     with np.errstate(invalid="ignore"):
         if hi is not None:
-            ok &= (v <= hi) if th.inclusive else (v < hi)
+            on = ON_BOUND * abs(hi)
+            ok &= (v <= hi + on) if th.inclusive else (v < hi - on)
         if lo is not None:
-            ok &= (v >= lo) if th.inclusive else (v > lo)
+            on = ON_BOUND * abs(lo)
+            ok &= (v >= lo - on) if th.inclusive else (v > lo + on)
     return ok
 
 
