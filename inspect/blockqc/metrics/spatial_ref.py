@@ -78,21 +78,25 @@ def wrap_lon(lon: float) -> float:
     return lon if -180.0 <= lon <= 180.0 else (lon + 180.0) % 360.0 - 180.0
 
 
-def expected_epsg(lon_min: float, lon_max: float, lat: float, p: SpatialParams) -> list[int]:
+def expected_epsg(
+    lon_min: float, lon_max: float, lat_min: float, lat_max: float, p: SpatialParams
+) -> list[int]:
     """EPSG codes a block may use: UTM of its extent's centre longitude, either neighbour when
-    the extent straddles a zone edge (Reading of §MB-3), and the zone of the grid's exceptions
-    there (Norway, Svalbard); UPS in polar regions."""
+    the extent straddles a zone edge, either hemisphere when it straddles the equator (Reading
+    of §MB-3), and the zone of the grid's exceptions there (Norway, Svalbard); UPS in polar
+    regions."""
+    lat = (lat_min + lat_max) / 2
     if lat > p.ups_north_lat:
         return [32661]
     if lat < p.ups_south_lat:
         return [32761]
-    base = 32600 if lat >= 0 else 32700
+    bases = [32600, 32700] if lat_min < 0 <= lat_max else [32600 if lat >= 0 else 32700]
     centre = (lon_min + lon_max) / 2  # an extent across ±180° ends east of 180 (lon_extent)
     ends = (centre, lon_min, lon_max)
     zones = {utm_zone(x) for x in ends}
     if p.grid_exceptions:
         zones |= {z for x in ends if (z := exception_zone(x, lat)) is not None}
-    return [base + z for z in sorted(zones)]
+    return [base + z for base in bases for z in sorted(zones)]
 
 
 #: the UTM grid's exceptions: (south, north, west, east, zone), degrees
@@ -193,11 +197,12 @@ def spatial_reference(d: Delivery, p: SpatialParams, measure: Measure) -> Measur
     _, lat_min, _, lat_max = shapely.total_bounds(geoms)
     lon_min, lon_max = lon_extent(shapely.get_coordinates(geoms)[:, 0])
     lat_c = (lat_min + lat_max) / 2
-    allowed = expected_epsg(lon_min, lon_max, lat_c, p)
+    allowed = expected_epsg(lon_min, lon_max, lat_min, lat_max, p)
     code = delivered_epsg(sr)
     named = _projection_problem(sr.projection if sr else None, code)
     ok = code in allowed and named is None
-    plain = expected_epsg(lon_min, lon_max, lat_c, p.model_copy(update={"grid_exceptions": False}))
+    plain_grid = p.model_copy(update={"grid_exceptions": False})
+    plain = expected_epsg(lon_min, lon_max, lat_min, lat_max, plain_grid)
     straddles = len(plain) > 1
     if named is not None:
         note = named
@@ -209,9 +214,14 @@ def spatial_reference(d: Delivery, p: SpatialParams, measure: Measure) -> Measur
             "Svalbard)"
         )
     elif ok and straddles:
+        edges = []
+        if len({c % 100 for c in plain}) > 1:
+            edges.append(f"a zone edge (lon {lon_min:.3f}…{wrap_lon(lon_max):.3f})")
+        if len({c // 100 for c in plain}) > 1:
+            edges.append(f"the equator (lat {lat_min:.3f}…{lat_max:.3f})")
         note = (
-            f"the block straddles a zone edge (lon {lon_min:.3f}…{wrap_lon(lon_max):.3f}); "
-            f"{describe_epsg(code)} is one of the neighbours allowed"
+            f"the block straddles {' and '.join(edges)}; {describe_epsg(code)} is one of the "
+            "neighbours allowed"
         )
     elif ok:
         note = f"{describe_epsg(code)} is the block's zone"
