@@ -151,28 +151,28 @@ def block_figures(results: BlockResults, f: Formatter, statuses: dict[str, str])
     _scene_maps(results, f, figs)
     from blockqc.report.maps import overlap_map, residual_map
 
-    for draw in (residual_map, overlap_map):
+    for draw, unkept in ((residual_map, _residuals_not_kept), (overlap_map, _overlaps_not_kept)):
         if (svg := draw(results, f)) is not None:
             figs["general"].append(svg)
-        elif note := _map_not_kept(results, f, draw is residual_map):
+        elif note := unkept(results, f):
             figs["general_notes"].append(note)
     return figs
 
 
-def _map_not_kept(results: BlockResults, f: Formatter, residuals: bool) -> str | None:
-    """Why a map is not drawn when the block has what it shows but results.json does not keep
-    it (a large block): the residual cells of more than MAX_SCENES_FOR_CELLS scenes, an overlap
-    table of too many points. None when there is nothing to draw."""
+def _residuals_not_kept(results: BlockResults, f: Formatter) -> str | None:
+    """Why the residual map is not drawn when results.json keeps no residual cells for the
+    block's size (more than MAX_SCENES_FOR_CELLS scenes); None otherwise."""
     from blockqc.metrics.tiepoints import MAX_SCENES_FOR_CELLS
 
-    metric = "tie_point_errors" if residuals else "overlap_discrepancy"
-    m = next((x for x in results.measurements if x.metric == metric), None)
-    if m is None:
+    m, n = next(iter(results.measurements_of("tie_point_errors")), None), len(results.scenes)
+    if m is None or m.detail.get("residual_cells") or n <= MAX_SCENES_FOR_CELLS:
         return None
-    if residuals:
-        n = len(results.scenes)
-        if m.detail.get("residual_cells") or n <= MAX_SCENES_FOR_CELLS:
-            return None
-        return f.t("residual_map_not_kept", n=n, most=MAX_SCENES_FOR_CELLS)
-    n = m.rows.get("point", 0)
+    return f.t("residual_map_not_kept", n=n, most=MAX_SCENES_FOR_CELLS)
+
+
+def _overlaps_not_kept(results: BlockResults, f: Formatter) -> str | None:
+    """Why the adjacent-image map is not drawn when results.json does not keep the block's
+    discrepancy points (too many); None otherwise."""
+    m = next(iter(results.measurements_of("overlap_discrepancy")), None)
+    n = m.rows.get("point", 0) if m is not None else 0
     return f.t("overlap_map_not_kept", n=n) if n and "point" not in m.tables else None

@@ -153,7 +153,7 @@ def residual_vectors(
 
 def residual_map(results: BlockResults, f: Formatter) -> str | None:
     """Mean tie-point residual vectors per scene cell over the block's footprints (SVG)."""
-    m = next((x for x in results.measurements if x.metric == "tie_point_errors"), None)
+    m = next(iter(results.measurements_of("tie_point_errors")), None)
     cells = (m.detail.get("residual_cells") if m else None) or []
     v = residual_vectors(cells, *_corners(results))
     v = v[np.isfinite(v).all(axis=1)]  # a cell whose residuals are all missing has no arrow
