@@ -10,10 +10,19 @@ import click
 from pydantic import ValidationError
 
 from blockqc.cli import GivenPath, TemplatesPath, check_pdf_engine, pdf_engine_option
+from blockqc.engine import ON_BOUND
 from blockqc.errors import InputError, Problem, UsageError
 from blockqc.outputs import refuse_block_folders, refuse_delivery
 from blockqc.report.messages import LANGUAGES
-from blockqc.results import BlockResults, Summary, block_fails, json_path, parse, tally
+from blockqc.results import (
+    BlockResults,
+    RuleResult,
+    Summary,
+    block_fails,
+    json_path,
+    parse,
+    tally,
+)
 
 
 class _NotJSON(ValueError):
@@ -112,7 +121,71 @@ def _contradictions(path: Path, doc: BlockResults) -> list[Problem]:
                 f"({counts['error']} error, {counts['fail']} fail)",
             )
         )
-    return out
+    return out + [
+        Problem(str(path), f"$.results[{i}] ({_named(r)}): {why}")
+        for i, r in enumerate(doc.results)
+        if (why := _misjudged(r))
+    ]
+
+
+def _named(r: RuleResult) -> str:
+    """A result by its rule and group: `RO-3, component plane`."""
+    return ", ".join([r.rule] + [f"{k} {v}" for k, v in r.group.items()])
+
+
+#: the statuses of a value that does not meet its threshold (as the engine judges)
+_NOT_MET = ("fail", "warn", "waived")
+
+
+def _misjudged(r: RuleResult) -> str | None:
+    """Why a result's status is not the one its value, threshold and severity make (None when
+    it is, or when the result states no value to judge)."""
+    met = _meets(r.value, r.threshold, r.comparison)
+    shown = f"its value {r.value!r} against {r.comparison} {r.threshold!r}"
+    if met is False and r.status == "pass":
+        return f"status pass, but {shown} does not meet the threshold"
+    if met and r.status in _NOT_MET:
+        return f"status {r.status}, but {shown} meets the threshold"
+    if r.status == "warn" and r.severity != "warn":
+        return f"status warn, but the rule's severity is {r.severity} (a failure fails the block)"
+    if r.status == "fail" and r.severity == "warn" and r.comparison is not None:
+        return "status fail, but the rule's severity is warn (a failure only warns)"
+    return None
+
+
+def _number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def _meets(value: Any, threshold: Any, comparison: str | None) -> bool | None:
+    """Whether a value meets a threshold as the engine judges it (a value within ON_BOUND of
+    a bound's magnitude is on it); None when there is nothing to judge."""
+    if value is None or comparison is None:
+        return None
+    if comparison == "equals":
+        return bool(value == threshold)
+    if comparison == "in":
+        return isinstance(threshold, list) and value in threshold
+    pair = threshold if isinstance(threshold, list) and len(threshold) == 2 else [None, None]
+    lo, hi = {
+        "<=": (None, threshold),
+        "<": (None, threshold),
+        ">=": (threshold, None),
+        ">": (threshold, None),
+        "between": pair,
+        "strictly_between": pair,
+    }.get(comparison, (None, None))
+    if not _number(value) or not any(_number(b) for b in (lo, hi)):
+        return None
+    inclusive = comparison in ("<=", ">=", "between")
+    ok = True
+    if _number(hi):
+        on = ON_BOUND * abs(hi)
+        ok &= value <= hi + on if inclusive else value < hi - on
+    if _number(lo):
+        on = ON_BOUND * abs(lo)
+        ok &= value >= lo - on if inclusive else value > lo + on
+    return ok
 
 
 def _check_results(path: Path, doc: Any) -> BlockResults:
