@@ -521,6 +521,23 @@ def summary_entry(block_id: str, verdict: str, **fields: Any) -> dict[str, Any]:
     }
 
 
+def results_entry(doc: dict[str, Any], **fields: Any) -> dict[str, Any]:
+    """A summary line of a sampled block that agrees with its results document: the rules it
+    fails (or errs on) and warns of, its pending items and checkpoint statistics."""
+    from blockqc.report import checkpoint_rows
+    from blockqc.results import BlockResults
+
+    statuses = [(r["rule"], r["status"]) for r in doc["results"]]
+    made = {
+        "sampled": True,
+        "failed_rules": sorted({rule for rule, s in statuses if s in ("fail", "error")}),
+        "warned_rules": sorted({rule for rule, s in statuses if s == "warn"}),
+        "pending_manual": doc.get("pending_manual", []),
+        "checkpoints": checkpoint_rows(BlockResults.model_validate(doc)),
+    }
+    return summary_entry(doc["block_id"], doc["verdict"], **{**made, **fields})
+
+
 def make_summary(blocks: list[dict[str, Any]], rules: dict | None = None) -> dict[str, Any]:
     """A hand-written summary.json over the given block lines (counts from their verdicts)."""
     failing = sum(b["verdict"] != "pass" for b in blocks)

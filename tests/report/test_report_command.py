@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from report_helpers import make_summary, summary_entry
+from report_helpers import make_summary, results_entry
 
 from blockqc.cli import main
 from blockqc.report import write_block_report
@@ -59,7 +59,7 @@ def test_report_command_rerenders_a_batch_summary(tmp_path, results_doc):
     batch = tmp_path / "batch"
     (batch / "T-B01").mkdir(parents=True)
     (batch / "T-B01" / "results.json").write_text(json.dumps(results_doc), encoding="utf-8")
-    summary = make_summary([summary_entry("T-B01", "fail", sampled=True, failed_rules=["TP-4"])])
+    summary = make_summary([results_entry(results_doc)])
     (batch / "summary.json").write_text(json.dumps(summary), encoding="utf-8")
     assert run("report", str(batch / "summary.json"), "--out", str(tmp_path / "o"), "--no-pdf") == 0
     assert (tmp_path / "o" / "summary.html").is_file()
@@ -71,7 +71,7 @@ def test_no_pdf_leaves_no_pdf_of_an_earlier_run_behind(tmp_path, results_doc):
     batch = tmp_path / "batch"
     (batch / "T-B01").mkdir(parents=True)
     (batch / "T-B01" / "results.json").write_text(json.dumps(results_doc), encoding="utf-8")
-    summary = make_summary([summary_entry("T-B01", "fail", sampled=True, failed_rules=["TP-4"])])
+    summary = make_summary([results_entry(results_doc)])
     (batch / "summary.json").write_text(json.dumps(summary), encoding="utf-8")
     out = tmp_path / "o"
     (out / "T-B01").mkdir(parents=True)
@@ -89,7 +89,7 @@ def test_summary_links_the_pdfs_the_rerendering_leaves(tmp_path, results_doc):
     batch = tmp_path / "batch"
     (batch / "T-B01").mkdir(parents=True)
     (batch / "T-B01" / "results.json").write_text(json.dumps(results_doc), encoding="utf-8")
-    summary = make_summary([summary_entry("T-B01", "fail", sampled=True, pdf=True)])
+    summary = make_summary([results_entry(results_doc, pdf=True)])
     (batch / "summary.json").write_text(json.dumps(summary), encoding="utf-8")
     out = tmp_path / "o"
     assert run("report", str(batch), "--out", str(out), "--no-pdf") == 0
@@ -280,7 +280,7 @@ def test_two_batch_summaries_are_refused(tmp_path, results_doc, capsys):
         (tmp_path / batch / bid).mkdir(parents=True)
         doc = {**results_doc, "block_id": bid}
         (tmp_path / batch / bid / "results.json").write_text(json.dumps(doc), encoding="utf-8")
-        summary = make_summary([summary_entry(bid, "fail", sampled=True, failed_rules=["TP-4"])])
+        summary = make_summary([results_entry(doc)])
         summaries.append(tmp_path / batch / "summary.json")
         summaries[-1].write_text(json.dumps(summary), encoding="utf-8")
     out = tmp_path / "o"

@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from report_helpers import make_summary, summary_entry
+from report_helpers import make_summary, results_entry, summary_entry
 
 from blockqc.cli import main
 
@@ -59,7 +59,7 @@ def test_a_summary_block_without_its_results_is_refused(tmp_path, capsys, result
     batch = tmp_path / "batch"
     (batch / "T-B01").mkdir(parents=True)
     (batch / "T-B01" / "results.json").write_text(json.dumps(results_doc), encoding="utf-8")
-    lines = [summary_entry("T-B01", "fail"), summary_entry("T-B02", "pass")]
+    lines = [results_entry(results_doc), summary_entry("T-B02", "pass")]
     (batch / "summary.json").write_text(json.dumps(make_summary(lines)), encoding="utf-8")
     assert run("report", str(batch), "--out", str(tmp_path / "o"), "--no-pdf") == 2
     assert capsys.readouterr().err.splitlines() == [
@@ -126,4 +126,78 @@ def test_a_warning_status_of_a_rule_of_severity_fail_is_refused(tmp_path, capsys
     assert err == [
         f"error: {tmp_path / 'in' / 'results.json'}: $.results[6] (RO-3, component plane): "
         "status warn, but the rule's severity is fail (a failure fails the block)"
+    ]
+
+
+def _summary_refused(tmp_path: Path, capsys, results_doc, summary: dict[str, Any]) -> list[str]:
+    batch = tmp_path / "batch"
+    (batch / "T-B01").mkdir(parents=True)
+    (batch / "T-B01" / "results.json").write_text(json.dumps(results_doc), encoding="utf-8")
+    (batch / "summary.json").write_text(json.dumps(summary), encoding="utf-8")
+    assert run("report", str(batch), "--out", str(tmp_path / "o"), "--no-pdf") == 2
+    assert not (tmp_path / "o").exists()
+    prefix = f"error: {batch / 'summary.json'}: "
+    return [line.removeprefix(prefix) for line in capsys.readouterr().err.splitlines()]
+
+
+AGAIN = "the summary is not that of these results (inspect again, or name the results files "
+
+
+def test_a_summary_naming_other_failed_rules_than_its_results_is_refused(
+    tmp_path, capsys, results_doc
+):
+    # the block fails TP-4, TP-5, RO-3, CP-2 and CP-4 (results[4..7], [10]): its summary
+    # line names only TP-4
+    entry = results_entry(results_doc, failed_rules=["TP-4"])
+    err = _summary_refused(tmp_path, capsys, results_doc, make_summary([entry]))
+    assert err == [
+        'lists block T-B01 with failed_rules ["TP-4"], but its results file makes it '
+        f'["CP-2", "CP-4", "RO-3", "TP-4", "TP-5"]: {AGAIN}without the summary)'
+    ]
+
+
+def test_a_summary_whose_checkpoint_figures_are_not_its_results_is_refused(
+    tmp_path, capsys, results_doc
+):
+    entry = results_entry(results_doc)
+    rows = [dict(r) for r in entry["checkpoints"]]
+    at = next(i for i, r in enumerate(rows) if r["method"] == "same_accuracy")
+    assert rows[at]["medium_error"] == 2.1  # the hand-made same-accuracy plane figure
+    rows[at]["medium_error"] = 1.2
+    err = _summary_refused(
+        tmp_path, capsys, results_doc, make_summary([{**entry, "checkpoints": rows}])
+    )
+    assert err == [
+        f"lists block T-B01 with checkpoints [{at}] (plane, same_accuracy) medium_error 1.2, "
+        f"but its results file makes it 2.1: {AGAIN}without the summary)"
+    ]
+
+
+def test_a_summary_whose_counts_per_rule_are_not_its_blocks_is_refused(
+    tmp_path, capsys, results_doc
+):
+    # results_doc holds two CP-2 results, one passing and one failing (results[7], [8])
+    zero = dict.fromkeys(("pass", "fail", "warn", "waived", "manual", "not_applicable"), 0)
+    rules = {"CP-2": {**zero, "pass": 2, "error": 0}, "TP-1": {**zero, "pass": 1, "error": 0}}
+    summary = make_summary([results_entry(results_doc)], rules)
+    err = _summary_refused(tmp_path, capsys, results_doc, summary)
+    assert err[0] == (
+        "$.rules.CP-2 counts pass 2, fail 0, but its blocks' results files hold pass 1, fail 1: "
+        "the summary is not that of these results"
+    )
+    # every rule of the results the summary does not count is named too (MB-1 … DOC-3)
+    assert len(err) == 1 + len({r["rule"] for r in results_doc["results"]} - {"CP-2", "TP-1"})
+
+
+def test_a_summary_complete_over_a_pending_item_is_refused(tmp_path, capsys, results_doc):
+    doc = {**results_doc, "pending_manual": ["DOC-3"]}
+    doc["results"] = [
+        {**r, "status": "manual", "value": None} if r["rule"] == "DOC-3" else r
+        for r in results_doc["results"]
+    ]
+    doc["counts"] = {**doc["counts"], "pass": doc["counts"]["pass"] - 1, "manual": 1}
+    err = _summary_refused(tmp_path, capsys, doc, make_summary([results_entry(doc)]))
+    assert err == [
+        "$.complete is true, but its blocks make it false (complete unless a delivery is "
+        "unreadable, a block incomplete or awaiting the inspector)"
     ]

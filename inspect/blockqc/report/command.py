@@ -15,6 +15,8 @@ from blockqc.errors import InputError, Problem, UsageError
 from blockqc.outputs import refuse_block_folders, refuse_delivery
 from blockqc.report.messages import LANGUAGES
 from blockqc.results import (
+    STATUSES,
+    BlockEntry,
     BlockResults,
     RuleResult,
     Summary,
@@ -352,6 +354,16 @@ def _summary_contradictions(
                 f"{expected['fail']} failing, {expected['unreadable']} unreadable)",
             )
         )
+    complete = not summary.unreadable and all(b.complete and not b.pending_manual for b in blocks)
+    if summary.complete != complete:
+        out.append(
+            Problem(
+                str(path),
+                f"$.complete is {str(summary.complete).lower()}, but its blocks make it "
+                f"{str(complete).lower()} (complete unless a delivery is unreadable, a block "
+                "incomplete or awaiting the inspector)",
+            )
+        )
     for b in blocks:
         r = results.get((path.parent / b.results).resolve())
         if r is None:
@@ -374,6 +386,89 @@ def _summary_contradictions(
                     f"its results file says {r.verdict}, with {dict(r.counts)}: the summary is not "
                     "that of these results (inspect again, or name the results files without "
                     "the summary)",
+                )
+            )
+        else:
+            out += _entry_contradictions(path, b, r)
+    return out + _rule_count_contradictions(path, summary, list(results.values()))
+
+
+#: what the summary pages show of a block beside its verdict, as `inspect` makes it from the
+#: block's results file
+_ENTRY_FIELDS = (
+    "failed_rules",
+    "warned_rules",
+    "pending_manual",
+    "complete",
+    "sampled",
+    "checkpoints",
+    "score",
+    "grade",
+    "evaluation_fails",
+    "evaluation_reasons",
+)
+
+
+def _entry_contradictions(path: Path, b: BlockEntry, r: BlockResults) -> list[Problem]:
+    """A block's line in the summary against the one its results file makes."""
+    from blockqc.batch import block_entry
+
+    made = block_entry(path, r, b.pdf)
+    return [
+        Problem(
+            str(path),
+            f"lists block {b.block_id} with {name} {_difference(given, getattr(made, name))}: "
+            "the summary is not that of these results (inspect again, or name the results "
+            "files without the summary)",
+        )
+        for name in _ENTRY_FIELDS
+        if (given := getattr(b, name)) != getattr(made, name)
+    ]
+
+
+def _difference(given: Any, made: Any) -> str:
+    """How a summary's field differs from the one the results file makes; rows of statistics
+    by the first row and key that differ."""
+    rows = [v for v in (given, made) if isinstance(v, list) and v and isinstance(v[0], dict)]
+    if not rows:
+        return f"{_json(given)}, but its results file makes it {_json(made)}"
+    if len(rows) < 2 or len(given) != len(made):
+        return f"of {len(given or [])} row(s), but its results file makes {len(made or [])}"
+    i, g, m = next((i, g, m) for i, (g, m) in enumerate(zip(given, made, strict=True)) if g != m)
+    key = next(k for k in dict.fromkeys([*m, *g]) if g.get(k) != m.get(k))
+    return (
+        f"[{i}] ({', '.join(str(m.get(k)) for k in ('component', 'method'))}) {key} "
+        f"{_json(g.get(key))}, but its results file makes it {_json(m.get(key))}"
+    )
+
+
+def _json(value: Any) -> str:
+    return json.dumps(value, ensure_ascii=False)
+
+
+def _rule_count_contradictions(
+    path: Path, summary: Summary, results: list[BlockResults]
+) -> list[Problem]:
+    """The summary's results per rule and status against its blocks' results files (a summary
+    without them, `rules: {}`, shows none)."""
+    if not summary.rules:
+        return []
+    made: dict[str, dict[str, int]] = {}
+    for r in results:
+        for x in r.results:
+            made.setdefault(x.rule, dict.fromkeys(STATUSES, 0))[x.status] += 1
+    out = []
+    for rule in dict.fromkeys([*summary.rules, *made]):
+        given = {s: summary.rules.get(rule, {}).get(s, 0) for s in STATUSES}
+        counted = made.get(rule, dict.fromkeys(STATUSES, 0))
+        if given != counted:
+            wrong = ", ".join(f"{s} {given[s]}" for s in STATUSES if given[s] != counted[s])
+            right = ", ".join(f"{s} {counted[s]}" for s in STATUSES if given[s] != counted[s])
+            out.append(
+                Problem(
+                    str(path),
+                    f"$.rules.{rule} counts {wrong}, but its blocks' results files hold "
+                    f"{right}: the summary is not that of these results",
                 )
             )
     return out
