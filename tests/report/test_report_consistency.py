@@ -201,3 +201,14 @@ def test_a_summary_complete_over_a_pending_item_is_refused(tmp_path, capsys, res
         "$.complete is true, but its blocks make it false (complete unless a delivery is "
         "unreadable, a block incomplete or awaiting the inspector)"
     ]
+
+
+def test_a_summary_over_results_of_another_pack_is_refused(tmp_path, capsys, results_doc):
+    # the block judged by a project's pack, the summary by the stock one (make_summary)
+    doc = {**results_doc, "rule_pack": "strict-project", "rule_pack_version": "2.0"}
+    err = _summary_refused(tmp_path, capsys, doc, make_summary([results_entry(doc)]))
+    assert err == [
+        "is of rule pack global-project 1.0, but block T-B01's results file "
+        "T-B01/results.json was judged by strict-project 2.0: the summary is not that of these "
+        "results"
+    ]

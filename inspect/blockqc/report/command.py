@@ -377,6 +377,17 @@ def _summary_contradictions(
                 )
             )
             continue
+        if (r.rule_pack, r.rule_pack_version) != (summary.rule_pack, summary.rule_pack_version):
+            out.append(
+                Problem(
+                    str(path),
+                    f"is of rule pack {summary.rule_pack} {summary.rule_pack_version}, but block "
+                    f"{b.block_id}'s results file {b.results} was judged by "
+                    f"{r.rule_pack} {r.rule_pack_version}: the summary is not that of these "
+                    "results",
+                )
+            )
+            continue
         counted = b.counts and any(b.counts.get(s, 0) != n for s, n in r.counts.items())
         if b.verdict != r.verdict or counted:
             out.append(
