@@ -64,6 +64,39 @@ def test_missing_column_is_named(tmp_path, appendix_path):
     assert [p.column for p in err.value.problems] == ["tp_nn_coefficient"]
 
 
+def test_a_column_with_its_unit_in_the_header_is_pointed_at(tmp_path, appendix_path):
+    """A spreadsheet's header `mean_elevation_m (m)`, or in capitals: the column the user gave
+    is named beside the one expected."""
+    text = appendix_path.read_text(encoding="utf-8")
+    text = text.replace("mean_elevation_m", "mean_elevation_m (m)", 1)
+    text = text.replace("h_rmse_m", "H_RMSE_M", 1)
+    bad = tmp_path / "units.csv"
+    bad.write_text(text, encoding="utf-8")
+    with pytest.raises(InputError) as err:
+        read_table(bad)
+    expected = "the header must name the ten factors and five indicators as in "
+    expected += "samples/factors/gf7_adjustment_experiments.csv"
+    assert [p.message for p in err.value.problems] == [
+        f"required column missing ({expected}); is 'mean_elevation_m (m)' meant to be it?",
+        f"required column missing ({expected}); is 'H_RMSE_M' meant to be it?",
+    ]
+
+
+def test_the_experiment_column_in_other_case_is_refused(tmp_path, appendix_path):
+    """`Experiment` was kept as an extra column and the experiments numbered 1, 2, … by row:
+    the ids given, and an id given twice, went unread."""
+    lines = _rows(appendix_path, 4)
+    lines[0] = "Experiment" + lines[0].removeprefix("experiment")
+    bad = tmp_path / "ids.csv"
+    bad.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    with pytest.raises(InputError) as err:
+        read_table(bad)
+    assert str(err.value) == (
+        f"{bad}, column 'Experiment': did you mean 'experiment'? (the experiments would be "
+        "numbered by row instead of by the ids it holds)"
+    )
+
+
 def test_missing_file(tmp_path):
     with pytest.raises(InputError, match="not found"):
         read_table(tmp_path / "nothing.csv")

@@ -11,6 +11,7 @@ import pandas as pd
 
 from blockqc.errors import InputError, Problem
 from blockqc.report.exports import neutralise
+from blockqc.schema import near_column
 from blockqc.textio import header_problem, read_text
 
 #: Columns that identify an experiment (text, kept but not analysed).
@@ -141,16 +142,20 @@ def validate_table(raw: pd.DataFrame, file: str, lines: list[int] | None = None)
     """Check the columns and ids and parse the factors and indicators as finite numbers;
     `lines`: the line each row starts on, named beside the row in the problems."""
     problems: list[Problem] = []
+    extra = [str(c) for c in raw.columns if c not in TABLE_COLUMNS]
     missing = [c for c in FACTOR_COLUMNS + INDICATOR_COLUMNS if c not in raw.columns]
     for col in missing:
+        near = near_column(col, extra)
         problems.append(
             Problem(
                 file=file,
                 column=col,
                 message="required column missing (the header must name the ten factors and "
-                "five indicators as in samples/factors/gf7_adjustment_experiments.csv)",
+                "five indicators as in samples/factors/gf7_adjustment_experiments.csv)"
+                + (f"; is '{near}' meant to be it?" if near else ""),
             )
         )
+    problems += _misnamed_ids(raw, file, extra)
     if problems:
         raise InputError(problems)
     if len(raw) == 0:
@@ -186,6 +191,16 @@ def validate_table(raw: pd.DataFrame, file: str, lines: list[int] | None = None)
     if problems:
         raise InputError(problems)
     return table
+
+
+def _misnamed_ids(raw: pd.DataFrame, file: str, extra: list[str]) -> list[Problem]:
+    """An `experiment` column named otherwise (`Experiment`, `experiment_id`): its ids would be
+    replaced by row numbers, and a repeated one go unnoticed."""
+    near = near_column("experiment", extra) if "experiment" not in raw.columns else None
+    if near is None:
+        return []
+    why = "the experiments would be numbered by row instead of by the ids it holds"
+    return [Problem(file=file, column=near, message=f"did you mean 'experiment'? ({why})")]
 
 
 def _cell_problem(
