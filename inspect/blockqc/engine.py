@@ -18,7 +18,7 @@ from blockqc.metrics import REGISTRY, Measurement, Table
 from blockqc.outputs import jsonable, records
 from blockqc.results import BlockResults, MeasurementRecord, RuleResult, tally
 from blockqc.rules.expr import ExpressionError, evaluate, resolve_params
-from blockqc.rules.model import Pack, Rule, Threshold, selected
+from blockqc.rules.model import ON_BOUND, Pack, Rule, Threshold, selected
 from blockqc.schema import key_labels
 from blockqc.verification import annotate, prepare
 
@@ -84,12 +84,6 @@ def bounds(th: Threshold, names: Mapping[str, Any]) -> tuple[float | None, float
     lo = evaluate(th.min, names) if th.min is not None else None
     hi = evaluate(th.max, names) if th.max is not None else None
     return lo, hi
-
-
-#: a value within this share of a bound's magnitude is on the bound: the binary rounding of
-#: decimal inputs (an RMS of exactly 1.2 m computed as 1.2000000000000002) neither fails an
-#: inclusive bound nor passes an exclusive one
-ON_BOUND = 1e-9
 
 
 def passes(values: pd.Series, th: Threshold, lo: float | None, hi: float | None) -> np.ndarray:

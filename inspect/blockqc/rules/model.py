@@ -82,8 +82,15 @@ def merge_elements(base: list[ElementDef], extra: list[ElementDef]) -> list[Elem
     return out
 
 
+#: a value within this share of a bound's magnitude is on the bound: the binary rounding of
+#: decimal inputs (an RMS of exactly 1.2 m computed as 1.2000000000000002) neither fails an
+#: inclusive bound nor passes an exclusive one
+ON_BOUND = 1e-9
+
+
 class Threshold(BaseModel):
-    """What passes: a lower and/or upper bound (inclusive or not), or allowed values."""
+    """What passes: a lower and/or upper bound (inclusive or not, a value within ON_BOUND of a
+    bound's magnitude on it), or allowed values."""
 
     model_config = ConfigDict(extra="forbid", populate_by_name=True)
     min: Expr | None = None

@@ -1,0 +1,492 @@
+"""results.json and summary.json read back for `blockqc report`: strict JSON, the schema, and
+what contradicts itself (a status its value and threshold do not make, counts that disagree)
+or its companions (a summary that is not that of the results files named)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any, NamedTuple
+
+from pydantic import ValidationError
+
+from blockqc.errors import InputError, Problem
+from blockqc.results import (
+    STATUSES,
+    BlockEntry,
+    BlockResults,
+    RuleResult,
+    Summary,
+    block_fails,
+    json_path,
+    parse,
+    tally,
+)
+from blockqc.rules.model import ON_BOUND
+
+
+class _NotJSON(ValueError):
+    """NaN, Infinity or -Infinity: Python's json reads them, JSON has none."""
+
+
+def _no_constant(name: str) -> Any:
+    raise _NotJSON(name)
+
+
+def _read_json(path: Path) -> tuple[Any, bytes]:
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise InputError(Problem(str(path), f"cannot be read: {exc.strerror or exc}")) from None
+    try:
+        text = raw.decode("utf-8-sig")  # a byte-order mark, as some editors save, is read
+        return json.loads(text, object_pairs_hook=_no_duplicates, parse_constant=_no_constant), raw
+    except _DuplicateKey as exc:
+        raise InputError(Problem(str(path), f"is not accepted: key '{exc}' given twice")) from None
+    except _NotJSON as exc:
+        raise InputError(
+            Problem(
+                str(path),
+                f"is not accepted: {exc} is not JSON (blockqc writes a value that is not finite "
+                "as null)",
+            )
+        ) from None
+    except UnicodeDecodeError as exc:
+        raise InputError(Problem(str(path), f"is not UTF-8 text (byte {exc.start})")) from None
+    except RecursionError:
+        raise InputError(
+            Problem(str(path), "is not accepted: JSON nested too deeply for a results document")
+        ) from None
+    except json.JSONDecodeError as exc:
+        raise InputError(
+            Problem(
+                str(path), f"is not valid JSON: {exc.msg} (column {exc.colno})", line=exc.lineno
+            )
+        ) from None
+    except ValueError as exc:  # e.g. an integer of more than 4300 digits
+        raise InputError(Problem(str(path), f"is not accepted: {exc}")) from None
+
+
+class _DuplicateKey(Exception):
+    pass
+
+
+def _no_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for k, v in pairs:
+        if k in out:
+            raise _DuplicateKey(k)
+        out[k] = v
+    return out
+
+
+def _strict(path: Path, doc: Any, kind: str) -> None:
+    """The schema's types as they are: a number written as text ("3") is refused, not read."""
+    model = BlockResults if kind == "results" else Summary
+    try:
+        model.model_validate(doc, strict=True)
+    except ValidationError as exc:
+        raise InputError(
+            [
+                Problem(str(path), f"not a valid {kind}.json: at {json_path(e['loc'])}: {e['msg']}")
+                for e in exc.errors()[:20]
+            ]
+        ) from None
+
+
+def _contradictions(path: Path, doc: BlockResults) -> list[Problem]:
+    """The verdict and the counts must be those of the rule results (as the engine makes them)."""
+    if not doc.results:
+        return [
+            Problem(
+                str(path),
+                "$.results is empty: inspect gives every rule of its pack a "
+                "result, so a block's results hold at least one",
+            )
+        ]
+    counts, verdict = tally(r.status for r in doc.results)
+    out = [
+        Problem(
+            str(path),
+            f"$.counts.{s} is {doc.counts.get(s, 0)}, but {n} rule result(s) have status {s}",
+        )
+        for s, n in counts.items()
+        if doc.counts.get(s, 0) != n
+    ]
+    if doc.verdict != verdict:
+        out.append(
+            Problem(
+                str(path),
+                f"$.verdict is {doc.verdict}, but its rule results make it {verdict} "
+                f"({counts['error']} error, {counts['fail']} fail)",
+            )
+        )
+    return out + [
+        Problem(str(path), f"$.results[{i}] ({_named(r)}): {why}")
+        for i, r in enumerate(doc.results)
+        if (why := _misjudged(r))
+    ]
+
+
+def _named(r: RuleResult) -> str:
+    """A result by its rule and group: `RO-3, component plane`."""
+    return ", ".join([r.rule] + [f"{k} {v}" for k, v in r.group.items()])
+
+
+#: the statuses of a value that does not meet its threshold (as the engine judges)
+_NOT_MET = ("fail", "warn", "waived")
+
+
+def _misjudged(r: RuleResult) -> str | None:
+    """Why a result's status is not the one its value, threshold and severity make (None when
+    it is, or when the result states no value to judge)."""
+    met = _meets(r.value, r.threshold, r.comparison)
+    shown = f"its value {r.value!r} against {r.comparison} {r.threshold!r}"
+    if met is False and r.status == "pass":
+        return f"status pass, but {shown} does not meet the threshold"
+    if met and r.status in _NOT_MET:
+        return f"status {r.status}, but {shown} meets the threshold"
+    if r.status == "warn" and r.severity != "warn":
+        return f"status warn, but the rule's severity is {r.severity} (a failure fails the block)"
+    if r.status == "fail" and r.severity == "warn" and r.comparison is not None:
+        return "status fail, but the rule's severity is warn (a failure only warns)"
+    return None
+
+
+def _number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def _meets(value: Any, threshold: Any, comparison: str | None) -> bool | None:
+    """Whether a value meets a threshold as the engine judges it (a value within ON_BOUND of
+    a bound's magnitude is on it); None when there is nothing to judge."""
+    if value is None or comparison is None:
+        return None
+    if comparison == "equals":
+        return bool(value == threshold)
+    if comparison == "in":
+        return isinstance(threshold, list) and value in threshold
+    pair = threshold if isinstance(threshold, list) and len(threshold) == 2 else [None, None]
+    lo, hi = {
+        "<=": (None, threshold),
+        "<": (None, threshold),
+        ">=": (threshold, None),
+        ">": (threshold, None),
+        "between": pair,
+        "strictly_between": pair,
+    }.get(comparison, (None, None))
+    if not _number(value) or not any(_number(b) for b in (lo, hi)):
+        return None
+    inclusive = comparison in ("<=", ">=", "between")
+    ok = True
+    if _number(hi):
+        on = ON_BOUND * abs(hi)
+        ok &= value <= hi + on if inclusive else value < hi - on
+    if _number(lo):
+        on = ON_BOUND * abs(lo)
+        ok &= value >= lo - on if inclusive else value > lo + on
+    return ok
+
+
+def _check_results(path: Path, doc: Any) -> BlockResults:
+    """A results document to re-render: valid, its types strict, not contradicting itself."""
+    _strict(path, doc, "results")
+    results = parse(doc, str(path), "results")
+    problems = _contradictions(path, results)
+    if problems:
+        raise InputError(problems)
+    return results
+
+
+def _check_summary(path: Path, doc: Any) -> Summary:
+    _strict(path, doc, "summary")
+    return parse(doc, str(path), "summary")
+
+
+def _summary_blocks(
+    path: Path, summary: Summary, named: list[Path]
+) -> tuple[list[Path], list[Problem]]:
+    """The results files of the summary's blocks not named already, and a problem for each
+    block whose results file is missing: its report could not be re-made, nor linked to."""
+    found: list[Path] = []
+    missing: list[Problem] = []
+    for b in summary.blocks:
+        cand = path.parent / b.results
+        if not cand.is_file():
+            msg = (
+                f"lists block {b.block_id}, but its results file {cand} is missing (name the "
+                "results files to re-render without the summary)"
+            )
+            missing.append(Problem(str(path), msg))
+        elif cand not in named and cand not in found:
+            found.append(cand)
+    return found, missing
+
+
+def _once(files: list[Path]) -> tuple[list[Path], list[Path]]:
+    """The files named, each once (by the file it is, however spelt), and those named again."""
+    first: dict[Path, Path] = {}
+    again: list[Path] = []
+    for f in files:
+        if f.resolve() in first:
+            again.append(f)
+        else:
+            first[f.resolve()] = f
+    return list(first.values()), list(dict.fromkeys(again))
+
+
+class Gathered(NamedTuple):
+    results: list[tuple[Path, BlockResults, bytes]]
+    summary: tuple[Path, Summary, bytes] | None
+    repeated: list[Path]  # named more than once: read once
+    left_out: list[Path]  # results beside a summary that does not list their block
+
+
+def gather(paths: list[Path]) -> Gathered:
+    """The results documents named (files or folders holding them), a summary if any, the
+    files named more than once (read once), and those left out: a folder with a summary gives
+    the summary's blocks, another block's results there (a delivery since withdrawn) is not
+    rendered."""
+    results: list[tuple[Path, BlockResults, bytes]] = []
+    summary: tuple[Path, Summary, bytes] | None = None
+    problems: list[Problem] = []
+    files: list[Path] = []
+    beside: list[Path] = []  # results beside a summary, read only when it lists them
+    for p in paths:
+        if p.is_dir():
+            if (p / "results.json").is_file():
+                files.append(p / "results.json")
+            else:
+                found = sorted(p.glob("*/results.json"))
+                if (p / "summary.json").is_file():
+                    files.append(p / "summary.json")
+                    beside += found
+                    found = []
+                elif not found:
+                    problems.append(
+                        Problem(
+                            str(p), "holds no results.json (nor */results.json or summary.json)"
+                        )
+                    )
+                files.extend(found)
+        elif p.is_file():
+            files.append(p)
+        else:
+            problems.append(Problem(str(p), "does not exist"))
+    if problems:
+        raise InputError(problems)
+    loaded: list[tuple[Path, Any, bytes]] = []
+    files, repeated = _once(files)
+    queue = list(files)
+    while queue:
+        f = queue.pop(0)
+        try:
+            doc, raw = _read_json(f)
+        except InputError as exc:
+            problems.extend(exc.problems)
+            continue
+        if isinstance(doc, dict) and "blocks" in doc and "results" not in doc:
+            if summary is not None:
+                problems.append(_second_summary(f, summary[0]))
+                continue
+            try:
+                summary = (f, _check_summary(f, doc), raw)
+            except InputError as exc:
+                problems.extend(exc.problems)
+                continue
+            found, missing = _summary_blocks(f, summary[1], files)
+            files += found
+            queue += found
+            problems += missing
+            continue
+        loaded.append((f, doc, raw))
+    seen: dict[str, Path] = {}
+    for f, doc, raw in loaded:
+        try:
+            doc = _check_results(f, doc)
+        except InputError as exc:
+            problems.extend(exc.problems)
+            continue
+        bid = doc.block_id
+        if bid in seen:
+            if seen[bid].resolve() != f.resolve():
+                problems.append(Problem(str(f), f"block_id {bid} is also the block of {seen[bid]}"))
+            continue
+        seen[bid] = f
+        results.append((f, doc, raw))
+    if summary is not None:
+        by_file = {f.resolve(): d for f, d, _ in results}
+        problems += _summary_contradictions(summary[0], summary[1], by_file)
+    if problems:
+        raise InputError(problems)
+    read = {f.resolve() for f in files}
+    return Gathered(results, summary, repeated, [f for f in beside if f.resolve() not in read])
+
+
+def _summary_contradictions(
+    path: Path, summary: Summary, results: dict[Path, BlockResults]
+) -> list[Problem]:
+    """The summary's counts must be those of its blocks, and each block's id, verdict and counts
+    those of the results file it names (as `inspect` writes them); `results`: by real path."""
+    blocks = summary.blocks
+    c = summary.counts
+    expected = {
+        "blocks": len(blocks) + len(summary.unreadable),
+        "pass": sum(not block_fails(b.verdict) for b in blocks),
+        "fail": sum(block_fails(b.verdict) for b in blocks),
+        "error": sum(b.verdict == "error" for b in blocks),
+        "unreadable": len(summary.unreadable),
+    }
+    given = c.model_dump(by_alias=True)  # blocks, pass, fail, error, unreadable
+    out = [
+        Problem(str(path), f"$.counts.{k} is {given[k]}, but its blocks make it {n}")
+        for k, n in expected.items()
+        if given[k] != n
+    ]
+    verdict = "error" if summary.unreadable else "fail" if expected["fail"] else "pass"
+    if summary.verdict != verdict:
+        out.append(
+            Problem(
+                str(path),
+                f"$.verdict is {summary.verdict}, but its blocks make it {verdict} ("
+                f"{expected['fail']} failing, {expected['unreadable']} unreadable)",
+            )
+        )
+    complete = not summary.unreadable and all(b.complete and not b.pending_manual for b in blocks)
+    if summary.complete != complete:
+        out.append(
+            Problem(
+                str(path),
+                f"$.complete is {str(summary.complete).lower()}, but its blocks make it "
+                f"{str(complete).lower()} (complete unless a delivery is unreadable, a block "
+                "incomplete or awaiting the inspector)",
+            )
+        )
+    for b in blocks:
+        r = results.get((path.parent / b.results).resolve())
+        if r is None:
+            continue
+        if r.block_id != b.block_id:
+            out.append(
+                Problem(
+                    str(path),
+                    f"lists block {b.block_id} with the results file {b.results}, which is block "
+                    f"{r.block_id}'s: the summary is not that of these results",
+                )
+            )
+            continue
+        if (r.rule_pack, r.rule_pack_version) != (summary.rule_pack, summary.rule_pack_version):
+            out.append(
+                Problem(
+                    str(path),
+                    f"is of rule pack {summary.rule_pack} {summary.rule_pack_version}, but block "
+                    f"{b.block_id}'s results file {b.results} was judged by "
+                    f"{r.rule_pack} {r.rule_pack_version}: the summary is not that of these "
+                    "results",
+                )
+            )
+            continue
+        counted = b.counts and any(b.counts.get(s, 0) != n for s, n in r.counts.items())
+        if b.verdict != r.verdict or counted:
+            out.append(
+                Problem(
+                    str(path),
+                    f"lists block {b.block_id} as {b.verdict}, with counts {dict(b.counts)}, but "
+                    f"its results file says {r.verdict}, with {dict(r.counts)}: the summary is not "
+                    "that of these results (inspect again, or name the results files without "
+                    "the summary)",
+                )
+            )
+        else:
+            out += _entry_contradictions(path, b, r)
+    return out + _rule_count_contradictions(path, summary, list(results.values()))
+
+
+#: what the summary pages show of a block beside its verdict, as `inspect` makes it from the
+#: block's results file
+_ENTRY_FIELDS = (
+    "failed_rules",
+    "warned_rules",
+    "pending_manual",
+    "complete",
+    "sampled",
+    "checkpoints",
+    "score",
+    "grade",
+    "evaluation_fails",
+    "evaluation_reasons",
+)
+
+
+def _entry_contradictions(path: Path, b: BlockEntry, r: BlockResults) -> list[Problem]:
+    """A block's line in the summary against the one its results file makes."""
+    from blockqc.batch import block_entry
+
+    made = block_entry(path, r, b.pdf)
+    return [
+        Problem(
+            str(path),
+            f"lists block {b.block_id} with {name} {_difference(given, getattr(made, name))}: "
+            "the summary is not that of these results (inspect again, or name the results "
+            "files without the summary)",
+        )
+        for name in _ENTRY_FIELDS
+        if (given := getattr(b, name)) != getattr(made, name)
+    ]
+
+
+def _difference(given: Any, made: Any) -> str:
+    """How a summary's field differs from the one the results file makes; rows of statistics
+    by the first row and key that differ."""
+    rows = [v for v in (given, made) if isinstance(v, list) and v and isinstance(v[0], dict)]
+    if not rows:
+        return f"{_json(given)}, but its results file makes it {_json(made)}"
+    if len(rows) < 2 or len(given) != len(made):
+        return f"of {len(given or [])} row(s), but its results file makes {len(made or [])}"
+    i, g, m = next((i, g, m) for i, (g, m) in enumerate(zip(given, made, strict=True)) if g != m)
+    key = next(k for k in dict.fromkeys([*m, *g]) if g.get(k) != m.get(k))
+    return (
+        f"[{i}] ({', '.join(str(m.get(k)) for k in ('component', 'method'))}) {key} "
+        f"{_json(g.get(key))}, but its results file makes it {_json(m.get(key))}"
+    )
+
+
+def _json(value: Any) -> str:
+    return json.dumps(value, ensure_ascii=False)
+
+
+def _rule_count_contradictions(
+    path: Path, summary: Summary, results: list[BlockResults]
+) -> list[Problem]:
+    """The summary's results per rule and status against its blocks' results files (a summary
+    without them, `rules: {}`, shows none)."""
+    if not summary.rules:
+        return []
+    made: dict[str, dict[str, int]] = {}
+    for r in results:
+        for x in r.results:
+            made.setdefault(x.rule, dict.fromkeys(STATUSES, 0))[x.status] += 1
+    out = []
+    for rule in dict.fromkeys([*summary.rules, *made]):
+        given = {s: summary.rules.get(rule, {}).get(s, 0) for s in STATUSES}
+        counted = made.get(rule, dict.fromkeys(STATUSES, 0))
+        if given != counted:
+            wrong = ", ".join(f"{s} {given[s]}" for s in STATUSES if given[s] != counted[s])
+            right = ", ".join(f"{s} {counted[s]}" for s in STATUSES if given[s] != counted[s])
+            out.append(
+                Problem(
+                    str(path),
+                    f"$.rules.{rule} counts {wrong}, but its blocks' results files hold "
+                    f"{right}: the summary is not that of these results",
+                )
+            )
+    return out
+
+
+def _second_summary(path: Path, first: Path) -> Problem:
+    """One summary is re-rendered per run: a second would replace the first unsaid."""
+    return Problem(
+        str(path),
+        f"a second batch summary (the first: {first}): re-render one batch at a time, or name "
+        "the results files without their summaries",
+    )
