@@ -96,7 +96,8 @@ def _echo_plan(plan: Plan, out: Path) -> None:
     )
     for i, lot in enumerate(plan.lots, 1):
         census = " (every unit)" if lot.census else ""
-        click.echo(f"  lot {i}: {lot.size} units → {lot.sample_size}{census}")
+        units = "unit" if lot.size == 1 else "units"
+        click.echo(f"  lot {i}: {lot.size} {units} → {lot.sample_size}{census}")
         for s in lot.strata:
             label = f"{plan.strata_key}={s.value}: " if plan.strata_key else ""
             click.echo(f"    {label}{s.size} → {s.sample}: {', '.join(s.sampled) or '-'}")
