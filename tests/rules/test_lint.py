@@ -245,6 +245,30 @@ def test_a_text_statistic_takes_equals_or_in_of_texts(tmp_path: Path) -> None:
     assert _messages(pack) == []
 
 
+def test_a_code_or_a_figure_difference_is_compared_with_numbers(tmp_path: Path) -> None:
+    """An EPSG code and a reported figure's difference are numbers, if of no fixed unit:
+    `equals: true` or a text lint ok and failed every delivery (32650 equals neither)."""
+    pack = _pack(
+        tmp_path,
+        "overrides:\n  MB-3:\n    statistic: epsg\n    threshold: {equals: true}\n"
+        '  MB-1:\n    statistic: epsg\n    threshold: {in: ["32650"]}\n'
+        "  DOC-2:\n    statistic: difference\n    threshold: {equals: ok}\n",
+    )
+    assert sorted(_messages(pack)) == [
+        f"{pack}, line 12: rule DOC-2: threshold: statistic difference is a number (the "
+        "figure's unit): compare it with min/max or numbers",
+        f"{pack}, line 6: rule MB-3: threshold: statistic epsg is a number (EPSG code): "
+        "compare it with min/max or numbers",
+        f"{pack}, line 9: rule MB-1: threshold: statistic epsg is a number (EPSG code): "
+        "compare it with min/max or numbers",
+    ]
+
+
+def test_a_code_is_compared_with_numbers(tmp_path: Path) -> None:
+    pack = _pack(tmp_path, "overrides:\n  MB-3: {statistic: epsg, threshold: {in: [32650]}}\n")
+    assert _messages(pack) == []
+
+
 def test_ids_are_unique_regardless_of_case(tmp_path: Path) -> None:
     pack = _pack(
         tmp_path,

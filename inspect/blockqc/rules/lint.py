@@ -407,10 +407,13 @@ def _check_bound_norms(rule: Rule, names: Mapping[str, Any], bad: Callable[..., 
 _DIVIDES = "m0 divides the accuracy score (§QE-3): give a norm above 0"
 
 
-#: units of statistics that are not numbers (booleans, names, codes)
-NON_NUMERIC_UNITS = {"", "true/false", "name", "EPSG code", "the figure's unit"}
 #: units of statistics that are texts (a datum's name)
 TEXT_UNITS = {"name"}
+#: units of statistics that are not numbers (true/false, texts; "" declares none)
+NOT_NUMBER_UNITS = {"", "true/false", *TEXT_UNITS}
+#: units that are no unit of measure a rule's `unit` repeats: those of statistics that are not
+#: numbers, and of numbers that are codes or take each figure's own unit
+NON_NUMERIC_UNITS = {*NOT_NUMBER_UNITS, "EPSG code", "the figure's unit"}
 
 
 def _check_threshold_kinds(rule: Rule, scope: Scope, bad: Callable[..., None]) -> None:
@@ -440,7 +443,7 @@ def _check_threshold_kinds(rule: Rule, scope: Scope, bad: Callable[..., None]) -
             texts = isinstance(th.equals, (bool, str)) or any(
                 isinstance(v, str) for v in th.in_ or []
             )
-            wrong = unit not in NON_NUMERIC_UNITS and texts
+            wrong = unit not in NOT_NUMBER_UNITS and texts
             kind = f"is a number ({unit}): compare it with min/max or numbers"
         if wrong:
             bad(f"{'.'.join(loc)}: statistic {rule.statistic} {kind}", *loc)
