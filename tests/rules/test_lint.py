@@ -269,6 +269,19 @@ def test_a_code_is_compared_with_numbers(tmp_path: Path) -> None:
     assert _messages(pack) == []
 
 
+def test_whether_the_asprs_axes_agree_is_true_false(tmp_path: Path) -> None:
+    """AS-4's axes_agree is true/false: `equals: "true"` linted ok and failed every block."""
+    pack = _pack(
+        tmp_path,
+        'overrides:\n  AS-4:\n    threshold: {equals: "true"}\n',
+        extends="asprs-2023",
+    )
+    assert _messages(pack) == [
+        f"{pack}, line 5: rule AS-4: threshold: statistic axes_agree is true/false: compare it "
+        "with equals: true or equals: false",
+    ]
+
+
 def test_ids_are_unique_regardless_of_case(tmp_path: Path) -> None:
     pack = _pack(
         tmp_path,

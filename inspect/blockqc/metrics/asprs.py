@@ -109,7 +109,7 @@ def component_table(axes: pd.DataFrame, p: AsprsParams) -> pd.DataFrame:
                 "rmse_m": "m",
                 "rmse_measured_m": "m",
                 "accuracy95_m": "m",
-                "axes_agree": "",
+                "axes_agree": "true/false",
             },
             groups={"component": ("horizontal", "vertical")},
             columns=("ce90_m", "axis_ratio"),
