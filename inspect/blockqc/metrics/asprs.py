@@ -98,6 +98,14 @@ def component_table(axes: pd.DataFrame, p: AsprsParams) -> pd.DataFrame:
     )
 
 
+_GROUPS = {"component": ("horizontal", "vertical"), "axis": ("x", "y", "v")}
+
+
+def _every(column: str) -> list[dict[str, str]]:
+    """Every group of a scope, each reported even when it holds no checkpoint."""
+    return [{column: v} for v in _GROUPS[column]]
+
+
 @metric(
     "asprs_accuracy",
     tie_points=(),
@@ -111,12 +119,12 @@ def component_table(axes: pd.DataFrame, p: AsprsParams) -> pd.DataFrame:
                 "accuracy95_m": "m",
                 "axes_agree": "true/false",
             },
-            groups={"component": ("horizontal", "vertical")},
+            groups={"component": _GROUPS["component"]},
             columns=("ce90_m", "axis_ratio"),
         ),
         "axis": Scope(
             {"n": "points", "mean_m": "m", "abs_mean_m": "m", "std_m": "m", "rmse_m": "m"},
-            groups={"axis": ("x", "y", "v")},
+            groups={"axis": _GROUPS["axis"]},
         ),
     },
 )
@@ -131,10 +139,12 @@ def asprs_accuracy(d: Delivery, p: AsprsParams, measure: Measure) -> Measurement
     comps = component_table(axes, p)
     comps = comps[comps["n"] > 0].reset_index(drop=True)
     axes = axes[axes["n"] > 0].reset_index(drop=True)
+    # a component or axis without checkpoints (no reference heights) is judged not applicable,
+    # not left out unsaid
     return Measurement(
         tables={
-            "component": Table(comps, group=["component"]),
-            "axis": Table(axes, group=["axis"]),
+            "component": Table(comps, group=["component"], groups=_every("component")),
+            "axis": Table(axes, group=["axis"], groups=_every("axis")),
         },
         detail={"methods": p.methods, "survey_rmse_h_m": p.survey_rmse_h_m},
     )
