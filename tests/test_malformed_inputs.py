@@ -28,6 +28,15 @@ def _refused(proc, *words: str) -> None:
         assert w in proc.stderr, proc.stderr
 
 
+def test_a_nul_byte_in_a_csv_table_is_refused_with_its_line(blockqc, block, tmp_path):
+    """A NUL byte inside a point id was read as part of the id, and the block passed."""
+    lines = (block / "tie_points.csv").read_bytes().split(b"\n")
+    lines[4] = lines[4][:2] + b"\0" + lines[4][2:]
+    (block / "tie_points.csv").write_bytes(b"\n".join(lines))
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    _refused(p, "tie_points.csv, line 5", "a NUL byte (0x00) at character 3")
+
+
 def test_a_csv_row_short_of_fields_is_refused(blockqc, block, tmp_path):
     lines = (block / "checkpoints.csv").read_text().splitlines()
     lines[2] = lines[2].rsplit(",", 1)[0]  # the last field (ref_z_m) of line 3 dropped

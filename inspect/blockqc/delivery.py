@@ -47,7 +47,7 @@ from blockqc.schema import (
     report_rows,
     validate_table,
 )
-from blockqc.textio import BOM, check_utf8, header_problem, read_bytes
+from blockqc.textio import BOM, check_no_nul, check_utf8, header_problem, read_bytes
 from blockqc.yamlio import line_of, load_yaml, pydantic_problems
 
 MANIFEST = "block.yaml"
@@ -334,6 +334,7 @@ def _read_csv(
     Only the `columns` given are read (None: all); the header's names come back beside."""
     data = read_bytes(path, None)
     check_utf8(path, data)  # the whole file is UTF-8, or the line that is not is named
+    check_no_nul(path, data)
     data = data.removeprefix(BOM)
     if not data or data.isspace():  # no stripped copy of the whole file
         raise InputError(Problem(str(path), "the file is empty: expected a header row"))

@@ -78,6 +78,26 @@ def check_utf8(path: Path, data: bytes, error: type[BlockqcError] = InputError) 
         decode_utf8(path, data, error)
 
 
+def check_no_nul(path: Path, data: bytes, error: type[BlockqcError] = InputError) -> None:
+    """Raise `error` naming the line of the first NUL byte: text tables hold none, and a cell
+    holding one would be read as text with it (a file damaged, or padded with zeros)."""
+    at = data.find(b"\0")
+    if at < 0:
+        return
+    line = data.count(b"\n", 0, at) + 1
+    column = at - (data.rfind(b"\n", 0, at) + 1) + 1
+    more = data.count(b"\0", at + 1)
+    also = f" ({more} more in the file)" if more else ""
+    raise error(
+        Problem(
+            str(path),
+            f"a NUL byte (0x00) at character {column}{also}: expected text, which holds none "
+            "(the file may be damaged or padded with zeros); remove it",
+            line=line,
+        )
+    )
+
+
 def decode_utf8(path: Path, data: bytes, error: type[BlockqcError] = InputError) -> str:
     """UTF-8 text without its byte-order mark; other encodings are refused with the line."""
     try:
