@@ -37,6 +37,29 @@ def test_a_nul_byte_in_a_csv_table_is_refused_with_its_line(blockqc, block, tmp_
     _refused(p, "tie_points.csv, line 5", "a NUL byte (0x00) at character 3")
 
 
+def test_a_line_longer_than_a_parse_block_does_not_send_the_table_to_the_slow_reader(
+    block, monkeypatch
+):
+    """A line beyond Arrow's block of 1 MiB sent the whole table to the reader of malformed
+    files (a 500 MB line in 2.2 M rows: 23 s and 5.4 GB instead of 4 s and 0.8 GB)."""
+    from blockqc import delivery
+
+    lines = (block / "tie_points.csv").read_text().splitlines()
+    size = 1 << 20  # Arrow's CSV bytes parsed at once
+    lines *= 1 + (3 * size) // sum(map(len, lines))  # rows before and after the long one
+    at = len(lines) // 2
+    lines[at] = lines[at].replace(",", ",".rjust(2 * size), 1)  # spaces
+    (block / "tie_points.csv").write_text("\n".join(lines) + "\n")
+
+    def slow(path, data, reason):
+        raise AssertionError(f"read by the slow reader: {reason}")
+
+    monkeypatch.setattr(delivery, "_read_csv_slow", slow)
+    raw, header = delivery._read_csv(block / "tie_points.csv", delivery.TIE_POINTS)
+    assert len(raw) == len(lines) - 1 and header[0] == "point_id"
+    assert raw["point_id"].iloc[at - 1] == lines[at].split(",")[0].strip()
+
+
 def test_a_csv_row_short_of_fields_is_refused(blockqc, block, tmp_path):
     lines = (block / "checkpoints.csv").read_text().splitlines()
     lines[2] = lines[2].rsplit(",", 1)[0]  # the last field (ref_z_m) of line 3 dropped
