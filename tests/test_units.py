@@ -37,12 +37,19 @@ def test_utm_zone(lon: float, zone: int) -> None:
 
 
 def test_expected_epsg_north_south_straddle_and_polar() -> None:
-    assert expected_epsg(116.2, 116.4, 39.9, P) == [32650]
-    assert expected_epsg(-47.1, -46.9, -23.5, P) == [32723]  # São Paulo, zone 23S
-    assert expected_epsg(119.5, 120.5, 30.0, P) == [32650, 32651]  # straddles 120° E
-    assert expected_epsg(10.0, 20.0, 85.0, P) == [32661]  # UPS north
-    assert expected_epsg(10.0, 20.0, -81.0, P) == [32761]  # UPS south
-    assert expected_epsg(10.0, 20.0, 83.9, P) == [32632, 32633, 32634]
+    assert expected_epsg(116.2, 116.4, 39.8, 40.0, P) == [32650]
+    assert expected_epsg(-47.1, -46.9, -23.6, -23.4, P) == [32723]  # São Paulo, zone 23S
+    assert expected_epsg(119.5, 120.5, 29.9, 30.1, P) == [32650, 32651]  # straddles 120° E
+    assert expected_epsg(10.0, 20.0, 84.9, 85.1, P) == [32661]  # UPS north
+    assert expected_epsg(10.0, 20.0, -81.1, -80.9, P) == [32761]  # UPS south
+    assert expected_epsg(10.0, 20.0, 83.8, 84.0, P) == [32632, 32633, 32634]
+
+
+def test_a_block_across_the_equator_may_use_either_hemisphere() -> None:
+    """0.2 S…0.1 N at 36.5…37.0 E: zone 37 north or south; wholly south, 37S only."""
+    assert expected_epsg(36.5, 37.0, -0.2, 0.1, P) == [32637, 32737]
+    assert expected_epsg(36.5, 37.0, -0.5, -0.2, P) == [32737]
+    assert expected_epsg(36.5, 37.0, 0.0, 0.3, P) == [32637]  # on the equator: north
 
 
 def test_a_block_across_180_degrees_is_in_zones_60_and_1() -> None:
@@ -50,9 +57,9 @@ def test_a_block_across_180_degrees_is_in_zones_60_and_1() -> None:
     for zone 31 and the zones between."""
     west, east = lon_extent(np.array([179.8, 179.9, -179.9, -179.6]))
     assert (west, east) == pytest.approx((179.8, 180.4))
-    assert expected_epsg(west, east, -17.8, P) == [32701, 32760]
-    assert expected_epsg(*lon_extent(np.array([178.0, 179.5])), -17.8, P) == [32760]
-    assert expected_epsg(*lon_extent(np.array([-179.5, -178.0])), -17.8, P) == [32701]
+    assert expected_epsg(west, east, -17.9, -17.7, P) == [32701, 32760]
+    assert expected_epsg(*lon_extent(np.array([178.0, 179.5])), -17.9, -17.7, P) == [32760]
+    assert expected_epsg(*lon_extent(np.array([-179.5, -178.0])), -17.9, -17.7, P) == [32701]
 
 
 def test_a_block_across_180_degrees_is_judged_on_its_own_zone() -> None:
