@@ -30,6 +30,15 @@ def test_missing_column(blockqc, delivery: Path, tmp_path: Path) -> None:
     assert p.returncode == 2
     _no_traceback(p)
     assert "tie_points.csv" in p.stderr and "missing column 'v_sample'" in p.stderr
+    assert not (tmp_path / "out").exists()  # the folder the run made, left empty: removed
+
+
+def test_an_output_folder_that_was_there_stays_when_nothing_is_written(blockqc, delivery, tmp_path):
+    """Only a folder the run made is removed when the delivery cannot be read."""
+    _replace(delivery / "tie_points.csv", "v_sample", "vs")
+    (tmp_path / "out").mkdir()
+    p = blockqc("inspect", delivery, "--out", tmp_path / "out")
+    assert p.returncode == 2 and (tmp_path / "out").is_dir()
 
 
 def test_text_in_numeric_column(blockqc, delivery: Path, tmp_path: Path) -> None:

@@ -244,16 +244,16 @@ def refuse_replacing(out: Path, names: Iterable[str], inputs: Iterable[Path]) ->
 @contextmanager
 def empty_removed(out: Path) -> Iterator[None]:
     """The output folder, absent on entry and made by the run, is removed again when the run
-    stops (an input error, a scheduler that cannot be reached) with nothing in it; a folder
-    that was there before is never removed."""
+    leaves nothing in it: it stopped (an input error, a scheduler that cannot be reached), or
+    wrote nothing (the one delivery named could not be read); a folder that was there before is
+    never removed."""
     made = not (out.exists() or out.is_symlink())
     try:
         yield
-    except BaseException:
+    finally:
         if made:
             with suppress(OSError):
                 out.rmdir()  # only when empty
-        raise
 
 
 #: held in an output folder while a run writes into it
