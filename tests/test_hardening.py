@@ -1155,3 +1155,30 @@ def test_parquet_point_ids_encoded_while_reading_give_the_same(
         assert early == after and any("row 5, column 'point_id'" in m for m in early)
     else:
         pd.testing.assert_frame_equal(early, after)
+
+
+def test_a_corrupt_row_group_of_a_parquet_table_is_located(blockqc, delivery, tmp_path):
+    """A page of one row group damaged: the message was Arrow's alone ('Unexpected end of
+    stream'), naming neither the row group nor its rows."""
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+    import pyarrow.parquet as pq
+
+    text = {"point_id": pa.string(), "scene_id": pa.string()}
+    table = pacsv.read_csv(
+        delivery / "tie_points.csv", convert_options=pacsv.ConvertOptions(column_types=text)
+    )
+    (delivery / "tie_points.csv").unlink()
+    target = delivery / "tie_points.parquet"
+    size = len(table) // 3 + 1  # three row groups
+    pq.write_table(table, target, row_group_size=size, compression="none")
+    chunk = pq.ParquetFile(target).metadata.row_group(1).column(4)  # v_line of group 1
+    data = bytearray(target.read_bytes())
+    start = chunk.data_page_offset
+    data[start : start + 24] = b"\xff" * 24  # its page header
+    target.write_bytes(bytes(data))
+    p = blockqc("inspect", delivery, "--out", tmp_path / "out")
+    assert p.returncode == 2 and "Traceback" not in p.stderr
+    rows = f"rows {size + 1}–{2 * size}"
+    assert f"tie_points.parquet: not a readable Parquet table (row group 1, {rows})" in p.stderr
+    assert all(c.isprintable() for c in p.stderr.replace("\n", ""))  # Arrow quotes the bytes

@@ -619,6 +619,7 @@ def _read_parquet(
 ) -> tuple[pd.DataFrame, list[str]]:
     """Read a Parquet table (only the `columns` given; None: all), and its column names;
     columns of the contract must hold plain values, not lists."""
+    found = None
     try:
         found = pq.read_schema(path)
         given = found.names
@@ -634,7 +635,9 @@ def _read_parquet(
             found = pa.schema([f for f in found if f.name.strip() in columns])
         table, early = _parquet_table(path, schema, found)
     except (pa.ArrowException, OSError) as exc:
-        raise InputError(Problem(str(path), f"not a readable Parquet table: {exc}")) from None
+        where = _unreadable_row_group(path, found.names if found is not None else None)
+        message = f"not a readable Parquet table{where}: {_plain(exc)}"
+        raise InputError(Problem(str(path), message)) from None
     names = {c.name for c in schema.columns}
     problems = []
     problems += [
@@ -657,7 +660,34 @@ def _read_parquet(
         handed, table = [table], None
         return _to_pandas(handed, schema, early), given
     except (pa.ArrowException, ValueError, OverflowError) as exc:
-        raise InputError(Problem(str(path), f"not a readable Parquet table: {exc}")) from None
+        message = f"not a readable Parquet table: {_plain(exc)}"
+        raise InputError(Problem(str(path), message)) from None
+
+
+def _plain(exc: Exception) -> str:
+    """A reader's message on one line, control characters shown escaped (Arrow quotes the
+    damaged bytes it met as they are)."""
+    text = " ".join(str(exc).split())
+    return "".join(c if c.isprintable() else f"\\x{ord(c):02x}" for c in text)
+
+
+def _unreadable_row_group(path: Path, columns: list[str] | None) -> str:
+    """Where a Parquet file that fails to read fails: ' (row group i, rows a–b)' of the first
+    row group that cannot be read, '' when none alone fails (the footer, the file as a whole)."""
+    try:
+        parquet = pq.ParquetFile(path)
+        meta = parquet.metadata
+    except (pa.ArrowException, OSError):
+        return ""
+    first = 0
+    for i in range(meta.num_row_groups):  # row groups, not rows: a few dozen reads at most
+        rows = meta.row_group(i).num_rows
+        try:
+            parquet.read_row_group(i, columns=columns)
+        except (pa.ArrowException, OSError):
+            return f" (row group {i}, rows {first + 1}–{first + rows})"
+        first += rows
+    return ""
 
 
 def _not_utf8(path: Path, table: pa.Table, names: set[str]) -> list[Problem]:
