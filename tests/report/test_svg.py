@@ -329,3 +329,17 @@ def test_residual_histogram_marks_name_the_unit_in_the_page_language():
             hist, [0.5, 1.0, 1.5], translator(lang), "h"))  # fmt: skip
         assert {f"0.5 {px}", f"1 {px}", f"1.5 {px}", f"&gt; 10 {px}: 20"} <= set(labels), labels
         assert lang == "en" or not any("px" in x for x in labels)
+
+
+def test_control_characters_of_delivered_ids_keep_the_figure_well_formed():
+    """An escape or NUL inside a scene or point id is no character XML allows: the figure would
+    not be well-formed, and WeasyPrint (which reads each figure of a PDF as XML) would drop it."""
+    odd = "\x1b[31mS1\x1b]0;t\x07\x00\ud800\uffff"
+    plot = Plot(2.0, title=f"scene {odd}", xlabel="x", ylabel="y")
+    plot.column_labels = (np.arange(2.0), [odd, "S&2\t"], 6.5)
+    plot.xlim, plot.ylim = (-0.5, 1.5), (0.0, 1.0)
+    root = ET.fromstring(plot.svg("c"))
+    texts = ["".join(t.itertext()) for t in root.iter("{http://www.w3.org/2000/svg}text")]
+    shown = "\ufffd[31mS1\ufffd]0;t\ufffd\ufffd\ufffd\ufffd"
+    assert f"scene {shown}" in texts and shown in texts and "S&2\t" in texts
+    assert root.get("aria-label") == f"scene {shown}"

@@ -7,6 +7,7 @@ Every path is formatted by str.format mapped over numpy columns: no Python loop 
 from __future__ import annotations
 
 import math
+import re
 import unicodedata
 from dataclasses import dataclass
 from functools import lru_cache
@@ -18,6 +19,17 @@ import numpy as np
 #: the packaged font first (the PDF declares it), then what a browser is likely to have
 FONT_FAMILY = "'Blockqc Sans SC', 'DejaVu Sans', sans-serif"
 TEXT = "#222"
+
+#: characters XML 1.0 allows nowhere, not even escaped: C0 controls but tab, newline and
+#: carriage return, lone surrogates, U+FFFE and U+FFFF
+_NOT_XML = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ud800-\udfff\ufffe\uffff]")
+
+
+def xml_text(s: str, *, quote: bool = False) -> str:
+    """`s` escaped for SVG text (`quote`: for an attribute's value), a character XML allows
+    nowhere (an escape or NUL inside a delivered id) shown as U+FFFD: kept, it leaves the figure
+    not well-formed, and WeasyPrint, which reads each figure of a PDF as an XML image, drops it."""
+    return escape(_NOT_XML.sub("\ufffd", s), quote=quote)
 
 
 @lru_cache(maxsize=1)
@@ -152,7 +164,7 @@ def text(
     return (
         f'<text x="{x:.2f}" y="{y:.2f}" font-size="{size:g}" text-anchor="{anchor}" '
         f'fill="{colour}"{turn}>'
-        f"{escape(s, quote=False)}</text>"
+        f"{xml_text(s)}</text>"
     )
 
 

@@ -11,7 +11,6 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from html import escape
 from typing import Any, Literal
 
 import numpy as np
@@ -32,6 +31,7 @@ from blockqc.report.svg import (
     text,
     text_width,
     wrap,
+    xml_text,
 )
 
 AXIS = "#555"
@@ -196,7 +196,7 @@ class Plot:
             self._titles(fr, xl, width),
             self._legend_svg(fr),
         ]
-        label = escape(self.title, quote=True)
+        label = xml_text(self.title, quote=True)
         return (
             f'<svg class="figure" role="img" aria-label="{label}" '
             f'xmlns="http://www.w3.org/2000/svg" width="{width:.2f}pt" height="{height:.2f}pt" '
