@@ -838,6 +838,27 @@ def test_verdicts_file_checked_beside_an_unreadable_block_yaml(blockqc, tmp_path
     assert "F9-B99" not in err and err.count(f"{v}, ") == 1
 
 
+def test_terminal_controls_of_inputs_shown_escaped_on_the_console(blockqc, tmp_path: Path) -> None:
+    """A delivery folder's name and a waived scene holding an escape sequence or
+    a right-to-left override: the console shows them escaped, never for a terminal to obey (a
+    title-setting OSC or a bell, which no colour stripping removes)."""
+    write_delivery(tmp_path / "batch" / "B00", {"manifest": {"block_id": "B00"}})
+    odd = tmp_path / "batch" / "x\x1b]0;owned\x07\u202e"
+    odd.mkdir()
+    v = _verdicts(tmp_path, 'waivers:\n  TP-4: {reason: x, scenes: ["\\e]0;t\\a"]}\n')
+    extra = ("--verdicts", v, "--rules", extension_pack(tmp_path, WAIVABLE))
+    proc = blockqc("inspect", tmp_path / "batch", "--out", tmp_path / "out", *extra)
+    assert proc.returncode == 2
+    assert "\x1b" not in proc.stderr and "\x07" not in proc.stderr and "\u202e" not in proc.stderr
+    assert "a waiver for scene '\\x1b]0;t\\x07'" in proc.stderr
+    (v.unlink(), _no_traceback(proc))
+    proc = blockqc("inspect", tmp_path / "batch", "--out", tmp_path / "out", "--no-progress")
+    shown = f"{tmp_path / 'batch'}/x\\x1b]0;owned\\x07\\u202e"
+    assert f"{shown}  UNREADABLE" in proc.stdout and f"error: {shown}/block.yaml" in proc.stderr
+    text = proc.stdout + proc.stderr
+    assert "\x1b]" not in text and "\x07" not in text and "\u202e" not in text
+
+
 # ---------------------------------------------------------------------- exports and plots
 def test_formula_cells_neutralised_in_exports(blockqc, delivery: Path, tmp_path: Path) -> None:
     text = (delivery / "checkpoints.csv").read_text()

@@ -14,7 +14,7 @@ import click
 from click.core import ParameterSource
 
 from blockqc import __version__, memory
-from blockqc.errors import BlockqcError, UsageError
+from blockqc.errors import BlockqcError, UsageError, shown
 
 STATUS_STYLE = {"pass": "green", "fail": "red", "error": "red", "warn": "yellow"}
 
@@ -312,13 +312,13 @@ def inspect_cmd(
     got = batch.collect(paths)
     refuse_block_folders(out, [m.block_id for m in got.manifests.values()])
     for f in got.files:
-        click.echo(f"warning: {f}: a file beside the deliveries of a batch, not read", err=True)
+        _warn(f"{f}: a file beside the deliveries of a batch, not read")
     for d in got.repeated:
-        click.echo(f"warning: {d}: named more than once, inspected once", err=True)
+        _warn(f"{d}: named more than once, inspected once")
     figures = reported_figure_names(pack)
     for manifest in got.manifests.values():
         for w in manifest.unknown_keys + _unread_figures(manifest, figures):
-            click.echo(f"warning: {w}", err=True)
+            _warn(w)
     if inspector is not None:
         ids, unread = block_ids(got.deliveries, got.manifests)
         check_inspector_input(inspector, {r.id: r for r in pack.rules}, ids, unread)
@@ -336,7 +336,7 @@ def inspect_cmd(
         with out_lock(out), _progress(len(got.deliveries) if show else 0) as tick:
             outdated = batch.drop_outdated_summary(writer, got)
             if outdated:
-                click.echo(f"warning: {outdated}", err=True)
+                _warn(outdated)
             with _said_if_stopped(out):
                 outcomes, summary = batch.run(
                     got, pack, writer, inspector, runner=runner, incremental=incremental,
@@ -435,7 +435,7 @@ def _acceptance_inputs(plan_file: Path | None, meta_file: Path | None, got, path
         plan, plan_file, ids, batch, f"{pack.name} {pack.version}", sampling
     )
     for w in warnings:
-        click.echo(f"warning: {w}", err=True)
+        _warn(w)
     return plan, meta, notes
 
 
@@ -461,6 +461,11 @@ def _page_not_written(meta, meta_file: Path, is_batch: bool, pack) -> None:
         )
 
 
+def _warn(message: str) -> None:
+    """A warning on stderr, its input text shown escaped where a terminal would obey it."""
+    click.echo(f"warning: {shown(str(message))}", err=True)
+
+
 def _style(text: str, **how) -> str:
     """click.style, unless NO_COLOR is set (no-color.org)."""
     return text if os.environ.get("NO_COLOR") else click.style(text, **how)
@@ -471,7 +476,8 @@ def _outcome_line(o) -> str:
     e = o.entry
     if e is None:
         n = len(o.problems)
-        return _style(f"{o.path}  UNREADABLE  ({n} problem{'' if n == 1 else 's'})", fg="red")
+        problems = f"{n} problem{'' if n == 1 else 's'}"
+        return _style(f"{shown(str(o.path))}  UNREADABLE  ({problems})", fg="red")
     failed = "failed or in error" if e.verdict == "error" else "failed"  # failed_rules: both
     notes = [f"{failed}: {', '.join(e.failed_rules)}"] if e.failed_rules else []
     notes += [f"warnings: {', '.join(e.warned_rules)}"] if e.warned_rules else []
@@ -522,7 +528,7 @@ def _closing_lines(outcomes, summary, out: Path) -> None:
         for p in o.problems:
             click.echo(f"error: {p}", err=True)
         for e in o.errors:  # a rule that could not be judged: why, beside the block's line
-            click.echo(f"error: {o.path}: {e}", err=True)
+            click.echo(f"error: {shown(f'{o.path}: {e}')}", err=True)
     if summary is not None:
         _warn_other_blocks(out, {b.block_id for b in summary.blocks})
         c = summary.counts

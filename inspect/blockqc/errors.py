@@ -2,8 +2,24 @@
 
 from __future__ import annotations
 
+import unicodedata
 from dataclasses import dataclass
 from pathlib import Path
+
+#: the marks that reorder the text after them (embeddings, overrides, isolates)
+_BIDI = frozenset("\u200e\u200f\u202a\u202b\u202c\u202d\u202e\u2066\u2067\u2068\u2069")
+
+
+def shown(text: str) -> str:
+    """`text` from an input as a console line shows it: control characters (an escape sequence
+    in an id or a folder's name, which a terminal would obey) and the marks that reorder the
+    line written as escapes (`\\x1b`, `\\u202e`)."""
+    return "".join(
+        (f"\\x{ord(c):02x}" if ord(c) < 0x100 else f"\\u{ord(c):04x}")
+        if c in _BIDI or unicodedata.category(c) == "Cc"
+        else c
+        for c in text
+    )
 
 
 @dataclass(frozen=True)
@@ -26,7 +42,8 @@ class Problem:
             where.append(f"line {self.line}")
         if self.column is not None:
             where.append(f"column '{self.column}'")
-        return f"{', '.join(where)}: {self.message}" if where else self.message
+        text = f"{', '.join(where)}: {self.message}" if where else self.message
+        return shown(text)  # printed on the console, listed in the summary
 
 
 class BlockqcError(Exception):
