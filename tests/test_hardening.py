@@ -523,6 +523,10 @@ def test_did_you_mean_method_and_scene(blockqc, delivery: Path, tmp_path: Path) 
         ("A" * 101, "has 101 characters: at most 100"),
         ("summary.json", "is the name of a batch output file"),
         ('"a b"', "holds ' '"),
+        ("CON", "is a device name on Windows"),
+        ("nul.v2", "is a device name on Windows"),
+        ("Com1", "is a device name on Windows"),
+        ("F1-B01.", "ends with '.', which Windows drops"),
     ],
 )
 def test_unsafe_block_id(blockqc, delivery: Path, tmp_path: Path, block_id: str, why) -> None:

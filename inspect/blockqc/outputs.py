@@ -354,6 +354,10 @@ BATCH_OUTPUTS = (
     "acceptance.pdf",
 )
 
+#: names Windows keeps for devices, with or without an extension (CON, nul.txt, COM1)
+WINDOWS_RESERVED = frozenset(
+    ["CON", "PRN", "AUX", "NUL"] + [f"{d}{i}" for d in ("COM", "LPT") for i in "123456789¹²³"]
+)
 
 #: hidden folders of the outputs: a block's outputs written before they are put in place, and
 #: the earlier run's batch outputs set aside while a batch run rewrites its blocks
@@ -444,6 +448,10 @@ def block_id_problem(value: str) -> str | None:
         return f"the block id {value[:40]!r} starts with '.': it names the output folder"
     if value.lower() in BATCH_OUTPUTS:
         return f"the block id {value!r} is the name of a batch output file"
+    if value.endswith("."):
+        return f"the block id {value!r} ends with '.', which Windows drops from a folder's name"
+    if value.split(".")[0].upper() in WINDOWS_RESERVED:
+        return f"the block id {value!r} is a device name on Windows, no folder can take it"
     return None
 
 
