@@ -347,10 +347,16 @@ def _sampled(r: BlockResults) -> bool:
 
 def block_grade(r: BlockResults, pack: Pack) -> BlockGrade | None:
     """§QE: what the batch decision needs of one block."""
+    return None if pack.acceptance is None else graded(r)
+
+
+def graded(r: BlockResults) -> BlockGrade | None:
+    """What the batch decision needs of one block, from its results file alone (its evaluation
+    records the pack's element_fail_below); None when the block was not evaluated."""
     ev = r.evaluation
-    if ev is None or pack.acceptance is None:
+    if ev is None:
         return None
-    below = pack.acceptance.element_fail_below
+    below = ev.element_fail_below
     low = [
         e.model_dump(include={"id", "title", "title_zh", "score"}) | {"below": below}
         for e in ev.elements

@@ -78,7 +78,7 @@ def command(
     from blockqc.outputs import make_out_dir, out_lock
 
     check_pdf_engine(pdf_engine, pdf)
-    docs, summary, repeated, left_out = gather(list(results))
+    docs, summary, repeated, left_out, unchecked = gather(list(results))
     for f in repeated:
         click.echo(f"warning: {f}: named more than once, rendered once", err=True)
     for f in left_out:
@@ -87,6 +87,8 @@ def command(
             "a delivery since withdrawn?): not rendered",
             err=True,
         )
+    for note in unchecked:
+        click.echo(f"warning: {note}", err=True)
     _check_out(out, results, docs, summary)
     make_out_dir(out, out.resolve())
     with out_lock(out):  # one run at a time writes into a folder, as inspect's

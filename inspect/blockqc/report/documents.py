@@ -5,6 +5,7 @@ or its companions (a summary that is not that of the results files named)."""
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -240,6 +241,7 @@ class Gathered(NamedTuple):
     summary: tuple[Path, Summary, bytes] | None
     repeated: list[Path]  # named more than once: read once
     left_out: list[Path]  # results beside a summary that does not list their block
+    unchecked: list[str] = []  # what of the summary could not be checked, and why
 
 
 def gather(paths: list[Path]) -> Gathered:
@@ -314,20 +316,23 @@ def gather(paths: list[Path]) -> Gathered:
             continue
         seen[bid] = f
         results.append((f, doc, raw))
+    unchecked: list[str] = []
     if summary is not None:
         by_file = {f.resolve(): d for f, d, _ in results}
-        problems += _summary_contradictions(summary[0], summary[1], by_file)
+        problems += _summary_contradictions(summary[0], summary[1], by_file, unchecked)
     if problems:
         raise InputError(problems)
     read = {f.resolve() for f in files}
-    return Gathered(results, summary, repeated, [f for f in beside if f.resolve() not in read])
+    left_out = [f for f in beside if f.resolve() not in read]
+    return Gathered(results, summary, repeated, left_out, unchecked)
 
 
 def _summary_contradictions(
-    path: Path, summary: Summary, results: dict[Path, BlockResults]
+    path: Path, summary: Summary, results: dict[Path, BlockResults], unchecked: list[str]
 ) -> list[Problem]:
-    """The summary's counts must be those of its blocks, and each block's id, verdict and counts
-    those of the results file it names (as `inspect` writes them); `results`: by real path."""
+    """The summary's counts must be those of its blocks, each block's id, verdict and counts
+    those of the results file it names (as `inspect` writes them), and its batch decision the
+    one they make; `results`: by real path; `unchecked`: what could not be checked, said."""
     blocks = summary.blocks
     c = summary.counts
     expected = {
@@ -399,7 +404,13 @@ def _summary_contradictions(
             )
         else:
             out += _entry_contradictions(path, b, r)
-    return out + _rule_count_contradictions(path, summary, list(results.values()))
+    out += _rule_count_contradictions(path, summary, list(results.values()))
+    if out:  # the decision over blocks the summary does not describe would say so again
+        return out
+    made = [results.get((path.parent / b.results).resolve()) for b in blocks]
+    if None in made:  # a block's results missing (refused) or unread: no decision to make
+        return out
+    return _acceptance_contradictions(path, summary, made, unchecked)
 
 
 #: what the summary pages show of a block beside its verdict, as `inspect` makes it from the
@@ -490,3 +501,188 @@ def _second_summary(path: Path, first: Path) -> Problem:
         f"a second batch summary (the first: {first}): re-render one batch at a time, or name "
         "the results files without their summaries",
     )
+
+
+#: the fields of the batch decision (`acceptance`) that `inspect` makes from the blocks' results
+#: files, the pack's acceptance section and the plan; in the order the pages show them
+_DECISION_FIELDS = (
+    "decision",
+    "sample_source",
+    "sample",
+    "failing",
+    "incomplete",
+    "mean_score",
+    "sample_grade",
+    "better_pct",
+    "top_pct",
+    "batch_grade",
+    "returned",
+    "blocks",
+)
+
+#: what of the decision depends on the pack's better_than, batch_grades and batch_default
+_BY_BATCH_GRADES = ("better_pct", "batch_grade")
+
+
+def _acceptance_contradictions(
+    path: Path, summary: Summary, made: list[BlockResults], unchecked: list[str]
+) -> list[Problem]:
+    """The summary's batch decision against the one `inspect` makes (`decide`) from its blocks'
+    results files (in the summary's order), the plan it records (`sampling.sampled`), its
+    deliveries not read and its plan notes; the pack's acceptance section as the summary records
+    it (`acceptance.grades`, `standard`) and, for the batch grade, the pack that judged them."""
+    from blockqc.acceptance.decision import decide
+    from blockqc.batch import graded
+
+    given = summary.acceptance
+    evaluated = [r.block_id for r in made if r.evaluation is not None]
+    if given is None:
+        if not evaluated:
+            return []  # a pack without `acceptance:` (asprs-2023): no decision to make
+        return [
+            Problem(
+                str(path),
+                "$.acceptance is null, but its blocks' results files are evaluated (block "
+                f"{evaluated[0]}): the batch decision is left out (inspect again)",
+            )
+        ]
+    if made and not evaluated:
+        return [
+            Problem(
+                str(path),
+                "$.acceptance gives a batch decision, but none of its blocks' results files is "
+                "evaluated (their pack has no acceptance section): the summary is not that of "
+                "these results",
+            )
+        ]
+    out: list[Problem] = []
+    if len(given.unreadable) != len(summary.unreadable):
+        out.append(
+            Problem(
+                str(path),
+                f"$.acceptance.unreadable names {len(given.unreadable)} delivery(ies) "
+                f"({', '.join(given.unreadable) or 'none'}), but $.unreadable lists "
+                f"{len(summary.unreadable)}",
+            )
+        )
+    planned = _planned(path, summary)
+    if isinstance(planned, Problem):
+        return [*out, planned]
+    if len(given.grades) < 2:
+        return [*out, Problem(str(path), "$.acceptance.grades lists no grade and fail grade")]
+    acc = _pack_acceptance(summary, made)
+    source = "checkpoints" if planned is None else "plan"
+    grades = [g for r in made if (g := graded(r)) is not None]
+    d = decide(grades, acc or _recorded_acceptance(summary), source, given.unreadable, planned)
+    skip: tuple[str, ...] = ()
+    if acc is None and d.decision == "pass":  # the batch grade is the pack's to make
+        skip = _BY_BATCH_GRADES
+        unchecked.append(
+            f"{path}: the batch grade ({given.batch_grade}) and its share of units good or "
+            f"better ({given.better_pct} %) are not checked against its blocks: rule pack "
+            f"{summary.rule_pack} {summary.rule_pack_version} is not found as it judged them "
+            "(at the file its blocks' results name, nor among the stock packs)"
+        )
+    for name in _DECISION_FIELDS:
+        if name in skip:
+            continue
+        diff = _decision_difference(name, getattr(given, name), getattr(d, name))
+        if diff:
+            out.append(
+                Problem(
+                    str(path),
+                    f"$.acceptance.{diff}: the summary's batch decision is not that of these "
+                    "results (inspect again, or name the results files without the summary)",
+                )
+            )
+    return out
+
+
+def _planned(path: Path, summary: Summary) -> list[str] | None | Problem:
+    """The plan's sampled blocks as the summary records the plan (None without a plan)."""
+    if summary.sampling is None:
+        return None
+    sampled = summary.sampling.get("sampled")
+    if not isinstance(sampled, list) or not all(isinstance(b, str) for b in sampled):
+        return Problem(str(path), f"$.sampling.sampled is {_json(sampled)}: not block ids")
+    return sampled
+
+
+def _recorded_acceptance(summary: Summary) -> Any:
+    """The pack's acceptance section as far as the summary records it: its grades, best first,
+    the fail grade last, and its standard; not its batch grades (none: left unchecked)."""
+    from blockqc.acceptance.model import Acceptance
+
+    assert summary.acceptance is not None
+    *grades, fail = summary.acceptance.grades
+    return Acceptance.model_construct(
+        standard=summary.acceptance.standard,
+        grades=grades,
+        fail_grade=fail,
+        batch_grades=[],
+        better_than=grades[-1].id,
+        batch_default=grades[-1].id,
+    )
+
+
+def _pack_acceptance(summary: Summary, made: list[BlockResults]) -> Any:
+    """The acceptance section of the pack that judged the blocks: its top file as the results
+    files record it, else the stock pack of its name; None when neither is found, or either is
+    not that pack as it was (another name or version, other grades or standard)."""
+    from blockqc.errors import BlockqcError
+    from blockqc.resources import rules_dir
+    from blockqc.rules.loader import available_packs, read_pack
+
+    given = summary.acceptance
+    assert given is not None
+    refs = [Path(r.rule_pack_files[0]) for r in made if r.rule_pack_files]
+    if summary.rule_pack in available_packs():
+        refs.append(rules_dir() / f"{summary.rule_pack}.yaml")
+    for ref in dict.fromkeys(refs):
+        if not ref.is_file():  # a file since moved, or a pipe the run read (--rules <(...))
+            continue
+        try:
+            pack, problems = read_pack(ref)
+        except (BlockqcError, OSError, ValueError):
+            continue
+        acc = pack.acceptance if pack is not None and not problems else None
+        if acc is None or (pack.name, pack.version) != (
+            summary.rule_pack,
+            summary.rule_pack_version,
+        ):
+            continue
+        if [*acc.grades, acc.fail_grade] == given.grades and acc.standard == given.standard:
+            return acc
+    return None
+
+
+def _decision_difference(name: str, given: Any, made: Any) -> str | None:
+    """How a field of the summary's batch decision differs from the one its blocks make; blocks
+    by their ids, then by the first block and key that differ (None when they agree)."""
+    if name in ("failing", "returned", "blocks"):
+        g = [b.model_dump(mode="json") for b in given]
+        m = [b.model_dump(mode="json") for b in made]
+        if [b["block_id"] for b in g] != [b["block_id"] for b in m]:
+            return (
+                f"{name} lists {_json([b['block_id'] for b in g])}, but its blocks' results "
+                f"files make it {_json([b['block_id'] for b in m])}"
+            )
+        for i, (gb, mb) in enumerate(zip(g, m, strict=True)):
+            keys = dict.fromkeys([*mb, *gb])
+            key = next((k for k in keys if not _same(gb.get(k), mb.get(k))), None)
+            if key is not None:
+                return (
+                    f"{name}[{i}] ({mb['block_id']}) {key} is {_json(gb.get(key))}, but its "
+                    f"results file makes it {_json(mb.get(key))}"
+                )
+        return None
+    if _same(given, made):
+        return None
+    return f"{name} is {_json(given)}, but its blocks' results files make it {_json(made)}"
+
+
+def _same(given: Any, made: Any) -> bool:
+    """Equal, a float within the rounding of its JSON text."""
+    if _number(given) and _number(made):
+        return math.isclose(given, made, rel_tol=1e-9, abs_tol=1e-9)
+    return bool(given == made)

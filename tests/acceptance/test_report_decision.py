@@ -1,0 +1,151 @@
+"""`blockqc report` re-derives a summary's batch decision (§QE-5) from its blocks' results files,
+as `inspect` made it, and refuses a summary whose `acceptance` section says otherwise: exit 2,
+the summary and the field named, what it says and what its blocks make; nothing written.
+
+The sample batch fails (F3-B01, sampled, fails; F3-B02 is returned). F1-B01, F1-B02, F2-B01 and
+F4-B01 inspected together pass: the three carrying checkpoints form the sample, all excellent."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from blockqc.cli import main
+from casekit import SAMPLES, run_blockqc
+
+VERDICTS = "verdicts:\n  DOC-3: {status: pass, note: follows the templates}\n"
+
+
+def run(*args: object) -> int:
+    with pytest.raises(SystemExit) as exc:
+        main([str(a) for a in args])
+    return exc.value.code
+
+
+@pytest.fixture(scope="module")
+def failing(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("failing") / "out"
+    args = ("--verdicts", SAMPLES / "verdicts.yaml", "--no-pdf")
+    p = run_blockqc("inspect", SAMPLES / "batch", *args, "--out", out)
+    assert p.returncode == 1, p.stderr
+    return out
+
+
+@pytest.fixture(scope="module")
+def passing(tmp_path_factory) -> Path:
+    base = tmp_path_factory.mktemp("passing")
+    (base / "verdicts.yaml").write_text(VERDICTS, encoding="utf-8")
+    blocks = [SAMPLES / "batch" / b for b in ("F1-B01", "F1-B02", "F2-B01", "F4-B01")]
+    args = ("--verdicts", base / "verdicts.yaml", "--no-pdf", "--out", base / "out")
+    p = run_blockqc("inspect", *blocks, *args)
+    assert p.returncode == 0, p.stderr
+    return base / "out"
+
+
+def _edited(tmp_path: Path, out: Path, **fields: Any) -> Path:
+    """A copy of a batch's outputs whose summary's acceptance section has `fields` changed."""
+    copy = tmp_path / "in"
+    shutil.copytree(out, copy)
+    s = json.loads((copy / "summary.json").read_text(encoding="utf-8"))
+    s["acceptance"].update(fields)
+    (copy / "summary.json").write_text(json.dumps(s), encoding="utf-8")
+    return copy
+
+
+def _refused(tmp_path: Path, capsys, out: Path, **fields: Any) -> list[str]:
+    copy = _edited(tmp_path, out, **fields)
+    capsys.readouterr()
+    assert run("report", copy, "--out", tmp_path / "re", "--no-pdf") == 2
+    assert not (tmp_path / "re").exists()
+    return capsys.readouterr().err.splitlines()
+
+
+def _says(tmp_path: Path, field: str, given: str, made: str) -> str:
+    return (
+        f"error: {tmp_path / 'in' / 'summary.json'}: $.acceptance.{field} {given}, but its "
+        f"{made}: the summary's batch decision is not that of these results (inspect again, or "
+        "name the results files without the summary)"
+    )
+
+
+def test_the_summaries_inspect_writes_are_re_rendered(failing, passing, tmp_path) -> None:
+    for out in (failing, passing):
+        s = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+        assert s["acceptance"]["decision"] == ("fail" if out is failing else "pass")
+        for lang in ("en", "zh"):
+            assert run("report", out, "--out", tmp_path / out.parent.name / lang, "--no-pdf") == 0
+
+
+def test_a_pass_decision_over_a_failing_sampled_block_is_refused(failing, tmp_path, capsys):
+    err = _refused(tmp_path, capsys, failing, decision="pass")
+    assert err == [
+        _says(tmp_path, "decision", 'is "pass"', 'blocks\' results files make it "fail"')
+    ]
+
+
+def test_a_failing_sampled_block_left_out_of_the_failing_list_is_refused(failing, tmp_path, capsys):
+    err = _refused(tmp_path, capsys, failing, failing=[])
+    made = 'blocks\' results files make it ["F3-B01"]'
+    assert err == [_says(tmp_path, "failing", "lists []", made)]
+
+
+def test_an_unsampled_failing_block_left_out_of_the_returned_list_is_refused(
+    failing, tmp_path, capsys
+):
+    err = _refused(tmp_path, capsys, failing, returned=[])
+    made = 'blocks\' results files make it ["F3-B02"]'
+    assert err == [_says(tmp_path, "returned", "lists []", made)]
+
+
+def test_a_blocks_grade_other_than_its_results_file_is_refused(failing, tmp_path, capsys):
+    s = json.loads((failing / "summary.json").read_text(encoding="utf-8"))
+    blocks = s["acceptance"]["blocks"]
+    blocks[0] = {**blocks[0], "grade": "good"}
+    err = _refused(tmp_path, capsys, failing, blocks=blocks)
+    made = 'results file makes it "excellent"'
+    assert err == [_says(tmp_path, "blocks[0] (F1-B01) grade", 'is "good"', made)]
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "made"),
+    [
+        ("batch_grade", "good", '"excellent"'),
+        ("better_pct", 80.0, "100.0"),
+        ("top_pct", 50.0, "100.0"),
+        ("sample_grade", "good", '"excellent"'),
+    ],
+)
+def test_another_batch_grade_or_share_is_refused(passing, tmp_path, capsys, field, value, made):
+    err = _refused(tmp_path, capsys, passing, **{field: value})
+    given = f"is {json.dumps(value)}"
+    assert err == [_says(tmp_path, field, given, f"blocks' results files make it {made}")]
+
+
+def test_another_mean_score_is_refused(passing, tmp_path, capsys) -> None:
+    s = json.loads((passing / "summary.json").read_text(encoding="utf-8"))
+    mean = s["acceptance"]["mean_score"]
+    err = _refused(tmp_path, capsys, passing, mean_score=90.0)
+    made = f"blocks' results files make it {json.dumps(mean)}"
+    assert err == [_says(tmp_path, "mean_score", "is 90.0", made)]
+
+
+def test_a_sample_other_than_the_blocks_carrying_checkpoints_is_refused(passing, tmp_path, capsys):
+    err = _refused(tmp_path, capsys, passing, sample=["F1-B01"])
+    made = 'blocks\' results files make it ["F1-B01", "F2-B01", "F4-B01"]'
+    assert err == [_says(tmp_path, "sample", 'is ["F1-B01"]', made)]
+
+
+def test_a_decision_left_out_over_evaluated_blocks_is_refused(failing, tmp_path, capsys):
+    copy = tmp_path / "in"
+    shutil.copytree(failing, copy)
+    s = json.loads((copy / "summary.json").read_text(encoding="utf-8"))
+    (copy / "summary.json").write_text(json.dumps({**s, "acceptance": None}), encoding="utf-8")
+    assert run("report", copy, "--out", tmp_path / "re", "--no-pdf") == 2
+    assert capsys.readouterr().err.splitlines() == [
+        f"error: {copy / 'summary.json'}: $.acceptance is null, but its blocks' results files "
+        "are evaluated (block F1-B01): the batch decision is left out (inspect again)"
+    ]
