@@ -454,10 +454,9 @@ def _page_not_written(meta, meta_file: Path, is_batch: bool, pack) -> None:
     given = [k for k in ACCEPTANCE_PAGE_ONLY if getattr(meta, k)]
     if given:
         why = "a batch" if pack.acceptance is not None else "a pack with an acceptance: section"
-        click.echo(
-            f"warning: {meta_file}: {', '.join(given)}: shown on the batch's acceptance page "
-            f"only, which this run does not write (it needs {why}); kept in results.json",
-            err=True,
+        _warn(
+            f"{meta_file}: {', '.join(given)}: shown on the batch's acceptance page only, "
+            f"which this run does not write (it needs {why}); kept in results.json"
         )
 
 
