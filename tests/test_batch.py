@@ -775,9 +775,10 @@ def test_workers_end_when_the_main_process_is_killed(tmp_path):
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(Path(__file__).parent), *sys.path])}
     main = subprocess.Popen([sys.executable, "-c", script, str(marks)], env=env)
     deadline = time.monotonic() + 60
-    while len(list(marks.iterdir())) < 2 and time.monotonic() < deadline:
-        time.sleep(0.1)
-    workers = [int(p.read_text()) for p in marks.iterdir() if p.read_text()]
+    workers: list[int] = []
+    while len(workers) < 2 and time.monotonic() < deadline:
+        time.sleep(0.1)  # a mark is made, then written: counted once written
+        workers = [int(text) for p in marks.iterdir() if (text := p.read_text())]
     assert len(workers) == 2
     main.kill()
     main.wait(timeout=30)

@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 
 from blockqc.errors import RuleError
+from blockqc.resources import rules_dir
 from blockqc.rules import load_pack
 from casekit import extension_pack as _pack
 from casekit import lint_messages as _messages
@@ -134,7 +135,7 @@ def test_grades_replaced_name_the_inherited_settings_left_naming_old_ones(tmp_pa
         "acceptance:\n  grades:\n    - {id: top, min: 90, title: Top}\n"
         "    - {id: ok, min: 60, title: OK}\n",
     )
-    stock = Path(__file__).parents[2] / "rules" / "global-project.yaml"
+    stock = rules_dir() / "global-project.yaml"  # the installed stock pack's file
     lines = stock.read_text("utf-8").splitlines()
     line = next(n for n, text in enumerate(lines, 1) if text.startswith("  better_than:"))
     assert _messages(pack)[0] == (
