@@ -665,10 +665,9 @@ def _read_parquet(
 
 
 def _plain(exc: Exception) -> str:
-    """A reader's message on one line, control characters shown escaped (Arrow quotes the
-    damaged bytes it met as they are)."""
-    text = " ".join(str(exc).split())
-    return "".join(c if c.isprintable() else f"\\x{ord(c):02x}" for c in text)
+    """A reader's message on one line (its control characters, the damaged bytes Arrow quotes
+    as they are, are escaped where every Problem is shown: `errors.shown`)."""
+    return " ".join(str(exc).split())
 
 
 def _unreadable_row_group(path: Path, columns: list[str] | None) -> str:

@@ -18,7 +18,7 @@ from blockqc.metrics import REGISTRY, Measurement, Table
 from blockqc.outputs import jsonable, records
 from blockqc.results import BlockResults, MeasurementRecord, RuleResult, tally
 from blockqc.rules.expr import ExpressionError, evaluate, resolve_params
-from blockqc.rules.model import ON_BOUND, Pack, Rule, Threshold, selected
+from blockqc.rules.model import Pack, Rule, Threshold, selected, within
 from blockqc.schema import key_labels
 from blockqc.verification import annotate, prepare
 
@@ -87,22 +87,15 @@ def bounds(th: Threshold, names: Mapping[str, Any]) -> tuple[float | None, float
 
 
 def passes(values: pd.Series, th: Threshold, lo: float | None, hi: float | None) -> np.ndarray:
-    """Vectorized judgement of values against a threshold (a value within ON_BOUND of a bound
-    is on it); missing values never pass."""
+    """Vectorized judgement of values against a threshold (bounds by `rules.model.within`);
+    missing values never pass."""
     if th.equals is not None:
         return (values == th.equals).fillna(False).to_numpy(dtype=bool)
     if th.in_ is not None:
         return values.isin(th.in_).to_numpy(dtype=bool)
     v = _numbers(values)
-    ok = np.isfinite(v)
     with np.errstate(invalid="ignore"):
-        if hi is not None:
-            on = ON_BOUND * abs(hi)
-            ok &= (v <= hi + on) if th.inclusive else (v < hi - on)
-        if lo is not None:
-            on = ON_BOUND * abs(lo)
-            ok &= (v >= lo - on) if th.inclusive else (v > lo + on)
-    return ok
+        return np.isfinite(v) & within(v, lo, hi, th.inclusive)
 
 
 def worst(values: pd.Series, ok: np.ndarray, th: Threshold, lo: Any, hi: Any) -> Any:

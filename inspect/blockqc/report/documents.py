@@ -23,7 +23,7 @@ from blockqc.results import (
     parse,
     tally,
 )
-from blockqc.rules.model import ON_BOUND
+from blockqc.rules.model import within
 
 
 class _NotJSON(ValueError):
@@ -159,8 +159,8 @@ def _number(v: Any) -> bool:
 
 
 def _meets(value: Any, threshold: Any, comparison: str | None) -> bool | None:
-    """Whether a value meets a threshold as the engine judges it (a value within ON_BOUND of
-    a bound's magnitude is on it); None when there is nothing to judge."""
+    """Whether a value meets a threshold as the engine judges it (`rules.model.within`); None
+    when there is nothing to judge."""
     if value is None or comparison is None:
         return None
     if comparison == "equals":
@@ -179,14 +179,8 @@ def _meets(value: Any, threshold: Any, comparison: str | None) -> bool | None:
     if not _number(value) or not any(_number(b) for b in (lo, hi)):
         return None
     inclusive = comparison in ("<=", ">=", "between")
-    ok = True
-    if _number(hi):
-        on = ON_BOUND * abs(hi)
-        ok &= value <= hi + on if inclusive else value < hi - on
-    if _number(lo):
-        on = ON_BOUND * abs(lo)
-        ok &= value >= lo - on if inclusive else value > lo + on
-    return ok
+    lo, hi = (b if _number(b) else None for b in (lo, hi))
+    return bool(within(value, lo, hi, inclusive))
 
 
 def _check_results(path: Path, doc: Any) -> BlockResults:

@@ -88,6 +88,20 @@ def merge_elements(base: list[ElementDef], extra: list[ElementDef]) -> list[Elem
 ON_BOUND = 1e-9
 
 
+def within(v: Any, lo: Any, hi: Any, inclusive: bool) -> Any:
+    """Whether v (a number, or element by element an array) lies within the bounds lo and hi
+    (None: no bound), a value within ON_BOUND of a bound's magnitude being on it; with
+    `inclusive`, a value on a bound passes."""
+    ok = True
+    if hi is not None:
+        on = ON_BOUND * abs(hi)
+        ok = ok & ((v <= hi + on) if inclusive else (v < hi - on))
+    if lo is not None:
+        on = ON_BOUND * abs(lo)
+        ok = ok & ((v >= lo - on) if inclusive else (v > lo + on))
+    return ok
+
+
 class Threshold(BaseModel):
     """What passes: a lower and/or upper bound (inclusive or not, a value within ON_BOUND of a
     bound's magnitude on it), or allowed values."""
