@@ -283,3 +283,24 @@ def test_a_fit_that_is_no_estimate_is_warned_of(small_block, tmp_path, blockqc):
     assert "warning: the residual RMS grew in the adjustment" in r.stderr
     warnings = json.loads((tmp_path / "out" / "adjust.json").read_text())["warnings"]
     assert any("far above a tie-point measurement precision" in w for w in warnings)
+
+
+@pytest.mark.parametrize("points", [1, 5])
+def test_too_few_tie_points_are_named_not_blamed_on_the_rejection(
+    small_block, tmp_path, blockqc, points
+):
+    """Points on two scenes too few for the unknowns (1 point: 4 equations against 3 + 12
+    unknowns), none rejected: the message named '<options>' and told to raise --reject; it names
+    tie_points.csv and what is short."""
+    blk = _copy(small_block, tmp_path)
+    ties = pd.read_csv(blk / "tie_points.csv", dtype={"point_id": str})
+    ties = ties[ties["point_id"].isin(ties["point_id"].unique()[:points])]
+    assert (ties.groupby("point_id").size() >= 2).all()
+    ties.to_csv(blk / "tie_points.csv", index=False)
+    out = tmp_path / "out"
+    r = blockqc("adjust", blk, "--out", out)
+    assert r.returncode == 2, r.stdout + r.stderr
+    assert f"error: {blk / 'tie_points.csv'}: σ0 cannot be estimated: the {len(ties)} " in r.stderr
+    assert "expected more tie points" in r.stderr
+    assert "<options>" not in r.stderr and "--reject" not in r.stderr
+    assert "internal error" not in r.stderr and not out.exists()

@@ -32,6 +32,7 @@ class AdjustInput:
     producer_affine: np.ndarray | None
     producer_models: list[RPCModel] | None
     producer_source: str
+    tie_points_file: Path | None = None
 
 
 def _originals(path: Path, geometry: BlockGeometry | None, scene_ids: list[str]) -> list:
@@ -95,5 +96,13 @@ def load_adjust_input(path: str | Path) -> AdjustInput:
         producer_models, affine = _producer(d.geometry, models, scene_ids)
         source = d.geometry.source or "none"
     return AdjustInput(
-        path, d.manifest, d.scenes, d.tie_points, models, affine, producer_models, source
+        path,
+        d.manifest,
+        d.scenes,
+        d.tie_points,
+        models,
+        affine,
+        producer_models,
+        source,
+        d.files["tie_points"],
     )

@@ -335,7 +335,7 @@ def run_adjust(cfg: AdjustConfig) -> dict:
     clock.lap("datum")
     sol, v0l, v0s = adjust(block.stack, block.obs, block.lines, block.samples, priors, cfg.settings)
     clock.lap("adjust")
-    _refuse_without_redundancy(sol, cfg.settings)
+    _refuse_without_redundancy(block, sol, cfg.settings)
     cps, cp_info = checkpoints(block, sol, priors, cfg.checkpoints)
     clock.lap("checkpoints")
     summary = summarize(block, sol, v0l, v0s, datum_desc, cp_info)
@@ -347,19 +347,31 @@ def run_adjust(cfg: AdjustConfig) -> dict:
     return summary
 
 
-def _refuse_without_redundancy(sol: Solution, settings: Settings) -> None:
+def _refuse_without_redundancy(block: Block, sol: Solution, settings: Settings) -> None:
     """No output of an adjustment whose σ0 cannot be estimated (every observation rejected, or
-    too few left for any redundancy): its figures would be no estimate."""
+    too few left for any redundancy): its figures would be no estimate. When the rule rejected
+    nothing, the tie points are too few for the unknowns and their file is named."""
     if np.isfinite(sol.sigma0_px):
         return
     kept, n = int((~sol.outlier).sum()), sol.outlier.size
+    if sol.rejected.any():
+        raise InputError(
+            Problem(
+                "<options>",
+                f"σ0 cannot be estimated: {kept} of {n} observations are kept after rejection "
+                f"(--reject {settings.reject_k:g}), which leaves the adjustment no redundancy; "
+                "--reject below about 3 rejects good observations (default 4), and a block "
+                "needs points seen on two or more scenes",
+            )
+        )
+    points, scenes = int(sol.point_used.sum()), int(np.unique(block.obs.scene[~sol.outlier]).size)
     raise InputError(
         Problem(
-            "<options>",
-            f"σ0 cannot be estimated: {kept} of {n} observations are kept after rejection "
-            f"(--reject {settings.reject_k:g}), which leaves the adjustment no redundancy; "
-            "--reject below about 3 rejects good observations (default 4), and a block needs "
-            "points seen on two or more scenes",
+            str(block.data.tie_points_file or block.data.path),
+            f"σ0 cannot be estimated: the {kept} observations of the {points} point(s) seen on two "
+            f"or more scenes ({2 * kept} equations) leave no redundancy over their 3 coordinates "
+            f"each and the 6 affine parameters of each of the {scenes} scenes they are on; "
+            "expected more tie points, each on two or more scenes",
         )
     )
 
