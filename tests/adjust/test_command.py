@@ -304,3 +304,28 @@ def test_too_few_tie_points_are_named_not_blamed_on_the_rejection(
     assert "expected more tie points" in r.stderr
     assert "<options>" not in r.stderr and "--reject" not in r.stderr
     assert "internal error" not in r.stderr and not out.exists()
+
+
+def test_rows_of_one_point_giving_two_ground_points_are_refused(small_block, tmp_path, blockqc):
+    """The producer's lon/lat/h of a point differ between its rows (one row 0.01° east): the
+    checkpoint took their mean, 400 m from either, with exit 0. Refused, naming the row, the
+    column and both values; a difference of round-off (h 4 mm) is read."""
+    blk = _copy(small_block, tmp_path)
+    ties = pd.read_csv(blk / "tie_points.csv", dtype={"point_id": str})
+    second = ties.index[ties["point_id"].duplicated()][0]
+    first = ties.index[ties["point_id"] == ties.at[second, "point_id"]][0]
+    ties.loc[second, "h"] += 0.004
+    ties.to_csv(blk / "tie_points.csv", index=False)
+    r = blockqc("adjust", blk, "--out", tmp_path / "read")
+    assert r.returncode == 0, r.stderr
+    ties.loc[second, "lon"] += 0.01
+    ties.to_csv(blk / "tie_points.csv", index=False)
+    out = tmp_path / "out"
+    r = blockqc("adjust", blk, "--out", out)
+    assert r.returncode == 2, r.stdout + r.stderr
+    where = f"{blk / 'tie_points.csv'}, row {second + 1} (line {second + 2}), column 'lon'"
+    assert where in r.stderr
+    point, lon = ties.at[second, "point_id"], ties.at[second, "lon"]
+    assert f"point '{point}' is given lon {lon:.10g} here" in r.stderr
+    assert f"and {ties.at[first, 'lon']:.10g} on row {first + 1}" in r.stderr
+    assert "internal error" not in r.stderr and not out.exists()

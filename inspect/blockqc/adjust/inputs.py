@@ -18,6 +18,7 @@ from blockqc.delivery import MANIFEST, Manifest, load_delivery
 from blockqc.errors import InputError, Problem
 from blockqc.geometry_inputs import AFFINE_KEYS, RPC_DIR, BlockGeometry
 from blockqc.rfm.model import RPCModel
+from blockqc.schema import MAX_ROWS_LISTED as MAX_LISTED
 
 
 @dataclass
@@ -66,6 +67,47 @@ def _check_multi_ray(path: Path, tie_points: pd.DataFrame) -> None:
     )
 
 
+#: how far the rows of one point may put its delivered ground point apart (°, °, m): the same
+#: point written on each of its rows, to round-off
+GROUND_AGREEMENT = {"lon": 1e-7, "lat": 1e-7, "h": 0.01}
+
+
+def _check_ground(file: Path, tie_points: pd.DataFrame) -> None:
+    """Refuse a point whose rows give different producer's ground points (lon, lat, h): one of
+    them is wrong, and a checkpoint of their mean would be neither (longitudes modulo 360°)."""
+    given = [c for c in GROUND_AGREEMENT if c in tie_points.columns]
+    if not given:
+        return
+    point = pd.factorize(tie_points["point_id"])[0]
+    csv = file.suffix.lower() == ".csv"
+    problems = []
+    for c in given:
+        v = tie_points[c].to_numpy(np.float64)
+        ok = np.isfinite(v)
+        first = np.full(point.max() + 1, np.nan)
+        rows = np.flatnonzero(ok)
+        at = np.unique(point[rows], return_index=True)
+        first[at[0]] = v[rows[at[1]]]
+        diff = v - first[point]
+        if c == "lon":
+            diff = (diff + 180.0) % 360.0 - 180.0
+        for i in np.flatnonzero(ok & (np.abs(diff) > GROUND_AGREEMENT[c]))[:MAX_LISTED]:
+            j = int(np.flatnonzero(point == point[i])[0])
+            problems.append(
+                Problem(
+                    str(file),
+                    f"point '{tie_points['point_id'].iloc[i]}' is given {c} {v[i]:.10g} here and "
+                    f"{first[point[i]]:.10g} on row {j + 1}: expected one ground point per point "
+                    "(the producer's), the same on each of its rows",
+                    row=int(i) + 1,
+                    line=int(i) + 2 if csv else None,
+                    column=c,
+                )
+            )
+    if problems:
+        raise InputError(problems)
+
+
 def _producer(geometry: BlockGeometry, models: list[RPCModel], scene_ids: list[str]) -> tuple:
     """The producer's adjusted models and affine in the scenes' order; scenes without
     observations (absent from the producer's adjustment) keep their original RPC, no affine."""
@@ -88,6 +130,7 @@ def load_adjust_input(path: str | Path) -> AdjustInput:
         raise InputError(Problem(str(path), f"not a delivery folder (no {MANIFEST})"))
     d = load_delivery(path, residuals=False)  # the observations alone are adjusted
     _check_multi_ray(d.files["tie_points"], d.tie_points)
+    _check_ground(d.files["tie_points"], d.tie_points)
     scene_ids = [str(s) for s in d.scenes["scene_id"]]
     models = _originals(path, d.geometry, scene_ids)
     producer_models, affine = (None, None)

@@ -197,17 +197,19 @@ def datum(block: Block, cfg: AdjustConfig) -> tuple[Priors, dict]:
 
 
 def delivered_ground(block: Block) -> tuple[np.ndarray, ...] | None:
-    """The producer's ground point per point from tie_points lon/lat/h, if delivered."""
+    """The producer's ground point per point from tie_points lon/lat/h, if delivered: the first
+    value given on the point's rows (they agree: `inputs` refuses rows that do not)."""
     obs, ties = block.obs, block.data.tie_points
     if not all(c in ties.columns for c in ("lon", "lat", "h")):
         return None
     out = []
     for c in ("lon", "lat", "h"):
         v = ties[c].to_numpy(np.float64)[block.rows]
-        total = np.bincount(obs.point, np.nan_to_num(v), obs.n_points)
-        count = np.bincount(obs.point, np.isfinite(v).astype(float), obs.n_points)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            out.append(np.where(count > 0, total / count, np.nan))
+        given = np.flatnonzero(np.isfinite(v))
+        points, first = np.unique(obs.point[given], return_index=True)
+        value = np.full(obs.n_points, np.nan)
+        value[points] = v[given[first]]
+        out.append(value)
     return tuple(out) if np.isfinite(out[2]).any() else None
 
 
