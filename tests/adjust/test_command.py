@@ -329,3 +329,23 @@ def test_rows_of_one_point_giving_two_ground_points_are_refused(small_block, tmp
     assert f"point '{point}' is given lon {lon:.10g} here" in r.stderr
     assert f"and {ties.at[first, 'lon']:.10g} on row {first + 1}" in r.stderr
     assert "internal error" not in r.stderr and not out.exists()
+
+
+def test_a_scene_an_infinite_prior_leaves_free_without_observations_is_named(
+    small_block, tmp_path, blockqc
+):
+    """--sigma-shift inf --sigma-linear inf --fix S0001 on a block where S0004 has no tie point:
+    its affine is free, the block singular, refused as '<block>: … or some scene has too few tie
+    observations' without saying which; the refusal names tie_points.csv and S0004."""
+    blk = _copy(small_block, tmp_path)
+    ties = pd.read_csv(blk / "tie_points.csv", dtype={"point_id": str})
+    ties[ties["scene_id"] != "S0004"].to_csv(blk / "tie_points.csv", index=False)
+    free = ["--sigma-shift", "inf", "--sigma-linear", "inf", "--fix", "S0001"]
+    out = tmp_path / "out"
+    r = blockqc("adjust", blk, "--out", out, *free)
+    assert r.returncode == 2, r.stdout + r.stderr
+    assert f"error: {blk / 'tie_points.csv'}: scene(s) S0004 (0) have too few" in r.stderr
+    assert "--sigma-linear inf leaves free: expected at least 3 per scene" in r.stderr
+    assert "internal error" not in r.stderr and not out.exists()
+    r = blockqc("adjust", blk, "--out", out, *free, "--fix", "S0004")
+    assert r.returncode == 0, r.stderr

@@ -180,6 +180,7 @@ def datum(block: Block, cfg: AdjustConfig) -> tuple[Priors, dict]:
         if not value > 0:
             raise InputError(Problem("<options>", f"--sigma-{name} must be > 0, got {value}"))
     fixed = np.array([s in cfg.fix for s in scene_ids])
+    _check_free_scenes(block, cfg, fixed, scene_ids)
     h, sig, text = height_priors(block, cfg)
     priors = Priors(cfg.sigma_shift_px, cfg.sigma_linear_px, fixed, h, sig, text)
     desc = {
@@ -194,6 +195,35 @@ def datum(block: Block, cfg: AdjustConfig) -> tuple[Priors, dict]:
         "ground_control_points": 0,
     }
     return priors, desc
+
+
+def _check_free_scenes(
+    block: Block, cfg: AdjustConfig, fixed: np.ndarray, scene_ids: list[str]
+) -> None:
+    """With an infinite a-priori σ, a scene's free terms are fixed by its observations alone: a
+    scene (not held by --fix) with fewer observations of points on two or more scenes than
+    they need (a shift 1, the six terms 3) makes the block singular; name it."""
+    free_linear = not np.isfinite(cfg.sigma_linear_px)
+    if np.isfinite(cfg.sigma_shift_px) and not free_linear:
+        return
+    obs = block.obs
+    multi = np.bincount(obs.point, minlength=obs.n_points)[obs.point] >= 2
+    count = np.bincount(obs.scene[multi], minlength=obs.n_scenes)
+    need = 3 if free_linear else 1
+    short = np.flatnonzero((count < need) & ~fixed)
+    if short.size == 0:
+        return
+    listed = ", ".join(f"{scene_ids[k]} ({count[k]})" for k in short[:10])
+    more = f" and {short.size - 10} more" if short.size > 10 else ""
+    option = "--sigma-linear" if free_linear else "--sigma-shift"
+    raise InputError(
+        Problem(
+            str(block.data.tie_points_file or block.data.path),
+            f"scene(s) {listed}{more} have too few observations of points seen on two or more "
+            f"scenes to fix their affine, which {option} inf leaves free: expected at least "
+            f"{need} per scene; give a finite {option} or --fix these scenes",
+        )
+    )
 
 
 def delivered_ground(block: Block) -> tuple[np.ndarray, ...] | None:
