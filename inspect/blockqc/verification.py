@@ -15,7 +15,13 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from blockqc.adjust.geometry import Intersection, RPCStack, intersect, intersect_at_height
+from blockqc.adjust.geometry import (
+    Intersection,
+    RPCStack,
+    intersect,
+    intersect_at_height,
+    wrap_lon,
+)
 from blockqc.delivery import Delivery, scene_positions
 
 WGS84_A = 6378137.0
@@ -155,7 +161,7 @@ def derive_overlaps(
             "scene_a": pairs["scene_id_a"].to_numpy(),
             "scene_b": pairs["scene_id_b"].to_numpy(),
             "point_id": pairs["point_id"].to_numpy(),
-            "dx_m": np.radians((pairs["lon_b"] - pairs["lon_a"]).to_numpy()) * e_mid,
+            "dx_m": np.radians(wrap_lon((pairs["lon_b"] - pairs["lon_a"]).to_numpy())) * e_mid,
             "dy_m": np.radians((pairs["lat_b"] - pairs["lat_a"]).to_numpy()) * n_mid,
         }
     )

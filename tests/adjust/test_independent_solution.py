@@ -7,7 +7,8 @@ residuals v = computed − measured of the contract's implicit model (solved exa
 observation) weighted 1/σ², priors on the normalized affine (σ 10 px shifts, 2 px linear terms)
 and the weak height prior on the block's mean (HEIGHT_OFF ± HEIGHT_SCALE as one observation).
 σ is re-estimated from σ0 = √(vᵀv / r), r the image redundancy taken from the hat matrix, until it
-no longer changes: the fixed point the command's σ must be.
+no longer changes: the fixed point the command's σ must be. The same block is also put across the
+antimeridian, each RPC's LON_OFF written within ±180° as RPC00B has it.
 """
 
 from __future__ import annotations
@@ -17,39 +18,52 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pytest
 from scipy.optimize import least_squares
 
 SIZE = 10000  # lines = samples of every scene
 LAT0, DEG, H0, HSC = 45.0, 0.05, 500.0, 500.0
-#: per scene: LON_OFF, the height terms of line and sample (the parallax between the scenes)
-SCENES = {"S1": (5.00, 0.02, 0.10), "S2": (5.06, -0.01, -0.08), "S3": (5.12, 0.03, 0.05)}
+#: per scene: LON_OFF from the block's centre, the height terms of line and sample (the
+#: parallax between the scenes)
+SCENES = {"S1": (-0.06, 0.02, 0.10), "S2": (0.0, -0.01, -0.08), "S3": (0.06, 0.03, 0.05)}
 MANIFEST = """block_id: IND-B01
 sensor: hand-made RPCs
-gsd_m: {pan: 0.5}
-spatial_reference: {geodetic_datum: WGS84, height_datum: ellipsoidal, projection: UTM, epsg: 32631}
+gsd_m: {{pan: 0.5}}
+spatial_reference:
+  geodetic_datum: WGS84
+  height_datum: ellipsoidal
+  projection: UTM
+  epsg: {epsg}
 """
 
 
-def rfm(sid: str, lon, lat, h):
+def wrap(lon):
+    """Degrees of longitude within [−180, 180)."""
+    return (np.asarray(lon) + 180.0) % 360.0 - 180.0
+
+
+def rfm(sid: str, lon, lat, h, centre: float):
     """The scene's RPC by hand: l_n = −P + c_l·H + 0.002·L², s_n = L + c_s·H + 0.001·L·P."""
-    lon0, c_l, c_s = SCENES[sid]
-    x, y, z = (lon - lon0) / DEG, (lat - LAT0) / DEG, (h - H0) / HSC
+    east, c_l, c_s = SCENES[sid]
+    x = wrap(lon - centre - east) / DEG
+    y, z = (lat - LAT0) / DEG, (h - H0) / HSC
     return 5000.0 + 5000.0 * (-y + c_l * z + 0.002 * x * x), 5000.0 + 5000.0 * (
         x + c_s * z + 0.001 * x * y
     )
 
 
-def project(sid: str, a, lon, lat, h):
+def project(sid: str, a, lon, lat, h, centre: float):
     """l = RFM_l + a0 + a1·s + a2·l, s = RFM_s + b0 + b1·s + b2·l, solved for (l, s)."""
-    fl, fs = rfm(sid, lon, lat, h)
+    fl, fs = rfm(sid, lon, lat, h, centre)
     a0, a1, a2, b0, b1, b2 = a
     det = (1 - a2) * (1 - b1) - a1 * b2
     rl, rs = fl + a0, fs + b0
     return ((1 - b1) * rl + a1 * rs) / det, (b2 * rl + (1 - a2) * rs) / det
 
 
-def rpc_json(sid: str) -> str:
-    lon0, c_l, c_s = SCENES[sid]
+def rpc_json(sid: str, centre: float) -> str:
+    east, c_l, c_s = SCENES[sid]
+    lon0 = float(wrap(centre + east))
     line, samp, den = np.zeros(20), np.zeros(20), np.zeros(20)
     den[0] = 1.0
     line[[2, 3, 7]] = -1.0, c_l, 0.002  # RPC00B order: 1 L P H LP LH PH L² …
@@ -63,30 +77,36 @@ def rpc_json(sid: str) -> str:
     return json.dumps({"rpc": rpc})
 
 
-def write_block(folder: Path, seed: int = 1) -> pd.DataFrame:
+def write_block(folder: Path, centre: float, seed: int = 1) -> pd.DataFrame:
     rng = np.random.default_rng(seed)
-    truth = rng.normal(0.0, [3.0, 2e-4, 2e-4, 3.0, 2e-4, 2e-4], (3, 6))
+    truth = rng.normal(0.0, [3.0, 2e-4, 2e-4, 3.0, 2e-4, 2e-4], (3, 6))  # true_affine(seed)
     rows = []
     for k in range(120):
-        lon, lat, h = rng.uniform(5.0, 5.12), rng.uniform(44.96, 45.04), rng.uniform(200, 800)
+        east, lat, h = rng.uniform(-0.06, 0.06), rng.uniform(44.96, 45.04), rng.uniform(200, 800)
         for j, sid in enumerate(SCENES):
-            if abs(lon - SCENES[sid][0]) <= 0.045:
-                line, sample = project(sid, truth[j], lon, lat, h)
+            if abs(east - SCENES[sid][0]) <= 0.045:
+                line, sample = project(sid, truth[j], centre + east, lat, h, centre)
                 rows.append((f"P{k:04d}", sid, *(line, sample) + rng.normal(0.0, 0.3, 2)))
     tp = pd.DataFrame(rows, columns=["point_id", "scene_id", "line", "sample"])
     tp = tp[tp.groupby("point_id")["scene_id"].transform("size") >= 2].reset_index(drop=True)
     (folder / "rpc").mkdir(parents=True)
-    (folder / "block.yaml").write_text(MANIFEST)
+    zone = int((centre + 180.0) % 360.0 // 6) + 1
+    (folder / "block.yaml").write_text(MANIFEST.format(epsg=32600 + zone))
     scenes = []
-    for sid, (lon0, _, _) in SCENES.items():
-        (folder / "rpc" / f"{sid}.json").write_text(rpc_json(sid))
-        w, e = lon0 - DEG, lon0 + DEG
+    for sid, (east, _, _) in SCENES.items():
+        (folder / "rpc" / f"{sid}.json").write_text(rpc_json(sid, centre))
+        w, e = wrap(centre + east - DEG), wrap(centre + east + DEG)
         wkt = f"POLYGON(({w} 44.95, {e} 44.95, {e} 45.05, {w} 45.05, {w} 44.95))"
         scenes.append((sid, "pan", "2024-05-01", SIZE, SIZE, wkt))
     cols = ["scene_id", "band", "acquired", "lines", "samples", "footprint_wkt"]
     pd.DataFrame(scenes, columns=cols).to_csv(folder / "scenes.csv", index=False)
     tp.to_csv(folder / "tie_points.csv", index=False)
     return tp
+
+
+def true_affine(seed: int = 1) -> np.ndarray:
+    """The contract affines write_block observes through (its first draw)."""
+    return np.random.default_rng(seed).normal(0.0, [3.0, 2e-4, 2e-4, 3.0, 2e-4, 2e-4], (3, 6))
 
 
 def contract(p: np.ndarray) -> np.ndarray:
@@ -103,8 +123,8 @@ def contract(p: np.ndarray) -> np.ndarray:
 class Reference:
     """The expected solution: the stated objective minimized by scipy, σ at its fixed point."""
 
-    def __init__(self, tp: pd.DataFrame) -> None:
-        self.tp = tp
+    def __init__(self, tp: pd.DataFrame, centre: float) -> None:
+        self.tp, self.centre = tp, centre
         self.point, self.ids = pd.factorize(tp["point_id"])
         self.scene = tp["scene_id"].map({s: j for j, s in enumerate(SCENES)}).to_numpy()
         self.n_points = len(self.ids)
@@ -114,11 +134,13 @@ class Reference:
     def residuals(self, x: np.ndarray, sigma: float) -> np.ndarray:
         p, g = x[:18].reshape(3, 6), x[18:].reshape(-1, 3)
         a = contract(p)
-        lon, lat, h = 5.06 + g[self.point, 0] * 1e-3, LAT0 + g[self.point, 1] * 1e-3, 100 * g[:, 2]
+        lon = self.centre + g[self.point, 0] * 1e-3
+        lat, h = LAT0 + g[self.point, 1] * 1e-3, 100 * g[:, 2]
         v = np.empty((len(self.tp), 2))
         for j, sid in enumerate(SCENES):
             on = self.scene == j
-            v[on] = np.column_stack(project(sid, a[j], lon[on], lat[on], h[self.point][on]))
+            xy = project(sid, a[j], lon[on], lat[on], h[self.point][on], self.centre)
+            v[on] = np.column_stack(xy)
         v -= self.tp[["line", "sample"]].to_numpy()
         heights = (h - H0) / self.height_sigma
         return np.concatenate([v.ravel() / sigma, x[:18] / self.prior_sigma, heights])
@@ -131,7 +153,8 @@ class Reference:
     def fixed_point(self, ground: pd.DataFrame) -> tuple[np.ndarray, float, float]:
         """x, σ0 (px) and the covariance scale, σ re-estimated until it holds to 1e-6."""
         g = ground.set_index("point_id").loc[self.ids]
-        start = np.column_stack([(g.lon - 5.06) * 1e3, (g.lat - LAT0) * 1e3, g.h / 100])
+        east = wrap(g.lon - self.centre)
+        start = np.column_stack([east * 1e3, (g.lat - LAT0) * 1e3, g.h / 100])
         x = np.concatenate([np.zeros(18), start.ravel()])  # the command's points: a start only
         sigma, m = 0.5, 2 * len(self.tp)
         for _ in range(30):
@@ -145,17 +168,21 @@ class Reference:
         raise AssertionError("σ has no fixed point")
 
 
-def test_solution_and_sigma0_agree_with_an_independent_least_squares(tmp_path, blockqc):
+@pytest.mark.parametrize("centre", [5.06, 180.0])
+def test_solution_and_sigma0_agree_with_an_independent_least_squares(tmp_path, blockqc, centre):
     """The σ of the weights and of the rejection is the σ0 reported (it was re-estimated with
     a redundancy that left out the share of the affine priors: on this block σ 0.347 px against
     σ0 0.313 px, the affines fitted with weights 11 % off), and the affines, ground points and
-    σ0 are those of the stated objective."""
-    tp = write_block(tmp_path / "blk")
+    σ0 are those of the stated objective. Across the antimeridian (LON_OFF 179.94°, −180°,
+    −179.94°) the same: the rays of S1 and S2 did not intersect (their points started at the
+    mean longitude 0°, and RPCs were evaluated 360° off their LON_OFF), 72 of 136 observations
+    were left out without a second ray and S1 kept none, with exit 0."""
+    tp = write_block(tmp_path / "blk", centre)
     r = blockqc("adjust", tmp_path / "blk", "--out", tmp_path / "out")
     assert r.returncode == 0, r.stderr
     got = json.loads((tmp_path / "out" / "adjust.json").read_text())
     ground = pd.read_csv(tmp_path / "out" / "ground_points.csv")
-    ref = Reference(tp)
+    ref = Reference(tp, centre)
     x, s0, redundancy = ref.fixed_point(ground)
     assert 55 < redundancy < 65  # 2·134 − 18 − 3·67 = 49 without the priors' share
     assert got["n_outliers"] == 0
@@ -170,3 +197,52 @@ def test_solution_and_sigma0_agree_with_an_independent_least_squares(tmp_path, b
     at = ground.set_index("point_id").loc[ref.ids]
     assert np.abs(at.h.to_numpy() - 100 * g[:, 2]).max() < 0.05
     assert np.abs(at.lat.to_numpy() - (LAT0 + g[:, 1] * 1e-3)).max() < 1e-6
+    assert np.abs(wrap(at.lon.to_numpy() - centre - g[:, 0] * 1e-3)).max() < 1e-6
+    assert (np.abs(at.lon) <= 180).all()
+
+
+def producer_residuals(tp: pd.DataFrame, affine: np.ndarray, centre: float) -> pd.DataFrame:
+    """computed − measured of each observation through the given affines, each point intersected
+    alone by scipy (east, north in 1e-3°, h in 100 m about the block's centre)."""
+    at = {s: j for j, s in enumerate(SCENES)}
+    parts = []
+    for _, g in tp.groupby("point_id", sort=False):
+
+        def misclosure(x, g=g):
+            lon, lat, h = centre + x[0] * 1e-3, LAT0 + x[1] * 1e-3, H0 + 100 * x[2]
+            ls = [project(s, affine[at[s]], lon, lat, h, centre) for s in g["scene_id"]]
+            return (np.array(ls) - g[["line", "sample"]].to_numpy()).ravel()
+
+        sol = min(
+            (least_squares(misclosure, [e, 0.0, 0.0], method="lm", xtol=1e-15, ftol=1e-15)
+             for e in (-50.0, 0.0, 50.0)),
+            key=lambda r: r.cost,
+        )  # fmt: skip
+        v = sol.fun.reshape(-1, 2)
+        parts.append(g.assign(v_line=v[:, 0], v_sample=v[:, 1]))
+    return pd.concat(parts).sort_index()
+
+
+def test_rc1_reproduces_the_residuals_across_the_antimeridian(tmp_path, blockqc):
+    """The block above across the antimeridian with the producer's adjustment (the true
+    affines) and residuals computed here: RC-1 reproduces every observation. Before, the rays of
+    the 36 points on S1 (LON_OFF 179.94°) and S2 (−180°) were not intersected: RC-1 failed them
+    as not reproduced and the derived overlaps left out their 36 pairs."""
+    blk = tmp_path / "blk"
+    tp = write_block(blk, 180.0)
+    affine = true_affine()
+    rows = [(s, *affine[j]) for j, s in enumerate(SCENES)]
+    columns = ["scene_id", "a0", "a1", "a2", "b0", "b1", "b2"]
+    pd.DataFrame(rows, columns=columns).to_csv(blk / "adjustment.csv", index=False)
+    delivered = producer_residuals(tp, affine, 180.0)
+    delivered.to_csv(blk / "tie_points.csv", index=False)
+    r = blockqc("inspect", blk, "--out", tmp_path / "out")
+    assert r.returncode in (0, 1), r.stderr
+    res = json.loads((tmp_path / "out" / "IND-B01" / "results.json").read_text())
+    rc1 = next(x for x in res["results"] if x["rule"] == "RC-1")
+    assert rc1["status"] == "pass" and rc1["value"] < 1e-3, rc1
+    assert rc1["detail"]["n_units"] == len(tp)
+    process = res["process_data"]
+    assert process["n_points_not_intersected"] == 0
+    pairs = tp.groupby("point_id").size()
+    assert process["n_overlap_discrepancies"] == int((pairs * (pairs - 1) // 2).sum())

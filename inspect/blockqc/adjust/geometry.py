@@ -161,7 +161,9 @@ class RPCStack:
         self, idx: IntArray, lon: FloatArray, lat: FloatArray, h: FloatArray, partials: bool
     ) -> tuple[FloatArray, FloatArray, FloatArray | None]:
         off, sc = self.offsets[idx], self.scales[idx]
-        ln = (lon - off[:, 3]) / sc[:, 3]
+        # longitudes taken about each RPC's LON_OFF (modulo 360°): the scenes of a block across
+        # the antimeridian write their LON_OFF within ±180°, some near 180°, some near −180°
+        ln = wrap_lon(lon - off[:, 3]) / sc[:, 3]
         pn = (lat - off[:, 2]) / sc[:, 2]
         hn = (h - off[:, 4]) / sc[:, 4]
         p = self._polynomials(idx, _monomials(ln, pn, hn), partials)
@@ -247,6 +249,11 @@ def project_adjusted(
     return from_rfm_space(a, idx, line_r, samp_r)
 
 
+def wrap_lon(lon: ArrayLike) -> FloatArray:
+    """Longitudes (or their differences) brought within [−180°, 180°)."""
+    return (np.asarray(lon, np.float64) + 180.0) % 360.0 - 180.0
+
+
 def metres_to_degrees(lat: FloatArray) -> tuple[FloatArray, float]:
     """Degrees per metre east (per point) and north of the local metre parametrization."""
     return 1.0 / (M_PER_DEG * np.cos(np.radians(lat))), 1.0 / M_PER_DEG
@@ -329,6 +336,7 @@ def intersect_at_height(
         done = (np.abs(el) < tol_px) & (np.abs(es) < tol_px)
         ok[act[done]] = True
         act = act[~done & np.isfinite(lon[act]) & np.isfinite(lat[act])]
+    lon = wrap_lon(lon)
     lon[~ok] = np.nan
     lat[~ok] = np.nan
     return lon, lat, ok
@@ -359,11 +367,17 @@ def _start(
     samp: FloatArray,
     h0: FloatArray,
 ) -> tuple[FloatArray, FloatArray]:
-    """Starting lon/lat per point: the mean of its observations put on the ground at h0."""
+    """Starting lon/lat per point: the mean of its observations put on the ground at h0
+    (longitudes about the first one's, so that 179.99° and −179.99° average to 180°)."""
     lon, lat, ok = intersect_at_height(stack, a, idx, line, samp, h0[pidx], tol_px=1e-3)
     cnt = np.bincount(pidx, ok.astype(float), minlength=n_points)
+    ref = np.zeros(n_points)
+    given = np.flatnonzero(ok)
+    points, first = np.unique(pidx[given], return_index=True)
+    ref[points] = lon[given[first]]
+    east = np.where(ok, wrap_lon(lon - ref[pidx]), 0.0)
     with np.errstate(invalid="ignore", divide="ignore"):
-        lon0 = np.bincount(pidx, np.where(ok, lon, 0.0), minlength=n_points) / cnt
+        lon0 = ref + np.bincount(pidx, east, minlength=n_points) / cnt
         lat0 = np.bincount(pidx, np.where(ok, lat, 0.0), minlength=n_points) / cnt
     return lon0, lat0
 
@@ -424,7 +438,7 @@ def intersect(
     u, _ = accumulate_points(pidx, n_points, jx, f, w)
     u[:, 2, 2] += w_h
     vl, vs = image_residuals(a, idx, f[:, 0], f[:, 1])
-    return Intersection(lon, lat, h, vl, vs, conv, iterations, u)
+    return Intersection(wrap_lon(lon), lat, h, vl, vs, conv, iterations, u)
 
 
 def _misclosure(

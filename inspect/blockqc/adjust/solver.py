@@ -38,6 +38,7 @@ from blockqc.adjust.geometry import (
     metres_to_degrees,
     normalization,
     normalized_jacobian,
+    wrap_lon,
 )
 from blockqc.errors import InputError, Problem
 
@@ -751,7 +752,7 @@ def _solution(
         affine_sigma=np.sqrt(np.einsum("nii->ni", contract)),
         normalized=state.p.copy(),
         normalized_sigma=np.sqrt(np.einsum("nii->ni", blocks)),
-        lon=state.lon,
+        lon=wrap_lon(state.lon),
         lat=state.lat,
         h=state.h,
         ground_sigma=np.sqrt(ground),
