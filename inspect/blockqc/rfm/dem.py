@@ -22,6 +22,7 @@ from rasterio.transform import Affine
 
 from blockqc.errors import InputError, Problem
 from blockqc.rfm import geoid as geoid_mod
+from blockqc.rfm.readers import reading_pixels
 
 FloatArray = NDArray[np.float64]
 
@@ -231,7 +232,8 @@ def _read_grid(path: Path, bounds: tuple[float, float, float, float] | None, wha
                     )
                 )
             window = Window(col0, row0, col1 - col0, row1 - row0)
-        values = ds.read(1, window=window, masked=True).astype(np.float64).filled(np.nan)
+        with reading_pixels(path, what):
+            values = ds.read(1, window=window, masked=True).astype(np.float64).filled(np.nan)
         transform = ds.window_transform(window)
         check_heights(path, values, transform, what, (int(window.row_off), int(window.col_off)))
         wraps = closing is not None and window.width == ds.width

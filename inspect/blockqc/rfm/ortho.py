@@ -26,7 +26,7 @@ from scipy.ndimage import gaussian_filter, map_coordinates
 
 from blockqc.errors import InputError, Problem
 from blockqc.rfm.dem import DEM
-from blockqc.rfm.readers import open_raster
+from blockqc.rfm.readers import open_raster, reading_pixels
 
 FloatArray = NDArray[np.float64]
 
@@ -340,11 +340,11 @@ def _resample(
     wc0 = max(int(np.floor(col[ok].min())) - pad, 0)
     wr1 = min(int(np.ceil(row[ok].max())) + pad + 1, nrows)
     wc1 = min(int(np.ceil(col[ok].max())) + pad + 1, ncols)
-    src = band_mean(
-        ds.read(  # type: ignore[attr-defined]
+    with reading_pixels(ds.name, "image"):  # type: ignore[attr-defined]
+        values = ds.read(  # type: ignore[attr-defined]
             list(bands), window=Window(wc0, wr0, wc1 - wc0, wr1 - wr0), masked=True
         )
-    )
+    src = band_mean(values)
     src = antialiased(src, step)
     coords = np.stack([row[ok] - wr0, col[ok] - wc0])
     out[ok] = map_coordinates(src, coords, order=order, mode="nearest", prefilter=order > 1)

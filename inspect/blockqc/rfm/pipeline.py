@@ -37,7 +37,7 @@ from blockqc.rfm.ortho import (
     orthorectify,
     read_ortho,
 )
-from blockqc.rfm.readers import open_raster, read_rpc, sniff_format
+from blockqc.rfm.readers import open_raster, read_rpc, reading_pixels, sniff_format
 
 Matcher = Callable[..., pd.DataFrame]
 
@@ -230,7 +230,7 @@ def reference_on_grid(
             chunk=cfg.ortho_chunk,
         )
         return "orthorectified with its RPCs and the same DEM", rpc.source
-    with rasterio.open(cfg.reference) as src:
+    with rasterio.open(cfg.reference) as src, reading_pixels(cfg.reference, "reference"):
         bands = grey_bands(src)
         dst = np.full((len(bands), ref_grid.height, ref_grid.width), np.nan, dtype=np.float32)
         reproject(

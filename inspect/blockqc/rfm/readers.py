@@ -24,7 +24,8 @@ import codecs
 import json
 import re
 import warnings
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING
 from xml.etree import ElementTree
@@ -508,6 +509,22 @@ def open_raster(path: Path | str) -> DatasetReader:
             return rasterio.open(path)
         except RasterioIOError as exc:
             raise _error(path, f"cannot open as a raster: {exc}") from None
+
+
+@contextmanager
+def reading_pixels(path: Path | str, what: str) -> Iterator[None]:
+    """Around a read of a raster's pixels: a file GDAL opens but cannot read (cut short,
+    damaged) is an InputError naming it, the `what` it is and what GDAL said, not rasterio's
+    'Read failed. See previous exception for details.' without a file."""
+    from rasterio.errors import RasterioIOError, WarpOperationError
+
+    try:
+        yield
+    except (RasterioIOError, WarpOperationError) as exc:
+        said = str(exc.__cause__ or exc)
+        raise _error(
+            path, f"cannot read the {what}'s pixels: {said} (a file cut short or damaged?)"
+        ) from None
 
 
 def read_rpc_gdal(path: Path) -> RPCModel:
