@@ -82,3 +82,33 @@ def test_a_georeferenced_reference_cut_short_is_named(tmp_path: Path):
     result = CliRunner().invoke(command, args)
     assert isinstance(result.exception, InputError)  # exit 2
     assert str(result.exception).startswith(f"{cut}: cannot read the reference's pixels")
+
+
+def test_a_geoid_grid_cut_short_is_refused_not_read_as_zeros(tmp_path: Path):
+    """GDAL reads the rows missing from a small .gtx as 0 without a word: the Ventoux crop
+    (7 × 7 nodes, 40 + 196 bytes) cut to 150 bytes gave N = 0 on its three northern rows."""
+    geoid = tmp_path / "egm96_15_crop.gtx"
+    geoid.write_bytes((VENTOUX / "egm96_15_crop.gtx").read_bytes()[:150])
+    with pytest.raises(InputError) as exc:
+        load_dem(VENTOUX / "srtm_N44E005_crop.tif", geoid=geoid)
+    message = str(exc.value)
+    assert message.startswith(f"{geoid}: the geoid grid is cut short: 150 bytes")
+    assert "expected at least 236 (40 of header and 7 × 7 × 1 values of 4 bytes)" in message
+
+
+def test_an_envi_dem_cut_short_is_refused_not_read_as_zeros(tmp_path: Path):
+    values = np.full((100, 100), 500.0, np.float32)
+    profile = {"driver": "ENVI", "width": 100, "height": 100, "count": 1, "dtype": "float32"}
+    profile |= {"crs": "EPSG:4326", "transform": from_origin(5.0, 44.5, 0.001, 0.001)}
+    with rasterio.open(tmp_path / "dem.img", "w", **profile) as ds:
+        ds.write(values, 1)
+    data = (tmp_path / "dem.img").read_bytes()
+    (tmp_path / "dem.img").write_bytes(data[: len(data) // 2])
+    with pytest.raises(InputError) as exc:
+        load_dem(tmp_path / "dem.img", geoid_offset=50.0)
+    assert "the DEM is cut short: 20000 bytes, expected at least 40000" in str(exc.value)
+
+
+def test_whole_raw_grids_are_read():
+    dem = load_dem(VENTOUX / "srtm_N44E005_crop.tif", geoid=VENTOUX / "egm96_15_crop.gtx")
+    assert np.isfinite(dem.mean_height)

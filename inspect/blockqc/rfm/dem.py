@@ -22,7 +22,7 @@ from rasterio.transform import Affine
 
 from blockqc.errors import InputError, Problem
 from blockqc.rfm import geoid as geoid_mod
-from blockqc.rfm.readers import reading_pixels
+from blockqc.rfm.readers import check_whole, reading_pixels
 
 FloatArray = NDArray[np.float64]
 
@@ -199,6 +199,7 @@ def _read_grid(path: Path, bounds: tuple[float, float, float, float] | None, wha
     except RasterioIOError as exc:
         raise InputError(Problem(file=str(path), message=f"cannot open {what}: {exc}")) from None
     with ds:
+        check_whole(ds, path, what)
         if ds.crs is None:
             raise InputError(Problem(file=str(path), message=f"the {what} has no CRS"))
         check_one_band(path, ds.count, what)

@@ -496,6 +496,29 @@ def read_rpc_json(path: Path, text: str | None = None) -> RPCModel:
 
 
 # -- GDAL (GeoTIFF / NITF tags, GDAL sidecars) ------------------------------------------------
+#: GDAL drivers of raw binary rasters, with the bytes of header their data file starts with: a
+#: file of theirs cut short is read by GDAL (small grids at least) with its missing rows as 0,
+#: without a word — a geoid grid's undulation N = 0, the heights off by tens of metres
+RAW_HEADER_BYTES = {"GTX": 40, "ENVI": 0, "EHdr": 0, "ISCE": 0, "GenBin": 0}
+
+
+def check_whole(ds: DatasetReader, path: Path | str, what: str) -> None:
+    """Refuse a raw binary raster whose data file is shorter than its header and values."""
+    header = RAW_HEADER_BYTES.get(ds.driver)
+    if header is None or not ds.files:
+        return
+    item = np.dtype(ds.dtypes[0]).itemsize
+    need = header + ds.width * ds.height * ds.count * item
+    size = Path(ds.files[0]).stat().st_size
+    if size < need:
+        raise _error(
+            path,
+            f"the {what} is cut short: {size} bytes, expected at least {need} ({header} of "
+            f"header and {ds.width} × {ds.height} × {ds.count} values of {item} bytes); GDAL "
+            "would read the values missing as 0",
+        )
+
+
 def open_raster(path: Path | str) -> DatasetReader:
     """`rasterio.open` without GDAL's 'no geotransform' warning, which every image in sensor
     geometry would raise; an unreadable file is an InputError naming it. (rasterio is imported
@@ -506,9 +529,15 @@ def open_raster(path: Path | str) -> DatasetReader:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", NotGeoreferencedWarning)
         try:
-            return rasterio.open(path)
+            ds = rasterio.open(path)
         except RasterioIOError as exc:
             raise _error(path, f"cannot open as a raster: {exc}") from None
+    try:
+        check_whole(ds, path, "raster")
+    except InputError:
+        ds.close()
+        raise
+    return ds
 
 
 @contextmanager
