@@ -243,3 +243,23 @@ def test_the_image_as_its_own_reference_is_refused(tmp_path: Path, capsys):
     err = refused(args, capsys)
     assert "is the image" in err and "independent of the image" in err
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize(
+    ("option", "value"),
+    [
+        ("--crop-offset", "nan,0"),
+        ("--crop-offset", "0,inf"),
+        ("--reference-crop-offset", "nan,nan"),
+        ("--reference-crop-offset", "1,2,3"),
+    ],
+)
+def test_a_crop_offset_not_two_finite_numbers_is_refused_naming_the_option(
+    tmp_path: Path, capsys, option: str, value: str
+):
+    """`nan,0` was taken: every image position went to no ground position, and the run
+    stopped blaming the RPC file ("the RPCs give no ground position for the image")."""
+    err = refused([*ventoux_args(tmp_path / "out"), option, value], capsys)
+    assert f"{option} is 'auto' or ROW,COL in pixels (two finite numbers), got {value!r}" in err
+    assert "left_image.geom" not in err
+    assert not (tmp_path / "out").exists()

@@ -18,13 +18,17 @@ from blockqc.outputs import check_out_dir, empty_removed, refuse_replacing
 from blockqc.rfm.pipeline import METHODS, OUTPUT_NAMES, RfmAccuracyConfig, run_rfm_accuracy
 
 
-def _offset(value: str | None) -> tuple[float, float] | None:
+def _offset(value: str | None, option: str = "--crop-offset") -> tuple[float, float] | None:
     if value is None or value == "auto":
         return None
     try:
         row, col = (float(v) for v in value.split(","))
     except ValueError:
-        raise UsageError(f"a crop offset is 'auto' or ROW,COL in pixels, got {value!r}") from None
+        row = col = math.nan
+    if not (math.isfinite(row) and math.isfinite(col)):
+        raise UsageError(
+            f"{option} is 'auto' or ROW,COL in pixels (two finite numbers), got {value!r}"
+        )
     return row, col
 
 
@@ -326,7 +330,7 @@ def command(
             crs=crs,
             gsd=gsd,
             crop_offset=_offset(crop_offset),
-            reference_crop_offset=_offset(reference_crop_offset),
+            reference_crop_offset=_offset(reference_crop_offset, "--reference-crop-offset"),
             margin=margin,
             match_chunk=match_chunk,
             match_grid=match_grid,
