@@ -180,3 +180,16 @@ def test_fit_refuses_too_few_or_collinear_points():
     lon, lat, _ = LEFT.image_to_ground(row, row, 500.0)
     with pytest.raises(InputError, match="collinear"):
         fit_affine(LEFT, lon, lat, np.full(4, 500.0), row, row)
+
+
+def test_positions_far_outside_the_model_give_nan_without_numpy_warnings():
+    """Image positions 1e7 px away (a wrong --crop-offset): Newton overflows there. It gave
+    NaN as it should, but printed 14 numpy RuntimeWarnings (overflow, invalid value, divide by
+    zero) on stderr before the run's message."""
+    import warnings
+
+    m = LEFT
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        lon, lat, _ = m.image_to_ground(np.array([1e7, 1e7 + 500]), np.array([1e7, 1e7]), 500.0)
+    assert np.all(np.isnan(lon)) and np.all(np.isnan(lat))

@@ -229,15 +229,36 @@ class RPCModel:
         hn = (h - self.height_off) / self.height_scale
         ln = np.zeros_like(rn)
         pn = np.zeros_like(rn)
-        coeffs = self._coeffs
-        tol_r = NEWTON_TOL_PX / abs(self.line_scale)
-        tol_c = NEWTON_TOL_PX / abs(self.samp_scale)
         active = np.isfinite(rn) & np.isfinite(cn) & np.isfinite(hn)
         ln[~active] = np.nan
         pn[~active] = np.nan
         idx = np.flatnonzero(active.ravel())
         lf, pf = ln.ravel(), pn.ravel()
         rf, cf, hf = rn.ravel(), cn.ravel(), hn.ravel()
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # `bad` catches them
+            idx = self._newton(idx, lf, pf, rf, cf, hf)
+        if idx.size:
+            # did not converge (outside the model's domain): no position rather than a wrong one
+            lf[idx] = np.nan
+            pf[idx] = np.nan
+        lon = lf.reshape(rn.shape) * self.lon_scale + self.lon_off
+        lat = pf.reshape(rn.shape) * self.lat_scale + self.lat_off
+        return lon, lat
+
+    def _newton(
+        self,
+        idx: NDArray[np.intp],
+        lf: FloatArray,
+        pf: FloatArray,
+        rf: FloatArray,
+        cf: FloatArray,
+        hf: FloatArray,
+    ) -> NDArray[np.intp]:
+        """Newton steps on the normalized (lon, lat) `lf`, `pf` of the points `idx` (updated in
+        place; a step that is not finite gives NaN); returns the points not converged."""
+        coeffs = self._coeffs
+        tol_r = NEWTON_TOL_PX / abs(self.line_scale)
+        tol_c = NEWTON_TOL_PX / abs(self.samp_scale)
         for _ in range(NEWTON_MAX_ITER):
             if idx.size == 0:
                 break
@@ -260,13 +281,7 @@ class RPCModel:
             pf[idx] = np.where(bad, np.nan, P + step_p)
             done = ((np.abs(e_r) < tol_r) & (np.abs(e_c) < tol_c)) | bad
             idx = idx[~done]
-        if idx.size:
-            # did not converge (outside the model's domain): no position rather than a wrong one
-            lf[idx] = np.nan
-            pf[idx] = np.nan
-        lon = lf.reshape(rn.shape) * self.lon_scale + self.lon_off
-        lat = pf.reshape(rn.shape) * self.lat_scale + self.lat_off
-        return lon, lat
+        return idx
 
     def image_to_ground(
         self, row: ArrayLike, col: ArrayLike, height: HeightSource
