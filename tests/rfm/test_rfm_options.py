@@ -263,3 +263,13 @@ def test_a_crop_offset_not_two_finite_numbers_is_refused_naming_the_option(
     assert f"{option} is 'auto' or ROW,COL in pixels (two finite numbers), got {value!r}" in err
     assert "left_image.geom" not in err
     assert not (tmp_path / "out").exists()
+
+
+def test_an_image_outside_its_rpcs_says_where_it_falls(tmp_path: Path, capsys):
+    """A crop offset of 1e7 px: the message blamed the RPC file alone ("the RPCs give no ground
+    position for the image"); it now says where the image falls and where the RPCs reach
+    (the .geom: line_off 21109.5 ± 21137.5, samp_off 19207.5 ± 19999.5)."""
+    err = refused([*ventoux_args(tmp_path / "out"), "--crop-offset", "1e7,1e7"], capsys)
+    assert "its rows 10000000..10000499, columns 10000000..10000499" in err
+    assert "the RPCs describe rows -28..42247, columns -792..39207" in err
+    assert "a wrong --crop-offset, or RPCs of another image?" in err

@@ -148,14 +148,31 @@ def _footprint_bounds(
     lon = np.concatenate(lons)
     lat = np.concatenate(lats)
     if not np.any(np.isfinite(lon)):
-        raise InputError(
-            Problem(file=rpc.source, message="the RPCs give no ground position for the image")
-        )
+        raise InputError(Problem(file=rpc.source, message=_no_ground(rpc, shape, offset)))
     return (
         float(np.nanmin(lon)) - pad_deg,
         float(np.nanmin(lat)) - pad_deg,
         float(np.nanmax(lon)) + pad_deg,
         float(np.nanmax(lat)) + pad_deg,
+    )
+
+
+def _no_ground(rpc: RPCModel, shape: tuple[int, int], offset: tuple[float, float]) -> str:
+    """Why the RPCs give the image no ground position: where its pixels fall in the model's
+    image, against the part of it the RPCs describe (offset ± scale)."""
+
+    def span(start: float, end: float) -> str:
+        return f"{start:.10g}..{end:.10g}"
+
+    line, samp = abs(rpc.line_scale), abs(rpc.samp_scale)
+    return (
+        "the RPCs give no ground position for the image: its rows "
+        f"{span(offset[0], offset[0] + shape[0] - 1)}, columns "
+        f"{span(offset[1], offset[1] + shape[1] - 1)} (crop offset {offset[0]:.10g}, "
+        f"{offset[1]:.10g}), where the RPCs describe rows "
+        f"{span(rpc.line_off - line, rpc.line_off + line)}, columns "
+        f"{span(rpc.samp_off - samp, rpc.samp_off + samp)}: a wrong --crop-offset, or RPCs of "
+        "another image?"
     )
 
 
