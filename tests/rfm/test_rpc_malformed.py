@@ -321,3 +321,63 @@ def test_a_binary_of_small_values_is_not_taken_for_utf16_text():
     assert not _utf16_without_bom(np.arange(100, dtype="<u2").tobytes())
     assert _utf16_without_bom("LINE_OFF: 5124 pixels\nSAMP_OFF: 1\n".encode("utf-16-le"))
     assert _utf16_without_bom("LINE_OFF: 5124 pixels\nSAMP_OFF: 1\n".encode("utf-16-be"))
+
+
+DIMAP = VENTOUX / "RPC_PHR1B_P_201308051042194_SEN_690908101-001.XML"
+
+
+@pytest.mark.parametrize(
+    ("source", "old", "new", "key", "expected"),
+    [
+        (
+            DIMAP,
+            "<LAT_OFF>44.13716599373447</LAT_OFF>",
+            "<LAT_OFF>44.13716599373447 meters</LAT_OFF>",
+            "Rational_Function_Model/Global_RFM/RFM_Validity/LAT_OFF",
+            "'degrees'",
+        ),
+        (
+            FORMATS / "rpc_WV2.xml",
+            "<HEIGHTOFFSET>97</HEIGHTOFFSET>",
+            "<HEIGHTOFFSET>97 pixels</HEIGHTOFFSET>",
+            "RPB/IMAGE/HEIGHTOFFSET",
+            "'meters'",
+        ),
+        (
+            FORMATS / "JAX_068_001_RGB.json",
+            '"alt_offset": -21.0',
+            '"alt_offset": "-21.0 degrees"',
+            "rpc.alt_offset",
+            "'meters'",
+        ),
+        (
+            FORMATS / "JAX_068_001_RGB.json",
+            '"row_scale": 417.504728605983',
+            '"row_scale": "417.504728605983 m"',
+            "rpc.row_scale",
+            "'pixels'",
+        ),
+    ],
+    ids=["dimap", "digitalglobe-xml", "json-alt", "json-row"],
+)
+def test_a_unit_word_of_another_unit_is_refused_in_xml_and_json(
+    tmp_path: Path, source, old, new, key, expected
+):
+    """The key came with its place (`…/RFM_Validity/LAT_OFF`, `rpc.alt_offset`), which matched
+    no unit: any unit word was let through, 44.137 meters read as 44.137 degrees."""
+    problem = refused(edited(tmp_path, source, "unit" + source.suffix, old, new))
+    value = new.split(">")[1].split("<")[0] if "<" in new else new.split(": ")[1].strip('"')
+    assert problem.message == (
+        f"{key}: expected one number, optionally followed by its unit ({expected}), got {value!r}"
+    )
+
+
+def test_unit_words_of_their_unit_are_read_in_xml(tmp_path: Path):
+    text = DIMAP.read_text()
+    unit = tmp_path / "unit.XML"
+    unit.write_text(
+        text.replace("<LAT_OFF>44.13716599373447<", "<LAT_OFF>44.13716599373447 degrees<").replace(
+            "<LINE_OFF>21110.49999999999<", "<LINE_OFF>21110.49999999999 pixels<"
+        )
+    )
+    assert_identical(read_rpc(unit), read_rpc(DIMAP))

@@ -60,18 +60,31 @@ _UNITS = {
 }
 
 
+#: what the offsets and scales measure, by the start of their name in each format (rpcm JSON
+#: calls line and sample row and col, height alt)
+_KINDS = (
+    ("line", "pixels"),
+    ("samp", "pixels"),
+    ("row", "pixels"),
+    ("col", "pixels"),
+    ("lat", "degrees"),
+    ("lon", "degrees"),
+    ("height", "meters"),
+    ("alt", "meters"),
+)
+
+
 def _units_of(key: str) -> tuple[str, ...]:
     """The unit words a key's value may carry: pixels for LINE/SAMP offsets and scales, degrees
-    for LAT/LONG, meters for HEIGHT; a coefficient (no unit) is let carry any of them."""
-    k = key.lower()
+    for LAT/LONG, meters for HEIGHT; a coefficient (no unit) is let carry any of them. The key
+    may be named with its place (`…/RFM_Validity/LAT_OFF`, `rpc.lat_offset`)."""
+    k = re.split(r"[/.]", key)[-1].lower()
     if "coef" in k:
         return ("pixels", "degrees", "meters")
-    for start, kind in (("line", "pixels"), ("samp", "pixels"), ("lat", "degrees")):
+    for start, kind in _KINDS:
         if k.startswith(start):
             return (kind,)
-    if k.startswith("lon"):
-        return ("degrees",)
-    return ("meters",) if k.startswith("height") else ("pixels", "degrees", "meters")
+    return ("pixels", "degrees", "meters")
 
 
 def _number(path: Path | str, key: str, text: str, line: int | None = None) -> float:
