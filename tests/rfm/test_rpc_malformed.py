@@ -381,3 +381,12 @@ def test_unit_words_of_their_unit_are_read_in_xml(tmp_path: Path):
         )
     )
     assert_identical(read_rpc(unit), read_rpc(DIMAP))
+
+
+def test_a_digit_separator_is_not_a_number(tmp_path: Path):
+    """Python's float() reads '21_109.5' as 21109.5 and it was taken; no RPC format writes a
+    digit separator, and a C reader (strtod) stops at it: the file is malformed, not read."""
+    bad = edited(tmp_path, GF_TXT, "sep_rpc.txt", "LINE_OFF: +21109.5 pixels", "LINE_OFF: 21_109.5")
+    problem = refused(bad)
+    assert problem.line == 1
+    assert problem.message == "LINE_OFF: expected a number, got '21_109.5'"

@@ -89,10 +89,11 @@ def _units_of(key: str) -> tuple[str, ...]:
 
 def _number(path: Path | str, key: str, text: str, line: int | None = None) -> float:
     """Parse one number, tolerating a trailing unit word of the key's unit ('+005124.00
-    pixels'); another unit ('1.075 kilometers') would be misread, so it is refused."""
+    pixels'); another unit ('1.075 kilometers') would be misread, so it is refused. Python's
+    digit separator is no number of these files ('1_000': C's strtod stops at the '_')."""
     tokens = text.split()
     try:
-        value = float(tokens[0] if tokens else "")
+        value = float(tokens[0] if tokens and "_" not in tokens[0] else "")
     except ValueError:
         raise _error(path, f"{key}: expected a number, got {text.strip()!r}", line) from None
     kinds = _units_of(key)
