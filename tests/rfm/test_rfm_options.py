@@ -273,3 +273,24 @@ def test_an_image_outside_its_rpcs_says_where_it_falls(tmp_path: Path, capsys):
     assert "its rows 10000000..10000499, columns 10000000..10000499" in err
     assert "the RPCs describe rows -28..42247, columns -792..39207" in err
     assert "a wrong --crop-offset, or RPCs of another image?" in err
+
+
+def test_an_image_without_rpcs_is_told_to_give_them_with_rpc(tmp_path: Path, capsys):
+    args = ventoux_args(tmp_path / "out")
+    i = args.index("--rpc")
+    del args[i : i + 2]  # left_image.tif carries no RPCs of its own
+    err = refused(args, capsys)
+    assert f"{VENTOUX / 'left_image.tif'}: the raster carries no RPCs" in err
+    assert "give the image's RPC file with --rpc" in err
+
+
+def test_a_reference_without_crs_or_rpcs_is_told_what_a_reference_is(tmp_path: Path, capsys):
+    """The message was the image's ("the raster carries no RPCs"), not saying that a reference
+    may also be a georeferenced orthoimage whose CRS is missing here."""
+    args = ventoux_args(tmp_path / "out")
+    i = args.index("--reference-rpc")
+    del args[i : i + 2]
+    err = refused(args, capsys)
+    assert f"{VENTOUX / 'right_image.tif'}: the reference carries no RPCs" in err
+    assert "and no CRS: expected a georeferenced orthoimage (with its CRS), or an image in " in err
+    assert "sensor geometry with its RPCs (--reference-rpc FILE)" in err

@@ -37,7 +37,14 @@ from blockqc.rfm.ortho import (
     orthorectify,
     read_ortho,
 )
-from blockqc.rfm.readers import open_raster, read_rpc, reading_pixels, sniff_format
+from blockqc.rfm.readers import (
+    NO_RPCS,
+    open_raster,
+    read_rpc,
+    read_rpc_gdal,
+    reading_pixels,
+    sniff_format,
+)
 
 Matcher = Callable[..., pd.DataFrame]
 
@@ -213,12 +220,27 @@ def _raster_shape(path: Path) -> tuple[tuple[int, int], bool]:
         return (ds.height, ds.width), ds.crs is not None
 
 
+def rpcs_of(path: Path, rpc_file: Path | None, missing: str) -> RPCModel:
+    """The RPCs of a raster: its `rpc_file`, else those GDAL finds for it (`missing`: the
+    message when it has none)."""
+    if rpc_file is not None:
+        return read_rpc(rpc_file)
+    if sniff_format(path) != "gdal":
+        return read_rpc(path)  # not a raster: read as an RPC file, refused naming it
+    return read_rpc_gdal(path, missing)
+
+
 def reference_model(cfg: RfmAccuracyConfig) -> RPCModel | None:
     """The reference's RPCs when it is in sensor geometry or `reference_rpc` is given (None: a
     georeferenced reference, reprojected)."""
     _, georeferenced = _raster_shape(cfg.reference)
     if cfg.reference_rpc is not None or not georeferenced:
-        return read_rpc(cfg.reference_rpc or cfg.reference)
+        missing = (
+            "the reference carries no RPCs (no RPC tags, no RPC sidecar found by GDAL) and no "
+            "CRS: expected a georeferenced orthoimage (with its CRS), or an image in sensor "
+            "geometry with its RPCs (--reference-rpc FILE)"
+        )
+        return rpcs_of(cfg.reference, cfg.reference_rpc, missing)
     return None
 
 
@@ -575,7 +597,7 @@ class _Run:
 
 def _prepare(cfg: RfmAccuracyConfig) -> _Run:
     """Read the RPC and the image size, and the DEM over the footprint (heights ellipsoidal)."""
-    rpc = read_rpc(cfg.rpc or cfg.image)
+    rpc = rpcs_of(cfg.image, cfg.rpc, f"{NO_RPCS}: give the image's RPC file with --rpc")
     shape, _ = _raster_shape(cfg.image)
     offset = cfg.crop_offset if cfg.crop_offset is not None else crop_offset_from_file(cfg.image)
     dem = load_dem(

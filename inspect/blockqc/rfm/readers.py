@@ -570,13 +570,17 @@ def reading_pixels(path: Path | str, what: str) -> Iterator[None]:
         ) from None
 
 
-def read_rpc_gdal(path: Path) -> RPCModel:
-    """RPCs GDAL finds for a raster (TIFF tags, NITF RPC00B TRE, `_rpc.txt` / `.RPB` sidecars)."""
+NO_RPCS = "the raster carries no RPCs (no RPC tags, no RPC sidecar found by GDAL)"
+
+
+def read_rpc_gdal(path: Path, missing: str = NO_RPCS) -> RPCModel:
+    """RPCs GDAL finds for a raster (TIFF tags, NITF RPC00B TRE, `_rpc.txt` / `.RPB` sidecars);
+    `missing` is the message when there are none."""
     path = Path(path)
     with open_raster(path) as ds:
         rpcs = ds.rpcs
     if rpcs is None:
-        raise _error(path, "the raster carries no RPCs (no RPC tags, no RPC sidecar found by GDAL)")
+        raise _error(path, missing)
     values = {
         "line_off": rpcs.line_off,
         "samp_off": rpcs.samp_off,
