@@ -390,3 +390,12 @@ def test_a_digit_separator_is_not_a_number(tmp_path: Path):
     problem = refused(bad)
     assert problem.line == 1
     assert problem.message == "LINE_OFF: expected a number, got '21_109.5'"
+
+
+def test_a_geom_that_does_not_state_its_term_order_is_refused(tmp_path: Path):
+    """Without `polynomial_format` the .geom was read as RPC00B; OSSIM refuses such a file (a
+    required keyword), and RPC00A holds the same 20 numbers in another order."""
+    problem = refused(edited(tmp_path, GEOM, "noformat.geom", "polynomial_format:  B\n", ""))
+    assert problem.message.startswith(
+        "missing key polynomial_format: expected B (RPC00B term order); OSSIM requires it"
+    )

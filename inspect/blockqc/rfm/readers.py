@@ -248,17 +248,29 @@ def read_rpc_geom(path: Path, text: str | None = None) -> RPCModel:
     path = Path(path)
     text = _read_text(path) if text is None else text
     kv = _key_values(path, text)
-    if "polynomial_format" in kv and kv["polynomial_format"][0].strip().upper() != "B":
-        value, line = kv["polynomial_format"]
-        raise _error(
-            path, f"polynomial_format: only B (RPC00B term order) is supported, got {value!r}", line
-        )
     values: dict[str, object] = {
         name: _kv_number(path, kv, key) for key, name in _GEOM_NAMES.items()
     }
     values.update(_kv_coeffs(path, kv, _geom_coeff_key, range(20), _GEOM_COEFF))
+    _rpc00b_order(path, kv)
     _no_geom_adjustment(path, kv)
     return _build(path, values)
+
+
+def _rpc00b_order(path: Path, kv: Mapping[str, tuple[str, int]]) -> None:
+    """The term order of a `.geom` must be stated and be B: OSSIM requires `polynomial_format`
+    and reads the same 20 numbers in another order for A (RPC00A)."""
+    if "polynomial_format" not in kv:
+        raise _error(
+            path,
+            "missing key polynomial_format: expected B (RPC00B term order); OSSIM requires it, "
+            "and without it the order of the 20 coefficients (RPC00A or B) is unknown",
+        )
+    value, line = kv["polynomial_format"]
+    if value.strip().upper() != "B":
+        raise _error(
+            path, f"polynomial_format: only B (RPC00B term order) is supported, got {value!r}", line
+        )
 
 
 _GEOM_ADJUSTMENT = re.compile(r"(adjustment_\d+\.adj_param_\d+)\.parameter")
