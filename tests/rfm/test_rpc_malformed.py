@@ -399,3 +399,13 @@ def test_a_geom_that_does_not_state_its_term_order_is_refused(tmp_path: Path):
     assert problem.message.startswith(
         "missing key polynomial_format: expected B (RPC00B term order); OSSIM requires it"
     )
+
+
+def test_an_rpb_cut_before_its_coefficients_is_read_and_its_missing_key_named(tmp_path: Path):
+    """Its first 16 lines (header and offsets, up to heightScale) were 'not a known RPC format':
+    an .RPB was recognised by its lineNumCoef alone."""
+    lines = (FORMATS / "sample.RPB").read_text().splitlines(keepends=True)
+    assert lines[16].strip().startswith("lineNumCoef")
+    cut = tmp_path / "cut.RPB"
+    cut.write_text("".join(lines[:16]))
+    assert refused(cut).message == "missing key lineNumCoef"

@@ -675,6 +675,8 @@ def sniff_format(path: Path) -> str:
         return "geom"
     if re.search(r"^\s*LINE_OFF\s*:", text, re.M | re.I):
         return "txt"
+    if re.search(r"^\s*(BEGIN_GROUP\s*=\s*IMAGE|(satId|SpecId|lineOffset)\s*=)", text, re.M):
+        return "rpb"
     return "unknown"
 
 
