@@ -409,3 +409,23 @@ def test_an_rpb_cut_before_its_coefficients_is_read_and_its_missing_key_named(tm
     cut = tmp_path / "cut.RPB"
     cut.write_text("".join(lines[:16]))
     assert refused(cut).message == "missing key lineNumCoef"
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "line", "expected"),
+    [
+        ("lineOffset =   531.0;", "lineOffset =   531.0", 7, "'lineOffset = value;'"),
+        ("\t\t 1.342808018e-02);", "\t\t 1.342808018e-02)", 17, "'lineNumCoef = ( v, …, v );'"),
+    ],
+)
+def test_an_rpb_value_without_its_semicolon_is_named_not_called_missing(
+    tmp_path: Path, old, new, line, expected
+):
+    """The key is there but its value has no ';': it was 'missing key lineOffset'."""
+    problem = refused(edited(tmp_path, FORMATS / "sample.RPB", "nosemi.RPB", old, new))
+    assert problem.line == line
+    key = expected[1:].split(" ")[0]
+    assert problem.message == (
+        f"{key}: expected {expected}, found no ';' ending it (a ';' left out, or the file cut "
+        "short?)"
+    )

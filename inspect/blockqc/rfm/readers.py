@@ -337,11 +337,11 @@ def read_rpc_rpb(path: Path, text: str | None = None) -> RPCModel:
     values: dict[str, object] = {}
     for key, name in _RPB_NAMES.items():
         if key not in items:
-            raise _error(path, f"missing key {key}")
+            raise _rpb_missing(path, text, key)
         values[name] = _number(path, key, items[key][0], items[key][1])
     for key, name in _RPB_COEFF.items():
         if key not in items:
-            raise _error(path, f"missing key {key}")
+            raise _rpb_missing(path, text, key)
         raw, line = items[key]
         parts = [p for p in raw.strip().strip("()").replace("\n", " ").split(",") if p.strip()]
         if len(parts) != 20:
@@ -352,6 +352,22 @@ def read_rpc_rpb(path: Path, text: str | None = None) -> RPCModel:
         if key in items:
             extra[name] = _number(path, key, items[key][0], items[key][1])
     return _build(path, values, **extra)
+
+
+def _rpb_missing(path: Path, text: str, key: str) -> InputError:
+    """A key the .RPB does not give: missing, or written without the ';' that ends its value
+    (the value of a list, `( … )`, may run over several lines)."""
+    found = re.search(rf"^\s*{key}\s*=", text, re.M)
+    if found is None:
+        return _error(path, f"missing key {key}")
+    line = text.count("\n", 0, found.start()) + 1
+    form = "( v, …, v );" if key in _RPB_COEFF else "value;"
+    return _error(
+        path,
+        f"{key}: expected '{key} = {form}', found no ';' ending it (a ';' left out, or the file "
+        "cut short?)",
+        line,
+    )
 
 
 # -- XML: DIMAP v2 and DigitalGlobe -----------------------------------------------------------
