@@ -40,13 +40,14 @@ class Grid:
 
     def sample(self, x: ArrayLike, y: ArrayLike) -> FloatArray:
         """Bilinear value at (x, y) in the grid's CRS; NaN outside the outermost pixel centres
-        (a half-pixel border is sampled from the edge pixels). A grid that wraps takes every
-        longitude round the globe, between its first and last column."""
+        (a half-pixel border is sampled from the edge pixels). A lon/lat grid takes longitudes
+        of either convention (−180…180, 0…360); one that wraps takes every longitude round the
+        globe, between its first and last column."""
         x = np.asarray(x, np.float64)
         y = np.asarray(y, np.float64)
         t = self.transform  # north-up (checked at load): pixel-centre indices
-        if self.wraps:
-            first = t.c + t.a / 2
+        if self.crs.is_geographic:
+            first = t.c + t.a / 2 if self.wraps else t.c
             x = first + np.mod(x - first, 360.0)
         col = (x - t.c) / t.a - 0.5
         row = (y - t.f) / t.e - 0.5
@@ -215,8 +216,9 @@ def _read_grid(path: Path, bounds: tuple[float, float, float, float] | None, wha
             if not crs.is_geographic:
                 tr = Transformer.from_crs(CRS.from_epsg(4326), crs, always_xy=True)
                 west, south, east, north = tr.transform_bounds(west, south, east, north)
-            if crs.is_geographic and t.c + ds.width * t.a > 180.0 and west < t.c:
-                west, east = west + 360.0, east + 360.0  # a 0..360° grid
+            if crs.is_geographic:  # the RPCs' and the grid's longitudes: −180…180 or 0…360
+                shift = _lon_shift(west, east, t.c, t.c + ds.width * t.a)
+                west, east = west + shift, east + shift
             w = from_bounds(west, south, east, north, transform=t)
             col0 = max(int(np.floor(w.col_off)) - 2, 0)
             row0 = max(int(np.floor(w.row_off)) - 2, 0)
@@ -241,6 +243,15 @@ def _read_grid(path: Path, bounds: tuple[float, float, float, float] | None, wha
         if wraps and closing:
             values = np.concatenate([values, values[:, :1]], axis=1)
         return Grid(values, transform, crs, str(path), wraps=wraps)
+
+
+def _lon_shift(west: float, east: float, grid_west: float, grid_east: float) -> float:
+    """The turn (−360, 0 or 360°) that brings longitudes west…east onto a lon/lat grid spanning
+    grid_west…grid_east: the one of most overlap, 0 on a tie."""
+    return max(
+        (0.0, -360.0, 360.0),
+        key=lambda turn: min(east + turn, grid_east) - max(west + turn, grid_west),
+    )
 
 
 def _round_the_globe(crs: CRS, t: Affine, width: int) -> int | None:

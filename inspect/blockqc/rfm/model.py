@@ -199,11 +199,16 @@ class RPCModel:
     def normalize_ground(
         self, lon: ArrayLike, lat: ArrayLike, h: ArrayLike
     ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Normalized (L, P, H); a longitude in the other convention than LONG_OFF's (−180…180
+        or 0…360: −4.8° for LONG_OFF 355.3°) is taken the same way round the globe."""
         lon, lat, h = np.broadcast_arrays(
             np.asarray(lon, np.float64), np.asarray(lat, np.float64), np.asarray(h, np.float64)
         )
+        d_lon = lon - self.lon_off
+        with np.errstate(invalid="ignore"):
+            d_lon = np.where(np.abs(d_lon) > 180.0, np.mod(d_lon + 180.0, 360.0) - 180.0, d_lon)
         return (
-            (lon - self.lon_off) / self.lon_scale,
+            d_lon / self.lon_scale,
             (lat - self.lat_off) / self.lat_scale,
             (h - self.height_off) / self.height_scale,
         )
