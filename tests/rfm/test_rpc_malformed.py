@@ -429,3 +429,10 @@ def test_an_rpb_value_without_its_semicolon_is_named_not_called_missing(
         f"{key}: expected {expected}, found no ';' ending it (a ';' left out, or the file cut "
         "short?)"
     )
+
+
+def test_a_digitalglobe_imd_is_not_taken_for_a_cut_rpb(tmp_path: Path):
+    """An .IMD (image metadata, no RPCs) shares BEGIN_GROUP and satId with an .RPB."""
+    imd = tmp_path / "scene.IMD"
+    imd.write_text('BEGIN_GROUP = IMAGE_1\n\tsatId = "WV02";\nEND_GROUP = IMAGE_1\nEND;\n')
+    assert refused(imd).message.startswith("not a known RPC format")

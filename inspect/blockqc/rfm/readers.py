@@ -691,7 +691,7 @@ def sniff_format(path: Path) -> str:
         return "geom"
     if re.search(r"^\s*LINE_OFF\s*:", text, re.M | re.I):
         return "txt"
-    if re.search(r"^\s*(BEGIN_GROUP\s*=\s*IMAGE|(satId|SpecId|lineOffset)\s*=)", text, re.M):
+    if re.search(r"^\s*(lineOffset\s*=|SpecId\s*=\s*\"?RPC00B)", text, re.M):
         return "rpb"
     return "unknown"
 
