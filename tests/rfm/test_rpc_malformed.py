@@ -436,3 +436,76 @@ def test_a_digitalglobe_imd_is_not_taken_for_a_cut_rpb(tmp_path: Path):
     imd = tmp_path / "scene.IMD"
     imd.write_text('BEGIN_GROUP = IMAGE_1\n\tsatId = "WV02";\nEND_GROUP = IMAGE_1\nEND;\n')
     assert refused(imd).message.startswith("not a known RPC format")
+
+
+# -- RPCs GDAL reads for a raster: its sidecars and NITF TRE, read with blockqc's rules ---------
+NOT_GEOREFERENCED = "ignore::rasterio.errors.NotGeoreferencedWarning"
+
+
+def raster_with_sidecar(tmp_path: Path, name: str, text: str) -> Path:
+    """A 4 × 4 GeoTIFF `scene.tif` with `text` beside it as `name` (scene.RPB, scene_rpc.txt)."""
+    import rasterio
+
+    image = tmp_path / "scene.tif"
+    profile = {"driver": "GTiff", "width": 4, "height": 4, "count": 1, "dtype": "uint8"}
+    with rasterio.open(image, "w", **profile) as ds:
+        ds.write(np.zeros((1, 4, 4), np.uint8))
+    (tmp_path / name).write_text(text)
+    return image
+
+
+@pytest.mark.parametrize(
+    ("name", "source", "old", "new", "line", "message"),
+    [
+        ("scene_rpc.txt", "rpc_IKONOS.txt", "HEIGHT_OFF: +0028.000 meters",
+         "HEIGHT_OFF: +0.028 kilometers", 5,
+         "HEIGHT_OFF: expected one number, optionally followed by its unit ('meters'), got "
+         "'+0.028 kilometers'"),
+        ("scene_rpc.txt", "rpc_IKONOS.txt", "LINE_SCALE: +005124.00 pixels",
+         "LINE_SCALE: +005124.00 pixels\nLINE_OFF: +009999.00 pixels", 7,
+         "LINE_OFF given twice, on lines 1 and 7: expected once"),
+        ("scene.RPB", "sample.RPB", "lineOffset =   531.0;", "lineOffset =   53X1.0;", 7,
+         "lineOffset: expected a number, got '53X1.0'"),
+    ],
+)  # fmt: skip
+@pytest.mark.filterwarnings(NOT_GEOREFERENCED)
+def test_a_malformed_sidecar_gdal_reads_is_refused_naming_it(
+    tmp_path: Path, name, source, old, new, line, message
+):
+    """Given the image without --rpc, GDAL read the sidecar: 0.028 km became 0.028 m, the
+    second LINE_OFF was taken, and '53X1.0' stopped the run with a ValueError of rasterio."""
+    text = (FORMATS / source).read_text()
+    assert old in text
+    image = raster_with_sidecar(tmp_path, name, text.replace(old, new, 1))
+    problem = refused_raster(image)
+    assert (problem.file, problem.line, problem.message) == (str(tmp_path / name), line, message)
+
+
+def refused_raster(image: Path):
+    with pytest.raises(InputError) as err:
+        read_rpc(image)
+    (problem,) = err.value.problems
+    return problem
+
+
+@pytest.mark.filterwarnings(NOT_GEOREFERENCED)
+def test_a_nitf_rpc_tre_field_that_is_no_number_is_refused(tmp_path: Path):
+    """GDAL reads the TRE's '+2.40X507E-3' as 2.40: LINE_NUM_COEFF 1 was 1000 times too large."""
+    data = (FORMATS / "wv3_20_16x16.ntf").read_bytes()
+    assert data.count(b"+2.401507E-3") == 1
+    bad = tmp_path / "bad.ntf"
+    bad.write_bytes(data.replace(b"+2.401507E-3", b"+2.40X507E-3"))
+    problem = refused_raster(bad)
+    assert problem.file == str(bad)
+    assert problem.message == (
+        "NITF RPC00B TRE field LINE_NUM_COEFF 1: expected a number, got '+2.40X507E-3'"
+    )
+
+
+@pytest.mark.filterwarnings(NOT_GEOREFERENCED)
+def test_rasters_whose_rpcs_gdal_reads_from_sidecars_are_read(tmp_path: Path):
+    for name, source in (("scene.RPB", "sample.RPB"), ("scene_rpc.txt", "rpc_IKONOS.txt")):
+        folder = tmp_path / name.replace(".", "_")
+        folder.mkdir()
+        image = raster_with_sidecar(folder, name, (FORMATS / source).read_text())
+        assert_identical(read_rpc(image), read_rpc(FORMATS / source))

@@ -606,7 +606,12 @@ def read_rpc_gdal(path: Path, missing: str = NO_RPCS) -> RPCModel:
     `missing` is the message when there are none."""
     path = Path(path)
     with open_raster(path) as ds:
-        rpcs = ds.rpcs
+        _check_sidecars(ds.files[1:])
+        _check_nitf_tre(path, ds)
+        try:
+            rpcs = ds.rpcs
+        except ValueError as exc:  # rasterio's float() of a value GDAL passed on
+            raise _error(path, f"GDAL's RPC metadata: {exc}") from None
     if rpcs is None:
         raise _error(path, missing)
     values = {
@@ -626,6 +631,50 @@ def read_rpc_gdal(path: Path, missing: str = NO_RPCS) -> RPCModel:
         "samp_den": rpcs.samp_den_coeff,
     }
     return _build(path, values, err_bias=rpcs.err_bias, err_rand=rpcs.err_rand)
+
+
+_SIDECAR = re.compile(r"(\.rpb|_rpc\.txt|\.xml)$", re.I)
+
+
+def _check_sidecars(files: list[str]) -> None:
+    """The RPC sidecars GDAL read for a raster (`.RPB`, `_rpc.txt`, DigitalGlobe or DIMAP
+    `.XML`), read again by blockqc's readers: GDAL takes '+0.028 kilometers' for 0.028 m and
+    a key given twice or a 21st coefficient without a word; they are refused here, naming the
+    sidecar, its line and key, as when the file is given as the RPC file."""
+    for name in files:
+        side = Path(name)
+        low = side.name.lower()
+        if low.endswith(".aux.xml") or not _SIDECAR.search(low):
+            continue
+        if low.endswith(".xml") and not re.search(r"<(RPB|Global_RFM)>", _read_text(side)):
+            continue  # an XML of the product without RPCs
+        read_rpc(side)
+
+
+def _check_nitf_tre(path: Path, ds: DatasetReader) -> None:
+    """Every field of a NITF RPC00A/B TRE must be a number: GDAL reads '+2.40X507E-3' as 2.40
+    and '01X495' as 1 without a word."""
+    if "xml:TRE" not in ds.tag_namespaces():
+        return
+    root = ElementTree.fromstring(ds.tags(ns="xml:TRE")["xml:TRE"])
+    for tre in root.iter("tre"):
+        if tre.get("name") not in ("RPC00A", "RPC00B"):
+            continue
+        for label, value in _tre_fields(tre):
+            _number(path, f"NITF {tre.get('name')} TRE field {label}", value)
+
+
+def _tre_fields(tre: ElementTree.Element) -> list[tuple[str, str]]:
+    """(name, value) of a TRE's fields, a repeated one numbered from 1 (LINE_NUM_COEFF 1…20)."""
+    out = []
+    for child in tre:
+        if child.tag == "field":
+            out.append((child.get("name", ""), child.get("value", "")))
+        for group in child.iter("group"):
+            index = int(group.get("index", "0")) + 1
+            for field in group.iter("field"):
+                out.append((f"{field.get('name', '')} {index}", field.get("value", "")))
+    return out
 
 
 # -- sniffing -------------------------------------------------------------------------------
