@@ -150,3 +150,47 @@ def test_dem_of_several_bands_is_refused(tmp_path: Path):
         ds.write(np.full((3, 2, 2), 100.0, np.float32))
     with pytest.raises(InputError, match="the DEM has 3 bands: expected one band of heights"):
         load_dem(tmp_path / "dem.tif", vertical="ellipsoid")
+
+
+def write_heights(path: Path, value: float, crs: str = "EPSG:4326", unit: str = "") -> Path:
+    """A 3 × 3 lon/lat DEM of one height around Ventoux, its band unit `unit`."""
+    with rasterio.Env(GTIFF_REPORT_COMPD_CS=True), rasterio.open(
+        path, "w", driver="GTiff", width=3, height=3, count=1, dtype="float32", crs=crs,
+        transform=from_origin(5.0, 44.5, 0.25, 0.25),
+    ) as ds:  # fmt: skip
+        ds.write(np.full((1, 3, 3), value, np.float32))
+        if unit:
+            ds.units = (unit,)
+    return path
+
+
+@pytest.mark.parametrize(
+    ("crs", "unit", "metres"),
+    [
+        ("EPSG:4326", "ft", 1000 * 0.3048),
+        ("EPSG:4326", "metre", 1000.0),
+        ("EPSG:4326+6360", "", 1000 * 1200 / 3937),  # NAVD88 height (ftUS)
+    ],
+)
+def test_heights_in_feet_are_converted_to_metres(tmp_path: Path, crs, unit, metres):
+    """A DEM saying its heights are in feet (band unit, or a vertical CRS in US survey feet)
+    was read as metres: 1000 ft became 1000 m, every height 3.28 times too large."""
+    dem = load_dem(write_heights(tmp_path / "dem.tif", 1000.0, crs, unit), geoid_offset=50.0)
+    assert dem.height(5.3, 44.2) == pytest.approx(metres + 50.0, abs=1e-4)
+    assert ("converted to metres" in dem.vertical) == (metres != 1000.0)
+
+
+@pytest.mark.parametrize(
+    ("crs", "unit", "message"),
+    [
+        ("EPSG:4326", "km", "the DEM's heights are in 'km' (its band unit): expected metres or "
+         "feet"),
+        ("EPSG:4326+5773", "ft", "the DEM gives its heights in 'ft' (its band unit), 'metre' "
+         "(its CRS 'WGS 84 + EGM96 height'): expected one unit"),
+    ],
+)  # fmt: skip
+def test_heights_in_another_unit_or_two_units_are_refused(tmp_path: Path, crs, unit, message):
+    path = write_heights(tmp_path / "dem.tif", 1000.0, crs, unit)
+    with pytest.raises(InputError) as exc:
+        load_dem(path, geoid_offset=50.0)
+    assert str(exc.value) == f"{path}: {message}"

@@ -37,6 +37,8 @@ class Grid:
     source: str = ""
     wraps: bool = False
     """A lon/lat grid round the globe, its first column repeated as its last (CLOSED)."""
+    unit: str = ""
+    """The unit the file's values were converted from to metres (e.g. 'US survey foot'), or ''."""
 
     def sample(self, x: ArrayLike, y: ArrayLike) -> FloatArray:
         """Bilinear value at (x, y) in the grid's CRS; NaN outside the outermost pixel centres
@@ -237,12 +239,73 @@ def _read_grid(path: Path, bounds: tuple[float, float, float, float] | None, wha
             window = Window(col0, row0, col1 - col0, row1 - row0)
         with reading_pixels(path, what):
             values = ds.read(1, window=window, masked=True).astype(np.float64).filled(np.nan)
+        metres, unit = height_unit(path, what)
+        values *= metres
         transform = ds.window_transform(window)
         check_heights(path, values, transform, what, (int(window.row_off), int(window.col_off)))
         wraps = closing is not None and window.width == ds.width
         if wraps and closing:
             values = np.concatenate([values, values[:, :1]], axis=1)
-        return Grid(values, transform, crs, str(path), wraps=wraps)
+        return Grid(values, transform, crs, str(path), wraps=wraps, unit=unit)
+
+
+_US_FOOT = 1200.0 / 3937.0
+#: metres per unit of the unit words a band or a vertical CRS may give its heights in
+METRES_PER = {
+    "m": 1.0, "metre": 1.0, "meter": 1.0, "metres": 1.0, "meters": 1.0,
+    "ft": 0.3048, "foot": 0.3048, "feet": 0.3048, "international foot": 0.3048,
+    "us survey foot": _US_FOOT, "ftus": _US_FOOT, "us-ft": _US_FOOT, "foot_us": _US_FOOT,
+}  # fmt: skip
+
+
+def height_unit(path: Path, what: str = "DEM") -> tuple[float, str]:
+    """Metres per unit of a raster's values, from its band unit and its vertical CRS (a compound
+    or 3-D CRS), and the unit's name ('' for metres or none said); a unit other than metres or
+    feet, or a band and a CRS that disagree, is refused: heights in feet read as metres are
+    3.28 times too large."""
+    import rasterio
+
+    with rasterio.Env(GTIFF_REPORT_COMPD_CS=True), rasterio.open(path) as ds:
+        said = [("its band unit", (ds.units[0] or "").strip(), None)]
+        if ds.crs is not None:
+            said.append(_vertical_unit(CRS.from_wkt(ds.crs.to_wkt())))
+    found = {}
+    for where, name, factor in said:
+        if not name:
+            continue
+        factor = factor if factor is not None else METRES_PER.get(name.lower())
+        if factor is None:
+            raise InputError(
+                Problem(
+                    file=str(path),
+                    message=f"the {what}'s heights are in {name!r} ({where}): expected metres "
+                    "or feet",
+                )
+            )
+        found[where] = (name, factor)
+    factors = {round(f, 9) for _, f in found.values()}
+    if len(factors) > 1:
+        shown = ", ".join(f"{n!r} ({w})" for w, (n, _) in found.items())
+        raise InputError(
+            Problem(
+                file=str(path),
+                message=f"the {what} gives its heights in {shown}: expected one unit",
+            )
+        )
+    name, factor = next(iter(found.values()), ("", 1.0))
+    return factor, "" if factor == 1.0 else name
+
+
+def _vertical_unit(crs: CRS) -> tuple[str, str, float | None]:
+    """(where, unit name, metres per unit) of a CRS's vertical axis ('' when it has none)."""
+    if crs.is_compound:
+        axes = crs.sub_crs_list[-1].axis_info
+    elif len(crs.axis_info) == 3:
+        axes = crs.axis_info[2:]
+    else:
+        return "its CRS", "", None
+    axis = axes[0]
+    return f"its CRS '{crs.name}'", axis.unit_name, axis.unit_conversion_factor
 
 
 def _lon_shift(west: float, east: float, grid_west: float, grid_east: float) -> float:
@@ -450,9 +513,10 @@ def load_dem(
     g = _resolve_geoid(
         path, grid, declared, how, geoid, geoid_offset, vertical, plane_per_m, offset_option
     )
+    unit = f", in {grid.unit} converted to metres" if grid.unit else ""
     if g is None:
         said = f"declared by {how}" if declared == geoid_mod.ELLIPSOID else "as stated by the user"
-        return DEM(grid, f"ellipsoidal (WGS-84) heights from {path.name} ({said})")
+        return DEM(grid, f"ellipsoidal (WGS-84) heights from {path.name} ({said}{unit})")
     lon, lat = _node_lonlat(grid)
     n = g.undulation(lon, lat)
     if np.any(np.isnan(n) & np.isfinite(grid.values)):
@@ -462,7 +526,7 @@ def load_dem(
     source = f"declared by {how}" if declared not in (None, geoid_mod.ELLIPSOID) else "stated"
     return DEM(
         replace(grid, values=grid.values + n, source=str(path)),
-        f"geoid heights from {path.name} ({declared or 'geoid'}, {source}) + undulation N "
+        f"geoid heights from {path.name} ({declared or 'geoid'}, {source}{unit}) + undulation N "
         f"from {g.description} (N {np.nanmin(n):.2f}..{np.nanmax(n):.2f} m) = ellipsoidal (WGS-84)",
     )
 
