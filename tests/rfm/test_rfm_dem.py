@@ -194,3 +194,26 @@ def test_heights_in_another_unit_or_two_units_are_refused(tmp_path: Path, crs, u
     with pytest.raises(InputError) as exc:
         load_dem(path, geoid_offset=50.0)
     assert str(exc.value) == f"{path}: {message}"
+
+
+@pytest.mark.parametrize(("stored", "scale", "offset"), [(5000, 0.1, 0.0), (500, 1.0, 100.0)])
+def test_a_band_stored_scaled_is_read_in_metres(tmp_path: Path, stored, scale, offset):
+    """The band's scale and offset were not applied: heights stored in decimetres (5000 with
+    scale 0.1) were read as 5000 m, and blockqc's own EGM96 grid (int16 cm) given as --geoid
+    FILE gave N = 5080 m at Ventoux."""
+    path = tmp_path / "dem.tif"
+    with rasterio.open(
+        path, "w", driver="GTiff", width=3, height=3, count=1, dtype="int16", crs="EPSG:4326",
+        transform=from_origin(5.0, 44.5, 0.25, 0.25),
+    ) as ds:  # fmt: skip
+        ds.write(np.full((1, 3, 3), stored, np.int16))
+        ds.scales, ds.offsets = (scale,), (offset,)
+    dem = load_dem(path, geoid_offset=50.0)
+    assert dem.height(5.3, 44.2) == pytest.approx(stored * scale + offset + 50.0)
+
+
+def test_the_shipped_egm96_grid_given_as_a_file_agrees_with_egm96():
+    from blockqc.rfm.geoid import EGM96_GRID, egm96, geoid_from_file
+
+    grid = geoid_from_file(EGM96_GRID, (5.0, 44.0, 6.0, 45.0))
+    assert grid.undulation(5.19, 44.2) == pytest.approx(egm96().undulation(5.19, 44.2))

@@ -239,6 +239,7 @@ def _read_grid(path: Path, bounds: tuple[float, float, float, float] | None, wha
             window = Window(col0, row0, col1 - col0, row1 - row0)
         with reading_pixels(path, what):
             values = ds.read(1, window=window, masked=True).astype(np.float64).filled(np.nan)
+        values = values * ds.scales[0] + ds.offsets[0]  # a band stored scaled (dm, cm)
         metres, unit = height_unit(path, what)
         values *= metres
         transform = ds.window_transform(window)
