@@ -67,18 +67,19 @@ def test_shipped_grid_interpolates_between_its_last_two_nodes_before_180_degrees
 
 def test_a_geoid_file_round_the_globe_is_closed_across_180_degrees(tmp_path: Path):
     """A 2° grid with nodes from 180° W to 178° E (as egm96_15.gtx has 180° W to 179.75° E):
-    N = the node's column number, so across the seam N goes from 179 to 0 and back to 1."""
+    N = half the node's column number (an undulation within ±150 m), so across the seam N
+    goes from 89.5 to 0 and back to 0.5."""
     path = tmp_path / "global.tif"
-    values = np.tile(np.arange(180.0), (91, 1))
+    values = np.tile(np.arange(180.0) / 2, (91, 1))
     write_dem(path, values, "EPSG:4326", west=-181.0, north=91.0, step=2.0)
     lon = np.array([176.0, 178.0, 179.0, 179.9, 180.0, -180.0, -179.0, -178.0])
-    expected = np.array([178.0, 179.0, 89.5, 0.05 * 179, 0.0, 0.0, 0.5, 1.0])
+    expected = np.array([178.0, 179.0, 89.5, 0.05 * 179, 0.0, 0.0, 0.5, 1.0]) / 2
     for bounds in ((176.0, -1.0, 180.0, 1.0), (-180.0, -1.0, -178.0, 1.0)):
         geoid = geoid_from_file(path, bounds)
         np.testing.assert_allclose(geoid.undulation(lon, np.zeros(lon.shape)), expected)
     inner = geoid_from_file(path, (10.0, -1.0, 12.0, 1.0))  # away from the seam: a window
     assert inner.grid.values.shape[1] < 10
-    np.testing.assert_allclose(inner.undulation([11.0], [0.0]), [95.5])
+    np.testing.assert_allclose(inner.undulation([11.0], [0.0]), [95.5 / 2])
 
 
 def test_shipped_grid_agrees_with_the_15_minute_grid_at_ventoux():
@@ -206,3 +207,15 @@ def test_a_geoid_file_of_another_model_than_the_dem_declares_is_refused(tmp_path
     dem = load_dem(tmp_path / "dem.tif", geoid=egm2008)
     n = float(geoid_from_file(GEOID_15, (4.5, 43.5, 6.0, 45.0)).undulation(5.2, 44.2)[()])
     assert dem.height(5.2, 44.2) == pytest.approx(500.0 + n)
+
+
+def test_a_dem_given_as_the_geoid_grid_is_refused():
+    """The SRTM crop given as --geoid FILE was taken as undulations of 270…1120 m: every
+    height off by as much, and the run ended with 'the reference does not overlap the image'."""
+    srtm = VENTOUX / "srtm_N44E005_crop.tif"
+    with pytest.raises(InputError) as exc:
+        load_dem(srtm, geoid=srtm)
+    message = str(exc.value)
+    assert message.startswith(f"{srtm}: the geoid grid holds ")
+    assert "beyond any geoid undulation (expected within ±150 m" in message
+    assert message.endswith("a DEM or a grid in other units given as --geoid?")

@@ -82,9 +82,33 @@ def geoid_from_file(path: Path, bounds: tuple[float, float, float, float]) -> Ge
     grid = _read_grid(path, bounds, "geoid grid")
     if not grid.crs.is_geographic:
         raise InputError(Problem(file=str(path), message="the geoid grid must be in lon/lat"))
+    _check_undulations(path, grid)
     name = path.name.lower()
     model = "EGM96" if "egm96" in name else "EGM2008" if "egm08" in name or "2008" in name else None
     return Geoid(f"geoid grid {path.name}", grid=grid, model=model)
+
+
+MAX_UNDULATION_M = 150.0
+"""Beyond any geoid undulation on Earth (−107…+86 m), as for --geoid-offset."""
+
+
+def _check_undulations(path: Path, grid: object) -> None:
+    """Refuse a 'geoid grid' holding values no geoid has (a DEM given as --geoid FILE: its
+    heights would be added to the DEM's as undulations)."""
+    values = grid.values  # type: ignore[attr-defined]
+    with np.errstate(invalid="ignore"):
+        beyond = np.abs(values) > MAX_UNDULATION_M
+    if beyond.any():
+        row, col = np.argwhere(beyond)[0]
+        raise InputError(
+            Problem(
+                file=str(path),
+                message=f"the geoid grid holds {int(beyond.sum())} value(s) beyond any geoid "
+                f"undulation (expected within ±{MAX_UNDULATION_M:g} m; Earth's span −107…+86 m), "
+                f"the first {values[row, col]:g} m: a DEM or a grid in other units given as "
+                "--geoid?",
+            )
+        )
 
 
 def vertical_model(crs: CRS) -> str | None:
