@@ -114,3 +114,31 @@ def test_scattered_voids_are_named_as_the_cause_of_no_cp():
     # the same image without holes: the texture is blamed
     reason = no_cp_reason(np.nan_to_num(image), np.ones(image.shape, bool), dem, 0)
     assert "no texture" in reason and "0% of the 50 px matching windows" in reason
+
+
+def test_a_dem_that_misses_most_of_the_image_is_named_as_the_cause_of_no_cp(tmp_path: Path):
+    """The SRTM crop cut at lon 5.1945° leaves 89 % of the image without a height: the run
+    said 'DEM voids: most of the image has no height (fill voids with --dem-fill-voids?)' of a
+    DEM without a void (and 'DEM voids 0 %' in the same line)."""
+    from click.testing import CliRunner
+
+    from blockqc.rfm.command import command
+
+    with rasterio.open(SRTM) as ds:
+        cols = int((5.1945 - ds.transform.c) / ds.transform.a)
+        values = ds.read(1)[:, :cols].astype(np.float32)
+        west, north, step = ds.transform.c, ds.transform.f, ds.transform.a
+    dem = write_tif(tmp_path / "dem_west.tif", values, west, north, step)
+    args = [
+        str(VENTOUX / "left_image.tif"), "--rpc", str(VENTOUX / "left_image.geom"),
+        "--dem", str(dem), "--geoid", "egm96",
+        "--reference", str(VENTOUX / "right_image.tif"),
+        "--reference-rpc", str(VENTOUX / "right_image.geom"),
+        "--out", str(tmp_path / "out"),
+    ]  # fmt: skip
+    result = CliRunner().invoke(command, args)
+    assert isinstance(result.exception, InputError)  # exit 2
+    message = str(result.exception)
+    assert "no control point found: the DEM does not reach most of the image (" in message
+    assert "of it is outside dem_west.tif): give a DEM that covers the image" in message
+    assert "--dem-fill-voids" not in message

@@ -506,8 +506,15 @@ def voided_windows(image: np.ndarray, window: int = MATCH_WINDOW) -> float:
     return float((inside & (count < window * window)).sum() / max(inside.sum(), 1))
 
 
-def no_cp_reason(image: np.ndarray, overlap: np.ndarray, dem: DEM, n_matches: int) -> str:
-    """Why matching gave no CP: the likely cause first, then the figures behind it."""
+def no_cp_reason(
+    image: np.ndarray,
+    overlap: np.ndarray,
+    dem: DEM,
+    n_matches: int,
+    no_height: tuple[float, float] = (0.0, 0.0),
+) -> str:
+    """Why matching gave no CP: the likely cause first, then the figures behind it.
+    `no_height`: the shares of the image outside the DEM and on its voids."""
     valid = float(np.isfinite(image).mean())
     both = float(overlap.sum() / max(np.isfinite(image).sum(), 1))
     voids = float(np.isnan(dem.grid.values).mean())
@@ -520,10 +527,17 @@ def no_cp_reason(image: np.ndarray, overlap: np.ndarray, dem: DEM, n_matches: in
         f"{MATCH_WINDOW} px matching windows over the image touch an empty pixel; "
         f"{n_matches} matches found; grey-level spread (2–98 %) over the overlap {spread:.4g}"
     )
+    if no_height[0] > 0:
+        figures = f"image outside the DEM {no_height[0]:.0%}; " + figures
     if n_matches:
         why = "every match fell on a DEM void (no height under it)"
     elif both < 0.05:
         why = "the reference does not overlap the image (wrong reference, CRS or crop offset?)"
+    elif no_height[0] > 0.5 and no_height[0] > no_height[1]:
+        why = (
+            f"the DEM does not reach most of the image ({no_height[0]:.0%} of it is outside "
+            f"{Path(dem.grid.source).name}): give a DEM that covers the image"
+        )
     elif voids > 0.2 or valid < 0.2:
         why = "DEM voids: most of the image has no height (fill voids with --dem-fill-voids?)"
     elif touched > VOIDED_WINDOWS:
@@ -637,7 +651,7 @@ def _correct_and_match(run: _Run, matcher: Matcher | None) -> None:
     matches, run.cell, run.cell_how = match_cps(cfg, image, reference, overlap, matcher)
     run.cps = build_cp_table(matches, run.grid, ref_grid, run.rpc, run.dem, run.image_gsd)
     if run.cps.empty:
-        reason = no_cp_reason(image, overlap, run.dem, len(matches))
+        reason = no_cp_reason(image, overlap, run.dem, len(matches), run.no_height)
         raise InputError(Problem(file=str(cfg.image), message=reason))
     write_text_atomic(out / "cps.csv", run.cps.to_csv(index=False, float_format="%.6f"))
 
