@@ -142,3 +142,20 @@ def test_a_dem_that_misses_most_of_the_image_is_named_as_the_cause_of_no_cp(tmp_
     assert "no control point found: the DEM does not reach most of the image (" in message
     assert "of it is outside dem_west.tif): give a DEM that covers the image" in message
     assert "--dem-fill-voids" not in message
+
+
+def test_a_dem_of_voids_only_is_not_said_to_miss_the_image(tmp_path: Path):
+    """A DEM of no-data only over the image was 'the DEM does not cover the image footprint'
+    though it does: it has no height there."""
+    from blockqc.rfm.ortho import ortho_grid
+
+    with rasterio.open(SRTM) as ds:
+        shape, t = (ds.height, ds.width), ds.transform
+    dem_file = write_tif(tmp_path / "voids.tif", np.full(shape, -9999.0), t.c, t.f, t.a)
+    dem = load_dem(dem_file, geoid_offset=50.8)
+    with pytest.raises(InputError) as exc:
+        ortho_grid(LEFT, SHAPE, dem, crop_offset=CROP)
+    assert str(exc.value).startswith(
+        f"{dem_file}: the DEM holds no height over the image footprint, only voids (no-data) "
+        "(lon 5.19"
+    )

@@ -209,10 +209,15 @@ def ortho_grid(
         lon_f, lat_f, _ = model.image_to_ground(
             br + r0, bc + c0, float(finite.mean()) if finite.size else 0.0
         )
+        why = (
+            "does not cover the image footprint"
+            if finite.size
+            else "holds no height over the image footprint, only voids (no-data)"
+        )
         raise InputError(
             Problem(
                 file=dem.grid.source,
-                message="the DEM does not cover the image footprint "
+                message=f"the DEM {why} "
                 f"(lon {np.nanmin(lon_f):.4f}..{np.nanmax(lon_f):.4f}, "
                 f"lat {np.nanmin(lat_f):.4f}..{np.nanmax(lat_f):.4f})",
             )
