@@ -509,3 +509,32 @@ def test_rasters_whose_rpcs_gdal_reads_from_sidecars_are_read(tmp_path: Path):
         folder.mkdir()
         image = raster_with_sidecar(folder, name, (FORMATS / source).read_text())
         assert_identical(read_rpc(image), read_rpc(FORMATS / source))
+
+
+@pytest.mark.filterwarnings(NOT_GEOREFERENCED)
+@pytest.mark.parametrize(
+    ("field", "index", "message"),
+    [
+        ("line_num_coeff", 2, "LINE_NUM holds nan (coefficient 3 of 20): expected 20 finite "
+         "numbers"),
+        ("lat_off", None, "LAT_OFF: expected a finite number of degrees, got nan"),
+    ],
+)  # fmt: skip
+def test_a_nan_in_geotiff_rpc_tags_is_named(tmp_path: Path, field, index, message):
+    """NaN in a GeoTIFF's RPC tags: 'line_num must hold 20 finite numbers, got shape (20,)',
+    and for LAT_OFF 'expected degrees in [-90, 90], got nan (latitude and longitude
+    swapped?)'."""
+    import rasterio
+    from rasterio.rpc import RPC
+
+    with rasterio.open(FORMATS / "wv3_20_16x16.ntf") as ds:
+        values = ds.rpcs.to_dict()
+    if index is None:
+        values[field] = float("nan")
+    else:
+        values[field] = [float("nan") if i == index else v for i, v in enumerate(values[field])]
+    image = tmp_path / "nan.tif"
+    profile = {"driver": "GTiff", "width": 4, "height": 4, "count": 1, "dtype": "uint8"}
+    with rasterio.open(image, "w", rpcs=RPC(**values), **profile) as ds:
+        ds.write(np.zeros((1, 4, 4), np.uint8))
+    assert refused_raster(image).message == message

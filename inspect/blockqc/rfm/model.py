@@ -152,11 +152,20 @@ class RPCModel:
     def __post_init__(self) -> None:
         for name in ("line_num", "line_den", "samp_num", "samp_den"):
             arr = np.asarray(getattr(self, name), dtype=np.float64)
-            if arr.shape != (20,) or not np.all(np.isfinite(arr)):
+            if arr.shape != (20,):
                 raise InputError(
                     Problem(
                         file=self.source or "<rpc>",
                         message=f"{name} must hold 20 finite numbers, got shape {arr.shape}",
+                    )
+                )
+            if not np.all(np.isfinite(arr)):
+                i = int(np.flatnonzero(~np.isfinite(arr))[0])
+                raise InputError(
+                    Problem(
+                        file=self.source or "<rpc>",
+                        message=f"{name.upper()} holds {arr[i]} (coefficient {i + 1} of 20): "
+                        "expected 20 finite numbers",
                     )
                 )
             if np.abs(arr).max() > MAX_COEFFICIENT:

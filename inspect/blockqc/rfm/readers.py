@@ -127,6 +127,9 @@ def _build(path: Path | str, values: Mapping[str, object], **extra: object) -> R
 def _check_ground_offsets(path: Path | str, values: Mapping[str, object]) -> None:
     """LAT_OFF in [-90, 90] and LONG_OFF in [-180, 360] degrees (longitudes -180…180 or 0…360)."""
     lat, lon = float(values["lat_off"]), float(values["lon_off"])  # type: ignore[arg-type]
+    for key, value in (("LAT_OFF", lat), ("LONG_OFF", lon)):
+        if not np.isfinite(value):
+            raise _error(path, f"{key}: expected a finite number of degrees, got {value!r}")
     if not -90.0 <= lat <= 90.0:
         raise _error(
             path,
