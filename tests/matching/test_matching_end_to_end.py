@@ -126,3 +126,16 @@ def test_bad_arguments_raise_input_error(kwargs, fragment):
         match_images(args.pop("image"), args.pop("reference"), **args)
     assert fragment in str(info.value)
     assert info.value.problems[0].file == "<arguments>"
+
+
+def test_a_cell_the_reference_covers_in_part_keeps_its_cp(forest):
+    """The reference has data only on a 100 px square inside one 256 px cell: the cell's
+    corners are taken where the reference can hold their match, so the square gives the cell
+    its CP (the 24 strongest corners of the whole cell, all off the square, gave none)."""
+    shift = (0.4, -0.3)
+    reference_valid = np.zeros(forest.shape, dtype=bool)
+    reference_valid[78:178, 78:178] = True
+    cps = match_images(warped(forest, shift), forest, reference_valid=reference_valid, grid=256)
+    assert len(cps) == 1
+    assert cps["ref_row"].between(78, 177).all() and cps["ref_col"].between(78, 177).all()
+    assert rms_error(cps, shift) < 0.2

@@ -138,6 +138,9 @@ def _match_chunk(
     if found is None or not usable.any():
         return _empty(CANDIDATE_COLUMNS)
     ref, ref_usable, search_usable, r0 = found
+    # corners only where the reference can hold their match, so that a cell the reference covers
+    # in part does not spend its corners_per_cell on the part it does not cover
+    usable &= _reachable(usable.shape, ref_usable, search_usable, i0 + off - r0, s.search_radius)
     harris = _harris(s)
     pts = harris_corners(img, usable, cell_of=(i0[0], i0[1], grid), **harris)
     if len(pts) == 0:
@@ -214,6 +217,28 @@ def _reference_chunk(
     corners = _erode(ref_valid, max(s.brief_half, s.template_half + s.refine_radius))
     search = _erode(ref_valid, s.template_half + s.search_radius)
     return reference[rr0:rr1, rc0:rc1], corners, search, np.array([rr0, rc0])
+
+
+def _reachable(
+    shape: tuple[int, ...],
+    ref_usable: np.ndarray,
+    search_usable: np.ndarray,
+    shift: np.ndarray,
+    radius: int,
+) -> np.ndarray:
+    """Image-chunk pixels whose expected reference position (pixel + `shift` in the reference
+    chunk) can hold a match: a reference corner within `radius` (BRIEF) or a whole NCC search
+    window (`search_usable`)."""
+    kernel = np.ones((2 * radius + 1, 2 * radius + 1), np.uint8)
+    near = cv2.dilate(ref_usable.astype(np.uint8), kernel).astype(bool)
+    reach = near | search_usable
+    out = np.zeros(shape, dtype=bool)
+    rows = np.arange(shape[0]) + shift[0]
+    cols = np.arange(shape[1]) + shift[1]
+    in_r = (rows >= 0) & (rows < reach.shape[0])
+    in_c = (cols >= 0) & (cols < reach.shape[1])
+    out[np.ix_(in_r, in_c)] = reach[np.ix_(rows[in_r], cols[in_c])]
+    return out
 
 
 def _harris(s: MatchSettings) -> dict[str, float]:
