@@ -601,3 +601,29 @@ def test_a_reference_without_rpcs_is_refused_before_any_output(tmp_path: Path):
     assert isinstance(result.exception, InputError)  # exit 2
     assert "carries no RPCs" in str(result.exception)
     assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("spoil", "fragment"),
+    [
+        ("scattered", "the reference has empty pixels (no data or NaN) scattered"),
+        ("flat", "the reference is flat (one grey level) over the image"),
+    ],
+)
+def test_a_reference_that_cannot_be_matched_is_named_as_the_cause(tmp_path: Path, spoil, fragment):
+    """A reference with 2 % of its pixels empty at random (no 37 px search window is free of
+    them) or of one grey level: no CP, and the message names the reference and why, where it
+    named the image and blamed its texture."""
+    cfg, _ = _shifted_config(tmp_path, 3, 2, repeats=2)
+    with rasterio.open(cfg.reference, "r+") as ds:
+        data = ds.read(1)
+        if spoil == "scattered":
+            data[np.random.default_rng(0).random(data.shape) < 0.02] = np.nan
+        else:
+            data[np.isfinite(data)] = 500.0
+        ds.write(data, 1)
+    with pytest.raises(InputError) as info:
+        run_rfm_accuracy(cfg)
+    problem = info.value.problems[0]
+    assert problem.file == str(cfg.reference)
+    assert problem.message.startswith(f"no control point found: {fragment}")

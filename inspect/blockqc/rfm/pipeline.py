@@ -506,21 +506,40 @@ def voided_windows(image: np.ndarray, window: int = MATCH_WINDOW) -> float:
     return float((inside & (count < window * window)).sum() / max(inside.sum(), 1))
 
 
+def _spread(values: np.ndarray) -> float:
+    """Grey-level spread (2–98 %) of the finite `values`; 0 without any."""
+    values = values[np.isfinite(values)]
+    return float(np.subtract(*np.percentile(values, [98, 2]))) if values.size else 0.0
+
+
 def no_cp_reason(
     image: np.ndarray,
     overlap: np.ndarray,
     dem: DEM,
     n_matches: int,
+    reference: np.ndarray | None = None,
     no_height: tuple[float, float] = (0.0, 0.0),
 ) -> str:
     """Why matching gave no CP: the likely cause first, then the figures behind it.
     `no_height`: the shares of the image outside the DEM and on its voids."""
+    return no_cp_cause(image, overlap, dem, n_matches, reference, no_height)[1]
+
+
+def no_cp_cause(
+    image: np.ndarray,
+    overlap: np.ndarray,
+    dem: DEM,
+    n_matches: int,
+    reference: np.ndarray | None = None,
+    no_height: tuple[float, float] = (0.0, 0.0),
+) -> tuple[bool, str]:
+    """`no_cp_reason`, and whether its cause lies in the reference (`reference`: the reference
+    on the image's grid, the image's shape; its empty pixels and spread are then weighed too)."""
     valid = float(np.isfinite(image).mean())
     both = float(overlap.sum() / max(np.isfinite(image).sum(), 1))
     voids = float(np.isnan(dem.grid.values).mean())
     touched = voided_windows(image)
-    pixels = image[overlap]
-    spread = float(np.subtract(*np.percentile(pixels, [98, 2]))) if pixels.size else 0.0
+    spread = _spread(image[overlap])
     figures = (
         f"image pixels with data {valid:.0%} of the grid, of which {both:.0%} also on the "
         f"reference; DEM voids {voids:.0%} of its window; {touched:.0%} of the "
@@ -529,6 +548,15 @@ def no_cp_reason(
     )
     if no_height[0] > 0:
         figures = f"image outside the DEM {no_height[0]:.0%}; " + figures
+    ref_touched, ref_spread = 0.0, spread
+    if reference is not None:
+        ref_touched = voided_windows(np.where(overlap, reference, np.nan))
+        ref_spread = _spread(reference[overlap])
+        figures += (
+            f" (reference {ref_spread:.4g}); {ref_touched:.0%} of the matching windows over "
+            "the overlap touch an empty pixel of the image or the reference"
+        )
+    at_reference = False
     if n_matches:
         why = "every match fell on a DEM void (no height under it)"
     elif both < 0.05:
@@ -546,9 +574,18 @@ def no_cp_reason(
             "and most matching windows touch one (close them with --dem-fill-voids N, holes up "
             "to ~2·N DEM cells across)"
         )
+    elif ref_touched > VOIDED_WINDOWS:
+        at_reference = True
+        why = (
+            "the reference has empty pixels (no data or NaN) scattered over the image and most "
+            "matching windows touch one: a reference with data over whole windows is expected"
+        )
+    elif ref_spread <= 0 < spread:
+        at_reference = True
+        why = "the reference is flat (one grey level) over the image: it has no texture to match"
     else:
         why = "no texture or too little likeness between the two images to match"
-    return f"no control point found: {why}. {figures}"
+    return at_reference, f"no control point found: {why}. {figures}"
 
 
 def height_warning(dem_file: Path, no_height: tuple[float, float]) -> list[str]:
@@ -651,8 +688,11 @@ def _correct_and_match(run: _Run, matcher: Matcher | None) -> None:
     matches, run.cell, run.cell_how = match_cps(cfg, image, reference, overlap, matcher)
     run.cps = build_cp_table(matches, run.grid, ref_grid, run.rpc, run.dem, run.image_gsd)
     if run.cps.empty:
-        reason = no_cp_reason(image, overlap, run.dem, len(matches), run.no_height)
-        raise InputError(Problem(file=str(cfg.image), message=reason))
+        (h, w), m = image.shape, cfg.margin
+        on_grid = reference[m : m + h, m : m + w]
+        at_reference, reason = no_cp_cause(image, overlap, run.dem, len(matches), on_grid, run.no_height)
+        culprit = cfg.reference if at_reference else cfg.image
+        raise InputError(Problem(file=str(culprit), message=reason))
     write_text_atomic(out / "cps.csv", run.cps.to_csv(index=False, float_format="%.6f"))
 
 
