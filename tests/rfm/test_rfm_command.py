@@ -627,3 +627,28 @@ def test_a_reference_that_cannot_be_matched_is_named_as_the_cause(tmp_path: Path
     problem = info.value.problems[0]
     assert problem.file == str(cfg.reference)
     assert problem.message.startswith(f"no control point found: {fragment}")
+
+
+def test_an_overlap_narrower_than_a_matching_window_is_named():
+    """The reference covers a 40 px strip of a textured image (8 % of it): no 50 px matching
+    window fits in the overlap, which the message says, where it blamed the texture."""
+    from pyproj import CRS
+    from rasterio.transform import from_origin
+
+    from blockqc.rfm.dem import DEM, Grid
+    from blockqc.rfm.pipeline import no_cp_reason
+
+    dem = DEM(
+        Grid(np.full((10, 10), 500.0), from_origin(5.0, 45.0, 0.01, 0.01), CRS.from_epsg(4326)),
+        "test",
+    )
+    image = np.random.default_rng(0).uniform(0, 100, (500, 500))
+    overlap = np.zeros(image.shape, bool)
+    overlap[:, 200:240] = True
+    reason = no_cp_reason(image, overlap, dem, 0)
+    assert reason.startswith(
+        "no control point found: the image and the reference overlap on 20000 px only, nowhere "
+        "on a whole 50 px matching window"
+    )
+    overlap[:, 200:250] = True  # 50 px wide: a window fits, the texture is blamed again
+    assert "no texture" in no_cp_reason(image, overlap, dem, 0)

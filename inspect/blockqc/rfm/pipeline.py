@@ -512,6 +512,17 @@ def _spread(values: np.ndarray) -> float:
     return float(np.subtract(*np.percentile(values, [98, 2]))) if values.size else 0.0
 
 
+def holds_window(mask: np.ndarray, window: int = MATCH_WINDOW) -> bool:
+    """Whether some window×window square of `mask` is True throughout."""
+    import cv2
+
+    if min(mask.shape) < window:
+        return False
+    kernel = np.ones((window, window), np.uint8)
+    inside = cv2.erode(mask.astype(np.uint8), kernel, borderType=cv2.BORDER_CONSTANT, borderValue=0)
+    return bool(inside.any())
+
+
 def no_cp_reason(
     image: np.ndarray,
     overlap: np.ndarray,
@@ -523,6 +534,38 @@ def no_cp_reason(
     """Why matching gave no CP: the likely cause first, then the figures behind it.
     `no_height`: the shares of the image outside the DEM and on its voids."""
     return no_cp_cause(image, overlap, dem, n_matches, reference, no_height)[1]
+
+
+NO_CP_CAUSES = {
+    "dem_under_matches": "every match fell on a DEM void (no height under it)",
+    "no_overlap": "the reference does not overlap the image (wrong reference, CRS or crop offset?)",
+    "dem_outside": (
+        "the DEM does not reach most of the image ({outside:.0%} of it is outside {dem}): give a "
+        "DEM that covers the image"
+    ),
+    "dem_voids": "DEM voids: most of the image has no height (fill voids with --dem-fill-voids?)",
+    "scattered_dem_voids": (
+        "DEM voids scattered across the image: the image has no height (no pixel) on them "
+        "and most matching windows touch one (close them with --dem-fill-voids N, holes up "
+        "to ~2·N DEM cells across)"
+    ),
+    "scattered_reference_voids": (
+        "the reference has empty pixels (no data or NaN) scattered over the image and most "
+        "matching windows touch one: a reference with data over whole windows is expected"
+    ),
+    "narrow_overlap": (
+        "the image and the reference overlap on {n} px only, nowhere on a whole "
+        f"{MATCH_WINDOW} px matching window (a reference covering the image is expected; wrong "
+        "reference, CRS or crop offset?)"
+    ),
+    "flat_reference": (
+        "the reference is flat (one grey level) over the image: it has no texture to match"
+    ),
+    "no_texture": "no texture or too little likeness between the two images to match",
+}
+"""Why a run found no CP, in the order they are tried (`no_cp_cause`)."""
+REFERENCE_CAUSES = ("scattered_reference_voids", "flat_reference")
+"""The causes that lie in the reference: the message names the reference file."""
 
 
 def no_cp_cause(
@@ -556,36 +599,22 @@ def no_cp_cause(
             f" (reference {ref_spread:.4g}); {ref_touched:.0%} of the matching windows over "
             "the overlap touch an empty pixel of the image or the reference"
         )
-    at_reference = False
-    if n_matches:
-        why = "every match fell on a DEM void (no height under it)"
-    elif both < 0.05:
-        why = "the reference does not overlap the image (wrong reference, CRS or crop offset?)"
-    elif no_height[0] > 0.5 and no_height[0] > no_height[1]:
-        why = (
-            f"the DEM does not reach most of the image ({no_height[0]:.0%} of it is outside "
-            f"{Path(dem.grid.source).name}): give a DEM that covers the image"
-        )
-    elif voids > 0.2 or valid < 0.2:
-        why = "DEM voids: most of the image has no height (fill voids with --dem-fill-voids?)"
-    elif touched > VOIDED_WINDOWS:
-        why = (
-            "DEM voids scattered across the image: the image has no height (no pixel) on them "
-            "and most matching windows touch one (close them with --dem-fill-voids N, holes up "
-            "to ~2·N DEM cells across)"
-        )
-    elif ref_touched > VOIDED_WINDOWS:
-        at_reference = True
-        why = (
-            "the reference has empty pixels (no data or NaN) scattered over the image and most "
-            "matching windows touch one: a reference with data over whole windows is expected"
-        )
-    elif ref_spread <= 0 < spread:
-        at_reference = True
-        why = "the reference is flat (one grey level) over the image: it has no texture to match"
-    else:
-        why = "no texture or too little likeness between the two images to match"
-    return at_reference, f"no control point found: {why}. {figures}"
+    found = {
+        "dem_under_matches": n_matches > 0,
+        "no_overlap": both < 0.05,
+        "dem_outside": no_height[0] > 0.5 and no_height[0] > no_height[1],
+        "dem_voids": voids > 0.2 or valid < 0.2,
+        "scattered_dem_voids": touched > VOIDED_WINDOWS,
+        "scattered_reference_voids": ref_touched > VOIDED_WINDOWS,
+        "narrow_overlap": not holds_window(overlap),
+        "flat_reference": ref_spread <= 0 < spread,
+        "no_texture": True,
+    }
+    cause = next(c for c in NO_CP_CAUSES if found[c])
+    why = NO_CP_CAUSES[cause].format(
+        n=int(overlap.sum()), outside=no_height[0], dem=Path(dem.grid.source).name
+    )
+    return cause in REFERENCE_CAUSES, f"no control point found: {why}. {figures}"
 
 
 def height_warning(dem_file: Path, no_height: tuple[float, float]) -> list[str]:
@@ -690,7 +719,9 @@ def _correct_and_match(run: _Run, matcher: Matcher | None) -> None:
     if run.cps.empty:
         (h, w), m = image.shape, cfg.margin
         on_grid = reference[m : m + h, m : m + w]
-        at_reference, reason = no_cp_cause(image, overlap, run.dem, len(matches), on_grid, run.no_height)
+        at_reference, reason = no_cp_cause(
+            image, overlap, run.dem, len(matches), on_grid, run.no_height
+        )
         culprit = cfg.reference if at_reference else cfg.image
         raise InputError(Problem(file=str(culprit), message=reason))
     write_text_atomic(out / "cps.csv", run.cps.to_csv(index=False, float_format="%.6f"))
