@@ -139,3 +139,37 @@ def test_a_cell_the_reference_covers_in_part_keeps_its_cp(forest):
     assert len(cps) == 1
     assert cps["ref_row"].between(78, 177).all() and cps["ref_col"].between(78, 177).all()
     assert rms_error(cps, shift) < 0.2
+
+
+@pytest.mark.parametrize(
+    ("setting", "fragment"),
+    [
+        ({"brief_seed": -1}, "brief_seed must be zero or a positive integer, got -1"),
+        ({"ransac_seed": -3}, "ransac_seed must be zero or a positive integer, got -3"),
+        ({"brief_seed": 1.5}, "brief_seed must be an integer, got 1.5"),
+        ({"brief_sigma": float("nan")}, "brief_sigma must be a finite number, got nan"),
+        ({"ncc_sigma": float("inf")}, "ncc_sigma must be a finite number, got inf"),
+        ({"ransac_threshold": float("inf")}, "ransac_threshold must be a finite number"),
+        ({"harris_k": float("nan")}, "harris_k must be a finite number, got nan"),
+        ({"harris_ksize": 3.0}, "harris_ksize must be an integer, got 3.0"),
+        ({"min_ncc": "0.7"}, "min_ncc must be a finite number, got '0.7'"),
+        ({"corners_per_cell": True}, "corners_per_cell must be an integer, got True"),
+    ],
+)
+def test_settings_of_the_wrong_kind_raise_input_error(forest, setting, fragment):
+    """A seed numpy cannot take, a NaN or infinite number, a float where OpenCV needs an
+    integer, a text for a number: InputError naming the setting, not a traceback from numpy or
+    OpenCV mid-run, nor a run that silently finds nothing (NaN Harris k) or keeps every match
+    (an infinite RANSAC threshold)."""
+    with pytest.raises(InputError) as info:
+        match_images(warped(forest, (0.4, -0.3)), forest, grid=128, **setting)
+    assert info.value.problems[0].file == "<arguments>"
+    assert fragment in info.value.problems[0].message
+
+
+def test_numpy_integers_are_settings_like_any_integer(forest):
+    image = warped(forest, (0.4, -0.3))
+    given = match_images(
+        image, forest, grid=128, search_radius=np.int64(8), brief_seed=np.int32(512)
+    )
+    assert given.equals(match_images(image, forest, grid=128))

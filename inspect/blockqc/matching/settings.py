@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+import numbers
 from dataclasses import dataclass, fields
 
 from blockqc.errors import InputError, Problem
@@ -74,14 +76,39 @@ def _problem(message: str) -> InputError:
     return InputError(Problem(file="<arguments>", message=message))
 
 
+def _typed(overrides: dict[str, object]) -> tuple[dict[str, object], list[str]]:
+    """The overrides as the type of their field's default (an integer, a finite number, a
+    text), and a message for each that is not one."""
+    defaults = {f.name: f.default for f in fields(MatchSettings)}
+    typed: dict[str, object] = {}
+    errors: list[str] = []
+    for name, value in overrides.items():
+        default = defaults[name]
+        if isinstance(default, str):
+            ok, kind = isinstance(value, str), "a text"
+        elif isinstance(value, bool) or not isinstance(value, numbers.Real):
+            ok, kind = False, "an integer" if isinstance(default, int) else "a finite number"
+        elif isinstance(default, int):
+            ok, kind = isinstance(value, numbers.Integral), "an integer"
+        else:
+            ok, kind = math.isfinite(value), "a finite number"
+        if ok:
+            typed[name] = type(default)(value)  # numpy scalars as Python numbers
+        else:
+            errors.append(f"{name} must be {kind}, got {value!r}")
+    return typed, errors
+
+
 def make_settings(**overrides: object) -> MatchSettings:
     """Build settings from keyword arguments, refusing unknown names and incoherent values."""
     names = {f.name for f in fields(MatchSettings)}
     unknown = sorted(set(overrides) - names)
     if unknown:
         raise _problem(f"unknown matcher setting(s) {unknown}; known: {sorted(names)}")
-    s = MatchSettings(**overrides)  # type: ignore[arg-type]
-    errors: list[str] = []
+    typed, errors = _typed(overrides)
+    if errors:
+        raise InputError([Problem(file="<arguments>", message=m) for m in errors])
+    s = MatchSettings(**typed)  # type: ignore[arg-type]
     positive_ints = (
         "search_radius",
         "template",
@@ -94,11 +121,11 @@ def make_settings(**overrides: object) -> MatchSettings:
     )
     for name in positive_ints:
         value = getattr(s, name)
-        if not isinstance(value, int) or isinstance(value, bool) or value < 1:
+        if value < 1:
             errors.append(f"{name} must be a positive integer, got {value!r}")
-    if isinstance(s.template, int) and s.template % 2 == 0:
+    if s.template % 2 == 0:
         errors.append(f"template must be odd, got {s.template}")
-    if isinstance(s.template, int) and s.template < 5:
+    if s.template < 5:
         errors.append(f"template must be at least 5 px, got {s.template}")
     if s.harris_ksize not in (1, 3, 5, 7):
         errors.append(f"harris_ksize must be 1, 3, 5 or 7, got {s.harris_ksize!r}")
@@ -116,6 +143,9 @@ def make_settings(**overrides: object) -> MatchSettings:
         errors.append(f"brief_sigma must be positive, got {s.brief_sigma!r}")
     if s.ransac_model not in ("affine", "translation"):
         errors.append(f"ransac_model must be 'affine' or 'translation', got {s.ransac_model!r}")
+    for name in ("brief_seed", "ransac_seed"):
+        if getattr(s, name) < 0:
+            errors.append(f"{name} must be zero or a positive integer, got {getattr(s, name)!r}")
     if s.ransac_threshold <= 0:
         errors.append(f"ransac_threshold must be positive, got {s.ransac_threshold!r}")
     if errors:
