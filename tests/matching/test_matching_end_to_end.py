@@ -2,15 +2,20 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 import pytest
+import rasterio
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
 
 from blockqc.errors import InputError
 from blockqc.matching import COLUMNS, match_candidates, match_images
+
+RFM_DATA = Path(__file__).resolve().parents[1] / "data" / "rfm" / "phr_ventoux"
 
 
 def warped(reference: np.ndarray, shift: tuple[float, float], seed: int = 0) -> np.ndarray:
@@ -173,3 +178,14 @@ def test_numpy_integers_are_settings_like_any_integer(forest):
         image, forest, grid=128, search_radius=np.int64(8), brief_seed=np.int32(512)
     )
     assert given.equals(match_images(image, forest, grid=128))
+
+
+def test_an_unrelated_reference_gives_no_cp():
+    """The reference shows the ground 150 px away from the image's (a wrong georeferencing),
+    far beyond the ±8 px search window: every match is wrong, and the 4 that agreed with one
+    affine by chance were kept as CPs."""
+    with rasterio.open(RFM_DATA / "left_image.tif") as ds:
+        scene = ds.read(1).astype(np.float32)
+    image, reference = scene[:300, :300].copy(), scene[150:450, 150:450].copy()
+    for grid in (16, 64):
+        assert match_images(image, reference, grid=grid).empty

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from blockqc.matching.ransac import fit_model, ransac_inliers
+from blockqc.matching.ransac import false_alarms, fit_model, ransac_inliers
 
 
 def planted(seed: int, n_in: int, n_out: int, affine: bool):
@@ -58,3 +58,39 @@ def test_fit_model_recovers_an_exact_affine():
     dst = np.column_stack([src, np.ones(10)]) @ coef
     assert fit_model(src, dst, "affine") == pytest.approx(coef)
     assert fit_model(src, src + [3.0, 4.0], "translation")[2] == pytest.approx([3.0, 4.0])
+
+
+def test_false_alarms_by_hand():
+    # (n − need) · C(n, k) · C(k, need) · chance^(k − need)
+    assert false_alarms(4, 4, 3, 0.02) == pytest.approx(1 * 1 * 4 * 0.02)
+    assert false_alarms(10, 5, 3, 0.1) == pytest.approx(7 * 252 * 10 * 0.1**2)
+    assert false_alarms(5, 3, 1, 1.0) == np.inf
+
+
+@pytest.mark.parametrize(
+    ("model", "n"),
+    [("affine", 20), ("affine", 50), ("affine", 300), ("translation", 50), ("translation", 300)],
+)
+def test_a_consensus_that_chance_gives_is_not_kept(model, n):
+    """Every correspondence wrong, spread over the ±8 px search window (17 px side): the best
+    consensus is one chance gives (5 to 28 of them for an affine without the window), so none
+    is kept."""
+    for seed in range(20):
+        rng = np.random.default_rng(seed)
+        src = rng.uniform(0, 5000, (n, 2))
+        dst = src + rng.uniform(-8.5, 8.5, (n, 2))
+        keep = ransac_inliers(
+            src, dst, model=model, threshold=1.5, iterations=500, seed=0, window=17
+        )
+        assert not keep.any(), (seed, int(keep.sum()))
+
+
+@pytest.mark.parametrize("model", ["affine", "translation"])
+def test_a_few_right_matches_among_as_many_wrong_are_kept(model):
+    """8 right correspondences among 8 wrong ones in the window: far beyond chance, kept."""
+    rng = np.random.default_rng(2)
+    src = rng.uniform(0, 5000, (16, 2))
+    dst = src + [2.7, -1.9] + rng.normal(0, 0.15, src.shape)
+    dst[8:] = src[8:] + [[6.0, 6.0], [-6.0, 5.0], [7.0, -7.0], [-5.0, -6.0]] * 2
+    keep = ransac_inliers(src, dst, model=model, threshold=1.5, iterations=500, seed=0, window=17)
+    assert keep.tolist() == [True] * 8 + [False] * 8

@@ -652,3 +652,13 @@ def test_an_overlap_narrower_than_a_matching_window_is_named():
     )
     overlap[:, 200:250] = True  # 50 px wide: a window fits, the texture is blamed again
     assert "no texture" in no_cp_reason(image, overlap, dem, 0)
+
+
+def test_a_reference_off_by_far_more_than_the_search_gives_no_verdict(tmp_path: Path):
+    """The image's own ortho georeferenced 100 px east and 100 px south: every match in the
+    ±8 px search is wrong. It gave 8 CPs agreeing by chance and a 'fail' verdict (RMSE 4.1 px,
+    exit 1) on the image's RPCs; now no CP is found (exit 2)."""
+    cfg, _ = _shifted_config(tmp_path, 100, 100, repeats=2)
+    with pytest.raises(InputError, match="no control point found: no texture or too little"):
+        run_rfm_accuracy(cfg)
+    assert not (cfg.out / "results.json").exists()

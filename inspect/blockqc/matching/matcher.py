@@ -168,6 +168,7 @@ def _match_chunk(
         threshold=s.ransac_threshold,
         iterations=s.ransac_iterations,
         seed=s.ransac_seed,
+        window=2 * s.search_radius + 1,
     )
     return pd.DataFrame(
         {

@@ -7,6 +7,8 @@ inliers, and inliers are recounted against the refit.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 _MIN_SAMPLES = {"translation": 1, "affine": 3}
@@ -28,6 +30,23 @@ def fit_model(src: np.ndarray, dst: np.ndarray, model: str) -> np.ndarray:
     return coef
 
 
+def false_alarms(n: int, k: int, need: int, chance: float) -> float:
+    """Expected number of consensus sets of k among n correspondences as good as the one found
+    if every correspondence were wrong (a-contrario RANSAC, Moisan & Stival 2004): (n − need)
+    sizes × C(n, k) sets × C(k, need) samples × chance^(k − need), `chance` being the
+    probability that a wrong correspondence falls within the threshold of the model."""
+    if chance >= 1:
+        return math.inf
+    log_nfa = (
+        math.log(n - need) + _log_comb(n, k) + _log_comb(k, need) + (k - need) * math.log(chance)
+    )
+    return math.exp(min(log_nfa, 700.0))
+
+
+def _log_comb(n: int, k: int) -> float:
+    return math.lgamma(n + 1) - math.lgamma(k + 1) - math.lgamma(n - k + 1)
+
+
 def ransac_inliers(
     src: np.ndarray,
     dst: np.ndarray,
@@ -36,11 +55,14 @@ def ransac_inliers(
     threshold: float,
     iterations: int,
     seed: int,
+    window: float | None = None,
 ) -> np.ndarray:
     """Return a boolean inlier mask of the correspondences src → dst, (n, 2) each.
 
     With fewer correspondences than the model needs plus one (a check needs redundancy),
-    nothing can be verified and all are rejected.
+    nothing can be verified and all are rejected. `window`: the side (px) of the square where a
+    wrong correspondence falls (the matcher's search window); the consensus is then kept only
+    when fewer than one as large is expected by chance among as many wrong ones (`false_alarms`).
     """
     src = np.asarray(src, dtype=np.float64).reshape(-1, 2)
     dst = np.asarray(dst, dtype=np.float64).reshape(-1, 2)
@@ -86,4 +108,8 @@ def ransac_inliers(
         best = refined
     if best.sum() < need + 1:
         return np.zeros(n, dtype=bool)
+    if window is not None:
+        chance = math.pi * threshold**2 / window**2
+        if false_alarms(n, int(best.sum()), need, chance) >= 1:
+            return np.zeros(n, dtype=bool)
     return best
