@@ -662,3 +662,46 @@ def test_a_reference_off_by_far_more_than_the_search_gives_no_verdict(tmp_path: 
     with pytest.raises(InputError, match="no control point found: no texture or too little"):
         run_rfm_accuracy(cfg)
     assert not (cfg.out / "results.json").exists()
+
+
+def _full_dem():
+    from pyproj import CRS
+    from rasterio.transform import from_origin
+
+    from blockqc.rfm.dem import DEM, Grid
+
+    grid = Grid(np.full((10, 10), 500.0), from_origin(5.0, 45.0, 0.01, 0.01), CRS.from_epsg(4326))
+    return DEM(grid, "test")
+
+
+def _texture(shape):
+    return np.random.default_rng(0).uniform(0, 100, shape)
+
+
+@pytest.mark.parametrize(
+    ("case", "start"),
+    [
+        ("all empty", "the image has no data on the grid: every pixel is no data or NaN"),
+        ("one row", "the image's data hold no whole 50 px matching window: the image is too small"),
+        ("16 px", "the image's data hold no whole 50 px matching window: the image is too small"),
+        ("scattered", "the image has empty pixels (no data or NaN) scattered over it"),
+    ],
+)
+def test_no_cp_for_the_image_itself_is_not_put_on_the_reference_or_the_dem(case, start):
+    """A DEM without a void and a reference over the whole grid, so the cause is the image's:
+    it was put on the reference (an image without data: "does not overlap") or on DEM voids
+    (an image one row high or 16 px wide: "most of the image has no height"; 2 % of its pixels
+    empty at random: "DEM voids scattered", to be closed with --dem-fill-voids)."""
+    from blockqc.rfm.pipeline import no_cp_reason
+
+    image = np.full((500, 500), np.nan)
+    if case == "one row":
+        image[250] = _texture(500)
+    elif case == "16 px":
+        image[200:216, 300:316] = _texture((16, 16))
+    elif case == "scattered":
+        image = _texture((500, 500))
+        image[np.random.default_rng(1).random(image.shape) < 0.02] = np.nan
+    reference = _texture((500, 500))
+    reason = no_cp_reason(image, np.isfinite(image), _full_dem(), 0, reference)
+    assert reason.startswith(f"no control point found: {start}")

@@ -538,6 +538,10 @@ def no_cp_reason(
 
 NO_CP_CAUSES = {
     "dem_under_matches": "every match fell on a DEM void (no height under it)",
+    "empty_image": (
+        "the image has no data on the grid: every pixel is no data or NaN (an image with data "
+        "is expected)"
+    ),
     "no_overlap": "the reference does not overlap the image (wrong reference, CRS or crop offset?)",
     "dem_outside": (
         "the DEM does not reach most of the image ({outside:.0%} of it is outside {dem}): give a "
@@ -548,6 +552,14 @@ NO_CP_CAUSES = {
         "DEM voids scattered across the image: the image has no height (no pixel) on them "
         "and most matching windows touch one (close them with --dem-fill-voids N, holes up "
         "to ~2·N DEM cells across)"
+    ),
+    "scattered_image_voids": (
+        "the image has empty pixels (no data or NaN) scattered over it and most matching "
+        "windows touch one: an image with data over whole windows is expected"
+    ),
+    "small_image": (
+        f"the image's data hold no whole {MATCH_WINDOW} px matching window: the image is "
+        f"too small or too thin (at least {MATCH_WINDOW} px each way is expected)"
     ),
     "scattered_reference_voids": (
         "the reference has empty pixels (no data or NaN) scattered over the image and most "
@@ -601,10 +613,13 @@ def no_cp_cause(
         )
     found = {
         "dem_under_matches": n_matches > 0,
+        "empty_image": valid == 0,
         "no_overlap": both < 0.05,
         "dem_outside": no_height[0] > 0.5 and no_height[0] > no_height[1],
-        "dem_voids": voids > 0.2 or valid < 0.2,
-        "scattered_dem_voids": touched > VOIDED_WINDOWS,
+        "dem_voids": voids > 0.2 or (valid < 0.2 and voids > 0),
+        "small_image": not holds_window(np.isfinite(image)),
+        "scattered_dem_voids": touched > VOIDED_WINDOWS and voids > 0,
+        "scattered_image_voids": touched > VOIDED_WINDOWS,
         "scattered_reference_voids": ref_touched > VOIDED_WINDOWS,
         "narrow_overlap": not holds_window(overlap),
         "flat_reference": ref_spread <= 0 < spread,
