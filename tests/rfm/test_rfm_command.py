@@ -705,3 +705,31 @@ def test_no_cp_for_the_image_itself_is_not_put_on_the_reference_or_the_dem(case,
     reference = _texture((500, 500))
     reason = no_cp_reason(image, np.isfinite(image), _full_dem(), 0, reference)
     assert reason.startswith(f"no control point found: {start}")
+
+
+def test_a_colour_references_transparent_pixels_have_no_data(tmp_path: Path):
+    """An RGBA reference (8 bits, black where its alpha is 0, as colour orthophotos are
+    exported) transparent over its west half: those pixels have no data on the image's grid.
+    They were taken as black data (42 % of the grid), which counted as overlap and set the
+    cell (56 CPs against 91 for the same reference with a mask)."""
+    from blockqc.rfm.pipeline import reference_on_grid
+
+    rpc = read_rpc(VENTOUX / "left_image.geom")
+    dem = load_dem(VENTOUX / "srtm_N44E005_crop.tif", geoid=VENTOUX / "egm96_15_crop.gtx")
+    grid = orthorectify(VENTOUX / "left_image.tif", rpc, dem, tmp_path / "own.tif")
+    own, _ = read_ortho(tmp_path / "own.tif")
+    visible = np.isfinite(own)
+    visible[:, : own.shape[1] // 2] = False
+    grey = np.where(visible, own / 5, 0).astype(np.uint8)
+    with rasterio.open(tmp_path / "own.tif") as src:
+        profile = src.profile
+    profile.update(count=4, dtype="uint8", nodata=None, photometric="RGB", alpha="YES")
+    with rasterio.open(tmp_path / "rgba.tif", "w", **profile) as dst:
+        dst.write(np.stack([grey, grey, grey, np.where(visible, 255, 0).astype(np.uint8)]))
+    cfg = ventoux_config(tmp_path / "out", reference=tmp_path / "rgba.tif", reference_rpc=None)
+    reference_on_grid(cfg, grid, dem, tmp_path / "on_grid.tif", None)
+    on_grid, _ = read_ortho(tmp_path / "on_grid.tif")
+    m = cfg.margin
+    inner = on_grid[m:-m, m:-m]
+    np.testing.assert_array_equal(np.isfinite(inner), visible)
+    np.testing.assert_allclose(inner[visible], grey[visible], atol=1e-3)

@@ -244,6 +244,14 @@ def reference_model(cfg: RfmAccuracyConfig) -> RPCModel | None:
     return None
 
 
+def alpha_band(ds: Any) -> int:
+    """The band a raster declares alpha (its transparent pixels have no data), 0 if none."""
+    from rasterio.enums import ColorInterp
+
+    alpha = [i for i, c in zip(ds.indexes, ds.colorinterp, strict=True) if c == ColorInterp.alpha]
+    return alpha[0] if alpha else 0
+
+
 def reference_on_grid(
     cfg: RfmAccuracyConfig, grid: OrthoGrid, dem: DEM, out_path: Path, rpc: RPCModel | None
 ) -> tuple[str, str]:
@@ -276,6 +284,7 @@ def reference_on_grid(
             source=rasterio.band(src, list(bands)),
             destination=dst,
             src_nodata=src.nodata,
+            src_alpha=alpha_band(src),
             dst_transform=ref_grid.transform,
             dst_crs=rasterio.crs.CRS.from_wkt(ref_grid.crs.to_wkt()),
             dst_nodata=np.nan,
