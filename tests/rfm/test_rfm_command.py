@@ -659,8 +659,9 @@ def test_a_reference_off_by_far_more_than_the_search_gives_no_verdict(tmp_path: 
     ±8 px search is wrong. It gave 8 CPs agreeing by chance and a 'fail' verdict (RMSE 4.1 px,
     exit 1) on the image's RPCs; now no CP is found (exit 2)."""
     cfg, _ = _shifted_config(tmp_path, 100, 100, repeats=2)
-    with pytest.raises(InputError, match="no control point found: no texture or too little"):
+    with pytest.raises(InputError, match="no control point found: no texture or too little") as e:
         run_rfm_accuracy(cfg)
+    assert "the reference lies further from the image than the matcher searches" in str(e.value)
     assert not (cfg.out / "results.json").exists()
 
 

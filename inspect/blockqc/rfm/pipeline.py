@@ -582,7 +582,11 @@ NO_CP_CAUSES = {
     "flat_reference": (
         "the reference is flat (one grey level) over the image: it has no texture to match"
     ),
-    "no_texture": "no texture or too little likeness between the two images to match",
+    "no_texture": (
+        "no texture or too little likeness between the two images to match, or the reference "
+        "lies further from the image than the matcher searches (8 px by default): check its "
+        "georeferencing, CRS or crop offset"
+    ),
 }
 """Why a run found no CP, in the order they are tried (`no_cp_cause`)."""
 REFERENCE_CAUSES = ("scattered_reference_voids", "flat_reference")
