@@ -734,3 +734,40 @@ def test_a_colour_references_transparent_pixels_have_no_data(tmp_path: Path):
     inner = on_grid[m:-m, m:-m]
     np.testing.assert_array_equal(np.isfinite(inner), visible)
     np.testing.assert_allclose(inner[visible], grey[visible], atol=1e-3)
+
+
+@pytest.mark.parametrize(
+    ("wkt", "name"),
+    [
+        ('LOCAL_CS["site grid",UNIT["metre",1]]', "site grid"),
+        (
+            'GEOGCS["Moon 2000",DATUM["D_Moon_2000",SPHEROID["Moon_2000_IAU_IAG",1737400.0,0.0]],'
+            'PRIMEM["Greenwich",0],UNIT["Decimal_Degree",0.0174532925199433]]',
+            "Moon 2000",
+        ),
+    ],
+)
+def test_a_reference_crs_that_cannot_reach_the_grid_is_an_input_error(
+    tmp_path: Path, capsys, wkt, name
+):
+    """A reference georeferenced in an engineering CRS, or on another body: exit 2 naming the
+    file and both CRSs, before the image is orthorectified; it stopped as an 'internal error'
+    (GDAL's CPLE_NotSupportedError, 'please report it') after the image's ortho was made."""
+    from blockqc.cli import main
+
+    reference = tmp_path / "reference.tif"
+    with rasterio.open(
+        reference, "w", driver="GTiff", width=64, height=64, count=1, dtype="float32",
+        crs=rasterio.crs.CRS.from_wkt(wkt), transform=rasterio.Affine(1, 0, 0, 0, -1, 64),
+    ) as ds:  # fmt: skip
+        ds.write(np.ones((1, 64, 64), np.float32))
+    out = tmp_path / "out"
+    with pytest.raises(SystemExit) as exc:
+        main(["rfm-accuracy", *base_args(out), "--reference", str(reference)])
+    assert exc.value.code == 2
+    assert capsys.readouterr().err == (
+        f"error: {reference}: its CRS ({name}) cannot be transformed to the image grid's "
+        "(WGS 84 / UTM zone 31N): a reference georeferenced on the Earth (a projected CRS such "
+        "as a UTM zone, or EPSG:4326) is expected\n"
+    )
+    assert not out.exists()

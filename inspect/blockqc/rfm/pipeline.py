@@ -244,6 +244,26 @@ def reference_model(cfg: RfmAccuracyConfig) -> RPCModel | None:
     return None
 
 
+def check_reference_crs(path: Path, grid_crs: CRS) -> None:
+    """A georeferenced reference must be in a CRS that can be taken to the image's grid (an
+    engineering CRS, or one of another body, cannot)."""
+    from pyproj.exceptions import ProjError
+
+    with open_raster(path) as ds:
+        crs = CRS.from_wkt(ds.crs.to_wkt())
+    try:
+        Transformer.from_crs(crs, grid_crs, always_xy=True)
+    except ProjError:
+        raise InputError(
+            Problem(
+                file=str(path),
+                message=f"its CRS ({crs.name}) cannot be transformed to the image grid's "
+                f"({grid_crs.name}): a reference georeferenced on the Earth (a projected CRS "
+                "such as a UTM zone, or EPSG:4326) is expected",
+            )
+        ) from None
+
+
 def alpha_band(ds: Any) -> int:
     """The band a raster declares alpha (its transparent pixels have no data), 0 if none."""
     from rasterio.enums import ColorInterp
@@ -722,6 +742,8 @@ def _prepare(cfg: RfmAccuracyConfig) -> _Run:
     run.grid = ortho_grid(
         rpc, shape, dem, crop_offset=offset, crs=cfg.crs, gsd=cfg.gsd, margin=cfg.margin
     )
+    if reference is None:
+        check_reference_crs(cfg.reference, run.grid.crs)
     run.image_gsd = (
         run.grid.gsd if cfg.gsd is None else round(centre_gsd(rpc, shape, offset, dem, run.grid), 3)
     )
