@@ -70,10 +70,10 @@ def subpixel_peak(surfaces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndar
 
     A 2-D quadratic f = a + b·x + c·y + d·x² + e·xy + g·y² is fitted by least squares to the 3×3
     neighbourhood of the integer peak and its stationary point taken; when that fit is not a
-    maximum or moves more than half a pixel, the separable 1-D parabolas through the centre row
-    and column are used instead. Returns the (row, col) peak positions in surface coordinates
-    (float, (n, 2)), the peak values and a flag that is False when the peak lies on the surface
-    border (the true maximum may lie outside the window).
+    maximum or falls outside the 3×3 (more than a pixel away), the separable 1-D parabolas
+    through the centre row and column are used instead. Returns the (row, col) peak positions
+    in surface coordinates (float, (n, 2)), the peak values and a flag that is False when the
+    peak lies on the surface border (the true maximum may lie outside the window).
     """
     n, h, w = surfaces.shape
     flat = surfaces.reshape(n, -1)
