@@ -169,6 +169,9 @@ def write_heights(path: Path, value: float, crs: str = "EPSG:4326", unit: str = 
     [
         ("EPSG:4326", "ft", 1000 * 0.3048),
         ("EPSG:4326", "metre", 1000.0),
+        ("EPSG:4326", "meters above sea level", 1000.0),  # a unit word and its description
+        ("EPSG:4326", "Meter (m)", 1000.0),
+        ("EPSG:4326", "ft (US survey)", 1000 * 1200 / 3937),
         ("EPSG:4326+6360", "", 1000 * 1200 / 3937),  # NAVD88 height (ftUS)
     ],
 )

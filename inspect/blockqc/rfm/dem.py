@@ -12,6 +12,7 @@ NaN. A DEM in a projected CRS (e.g. a UTM DSM) is sampled after converting lon/l
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -259,6 +260,17 @@ METRES_PER = {
 }  # fmt: skip
 
 
+def unit_factor(name: str) -> float | None:
+    """Metres per unit of a band's unit word, which may carry a description after it ('meters
+    above sea level', 'Meter (m)', 'ft (US survey)'); None for any other unit."""
+    words = re.split(r"[\s(),;:\[\]]+", name.lower().replace("_", " ").strip())
+    for n in range(len(words), 0, -1):  # the longest known start: 'us survey foot' before 'us'
+        factor = METRES_PER.get(" ".join(words[:n]))
+        if factor is not None:
+            return _US_FOOT if factor == 0.3048 and "us" in words[n:] else factor
+    return None
+
+
 def height_unit(path: Path, what: str = "DEM") -> tuple[float, str]:
     """Metres per unit of a raster's values, from its band unit and its vertical CRS (a compound
     or 3-D CRS), and the unit's name ('' for metres or none said); a unit other than metres or
@@ -274,7 +286,7 @@ def height_unit(path: Path, what: str = "DEM") -> tuple[float, str]:
     for where, name, factor in said:
         if not name:
             continue
-        factor = factor if factor is not None else METRES_PER.get(name.lower())
+        factor = factor if factor is not None else unit_factor(name)
         if factor is None:
             raise InputError(
                 Problem(
