@@ -79,26 +79,27 @@ def _check_ground(file: Path, tie_points: pd.DataFrame) -> None:
     if not given:
         return
     point = pd.factorize(tie_points["point_id"])[0]
+    if not point.size:
+        return
     csv = file.suffix.lower() == ".csv"
     problems = []
     for c in given:
         v = tie_points[c].to_numpy(np.float64)
         ok = np.isfinite(v)
-        first = np.full(point.max() + 1, np.nan)
+        first, first_row = np.full(point.max() + 1, np.nan), np.zeros(point.max() + 1, int)
         rows = np.flatnonzero(ok)
-        at = np.unique(point[rows], return_index=True)
-        first[at[0]] = v[rows[at[1]]]
+        points, at = np.unique(point[rows], return_index=True)
+        first[points], first_row[points] = v[rows[at]], rows[at]
         diff = v - first[point]
         if c == "lon":
             diff = (diff + 180.0) % 360.0 - 180.0
         for i in np.flatnonzero(ok & (np.abs(diff) > GROUND_AGREEMENT[c]))[:MAX_LISTED]:
-            j = int(np.flatnonzero(point == point[i])[0])
             problems.append(
                 Problem(
                     str(file),
                     f"point '{tie_points['point_id'].iloc[i]}' is given {c} {v[i]:.10g} here and "
-                    f"{first[point[i]]:.10g} on row {j + 1}: expected one ground point per point "
-                    "(the producer's), the same on each of its rows",
+                    f"{first[point[i]]:.10g} on row {first_row[point[i]] + 1}: expected one "
+                    "ground point per point (the producer's), the same on each of its rows",
                     row=int(i) + 1,
                     line=int(i) + 2 if csv else None,
                     column=c,
