@@ -250,8 +250,12 @@ def project_adjusted(
 
 
 def wrap_lon(lon: ArrayLike) -> FloatArray:
-    """Longitudes (or their differences) brought within [−180°, 180°)."""
-    return (np.asarray(lon, np.float64) + 180.0) % 360.0 - 180.0
+    """Longitudes (or their differences) brought within [−180°, 180°); those already within are
+    kept as they are (adding and taking away 180° would round them off by up to 3e-14°)."""
+    lon = np.asarray(lon, np.float64)
+    with np.errstate(invalid="ignore"):
+        out = (lon < -180.0) | (lon >= 180.0)
+        return np.where(out, (lon + 180.0) % 360.0 - 180.0, lon)
 
 
 def metres_to_degrees(lat: FloatArray) -> tuple[FloatArray, float]:
