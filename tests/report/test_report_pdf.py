@@ -142,3 +142,47 @@ def test_a_long_unbroken_particular_wraps_within_the_page(tmp_path, engine):
         capture_output=True, text=True, check=True,
     ).stdout  # fmt: skip
     assert project in re.sub(r"\s+", "", text)
+
+
+def _rc1_failure() -> dict:
+    """RC-1 failing on three observations (delivered residual against the computed one)."""
+    rows = [
+        ("G0105", "R", 18018.03, 17319.46, 2.0016, 0.0059, 0.0016, 0.0059, 2.0000),
+        ("G0105", "L", 18878.12, 17263.14, 1.9984, -0.0058, -0.0016, -0.0058, 2.0000),
+        ("G0005", "L", 24584.12, 22631.05, 0.0206, 0.8768, 0.0207, 0.0768, 0.8000),
+    ]
+    keys = ("point_id", "scene_id", "line", "sample", "v_line", "v_sample")
+    keys += ("v_line_computed", "v_sample_computed", "difference_px")
+    evidence = [dict(zip(keys, r, strict=True), n_rays=2, intersected=True) for r in rows]
+    return {
+        "rule": "RC-1", "title": "Delivered tie-point residuals reproduce", "title_zh": "",
+        "clause": "§RC-1", "description": "", "description_zh": "",
+        "quality_element": "attachment", "content": ["ro_report"], "inspection": "general",
+        "figures": [], "group": {}, "status": "fail", "statistic": "difference_px",
+        "value": 2.0, "threshold": 0.1, "comparison": "<=", "threshold_text": "≤ 0.1",
+        "unit": "px", "severity": "fail", "measurement": "residual_reproduction",
+        "detail": {"n_units": 120, "n_offending": 3}, "evidence": evidence,
+    }  # fmt: skip
+
+
+@pytest.mark.parametrize("rows_before", [45, 48, 51])
+def test_a_failures_heading_is_printed_on_the_page_of_its_evidence(tmp_path, rows_before):
+    """The failures before RC-1 fill the page down to its foot (TP-4 with `rows_before` scenes):
+    RC-1's heading and value line were printed at the foot of one page and its evidence table
+    (its worst observation G0105 first) at the top of the next."""
+    from report_helpers import make_results
+
+    results = make_results()
+    tp4 = next(r for r in results["results"] if r["rule"] == "TP-4")
+    tp4["evidence"] = [dict(tp4["evidence"][0], scene_id=f"S{i:03d}") for i in range(rows_before)]
+    tp4["detail"]["n_offending"] = rows_before
+    results["results"].append(_rc1_failure())
+    write_block_report(tmp_path / "T-B01", results)
+    text = subprocess.run(
+        [require_tool("pdftotext"), str(tmp_path / "T-B01" / "report.pdf"), "-"],
+        capture_output=True, text=True, check=True,
+    ).stdout  # fmt: skip
+    pages = text.split("\f")
+    heading = [i for i, p in enumerate(pages) if re.search(r"^RC-1 — ", p, re.M)]
+    worst = [i for i, p in enumerate(pages) if "G0105" in p]
+    assert len(heading) == 1 and worst and heading[0] == worst[0]
