@@ -311,3 +311,26 @@ def test_failing_scenes_get_a_distribution_map(results_doc):
     distribution["failing_scene_points"] = None
     maps = block_context(results_doc, "en")["figures"]["scene_maps"]
     assert maps[0]["svg"] is None and "not in results.json" in maps[0]["caption"]
+
+
+@pytest.mark.parametrize("lang", ["en", "zh"])
+def test_a_value_just_past_its_threshold_does_not_read_as_the_threshold(tmp_path, lang):
+    """RC-1 failing by 0.0004 px (worst difference 0.1004 px against ≤ 0.1 px) read 'Value: 0.100
+    px; Threshold: ≤ 0.1 px' beside its red 'fail'; it shows 0.1004 px wherever the rule is."""
+    from report_helpers import make_results
+
+    results = make_results()
+    rc1 = {
+        "rule": "RC-1", "title": "Delivered tie-point residuals reproduce", "clause": "§RC-1",
+        "quality_element": "attachment", "status": "fail", "statistic": "difference_px",
+        "value": 0.1004, "threshold": 0.1, "comparison": "<=", "unit": "px",
+        "severity": "fail", "detail": {"n_units": 120, "n_offending": 1},
+    }  # fmt: skip
+    results["results"].append(rc1)
+    write_block_report(tmp_path / "T-B01", results, lang=lang, pdf=False)
+    page = (tmp_path / "T-B01" / "report.html").read_text()
+    unit = "px" if lang == "en" else "像素"
+    rows = re.findall(r"RC-1.*?</tr>|RC-1 — .*?</p>", page, re.S)
+    assert len(rows) >= 3  # failed items on page 1, the rule tables, the failure itself
+    for row in rows:
+        assert f"0.1004 {unit}" in row and f"0.100 {unit}" not in row

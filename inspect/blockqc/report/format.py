@@ -93,6 +93,31 @@ def metric_units(metric: str | None) -> dict[str, str]:
 SYMBOLS = {"<=": "≤", "<": "<", ">=": "≥", ">": ">", "equals": "="}
 
 
+def _bounds(threshold: Any) -> list[float]:
+    """The numbers of a threshold (one bound, or the two of a range)."""
+    values = threshold if isinstance(threshold, list) else [threshold]
+    return [float(b) for b in values if isinstance(b, int | float) and not isinstance(b, bool)]
+
+
+def _apart(v: float, text: str, bounds: list[float]) -> str:
+    """`text` (v shown) with more decimals while it reads as a bound v is not: a failing 0.1004
+    against ≤ 0.1 shows 0.1004, not 0.100; beyond 6 decimals, to 12 significant digits."""
+    digits = 3 if abs(v) < 1 else 2
+    while any(v != b and _reads(text) == b for b in bounds):
+        digits += 1
+        text = f"{v:.{digits}f}" if digits <= 6 else f"{v:.12g}"
+        if digits > 6:
+            break
+    return text
+
+
+def _reads(text: str) -> float | None:
+    try:
+        return float(text)
+    except ValueError:
+        return None
+
+
 class Formatter:
     """The formatter of one language."""
 
@@ -133,6 +158,8 @@ class Formatter:
         if isinstance(res.value, str):  # a named value: translated where the catalogue has it
             return self._key("val", res.value, self._key("status", res.value, res.value))
         text = self.num(res.value)
+        if isinstance(res.value, float):
+            text = _apart(res.value, text, _bounds(res.threshold))
         unit = self.unit(res.unit)
         return f"{text} {unit}".strip() if unit and not isinstance(res.value, str) else text
 
