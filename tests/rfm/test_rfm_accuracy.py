@@ -318,3 +318,29 @@ def test_vector_plot_of_vanishing_errors_keeps_its_size():
     from PIL import Image
 
     assert max(Image.open(io.BytesIO(png)).size) < 2000
+
+
+def test_vector_plot_title_of_long_file_names_stays_within_the_figure(monkeypatch):
+    """A 140-character image name: the title ran on one line far past the figure's right edge,
+    so the saved PNG was twice as wide and the page shrank the image under it; the title now
+    wraps inside the figure, every character of the names kept."""
+    from matplotlib.text import Text
+
+    kept = []
+    monkeypatch.setattr(accuracy, "_figure_png", lambda fig: kept.append(fig) or b"")
+    name = "left_image_" * 12 + "x.tif"
+    title = f"CP error vectors, {name} vs right_image.tif"
+    rng = np.random.default_rng(4)
+    col, row = rng.uniform(0, 500, (2, 10))
+    dx, dy = rng.normal(0, 1, (2, 10))
+    accuracy.plot_error_vectors(col, row, dx, dy, 0.5, (500, 500), title=title)
+    fig = kept[0]
+    fig.canvas.draw()
+    shown = [t for t in fig.findobj(Text) if "CP error vectors" in t.get_text()]
+    assert len(shown) == 1
+    assert "".join(shown[0].get_text().split()) == "".join(title.split())
+    box = shown[0].get_window_extent(fig.canvas.get_renderer())
+    assert fig.bbox.x0 <= box.x0 and box.x1 <= fig.bbox.x1
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)

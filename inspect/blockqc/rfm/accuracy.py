@@ -298,8 +298,22 @@ def plot_error_vectors(
     ax.set_ylim(shape[0], 0)
     ax.set_xlabel("column (px)")
     ax.set_ylabel("row (px)")
-    ax.set_title(title, loc="left")
+    ax.set_title(_wrapped(title, fig, ax), loc="left")
     return _figure_png(fig)
+
+
+def _wrapped(title: str, fig: object, ax: object) -> str:
+    """`title` in lines that fit between the axes' left edge and the figure's right edge (long
+    file names broken), so that a long name does not widen the figure and shrink the image."""
+    import textwrap
+
+    from matplotlib import rcParams
+    from matplotlib.font_manager import FontProperties
+
+    size = FontProperties(size=rcParams["axes.titlesize"]).get_size_in_points()
+    width = fig.get_size_inches()[0] * (1.0 - ax.get_position().x0)  # type: ignore[attr-defined]
+    chars = max(int(width * 72.0 / (0.65 * size)), 10)  # 0.65 em: a wide average glyph
+    return textwrap.fill(title, chars, break_on_hyphens=False)
 
 
 def plot_gev_histogram(g: ArrayLike, requirement: float = REQUIREMENT_PX) -> bytes:
