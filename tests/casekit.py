@@ -3,9 +3,14 @@ delivery (which lives in the package, `blockqc.rules.casebase`, so that any pack
 
 from __future__ import annotations
 
+import os
+import re
+import shutil
 import subprocess
 import sys
 from pathlib import Path
+
+import pytest
 
 from blockqc.rules.casebase import base_manifest, base_tables, write_delivery
 from blockqc.rules.cases import aggregate_status
@@ -19,6 +24,7 @@ __all__ = [
     "aggregate_status",
     "base_manifest",
     "base_tables",
+    "page_overflow_px",
     "run_blockqc",
     "write_delivery",
 ]
@@ -49,3 +55,29 @@ def lint_messages(path: Path) -> list[str]:
     from blockqc.rules.lint import lint
 
     return [str(p) for p in lint(path)[1]]
+
+
+def page_overflow_px(html: str, folder: Path, width: int = 1280) -> int:
+    """How far `html`, shown in headless Chromium in a window `width` px wide, runs past the
+    window's right edge (0: nothing cut off, no horizontal scrolling); skipped without Chromium
+    unless BLOCKQC_REQUIRE_BROWSER is set."""
+    exe = shutil.which("chromium")
+    if exe is None:
+        if os.environ.get("BLOCKQC_REQUIRE_BROWSER"):
+            pytest.fail("chromium is required (BLOCKQC_REQUIRE_BROWSER is set)")
+        pytest.skip("chromium is not installed")
+    probe = (
+        "<script>addEventListener('load', () => document.body.setAttribute('data-overflow', "
+        "document.documentElement.scrollWidth - innerWidth))</script>"
+    )
+    page = folder / "overflow-probe.html"
+    page.write_text(html.replace("</body>", probe + "</body>"))
+    flags = ["--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars"]
+    proc = subprocess.run(
+        [exe, *flags, f"--user-data-dir={folder / 'profile'}", f"--window-size={width},900",
+         "--dump-dom", page.as_uri()],
+        capture_output=True, text=True, timeout=120, check=True,
+    )  # fmt: skip
+    found = re.search(r'data-overflow="(-?\d+)"', proc.stdout)
+    assert found, proc.stdout[-500:]
+    return int(found.group(1))

@@ -359,3 +359,22 @@ def test_a_scene_an_infinite_prior_leaves_free_without_observations_is_named(
     assert "internal error" not in r.stderr and not out.exists()
     r = blockqc("adjust", blk, "--out", out, *free, "--fix", "S0004")
     assert r.returncode == 0, r.stderr
+
+
+@pytest.mark.browser
+def test_long_ids_and_paths_wrap_within_the_page(small_block, tmp_path, blockqc):
+    """A block id of 106 characters, a delivery path of 240 and a scene id of 90, none with a
+    space: the title, the paragraph naming the delivery and the per-scene table ran past the
+    page's right edge (cut off, the page scrolled sideways); they now wrap."""
+    from blockqc.adjust.report import render_html
+    from casekit import page_overflow_px
+
+    out = tmp_path / "out"
+    assert blockqc("adjust", small_block, "--out", out).returncode == 0
+    summary = json.loads((out / "adjust.json").read_text())
+    summary["block_id"] = "BLOCK_" + "X" * 100
+    summary["delivery"] = "/data/" + "deliveries_of_the_project_" * 9 + "/SYN-B01"
+    summary["scenes"][0]["scene_id"] = "PHR1B_P_201308051042194_SEN_690908101-001_" + "Z" * 48
+    html = render_html(summary)
+    assert summary["delivery"] in html and summary["scenes"][0]["scene_id"] in html
+    assert page_overflow_px(html, tmp_path) <= 0

@@ -771,3 +771,18 @@ def test_a_reference_crs_that_cannot_reach_the_grid_is_an_input_error(
         "as a UTM zone, or EPSG:4326) is expected\n"
     )
     assert not out.exists()
+
+
+@pytest.mark.browser
+def test_a_long_image_path_wraps_within_the_page(real_run, tmp_path: Path):
+    """An image at a path of 250 characters without a space: the paragraph naming it ran past
+    the page's right edge (cut off, the page scrolled sideways); it now wraps."""
+    from blockqc.rfm.report import render_html
+    from casekit import page_overflow_px
+
+    out, _ = real_run
+    results = json.loads((out / "results.json").read_text())
+    results["image"] = "/data/" + "deliveries_of_the_project_" * 9 + "/left_image.tif"
+    html = render_html(results)
+    assert results["image"] in html
+    assert page_overflow_px(html, tmp_path) <= 0
