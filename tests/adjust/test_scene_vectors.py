@@ -44,3 +44,33 @@ def test_scene_maps_render_worst_first() -> None:
     summary = {"scenes": [{"scene_id": "A", "rms_px": 0.6}, {"scene_id": "B", "rms_px": None}]}
     png = plot_scene_vectors(block, sol, summary)
     assert png[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_long_scene_ids_do_not_overlap_and_an_empty_map_says_why(monkeypatch) -> None:
+    """Two scenes named as Pléiades names them (46 characters): their titles ran into each other
+    and under the figure's title; scene B, whose only observation is an outlier, was an empty
+    frame. The titles now wrap apart and B's map says it has no kept observation."""
+    import matplotlib.pyplot as plt
+    from matplotlib.text import Text
+
+    import blockqc.adjust.report as report
+
+    kept = []
+    monkeypatch.setattr(report, "_png", lambda fig: kept.append(fig) or b"")
+    block, sol = _block_and_solution()
+    ids = [f"PHR1B_P_201308051042194_SEN_690908101-00{i}_R1C{i}" for i in (1, 2)]
+    rms = (0.6, None)
+    summary = {"scenes": [{"scene_id": i, "rms_px": r} for i, r in zip(ids, rms, strict=True)]}
+    plot_scene_vectors(block, sol, summary)
+    fig = kept[0]
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    titles = [fig._suptitle] + [ax.title for ax in fig.axes if ax.title.get_text()]
+    assert len(titles) == 3
+    for i in (1, 2):  # every character of each id is shown
+        assert ids[i - 1] in "".join(titles[i].get_text().split())
+    boxes = [t.get_window_extent(renderer) for t in titles]
+    assert not any(a.overlaps(b) for j, a in enumerate(boxes) for b in boxes[j + 1 :])
+    empty = [t.get_text() for t in fig.axes[1].findobj(Text) if t is not fig.axes[1].title]
+    assert "no kept observation" in empty
+    plt.close(fig)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import io
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -122,7 +122,9 @@ def plot_scene_vectors(block: Block, sol: Solution, summary: dict) -> bytes:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(rows, cols, figsize=(2.4 * cols, 2.5 * rows), squeeze=False)
+    fig, axes = plt.subplots(
+        rows, cols, figsize=(2.4 * cols, 2.8 * rows), squeeze=False, layout="constrained"
+    )
     ref = float(np.nanmax(np.hypot(vl[order], vs[order]), initial=0.0)) or 1.0
     centre = (np.arange(k) + 0.5) / k
     u, w = np.meshgrid(centre, centre, indexing="ij")  # u: line fraction, w: sample fraction
@@ -131,7 +133,7 @@ def plot_scene_vectors(block: Block, sol: Solution, summary: dict) -> bytes:
         ax.quiver(w[ok], u[ok], vs[s][ok], -vl[s][ok], angles="uv", scale=ref * k * 0.9,
                   scale_units="width", color="#d73027", width=0.012)  # fmt: skip
         ax.set(xlim=(0, 1), ylim=(1, 0), xticks=[], yticks=[], aspect="equal")
-        ax.set_title(f"{summary['scenes'][s]['scene_id']}  {_fmt(rms[s])} px", fontsize=8)
+        _scene_title(ax, summary["scenes"][s]["scene_id"], rms[s], bool(ok.any()))
     for ax in axes.ravel()[order.size :]:
         ax.axis("off")
     fig.suptitle(
@@ -140,6 +142,18 @@ def plot_scene_vectors(block: Block, sol: Solution, summary: dict) -> bytes:
         fontsize=9,
     )
     return _png(fig)
+
+
+def _scene_title(ax: Any, scene_id: str, rms: float, drawn: bool) -> None:
+    """A scene map's title, its id wrapped to the map's width (28 characters at 8 pt), and a
+    word inside a map left empty because no kept observation falls in the scene."""
+    import textwrap
+
+    name = textwrap.fill(str(scene_id), 28, break_on_hyphens=False)
+    ax.set_title(f"{name}\n{_fmt(rms)} px", fontsize=8)
+    if not drawn:
+        ax.text(0.5, 0.5, "no kept observation", ha="center", va="center", fontsize=8,
+                color="0.4", transform=ax.transAxes)  # fmt: skip
 
 
 def plot_scene_precision(block: Block, sol: Solution, summary: dict) -> bytes:
