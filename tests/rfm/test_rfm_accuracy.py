@@ -344,3 +344,21 @@ def test_vector_plot_title_of_long_file_names_stays_within_the_figure(monkeypatc
     import matplotlib.pyplot as plt
 
     plt.close(fig)
+
+
+def test_gev_histogram_counts_whole_cps(monkeypatch):
+    """Five CPs (a run with a large --grid): the count axis was ticked 0.25, 0.50 … 1.75 CPs; it
+    is ticked in whole CPs, up to the tallest bar (two CPs here)."""
+    kept = []
+    monkeypatch.setattr(accuracy, "_figure_png", lambda fig: kept.append(fig) or b"")
+    accuracy.plot_gev_histogram([5.3, 5.6, 7.1, 8.0, 9.4])
+    fig = kept[0]
+    fig.canvas.draw()
+    ax = fig.axes[0]
+    low, high = ax.get_ylim()
+    ticks = [t for t in ax.get_yticks() if low <= t <= high]
+    assert ticks and all(float(t).is_integer() for t in ticks)
+    assert max(p.get_height() for p in ax.patches) == 2
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)

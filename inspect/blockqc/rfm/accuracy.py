@@ -322,6 +322,7 @@ def plot_gev_histogram(g: ArrayLike, requirement: float = REQUIREMENT_PX) -> byt
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import MaxNLocator
 
     g = np.asarray(g, np.float64)
     fig, ax = plt.subplots(figsize=(6.4, 3.6))
@@ -330,6 +331,7 @@ def plot_gev_histogram(g: ArrayLike, requirement: float = REQUIREMENT_PX) -> byt
     ax.axvline(requirement, color="#cc3311", linestyle="--", label=f"{requirement:g} px")
     ax.set_xlabel("GEV (px)")
     ax.set_ylabel("CPs")
+    ax.yaxis.set_major_locator(MaxNLocator(integer=True))  # counts: no 0.25 of a CP
     ax.legend()
     ax.set_title("Geometric error value per CP", loc="left")
     return _figure_png(fig)
