@@ -117,3 +117,17 @@ def test_warnings_are_on_the_page(block, tmp_path, blockqc):
     assert "<h2>Warnings</h2>" not in render_html(summary)
     summary["warnings"] = ["scene S4 has no tie-point observation: check it"]
     assert "<li>scene S4 has no tie-point observation: check it</li>" in render_html(summary)
+
+
+def test_the_per_scene_table_gives_the_unit_of_every_shift(block, tmp_path, blockqc):
+    """The per-scene table headed its shifts and their σ 'a0', 'σ a0', 'b0', 'σ b0' with no
+    unit, beside 'RMS (px)': the contract's a0 and b0 are image pixels, and so are their σ."""
+    import re
+
+    out = tmp_path / "out"
+    assert blockqc("adjust", block, "--out", out).returncode == 0
+    page = (out / "adjust.html").read_text()
+    table = page[page.index("<h2>Per-scene precision</h2>") :]
+    heads = re.findall(r"<th[^>]*>([^<]*)</th>", table[: table.index("</tr>")])
+    for name in ("a0", "σ a0", "b0", "σ b0"):
+        assert f"{name} (px)" in heads
