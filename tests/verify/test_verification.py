@@ -333,3 +333,26 @@ def test_no_derived_overlap_is_said_for_what_it_is() -> None:
     notes["n_points_not_intersected"] = 7
     with pytest.raises(ValueError, match="the rays of 7 tie points do not intersect"):
         overlap_discrepancy(d, None, None)
+
+
+def test_the_overlap_map_names_millimetre_discrepancies(tmp_path, observations) -> None:
+    """Overlaps derived from a well-adjusted pair (§RC-2): the mean discrepancy vector of the pair
+    is about a millimetre and its RMS about two decimetres; the map drew the vector and captioned
+    it 'longest 0.0 m'. The caption now gives it to three decimals, from the same table an
+    inspector reads in results.json."""
+    import re
+
+    from blockqc.report import write_block_report
+
+    _, ref = observations
+    doc = _results(write_v11(tmp_path / "d", ref))
+    table = next(m for m in doc["measurements"] if m["metric"] == "overlap_discrepancy")
+    rows = pd.DataFrame(table["tables"]["point"]).query("component == 'plane'")
+    mean = float(np.hypot(rows["dx_m"].mean(), rows["dy_m"].mean()))
+    assert 0.0005 < mean < 0.05  # the case: below what one decimal shows
+    write_block_report(tmp_path / "out", doc, pdf=False)
+    page = (tmp_path / "out" / "report.html").read_text()
+    shown = re.findall(r"mean vector \(longest ([0-9.]+) m\)", page)
+    assert shown  # the figure's title (and its text alternative)
+    for value in shown:
+        assert float(value) > 0 and abs(float(value) - mean) <= 0.0005  # to 3 decimals

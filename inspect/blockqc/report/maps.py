@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 
 from blockqc.report import plots, svg, svgplot
-from blockqc.report.format import Formatter
+from blockqc.report.format import Formatter, number
 from blockqc.results import BlockResults
 
 
@@ -79,12 +79,13 @@ def overlap_map(results: BlockResults, f: Formatter) -> str | None:
     xy = shapely.get_coordinates(shapely.centroid(meet))
     rings = plots.rings_of(geoms)
     vec = pairs[["dx", "dy"]].to_numpy()
-    biggest = float(np.nanmax(np.hypot(vec[:, 0], vec[:, 1]), initial=0.0)) or 1.0
+    longest = float(np.nanmax(np.hypot(vec[:, 0], vec[:, 1]), initial=0.0))
+    biggest = longest or 1.0
     span = max(float(np.ptp(xy[:, 0])), float(np.ptp(xy[:, 1])), 1e-3)
     scale = 0.15 * span / biggest  # degrees per metre of mean discrepancy
     bad = (pairs["max"] >= bound).to_numpy() if bound is not None else np.zeros(len(pairs), bool)
     colours = np.where(bad, plots.STATUS_COLOURS["fail"], plots.STATUS_COLOURS["pass"])
-    plot = plots.lonlat_plot(rings, f.t, f.t("fig_overlap_map", m=f"{biggest:.1f}"))
+    plot = plots.lonlat_plot(rings, f.t, f.t("fig_overlap_map", m=f.num(longest)))
     outline = np.full(len(rings.owner), "#9e9e9e", dtype=object)
     plot.add(svgplot.polygons(rings, outline, 0.0, 0.5))
     plot.add(svgplot.arrows(xy, vec * scale, colours.astype(object), 0.8), z=3)
@@ -99,7 +100,7 @@ def _rms_labels(xy: np.ndarray, rms: np.ndarray, colours: np.ndarray):
     def draw(fr: svg.Frame) -> str:
         page = fr.xy(xy[:shown])
         return "".join(
-            svg.text(x + 2, y, f"{v:.1f}", 6, colour=c)
+            svg.text(x + 2, y, number(v), 6, colour=c)
             for (x, y), v, c in zip(page.tolist(), rms[:shown], colours[:shown], strict=True)
         )
 
