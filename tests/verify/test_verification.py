@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import re
 import shutil
 from pathlib import Path
 
@@ -356,3 +357,26 @@ def test_the_overlap_map_names_millimetre_discrepancies(tmp_path, observations) 
     assert shown  # the figure's title (and its text alternative)
     for value in shown:
         assert float(value) > 0 and abs(float(value) - mean) <= 0.0005  # to 3 decimals
+
+
+def test_the_overlap_map_of_one_pair_draws_its_vector(tmp_path, observations, monkeypatch) -> None:
+    """A block of two scenes (a stereo pair) has one pair of overlapping scenes: its mean vector
+    was scaled to 15 % of the spread of the pairs' centres, nil for one pair, so it was drawn
+    about 0.0002° long on a map 0.25° across, a dot under its RMS label. It is drawn at 15 % of
+    the map's extent."""
+    from blockqc.report import maps, svgplot
+    from blockqc.report.format import Formatter
+    from blockqc.results import BlockResults
+
+    drawn = []
+    real = svgplot.arrows
+    monkeypatch.setattr(svgplot, "arrows", lambda t, v, *a: drawn.append(v) or real(t, v, *a))
+    _, ref = observations
+    doc = _results(write_v11(tmp_path / "d", ref))
+    assert maps.overlap_map(BlockResults.model_validate(doc), Formatter("en")) is not None
+    (vec,) = drawn
+    lon = [
+        float(x) for sc in doc["scenes"] for x in re.findall(r"(\d+\.\d+) \d", sc["footprint_wkt"])
+    ]
+    extent = max(lon) - min(lon)  # about 0.25° of longitude
+    assert np.hypot(*vec[0]) == pytest.approx(0.15 * extent, rel=0.2)

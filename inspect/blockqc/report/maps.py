@@ -81,7 +81,8 @@ def overlap_map(results: BlockResults, f: Formatter) -> str | None:
     vec = pairs[["dx", "dy"]].to_numpy()
     longest = float(np.nanmax(np.hypot(vec[:, 0], vec[:, 1]), initial=0.0))
     biggest = longest or 1.0
-    span = max(float(np.ptp(xy[:, 0])), float(np.ptp(xy[:, 1])), 1e-3)
+    x0, y0, x1, y1 = shapely.total_bounds(geoms[list(at.values())])
+    span = max(x1 - x0, y1 - y0, 1e-3)  # the map's extent (one pair: its centres do not spread)
     scale = 0.15 * span / biggest  # degrees per metre of mean discrepancy
     bad = (pairs["max"] >= bound).to_numpy() if bound is not None else np.zeros(len(pairs), bool)
     colours = np.where(bad, plots.STATUS_COLOURS["fail"], plots.STATUS_COLOURS["pass"])
