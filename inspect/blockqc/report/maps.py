@@ -95,17 +95,34 @@ def overlap_map(results: BlockResults, f: Formatter) -> str | None:
 
 
 def _rms_labels(xy: np.ndarray, rms: np.ndarray, colours: np.ndarray):
-    """The RMS beside the first MAX_PAIR_LABELS pairs."""
+    """The RMS beside the first MAX_PAIR_LABELS pairs, moved off one another (the two diagonal
+    pairs of four scenes in a grid share the centre of their overlap)."""
     shown = min(len(rms), MAX_PAIR_LABELS)
+    texts = [number(v) for v in rms[:shown]]
 
     def draw(fr: svg.Frame) -> str:
-        page = fr.xy(xy[:shown])
+        page = _unstacked(fr.xy(xy[:shown]) + [2.0, 0.0], texts, 6.0)
         return "".join(
-            svg.text(x + 2, y, number(v), 6, colour=c)
-            for (x, y), v, c in zip(page.tolist(), rms[:shown], colours[:shown], strict=True)
+            svg.text(x, y, s, 6, colour=c)
+            for (x, y), s, c in zip(page.tolist(), texts, colours[:shown], strict=True)
         )
 
     return draw
+
+
+def _unstacked(page: np.ndarray, texts: list[str], size: float) -> np.ndarray:
+    """Label baselines (points) each moved down a line at a time until it clears the labels
+    placed before it (at most MAX_PAIR_LABELS labels)."""
+    out = np.array(page, float)
+    placed: list[tuple[float, float, float]] = []  # x from, x to, baseline
+    for i, s in enumerate(texts):
+        x, y = out[i]
+        right = x + svg.text_width(s, size)
+        while any(x < b and a < right and abs(y - by) < size for a, b, by in placed):
+            y += 1.2 * size
+        out[i, 1] = y
+        placed.append((x, right, y))
+    return out
 
 
 def _corners(results: BlockResults) -> tuple[np.ndarray, np.ndarray]:
