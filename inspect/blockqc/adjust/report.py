@@ -77,7 +77,7 @@ def plot_vectors(block: Block, sol: Solution, footprints: list) -> bytes:
     kept = np.flatnonzero(~sol.outlier)
     kept = kept[:: max(1, kept.size // MAX_VECTORS)]
     pt = block.obs.point[kept]
-    ax.quiver(
+    arrows = ax.quiver(
         sol.lon[pt],
         sol.lat[pt],
         sol.v_sample[kept],
@@ -86,12 +86,23 @@ def plot_vectors(block: Block, sol: Solution, footprints: list) -> bytes:
         color="#d73027",
         width=0.0015,
     )
+    _vector_key(ax, arrows, np.hypot(sol.v_line[kept], sol.v_sample[kept]))
     ax.set_xlabel("longitude (°)")
     ax.set_ylabel("latitude (°)")
     ax.set_aspect(1.0 / max(math.cos(math.radians(float(np.nanmean(sol.lat)))), 0.1))
     ax.autoscale_view()
     ax.set_title("residual vectors (sample →, line ↓), scene outlines in grey")
     return _png(fig)
+
+
+def _vector_key(ax: Any, arrows: Any, length: np.ndarray) -> None:
+    """The scale of the residual vectors: an arrow of their 95th percentile to one significant
+    digit (0.37 → 0.4 px), under the map's bottom-right corner."""
+    length = length[np.isfinite(length)]
+    if length.size == 0 or not np.percentile(length, 95) > 0:
+        return
+    key = float(f"{np.percentile(length, 95):.1g}")
+    ax.quiverkey(arrows, 0.84, -0.062, key, f"{key:g} px", labelpos="E", coordinates="axes")
 
 
 def scene_cell_means(block: Block, sol: Solution, k: int = SCENE_CELLS) -> tuple[np.ndarray, ...]:
