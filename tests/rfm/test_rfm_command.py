@@ -786,3 +786,16 @@ def test_a_long_image_path_wraps_within_the_page(real_run, tmp_path: Path):
     html = render_html(results)
     assert results["image"] in html
     assert page_overflow_px(html, tmp_path) <= 0
+
+
+def test_the_affine_of_every_cp_gives_its_shifts_in_pixels(real_run):
+    """§RA-6's affine fitted to every CP was written 'a0 = 487.432, a1 = …, b0 = -127.217'
+    without a unit: a0 and b0 are image pixels (Δl = a0 + a1·s + a2·l), a1, a2, b1, b2 have none."""
+    import re
+
+    out, _ = real_run
+    page = (out / "report.html").read_text()
+    affine = json.loads((out / "results.json").read_text())["refined_rfm"]["all_cps"]["affine"]
+    for key, value in affine.items():
+        unit = " px" if key in ("a0", "b0") else ""
+        assert re.search(rf"\b{key} = {re.escape(f'{value:.6g}')}{unit}(,|;)", page), key
