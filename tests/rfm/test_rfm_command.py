@@ -799,3 +799,20 @@ def test_the_affine_of_every_cp_gives_its_shifts_in_pixels(real_run):
     for key, value in affine.items():
         unit = " px" if key in ("a0", "b0") else ""
         assert re.search(rf"\b{key} = {re.escape(f'{value:.6g}')}{unit}(,|;)", page), key
+
+
+def test_a_distortion_found_not_significant_says_which_condition_failed(real_run):
+    """The s2p Réunion pair: p = 0.00073 (below 0.01) but a field of 0.061 px RMS (below 0.5),
+    so no significant distortion. The row read 'no (p < 0.01 and field RMS ≥ 0.5 px)', as if both
+    held; it now gives the run's p and field RMS beside the criterion."""
+    import re
+
+    from blockqc.rfm.report import render_html
+
+    out, _ = real_run
+    results = json.loads((out / "results.json").read_text())
+    results["distortion"].update(p_value=0.00073, field_rms_px=0.061, significant=False)
+    page = render_html(results)
+    row = re.search(r"significant distortion</th><td>(.*?)</td>", page).group(1)
+    assert row.startswith("no: p = 0.00073, field RMS 0.061 px (")
+    assert "significant when p &lt; 0.01 and field RMS ≥ 0.5 px" in row
