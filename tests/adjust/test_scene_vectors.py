@@ -105,3 +105,25 @@ def test_the_residual_vector_map_has_a_scale(monkeypatch) -> None:
     p95 = np.sort(np.hypot(v_line[5:], v_sample[5:]))[int(round(0.95 * (n - 6)))]
     assert keys[0].text.get_text() == f"{float(f'{p95:.1g}'):g} px"
     plt.close(fig)
+
+
+def test_the_convergence_and_residual_plots_label_their_vertical_axes(monkeypatch) -> None:
+    """The convergence plot (RMS and largest update, log scale) and the two residual histograms
+    had no label on their vertical axis: what the bars count, and in what the curves are, was
+    left to guess."""
+    import matplotlib.pyplot as plt
+
+    import blockqc.adjust.report as report
+
+    kept = []
+    monkeypatch.setattr(report, "_png", lambda fig: kept.append(fig) or b"")
+    history = [
+        {"iteration": i, "phase": p, "rms_px": r, "max_affine_step_px": s, "max_ground_step_px": s}
+        for i, p, r, s in ((1, "huber", 6.8, 27.0), (2, "huber", 0.6, 2.7), (3, "ls", 0.25, 1e-3))
+    ]
+    report.plot_convergence(history)
+    report.plot_histograms(np.array([6.0, 7.5, 9.0]), np.array([0.1, 0.2, 0.3]))
+    labels = [ax.get_ylabel() for fig in kept for ax in fig.axes]
+    assert labels == ["px (log scale)", "observations", "observations"]
+    for fig in kept:
+        plt.close(fig)

@@ -52,6 +52,7 @@ def plot_convergence(history: list[dict]) -> bytes:
         if i and h["phase"] != history[i - 1]["phase"]:
             ax.axvline(h["iteration"] - 0.5, color="0.6", lw=0.8)
     ax.set_xlabel("iteration (Huber, then least squares after rejection)")
+    ax.set_ylabel("px (log scale)")
     ax.legend()
     return _png(fig)
 
@@ -64,6 +65,7 @@ def plot_histograms(v_before: np.ndarray, v_after: np.ndarray) -> bytes:
         ax.hist(np.clip(v, 0, hi), bins=60, range=(0, max(hi, 1e-6)), color="#4575b4")
         ax.set_title(f"|v| {title} adjustment (px)")
         ax.set_xlabel("px (clipped at the 99.5th percentile)")
+        ax.set_ylabel("observations")
     return _png(fig)
 
 
