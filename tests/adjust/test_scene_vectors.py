@@ -127,3 +127,12 @@ def test_the_convergence_and_residual_plots_label_their_vertical_axes(monkeypatc
     assert labels == ["px (log scale)", "observations", "observations"]
     for fig in kept:
         plt.close(fig)
+
+
+def test_a_scene_id_with_dollar_signs_is_drawn_as_typed() -> None:
+    """A scene id 'S$_$1' was read by matplotlib as mathematics on its residual map's title, and
+    blockqc adjust stopped with an internal error (a mathtext ParseSyntaxException) after the
+    adjustment had converged; the id is drawn as typed."""
+    block, sol = _block_and_solution()
+    summary = {"scenes": [{"scene_id": "S$_$1", "rms_px": 0.6}, {"scene_id": "B", "rms_px": None}]}
+    assert plot_scene_vectors(block, sol, summary)[:8] == b"\x89PNG\r\n\x1a\n"

@@ -362,3 +362,30 @@ def test_gev_histogram_counts_whole_cps(monkeypatch):
     import matplotlib.pyplot as plt
 
     plt.close(fig)
+
+
+@pytest.mark.parametrize("name", ["a$_$b.tif", "scene_$x$_1.tif"])
+def test_vector_plot_title_shows_dollar_signs_as_typed(monkeypatch, name):
+    """An image named with '$' signs: matplotlib read its title as mathematics, so 'a$_$b.tif'
+    stopped rfm-accuracy with an internal error (a mathtext ParseSyntaxException) after all the
+    matching, and 'scene_$x$_1.tif' came out as 'scene_x_1.tif' with an italic x. The names are
+    now drawn as typed."""
+    from matplotlib.text import Text
+
+    kept = []
+    monkeypatch.setattr(accuracy, "_figure_png", lambda fig: kept.append(fig) or b"")
+    title = f"CP error vectors, {name} vs right_image.tif"
+    xy, d = np.array([10.0, 20.0]), np.array([0.1, 0.2])
+    accuracy.plot_error_vectors(xy, xy, d, d, 0.5, (50, 50), title=title)
+    fig = kept[0]
+    fig.canvas.draw()  # mathematics would be parsed (and fail) here
+    (shown,) = [t for t in fig.findobj(Text) if "CP error vectors" in t.get_text()]
+    assert shown.get_text() == title
+    # as typed, the two '$' take room: wider than the title drawn without them
+    bare = fig.text(0, 0, title.replace("$", ""), fontproperties=shown.get_fontproperties())
+    renderer = fig.canvas.get_renderer()
+    dollar = bare.get_window_extent(renderer).width / len(bare.get_text())  # about one glyph
+    assert shown.get_window_extent(renderer).width > bare.get_window_extent(renderer).width + dollar
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)

@@ -163,7 +163,7 @@ def _scene_title(ax: Any, scene_id: str, rms: float, drawn: bool) -> None:
     import textwrap
 
     name = textwrap.fill(str(scene_id), 28, break_on_hyphens=False)
-    ax.set_title(f"{name}\n{_fmt(rms)} px", fontsize=8)
+    ax.set_title(f"{name}\n{_fmt(rms)} px", fontsize=8, parse_math=False)  # an id: "$" as typed
     if not drawn:
         ax.text(0.5, 0.5, "no kept observation", ha="center", va="center", fontsize=8,
                 color="0.4", transform=ax.transAxes)  # fmt: skip

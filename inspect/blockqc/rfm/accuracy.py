@@ -298,7 +298,7 @@ def plot_error_vectors(
     ax.set_ylim(shape[0], 0)
     ax.set_xlabel("column (px)")
     ax.set_ylabel("row (px)")
-    ax.set_title(_wrapped(title, fig, ax), loc="left")
+    ax.set_title(_wrapped(title, fig, ax), loc="left", parse_math=False)  # names: "$" as typed
     return _figure_png(fig)
 
 
