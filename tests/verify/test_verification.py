@@ -404,3 +404,19 @@ def test_the_overlap_maps_rms_labels_do_not_overlap(tmp_path) -> None:
     for i, (a0, a1, ay) in enumerate(boxes):
         for b0, b1, by in boxes[i + 1 :]:
             assert not (a0 < b1 and b0 < a1 and abs(ay - by) < 6.0), labels
+
+
+def test_the_overlap_map_without_a_mean_vector_says_zero(tmp_path, observations) -> None:
+    """Every pair with a zero mean discrepancy: no arrow to draw, and the caption said 'longest
+    1.0 m' (the fallback of the arrows' scale); it says 0 m."""
+    from blockqc.report import maps
+    from blockqc.report.format import Formatter
+    from blockqc.results import BlockResults
+
+    _, ref = observations
+    doc = _results(write_v11(tmp_path / "d", ref))
+    table = next(m for m in doc["measurements"] if m["metric"] == "overlap_discrepancy")
+    for row in table["tables"]["point"]:
+        row.update(dx_m=0.0, dy_m=0.0)
+    page = maps.overlap_map(BlockResults.model_validate(doc), Formatter("en"))
+    assert set(re.findall(r"mean vector \(longest ([0-9.]+) m\)", page)) == {"0"}
