@@ -368,6 +368,26 @@ def test_incremental_key_holds_the_packs_columns_and_the_inspectors_name(small_b
     assert _incremental(small_batch, out, *args).stdout.count("outputs reused") == 0
 
 
+def test_incremental_delivery_named_by_another_path_is_written_again(small_batch, tmp_path):
+    """The outputs record each delivery's path as given: the batch named by a relative path
+    after an absolute one writes what a fresh run writes, never the earlier path."""
+    out, fresh = tmp_path / "out", tmp_path / "fresh"
+    assert _incremental(small_batch, out).returncode == 1
+    relative = ("inspect", "batch", "--no-pdf")
+    again = run_blockqc(*relative, "--out", out, "--incremental", cwd=tmp_path)
+    assert again.returncode == 1 and again.stdout.count("outputs reused") == 0, again.stdout
+    assert run_blockqc(*relative, "--out", fresh, cwd=tmp_path).returncode == 1
+
+    def paths(folder: Path) -> list[str]:
+        summary = json.loads((folder / "summary.json").read_text(encoding="utf-8"))
+        block = json.loads((folder / "F1-B02" / "results.json").read_text(encoding="utf-8"))
+        return [b["path"] for b in summary["blocks"]] + [block["delivery"]]
+
+    expected = ["batch/F1-B02", "batch/F3-B02", "batch/F4-B02", "batch/F1-B02"]
+    assert paths(out) == paths(fresh) == expected
+    assert (out / "summary.csv").read_text("utf-8") == (fresh / "summary.csv").read_text("utf-8")
+
+
 @pytest.mark.parametrize("change", ["truncate results.json", "delete evidence.csv"])
 def test_incremental_block_with_an_output_cut_or_gone_is_written_again(
     small_batch, tmp_path, change

@@ -1,13 +1,14 @@
 """Incremental inspection: a block's outputs are reused while nothing that made them changed.
 
-The key of a block is a SHA-256 over its delivery's files (relative path, size and modification
-time of each — the quick check of make and rsync: a file rewritten with new content gets a new
-time), the inspector (name, verdicts and waivers for the block), the resolved rule pack (its
-rules, constants, files and the columns it reads), the output options, and blockqc itself (its
-version, and the size and time of each of its modules and templates, so that a changed blockqc
-recomputes too). It is kept beside the block's outputs in `.blockqc-cache.json` with the
-block's line of the summary and the size of each output, so that a re-run reads nothing else
-of an unchanged block, and a missing or cut output is written again.
+The key of a block is a SHA-256 over its delivery's path (as given, which its outputs record,
+and where it leads) and files (relative path, size and modification time of each — the quick
+check of make and rsync: a file rewritten with new content gets a new time), the inspector
+(name, verdicts and waivers for the block), the resolved rule pack (its rules, constants, files
+and the columns it reads), the output options, and blockqc itself (its version, and the size and
+time of each of its modules and templates, so that a changed blockqc recomputes too). It is kept
+beside the block's outputs in `.blockqc-cache.json` with the block's line of the summary and the
+size of each output, so that a re-run reads nothing else of an unchanged block, and a missing or
+cut output is written again.
 """
 
 from __future__ import annotations
@@ -119,9 +120,11 @@ def _blockqc() -> tuple[str, list, list]:
 
 
 def delivery_fingerprint(path: Path, digest: str, block_input: BaseModel | None) -> str:
-    """The key of one block: its delivery's files, its verdicts and the run's digest."""
+    """The key of one block: its delivery's path (as given, which its results.json and line of
+    the summary record, and where it leads), files, verdicts and the run's digest."""
     verdicts = block_input.model_dump(mode="json") if block_input is not None else None
-    return _sha(digest, str(Path(path).resolve()), _tree(Path(path)), verdicts)
+    where = (str(path), str(Path(path).resolve()))
+    return _sha(digest, where, _tree(Path(path)), verdicts)
 
 
 def read_cached(folder: Path, key: str) -> Cached | None:
