@@ -276,6 +276,21 @@ def test_incremental_summary_rewritten_when_an_acceptance_page_is_gone(
     assert (out / "acceptance.html").is_file()
 
 
+@pytest.mark.parametrize("name", ["summary.json", "summary.html", "acceptance.html"])
+def test_incremental_summary_rewritten_when_an_output_is_cut(small_batch, tmp_path, name):
+    """A summary output cut short (a copy or a disk that failed) is written again, as a block's
+    are: the summary's cache vouches for the size of every file written from it."""
+    out, fresh = tmp_path / "out", tmp_path / "fresh"
+    args = ("inspect", small_batch, "--no-pdf")
+    assert run_blockqc(*args, "--out", out, "--incremental").returncode == 1
+    cut = (out / name).read_bytes()[:100]
+    (out / name).write_bytes(cut)
+    again = run_blockqc(*args, "--out", out, "--incremental")
+    assert again.returncode == 1 and again.stdout.count("outputs reused") == 3, again.stdout
+    assert run_blockqc(*args, "--out", fresh).returncode == 1
+    assert (out / name).stat().st_size == (fresh / name).stat().st_size > len(cut)
+
+
 def test_dask_block_of_a_worker_that_dies_runs_again(tmp_path: Path):
     """A worker process that dies in the middle of a block (killed, out of memory) takes no
     block with it: the scheduler gives the block to a worker again, and every outcome arrives."""

@@ -179,17 +179,18 @@ def summary_key(digest: str, block_keys: list[str | None], inspector: str | None
 
 def summary_unchanged(out: Path, key: str | None, held: Path | None = None) -> bool:
     """Whether the summary outputs of `out` (held in `held`, where they were set aside while
-    the blocks were written) were written from the same blocks' lines and are all still there:
-    an unchanged batch then rewrites nothing."""
+    the blocks were written) were written from the same blocks' lines and are all still there,
+    at the size they were written: an unchanged batch then rewrites nothing."""
     if key is None:
         return False
     held = out if held is None else held
     try:
         doc = json.loads((out / SUMMARY_CACHE_FILE).read_text(encoding="utf-8"))
-        files = [str(f) for f in doc["files"]]
-        return doc["key"] == key and all((held / f).is_file() for f in [*SUMMARY_OUTPUTS, *files])
-    except (OSError, ValueError, KeyError, TypeError):
-        return False  # none, or a broken one: write the summary again
+        sizes = {str(name): size for name, size in doc["sizes"].items()}
+        names = set(SUMMARY_OUTPUTS) | set(sizes)
+        return doc["key"] == key and _sizes(held, sorted(names)) == sizes
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return False  # none, or a broken one, or an output gone: write the summary again
 
 
 def forget_summary(out: Path) -> None:
@@ -199,7 +200,7 @@ def forget_summary(out: Path) -> None:
 
 
 def remember_summary(out: Path, key: str | None, written: list[Path]) -> None:
-    """The summary's key and the files written from it (PDFs, the acceptance pages)."""
+    """The summary's key and the size of each file written from it (PDFs, acceptance pages)."""
     if key is not None:
-        files = sorted(p.name for p in written)
-        write_json_atomic(out / SUMMARY_CACHE_FILE, {"key": key, "files": files})
+        sizes = _sizes(out, sorted(p.name for p in written))
+        write_json_atomic(out / SUMMARY_CACHE_FILE, {"key": key, "sizes": sizes})
