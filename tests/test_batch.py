@@ -263,6 +263,38 @@ def test_incremental_broken_caches_mean_inspect_again(
     assert run_blockqc(*args).stdout.count("outputs reused") == 3  # caches written afresh
 
 
+def _edit_cache(cache: dict, edit: str) -> None:
+    if edit == "verdict":  # the failing block's line made to pass
+        cache["entry"].update(verdict="pass", failed_rules=[])
+    elif edit == "count":
+        cache["rules"]["RO-3"]["fail"] = "1"
+    else:
+        cache["errors"] = 5
+
+
+@pytest.mark.parametrize("edit", ["verdict", "count", "errors"])
+def test_incremental_cache_edited_by_hand_is_not_trusted(small_batch, tmp_path, edit):
+    """A block's cache whose line was edited (its key kept) is no cache: the block is inspected
+    again, as a fresh run inspects it; it was taken as written (a failing block said to pass,
+    exit 0), or stopped the run (a count or its errors of another type: an internal error)."""
+    out, fresh = tmp_path / "out", tmp_path / "fresh"
+    assert _incremental(small_batch, out).returncode == 1
+    path = out / "F3-B02" / ".blockqc-cache.json"
+    cache = json.loads(path.read_text(encoding="utf-8"))
+    _edit_cache(cache, edit)
+    path.write_text(json.dumps(cache), encoding="utf-8")
+    again = _incremental(small_batch, out)
+    assert again.returncode == 1 and "error" not in again.stderr, again.stderr
+    assert again.stdout.count("outputs reused") == 2 and "F3-B02       FAIL" in again.stdout
+    assert run_blockqc("inspect", small_batch, "--out", fresh, "--no-pdf").returncode == 1
+
+    def blocks(folder: Path) -> list[dict]:
+        return json.loads((folder / "summary.json").read_text(encoding="utf-8"))["blocks"]
+
+    assert blocks(out) == blocks(fresh)
+    assert _incremental(small_batch, out).stdout.count("outputs reused") == 3
+
+
 def test_incremental_summary_rewritten_when_an_acceptance_page_is_gone(
     small_batch: Path, tmp_path: Path
 ):

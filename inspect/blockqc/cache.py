@@ -8,7 +8,8 @@ and the columns it reads), the output options, and blockqc itself (its version, 
 time of each of its modules and templates, so that a changed blockqc recomputes too). It is kept
 beside the block's outputs in `.blockqc-cache.json` with the block's line of the summary and the
 size of each output, so that a re-run reads nothing else of an unchanged block, and a missing or
-cut output is written again.
+cut output is written again; a digest of it all seals the file, so that one edited by hand is not
+trusted (the block is inspected again).
 """
 
 from __future__ import annotations
@@ -20,10 +21,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from pydantic import BaseModel, ValidationError
+import pydantic_core
+from pydantic import BaseModel, StrictInt, StrictStr, TypeAdapter, ValidationError
 
 from blockqc import __version__
-from blockqc.outputs import BATCH_OUTPUTS, BLOCK_OUTPUTS, write_json_atomic
+from blockqc.outputs import BATCH_OUTPUTS, BLOCK_OUTPUTS, jsonable, write_json_atomic
 from blockqc.results import BlockEntry
 
 CACHE_FILE = ".blockqc-cache.json"
@@ -34,6 +36,9 @@ SUMMARY_OUTPUTS = tuple(n for n in BATCH_OUTPUTS if n.startswith("summary.") and
 #: outputs that must still be there, at the size written, for a block's outputs to be reused
 #: (its PDF too when it has one)
 OUTPUTS = tuple(n for n in BLOCK_OUTPUTS if n != "report.pdf")
+#: a block's results per rule and status, and its rules in error ("RULE: why"), as cached
+_RULES = TypeAdapter(dict[str, dict[str, StrictInt]])
+_ERRORS = TypeAdapter(list[StrictStr])
 
 
 @dataclass
@@ -128,18 +133,21 @@ def delivery_fingerprint(path: Path, digest: str, block_input: BaseModel | None)
 
 
 def read_cached(folder: Path, key: str) -> Cached | None:
-    """The block's cached line when its key matches and its outputs are all still there, at the
-    size they were written."""
+    """The block's cached line when its key matches, its seal holds (a cache edited by hand is
+    not trusted) and its outputs are all still there, at the size they were written."""
     try:
         doc = json.loads((folder / CACHE_FILE).read_text(encoding="utf-8"))
+        if doc.pop("seal", None) != _sha(doc) or doc["key"] != key:
+            return None
         entry = BlockEntry.model_validate(doc["entry"])
         names = [*OUTPUTS, "report.pdf"] if entry.pdf else list(OUTPUTS)
-        if doc.get("key") != key or _sizes(folder, names) != doc.get("sizes"):
+        if _sizes(folder, names) != doc["sizes"]:
             return None
         from blockqc.acceptance.model import BlockGrade
 
-        grade = BlockGrade.model_validate(doc["grade"]) if doc.get("grade") else None
-        return Cached(key, entry, doc["rules"], grade, doc["sizes"], doc.get("errors"))
+        grade = BlockGrade.model_validate(doc["grade"]) if doc["grade"] else None
+        rules, errors = _RULES.validate_python(doc["rules"]), _ERRORS.validate_python(doc["errors"])
+        return Cached(key, entry, rules, grade, doc["sizes"], errors)
     except (OSError, ValueError, KeyError, TypeError, AttributeError, ValidationError):
         return None  # no cache, or a broken one: inspect again
 
@@ -150,7 +158,8 @@ def _sizes(folder: Path, names: list[str]) -> dict[str, int]:
 
 
 def write_cached(folder: Path, cached: Cached) -> None:
-    """The block's key and line, and the size of each of its outputs as now written."""
+    """The block's key and line, and the size of each of its outputs as now written, sealed
+    with a digest of them all (`read_cached`)."""
     names = [*OUTPUTS, "report.pdf"] if cached.entry.pdf else list(OUTPUTS)
     doc = {
         "key": cached.key,
@@ -160,7 +169,8 @@ def write_cached(folder: Path, cached: Cached) -> None:
         "sizes": _sizes(folder, names),
         "errors": cached.errors or [],
     }
-    write_json_atomic(folder / CACHE_FILE, doc)
+    plain = json.loads(pydantic_core.to_json(jsonable(doc)))  # as it will be read back
+    write_json_atomic(folder / CACHE_FILE, {**plain, "seal": _sha(plain)})
 
 
 def forget_block(folder: Path) -> None:
