@@ -308,6 +308,30 @@ def test_incremental_summary_rewritten_when_an_acceptance_page_is_gone(
     assert (out / "acceptance.html").is_file()
 
 
+def test_incremental_summary_follows_where_the_plan_differs_from_the_batch(small_batch, tmp_path):
+    """A plan drawn on a batch folder of another name is noted in the summary when the folder
+    is inspected, not when its deliveries are named one by one: the same deliveries, whose
+    outputs are reused, but not the same summary."""
+    plan, lot = tmp_path / "plan.yaml", tmp_path / "lot7"
+    assert run_blockqc("sample", small_batch, "--seed", 1, "--out", plan).returncode == 0
+    small_batch.rename(lot)
+    out, fresh = tmp_path / "out", tmp_path / "fresh"
+    args = ("--no-pdf", "--plan", plan)
+    assert run_blockqc("inspect", lot, "--out", out, "--incremental", *args).returncode == 1
+    one_by_one = sorted(lot.iterdir())
+    again = run_blockqc("inspect", *one_by_one, "--out", out, "--incremental", *args)
+    assert again.returncode == 1 and again.stdout.count("outputs reused") == 3, again.stdout
+    assert run_blockqc("inspect", *one_by_one, "--out", fresh, *args).returncode == 1
+
+    def notes(folder: Path) -> list[dict]:
+        summary = json.loads((folder / "summary.json").read_text(encoding="utf-8"))
+        return summary["acceptance"]["plan_notes"]
+
+    assert notes(out) == notes(fresh) == []
+    assert run_blockqc("inspect", lot, "--out", out, "--incremental", *args).returncode == 1
+    assert [n["about"] for n in notes(out)] == ["batch"]
+
+
 @pytest.mark.parametrize("name", ["summary.json", "summary.html", "acceptance.html"])
 def test_incremental_summary_rewritten_when_an_output_is_cut(small_batch, tmp_path, name):
     """A summary output cut short (a copy or a disk that failed) is written again, as a block's

@@ -707,7 +707,7 @@ def _write_summary(
 
     key, aside = None, writer.out / PREVIOUS_SUMMARY_DIR
     if digest is not None:
-        key = summary_key(digest, [o.key for o in outcomes], summary.inspector)
+        key = summary_key(digest, [o.key for o in outcomes], summary)
         if aside.is_dir() and summary_unchanged(writer.out, key, held=aside):
             restore_summary(writer.out)
             return

@@ -179,12 +179,15 @@ def forget_block(folder: Path) -> None:
     (folder / CACHE_FILE).unlink(missing_ok=True)
 
 
-def summary_key(digest: str, block_keys: list[str | None], inspector: str | None) -> str | None:
-    """The key of a batch summary: the run's digest, the inspector and the key of every block
-    in order; None when some block has none (inspected without a key, or unreadable)."""
+def summary_key(digest: str, block_keys: list[str | None], summary: Any) -> str | None:
+    """The key of a batch summary: the run's digest, the inspector, the key of every block in
+    order and the batch decision (which also says where the plan differs from the batch: its
+    folder's name, its units, that no block's key holds); None when some block has none
+    (inspected without a key, or unreadable)."""
     if any(k is None for k in block_keys):
         return None
-    return _sha(digest, inspector, block_keys)
+    decision = summary.acceptance.model_dump(mode="json") if summary.acceptance else None
+    return _sha(digest, summary.inspector, block_keys, decision)
 
 
 def summary_unchanged(out: Path, key: str | None, held: Path | None = None) -> bool:
