@@ -332,6 +332,45 @@ def test_incremental_summary_follows_where_the_plan_differs_from_the_batch(small
     assert [n["about"] for n in notes(out)] == ["batch"]
 
 
+def _inspector_checkpoints(path: Path, blocks: list[str], last: str = "0") -> Path:
+    """The first five checkpoints of each sample block as the inspector's (recalculation); the
+    last block's first x_m ends in `last` (one digit: the file keeps its size)."""
+    rows = []
+    for block in blocks:
+        lines = (SAMPLES / "batch" / block / "checkpoints.csv").read_text("utf-8").splitlines()
+        rows[:1] = [lines[0] + ",block_id"]
+        for line in lines[1:6]:
+            point, _, *values = line.split(",")
+            rows.append(",".join([f"R-{point}", "recalculation", *values, block]))
+    point, method, ref, x, *rest = rows[-5].split(",")
+    rows[-5] = ",".join([point, method, ref, x[:-1] + last, *rest])
+    path.write_text("\n".join(rows) + "\n", encoding="utf-8")
+    return path
+
+
+def test_incremental_inspector_checkpoints_of_one_block_changed(tmp_path):
+    """The inspector's checkpoint file changed in one block's rows: that block is inspected
+    again, the others' outputs reused (every block was inspected again)."""
+    batch_dir, out, fresh = tmp_path / "batch", tmp_path / "out", tmp_path / "fresh"
+    for block in ("F1-B01", "F1-B02", "F3-B01"):
+        shutil.copytree(SAMPLES / "batch" / block, batch_dir / block)
+    cps = _inspector_checkpoints(tmp_path / "cps.csv", ["F1-B01", "F3-B01"], "1")
+    assert _incremental(batch_dir, out, "--checkpoints", cps).returncode == 1
+    size = cps.stat().st_size
+    _inspector_checkpoints(cps, ["F1-B01", "F3-B01"], "7")
+    assert cps.stat().st_size == size
+    again = _incremental(batch_dir, out, "--checkpoints", cps)
+    assert again.returncode == 1 and again.stdout.count("outputs reused") == 2, again.stdout
+    lines = again.stdout.splitlines()[:-1]  # the blocks' lines, not the batch's
+    assert [line.split()[0] for line in lines if "reused" not in line] == ["F3-B01"]
+    fresh_run = run_blockqc("inspect", batch_dir, "--out", fresh, "--no-pdf", "--checkpoints", cps)
+    assert fresh_run.returncode == 1
+    for name in ("F3-B01/checkpoints.csv", "F1-B01/checkpoints.csv", "summary.csv"):
+        assert (out / name).read_text("utf-8") == (fresh / name).read_text("utf-8"), name
+    without = _incremental(batch_dir, out)  # F1-B02 has no rows: it was inspected as without
+    assert without.stdout.count("outputs reused") == 1, without.stdout
+
+
 @pytest.mark.parametrize("name", ["summary.json", "summary.html", "acceptance.html"])
 def test_incremental_summary_rewritten_when_an_output_is_cut(small_batch, tmp_path, name):
     """A summary output cut short (a copy or a disk that failed) is written again, as a block's

@@ -446,7 +446,9 @@ class Job:
         if self.digest is None or manifest is None:
             return None
         block_input = self.inspector.for_block(manifest.block_id) if self.inspector else None
-        return delivery_fingerprint(path, self.digest, block_input)
+        extra = self.extra.checkpoints if self.extra is not None else None
+        rows = None if extra is None else extra.for_block(manifest.block_id, self.extra.single)
+        return delivery_fingerprint(path, self.digest, block_input, rows)
 
 
 def output_error(block_id: str, out: Path, exc: Exception) -> OutputError:

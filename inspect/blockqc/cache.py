@@ -88,9 +88,9 @@ def _tree(folder: Path) -> list[tuple[str, int, int]]:
 
 
 def run_digest(pack: Any, writer: Any, extra: Any = None, inspector: str | None = None) -> str:
-    """What every block of a run shares: the resolved pack, output options, the inspector's name
-    and checkpoint files (their rows), the sampling plan and report particulars, blockqc."""
-    checkpoints = getattr(extra, "checkpoints", None)
+    """What every block of a run shares: the resolved pack, output options, the inspector's name,
+    the sampling plan and report particulars, blockqc (each block's rows of the inspector's
+    checkpoint files are in its own key: `delivery_fingerprint`)."""
     plan, meta = getattr(extra, "plan", None), getattr(extra, "meta", None)
     acceptance = getattr(pack, "acceptance", None)
     rules = [r.model_dump(mode="json") for r in pack.rules]
@@ -108,7 +108,6 @@ def run_digest(pack: Any, writer: Any, extra: Any = None, inspector: str | None 
         str(writer.templates),
         templates,
         inspector,
-        None if checkpoints is None else checkpoints.rows.to_csv(index=False),
         None if plan is None else plan.model_dump(mode="json"),
         None if meta is None else meta.model_dump(mode="json"),
         None if acceptance is None else acceptance.model_dump(mode="json"),
@@ -124,12 +123,18 @@ def _blockqc() -> tuple[str, list, list]:
     return __version__, modules, _tree(templates_dir())
 
 
-def delivery_fingerprint(path: Path, digest: str, block_input: BaseModel | None) -> str:
+def delivery_fingerprint(
+    path: Path, digest: str, block_input: BaseModel | None, checkpoints: Any = None
+) -> str:
     """The key of one block: its delivery's path (as given, which its results.json and line of
-    the summary record, and where it leads), files, verdicts and the run's digest."""
+    the summary record, and where it leads), files, verdicts, its rows of the inspector's
+    checkpoint files (a DataFrame, their file named in each) and the run's digest."""
     verdicts = block_input.model_dump(mode="json") if block_input is not None else None
     where = (str(path), str(Path(path).resolve()))
-    return _sha(digest, where, _tree(Path(path)), verdicts)
+    rows = None  # none given for it: the delivery's own checkpoints, as without the files
+    if checkpoints is not None and not checkpoints.empty:
+        rows = checkpoints.drop(columns="_row").to_csv(index=False)
+    return _sha(digest, where, _tree(Path(path)), verdicts, rows)
 
 
 def read_cached(folder: Path, key: str) -> Cached | None:
