@@ -371,6 +371,30 @@ def test_incremental_inspector_checkpoints_of_one_block_changed(tmp_path):
     assert without.stdout.count("outputs reused") == 1, without.stdout
 
 
+def test_incremental_plan_changed_inspects_the_blocks_it_samples_otherwise(tmp_path):
+    """Another plan: the blocks sampled by one plan and not the other are inspected again, those
+    it samples or leaves as before are not (every block was), and the summary follows it."""
+    import yaml
+
+    out, fresh = tmp_path / "out", tmp_path / "fresh"
+    batch_dir = shutil.copytree(SAMPLES / "batch", tmp_path / "batch")
+    plans = [tmp_path / "p1.yaml", tmp_path / "p2.yaml"]
+    for seed, plan in enumerate(plans, 1):
+        assert run_blockqc("sample", batch_dir, "--seed", seed, "--out", plan).returncode == 0
+    first, second = ({*yaml.safe_load(p.read_text("utf-8"))["sampled"]} for p in plans)
+    assert first != second
+    assert _incremental(batch_dir, out, "--plan", plans[0]).returncode == 1
+    again = _incremental(batch_dir, out, "--plan", plans[1])
+    lines = again.stdout.splitlines()[:-1]  # the blocks' lines, not the batch's
+    inspected = {line.split()[0] for line in lines if "reused" not in line}
+    assert inspected == first ^ second, again.stdout
+    fresh_run = run_blockqc("inspect", batch_dir, "--out", fresh, "--no-pdf", "--plan", plans[1])
+    assert fresh_run.returncode == 1
+    for name in ("summary.json", *(f"{b}/results.json" for b in ("F1-B01", "F3-B01"))):
+        got, want = (json.loads((f / name).read_text("utf-8")) for f in (out, fresh))
+        assert {**got, "generated_at": ""} == {**want, "generated_at": ""}, name
+
+
 @pytest.mark.parametrize("name", ["summary.json", "summary.html", "acceptance.html"])
 def test_incremental_summary_rewritten_when_an_output_is_cut(small_batch, tmp_path, name):
     """A summary output cut short (a copy or a disk that failed) is written again, as a block's

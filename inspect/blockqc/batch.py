@@ -445,10 +445,12 @@ class Job:
     def _key(self, path: Path, manifest: Manifest | None) -> str | None:
         if self.digest is None or manifest is None:
             return None
-        block_input = self.inspector.for_block(manifest.block_id) if self.inspector else None
-        extra = self.extra.checkpoints if self.extra is not None else None
-        rows = None if extra is None else extra.for_block(manifest.block_id, self.extra.single)
-        return delivery_fingerprint(path, self.digest, block_input, rows)
+        block_id, extra = manifest.block_id, self.extra or Extra()
+        block_input = self.inspector.for_block(block_id) if self.inspector else None
+        cps = extra.checkpoints
+        rows = None if cps is None else cps.for_block(block_id, extra.single)
+        sampled = None if extra.plan is None else block_id in extra.plan.sampled
+        return delivery_fingerprint(path, self.digest, block_input, rows, sampled)
 
 
 def output_error(block_id: str, out: Path, exc: Exception) -> OutputError:

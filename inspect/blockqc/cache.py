@@ -89,9 +89,9 @@ def _tree(folder: Path) -> list[tuple[str, int, int]]:
 
 def run_digest(pack: Any, writer: Any, extra: Any = None, inspector: str | None = None) -> str:
     """What every block of a run shares: the resolved pack, output options, the inspector's name,
-    the sampling plan and report particulars, blockqc (each block's rows of the inspector's
-    checkpoint files are in its own key: `delivery_fingerprint`)."""
-    plan, meta = getattr(extra, "plan", None), getattr(extra, "meta", None)
+    the report particulars, blockqc (each block's rows of the inspector's checkpoint files, and
+    whether the sampling plan samples it, are in its own key: `delivery_fingerprint`)."""
+    meta = getattr(extra, "meta", None)
     acceptance = getattr(pack, "acceptance", None)
     rules = [r.model_dump(mode="json") for r in pack.rules]
     elements = [e.model_dump(mode="json") for e in pack.elements]
@@ -108,7 +108,6 @@ def run_digest(pack: Any, writer: Any, extra: Any = None, inspector: str | None 
         str(writer.templates),
         templates,
         inspector,
-        None if plan is None else plan.model_dump(mode="json"),
         None if meta is None else meta.model_dump(mode="json"),
         None if acceptance is None else acceptance.model_dump(mode="json"),
     )
@@ -124,17 +123,22 @@ def _blockqc() -> tuple[str, list, list]:
 
 
 def delivery_fingerprint(
-    path: Path, digest: str, block_input: BaseModel | None, checkpoints: Any = None
+    path: Path,
+    digest: str,
+    block_input: BaseModel | None,
+    checkpoints: Any = None,
+    sampled: bool | None = None,
 ) -> str:
     """The key of one block: its delivery's path (as given, which its results.json and line of
     the summary record, and where it leads), files, verdicts, its rows of the inspector's
-    checkpoint files (a DataFrame, their file named in each) and the run's digest."""
+    checkpoint files (a DataFrame, their file named in each), whether the plan samples it (None
+    without a plan) and the run's digest."""
     verdicts = block_input.model_dump(mode="json") if block_input is not None else None
     where = (str(path), str(Path(path).resolve()))
     rows = None  # none given for it: the delivery's own checkpoints, as without the files
     if checkpoints is not None and not checkpoints.empty:
         rows = checkpoints.drop(columns="_row").to_csv(index=False)
-    return _sha(digest, where, _tree(Path(path)), verdicts, rows)
+    return _sha(digest, where, _tree(Path(path)), verdicts, rows, sampled)
 
 
 def read_cached(folder: Path, key: str) -> Cached | None:
@@ -186,13 +190,13 @@ def forget_block(folder: Path) -> None:
 
 def summary_key(digest: str, block_keys: list[str | None], summary: Any) -> str | None:
     """The key of a batch summary: the run's digest, the inspector, the key of every block in
-    order and the batch decision (which also says where the plan differs from the batch: its
-    folder's name, its units, that no block's key holds); None when some block has none
-    (inspected without a key, or unreadable)."""
+    order, the sampling plan and the batch decision (which also says where the plan differs
+    from the batch: its folder's name, its units, that no block's key holds); None when some
+    block has none (inspected without a key, or unreadable)."""
     if any(k is None for k in block_keys):
         return None
     decision = summary.acceptance.model_dump(mode="json") if summary.acceptance else None
-    return _sha(digest, summary.inspector, block_keys, decision)
+    return _sha(digest, summary.inspector, block_keys, summary.sampling, decision)
 
 
 def summary_unchanged(out: Path, key: str | None, held: Path | None = None) -> bool:
