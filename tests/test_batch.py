@@ -522,6 +522,16 @@ def test_incremental_delivery_named_by_another_path_is_written_again(small_batch
     assert (out / "summary.csv").read_text("utf-8") == (fresh / "summary.csv").read_text("utf-8")
 
 
+def test_incremental_pdf_engine_without_pdfs_reuses_the_outputs(small_batch, tmp_path):
+    """--pdf-engine with no PDF written changes no output (it is said to be unused): every
+    block's outputs are reused (every block was inspected again)."""
+    out = tmp_path / "out"
+    assert _incremental(small_batch, out).returncode == 1
+    again = _incremental(small_batch, out, "--pdf-engine", "chromium")
+    assert "--pdf-engine chromium: not used" in again.stderr
+    assert again.returncode == 1 and again.stdout.count("outputs reused") == 3, again.stdout
+
+
 @pytest.mark.parametrize("change", ["truncate results.json", "delete evidence.csv"])
 def test_incremental_block_with_an_output_cut_or_gone_is_written_again(
     small_batch, tmp_path, change

@@ -104,7 +104,7 @@ def run_digest(pack: Any, writer: Any, extra: Any = None, inspector: str | None 
         elements,
         writer.lang,
         writer.pdf,
-        writer.pdf_engine,
+        writer.pdf_engine if writer.pdf != "none" else None,  # no PDF: no engine used
         str(writer.templates),
         templates,
         inspector,
