@@ -9,6 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from blockqc.adjust import geometry
 from blockqc.adjust.geometry import (
     RPCStack,
     intersect,
@@ -130,6 +131,19 @@ def test_intersect_at_height_inverts_the_adjusted_projection():
     assert ok.all()
     np.testing.assert_allclose(lo, lon, atol=1e-10)
     np.testing.assert_allclose(la, lat, atol=1e-10)
+
+
+def test_intersect_at_height_in_batches_keeps_each_observation_its_own(monkeypatch):
+    """Batches of scene-sorted observations put back in the caller's order, NaN heights kept."""
+    monkeypatch.setattr(geometry, "BATCH", 7)
+    lon, lat, h = _ground(40, seed=6)
+    idx = np.random.default_rng(6).integers(0, 2, 40)
+    line, samp = project_adjusted(STACK, AFFINE, idx, lon, lat, h)
+    h[[3, 17]] = np.nan
+    lo, la, ok = intersect_at_height(STACK, AFFINE, idx, line, samp, h)
+    assert ok.sum() == 38 and not ok[[3, 17]].any() and np.isnan(lo[[3, 17]]).all()
+    np.testing.assert_allclose(lo[ok], lon[ok], atol=1e-10)
+    np.testing.assert_allclose(la[ok], lat[ok], atol=1e-10)
 
 
 def test_bad_affine_shape_is_an_input_error():

@@ -40,6 +40,8 @@ EARTH_RADIUS_M = 6378137.0
 """Radius used to turn local metre steps into degrees (a parametrization only)."""
 CHUNK = 131072
 """Observations evaluated per pass (bounds the memory of the gathered coefficients)."""
+BATCH = 262144
+"""Observations intersected at once (bounds the memory of an intersection's iterations)."""
 M_PER_DEG = np.pi * EARTH_RADIUS_M / 180.0
 
 
@@ -316,14 +318,36 @@ def intersect_at_height(
     """Each observation alone on the ground at its given ellipsoidal height (§RC-2).
 
     Newton on (lon, lat) per observation with the analytic partials; returns lon, lat and a
-    convergence flag (NaN position where it did not converge).
+    convergence flag (NaN position where it did not converge). The observations are taken in
+    scene order, BATCH at a time: the memory of the iterations stays bounded, and each batch's
+    observations are projected without sorting them again at every iteration.
     """
     a = check_affine(affine, stack.n_scenes)
     idx = np.asarray(scene_index, np.int64).ravel()
-    h = np.broadcast_to(np.asarray(h, np.float64).ravel(), idx.shape).copy()
+    h = np.broadcast_to(np.asarray(h, np.float64).ravel(), idx.shape)
     tl, ts = to_rfm_space(
         a, idx, np.asarray(line, np.float64).ravel(), np.asarray(sample, np.float64).ravel()
     )
+    order = np.argsort(idx, kind="stable")
+    lon, lat, ok = np.empty(idx.size), np.empty(idx.size), np.empty(idx.size, bool)
+    for start in range(0, idx.size, BATCH):
+        rows = order[start : start + BATCH]
+        lon[rows], lat[rows], ok[rows] = _on_ground(
+            stack, idx[rows], tl[rows], ts[rows], h[rows], max_iter, tol_px
+        )
+    return lon, lat, ok
+
+
+def _on_ground(
+    stack: RPCStack,
+    idx: IntArray,
+    tl: FloatArray,
+    ts: FloatArray,
+    h: FloatArray,
+    max_iter: int,
+    tol_px: float,
+) -> tuple[FloatArray, FloatArray, NDArray[np.bool_]]:
+    """`intersect_at_height` of observations in RFM space (tl, ts), idx sorted."""
     lon = stack.offsets[idx, 3].copy()
     lat = stack.offsets[idx, 2].copy()
     ok = np.zeros(idx.size, bool)
