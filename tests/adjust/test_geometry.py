@@ -146,6 +146,26 @@ def test_intersect_at_height_in_batches_keeps_each_observation_its_own(monkeypat
     np.testing.assert_allclose(la[ok], lat[ok], atol=1e-10)
 
 
+def test_intersection_in_batches_gives_each_point_and_observation_its_own(monkeypatch):
+    """Points whose rows are shuffled and cut across batches: each point recovered, and the
+    one moved measurement's misclosure on its own point's two rows only."""
+    monkeypatch.setattr(geometry, "BATCH", 7)
+    lon, lat, h = _ground(30, seed=7)
+    rows = np.random.default_rng(7).permutation(60)
+    pidx, idx = rows % 30, rows // 30
+    line, samp = project_adjusted(STACK, AFFINE, idx, lon[pidx], lat[pidx], h[pidx])
+    moved = int(np.flatnonzero(pidx == 11)[0])
+    line[moved] += 1.0
+    res = intersect(STACK, AFFINE, idx, pidx, line, samp)
+    assert res.converged.all()
+    others = np.arange(30) != 11
+    np.testing.assert_allclose(res.lon[others], lon[others], atol=1e-9)
+    np.testing.assert_allclose(res.lat[others], lat[others], atol=1e-9)
+    np.testing.assert_allclose(res.h[others], h[others], atol=1e-4)
+    off = np.hypot(res.v_line, res.v_sample) > 0.01
+    assert set(np.flatnonzero(off)) == set(np.flatnonzero(pidx == 11))
+
+
 def test_bad_affine_shape_is_an_input_error():
     with pytest.raises(InputError, match="2×6"):
         project_adjusted(STACK, np.zeros((3, 6)), [0], [5.28], [44.1], [1000.0])

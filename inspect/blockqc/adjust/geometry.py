@@ -444,13 +444,13 @@ def intersect(
         h_p = np.broadcast_to(np.asarray(height_prior[0], np.float64), (n_points,)).copy()
         w_h = 1.0 / np.broadcast_to(np.asarray(height_prior[1], np.float64), (n_points,)) ** 2
     lon, lat = _start(stack, a, idx, pidx, n_points, line, samp, h_p)
+    rays = _Rays(stack, idx, pidx, np.argsort(pidx, kind="stable"), tl, ts, w)
     h = h_p.copy()
     conv = np.zeros(n_points, bool)
     iterations = 0
     for _ in range(max_iter):
         iterations += 1
-        f, jx = _misclosure(stack, idx, lon[pidx], lat[pidx], h[pidx], tl, ts)
-        u, g = accumulate_points(pidx, n_points, jx, f, w)
+        u, g, _ = rays.normal_equations(n_points, lon, lat, h)
         u[:, 2, 2] += w_h
         g[:, 2] += w_h * (h - h_p)
         u_inv, ok = inv3(u)
@@ -462,11 +462,51 @@ def intersect(
         conv = ok & np.all(np.abs(step) < tol_m, axis=1)
         if np.all(conv | ~ok):
             break
-    f, jx = _misclosure(stack, idx, lon[pidx], lat[pidx], h[pidx], tl, ts)
-    u, _ = accumulate_points(pidx, n_points, jx, f, w)
+    u, _, f = rays.normal_equations(n_points, lon, lat, h, misclosure=True)
     u[:, 2, 2] += w_h
     vl, vs = image_residuals(a, idx, f[:, 0], f[:, 1])
     return Intersection(wrap_lon(lon), lat, h, vl, vs, conv, iterations, u)
+
+
+@dataclass(frozen=True)
+class _Rays:
+    """The observations of an intersection: scene, point, RFM-space target and weight each;
+    `by_point` the observations ordered by point (stable: each point's in the caller's order)."""
+
+    stack: RPCStack
+    idx: IntArray
+    pidx: IntArray
+    by_point: IntArray
+    tl: FloatArray
+    ts: FloatArray
+    w: FloatArray
+
+    def normal_equations(
+        self,
+        n_points: int,
+        lon: FloatArray,
+        lat: FloatArray,
+        h: FloatArray,
+        misclosure: bool = False,
+    ) -> tuple[FloatArray, FloatArray, FloatArray | None]:
+        """`accumulate_points` at the points' (lon, lat, h), and the misclosure f (n, 2) if
+        asked, BATCH observations at a time in point order: the memory stays bounded, and each
+        point's sums take its observations in the same order as one pass over all would."""
+        u, g = np.zeros((n_points, 3, 3)), np.zeros((n_points, 3))
+        f = np.empty((self.idx.size, 2)) if misclosure else None
+        for start in range(0, self.by_point.size, BATCH):
+            rows = self.by_point[start : start + BATCH]
+            p = self.pidx[rows]
+            f_b, jx = _misclosure(
+                self.stack, self.idx[rows], lon[p], lat[p], h[p], self.tl[rows], self.ts[rows]
+            )
+            lo, hi = p[0], p[-1] + 1
+            du, dg = accumulate_points(p - lo, hi - lo, jx, f_b, self.w[rows])
+            u[lo:hi] += du
+            g[lo:hi] += dg
+            if f is not None:
+                f[rows] = f_b
+        return u, g, f
 
 
 def _misclosure(
