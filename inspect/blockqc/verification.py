@@ -138,33 +138,50 @@ def derive_overlaps(
 
     Each observation is intersected alone at its point's adjusted height (§RC-2); dx_m, dy_m are
     the east and north differences (scene_b − scene_a) in metres on the WGS-84 ellipsoid (as a
-    map projection measures them, heights aside), for every two scenes seeing the same point.
+    map projection measures them, heights aside), for every two scenes seeing the same point:
+    one row per two observations of a point (scene_a before scene_b in `scene` order), in the
+    order of the first's row, then the second's.
     """
+    a, b = _pairs(pd.factorize(obs["point_id"])[0], scene, np.isfinite(h))
     e_m, n_m = radii(lat)
-    one = pd.DataFrame(
-        {
-            "point_id": obs["point_id"].to_numpy(),
-            "scene_id": obs["scene_id"].to_numpy(),
-            "order": scene,
-            "lon": lon,
-            "lat": lat,
-            "e_m": e_m,
-            "n_m": n_m,
-        }
-    )[np.isfinite(h)]
-    pairs = one.merge(one, on="point_id", suffixes=("_a", "_b"))
-    pairs = pairs[pairs["order_a"] < pairs["order_b"]]
-    e_mid = 0.5 * (pairs["e_m_a"].to_numpy() + pairs["e_m_b"].to_numpy())
-    n_mid = 0.5 * (pairs["n_m_a"].to_numpy() + pairs["n_m_b"].to_numpy())
+    e_mid = 0.5 * (e_m[a] + e_m[b])
+    n_mid = 0.5 * (n_m[a] + n_m[b])
     return pd.DataFrame(
         {
-            "scene_a": pairs["scene_id_a"].to_numpy(),
-            "scene_b": pairs["scene_id_b"].to_numpy(),
-            "point_id": pairs["point_id"].to_numpy(),
-            "dx_m": np.radians(wrap_lon((pairs["lon_b"] - pairs["lon_a"]).to_numpy())) * e_mid,
-            "dy_m": np.radians((pairs["lat_b"] - pairs["lat_a"]).to_numpy()) * n_mid,
+            "scene_a": _texts(obs["scene_id"], a),
+            "scene_b": _texts(obs["scene_id"], b),
+            "point_id": _texts(obs["point_id"], a),
+            "dx_m": np.radians(wrap_lon(lon[b] - lon[a])) * e_mid,
+            "dy_m": np.radians(lat[b] - lat[a]) * n_mid,
         }
     )
+
+
+def _texts(column: pd.Series, rows: np.ndarray) -> np.ndarray:
+    """A key column's values at rows, as an array of str: a categorical's from its categories
+    (each converted once, not once per row)."""
+    if isinstance(column.dtype, pd.CategoricalDtype):
+        words = column.cat.categories.to_numpy(dtype=object)
+        return words[column.cat.codes.to_numpy()[rows]]
+    return column.to_numpy()[rows]
+
+
+def _pairs(point: np.ndarray, scene: np.ndarray, kept: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Rows (a, b) of every two kept observations of one point with scene[a] < scene[b],
+    ordered by a then b: each kept row is paired with every row of its point, and the pairs
+    not in scene order dropped."""
+    rows = np.flatnonzero(kept)
+    rows = rows[np.argsort(point[rows], kind="stable")]  # by point, each point's rows in order
+    first = np.flatnonzero(np.r_[True, np.diff(point[rows]) != 0])
+    size = np.diff(np.r_[first, rows.size])
+    of = np.repeat(np.arange(first.size), size)  # each sorted row's point (group)
+    a = np.repeat(np.arange(rows.size), size[of])
+    b = first[of][a] + np.arange(a.size) - np.repeat(np.cumsum(size[of]) - size[of], size[of])
+    a, b = rows[a], rows[b]
+    keep = scene[a] < scene[b]
+    a, b = a[keep], b[keep]
+    order = np.argsort(a, kind="stable")
+    return a[order], b[order]
 
 
 def radii(lat_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

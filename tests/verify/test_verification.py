@@ -22,6 +22,7 @@ from geokit import (
 )
 from pyproj import Geod
 
+from blockqc import verification
 from blockqc.delivery import load_delivery
 from blockqc.engine import inspect_delivery
 from blockqc.results import dump
@@ -420,3 +421,32 @@ def test_the_overlap_map_without_a_mean_vector_says_zero(tmp_path, observations)
         row.update(dx_m=0.0, dy_m=0.0)
     page = maps.overlap_map(BlockResults.model_validate(doc), Formatter("en"))
     assert set(re.findall(r"mean vector \(longest ([0-9.]+) m\)", page)) == {"0"}
+
+
+@pytest.mark.parametrize("dtype", [object, "category"])
+def test_derived_overlaps_pair_every_two_scenes_of_a_point_in_row_order(dtype):
+    """Each two observations of a point (scene order a < b), rows in the order of a then b,
+    points interleaved across rows; an observation without height is in no pair."""
+    rng = np.random.default_rng(3)
+    n = 60
+    point = rng.integers(0, 12, n)
+    scene = rng.integers(0, 6, n)
+    keep = ~pd.DataFrame({"p": point, "s": scene}).duplicated().to_numpy()
+    point, scene = point[keep], scene[keep]
+    obs = pd.DataFrame(
+        {"point_id": [f"P{p}" for p in point], "scene_id": [f"S{s}" for s in scene]}
+    ).astype(dtype)
+    lon, lat = 5.0 + rng.uniform(0, 0.1, point.size), 44.0 + rng.uniform(0, 0.1, point.size)
+    h = np.where(np.arange(point.size) % 7 == 3, np.nan, 500.0)
+    got = verification.derive_overlaps(obs, scene, lon, lat, h)
+    want = [
+        (f"S{scene[i]}", f"S{scene[j]}", f"P{point[i]}", i, j)
+        for i in range(point.size)
+        for j in range(point.size)
+        if point[i] == point[j] and scene[i] < scene[j] and np.isfinite(h[i] + h[j])
+    ]
+    assert list(zip(got.scene_a, got.scene_b, got.point_id, strict=True)) == [w[:3] for w in want]
+    i, j = np.array([w[3] for w in want]), np.array([w[4] for w in want])
+    geod = Geod(ellps="WGS84")
+    _, _, east = geod.inv(lon[i], lat[i], lon[j], lat[i])
+    np.testing.assert_allclose(np.abs(got.dx_m), east, rtol=1e-3)
