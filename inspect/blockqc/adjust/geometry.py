@@ -425,8 +425,9 @@ def intersect(
     """Multi-ray least-squares intersection of tie points, vectorized per point (§RC-1).
 
     Gauss–Newton on each point's (east, north, h) in local metres with 3×3 normal equations;
-    the cost is Σ w·|f|² over its observations (f the RFM-space misclosure, weights w in px⁻²,
-    1 by default) plus, with `height_prior` = (value m, σ m) per point, ((h − value)/σ)².
+    the cost is Σ w·|v|² over its observations (v = M⁻¹·f the image residual, computed −
+    measured, f the RFM-space misclosure; weights w in px⁻², 1 by default) plus, with
+    `height_prior` = (value m, σ m) per point, ((h − value)/σ)².
     Points need ≥ 2 rays, or 1 ray and a height prior; others get NaN and converged False.
     """
     a = check_affine(affine, stack.n_scenes)
@@ -444,7 +445,7 @@ def intersect(
         h_p = np.broadcast_to(np.asarray(height_prior[0], np.float64), (n_points,)).copy()
         w_h = 1.0 / np.broadcast_to(np.asarray(height_prior[1], np.float64), (n_points,)) ** 2
     lon, lat = _start(stack, a, idx, pidx, n_points, line, samp, h_p)
-    rays = _Rays(stack, idx, pidx, np.argsort(pidx, kind="stable"), tl, ts, w)
+    rays = _Rays(stack, a, idx, pidx, np.argsort(pidx, kind="stable"), tl, ts, w)
     h = h_p.copy()
     conv = np.zeros(n_points, bool)
     iterations = 0
@@ -462,10 +463,9 @@ def intersect(
         conv = ok & np.all(np.abs(step) < tol_m, axis=1)
         if np.all(conv | ~ok):
             break
-    u, _, f = rays.normal_equations(n_points, lon, lat, h, misclosure=True)
+    u, _, v = rays.normal_equations(n_points, lon, lat, h, residuals=True)
     u[:, 2, 2] += w_h
-    vl, vs = image_residuals(a, idx, f[:, 0], f[:, 1])
-    return Intersection(wrap_lon(lon), lat, h, vl, vs, conv, iterations, u)
+    return Intersection(wrap_lon(lon), lat, h, v[:, 0], v[:, 1], conv, iterations, u)
 
 
 @dataclass(frozen=True)
@@ -474,6 +474,7 @@ class _Rays:
     `by_point` the observations ordered by point (stable: each point's in the caller's order)."""
 
     stack: RPCStack
+    affine: FloatArray
     idx: IntArray
     pidx: IntArray
     by_point: IntArray
@@ -487,26 +488,30 @@ class _Rays:
         lon: FloatArray,
         lat: FloatArray,
         h: FloatArray,
-        misclosure: bool = False,
+        residuals: bool = False,
     ) -> tuple[FloatArray, FloatArray, FloatArray | None]:
-        """`accumulate_points` at the points' (lon, lat, h), and the misclosure f (n, 2) if
-        asked, BATCH observations at a time in point order: the memory stays bounded, and each
-        point's sums take its observations in the same order as one pass over all would."""
+        """`accumulate_points` of the image residuals v = M⁻¹·f and their partials M⁻¹·J at the
+        points' (lon, lat, h), and v (n, 2) if asked, BATCH observations at a time in point
+        order: the memory stays bounded, and each point's sums take its observations in the
+        same order as one pass over all would."""
         u, g = np.zeros((n_points, 3, 3)), np.zeros((n_points, 3))
-        f = np.empty((self.idx.size, 2)) if misclosure else None
+        v = np.empty((self.idx.size, 2)) if residuals else None
         for start in range(0, self.by_point.size, BATCH):
             rows = self.by_point[start : start + BATCH]
             p = self.pidx[rows]
-            f_b, jx = _misclosure(
+            f, jx = _misclosure(
                 self.stack, self.idx[rows], lon[p], lat[p], h[p], self.tl[rows], self.ts[rows]
             )
+            m_inv = m_inverse(self.affine, self.idx[rows])
+            v_b = np.stack(apply_2x2(m_inv, f[:, 0], f[:, 1]), axis=1)
+            jx[:, 0, :], jx[:, 1, :] = apply_2x2(m_inv, jx[:, 0, :], jx[:, 1, :])
             lo, hi = p[0], p[-1] + 1
-            du, dg = accumulate_points(p - lo, hi - lo, jx, f_b, self.w[rows])
+            du, dg = accumulate_points(p - lo, hi - lo, jx, v_b, self.w[rows])
             u[lo:hi] += du
             g[lo:hi] += dg
-            if f is not None:
-                f[rows] = f_b
-        return u, g, f
+            if v is not None:
+                v[rows] = v_b
+        return u, g, v
 
 
 def _misclosure(
