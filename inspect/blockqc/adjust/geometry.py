@@ -448,20 +448,24 @@ def intersect(
     rays = _Rays(stack, a, idx, pidx, np.argsort(pidx, kind="stable"), tl, ts, w)
     h = h_p.copy()
     conv = np.zeros(n_points, bool)
+    todo = np.ones(n_points, bool)  # the points still moving: neither converged nor singular
     iterations = 0
     for _ in range(max_iter):
         iterations += 1
-        u, g, _ = rays.normal_equations(n_points, lon, lat, h)
-        u[:, 2, 2] += w_h
-        g[:, 2] += w_h * (h - h_p)
+        t = np.flatnonzero(todo)
+        u, g, _ = rays.normal_equations(n_points, lon, lat, h, todo)
+        u, g = u[t], g[t]
+        u[:, 2, 2] += w_h[t]
+        g[:, 2] += w_h[t] * (h[t] - h_p[t])
         u_inv, ok = inv3(u)
         step = -np.einsum("nij,nj->ni", u_inv, g)
-        deg_e, deg_n = metres_to_degrees(lat)
-        lon += step[:, 0] * deg_e
-        lat += step[:, 1] * deg_n
-        h += step[:, 2]
-        conv = ok & np.all(np.abs(step) < tol_m, axis=1)
-        if np.all(conv | ~ok):
+        deg_e, deg_n = metres_to_degrees(lat[t])
+        lon[t] += step[:, 0] * deg_e
+        lat[t] += step[:, 1] * deg_n
+        h[t] += step[:, 2]
+        conv[t] = ok & np.all(np.abs(step) < tol_m, axis=1)
+        todo[t] = ok & ~conv[t]
+        if not todo.any():
             break
     u, _, v = rays.normal_equations(n_points, lon, lat, h, residuals=True)
     u[:, 2, 2] += w_h
@@ -488,16 +492,20 @@ class _Rays:
         lon: FloatArray,
         lat: FloatArray,
         h: FloatArray,
+        points: NDArray[np.bool_] | None = None,
         residuals: bool = False,
     ) -> tuple[FloatArray, FloatArray, FloatArray | None]:
         """`accumulate_points` of the image residuals v = M⁻¹·f and their partials M⁻¹·J at the
-        points' (lon, lat, h), and v (n, 2) if asked, BATCH observations at a time in point
-        order: the memory stays bounded, and each point's sums take its observations in the
-        same order as one pass over all would."""
+        points' (lon, lat, h), over the observations of `points` (all by default), and v (n, 2)
+        if asked, BATCH observations at a time in point order: the memory stays bounded, and
+        each point's sums take its observations in the same order as one pass over all would."""
         u, g = np.zeros((n_points, 3, 3)), np.zeros((n_points, 3))
         v = np.empty((self.idx.size, 2)) if residuals else None
-        for start in range(0, self.by_point.size, BATCH):
-            rows = self.by_point[start : start + BATCH]
+        order = self.by_point
+        if points is not None and not points.all():
+            order = order[points[self.pidx[order]]]
+        for start in range(0, order.size, BATCH):
+            rows = order[start : start + BATCH]
             p = self.pidx[rows]
             f, jx = _misclosure(
                 self.stack, self.idx[rows], lon[p], lat[p], h[p], self.tl[rows], self.ts[rows]
