@@ -510,16 +510,16 @@ def test_no_cp_reasons_name_dem_voids_and_overlap():
     from rasterio.transform import from_origin
 
     from blockqc.rfm.dem import DEM, Grid
-    from blockqc.rfm.pipeline import no_cp_reason
+    from blockqc.rfm.pipeline import no_cp_cause
 
     holes = np.full((10, 10), np.nan)
     holes[:2] = 500.0  # 80 % voids
     dem = DEM(Grid(holes, from_origin(5.0, 45.0, 0.01, 0.01), CRS.from_epsg(4326)), "test")
     image = np.where(np.arange(100)[:, None] < 10, 1.0, np.nan) * np.ones((100, 100))
     overlap = np.isfinite(image)
-    assert "DEM voids" in no_cp_reason(image, overlap, dem, 0)
-    assert "does not overlap" in no_cp_reason(image, np.zeros_like(overlap), dem, 0)
-    assert "every match fell on a DEM void" in no_cp_reason(image, overlap, dem, 12)
+    assert "DEM voids" in no_cp_cause(image, overlap, dem, 0)[1]
+    assert "does not overlap" in no_cp_cause(image, np.zeros_like(overlap), dem, 0)[1]
+    assert "every match fell on a DEM void" in no_cp_cause(image, overlap, dem, 12)[1]
 
 
 def test_an_earlier_runs_outputs_do_not_stay_beside_a_failed_run(tmp_path: Path, capsys):
@@ -636,7 +636,7 @@ def test_an_overlap_narrower_than_a_matching_window_is_named():
     from rasterio.transform import from_origin
 
     from blockqc.rfm.dem import DEM, Grid
-    from blockqc.rfm.pipeline import no_cp_reason
+    from blockqc.rfm.pipeline import no_cp_cause
 
     dem = DEM(
         Grid(np.full((10, 10), 500.0), from_origin(5.0, 45.0, 0.01, 0.01), CRS.from_epsg(4326)),
@@ -645,13 +645,13 @@ def test_an_overlap_narrower_than_a_matching_window_is_named():
     image = np.random.default_rng(0).uniform(0, 100, (500, 500))
     overlap = np.zeros(image.shape, bool)
     overlap[:, 200:240] = True
-    reason = no_cp_reason(image, overlap, dem, 0)
+    reason = no_cp_cause(image, overlap, dem, 0)[1]
     assert reason.startswith(
         "no control point found: the image and the reference overlap on 20000 px only, nowhere "
         "on a whole 50 px matching window"
     )
     overlap[:, 200:250] = True  # 50 px wide: a window fits, the texture is blamed again
-    assert "no texture" in no_cp_reason(image, overlap, dem, 0)
+    assert "no texture" in no_cp_cause(image, overlap, dem, 0)[1]
 
 
 def test_a_reference_off_by_far_more_than_the_search_gives_no_verdict(tmp_path: Path):
@@ -693,7 +693,7 @@ def test_no_cp_for_the_image_itself_is_not_put_on_the_reference_or_the_dem(case,
     it was put on the reference (an image without data: "does not overlap") or on DEM voids
     (an image one row high or 16 px wide: "most of the image has no height"; 2 % of its pixels
     empty at random: "DEM voids scattered", to be closed with --dem-fill-voids)."""
-    from blockqc.rfm.pipeline import no_cp_reason
+    from blockqc.rfm.pipeline import no_cp_cause
 
     image = np.full((500, 500), np.nan)
     if case == "one row":
@@ -704,7 +704,7 @@ def test_no_cp_for_the_image_itself_is_not_put_on_the_reference_or_the_dem(case,
         image = _texture((500, 500))
         image[np.random.default_rng(1).random(image.shape) < 0.02] = np.nan
     reference = _texture((500, 500))
-    reason = no_cp_reason(image, np.isfinite(image), _full_dem(), 0, reference)
+    reason = no_cp_cause(image, np.isfinite(image), _full_dem(), 0, reference)[1]
     assert reason.startswith(f"no control point found: {start}")
 
 

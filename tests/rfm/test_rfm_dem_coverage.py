@@ -16,7 +16,7 @@ from blockqc.rfm.dem import DEM, Grid, load_dem
 from blockqc.rfm.pipeline import (
     RfmAccuracyConfig,
     image_without_height,
-    no_cp_reason,
+    no_cp_cause,
     run_warnings,
 )
 from blockqc.rfm.readers import read_rpc
@@ -108,11 +108,11 @@ def test_scattered_voids_are_named_as_the_cause_of_no_cp():
     dem_values = np.full((100, 100), 500.0)
     dem_values[::20, ::20] = np.nan
     dem = DEM(Grid(dem_values, from_origin(5.0, 45.0, 0.01, 0.01), CRS.from_epsg(4326)), "test")
-    reason = no_cp_reason(image, np.isfinite(image), dem, 0)
+    reason = no_cp_cause(image, np.isfinite(image), dem, 0)[1]
     assert reason.startswith("no control point found: DEM voids scattered across the image")
     assert "--dem-fill-voids" in reason and "100% of the 50 px matching windows" in reason
     # the same image without holes: the texture is blamed
-    reason = no_cp_reason(np.nan_to_num(image), np.ones(image.shape, bool), dem, 0)
+    reason = no_cp_cause(np.nan_to_num(image), np.ones(image.shape, bool), dem, 0)[1]
     assert "no texture" in reason and "0% of the 50 px matching windows" in reason
 
 

@@ -552,19 +552,6 @@ def holds_window(mask: np.ndarray, window: int = MATCH_WINDOW) -> bool:
     return bool(inside.any())
 
 
-def no_cp_reason(
-    image: np.ndarray,
-    overlap: np.ndarray,
-    dem: DEM,
-    n_matches: int,
-    reference: np.ndarray | None = None,
-    no_height: tuple[float, float] = (0.0, 0.0),
-) -> str:
-    """Why matching gave no CP: the likely cause first, then the figures behind it.
-    `no_height`: the shares of the image outside the DEM and on its voids."""
-    return no_cp_cause(image, overlap, dem, n_matches, reference, no_height)[1]
-
-
 NO_CP_CAUSES = {
     "dem_under_matches": "every match fell on a DEM void (no height under it)",
     "empty_image": (
@@ -621,8 +608,10 @@ def no_cp_cause(
     reference: np.ndarray | None = None,
     no_height: tuple[float, float] = (0.0, 0.0),
 ) -> tuple[bool, str]:
-    """`no_cp_reason`, and whether its cause lies in the reference (`reference`: the reference
-    on the image's grid, the image's shape; its empty pixels and spread are then weighed too)."""
+    """Why matching gave no CP: whether its cause lies in the reference, and the message: the
+    likely cause first, then the figures behind it (`reference`: the reference on the image's
+    grid, the image's shape, its empty pixels and spread then weighed too; `no_height`: the
+    shares of the image outside the DEM and on its voids)."""
     valid = float(np.isfinite(image).mean())
     both = float(overlap.sum() / max(np.isfinite(image).sum(), 1))
     voids = float(np.isnan(dem.grid.values).mean())
