@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from blockqc.analysis.table import FACTOR_COLUMNS, INDICATOR_COLUMNS, read_table, write_table_csv
@@ -24,13 +26,10 @@ def test_bad_cells_name_row_and_column(tmp_path, appendix_path):
     cells[5] = "n/a"  # mean_slope_deg of data row 3
     cells[15] = ""  # s_rmse_px of data row 3
     lines[3] = ",".join(cells)
-    bad = tmp_path / "bad.csv"
-    bad.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    with pytest.raises(InputError) as err:
-        read_table(bad)
-    found = {(p.row, p.column) for p in err.value.problems}
+    bad, err = _refused(tmp_path / "bad.csv", lines)
+    found = {(p.row, p.column) for p in err.problems}
     assert found == {(3, "mean_slope_deg"), (3, "s_rmse_px")}
-    assert all(p.file == str(bad) for p in err.value.problems)
+    assert all(p.file == str(bad) for p in err.problems)
 
 
 def test_values_no_factor_or_indicator_takes_are_named(tmp_path, appendix_path):
@@ -45,11 +44,8 @@ def test_values_no_factor_or_indicator_takes_are_named(tmp_path, appendix_path):
     ):  # fmt: skip
         cells[header.index(col)] = value
     lines[2] = ",".join(cells)
-    bad = tmp_path / "bad.csv"
-    bad.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    with pytest.raises(InputError) as err:
-        read_table(bad)
-    found = {(p.row, p.column): p.message for p in err.value.problems}
+    bad, err = _refused(tmp_path / "bad.csv", lines)
+    found = {(p.row, p.column): p.message for p in err.problems}
     assert set(found) == {(2, "h_rmse_m"), (2, "tp_number"), (2, "mean_slope_deg")}
     assert found[(2, "mean_slope_deg")] == "'95': a mean slope (°) is at least 0 and at most 90"
     assert found[(2, "h_rmse_m")] == "'-3': a δ_H (m) is at least 0"
@@ -87,11 +83,8 @@ def test_the_experiment_column_in_other_case_is_refused(tmp_path, appendix_path)
     the ids given, and an id given twice, went unread."""
     lines = _rows(appendix_path, 4)
     lines[0] = "Experiment" + lines[0].removeprefix("experiment")
-    bad = tmp_path / "ids.csv"
-    bad.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    with pytest.raises(InputError) as err:
-        read_table(bad)
-    assert str(err.value) == (
+    bad, err = _refused(tmp_path / "ids.csv", lines)
+    assert str(err) == (
         f"{bad}, column 'Experiment': did you mean 'experiment'? (the experiments would be "
         "numbered by row instead of by the ids it holds)"
     )
@@ -102,6 +95,14 @@ def test_missing_file(tmp_path):
         read_table(tmp_path / "nothing.csv")
 
 
+def _refused(bad: Path, lines: list[str]) -> tuple[Path, InputError]:
+    """The table of `lines` written to `bad`, and read_table's refusal of it."""
+    bad.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    with pytest.raises(InputError) as err:
+        read_table(bad)
+    return bad, err.value
+
+
 def _rows(appendix_path, n: int) -> list[str]:
     """The appendix header and its first `n` data rows, as lines."""
     return appendix_path.read_text(encoding="utf-8").splitlines()[: n + 1]
@@ -110,11 +111,8 @@ def _rows(appendix_path, n: int) -> list[str]:
 def test_duplicate_experiment_ids_are_named(tmp_path, appendix_path):
     lines = _rows(appendix_path, 4)
     lines[4] = "2" + lines[4][1:]  # data row 4 takes the id of data row 2
-    bad = tmp_path / "dup.csv"
-    bad.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    with pytest.raises(InputError) as err:
-        read_table(bad)
-    assert str(err.value) == (
+    bad, err = _refused(tmp_path / "dup.csv", lines)
+    assert str(err) == (
         f"{bad}, row 4 (line 5), column 'experiment': experiment id '2' is also the id of "
         "row 2 (line 3): each experiment needs its own id"
     )
@@ -128,11 +126,8 @@ def test_rows_are_named_with_their_line(tmp_path, appendix_path):
     cells[5] = "abc"  # mean_slope_deg of data row 4
     lines[4] = ",".join(cells)
     lines.insert(4, "")  # a blank line before data row 4, skipped
-    bad = tmp_path / "lines.csv"
-    bad.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    with pytest.raises(InputError) as err:
-        read_table(bad)
-    assert [(p.row, p.line, p.column) for p in err.value.problems] == [(4, 7, "mean_slope_deg")]
+    bad, err = _refused(tmp_path / "lines.csv", lines)
+    assert [(p.row, p.line, p.column) for p in err.problems] == [(4, 7, "mean_slope_deg")]
 
 
 def test_a_table_not_in_utf8_names_the_line(tmp_path, appendix_path):

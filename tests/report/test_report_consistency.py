@@ -86,27 +86,24 @@ def _edited(doc: dict[str, Any], index: int, **fields: Any) -> dict[str, Any]:
     return {**doc, "results": results}
 
 
-def test_a_passing_status_over_a_value_beyond_its_threshold_is_refused(
-    tmp_path, capsys, results_doc
+@pytest.mark.parametrize(
+    ("index", "value", "message"),
+    [
+        # TP-1 (results[3]) passes at 0.31 px <= 0.5 px; its value edited to 0.93 px fails it
+        (3, 0.93, "(TP-1): status pass, but its value 0.93 against <= 0.5 does not meet the "
+         "threshold"),
+        # CP-2 plane high_precision (results[7]) fails at 10.4 m > 10 m; 9.6 m would pass
+        (7, 9.6, "(CP-2, component plane, method high_precision): status fail, but its value "
+         "9.6 against <= 10.0 meets the threshold"),
+    ],
+    ids=["pass-beyond", "fail-within"],
+)  # fmt: skip
+def test_a_status_its_value_does_not_make_is_refused(
+    tmp_path, capsys, results_doc, index, value, message
 ):
-    # TP-1 (results[3]) passes at 0.31 px <= 0.5 px; its value edited to 0.93 px fails it
-    err = _refused(tmp_path, capsys, _edited(results_doc, 3, value=0.93))
-    assert err == [
-        f"error: {tmp_path / 'in' / 'results.json'}: $.results[3] (TP-1): status pass, but its "
-        "value 0.93 against <= 0.5 does not meet the threshold"
-    ]
-
-
-def test_a_failing_status_over_a_value_within_its_threshold_is_refused(
-    tmp_path, capsys, results_doc
-):
-    # CP-2 plane high_precision (results[7]) fails at 10.4 m > 10 m; 9.6 m would pass
-    err = _refused(tmp_path, capsys, _edited(results_doc, 7, value=9.6))
-    assert err == [
-        f"error: {tmp_path / 'in' / 'results.json'}: $.results[7] (CP-2, component plane, "
-        "method high_precision): status fail, but its value 9.6 against <= 10.0 meets the "
-        "threshold"
-    ]
+    err = _refused(tmp_path, capsys, _edited(results_doc, index, value=value))
+    path = tmp_path / "in" / "results.json"
+    assert err == [f"error: {path}: $.results[{index}] {message}"]
 
 
 def test_a_value_on_an_inclusive_bound_within_its_rounding_passes(tmp_path, results_doc):

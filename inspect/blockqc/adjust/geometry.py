@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 from threadpoolctl import threadpool_limits
 
 from blockqc.errors import InputError, Problem
-from blockqc.rfm.model import RPC00B_EXPONENTS, RPCModel
+from blockqc.rfm.model import RPC00B_EXPONENTS, RPCModel, wrap_lon
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -249,15 +249,6 @@ def project_adjusted(
     idx = np.asarray(scene_index, np.int64).ravel()
     line_r, samp_r, _ = stack.project(idx, lon, lat, h)
     return from_rfm_space(a, idx, line_r, samp_r)
-
-
-def wrap_lon(lon: ArrayLike) -> FloatArray:
-    """Longitudes (or their differences) brought within [−180°, 180°); those already within are
-    kept as they are (adding and taking away 180° would round them off by up to 3e-14°)."""
-    lon = np.asarray(lon, np.float64)
-    with np.errstate(invalid="ignore"):
-        out = (lon < -180.0) | (lon >= 180.0)
-        return np.where(out, (lon + 180.0) % 360.0 - 180.0, lon)
 
 
 def metres_to_degrees(lat: FloatArray) -> tuple[FloatArray, float]:

@@ -17,7 +17,7 @@ import pandas as pd
 from blockqc.delivery import MANIFEST, Manifest, load_delivery
 from blockqc.errors import InputError, Problem
 from blockqc.geometry_inputs import AFFINE_KEYS, RPC_DIR, BlockGeometry
-from blockqc.rfm.model import RPCModel
+from blockqc.rfm.model import RPCModel, wrap_lon
 from blockqc.schema import MAX_ROWS_LISTED as MAX_LISTED
 
 
@@ -92,7 +92,7 @@ def _check_ground(file: Path, tie_points: pd.DataFrame) -> None:
         first[points], first_row[points] = v[rows[at]], rows[at]
         diff = v - first[point]
         if c == "lon":
-            diff = (diff + 180.0) % 360.0 - 180.0
+            diff = wrap_lon(diff)
         for i in np.flatnonzero(ok & (np.abs(diff) > GROUND_AGREEMENT[c]))[:MAX_LISTED]:
             problems.append(
                 Problem(

@@ -122,6 +122,15 @@ MAX_COEFFICIENT = 1e6
 MIN_SCALE = 1e-9
 
 
+def wrap_lon(lon: ArrayLike) -> FloatArray:
+    """Longitudes (or their differences) brought within [−180°, 180°); those already within are
+    kept as they are (adding and taking away 180° would round them off by up to 3e-14°)."""
+    lon = np.asarray(lon, np.float64)
+    with np.errstate(invalid="ignore"):
+        out = (lon < -180.0) | (lon >= 180.0)
+        return np.where(out, (lon + 180.0) % 360.0 - 180.0, lon)
+
+
 @dataclass(frozen=True, eq=False)
 class RPCModel:
     """One scene's RPC00B model: ten offsets/scales and the 4×20 coefficients (§3).
@@ -213,11 +222,8 @@ class RPCModel:
         lon, lat, h = np.broadcast_arrays(
             np.asarray(lon, np.float64), np.asarray(lat, np.float64), np.asarray(h, np.float64)
         )
-        d_lon = lon - self.lon_off
-        with np.errstate(invalid="ignore"):
-            d_lon = np.where(np.abs(d_lon) > 180.0, np.mod(d_lon + 180.0, 360.0) - 180.0, d_lon)
         return (
-            d_lon / self.lon_scale,
+            wrap_lon(lon - self.lon_off) / self.lon_scale,
             (lat - self.lat_off) / self.lat_scale,
             (h - self.height_off) / self.height_scale,
         )
