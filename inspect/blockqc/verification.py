@@ -32,6 +32,7 @@ COMPUTED_RESIDUALS = "tie-point residuals computed by blockqc from the delivered
 DERIVED_OVERLAPS = (
     "adjacent-image discrepancies derived by blockqc from the delivered geometry (§RC-2)"
 )
+VERIFIED_RESIDUALS = "delivered; verified against the geometry (§RC-1)"
 SOURCES = {
     "tie_point_errors": "tie_point_residuals",
     "reported_figures": "tie_point_residuals",
@@ -225,7 +226,7 @@ def prepare(d: Delivery) -> dict[str, Any]:
     if "v_line" not in d.tie_points.columns:
         _with_computed_residuals(d, pdata.observations, notes)
     else:
-        notes["tie_point_residuals"] = "delivered; verified against the geometry (§RC-1)"
+        notes["tie_point_residuals"] = VERIFIED_RESIDUALS
     if pdata.overlaps is not None:
         d.overlaps = pdata.overlaps
         notes["overlaps"] = DERIVED_OVERLAPS

@@ -29,6 +29,7 @@ from blockqc.report.figures import block_figures, scene_statuses
 from blockqc.report.format import Formatter, metric_units
 from blockqc.report.messages import MESSAGES
 from blockqc.report.overview import overview_map
+from blockqc.report.process import process_rows
 from blockqc.results import (
     STATUSES,
     BlockResults,
@@ -60,7 +61,7 @@ def _notes(res: RuleResult, f: Formatter) -> list[str]:
     detail, colon = res.detail, "：" if f.lang == "zh" else ": "
     notes = [
         f.text(str(detail[k]))
-        for k in ("reason", "note", "waiver_reason", "waiver_ignored")
+        for k in ("reason", "note", "computed_by_blockqc", "waiver_reason", "waiver_ignored")
         if detail.get(k)
     ]
     if _conditional(res) and detail.get("note"):
@@ -373,6 +374,7 @@ def block_context(
         "others": [_row(r, f) for r in others],
         "general": [_row(r, f) for r in rows if r.inspection == "general"],
         "detailed": [_row(r, f) for r in rows if r.inspection == "detailed"],
+        "process": process_rows(results.process_data, f),
         "cp_tables": _checkpoint_tables(results, f),
         "cp_points": _checkpoint_points(results, f),
         "manual": _manual(results, f),

@@ -86,6 +86,35 @@ MESSAGES: dict[str, tuple[str, str]] = {
         "process data and documents.",
         "对每个提交的区域网自动检查：连接点、相对定向、过程数据与文档资料。",
     ),
+    "sec_process_data": ("Where the process data came from", "过程数据来源"),
+    "sec_process_data_intro": (
+        "What the delivery gave and what blockqc computed itself from the delivered geometry "
+        "(§RC-1, §RC-2); the rules above judge these.",
+        "成果所给的数据，以及 blockqc 依据所交几何模型自行计算的数据（§RC-1、§RC-2）；"
+        "上列规则据此判定。",
+    ),
+    "pd_geometry": ("Geometry used", "所用几何模型"),
+    "pd_residuals": ("Tie-point residuals", "连接点残差"),
+    "pd_points": ("Tie points", "连接点数"),
+    "pd_single_ray": ("seen on one scene only (not intersected)", "仅在一景影像上（未交会）"),
+    "pd_not_intersected": ("whose rays do not intersect", "光线无法交会"),
+    "pd_height_undetermined": (
+        "whose rays fix no height (nearly parallel)",
+        "光线近于平行、无法确定高程",
+    ),
+    "pd_iterations": ("Intersection iterations", "前方交会迭代次数"),
+    "pd_observations_without_residual": (
+        "Observations without a computed residual",
+        "未能计算残差的观测",
+    ),
+    "pd_observations_single_ray": (
+        "Observations of single-ray points, left out of the tie-point rules",
+        "单像点观测（不参与连接点规则）",
+    ),
+    "pd_overlaps": ("Adjacent-image discrepancies", "相邻影像接边差"),
+    "pd_n_overlaps": ("Adjacent-image discrepancies derived", "推算的相邻影像接边差个数"),
+    "pd_inspector_checkpoints": ("Inspector's checkpoints", "检查员检查点"),
+    "pd_rows": ("{n} rows", "{n} 行"),
     "sec_detailed": ("Detailed inspection: checkpoint accuracy", "详查：检查点精度"),
     "sec_detailed_intro": (
         "Checkpoint statistics per component and method, in the layout of the "
@@ -573,6 +602,18 @@ MESSAGES.update(
             "block.yaml 未给出报告的精度指标",
         ),
         "ph_no_scenes_bands": ("no scenes of the bands checked", "没有所检查波段的影像"),
+        "ph_computed_residuals": (
+            "tie-point residuals computed by blockqc from the delivered geometry (§RC-1)",
+            "连接点残差由 blockqc 依据所交几何模型计算（§RC-1）",
+        ),
+        "ph_derived_overlaps": (
+            "adjacent-image discrepancies derived by blockqc from the delivered geometry (§RC-2)",
+            "相邻影像接边差由 blockqc 依据所交几何模型推算（§RC-2）",
+        ),
+        "ph_verified_residuals": (
+            "delivered; verified against the geometry (§RC-1)",
+            "成果所给，已依据几何模型验证（§RC-1）",
+        ),
         "ph_residuals_computed": (
             "the delivery gives no residuals: blockqc computed them",
             "成果未给出残差，残差由 blockqc 计算",
