@@ -49,6 +49,7 @@ def test_incremental_rerun_recomputes_only_the_changed_block(small_batch: Path, 
     overlaps.write_text(overlaps.read_text(encoding="utf-8") + "\n", encoding="utf-8")
     third = run_blockqc(*args)
     assert third.stdout.count("outputs reused") == 2, third.stdout
+    assert "warning" not in third.stderr  # a changed delivery is the usual case: nothing to say
     after = _mtimes(out)
     assert (out / "summary.json").stat().st_mtime_ns != written["summary.json"]
     assert after["F4-B02"] != before["F4-B02"]
@@ -259,6 +260,9 @@ def test_incremental_broken_caches_mean_inspect_again(
     assert again.returncode == 1 and "Traceback" not in again.stderr, again.stderr
     assert again.stdout.count("outputs reused") == 2, again.stdout
     assert "F1-B02       PASS" in again.stdout
+    cache = str(out / "F1-B02" / ".blockqc-cache.json")
+    assert f"warning: {cache}: " in again.stderr  # said, not silent
+    assert "not trusted, the block was inspected again" in again.stderr
     assert (out / "summary.json").stat().st_mtime_ns != summary_before
     assert run_blockqc(*args).stdout.count("outputs reused") == 3  # caches written afresh
 
@@ -286,6 +290,7 @@ def test_incremental_cache_edited_by_hand_is_not_trusted(small_batch, tmp_path, 
     again = _incremental(small_batch, out)
     assert again.returncode == 1 and "error" not in again.stderr, again.stderr
     assert again.stdout.count("outputs reused") == 2 and "F3-B02       FAIL" in again.stdout
+    assert f"warning: {path}: edited since it was written" in again.stderr, again.stderr
     assert run_blockqc("inspect", small_batch, "--out", fresh, "--no-pdf").returncode == 1
 
     def blocks(folder: Path) -> list[dict]:
@@ -545,6 +550,8 @@ def test_incremental_block_with_an_output_cut_or_gone_is_written_again(
         (out / "F4-B02" / name).unlink()
     again = _incremental(small_batch, out)
     assert again.stdout.count("outputs reused") == 2, again.stdout
+    why = "changed since written: results.json" if verb == "truncate" else "an output is gone"
+    assert f"warning: {out / 'F4-B02'}: {why}" in again.stderr, again.stderr
     assert json.loads((out / "F4-B02" / "results.json").read_text("utf-8"))["verdict"] == "pass"
     assert (out / "F4-B02" / "evidence.csv").is_file()
 
@@ -959,3 +966,36 @@ def _alive(pid: int) -> bool:
             return f.read().rsplit(")", 1)[1].split()[0] != "Z"
     except FileNotFoundError:
         return False
+
+
+def test_incremental_key_holds_the_libraries_versions(monkeypatch, tmp_path):
+    """Another numpy (or any library the numbers and pages are made with) is another key: the
+    blocks are inspected again."""
+    from blockqc import cache
+
+    pack, writer = load_pack("global-project"), batch.Writer(tmp_path, pdf="none")
+    before = cache.run_digest(pack, writer)
+    assert cache.run_digest(pack, writer) == before
+    real = cache.metadata.version
+    monkeypatch.setattr(
+        cache.metadata, "version", lambda name: "0.0.1" if name == "numpy" else real(name)
+    )
+    assert cache.run_digest(pack, writer) != before
+
+
+def test_incremental_key_holds_the_chromium_writing_the_pdfs(monkeypatch, tmp_path):
+    """BLOCKQC_CHROMIUM naming another program is another key when it writes the PDFs, and no
+    other key when no PDF is written."""
+    from blockqc import cache
+
+    pack = load_pack("global-project")
+    one, other = tmp_path / "chrome-a", tmp_path / "chrome-b"
+    one.write_text("a", encoding="utf-8")
+    other.write_text("bb", encoding="utf-8")
+
+    def digest(program: Path, pdf: str) -> str:
+        monkeypatch.setenv("BLOCKQC_CHROMIUM", str(program))
+        return cache.run_digest(pack, batch.Writer(tmp_path, pdf=pdf, pdf_engine="chromium"))
+
+    assert digest(one, "all") != digest(other, "all")
+    assert digest(one, "none") == digest(other, "none")

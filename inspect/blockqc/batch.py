@@ -31,6 +31,7 @@ from blockqc.acceptance.scoring import a_class_errors
 from blockqc.cache import (
     CACHE_FILE,
     Cached,
+    Untrusted,
     delivery_fingerprint,
     forget_block,
     forget_summary,
@@ -94,6 +95,7 @@ class Outcome:
     grade: BlockGrade | None = None  # §QE, for the batch decision
     key: str | None = None  # incremental mode: the key its outputs were reused or written under
     errors: list[str] = field(default_factory=list)  # rules in error: "RULE: why"
+    warnings: list[str] = field(default_factory=list)  # e.g. a cache not trusted
     block_id: str | None = None  # not inspected: its block id, when its block.yaml was read
 
 
@@ -390,14 +392,17 @@ class Job:
 
     def __call__(self, path: Path, manifest: Manifest | None = None) -> Outcome:
         try:
-            key = self._key(path, manifest)
-            if key and (hit := read_cached(safe_child(self.writer.out, manifest.block_id), key)):
-                if hit.entry.block_id == manifest.block_id:  # a cache edited by hand is not
+            key, untrusted = self._key(path, manifest), []
+            if key:
+                hit, untrusted = self._reused(manifest.block_id, key)
+                if hit is not None:
                     o = Outcome(path, hit.entry, hit.rules, cached=True, grade=hit.grade, key=key)
                     o.errors = hit.errors or []  # why its rules in error are, said again
                     return o
             results = inspect_one(path, self.pack, self.inspector, manifest, self.extra)
-            return self._written(path, results, key)
+            o = self._written(path, results, key)
+            o.warnings = untrusted
+            return o
         except OutputError:
             raise  # no fault of the delivery: the run stops
         except InputError as exc:
@@ -405,6 +410,18 @@ class Job:
         except Exception as exc:  # one block's failure must not stop the batch
             reason = f"could not be inspected: {type(exc).__name__}: {exc}"
             return self._not_inspected(path, manifest, [Problem(str(path), reason)])
+
+    def _reused(self, block_id: str, key: str) -> tuple[Cached | None, list[str]]:
+        """The block's cached line under `key`, if its outputs can be reused; else None, and
+        why a cache that was there was not trusted (said as a warning)."""
+        try:
+            hit = read_cached(safe_child(self.writer.out, block_id), key)
+        except Untrusted as exc:
+            return None, [f"{exc}: not trusted, the block was inspected again"]
+        if hit is not None and hit.entry.block_id != block_id:
+            why = f"{CACHE_FILE} of block {block_id} names block {hit.entry.block_id}"
+            return None, [f"{why}: not trusted, the block was inspected again"]
+        return hit, []
 
     def _written(self, path: Path, results: BlockResults, key: str | None) -> Outcome:
         """The block's outputs written, and its outcome; a failure to write them stops the run

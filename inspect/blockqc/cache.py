@@ -9,7 +9,9 @@ time of each of its modules and templates, so that a changed blockqc recomputes 
 beside the block's outputs in `.blockqc-cache.json` with the block's line of the summary and the
 size of each output, so that a re-run reads nothing else of an unchanged block, and a missing or
 cut output is written again; a digest of it all seals the file, so that one edited by hand is not
-trusted (the block is inspected again).
+trusted (the block is inspected again, and the run says so: `Untrusted`). The versions of the
+libraries that make the numbers and the pages count too (`DEPENDENCIES`), and so does the Chromium
+named by BLOCKQC_CHROMIUM when it writes the PDFs.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import hashlib
 import json
 import os
 from dataclasses import dataclass
+from importlib import metadata
 from pathlib import Path
 from typing import Any
 
@@ -39,6 +42,29 @@ OUTPUTS = tuple(n for n in BLOCK_OUTPUTS if n != "report.pdf")
 #: a block's results per rule and status, and its rules in error ("RULE: why"), as cached
 _RULES = TypeAdapter(dict[str, dict[str, StrictInt]])
 _ERRORS = TypeAdapter(list[StrictStr])
+
+
+#: the distributions whose versions make a block's numbers or pages (blockqc's own dependencies)
+DEPENDENCIES = (
+    "numpy",
+    "scipy",
+    "pandas",
+    "pyarrow",
+    "pydantic",
+    "pyyaml",
+    "jinja2",
+    "rasterio",
+    "opencv-python-headless",
+    "matplotlib",
+    "shapely",
+    "pyproj",
+    "weasyprint",
+)
+
+
+class Untrusted(Exception):
+    """A block's cache that is there but cannot vouch for its outputs: broken, edited by hand, or
+    an output gone or cut since it was written (the block is inspected again)."""
 
 
 @dataclass
@@ -105,6 +131,7 @@ def run_digest(pack: Any, writer: Any, extra: Any = None, inspector: str | None 
         writer.lang,
         writer.pdf,
         writer.pdf_engine if writer.pdf != "none" else None,  # no PDF: no engine used
+        _chromium(writer),
         str(writer.templates),
         templates,
         inspector,
@@ -113,13 +140,37 @@ def run_digest(pack: Any, writer: Any, extra: Any = None, inspector: str | None 
     )
 
 
-def _blockqc() -> tuple[str, list, list]:
-    """blockqc's version and the size and time of its modules and stock templates."""
+def _blockqc() -> tuple[str, list, list, dict[str, str | None]]:
+    """blockqc's version, the size and time of its modules and stock templates, and the
+    versions of the libraries it computes and renders with."""
     from blockqc.resources import templates_dir
 
     package = Path(__file__).resolve().parent
     modules = [f for f in _tree(package) if f[0].endswith(".py")]
-    return __version__, modules, _tree(templates_dir())
+    return __version__, modules, _tree(templates_dir()), _versions(DEPENDENCIES)
+
+
+def _versions(names: tuple[str, ...]) -> dict[str, str | None]:
+    """Each installed distribution's version; None for one not installed."""
+    found: dict[str, str | None] = {}
+    for name in names:
+        try:
+            found[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            found[name] = None
+    return found
+
+
+def _chromium(writer: Any) -> tuple[str, int, int] | None:
+    """The Chromium program BLOCKQC_CHROMIUM names (path, size, time), when it writes PDFs."""
+    given = os.environ.get("BLOCKQC_CHROMIUM")
+    if writer.pdf == "none" or writer.pdf_engine != "chromium" or not given:
+        return None
+    try:
+        st = Path(given).stat()
+    except OSError:
+        return (given, -1, -1)
+    return (given, st.st_size, st.st_mtime_ns)
 
 
 def delivery_fingerprint(
@@ -142,23 +193,43 @@ def delivery_fingerprint(
 
 
 def read_cached(folder: Path, key: str) -> Cached | None:
-    """The block's cached line when its key matches, its seal holds (a cache edited by hand is
-    not trusted) and its outputs are all still there, at the size they were written."""
+    """The block's cached line when its key matches, its seal holds and its outputs are all
+    still there, at the size they were written; None when there is no cache or the block
+    changed; `Untrusted` (why) when the cache is broken or edited, or an output gone or cut."""
+    path = folder / CACHE_FILE
     try:
-        doc = json.loads((folder / CACHE_FILE).read_text(encoding="utf-8"))
-        if doc.pop("seal", None) != _sha(doc) or doc["key"] != key:
-            return None
-        entry = BlockEntry.model_validate(doc["entry"])
-        names = [*OUTPUTS, "report.pdf"] if entry.pdf else list(OUTPUTS)
-        if _sizes(folder, names) != doc["sizes"]:
-            return None
-        from blockqc.acceptance.model import BlockGrade
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        return None
+    except (OSError, ValueError) as exc:
+        raise Untrusted(f"{path}: not readable ({exc})") from None
+    try:
+        if not isinstance(doc, dict) or doc.pop("seal", None) != _sha(doc):
+            raise Untrusted(f"{path}: edited since it was written (its seal does not hold)")
+        if doc["key"] != key:
+            return None  # something that made the block changed: the usual case, said by no one
+        cached = _cached(doc, key)
+    except (KeyError, TypeError, AttributeError, ValidationError) as exc:
+        raise Untrusted(f"{path}: not a cache of this blockqc ({type(exc).__name__})") from None
+    names = [*OUTPUTS, "report.pdf"] if cached.entry.pdf else list(OUTPUTS)
+    try:
+        now = _sizes(folder, names)
+    except OSError as exc:
+        raise Untrusted(f"{folder}: an output is gone since it was written ({exc})") from None
+    changed = [n for n in names if now[n] != cached.sizes.get(n)]
+    if changed:
+        raise Untrusted(f"{folder}: changed since written: {', '.join(changed)}")
+    return cached
 
-        grade = BlockGrade.model_validate(doc["grade"]) if doc["grade"] else None
-        rules, errors = _RULES.validate_python(doc["rules"]), _ERRORS.validate_python(doc["errors"])
-        return Cached(key, entry, rules, grade, doc["sizes"], errors)
-    except (OSError, ValueError, KeyError, TypeError, AttributeError, ValidationError):
-        return None  # no cache, or a broken one: inspect again
+
+def _cached(doc: dict[str, Any], key: str) -> Cached:
+    """The cached line of a sealed cache document."""
+    from blockqc.acceptance.model import BlockGrade
+
+    entry = BlockEntry.model_validate(doc["entry"])
+    grade = BlockGrade.model_validate(doc["grade"]) if doc["grade"] else None
+    rules, errors = _RULES.validate_python(doc["rules"]), _ERRORS.validate_python(doc["errors"])
+    return Cached(key, entry, rules, grade, dict(doc["sizes"]), errors)
 
 
 def _sizes(folder: Path, names: list[str]) -> dict[str, int]:

@@ -528,6 +528,8 @@ def _closing_lines(outcomes, summary, out: Path) -> None:
             click.echo(f"error: {p}", err=True)
         for e in o.errors:  # a rule that could not be judged: why, beside the block's line
             click.echo(f"error: {shown(f'{o.path}: {e}')}", err=True)
+        for w in o.warnings:
+            _warn(w)
     if summary is not None:
         _warn_other_blocks(out, {b.block_id for b in summary.blocks})
         c = summary.counts
