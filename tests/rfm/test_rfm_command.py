@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import shutil
+import warnings
 from pathlib import Path
 
 import cv2
@@ -816,3 +817,76 @@ def test_a_distortion_found_not_significant_says_which_condition_failed(real_run
     row = re.search(r"significant distortion</th><td>(.*?)</td>", page).group(1)
     assert row.startswith("no: p = 0.00073, field RMS 0.061 px (")
     assert "significant when p &lt; 0.01 and field RMS ≥ 0.5 px" in row
+
+
+def _coarser_reference(path: Path, factor: int) -> None:
+    """The reference at `path` with pixels `factor` times as large (block means)."""
+    with rasterio.open(path) as src:
+        profile, data = src.profile, src.read(1)
+    h, w = (data.shape[0] // factor) * factor, (data.shape[1] // factor) * factor
+    blocks = data[:h, :w].reshape(h // factor, factor, w // factor, factor)
+    with warnings.catch_warnings():  # blocks wholly outside the image: NaN, as they should be
+        warnings.simplefilter("ignore", RuntimeWarning)
+        coarse = np.nanmean(blocks, axis=(1, 3)).astype(data.dtype)
+    t = profile["transform"]
+    profile.update(
+        width=coarse.shape[1],
+        height=coarse.shape[0],
+        transform=rasterio.Affine(t.a * factor, 0, t.c, 0, t.e * factor, t.f),
+        blockxsize=256,
+        blockysize=256,
+    )
+    with rasterio.open(path, "w", **profile) as dst:
+        dst.write(coarse, 1)
+
+
+@pytest.mark.parametrize("factor", [1, 5])
+def test_a_reference_much_coarser_than_the_image_is_warned_of(tmp_path: Path, factor: int):
+    """§RA-2: a reference with pixels 5× the image's GSD is said to be too coarse (its GSD in
+    results.json and on the page); one at the image's own GSD is not."""
+    cfg, g = _shifted_config(tmp_path, 0, 0, match_grid=50, repeats=2)
+    if factor > 1:
+        _coarser_reference(cfg.reference, factor)
+    results = run_rfm_accuracy(cfg, matcher=phase_correlation_matcher)
+    assert results["reference"]["gsd_m"] == pytest.approx(factor * g, rel=1e-6)
+    coarse = [w for w in results["warnings"] if w.startswith("§RA-2")]
+    if factor == 1:
+        assert coarse == []
+    else:
+        (warning,) = coarse
+        assert f"{5 * g:.3g} m, 5.0× the image's GSD" in warning, warning
+    page = (tmp_path / "out" / "report.html").read_text(encoding="utf-8")
+    assert f"pixels of {factor * g:.3f} m" in page
+
+
+def test_reference_gsd_of_a_geographic_reference_is_in_metres(tmp_path: Path):
+    """A reference in lon/lat degrees: its pixel of 1e-4° × 1e-4° at 44.2° N is measured in
+    metres on the image's UTM grid, as geodesic lengths on the WGS-84 ellipsoid give it."""
+    from pyproj import CRS, Geod
+
+    from blockqc.rfm.ortho import OrthoGrid
+    from blockqc.rfm.pipeline import reference_gsd
+
+    lon0, lat0, step = 5.2, 44.2, 1e-4
+    path = tmp_path / "geo.tif"
+    t = rasterio.Affine(step, 0, lon0 - 0.01, 0, -step, lat0 + 0.01)
+    profile = {
+        "driver": "GTiff", "dtype": "float32", "count": 1, "width": 200, "height": 200,
+        "crs": "EPSG:4326", "transform": t,
+    }  # fmt: skip
+    with rasterio.open(path, "w", **profile) as dst:
+        dst.write(np.zeros((1, 200, 200), np.float32))
+    utm = CRS.from_epsg(32631)
+    from pyproj import Transformer
+
+    x, y = Transformer.from_crs("EPSG:4326", utm, always_xy=True).transform(lon0, lat0)
+    grid = OrthoGrid(utm, rasterio.Affine(0.5, 0, x - 50, 0, -0.5, y + 50), 200, 200)
+    cfg = RfmAccuracyConfig(image=path, dem=path, reference=path, out=tmp_path)
+    geod = Geod(ellps="WGS84")
+    east = geod.inv(lon0, lat0, lon0 + step, lat0)[2]
+    north = geod.inv(lon0, lat0, lon0, lat0 + step)[2]
+    # UTM's point scale 2.2° east of zone 31's central meridian (3° E): k0·(1 + (Δλ·cos φ)²/2)
+    k = 0.9996 * (1 + (np.radians(lon0 - 3.0) * np.cos(np.radians(lat0))) ** 2 / 2)
+    got = reference_gsd(cfg, grid, None, None)
+    assert got == pytest.approx(np.sqrt(east * north), rel=2e-3)
+    assert got == pytest.approx(np.sqrt(east * north) * k, rel=1e-4)

@@ -15,7 +15,13 @@ from blockqc.cli import GivenPath
 from blockqc.errors import UsageError
 from blockqc.matching.settings import MatchSettings
 from blockqc.outputs import check_out_dir, empty_removed, refuse_replacing
-from blockqc.rfm.pipeline import METHODS, OUTPUT_NAMES, RfmAccuracyConfig, run_rfm_accuracy
+from blockqc.rfm.pipeline import (
+    METHODS,
+    OUTPUT_NAMES,
+    REFERENCE_GSD_RATIO,
+    RfmAccuracyConfig,
+    run_rfm_accuracy,
+)
 
 
 def _offset(value: str | None, option: str = "--crop-offset") -> tuple[float, float] | None:
@@ -249,6 +255,15 @@ def _finite(ctx: click.Context, param: click.Parameter, value: float | None) -> 
     help="RMSE requirement in pixels.",
 )
 @click.option(
+    "--reference-gsd-ratio",
+    "reference_gsd_ratio",
+    type=click.FloatRange(min=1, max=1e6),
+    callback=_finite,
+    default=REFERENCE_GSD_RATIO,
+    show_default=True,
+    help="Warn when the reference's pixels are more than this many times the image's GSD.",
+)
+@click.option(
     "--method",
     type=click.Choice(METHODS),
     default="same_accuracy",
@@ -294,6 +309,7 @@ def command(
     repeats: int,
     seed: int,
     requirement: float,
+    reference_gsd_ratio: float,
     method: str,
     export_checkpoints: bool,
     refined_ortho: bool,
@@ -338,6 +354,7 @@ def command(
             repeats=repeats,
             seed=seed,
             requirement_px=requirement,
+            reference_gsd_ratio=reference_gsd_ratio,
             method=method,
             export_checkpoints=export_checkpoints,
             refined_ortho=refined_ortho,

@@ -99,6 +99,12 @@ OUTPUT_NAMES = (
 )
 
 
+#: §RA-2 asks for a reference "of better accuracy": its pixels, at most this many times the
+#: image's GSD, before the run warns that they limit what the matching can measure (the source
+#: matched 2–6 m images against a reference of about 3 m)
+REFERENCE_GSD_RATIO = 3.0
+
+
 @dataclass
 class RfmAccuracyConfig:
     """Everything one run needs; paths are the user's, the output folder must lie outside them."""
@@ -129,6 +135,8 @@ class RfmAccuracyConfig:
     seed: int = 0
     requirement_px: float = accuracy.REQUIREMENT_PX
     distortion_threshold_px: float = accuracy.DISTORTION_THRESHOLD_PX
+    reference_gsd_ratio: float = REFERENCE_GSD_RATIO
+    """A warning when the reference's pixels are more than this many times the image's GSD."""
     method: str = "same_accuracy"
     export_checkpoints: bool = False
     refined_ortho: bool = False
@@ -270,6 +278,42 @@ def alpha_band(ds: Any) -> int:
 
     alpha = [i for i, c in zip(ds.indexes, ds.colorinterp, strict=True) if c == ColorInterp.alpha]
     return alpha[0] if alpha else 0
+
+
+def reference_gsd(cfg: RfmAccuracyConfig, grid: OrthoGrid, dem: DEM, rpc: RPCModel | None) -> float:
+    """What one pixel of the reference covers (m, in the grid's CRS) at the grid's centre: the
+    geometric mean of its two sides for a georeferenced reference, the GSD at its centre for
+    one in sensor geometry (`rpc`)."""
+    import rasterio
+
+    if rpc is not None:
+        shape, _ = _raster_shape(cfg.reference)
+        offset = cfg.reference_crop_offset
+        offset = crop_offset_from_file(cfg.reference) if offset is None else offset
+        return float(centre_gsd(rpc, shape, offset, dem, grid))
+    with rasterio.open(cfg.reference) as src:
+        crs, t = CRS.from_wkt(src.crs.to_wkt()), src.transform
+    x0, y0 = grid.transform * (grid.width / 2, grid.height / 2)
+    there = Transformer.from_crs(grid.crs, crs, always_xy=True)
+    back = Transformer.from_crs(crs, grid.crs, always_xy=True)
+    col, row = ~t * there.transform(x0, y0)
+    cols, rows = np.array([col, col + 1, col]), np.array([row, row, row + 1])
+    x, y = back.transform(*(t * (cols, rows)))
+    sides = np.hypot(x[1:] - x[0], y[1:] - y[0])
+    return float(np.sqrt(sides[0] * sides[1]))
+
+
+def reference_warning(cfg: RfmAccuracyConfig, ref_gsd: float, image_gsd: float) -> list[str]:
+    """That the reference is much coarser than the image (§RA-2), if it is."""
+    ratio = ref_gsd / image_gsd if image_gsd > 0 else 0.0
+    if not ratio > cfg.reference_gsd_ratio:
+        return []
+    return [
+        f"§RA-2: the reference's pixels cover {ref_gsd:.3g} m, {ratio:.1f}× the image's GSD "
+        f"({image_gsd:.3g} m; more than {cfg.reference_gsd_ratio:g}×): matched on the image's "
+        f"grid it is interpolated, and errors of a fraction of its pixel — several image "
+        f"pixels — go unseen; use a reference at least as fine as the image"
+    ]
 
 
 def reference_on_grid(
@@ -710,6 +754,8 @@ class _Run:
     """Shares of the image outside the DEM and on its voids."""
     image_gsd: float = 0.0
     """d_s of §RA-4: the image's GSD at its centre (the grid's unless --gsd gives another)."""
+    reference_gsd: float = 0.0
+    """What one pixel of the reference covers at the grid's centre (m)."""
 
 
 def _prepare(cfg: RfmAccuracyConfig) -> _Run:
@@ -750,6 +796,7 @@ def _correct_and_match(run: _Run, matcher: Matcher | None) -> None:
     run.how, run.ref_rpc = reference_on_grid(
         cfg, run.grid, run.dem, out / "reference_on_grid.tif", run.reference
     )
+    run.reference_gsd = reference_gsd(cfg, run.grid, run.dem, run.reference)
     image, run.grid = read_ortho(out / "ortho.tif")
     reference, ref_grid = read_ortho(out / "reference_on_grid.tif")
     overlap = overlap_mask(image, reference, cfg.margin)
@@ -861,6 +908,7 @@ def _inputs(run: _Run) -> dict[str, object]:
         "reference": {
             "file": str(cfg.reference),
             "how": run.how,
+            "gsd_m": run.reference_gsd,
             "bands": bands_used(cfg.reference),
             "rpc": run.ref_rpc,
             "method": cfg.method,
@@ -959,6 +1007,7 @@ def _measure(cfg: RfmAccuracyConfig, matcher: Matcher | None) -> dict[str, objec
         "refined_rfm": _refined_doc(run, table, refined_all),
         "files": _files(run, refined_all is not None),
         "warnings": run_warnings(cfg, run.dem, n, run.cell, run.no_height)
+        + reference_warning(cfg, run.reference_gsd, run.image_gsd)
         + accuracy.k_warnings(cfg.ks, n),
     }
     results = _clean(results)  # type: ignore[assignment]
