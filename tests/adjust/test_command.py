@@ -378,3 +378,31 @@ def test_long_ids_and_paths_wrap_within_the_page(small_block, tmp_path, blockqc)
     html = render_html(summary)
     assert summary["delivery"] in html and summary["scenes"][0]["scene_id"] in html
     assert page_overflow_px(html, tmp_path) <= 0
+
+
+def test_rays_that_fix_no_height_are_warned_of(tmp_path, blockqc):
+    """Every scene with the left image's RPC (one viewing direction, moved on the ground): the
+    rays of a point meet at a base-to-height ratio of a few hundredths, so the heights are the
+    weak prior's. Said on the console and in adjust.json; each point's ratio is in
+    ground_points.csv."""
+    cfg = SyntheticConfig(scenes=4, observations_per_scene=400, checkpoints=0, seed=21)
+    _, folder = synthetic_block(MODELS[:1], cfg, tmp_path / "same")
+    r = blockqc("adjust", folder, "--out", tmp_path / "out")
+    assert r.returncode == 0, r.stderr
+    assert "points are seen along rays with a base-to-height ratio below 0.05" in r.stderr
+    summary = json.loads((tmp_path / "out" / "adjust.json").read_text())
+    assert any("give --dem for a height prior" in w for w in summary["warnings"])
+    ground = pd.read_csv(tmp_path / "out" / "ground_points.csv")
+    used = ground[ground.used]
+    assert used.base_to_height.max() < 0.05
+    assert summary["base_to_height"]["max"] == pytest.approx(used.base_to_height.max(), abs=1e-4)
+
+
+def test_a_stereo_pair_fixes_its_heights_without_a_warning(small_block, tmp_path, blockqc):
+    """The Pléiades pair's rays meet at B/H ≈ 0.36 (the two images' tilts, tested apart in
+    test_geometry): no height warning."""
+    r = blockqc("adjust", small_block, "--out", tmp_path / "out")
+    assert r.returncode == 0, r.stderr
+    assert "base-to-height" not in r.stderr
+    used = pd.read_csv(tmp_path / "out" / "ground_points.csv").query("used")
+    assert used.base_to_height.between(0.3, 0.4).all()

@@ -265,6 +265,21 @@ def ground_jacobian_m(jac: FloatArray, lat: FloatArray) -> FloatArray:
     return out
 
 
+def ray_tilts(
+    stack: RPCStack, scene: IntArray, lon: FloatArray, lat: FloatArray, h: FloatArray
+) -> FloatArray:
+    """(n, 2): how far each observation's ray moves east and north (m) per metre of height at
+    its ground point, the image position held: −A⁻¹·b, A = ∂(line, sample)/∂(east, north),
+    b = ∂(line, sample)/∂h. The distance between two rays' tilts is their base-to-height ratio."""
+    _, _, jac = stack.project(scene, lon, lat, h, partials=True)
+    j = ground_jacobian_m(jac, np.asarray(lat, np.float64))
+    a, b, c, d = j[:, 0, 0], j[:, 0, 1], j[:, 1, 0], j[:, 1, 1]
+    hl, hs = j[:, 0, 2], j[:, 1, 2]
+    with np.errstate(all="ignore"):  # a singular A (no ground shift moves the image): NaN
+        det = a * d - b * c
+        return np.column_stack([-(d * hl - b * hs) / det, -(a * hs - c * hl) / det])
+
+
 def inv3(u: FloatArray) -> tuple[FloatArray, NDArray[np.bool_]]:
     """Inverses of symmetric 3×3 matrices (n, 3, 3) by cofactors; ok=False where singular."""
     a, b, c = u[:, 0, 0], u[:, 0, 1], u[:, 0, 2]

@@ -58,8 +58,9 @@ def tie_table(block: Block, sol: Solution) -> pa.Table:
     )
 
 
-def ground_table(block: Block, sol: Solution) -> pa.Table:
-    """ground_points.csv: the recalculated point, its σ (east, north, h m) and usage."""
+def ground_table(block: Block, sol: Solution, base_to_height: np.ndarray) -> pa.Table:
+    """ground_points.csv: the recalculated point, its σ (east, north, h m), the base-to-height
+    ratio of its rays and usage."""
     kept = np.bincount(block.obs.point, (~sol.outlier).astype(float), block.obs.n_points)
     sig = np.where(sol.point_used[:, None], sol.ground_sigma, np.nan)
     return pa.table(
@@ -71,6 +72,7 @@ def ground_table(block: Block, sol: Solution) -> pa.Table:
             "sigma_east_m": np.round(sig[:, 0], 4),
             "sigma_north_m": np.round(sig[:, 1], 4),
             "sigma_h_m": np.round(sig[:, 2], 4),
+            "base_to_height": np.round(base_to_height, 4),
             "n_observations": kept.astype(np.int64),
             "used": sol.point_used,
         }
@@ -84,14 +86,15 @@ def write_outputs(
     checkpoints: pd.DataFrame,
     summary: dict,
     v_before: np.ndarray,
+    base_to_height: np.ndarray,
 ) -> None:
-    """Every table, adjust.json, the figures and adjust.html."""
+    """Every table, adjust.json, the figures and adjust.html (`base_to_height` per point)."""
     from blockqc.adjust.report import render_html, write_figures
 
     out.mkdir(parents=True, exist_ok=True)
     write_csv_atomic(out / "adjustment.csv", adjustment_table(block, sol))
     write_csv_atomic(out / "tie_points.csv", tie_table(block, sol))
-    write_csv_atomic(out / "ground_points.csv", ground_table(block, sol))
+    write_csv_atomic(out / "ground_points.csv", ground_table(block, sol, base_to_height))
     write_csv_atomic(out / "checkpoints.csv", checkpoints)
     summary["files"] = write_figures(out, block, sol, summary, v_before)
     summary["files"].update(

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
-from blockqc.adjust.geometry import RPCStack, intersect
+from blockqc.adjust.geometry import RPCStack, intersect, ray_tilts
 from blockqc.adjust.inputs import AdjustInput, load_adjust_input
 from blockqc.adjust.solver import Observations, Priors, Settings, Solution, adjust
 from blockqc.errors import InputError, Problem
@@ -369,14 +369,70 @@ def run_adjust(cfg: AdjustConfig) -> dict:
     clock.lap("adjust")
     _refuse_without_redundancy(block, sol, cfg.settings)
     cps, cp_info = checkpoints(block, sol, priors, cfg.checkpoints)
+    bh = base_to_height(block, sol)
     clock.lap("checkpoints")
     summary = summarize(block, sol, v0l, v0s, datum_desc, cp_info)
+    summary["base_to_height"] = _spread(bh[sol.point_used])
+    summary["warnings"] += height_warnings(bh, sol, priors, cfg.dem_sigma_m, cps, block.point_ids)
     summary["settings"] = dataclasses.asdict(cfg.settings)
     summary["settings"]["sigma_image_px_estimated"] = sol.sigma_image_px
     summary["seconds"] = round(time.perf_counter() - t0, 2)
     summary["timings"] = clock.laps
-    write_outputs(out, block, sol, cps, summary, np.hypot(v0l, v0s))
+    write_outputs(out, block, sol, cps, summary, np.hypot(v0l, v0s), bh)
     return summary
+
+
+def _spread(values: np.ndarray) -> dict[str, float | None]:
+    """Minimum, median and maximum of the finite values (None when there are none)."""
+    v = values[np.isfinite(values)]
+    if v.size == 0:
+        return {"min": None, "median": None, "max": None}
+    return {"min": float(v.min()), "median": float(np.median(v)), "max": float(v.max())}
+
+
+#: base-to-height ratio below which a point's rays leave its height to the priors (stereo pairs:
+#: 0.3–1; side overlap of neighbouring strips of one orbit: a few hundredths)
+MIN_BASE_TO_HEIGHT = 0.05
+
+
+def base_to_height(block: Block, sol: Solution) -> np.ndarray:
+    """Per point, the base-to-height ratio of its kept rays: the span of their tilts
+    (`ray_tilts`; the diagonal of their east and north ranges, exact for two rays and at most
+    √2 times the widest pair's for more); NaN for a point not used."""
+    obs, out = block.obs, np.full(block.obs.n_points, np.nan)
+    kept = ~sol.outlier & sol.point_used[obs.point]
+    if not kept.any():
+        return out
+    p = obs.point[kept]
+    tilt = ray_tilts(block.stack, obs.scene[kept], sol.lon[p], sol.lat[p], sol.h[p])
+    order = np.argsort(p, kind="stable")
+    p, tilt = p[order], tilt[order]
+    starts = np.flatnonzero(np.r_[True, p[1:] != p[:-1]])
+    span = np.maximum.reduceat(tilt, starts) - np.minimum.reduceat(tilt, starts)
+    out[p[starts]] = np.hypot(span[:, 0], span[:, 1])
+    return out
+
+
+def height_warnings(
+    bh: np.ndarray, sol: Solution, priors: Priors, dem_sigma_m: float, cps: pd.DataFrame,
+    point_ids: np.ndarray,
+) -> list[str]:  # fmt: skip
+    """Points whose rays meet at too narrow an angle for a height and that no DEM prior holds:
+    their heights are the weak prior's, and so are the height checkpoints among them."""
+    narrow = sol.point_used & (bh < MIN_BASE_TO_HEIGHT) & (priors.height_sigma > dem_sigma_m)
+    if not narrow.any():
+        return []
+    n, used = int(narrow.sum()), int(sol.point_used.sum())
+    among = int(np.isin(cps["point_id"].to_numpy(str), point_ids[narrow].astype(str)).sum())
+    med_bh = float(np.median(bh[narrow]))
+    med_sigma = float(np.median(sol.ground_sigma[narrow, 2]))
+    return [
+        f"{n} of {used} points are seen along rays with a base-to-height ratio below "
+        f"{MIN_BASE_TO_HEIGHT:g} (median {med_bh:.3f}; near-identical viewing directions): "
+        f"the images fix no height for them (σ_h median {med_sigma:.0f} m), so their heights "
+        f"are the weak height prior's and the {among} checkpoints among them check no height; "
+        "give --dem for a height prior"
+    ]
 
 
 def _refuse_without_redundancy(block: Block, sol: Solution, settings: Settings) -> None:
