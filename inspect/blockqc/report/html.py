@@ -130,11 +130,13 @@ def render_page(
     for_pdf: str | None = None,
 ) -> str:
     """One page from a prepared context; `for_pdf`, the PDF engine the page is for, adds the
-    packaged CJK font, and for WeasyPrint makes each figure an SVG image (in Chromium an SVG
-    image cannot use the page's fonts, so there the figures stay inline, as on screen)."""
+    packaged CJK font, opens every folded list (`printing`), and for WeasyPrint makes each
+    figure an SVG image (in Chromium an SVG image cannot use the page's fonts, so there the
+    figures stay inline, as on screen)."""
     env = env or environment()
     return env.get_template(template).render(
         **ctx,
+        printing=bool(for_pdf),
         font_url=FONT_FILE.as_uri() if for_pdf else "",
         figure=_figure_as_image if for_pdf == "weasyprint" else _figure_inline,
     )
