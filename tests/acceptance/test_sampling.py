@@ -100,3 +100,32 @@ def test_draw_stratified_proportional() -> None:
 def test_census_when_the_sample_reaches_the_batch() -> None:
     (lot,) = draw(["A", "B"], SAMPLING, seed=1)
     assert lot.census and lot.sampled == ["A", "B"]
+
+
+def test_strata_in_natural_order() -> None:
+    # 8 blocks in strata 8, 9, 10, 11 (2 each): n = 3, quotas 0.75 each, every remainder and
+    # size equal, so the seats go to the strata first in order: 8, 9 and 10 — not 10, 11, 8
+    # (the order of the values as text)
+    ids = [f"B{i}" for i in range(1, 9)]
+    strata = {u: str(8 + (i // 2)) for i, u in enumerate(ids)}
+    (lot,) = draw(ids, SAMPLING, seed=5, strata=strata)
+    assert [s.value for s in lot.strata] == ["8", "9", "10", "11"]
+    assert [len(s.sampled) for s in lot.strata] == [1, 1, 1, 0]
+
+
+@pytest.mark.parametrize(
+    ("values", "expected"),
+    [
+        (["F10", "F9", "F1"], ["F1", "F9", "F10"]),
+        (["10", "9", "100"], ["9", "10", "100"]),
+        (["2.1", "0.8", "10.5", "0.75"], ["0.75", "0.8", "2.1", "10.5"]),
+        (["hilly", "flat", "mountain"], ["flat", "hilly", "mountain"]),
+        (["zone-12b", "zone-2b", "zone-12a"], ["zone-2b", "zone-12a", "zone-12b"]),
+        (["flat", "10", "9"], ["9", "10", "flat"]),
+    ],
+)
+def test_strata_values_read_as_a_person_reads_them(values: list[str], expected: list[str]) -> None:
+    ids = [f"B{i}" for i in range(len(values) * 2)]
+    strata = {u: values[i % len(values)] for i, u in enumerate(ids)}
+    (lot,) = draw(ids, SAMPLING, seed=1, strata=strata)
+    assert [s.value for s in lot.strata] == expected

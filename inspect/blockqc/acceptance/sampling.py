@@ -8,6 +8,7 @@ so the order in which a batch folder lists them does not matter.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -36,6 +37,20 @@ class Lot:
     @property
     def sampled(self) -> list[str]:
         return sorted(u for s in self.strata for u in s.sampled)
+
+
+NUMBER = re.compile(r"[+-]?[0-9]+(?:\.[0-9]+)?")
+DIGITS = re.compile(r"([0-9]+)")
+
+
+def natural_key(text: str) -> tuple:
+    """The order a person reads values in: numbers by value (9 before 10, 0.8 before 2.1),
+    text with runs of digits compared as numbers (F9 before F10); numbers before text, and
+    values that read alike (F01, F1) by their text."""
+    if NUMBER.fullmatch(text):
+        return (0, (float(text),), text)
+    parts = DIGITS.split(text)  # text, digits, text, …: the digits at odd places
+    return (1, tuple(int(p) if i % 2 else p for i, p in enumerate(parts)), text)
 
 
 def sample_size(n: int, sampling: Sampling) -> int:
@@ -80,7 +95,7 @@ def draw_lot(
     groups: dict[str, list[str]] = {}
     for u in units:
         groups.setdefault(strata[u] if strata else "", []).append(u)
-    groups = dict(sorted(groups.items()))
+    groups = dict(sorted(groups.items(), key=lambda kv: natural_key(kv[0])))
     quotas = allocate({k: len(v) for k, v in groups.items()}, n)
     out = []
     for value, members in groups.items():
