@@ -91,3 +91,14 @@ def test_a_failing_sampled_block_fails_the_batch_whatever_was_not_read() -> None
     blocks = [blk(1, 95, "excellent"), blk(2, 50, "fail", fails=True)]
     d = decide(blocks, ACC, "plan", ["B3"], ["B1", "B2", "B3"])
     assert d.decision == "fail" and [b.block_id for b in d.failing] == ["B2"]
+
+
+def test_a_sample_mean_on_a_grade_bound_reaches_it() -> None:
+    # nine scores summing to 810: mean 90, so the sample is excellent (§QE-5: ≥ 90)
+    scores = [95.68, 84.45, 82.2, 96.43, 81.93, 85.34, 87.57, 97.05, 99.35]
+    grades = [ACC.grade(s).id for s in scores]
+    d = decide(
+        [blk(i, s, g) for i, (s, g) in enumerate(zip(scores, grades, strict=True))], ACC, "plan"
+    )
+    assert d.mean_score == 90
+    assert d.sample_grade == "excellent"

@@ -201,3 +201,40 @@ def test_a_waived_accuracy_result_beyond_its_norm_is_not_an_a_class_error() -> N
     assert scores(within)["edge_accuracy"] == pytest.approx(60 + 40 * 5 / 7)
     failed = run(base() + [acc("RO-3", "within_block", 7.90, 7.07, status="fail")])
     assert failed.fails and failed.counts["A"] == 1
+
+
+def test_a_weighted_score_on_a_grade_bound_reaches_it() -> None:
+    # mathematical basis alone in data: a B and a D error, 100 − 12 − 1 = 87; points distribution
+    # two C and two D errors, 100 − 8 − 2 = 90; documents alone in attachment: a D error, 99.
+    # Block .6·87 + .2·90 + .2·99 = 52.2 + 18 + 19.8 = 90: excellent (≥ 90)
+    ev = run(
+        [
+            bad("MB-3", "projection", "B"),
+            bad("MB-x", "coordinate_system", "D"),
+            bad("TP-4", "tp_number", "C"),
+            bad("TP-x", "tp_number", "C"),
+            bad("TP-5", "tp_distribution", "D"),
+            bad("TP-y", "tp_distribution", "D"),
+            bad("DOC-3", "documents", "D"),
+        ]
+    )
+    got = scores(ev)
+    assert (got["data"], got["layout"], got["attachment"]) == (87, 90, 99)
+    assert ev.score == 90
+    assert (ev.grade, ev.fails) == ("excellent", False)
+
+
+def test_an_element_on_the_fail_bound_does_not_fail() -> None:
+    # plane alone in data: m = 9.3 m of m0 = 10 scores 60 + 40·0.7/7 = 64, less a C error
+    # (4): 60, not below 60, so the block does not fail (§QE-2); .6·60 + .2·100 + .2·100 = 76
+    ev = run(
+        [
+            acc("CP-2", "cp_plane", 9.3, 10),
+            bad("CP-1", "cp_plane", "C"),
+            ok("TP-4", "tp_number"),
+            ok("DOC-1", "documents"),
+        ]
+    )
+    assert accuracy_score(9.3, 10) == 64
+    assert scores(ev)["data"] == 60
+    assert (ev.fails, ev.reasons, ev.score, ev.grade) == (False, [], 76, "good")

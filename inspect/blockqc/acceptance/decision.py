@@ -13,6 +13,7 @@ incomplete.
 from __future__ import annotations
 
 from blockqc.acceptance.model import Acceptance, BatchDecision, BlockGrade
+from blockqc.acceptance.scoring import mean
 
 
 def rank(acc: Acceptance, grade: str | None) -> int:
@@ -62,7 +63,7 @@ def decide(
         return out
     if not sample or out.incomplete or unread_in_sample(out):
         return out
-    out.mean_score = sum(b.score for b in sample) / len(sample)
+    out.mean_score = mean(b.score for b in sample)
     out.sample_grade = acc.grade(out.mean_score).id
     out.batch_grade, out.better_pct, out.top_pct = batch_grade(acc, [b.grade for b in sample])
     out.decision = "pass"

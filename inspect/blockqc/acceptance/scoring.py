@@ -26,6 +26,9 @@ from blockqc.acceptance.model import (
 )
 
 JUDGED = ("pass", "fail", "warn", "waived")
+#: scores are kept to this many decimals, at every step: the binary fractions of weights and
+#: shares must not take a score a hair below a grade's bound (0.6·87 + 0.2·90 + 0.2·99 is 90)
+SCORE_DECIMALS = 9
 CLASSES: tuple[ErrorClass, ...] = ("A", "B", "C", "D")
 
 
@@ -43,6 +46,11 @@ class Finding:
     group: dict[str, Any] = field(default_factory=dict)
 
 
+def settled(score: float) -> float:
+    """A score to SCORE_DECIMALS decimals (89.99999999999999 is 90)."""
+    return round(score, SCORE_DECIMALS)
+
+
 def accuracy_score(m: float, m0: float, acc: AccuracyScore | None = None) -> float | None:
     """§QE-3: 100 for m ≤ 0.3·m0; 60 + 40·(m0 − m)/(0.7·m0) up to m0; None beyond (A-class)."""
     acc = acc or AccuracyScore()
@@ -50,13 +58,13 @@ def accuracy_score(m: float, m0: float, acc: AccuracyScore | None = None) -> flo
     if m <= acc.full * m0:
         return 100.0
     if m <= m0:
-        return acc.floor + acc.span * (m0 - m) / ((1 - acc.full) * m0)
+        return settled(acc.floor + acc.span * (m0 - m) / ((1 - acc.full) * m0))
     return None
 
 
 def deduction_score(counts: dict[str, int], acc: Acceptance) -> float:
     """§QE-4: 100 − (12·nB + 4·nC + nD)/t, at least 0."""
-    return max(0.0, 100.0 - _deduction(counts, acc))
+    return max(0.0, settled(100.0 - _deduction(counts, acc)))
 
 
 def _deduction(counts: dict[str, int], acc: Acceptance) -> float:
@@ -108,19 +116,25 @@ def score_item(findings: list[Finding], acc: Acceptance) -> ItemScore:
     if item.counts["A"]:
         item.score = 0.0
     else:
-        item.score = max(0.0, (min(scored) if scored else 100.0) - item.deduction)
+        item.score = max(0.0, settled((min(scored) if scored else 100.0) - item.deduction))
     return item
 
 
 def weighted(parts: Iterable[tuple[float, float | None]]) -> float | None:
     """Σ wᵢ·sᵢ / Σ wᵢ over the parts that were scored (§QE-4, re-weighted); None when none."""
     got = [(w, s) for w, s in parts if s is not None]
-    total = sum(w for w, _ in got)
+    total = math.fsum(w for w, _ in got)
     if not got:
         return None
     if total <= 0:
-        return sum(s for _, s in got) / len(got)
-    return sum(w * s for w, s in got) / total
+        return mean(s for _, s in got)
+    return settled(math.fsum(w * s for w, s in got) / total)
+
+
+def mean(scores: Iterable[float]) -> float:
+    """The mean of scores (a sample's, §QE-5), kept to SCORE_DECIMALS decimals."""
+    got = list(scores)
+    return settled(math.fsum(got) / len(got))
 
 
 def _items_of(findings: list[Finding], element: str, item: str) -> list[Finding]:
