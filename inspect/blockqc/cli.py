@@ -431,8 +431,9 @@ def _acceptance_inputs(plan_file: Path | None, meta_file: Path | None, got, path
         return plan, meta, []
     batch = paths[0].resolve().name if len(paths) == 1 and not is_delivery(paths[0]) else None
     sampling = pack.acceptance.sampling if pack.acceptance else None
+    standard = pack.acceptance.standard if pack.acceptance else None
     notes, warnings = plan_notes(
-        plan, plan_file, ids, batch, f"{pack.name} {pack.version}", sampling
+        plan, plan_file, ids, batch, f"{pack.name} {pack.version}", sampling, standard
     )
     for w in warnings:
         _warn(w)

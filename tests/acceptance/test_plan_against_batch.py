@@ -20,7 +20,7 @@ from casekit import run_blockqc, write_delivery
 #: a plan by block.yaml's `terrain`: B00, B02 flat, B01, B03 hilly; B00 and B01 sampled
 PLAN = """\
 plan: sampling plan
-standard: GB/T 24356-2023
+standard: GB/T 24356-2023 Inspection and acceptance of surveying and mapping products
 rule_pack: global-project 1.0
 batch: batch
 seed: 3
@@ -196,3 +196,46 @@ def test_a_lot_above_the_packs_largest_batch_is_noted_when_sampled_below_it(
         "lot is above its largest batch, 2: it splits it into 2 lots of 2, 2): the batch is "
         "judged on the smaller sample"
     ]
+
+
+def test_a_plan_drawn_under_another_standard_is_noted_and_warned(tmp_path: Path) -> None:
+    """The plan names the standard it was drawn under (line 2): another than the pack's
+    `acceptance.standard` is said, as another rule pack is; the same one says nothing."""
+    stock = "GB/T 24356-2023 Inspection and acceptance of surveying and mapping products"
+    old = "GB/T 24356-2009 Inspection and acceptance of surveying and mapping products"
+    plan, path = _plan(tmp_path, (f"standard: {stock}", f"standard: {old}"))
+    notes, warnings = plan_notes(
+        plan, path, list(BLOCKS), "batch", "global-project 1.0", standard=stock
+    )
+    assert [n.model_dump() for n in notes] == [
+        {"about": "standard", "plan": old, "inspected": stock, "blocks": []}
+    ]
+    assert [str(w).removeprefix(f"{path}, ") for w in warnings] == [
+        f"line 2: standard: the plan was drawn under {old}; the batch is judged under {stock}"
+    ]
+    same, path = _plan(tmp_path)
+    assert plan_notes(same, path, list(BLOCKS), "batch", "global-project 1.0", standard=stock) == (
+        [],
+        [],
+    )
+
+
+def test_inspect_states_a_plan_drawn_under_another_standard(tmp_path: Path) -> None:
+    for b in BLOCKS:
+        write_delivery(tmp_path / "batch" / b, {"manifest": {"block_id": b, **BLOCKS[b]}})
+    old = "GB/T 24356-2009 Inspection and acceptance of surveying and mapping products"
+    text = re.sub(r"(?m)^standard: .*$", f"standard: {old}", PLAN)
+    (tmp_path / "plan.yaml").write_text(text, "utf-8")
+    out = tmp_path / "out"
+    r = run_blockqc(
+        "inspect", tmp_path / "batch", "--plan", tmp_path / "plan.yaml", "--out", out, "--no-pdf"
+    )
+    assert r.returncode == 0, r.stderr
+    assert (
+        f"warning: {tmp_path / 'plan.yaml'}, line 2: standard: the plan was drawn under {old}"
+    ) in r.stderr
+    notes = json.loads((out / "summary.json").read_text())["acceptance"]["plan_notes"]
+    assert {"about": "standard", "plan": old, "blocks": []}.items() <= notes[-1].items()
+    page = (out / "acceptance.html").read_text()
+    flat = re.sub(r"\s+", " ", unescape(re.sub(r"<[^>]+>", " ", page.split("</style>")[1])))
+    assert f"The plan was drawn under {old}; the batch is judged under GB/T 24356-2023" in flat

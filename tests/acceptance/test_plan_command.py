@@ -90,7 +90,7 @@ def test_sample_refused_leaves_no_folder_it_made(tmp_path: Path) -> None:
 #: the fields of a plan that say what it is and where it comes from (every one is required)
 ABOUT = {
     "plan": "sampling plan",
-    "standard": "GB/T 24356-2023",
+    "standard": "GB/T 24356-2023 Inspection and acceptance of surveying and mapping products",
     "rule_pack": "global-project 1.0",
     "batch": "batch",
     "strata_key": None,

@@ -16,7 +16,7 @@ from casekit import run_blockqc, write_delivery
 #: a plan as `blockqc sample --strata test_field` writes it: 4 blocks in 2 strata, 3 sampled
 PLAN = """\
 plan: sampling plan
-standard: GB/T 24356-2023
+standard: GB/T 24356-2023 Inspection and acceptance of surveying and mapping products
 rule_pack: global-project 1.0
 batch: batch
 seed: 7

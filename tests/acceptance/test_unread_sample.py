@@ -16,7 +16,7 @@ from casekit import run_blockqc, write_delivery
 #: a plan over B00..B03 sampling B00 and B02 (simple random, one lot)
 PLAN = {
     "plan": "sampling plan",
-    "standard": "GB/T 24356-2023",
+    "standard": "GB/T 24356-2023 Inspection and acceptance of surveying and mapping products",
     "rule_pack": "global-project 1.0",
     "batch": "batch",
     "seed": 0,

@@ -317,10 +317,11 @@ class BlockGrade(_M):
 
 class PlanNote(_M):
     """Where the sampling plan differs from the batch inspected without changing its sample: its
-    `units` that no delivery is (none sampled), another `batch` or `rule_pack` named, a lot's
-    `sample_size` below the pack's table (`plan`: units sampled, `inspected`: the table's)."""
+    `units` that no delivery is (none sampled), another `batch`, `rule_pack` or `standard`
+    named, a lot's `sample_size` below the pack's table (`plan`: units sampled, `inspected`: the
+    table's)."""
 
-    about: Literal["units", "batch", "rule_pack", "sample_size"]
+    about: Literal["units", "batch", "rule_pack", "standard", "sample_size"]
     plan: str  # what the plan says (units: its number of units)
     inspected: str  # what was inspected (units: the number of deliveries)
     blocks: list[str] = Field(default_factory=list)  # units: those no delivery is

@@ -4,7 +4,8 @@ Refused, naming the plan file and its line: a block inspected that is not one of
 units, a sampled block that no delivery is, a unit placed in a stratum its block.yaml does not
 give by the plan's `strata_key`. Stated, as a warning and a note of the acceptance report: units
 of the plan that no delivery is (none sampled: deliveries withdrawn after sampling), a plan
-drawn from another batch or with another rule pack, a lot sampled below the pack's table.
+drawn from another batch, with another rule pack or under another standard, a lot sampled below
+the pack's table.
 """
 
 from __future__ import annotations
@@ -114,9 +115,11 @@ def plan_notes(
     batch: str | None,
     rule_pack: str,
     sampling: Sampling | None = None,
+    standard: str | None = None,
 ) -> tuple[list[PlanNote], list[Problem]]:
     """Where the plan differs from the batch inspected (`batch`: its folder's name, None when
-    the deliveries were named one by one) or from the pack's sampling table (`sampling`)
+    the deliveries were named one by one), from the pack inspecting (`rule_pack`, its
+    `standard`: None when it has no acceptance section) or from its sampling table (`sampling`)
     without changing the sample; each also as a warning naming the plan's line. Sampled blocks
     missing are refused before (`check_blocks`)."""
     notes, warnings = _absent(plan, path, block_ids)
@@ -124,7 +127,11 @@ def plan_notes(
         for note, warning in _undersized(plan, path, sampling):
             notes.append(note)
             warnings.append(warning)
-    named = (("batch", plan.batch, batch), ("rule_pack", plan.rule_pack, rule_pack))
+    named = (
+        ("batch", plan.batch, batch),
+        ("rule_pack", plan.rule_pack, rule_pack),
+        ("standard", plan.standard, standard),
+    )
     for about, given, found in named:
         if found is not None and given != found:
             notes.append(PlanNote(about=about, plan=given, inspected=found))
@@ -194,4 +201,6 @@ def _wanted(size: int, sampling: Sampling) -> tuple[int, str]:
 def _other(about: str, given: str, found: str) -> str:
     if about == "batch":
         return f"batch: the plan was drawn from batch '{given}'; the batch inspected is '{found}'"
+    if about == "standard":
+        return f"standard: the plan was drawn under {given}; the batch is judged under {found}"
     return f"rule_pack: the plan was drawn with {given}; the batch is inspected with {found}"

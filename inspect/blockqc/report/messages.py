@@ -482,6 +482,10 @@ MESSAGES.update(
             "The plan was drawn with rule pack {plan}; the batch is inspected with {inspected}.",
             "抽样方案按规则包 {plan} 抽取，本次检查使用 {inspected}。",
         ),
+        "plan_note_standard": (
+            "The plan was drawn under {plan}; the batch is judged under {inspected}.",
+            "抽样方案依据 {plan} 抽取，本批依据 {inspected} 评定。",
+        ),
         "strata_by": ("Strata by block.yaml key '{name}'.", "按 block.yaml 的“{name}”分层。"),
         "sampling_none": (
             "No sampling plan was given: the sample is the blocks with checkpoints ({sample}).",
