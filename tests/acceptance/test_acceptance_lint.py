@@ -128,3 +128,36 @@ def test_a_sampling_table_whose_sample_falls_is_refused(tmp_path: Path) -> None:
         "sample of 2, below the 17 of batches of up to 232: the sample grows with the batch "
         "(a digit missing?)"
     ]
+
+
+def test_a_number_written_as_true_false_or_text_is_refused_at_its_line(tmp_path: Path) -> None:
+    """`sample: yes` is not a sample of 1, `B: true` not a deduction of 1 point, "20" not 20:
+    each is refused where it is written, saying what was expected; 40.0 says to write 40."""
+    pack = _pack(
+        tmp_path,
+        "acceptance:\n"
+        "  sampling:\n"
+        "    table:\n"
+        "      - {batch: 20, sample: yes}\n"  # line 6
+        '      - {batch: "40", sample: 5}\n'
+        "      - {batch: 60.0, sample: 7}\n"
+        "  deduction: {B: true}\n"  # line 9
+        "  batch_grades:\n"
+        "    - {grade: excellent, better_pct: '90', top_pct: 50}\n"  # line 11
+        "  weights:\n"
+        "    elements: {data: false}\n",  # line 13
+    )
+    assert _messages(pack) == [
+        f"{pack}, line 6: acceptance.sampling.table.0.sample: expected a whole number, got "
+        "true/false (true)",
+        f"{pack}, line 7: acceptance.sampling.table.1.batch: expected a whole number, got text "
+        "'40'",
+        f"{pack}, line 8: acceptance.sampling.table.2.batch: expected a whole number, got 60.0 "
+        "(write 60)",
+        f"{pack}, line 9: acceptance.deduction.B: expected a number, got true/false (true)",
+        f"{pack}, line 11: acceptance.batch_grades.0.better_pct: expected a number, got text '90'",
+        f"{pack}, line 13: acceptance.weights.elements.data: expected a number, got true/false "
+        "(false)",
+    ]
+    with pytest.raises(RuleError):
+        load_pack(pack)

@@ -39,7 +39,14 @@ class _M(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
-class ScoreDef(_M):
+class _Pack(_M):
+    """What a pack writes: a number is a number, never true/false (`sample: yes` is not 1) nor
+    text ("20"), refused rather than converted."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
+
+
+class ScoreDef(_Pack):
     """How a rule's results are scored: `accuracy` against a norm (§QE-3), else by deduction."""
 
     kind: Literal["accuracy", "deduction"] = "deduction"
@@ -58,7 +65,7 @@ class ScoreDef(_M):
         return v
 
 
-class SampleRow(_M):
+class SampleRow(_Pack):
     """One line of the sampling table: batches of up to `batch` units give `sample` units."""
 
     batch: int = Field(gt=0)
@@ -71,7 +78,7 @@ class SampleRow(_M):
         return self
 
 
-class Sampling(_M):
+class Sampling(_Pack):
     """§QE-1: the sample size by batch size; larger batches split into the fewest even batches."""
 
     table: list[SampleRow] = Field(min_length=1)
@@ -95,7 +102,7 @@ class Sampling(_M):
         return self.table[-1].batch
 
 
-class Deduction(_M):
+class Deduction(_Pack):
     """§QE-4: score = 100 − (B·nB + C·nC + D·nD)/t."""
 
     B: float = Field(default=12, ge=0)
@@ -104,7 +111,7 @@ class Deduction(_M):
     t: float = Field(default=1, gt=0)
 
 
-class AccuracyScore(_M):
+class AccuracyScore(_Pack):
     """§QE-3: 100 for m ≤ full·m0, else floor + span·(m0 − m)/((1 − full)·m0) up to m0."""
 
     full: float = Field(default=0.3, gt=0, lt=1)
@@ -112,7 +119,7 @@ class AccuracyScore(_M):
     span: float = Field(default=40, gt=0, le=100)
 
 
-class Grade(_M):
+class Grade(_Pack):
     """A grade and its lowest score (inclusive)."""
 
     id: Text
@@ -137,7 +144,7 @@ def _known_grade(gid: str, info: ValidationInfo) -> str:
 GradeRef = Annotated[str, AfterValidator(_known_grade)]
 
 
-class BatchGrade(_M):
+class BatchGrade(_Pack):
     """§QE-5: a batch grade when enough of the sample's units are good or better and excellent."""
 
     grade: str
@@ -150,14 +157,14 @@ def _batch_grade_known(v: BatchGrade, info: ValidationInfo) -> BatchGrade:
     return v
 
 
-class Weights(_M):
+class Weights(_Pack):
     """§QE-4: weights of the quality elements and, within each element, of its items."""
 
     elements: dict[str, Annotated[float, Field(ge=0)]] = Field(default_factory=dict)
     items: dict[str, Annotated[float, Field(ge=0)]] = Field(default_factory=dict)
 
 
-class Acceptance(_M):
+class Acceptance(_Pack):
     """Everything §QE needs, as a pack states it."""
 
     standard: str = ""

@@ -16,7 +16,7 @@ from blockqc.acceptance.model import Acceptance
 from blockqc.errors import Problem
 from blockqc.rules.lint import did_you_mean
 from blockqc.rules.model import ElementDef
-from blockqc.yamlio import LineDict, LineList, line_of, pydantic_problems
+from blockqc.yamlio import LineDict, LineList, line_of, pydantic_problems, yaml_kind
 
 #: every file of a pack's chain as read, the pack it extends first: (file, its YAML, its model)
 Sources = Sequence[tuple[str, Any, Any]]
@@ -44,12 +44,25 @@ def site(sources: Sources, loc: Sequence[Any]) -> tuple[str, int | None]:
     return (sources[-1][0], None) if sources else ("", None)
 
 
+#: what a number of the section is, by pydantic's error type
+EXPECTED = {"int_type": "a whole number", "float_type": "a number"}
+
+
+def _expected(err: dict[str, Any]) -> str | None:
+    """A number given as anything else (true/false, text), in the project's words."""
+    what = EXPECTED.get(err["type"])
+    value = err["input"]
+    if what and isinstance(value, float) and not isinstance(value, bool) and value.is_integer():
+        return f"expected {what}, got {value!r} (write {int(value)})"
+    return f"expected {what}, got {yaml_kind(value)}" if what else None
+
+
 def validate(merged: dict[str, Any], sources: Sources) -> tuple[Acceptance | None, list[Problem]]:
     """The merged section validated; each problem at the file and line that wrote the value."""
     try:
         return Acceptance.model_validate(merged), []
     except ValidationError as exc:
-        found = pydantic_problems(exc, Path(""), None, ("acceptance",))
+        found = pydantic_problems(exc, Path(""), None, ("acceptance",), say=_expected)
         out = []
         for err, p in zip(exc.errors(), found, strict=True):
             file, line = site(sources, err["loc"])
