@@ -129,3 +129,21 @@ def test_strata_values_read_as_a_person_reads_them(values: list[str], expected: 
     strata = {u: values[i % len(values)] for i, u in enumerate(ids)}
     (lot,) = draw(ids, SAMPLING, seed=1, strata=strata)
     assert [s.value for s in lot.strata] == expected
+
+
+def test_lots_are_runs_of_the_block_ids_in_natural_order() -> None:
+    # 1001 > 1000: two lots of 501 and 500, B1…B501 and B502…B1001 (as text, B1000 and B1001
+    # would sort right after B100 and fall in the first lot)
+    ids = [f"B{i}" for i in range(1001, 0, -1)]
+    lots = draw(ids, SAMPLING, seed=4)
+    assert [lot.units for lot in lots] == [
+        [f"B{i}" for i in range(1, 502)],
+        [f"B{i}" for i in range(502, 1002)],
+    ]
+    for lot in lots:
+        assert lot.sampled == sorted(lot.sampled, key=lambda u: int(u[1:]))
+
+
+def test_a_stratum_lists_its_units_in_natural_order() -> None:
+    (lot,) = draw([f"F{i}-B{j}" for i in (10, 9) for j in (12, 2)], SAMPLING, seed=4)
+    assert lot.strata[0].units == ["F9-B2", "F9-B12", "F10-B2", "F10-B12"]

@@ -14,7 +14,7 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError
 
 from blockqc.acceptance.model import ReportMeta
-from blockqc.acceptance.sampling import Lot
+from blockqc.acceptance.sampling import Lot, natural_key
 from blockqc.errors import InputError, Problem
 from blockqc.results import BlockResults, tally
 from blockqc.yamlio import line_of, load_yaml, pydantic_problems, yaml_kind
@@ -109,7 +109,7 @@ def make_plan(lots: list[Lot], seed: int, key: str | None, **about: Any) -> Plan
         units=sum(x.size for x in out),
         sample_size=sum(x.sample_size for x in out),
         lots=out,
-        sampled=sorted(u for x in out for u in x.sampled),
+        sampled=sorted((u for x in out for u in x.sampled), key=natural_key),
         **about,
     )
 

@@ -1,8 +1,8 @@
 """Sampling a batch (§QE-1): sample size from the pack's table, simple or stratified random.
 
 Pure functions of the units' ids (and their strata); the randomness is a numpy Generator made
-from the seed, so one seed gives one sample. Units are sorted by id before anything is drawn,
-so the order in which a batch folder lists them does not matter.
+from the seed, so one seed gives one sample. Units are sorted by id in natural order (B2 before
+B10) before anything is drawn, so the order in which a batch folder lists them does not matter.
 """
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ class Lot:
 
     @property
     def sampled(self) -> list[str]:
-        return sorted(u for s in self.strata for u in s.sampled)
+        return sorted((u for s in self.strata for u in s.sampled), key=natural_key)
 
 
 NUMBER = re.compile(r"[+-]?[0-9]+(?:\.[0-9]+)?")
@@ -90,7 +90,7 @@ def draw_lot(
     units: list[str], strata: dict[str, str] | None, sampling: Sampling, rng: np.random.Generator
 ) -> Lot:
     """One lot: its sample size, allocated over the strata, drawn without replacement."""
-    units = sorted(units)
+    units = sorted(units, key=natural_key)
     n = sample_size(len(units), sampling)
     groups: dict[str, list[str]] = {}
     for u in units:
@@ -100,7 +100,7 @@ def draw_lot(
     out = []
     for value, members in groups.items():
         picked = rng.choice(len(members), size=quotas[value], replace=False)
-        out.append(Stratum(value, members, sorted(members[i] for i in picked)))
+        out.append(Stratum(value, members, sorted((members[i] for i in picked), key=natural_key)))
     return Lot(units, n, n == len(units), out)
 
 
@@ -109,11 +109,11 @@ def draw(
 ) -> list[Lot]:
     """§QE-1 over a whole batch: split above the table's largest batch, then sample each lot.
 
-    The lots are consecutive runs of the units sorted by id.
+    The lots are consecutive runs of the units sorted by id in natural order (B2 before B10).
     """
     if len(set(units)) != len(units):
         raise ValueError("unit ids must be unique")
-    ordered = sorted(units)
+    ordered = sorted(units, key=natural_key)
     rng = np.random.default_rng(seed)
     lots, start = [], 0
     for size in split_sizes(len(ordered), sampling.max_batch):
