@@ -297,3 +297,51 @@ def test_sample_names_a_stray_file_and_a_strata_key_left_out(tmp_path: Path) -> 
     )
     assert p.returncode == 2
     assert "block.yaml: no key 'sampled' in block.yaml to stratify by" in p.stderr
+
+
+def test_a_sampled_block_swapped_by_hand_is_said(tmp_path: Path) -> None:
+    """A plan edited by hand, one flat block sampled swapped for the flat block left out (in the
+    stratum, the lot and the plan alike, so that its counts agree): its seed does not draw that
+    block, which is said at the plan's sampled: line and noted; the plan as drawn says nothing."""
+    batch = _batch(tmp_path / "batch", 5)
+    drawn = tmp_path / "drawn.yaml"
+    r = run_blockqc("sample", batch, "--seed", 4, "--strata", "terrain", "--out", drawn)
+    assert r.returncode == 0, r.stderr
+    plan = yaml.safe_load(drawn.read_text())
+    flat = next(s for s in plan["lots"][0]["strata"] if s["value"] == "flat")
+    (out_block,) = [u for u in flat["units"] if u not in flat["sampled"]]  # 3 flat, 2 sampled
+    gone = flat["sampled"][0]
+
+    def swap(units: list[str]) -> list[str]:
+        return sorted(out_block if u == gone else u for u in units)
+
+    edited = {**plan, "sampled": swap(plan["sampled"])}
+    edited["lots"][0]["sampled"] = swap(plan["lots"][0]["sampled"])
+    flat["sampled"] = swap(flat["sampled"])
+    (tmp_path / "edited.yaml").write_text(yaml.safe_dump(edited, sort_keys=False))
+
+    r = run_blockqc("inspect", batch, "--plan", drawn, "--out", tmp_path / "o1", "--no-pdf")
+    assert r.returncode in (0, 1), r.stderr
+    assert "seed" not in r.stderr
+    summary = json.loads((tmp_path / "o1" / "summary.json").read_text())
+    assert summary["acceptance"]["plan_notes"] == []
+
+    r = run_blockqc(
+        "inspect", batch, "--plan", tmp_path / "edited.yaml", "--out", tmp_path / "o2", "--no-pdf"
+    )
+    assert r.returncode in (0, 1), r.stderr
+    assert "Traceback" not in r.stderr
+    line = 1 + next(
+        i for i, t in enumerate((tmp_path / "edited.yaml").read_text().splitlines())
+        if t.startswith("sampled:")
+    )  # fmt: skip
+    assert (
+        f"warning: {tmp_path / 'edited.yaml'}, line {line}: sampled: the plan's seed 4 draws "
+        f"{', '.join(plan['sampled'])} from its 5 units by the pack's table (§QE-1); the plan "
+        f"samples {', '.join(edited['sampled'])}"
+    ) in r.stderr
+    notes = json.loads((tmp_path / "o2" / "summary.json").read_text())["acceptance"]["plan_notes"]
+    assert notes == [
+        {"about": "seed", "plan": "4", "inspected": ", ".join(plan["sampled"]),
+         "blocks": [out_block]}
+    ]  # fmt: skip

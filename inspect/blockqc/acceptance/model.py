@@ -326,12 +326,13 @@ class PlanNote(_M):
     """Where the sampling plan differs from the batch inspected without changing its sample: its
     `units` that no delivery is (none sampled), another `batch`, `rule_pack` or `standard`
     named, a lot's `sample_size` below the pack's table (`plan`: units sampled, `inspected`: the
-    table's)."""
+    table's), a sample its `seed` does not draw (`plan`: the seed, `inspected`: what it draws,
+    `blocks`: the plan's sampled blocks it does not draw)."""
 
-    about: Literal["units", "batch", "rule_pack", "standard", "sample_size"]
+    about: Literal["units", "batch", "rule_pack", "standard", "sample_size", "seed"]
     plan: str  # what the plan says (units: its number of units)
     inspected: str  # what was inspected (units: the number of deliveries)
-    blocks: list[str] = Field(default_factory=list)  # units: those no delivery is
+    blocks: list[str] = Field(default_factory=list)  # units: those no delivery is; seed: not drawn
 
 
 class BatchDecision(_M):

@@ -17,7 +17,7 @@ from typing import Any
 from blockqc.acceptance.command import stratum_of
 from blockqc.acceptance.model import PlanNote, Sampling
 from blockqc.acceptance.plan import Plan, key_path, listed
-from blockqc.acceptance.sampling import sample_size, split_sizes
+from blockqc.acceptance.sampling import draw, natural_key, sample_size, split_sizes
 from blockqc.errors import InputError, Problem
 
 Loc = tuple[str | int, ...]
@@ -124,7 +124,10 @@ def plan_notes(
     missing are refused before (`check_blocks`)."""
     notes, warnings = _absent(plan, path, block_ids)
     if sampling is not None:
-        for note, warning in _undersized(plan, path, sampling):
+        for note, warning in [
+            *_undersized(plan, path, sampling),
+            *_not_drawn(plan, path, sampling),
+        ]:
             notes.append(note)
             warnings.append(warning)
     named = (
@@ -182,6 +185,28 @@ def _undersized(plan: Plan, path: Path, sampling: Sampling) -> Iterator[tuple[Pl
                     line=plan.line("lots", i, "sampled"),
                 ),
             )
+
+
+def _not_drawn(plan: Plan, path: Path, sampling: Sampling) -> list[tuple[PlanNote, Problem]]:
+    """Blocks sampled that the plan's seed does not draw from its units (and strata) by the
+    pack's table: a plan edited by hand (a block sampled swapped for another), or drawn with
+    another table. The sample is judged as the plan gives it, and this said."""
+    units = [u for lot in plan.lots for s in lot.strata for u in s.units]
+    if not units:
+        return []
+    strata = {u: s.value for lot in plan.lots for s in lot.strata for u in s.units}
+    lots = draw(units, sampling, plan.seed, strata if plan.strata_key else None)
+    drawn = sorted((u for lot in lots for u in lot.sampled), key=natural_key)
+    other = [u for u in plan.sampled if u not in drawn]
+    if not other:  # the seed's sample, or part of it (a lot below the table: said apart)
+        return []
+    note = PlanNote(about="seed", plan=str(plan.seed), inspected=listed(drawn), blocks=other)
+    why = (
+        f"sampled: the plan's seed {plan.seed} draws {listed(drawn)} from its {len(units)} "
+        f"units by the pack's table (§QE-1); the plan samples {listed(plan.sampled)} (edited "
+        "by hand, or drawn with another table): the batch is judged on the plan's sample"
+    )
+    return [(note, Problem(str(path), why, line=plan.line("sampled")))]
 
 
 def _wanted(size: int, sampling: Sampling) -> tuple[int, str]:

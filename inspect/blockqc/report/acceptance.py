@@ -225,7 +225,9 @@ def _unread(d: BatchDecision, f: Formatter) -> list[dict[str, str]]:
 
 def _plan_note(n: PlanNote, f: Formatter) -> str:
     """Where the plan differs from the batch inspected, in the page's language."""
-    extra = {"n": len(n.blocks), "blocks": id_list(n.blocks)} if n.about == "units" else {}
+    extra = (
+        {"n": len(n.blocks), "blocks": id_list(n.blocks)} if n.about in ("units", "seed") else {}
+    )
     return f.t(f"plan_note_{n.about}", plan=n.plan, inspected=n.inspected, **extra)
 
 

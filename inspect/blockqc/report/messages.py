@@ -482,6 +482,13 @@ MESSAGES.update(
             "The plan was drawn with rule pack {plan}; the batch is inspected with {inspected}.",
             "抽样方案按规则包 {plan} 抽取，本次检查使用 {inspected}。",
         ),
+        "plan_note_seed": (
+            "The plan's seed {plan} draws {inspected} by the pack's table (§QE-1); the plan "
+            "samples {blocks} in their place (edited by hand, or drawn with another table): the "
+            "batch is judged on the plan's sample.",
+            "按规则包的抽样表（§QE-1），抽样方案的随机种子 {plan} 抽中 {inspected}；方案却抽取了 "
+            "{blocks}（手工修改，或按其他抽样表抽取）：按方案的样本评定。",
+        ),
         "plan_note_standard": (
             "The plan was drawn under {plan}; the batch is judged under {inspected}.",
             "抽样方案依据 {plan} 抽取，本批依据 {inspected} 评定。",
