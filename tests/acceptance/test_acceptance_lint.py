@@ -161,3 +161,41 @@ def test_a_number_written_as_true_false_or_text_is_refused_at_its_line(tmp_path:
     ]
     with pytest.raises(RuleError):
         load_pack(pack)
+
+
+def test_an_element_or_item_added_without_a_weight_is_refused_where_it_is_added(
+    tmp_path: Path,
+) -> None:
+    """A project element without a weight was weighted 1 beside data .6, layout .2 and
+    attachment .2 (half of the block's score); an item added to data, 1 beside .2/.3/.3/.2."""
+    pack = _pack(
+        tmp_path,
+        "elements:\n"
+        "  - id: data\n"  # line 4
+        "    title: Data quality\n"
+        "    items:\n"
+        "      - id: timing\n"  # line 7
+        "        title: Timing\n"
+        "        contents: [{id: acquisition_dates, title: Acquisition dates}]\n"
+        "  - id: metadata\n"  # line 10
+        "    title: Metadata quality\n"
+        "    items:\n"
+        "      - id: metadata_files\n"
+        "        title: Metadata files\n"
+        "        contents: [{id: md_complete, title: Complete}]\n",
+    )
+    assert _messages(pack) == [
+        f"{pack}, line 10: element metadata: no weight under acceptance.weights.elements, "
+        "beside data 0.6, layout 0.2, attachment 0.2 (the quality elements): it would be "
+        "weighted 1; give it one (0: not counted)",
+        f"{pack}, line 7: item timing: no weight under acceptance.weights.items, beside "
+        "mathematical_basis 0.2, plane_accuracy 0.3, height_accuracy 0.3, edge_accuracy 0.2 "
+        "(the items of element data): it would be weighted 1; give it one (0: not counted)",
+    ]
+    weighted = _pack(
+        tmp_path,
+        pack.read_text().split("\n", 2)[2]
+        + "acceptance:\n  weights:\n    elements: {metadata: 0.1}\n    items: {timing: 0}\n",
+        name="weighted",
+    )
+    assert _messages(weighted) == []

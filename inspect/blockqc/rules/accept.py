@@ -91,6 +91,7 @@ def check_weights(acc: Acceptance, elements: list[ElementDef], sources: Sources)
     groups += [("items", f"the items of element {e.id}", [i.id for i in e.items]) for e in elements]
     for group, what, ids in groups:
         weights = getattr(acc.weights, group)
+        out += _unweighted(sources, group, what, ids, weights)
         if ids and all(weights.get(i, 1.0) == 0 for i in ids):
             msg = (
                 f"every weight of {what} ({', '.join(ids)}) is 0: their score Σwᵢsᵢ/Σwᵢ is "
@@ -98,6 +99,44 @@ def check_weights(acc: Acceptance, elements: list[ElementDef], sources: Sources)
             )
             out.append(_at(sources, ("weights", group, ids[0]), msg))
     return out
+
+
+def _unweighted(
+    sources: Sources, group: str, what: str, ids: list[str], weights: dict[str, float]
+) -> list[Problem]:
+    """Of a group some of whose members are weighted, one without a weight would be weighted 1
+    unsaid (an element added by a project pack outweighing the stock ones): refused. A group
+    none of whose members is weighted counts them alike."""
+    given = [i for i in ids if i in weights]
+    missing = [i for i in ids if i not in weights]
+    if not given or not missing:
+        return []
+    stated = ", ".join(f"{i} {weights[i]:g}" for i in given)
+    out = []
+    for i in missing:
+        file, line = _defined(sources, i)
+        message = (
+            f"{group[:-1]} {i}: no weight under acceptance.weights.{group}, beside {stated} "
+            f"({what}): it would be weighted 1; give it one (0: not counted)"
+        )
+        out.append(Problem(file, message, line=line))
+    return out
+
+
+def _defined(sources: Sources, gid: str) -> tuple[str, int | None]:
+    """The file of the chain that defines an element or item (the last one) and its line."""
+    for file, data, _ in reversed(sources):
+        elements = data.get("elements") if isinstance(data, dict) else None
+        for j, el in enumerate(elements if isinstance(elements, list) else []):
+            if not isinstance(el, dict):
+                continue
+            if el.get("id") == gid:
+                return file, line_of(data, ("elements", j))
+            items = el.get("items")
+            for k, it in enumerate(items if isinstance(items, list) else []):
+                if isinstance(it, dict) and it.get("id") == gid:
+                    return file, line_of(data, ("elements", j, "items", k))
+    return (sources[-1][0], None) if sources else ("", None)
 
 
 def _at(sources: Sources, loc: tuple[str, ...], message: str) -> Problem:
