@@ -280,4 +280,13 @@ def load_meta(path: Path) -> ReportMeta:
     try:
         return ReportMeta.model_validate(data)
     except ValidationError as exc:
-        raise InputError(pydantic_problems(exc, path, data)) from None
+        raise InputError(pydantic_problems(exc, path, data, say=_expected_text)) from None
+
+
+def _expected_text(err: dict[str, Any]) -> str | None:
+    """As `_expected`; a particular YAML reads as a number or true/false (report_number: 0012,
+    prepared: yes) is to be quoted to be kept as written."""
+    said = _expected(err)
+    if err["type"] == "string_type" and isinstance(err["input"], (bool, int, float)):
+        return f"{said}: put it in quotes to keep it as written"
+    return said
