@@ -3,6 +3,7 @@ delivery (which lives in the package, `blockqc.rules.casebase`, so that any pack
 
 from __future__ import annotations
 
+import html as html_lib
 import os
 import re
 import shutil
@@ -24,6 +25,7 @@ __all__ = [
     "aggregate_status",
     "base_manifest",
     "base_tables",
+    "english_left",
     "page_overflow_px",
     "run_blockqc",
     "write_delivery",
@@ -55,6 +57,22 @@ def lint_messages(path: Path) -> list[str]:
     from blockqc.rules.lint import lint
 
     return [str(p) for p in lint(path)[1]]
+
+
+def english_left(html: str, allowed: set[str]) -> set[str]:
+    """The English words a page shows outside its file names, paths and ids (the text of <code>
+    and <a> elements, words holding '_', '.' or '/'), its styles, scripts and figures' metadata,
+    and `allowed` (units, abbreviations such as RMSE): a Chinese page shows none."""
+    text = re.sub(r"<(style|script|code|a|metadata)\b.*?</\1>", " ", html, flags=re.S)
+    text = html_lib.unescape(re.sub(r"<[^>]*>", " ", text))
+    tokens = re.split(r"[\s，。：；（）、“”]+", text)
+    words = {
+        w
+        for token in tokens
+        if not re.search(r"[A-Za-z0-9][._/][A-Za-z0-9]", token)
+        for w in re.findall(r"[A-Za-z]{2,}", token)
+    }
+    return words - allowed
 
 
 def page_overflow_px(html: str, folder: Path, width: int = 1280) -> int:

@@ -97,7 +97,7 @@ def test_a_run_failing_at_its_page_leaves_the_earlier_outputs(tmp_path: Path, mo
         },
     )
 
-    def broken(results: dict) -> str:
+    def broken(results: dict, **options: object) -> str:
         raise RuntimeError("the page fails")
 
     monkeypatch.setattr("blockqc.rfm.report.render_html", broken)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Iterable
+from functools import cache
 from typing import Any
 
 import numpy as np
@@ -74,6 +75,51 @@ PHRASES = (
     "ph_mostly_sea",
     "ph_water_fraction",
 )
+#: whole fixed texts of the results of rfm-accuracy, adjust and factors, each a catalogue key
+#: whose English may hold {fields}: a text that is one of them, its fields' values translated in
+#: turn, is shown in the page's language (Formatter.sentence); tried in this order, so that
+#: "{note}; only {n} check CPs" is taken apart before its parts
+SENTENCES = (
+    "ra_grid_again",
+    "ra_note_few_checks",
+    "ra_note_collinear",
+    "ra_converted",
+    "ra_declared_by",
+    "ra_stated_by_user",
+    "ra_stated",
+    "ra_how_ortho",
+    "ra_how_reprojected",
+    "ra_band_one",
+    "ra_band_first",
+    "ra_bands_rgb_of",
+    "ra_bands_rgb",
+    "ra_heights_ellipsoidal",
+    "ra_heights_geoid",
+    "ra_heights_constant",
+    "ra_srtm",
+    "ra_crs_2d",
+    "ra_crs",
+    "ra_no_crs",
+    "ra_geoid_egm96",
+    "ra_geoid_grid",
+    "ra_geoid_constant",
+    "ra_geoid_word",
+    "ra_grid_given",
+    "ra_grid_chosen",
+    "ra_reading_text",
+    "ra_model_affine",
+    "ra_model_quadratic",
+    "ra_model_none",
+    "ra_evaluation",
+    "ra_note_original",
+    "ra_note_needs",
+    "ra_note_refined",
+    "ra_all_cps_note",
+    "ra_convention_image",
+    "ra_convention_gdal",
+    "ra_convention_heights",
+)
+_FIELD = re.compile(r"\{(\w+)\}")
 _METHOD = r"(?:high_precision|same_accuracy|recalculation)"
 _NO_METHOD = re.compile(rf"\bno ({_METHOD}) checkpoints\b")
 _NO_METHODS = re.compile(rf"\bno checkpoints of the methods ({_METHOD}(?:, {_METHOD})*)")
@@ -81,6 +127,19 @@ _NO_METHODS = re.compile(rf"\bno checkpoints of the methods ({_METHOD}(?:, {_MET
 SHOWN_UNITS = ("px", "m", "%", "degrees")
 #: a cell holding a word longer than this wraps anywhere (long scene, point and block ids)
 LONG_WORD = 24
+
+
+@cache
+def _sentence(key: str) -> re.Pattern[str]:
+    """The English of `key` as a pattern, each {field} a group that takes any text: the least
+    it can, but all it can when the text begins with it ("{note}; only {n} check CPs": the note
+    up to the last "; ")."""
+    parts = _FIELD.split(MESSAGES[key][0])
+    groups = [
+        re.escape(p) if i % 2 == 0 else f"(?P<{p}>.+{'' if i == 1 and not parts[0] else '?'})"
+        for i, p in enumerate(parts)
+    ]
+    return re.compile("".join(groups), re.S)
 
 
 def metric_units(metric: str | None) -> dict[str, str]:
@@ -240,6 +299,19 @@ class Formatter:
             s,
         )
         return s.replace("： ", "：")  # a full-width colon takes no space after it
+
+    def sentence(self, s: str) -> str:
+        """A fixed text of a run's results (SENTENCES) in the page's language, the values in it
+        (numbers, file names, the texts nested in it) kept or translated in turn; others as
+        they are."""
+        if self.lang == "en" or not isinstance(s, str) or not s:
+            return s
+        for key in SENTENCES:
+            match = _sentence(key).fullmatch(s)
+            if match:
+                values = {k: self.sentence(v) for k, v in match.groupdict().items()}
+                return self.t(key, **values)
+        return s
 
     def method(self, m: str) -> str:
         return self._key("method", m, m)

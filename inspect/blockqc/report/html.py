@@ -41,6 +41,43 @@ def _css_string(value: Any) -> Markup:
     return Markup(f'"{text}"')
 
 
+def language_context(lang: str) -> dict[str, Any]:
+    """What a page's template needs to speak `lang`: `lang`, `html_lang` (its <html lang>),
+    `t` (a catalogue label), `th` (a label whose {fields} may be markup such as `code(...)`,
+    other values escaped), `code`, `paren` (' (x)' or '（x）'), `f` (the Formatter),
+    `px` (the unit) and punctuation."""
+    from blockqc.report.format import Formatter
+    from blockqc.report.messages import LANGUAGES, MESSAGES
+
+    f = Formatter(lang)
+    index = LANGUAGES.index(lang)
+
+    def th(key: str, **values: Any) -> Markup:
+        text = MESSAGES[key][index] if values else f.t(key)
+        text = text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+        return Markup(text).format(**values) if values else Markup(text)  # quotes as written
+
+    def paren(text: Any) -> Markup:
+        return Markup("（{}）" if lang == "zh" else " ({})").format(text)
+
+    return {
+        "lang": lang,
+        "html_lang": "zh-CN" if lang == "zh" else "en",
+        "t": f.t,
+        "th": th,
+        "code": lambda text: Markup("<code>{}</code>").format(text),
+        "paren": paren,
+        "f": f,
+        "px": f.unit("px"),
+        # between sentences on separate lines of a template ({{ sep }} then {{- or {%-): a line
+        # break in English, none between Chinese sentences
+        "sep": "" if lang == "zh" else "\n",
+        "comma": "，" if lang == "zh" else ", ",
+        "semicolon": "；" if lang == "zh" else ";",
+        "stop": "。" if lang == "zh" else ".",
+    }
+
+
 def environment(user_templates: Path | None = None) -> jinja2.Environment:
     """Templates from `user_templates` take precedence over the stock ones."""
     loaders: list[jinja2.BaseLoader] = []

@@ -667,6 +667,229 @@ MESSAGES.update(
 )
 
 
+# --- the page of `blockqc rfm-accuracy` (§RA); CPs are the matched control points
+MESSAGES.update(
+    {
+        "ra_title": ("RFM geometric accuracy", "有理函数模型（RFM）几何精度"),
+        "ra_image_line": (
+            "Image {image}, RPCs {rpc} ({format}).",
+            "影像 {image}，RPC {rpc}（{format}）。",
+        ),
+        "ra_reference_line": (
+            "Reference {file}: {how} (method {method}{gsd}).",
+            "参考影像 {file}：{how}（检查方法：{method}{gsd}）。",
+        ),
+        "ra_reference_gsd": (", pixels of {gsd} m", "，像素大小 {gsd} m"),
+        "ra_matched_on": (
+            "Matched on the image's {image} and the reference's {reference}.",
+            "匹配所用波段：影像为{image}，参考影像为{reference}。",
+        ),
+        "ra_dem_line": ("DEM {file}: {heights}.", "DEM {file}：{heights}。"),
+        "ra_grid_line": (
+            "Grid {crs}, GSD {gsd} m, {width} × {height} px.",
+            "格网 {crs}，地面采样距离 {gsd} m，{width} × {height} 像素。",
+        ),
+        "ra_image_gsd_line": (
+            "Errors in pixels are in the image's pixels (d_s, §RA-4): its GSD at the centre, "
+            "{gsd} m, not the grid's.",
+            "以像素计的误差均以影像的像素为单位（d_s，§RA-4）：即影像中心的地面采样距离 {gsd} m，"
+            "而非格网的。",
+        ),
+        "warnings": ("Warnings", "警告"),
+        "ra_matching_line": (
+            "Matching (§RA-3): {n} CPs, one per {grid} px cell ({choice}).",
+            "影像匹配（§RA-3）：控制点 {n} 个，每 {grid} 像素格网一个（{choice}）。",
+        ),
+        "ra_sec_accuracy": ("Accuracy of the whole image (§RA-4)", "整景影像精度（§RA-4）"),
+        "ra_cps": ("CPs", "控制点数"),
+        "ra_rmse": ("RMSE", "均方根误差 RMSE"),
+        "ra_rmse_one_image": (
+            "RMSE / √2 (one image, if the reference has the same accuracy)",
+            "RMSE / √2（单景影像，参考影像为同精度时）",
+        ),
+        "ra_gev_mean_max": ("mean / max GEV", "GEV 平均值 / 最大值"),
+        "ra_requirement": ("requirement", "精度要求"),
+        "ra_verdict": ("verdict", "结论"),
+        "ra_sec_distortion": ("Local geometric distortion (§RA-5)", "局部几何畸变（§RA-5）"),
+        "ra_alt_vectors": ("CP error vectors over the image", "影像上的控制点误差矢量"),
+        "ra_alt_histogram": ("GEV histogram", "GEV 直方图"),
+        "ra_shift": ("systematic shift (mean vector)", "系统偏移（平均矢量）"),
+        "ra_shift_value": (
+            "{shift} px (dx {dx} px = {dx_m} m, dy {dy} px = {dy_m} m)",
+            "{shift} 像素（dx {dx} 像素 = {dx_m} m，dy {dy} 像素 = {dy_m} m）",
+        ),
+        "ra_local_rms": ("RMS about the mean", "相对于平均值的均方根"),
+        "ra_direction": ("direction consistency (1 = one direction)", "方向一致性（1 = 方向相同）"),
+        "ra_field": ("systematic field over the image", "影像上的系统误差场"),
+        "ra_field_value": (
+            "{model}: explains {share} of the variance (affine alone {affine}); F = {f}, "
+            "p = {p}; field RMS {rms} px",
+            "{model}：解释方差的 {share}（仅仿射 {affine}）；F = {f}，p = {p}；"
+            "误差场均方根 {rms} 像素",
+        ),
+        "ra_noise": (
+            "matching noise about the field (robust spread)",
+            "误差场以外的匹配噪声（稳健离散度）",
+        ),
+        "ra_no_field": (
+            "not computed: fewer than 4 CPs (the affine field has 3 terms a component)",
+            "未计算：控制点少于 4 个（仿射误差场每个分量有 3 项）",
+        ),
+        "ra_gev_percentiles": ("GEV median / p90 / max", "GEV 中位数 / 90% 分位数 / 最大值"),
+        "ra_significant": ("significant distortion", "显著畸变"),
+        "ra_not_tested": ("not tested", "未检验"),
+        "ra_significance_value": (
+            ": p = {p}, field RMS {rms} px",
+            "：p = {p}，误差场均方根 {rms} 像素",
+        ),
+        "ra_significant_when": (
+            " (significant when p < {alpha} and field RMS ≥ {threshold} px)",
+            "（p < {alpha} 且误差场均方根 ≥ {threshold} 像素时为显著）",
+        ),
+        "ra_reading": ("Reading: {reading}.", "解读：{reading}。"),
+        "ra_sec_refined": ("Refined RFM from k CPs (§RA-6)", "以 k 个控制点精化的 RFM（§RA-6）"),
+        "ra_check_cps": ("check CPs", "检核点数"),
+        "ra_draws": ("draws", "抽样次数"),
+        "ra_rmse_mean": ("RMSE mean (px)", "RMSE 平均值（像素）"),
+        "ra_min": ("min", "最小值"),
+        "ra_max": ("max", "最大值"),
+        "ra_note": ("note", "说明"),
+        "ra_affine_all": (
+            "Affine fitted to every CP ({note}):",
+            "以全部控制点拟合的仿射变换（{note}）：",
+        ),
+        "ra_affine_rms": ("residual RMS {rms} px.", "残差均方根 {rms} 像素。"),
+        "files": ("Files", "文件"),
+        "ra_conventions": (
+            "Conventions: {image}; {gdal}; heights {heights}.",
+            "约定：{image}；{gdal}；高程：{heights}。",
+        ),
+        # the figures
+        "ra_fig_vectors": (
+            "CP error vectors, {image} vs {reference}",
+            "控制点误差矢量：{image} 对 {reference}",
+        ),
+        "ra_ax_gev": ("GEV (px)", "GEV（像素）"),
+        "ra_ax_column": ("column (px)", "列（像素）"),
+        "ra_ax_row": ("row (px)", "行（像素）"),
+        "ra_ax_cps": ("CPs", "控制点数"),
+        "ra_key_error": ("{px} px error", "误差 {px} 像素"),
+        "px_value": ("{px} px", "{px} 像素"),
+        "ra_fig_histogram": ("Geometric error value per CP", "各控制点的几何误差值（GEV）"),
+        # fixed phrases of the run's results.json (English there), translated on the page
+        "ra_how_ortho": (
+            "orthorectified with its RPCs and the same DEM",
+            "用其 RPC 和同一 DEM 正射纠正",
+        ),
+        "ra_how_reprojected": (
+            "reprojected (bilinear) onto the image grid",
+            "重投影（双线性内插）到影像格网",
+        ),
+        "ra_band_one": ("band 1 (one band)", "波段 1（单波段）"),
+        "ra_band_first": (
+            "band 1 of {count} (no bands declared red, green, blue)",
+            "{count} 个波段中的波段 1（未声明红、绿、蓝波段）",
+        ),
+        "ra_bands_rgb_of": (
+            "mean of bands {bands} (red, green, blue) of {count}",
+            "{count} 个波段中波段 {bands}（红、绿、蓝）的平均值",
+        ),
+        "ra_bands_rgb": (
+            "mean of bands {bands} (red, green, blue)",
+            "波段 {bands}（红、绿、蓝）的平均值",
+        ),
+        "ra_heights_ellipsoidal": (
+            "ellipsoidal (WGS-84) heights from {file} ({said})",
+            "{file} 的椭球高（WGS-84）（{said}）",
+        ),
+        "ra_heights_geoid": (
+            "geoid heights from {file} ({model}, {said}) + undulation N from {geoid} "
+            "(N {low}..{high} m) = ellipsoidal (WGS-84)",
+            "{file} 的正高（{model}，{said}）+ {geoid} 的大地水准面差距 N（N {low}..{high} m）"
+            "= 椭球高（WGS-84）",
+        ),
+        "ra_heights_constant": ("constant ellipsoidal height {h} m", "常数椭球高 {h} m"),
+        "ra_converted": ("{said}, in {unit} converted to metres", "{said}，由 {unit} 换算为米"),
+        "ra_declared_by": ("declared by {how}", "由{how}声明"),
+        "ra_stated_by_user": ("as stated by the user", "按用户指定"),
+        "ra_stated": ("stated", "按用户指定"),
+        "ra_srtm": (
+            "SRTM .hgt tile (SRTM heights are above the EGM96 geoid)",
+            "SRTM .hgt 图幅（SRTM 高程以 EGM96 大地水准面为基准）",
+        ),
+        "ra_crs_2d": ("its 2-D CRS '{name}'", "其二维坐标参考系“{name}”"),
+        "ra_crs": ("its CRS '{name}'", "其坐标参考系“{name}”"),
+        "ra_no_crs": ("no CRS", "无坐标参考系"),
+        "ra_geoid_egm96": (
+            "EGM96 (blockqc's 30' global grid, bilinear)",
+            "EGM96（blockqc 自带的 30′ 全球格网，双线性内插）",
+        ),
+        "ra_geoid_grid": ("geoid grid {file}", "大地水准面格网 {file}"),
+        "ra_geoid_constant": (
+            "constant geoid undulation {n} m (--geoid-offset)",
+            "常数大地水准面差距 {n} m（--geoid-offset）",
+        ),
+        "ra_geoid_word": ("geoid", "大地水准面"),
+        "ra_grid_given": ("given", "由 --grid 指定"),
+        "ra_grid_again": (
+            "{how}; {n} CPs at {cell} px, so matched again at {smaller} px",
+            "{how}；{cell} 像素格网仅得 {n} 个控制点，故以 {smaller} 像素重新匹配",
+        ),
+        "ra_grid_chosen": (
+            "chosen from the image size: {cell} px for {overlap} px covered by both images "
+            "(about {cells} cells, aiming at ≥ {target} CPs; {low}..{high} px)",
+            "按影像大小选取：两景影像共同覆盖 {overlap} 像素，取 {cell} 像素"
+            "（约 {cells} 个格网，目标 ≥ {target} 个控制点；{low}..{high} 像素）",
+        ),
+        "ra_reading_text": (
+            "systematic distortion is significant when a low-order field of the error vectors "
+            "over the image (affine in column and row, or quadratic where it adds significantly "
+            "to the affine) explains a significant share of their variance against the mean shift "
+            "alone (F-test, p < {alpha}) and that field varies by at least {threshold} px RMS "
+            "about the mean; the scatter left about it is matching noise (its robust spread is "
+            "stated), not distortion (§RA-5 gives no number)",
+            "当误差矢量在影像上的低阶误差场（行列的仿射，或在仿射之外显著改进时的二次多项式）"
+            "相对于仅有平均偏移时解释了其方差的显著部分（F 检验，p < {alpha}），且该误差场相对于"
+            "平均值的均方根变化至少 {threshold} 像素时，系统畸变为显著；其余离散为匹配噪声"
+            "（给出其稳健离散度），而非畸变（§RA-5 未给出数值）",
+        ),
+        "ra_model_affine": ("affine", "仿射"),
+        "ra_model_quadratic": ("quadratic", "二次多项式"),
+        "ra_model_none": ("not computed: fewer than {n} CPs", "未计算：控制点少于 {n} 个"),
+        "ra_evaluation": (
+            "RMSE (§RA-4) on the CPs not used for fitting; {repeats} random draws per k "
+            "(seed {seed})",
+            "在未参与拟合的控制点上计算 RMSE（§RA-4）；每个 k 随机抽样 {repeats} 次"
+            "（随机种子 {seed}）",
+        ),
+        "ra_note_original": ("original RFM", "原始 RFM"),
+        "ra_note_needs": ("needs 3 ≤ k < n CPs (n = {n})", "需要 3 ≤ k < n 个控制点（n = {n}）"),
+        "ra_note_refined": (
+            "refined RFM (image-space affine), held-out CPs",
+            "精化 RFM（像方仿射变换），留出的控制点",
+        ),
+        "ra_note_few_checks": ("{note}; only {n} check CPs", "{note}；仅 {n} 个检核点"),
+        "ra_note_collinear": (
+            "{note}; {n} draws with collinear CPs left out",
+            "{note}；剔除控制点共线的抽样 {n} 次",
+        ),
+        "ra_all_cps_note": (
+            "image-space affine (§3) fitted to every CP; its residual is in-sample",
+            "像方仿射变换（§3）；全部控制点参与拟合，其残差为样本内残差",
+        ),
+        "ra_convention_image": (
+            "pixel centre, first pixel (0, 0), full-image coordinates of the RPCs",
+            "像素中心，首像素为 (0, 0)，采用 RPC 的全幅影像坐标",
+        ),
+        "ra_convention_gdal": (
+            "GDAL's RPC transformer uses pixel corners: GDAL = ours + 0.5 px",
+            "GDAL 的 RPC 变换以像素角点为准：GDAL = 本程序 + 0.5 像素",
+        ),
+        "ra_convention_heights": ("WGS-84 ellipsoidal", "WGS-84 椭球高"),
+    }
+)
+
+
 def translator(lang: str) -> Callable[..., str]:
     """`t(key, **values)`: the label in `lang`, formatted; unknown keys are a defect, loudly."""
     if lang not in LANGUAGES:

@@ -8,6 +8,7 @@ on the reference orthoimage, both in the same projected CRS (metres); d_s is the
 from __future__ import annotations
 
 import io
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -15,10 +16,13 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 from pyproj import CRS, Transformer
 
+from blockqc.report.messages import translator
 from blockqc.rfm.dem import DEM
 from blockqc.rfm.model import RPCModel, fit_affine
 
 FloatArray = NDArray[np.float64]
+EN = translator("en")
+"""The figures' labels, in English unless a page's language is given."""
 
 REQUIREMENT_PX = 1.0
 """§RA-6 practical requirement: RMSE < 1.0 pixel."""
@@ -220,7 +224,7 @@ def _vector_layout(shape: tuple[int, int]) -> tuple[object, object, object, floa
     return fig, ax, cax, scale
 
 
-def _scale_key(fig: object, key_px: float, length_in: float) -> None:
+def _scale_key(fig: object, key_px: float, length_in: float, t: Callable[..., str] = EN) -> None:
     """The arrow of `key_px` pixels of error, `length_in` inches long as on the image axes, in
     its own row at the bottom-left of the figure (inside the saved area, whatever the aspect)."""
     fw, fh = fig.get_size_inches()  # type: ignore[attr-defined]
@@ -234,7 +238,7 @@ def _scale_key(fig: object, key_px: float, length_in: float) -> None:
         xytext=(0.8, 0.15),
         arrowprops={"arrowstyle": "-|>", "color": "black", "shrinkA": 0, "shrinkB": 0},
     )
-    kax.text(0.8 + length_in + 0.1, 0.15, f"{key_px:g} px error", va="center")
+    kax.text(0.8 + length_in + 0.1, 0.15, t("ra_key_error", px=f"{key_px:g}"), va="center")
 
 
 def plot_error_vectors(
@@ -246,6 +250,7 @@ def plot_error_vectors(
     shape: tuple[int, int],
     title: str = "CP error vectors",
     background: NDArray[np.floating] | None = None,
+    t: Callable[..., str] = EN,
 ) -> bytes:
     """PNG of every CP's error vector drawn at its position on the image (§RA-5).
 
@@ -290,14 +295,14 @@ def plot_error_vectors(
         )
         if biggest > 0:  # one significant digit: 5.1 → 5, 0.37 → 0.4, 2e-9 → 2e-9
             key = float(f"{biggest:.1g}")
-            _scale_key(fig, key, key / scale * inch_per_px)
-        fig.colorbar(q, cax=cax, label="GEV (px)")
+            _scale_key(fig, key, key / scale * inch_per_px, t)
+        fig.colorbar(q, cax=cax, label=t("ra_ax_gev"))
     else:
         cax.set_axis_off()
     ax.set_xlim(0, shape[1])
     ax.set_ylim(shape[0], 0)
-    ax.set_xlabel("column (px)")
-    ax.set_ylabel("row (px)")
+    ax.set_xlabel(t("ra_ax_column"))
+    ax.set_ylabel(t("ra_ax_row"))
     ax.set_title(_wrapped(title, fig, ax), loc="left", parse_math=False)  # names: "$" as typed
     return _figure_png(fig)
 
@@ -316,8 +321,10 @@ def _wrapped(title: str, fig: object, ax: object) -> str:
     return textwrap.fill(title, chars, break_on_hyphens=False)
 
 
-def plot_gev_histogram(g: ArrayLike, requirement: float = REQUIREMENT_PX) -> bytes:
-    """PNG histogram of the GEVs with the requirement line (§RA-5)."""
+def plot_gev_histogram(
+    g: ArrayLike, requirement: float = REQUIREMENT_PX, t: Callable[..., str] = EN
+) -> bytes:
+    """PNG histogram of the GEVs with the requirement line (§RA-5), its text by `t`."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -328,12 +335,14 @@ def plot_gev_histogram(g: ArrayLike, requirement: float = REQUIREMENT_PX) -> byt
     fig, ax = plt.subplots(figsize=(6.4, 3.6))
     if g.size:
         ax.hist(g, bins=min(40, max(5, g.size // 3)), color="#4477aa", edgecolor="white")
-    ax.axvline(requirement, color="#cc3311", linestyle="--", label=f"{requirement:g} px")
-    ax.set_xlabel("GEV (px)")
-    ax.set_ylabel("CPs")
+    ax.axvline(
+        requirement, color="#cc3311", linestyle="--", label=t("px_value", px=f"{requirement:g}")
+    )
+    ax.set_xlabel(t("ra_ax_gev"))
+    ax.set_ylabel(t("ra_ax_cps"))
     ax.yaxis.set_major_locator(MaxNLocator(integer=True))  # counts: no 0.25 of a CP
     ax.legend()
-    ax.set_title("Geometric error value per CP", loc="left")
+    ax.set_title(t("ra_fig_histogram"), loc="left")
     return _figure_png(fig)
 
 

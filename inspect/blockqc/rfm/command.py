@@ -15,6 +15,7 @@ from blockqc.cli import GivenPath
 from blockqc.errors import UsageError
 from blockqc.matching.settings import MatchSettings
 from blockqc.outputs import check_out_dir, empty_removed, refuse_replacing
+from blockqc.report.messages import LANGUAGES
 from blockqc.rfm.pipeline import (
     METHODS,
     OUTPUT_NAMES,
@@ -288,6 +289,13 @@ def _finite(ctx: click.Context, param: click.Parameter, value: float | None) -> 
     is_flag=True,
     help="Also orthorectify IMAGE with the RFM refined from every CP (ortho_refined.tif).",
 )
+@click.option(
+    "--lang",
+    type=click.Choice(LANGUAGES),
+    default="en",
+    show_default=True,
+    help="Language of report.html and its figures (results.json is the same in either).",
+)
 def command(
     image: Path,
     rpc: Path | None,
@@ -314,6 +322,7 @@ def command(
     export_checkpoints: bool,
     refined_ortho: bool,
     dem_fill: int,
+    lang: str,
 ) -> None:
     """Measure the geometric accuracy of IMAGE's RFM against a reference orthoimage (§RA).
 
@@ -359,6 +368,7 @@ def command(
             export_checkpoints=export_checkpoints,
             refined_ortho=refined_ortho,
             dem_fill=dem_fill,
+            lang=lang,
         )
         results = run_rfm_accuracy(cfg)
     for warning in results.get("warnings") or []:  # type: ignore[union-attr]

@@ -22,6 +22,7 @@ from pyproj import CRS, Transformer
 
 from blockqc.errors import InputError, Problem
 from blockqc.outputs import write_bytes_atomic, write_json_atomic, write_text_atomic
+from blockqc.report.messages import translator
 from blockqc.rfm import accuracy
 from blockqc.rfm.dem import DEM, load_dem
 from blockqc.rfm.model import RefinedRFM, RPCModel, fit_affine
@@ -140,6 +141,8 @@ class RfmAccuracyConfig:
     method: str = "same_accuracy"
     export_checkpoints: bool = False
     refined_ortho: bool = False
+    lang: str = "en"
+    """Language of the page and the figures (en, zh); results.json is the same in either."""
     match_settings: dict[str, object] = field(default_factory=dict)
 
 
@@ -815,14 +818,18 @@ def _correct_and_match(run: _Run, matcher: Matcher | None) -> None:
 
 def _plots(run: _Run, dx: np.ndarray, dy: np.ndarray, gev: np.ndarray) -> None:
     """§RA-5 the error-vector plot over the ortho and the GEV histogram."""
+    from blockqc.report.figure_lang import figure_language
+
     cfg, cps, grid = run.cfg, run.cps, run.grid
-    vectors = accuracy.plot_error_vectors(
-        cps["col"], cps["row"], dx, dy, run.image_gsd, (grid.height, grid.width),
-        title=f"CP error vectors, {cfg.image.name} vs {cfg.reference.name}",
-        background=_preview(cfg.out / "ortho.tif"),
-    )  # fmt: skip
+    t = translator(cfg.lang)
+    with figure_language(cfg.lang):
+        vectors = accuracy.plot_error_vectors(
+            cps["col"], cps["row"], dx, dy, run.image_gsd, (grid.height, grid.width),
+            title=t("ra_fig_vectors", image=cfg.image.name, reference=cfg.reference.name),
+            background=_preview(cfg.out / "ortho.tif"), t=t,
+        )  # fmt: skip
+        histogram = accuracy.plot_gev_histogram(gev, cfg.requirement_px, t)
     write_bytes_atomic(cfg.out / "error_vectors.png", vectors)
-    histogram = accuracy.plot_gev_histogram(gev, cfg.requirement_px)
     write_bytes_atomic(cfg.out / "gev_histogram.png", histogram)
 
 
@@ -1011,6 +1018,6 @@ def _measure(cfg: RfmAccuracyConfig, matcher: Matcher | None) -> dict[str, objec
         + accuracy.k_warnings(cfg.ks, n),
     }
     results = _clean(results)  # type: ignore[assignment]
-    write_text_atomic(cfg.out / "report.html", render_html(results))
+    write_text_atomic(cfg.out / "report.html", render_html(results, lang=cfg.lang))
     write_json_atomic(cfg.out / "results.json", results)
     return results

@@ -5,15 +5,16 @@ from __future__ import annotations
 from pathlib import Path
 
 from blockqc.report.format import number
-from blockqc.report.html import environment
+from blockqc.report.html import environment, language_context
 
 
 def _fmt(value: object, digits: int = 3) -> str:
     return number(value, digits if isinstance(value, float) else None)
 
 
-def render_html(results: dict, template_dir: Path | None = None) -> str:
-    """HTML for one run; `template_dir` may hold a user's `rfm_accuracy.html.j2` that overrides."""
+def render_html(results: dict, template_dir: Path | None = None, lang: str = "en") -> str:
+    """HTML for one run in `lang` (en, zh); `template_dir` may hold a user's
+    `rfm_accuracy.html.j2` that overrides."""
     template = environment(template_dir).get_template("rfm_accuracy.html.j2")
     return template.render(
         r=results,
@@ -21,4 +22,5 @@ def render_html(results: dict, template_dir: Path | None = None) -> str:
         d=results["distortion"],
         image_name=Path(str(results["image"])).name,
         fmt=_fmt,
+        **language_context(lang),
     )
