@@ -13,6 +13,7 @@ from blockqc.adjust.solver import Settings
 from blockqc.cli import GivenPath
 from blockqc.errors import UsageError
 from blockqc.outputs import empty_removed, refuse_inside
+from blockqc.report.messages import LANGUAGES
 
 #: the smallest σ or factor an option takes: below a millionth (of a pixel, of a metre) the
 #: weights overflow the normal equations (1e-300 made them singular)
@@ -119,6 +120,13 @@ def check_dem_options(dem: Path | None, geoid: Path | None) -> None:
     type=click.IntRange(1, 1000),
     help="Points compared with the producer's (§CP-1).",
 )
+@click.option(
+    "--lang",
+    type=click.Choice(LANGUAGES),
+    default="en",
+    show_default=True,
+    help="Language of adjust.html and its figures (adjust.json is the same in either).",
+)
 def command(
     delivery: Path,
     out: Path,
@@ -133,6 +141,7 @@ def command(
     reject: float,
     max_iterations: int,
     n_checkpoints: int,
+    lang: str,
 ) -> None:
     """Adjust DELIVERY's block from its rpc/ and tie observations alone (§RC-3).
 
@@ -154,6 +163,7 @@ def command(
         sigma_linear_px=sigma_linear,
         settings=settings,
         checkpoints=n_checkpoints,
+        lang=lang,
     )
     refuse_inside(out, cfg.inputs())  # before reading; the folder is made once they are read
     with empty_removed(out):  # an input error leaves no empty folder the run made

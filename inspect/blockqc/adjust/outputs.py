@@ -87,8 +87,10 @@ def write_outputs(
     summary: dict,
     v_before: np.ndarray,
     base_to_height: np.ndarray,
+    lang: str = "en",
 ) -> None:
-    """Every table, adjust.json, the figures and adjust.html (`base_to_height` per point)."""
+    """Every table, adjust.json, the figures and adjust.html (`base_to_height` per point; the
+    page and the figures in `lang`)."""
     from blockqc.adjust.report import render_html, write_figures
 
     out.mkdir(parents=True, exist_ok=True)
@@ -96,7 +98,7 @@ def write_outputs(
     write_csv_atomic(out / "tie_points.csv", tie_table(block, sol))
     write_csv_atomic(out / "ground_points.csv", ground_table(block, sol, base_to_height))
     write_csv_atomic(out / "checkpoints.csv", checkpoints)
-    summary["files"] = write_figures(out, block, sol, summary, v_before)
+    summary["files"] = write_figures(out, block, sol, summary, v_before, lang)
     summary["files"].update(
         {
             "adjustment": "adjustment.csv",
@@ -106,4 +108,4 @@ def write_outputs(
         }
     )
     write_json_atomic(out / "adjust.json", summary)
-    write_text_atomic(out / "adjust.html", render_html(summary))
+    write_text_atomic(out / "adjust.html", render_html(summary, lang=lang))

@@ -4,12 +4,15 @@ from __future__ import annotations
 
 import io
 import math
+from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from blockqc.outputs import write_bytes_atomic
+from blockqc.report.messages import translator
 
 if TYPE_CHECKING:
     from blockqc.adjust.run import Block
@@ -22,6 +25,8 @@ SCENE_MAPS = 16
 """Scenes given a residual vector map of their own (largest RMS after adjustment first)."""
 SCENE_CELLS = 8
 """Cells per side of a scene's map: each arrow is the mean residual of one cell."""
+EN = translator("en")
+"""The figures' labels, in English unless a page's language is given."""
 
 
 def _png(fig: object) -> bytes:
@@ -42,34 +47,37 @@ def _figure(w: float = 7.0, h: float = 4.0, ncols: int = 1) -> tuple:
     return plt.subplots(1, ncols, figsize=(w, h))
 
 
-def plot_convergence(history: list[dict]) -> bytes:
+def plot_convergence(history: list[dict], t: Callable[..., str] = EN) -> bytes:
     fig, ax = _figure(7.0, 3.2)
     it = [h["iteration"] for h in history]
-    ax.semilogy(it, [max(h["rms_px"], 1e-6) for h in history], "o-", label="RMS |f| (px)")
+    ax.semilogy(it, [max(h["rms_px"], 1e-6) for h in history], "o-", label=t("ad_lg_rms"))
     step = [max(h["max_affine_step_px"], h["max_ground_step_px"], 1e-9) for h in history]
-    ax.semilogy(it, step, "s--", label="largest update (px)")
+    ax.semilogy(it, step, "s--", label=t("ad_lg_update"))
     for i, h in enumerate(history):
         if i and h["phase"] != history[i - 1]["phase"]:
             ax.axvline(h["iteration"] - 0.5, color="0.6", lw=0.8)
-    ax.set_xlabel("iteration (Huber, then least squares after rejection)")
-    ax.set_ylabel("px (log scale)")
+    ax.set_xlabel(t("ad_ax_iteration"))
+    ax.set_ylabel(t("ad_ax_log_px"))
     ax.legend()
     return _png(fig)
 
 
-def plot_histograms(v_before: np.ndarray, v_after: np.ndarray) -> bytes:
+def plot_histograms(v_before: np.ndarray, v_after: np.ndarray, t: Callable[..., str] = EN) -> bytes:
     fig, axes = _figure(9.0, 3.2, ncols=2)
-    for ax, v, title in zip(axes, (v_before, v_after), ("before", "after"), strict=True):
+    titles = (t("ad_fig_before"), t("ad_fig_after"))
+    for ax, v, title in zip(axes, (v_before, v_after), titles, strict=True):
         v = v[np.isfinite(v)]
         hi = float(np.percentile(v, 99.5)) if v.size else 1.0
         ax.hist(np.clip(v, 0, hi), bins=60, range=(0, max(hi, 1e-6)), color="#4575b4")
-        ax.set_title(f"|v| {title} adjustment (px)")
-        ax.set_xlabel("px (clipped at the 99.5th percentile)")
-        ax.set_ylabel("observations")
+        ax.set_title(title)
+        ax.set_xlabel(t("ad_ax_clipped"))
+        ax.set_ylabel(t("ax_observations"))
     return _png(fig)
 
 
-def plot_vectors(block: Block, sol: Solution, footprints: list) -> bytes:
+def plot_vectors(
+    block: Block, sol: Solution, footprints: list, t: Callable[..., str] = EN
+) -> bytes:
     """Every kept observation's residual vector at its ground point, scene outlines behind."""
     from matplotlib.collections import LineCollection
 
@@ -88,23 +96,24 @@ def plot_vectors(block: Block, sol: Solution, footprints: list) -> bytes:
         color="#d73027",
         width=0.0015,
     )
-    _vector_key(ax, arrows, np.hypot(sol.v_line[kept], sol.v_sample[kept]))
-    ax.set_xlabel("longitude (°)")
-    ax.set_ylabel("latitude (°)")
+    _vector_key(ax, arrows, np.hypot(sol.v_line[kept], sol.v_sample[kept]), t)
+    ax.set_xlabel(t("ax_lon"))
+    ax.set_ylabel(t("ax_lat"))
     ax.set_aspect(1.0 / max(math.cos(math.radians(float(np.nanmean(sol.lat)))), 0.1))
     ax.autoscale_view()
-    ax.set_title("residual vectors (sample →, line ↓), scene outlines in grey")
+    ax.set_title(t("ad_fig_vectors"))
     return _png(fig)
 
 
-def _vector_key(ax: Any, arrows: Any, length: np.ndarray) -> None:
+def _vector_key(ax: Any, arrows: Any, length: np.ndarray, t: Callable[..., str] = EN) -> None:
     """The scale of the residual vectors: an arrow of their 95th percentile to one significant
     digit (0.37 → 0.4 px), under the map's bottom-right corner."""
     length = length[np.isfinite(length)]
     if length.size == 0 or not np.percentile(length, 95) > 0:
         return
     key = float(f"{np.percentile(length, 95):.1g}")
-    ax.quiverkey(arrows, 0.84, -0.062, key, f"{key:g} px", labelpos="E", coordinates="axes")
+    label = t("px_value", px=f"{key:g}")
+    ax.quiverkey(arrows, 0.84, -0.062, key, label, labelpos="E", coordinates="axes")
 
 
 def scene_cell_means(block: Block, sol: Solution, k: int = SCENE_CELLS) -> tuple[np.ndarray, ...]:
@@ -122,7 +131,9 @@ def scene_cell_means(block: Block, sol: Solution, k: int = SCENE_CELLS) -> tuple
     return vl.reshape(shape), vs.reshape(shape), n.reshape(shape)
 
 
-def plot_scene_vectors(block: Block, sol: Solution, summary: dict) -> bytes:
+def plot_scene_vectors(
+    block: Block, sol: Solution, summary: dict, t: Callable[..., str] = EN
+) -> bytes:
     """Residual vector maps of the scenes with the largest RMS: cell means in image space."""
     rms = np.array([np.nan if s["rms_px"] is None else s["rms_px"] for s in summary["scenes"]])
     order = np.argsort(-np.nan_to_num(rms, nan=-1.0), kind="stable")[:SCENE_MAPS]
@@ -146,30 +157,31 @@ def plot_scene_vectors(block: Block, sol: Solution, summary: dict) -> bytes:
         ax.quiver(w[ok], u[ok], vs[s][ok], -vl[s][ok], angles="uv", scale=ref * k * 0.9,
                   scale_units="width", color="#d73027", width=0.012)  # fmt: skip
         ax.set(xlim=(0, 1), ylim=(1, 0), xticks=[], yticks=[], aspect="equal")
-        _scene_title(ax, summary["scenes"][s]["scene_id"], rms[s], bool(ok.any()))
+        _scene_title(ax, summary["scenes"][s]["scene_id"], rms[s], bool(ok.any()), t)
     for ax in axes.ravel()[order.size :]:
         ax.axis("off")
-    fig.suptitle(
-        f"mean residual per {k}×{k} cell of the {order.size} scenes of largest RMS "
-        f"(image space; longest arrow {ref:.3f} px)",
-        fontsize=9,
-    )
+    fig.suptitle(t("ad_fig_scene_vectors", k=k, n=order.size, ref=f"{ref:.3f}"), fontsize=9)
     return _png(fig)
 
 
-def _scene_title(ax: Any, scene_id: str, rms: float, drawn: bool) -> None:
+def _scene_title(
+    ax: Any, scene_id: str, rms: float, drawn: bool, t: Callable[..., str] = EN
+) -> None:
     """A scene map's title, its id wrapped to the map's width (28 characters at 8 pt), and a
     word inside a map left empty because no kept observation falls in the scene."""
     import textwrap
 
     name = textwrap.fill(str(scene_id), 28, break_on_hyphens=False)
-    ax.set_title(f"{name}\n{_fmt(rms)} px", fontsize=8, parse_math=False)  # an id: "$" as typed
+    title = f"{name}\n{t('px_value', px=_fmt(rms))}"
+    ax.set_title(title, fontsize=8, parse_math=False)  # an id: "$" as typed
     if not drawn:
-        ax.text(0.5, 0.5, "no kept observation", ha="center", va="center", fontsize=8,
+        ax.text(0.5, 0.5, t("ad_no_kept"), ha="center", va="center", fontsize=8,
                 color="0.4", transform=ax.transAxes)  # fmt: skip
 
 
-def plot_scene_precision(block: Block, sol: Solution, summary: dict) -> bytes:
+def plot_scene_precision(
+    block: Block, sol: Solution, summary: dict, t: Callable[..., str] = EN
+) -> bytes:
     fig, ax = _figure(8.0, 6.0)
     obs = block.obs
     n = np.maximum(np.bincount(obs.scene, None, obs.n_scenes), 1)
@@ -177,10 +189,10 @@ def plot_scene_precision(block: Block, sol: Solution, summary: dict) -> bytes:
     lat = np.bincount(obs.scene, np.nan_to_num(sol.lat[obs.point]), obs.n_scenes) / n
     sig = np.array([s["sigma_shift_centre_px"] for s in summary["scenes"]])
     art = ax.scatter(lon, lat, c=sig, cmap="viridis", s=30)
-    fig.colorbar(art, ax=ax, label="σ of the shift at the image centre (px)")
-    ax.set_xlabel("longitude (°)")
-    ax.set_ylabel("latitude (°)")
-    ax.set_title("per-scene precision (scene centre = mean of its tie points)")
+    fig.colorbar(art, ax=ax, label=t("ad_ax_sigma_shift"))
+    ax.set_xlabel(t("ax_lon"))
+    ax.set_ylabel(t("ax_lat"))
+    ax.set_title(t("ad_fig_precision"))
     return _png(fig)
 
 
@@ -199,37 +211,51 @@ def _footprints(block: Block) -> list:
 
 
 def write_figures(
-    out: Path, block: Block, sol: Solution, summary: dict, v_before: np.ndarray
+    out: Path, block: Block, sol: Solution, summary: dict, v_before: np.ndarray, lang: str = "en"
 ) -> dict[str, str]:
-    """The five PNG figures of the page (v_before: |v| per observation before adjustment)."""
+    """The five PNG figures of the page (v_before: |v| per observation before adjustment), their
+    text in `lang`."""
+    from blockqc.report.figure_lang import figure_language
+
     kept = ~sol.outlier
     v_after = np.hypot(sol.v_line, sol.v_sample)[kept]
     v_before = v_before[kept]
-    files = {
-        "convergence": ("convergence.png", plot_convergence(summary["history"])),
-        "residual_histogram": ("residual_histogram.png", plot_histograms(v_before, v_after)),
-        "residual_vectors": ("residual_vectors.png", plot_vectors(block, sol, _footprints(block))),
-        "scene_vectors": ("scene_vectors.png", plot_scene_vectors(block, sol, summary)),
-        "scene_precision": ("scene_precision.png", plot_scene_precision(block, sol, summary)),
-    }
+    t = translator(lang)
+    with figure_language(lang):
+        files = {
+            "convergence": ("convergence.png", plot_convergence(summary["history"], t)),
+            "residual_histogram": ("residual_histogram.png", plot_histograms(v_before, v_after, t)),
+            "residual_vectors": (
+                "residual_vectors.png",
+                plot_vectors(block, sol, _footprints(block), t),
+            ),
+            "scene_vectors": ("scene_vectors.png", plot_scene_vectors(block, sol, summary, t)),
+            "scene_precision": (
+                "scene_precision.png",
+                plot_scene_precision(block, sol, summary, t),
+            ),
+        }
     for name, data in files.values():
         write_bytes_atomic(out / name, data)
     return {k: v[0] for k, v in files.items()}
 
 
-def _fmt(value: object, digits: int = 3) -> str:
+def _fmt(value: object, digits: int = 3, t: Callable[..., str] = EN) -> str:
     if value is None or (isinstance(value, float) and not math.isfinite(value)):
         return "—"
     if isinstance(value, bool):
-        return "yes" if value else "no"
+        return t("yes") if value else t("no")
     if isinstance(value, float):
         return f"{value:.{digits}f}"
     return str(value)
 
 
-def render_html(summary: dict, template_dir: Path | None = None) -> str:
-    """adjust.html from adjust.json's content; a user's `adjust.html.j2` may override."""
-    from blockqc.report.html import environment
+def render_html(summary: dict, template_dir: Path | None = None, lang: str = "en") -> str:
+    """adjust.html from adjust.json's content in `lang` (en, zh); a user's `adjust.html.j2` may
+    override."""
+    from blockqc.report.html import environment, language_context
 
     template = environment(template_dir).get_template("adjust.html.j2")
-    return template.render(r=summary, fmt=_fmt)
+    return template.render(
+        r=summary, fmt=partial(_fmt, t=translator(lang)), **language_context(lang)
+    )

@@ -41,6 +41,8 @@ class AdjustConfig:
     sigma_linear_px: float = 2.0
     settings: Settings = field(default_factory=Settings)
     checkpoints: int = 30
+    lang: str = "en"
+    """Language of adjust.html and the figures (en, zh); adjust.json is the same in either."""
 
     def inputs(self) -> list[Path]:
         """The delivery, the DEM and the geoid grid given (--out must lie outside them)."""
@@ -378,7 +380,7 @@ def run_adjust(cfg: AdjustConfig) -> dict:
     summary["settings"]["sigma_image_px_estimated"] = sol.sigma_image_px
     summary["seconds"] = round(time.perf_counter() - t0, 2)
     summary["timings"] = clock.laps
-    write_outputs(out, block, sol, cps, summary, np.hypot(v0l, v0s), bh)
+    write_outputs(out, block, sol, cps, summary, np.hypot(v0l, v0s), bh, cfg.lang)
     return summary
 
 

@@ -81,6 +81,7 @@ PHRASES = (
 #: "{note}; only {n} check CPs" is taken apart before its parts
 SENTENCES = (
     "ra_grid_again",
+    "ad_prior_elsewhere",
     "ra_note_few_checks",
     "ra_note_collinear",
     "ra_converted",
@@ -118,6 +119,16 @@ SENTENCES = (
     "ra_convention_image",
     "ra_convention_gdal",
     "ra_convention_heights",
+    "ad_affine_priors",
+    "ad_prior_weak",
+    "ad_prior_dem",
+    "ad_producer_delivered",
+    "ad_producer_none",
+    "ad_producer_intersected",
+    "ad_crs_block",
+    "ad_crs_utm",
+    "ad_cps_none",
+    "ad_cps_few",
 )
 _FIELD = re.compile(r"\{(\w+)\}")
 _METHOD = r"(?:high_precision|same_accuracy|recalculation)"

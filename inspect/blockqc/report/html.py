@@ -44,7 +44,7 @@ def _css_string(value: Any) -> Markup:
 def language_context(lang: str) -> dict[str, Any]:
     """What a page's template needs to speak `lang`: `lang`, `html_lang` (its <html lang>),
     `t` (a catalogue label), `th` (a label whose {fields} may be markup such as `code(...)`,
-    other values escaped), `code`, `paren` (' (x)' or '（x）'), `f` (the Formatter),
+    other values escaped), `code`, `link`, `paren` (' (x)' or '（x）'), `f` (the Formatter),
     `px` (the unit) and punctuation."""
     from blockqc.report.format import Formatter
     from blockqc.report.messages import LANGUAGES, MESSAGES
@@ -66,6 +66,7 @@ def language_context(lang: str) -> dict[str, Any]:
         "t": f.t,
         "th": th,
         "code": lambda text: Markup("<code>{}</code>").format(text),
+        "link": lambda name: Markup('<a href="{0}">{0}</a>').format(name),
         "paren": paren,
         "f": f,
         "px": f.unit("px"),

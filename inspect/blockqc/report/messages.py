@@ -890,6 +890,149 @@ MESSAGES.update(
 )
 
 
+# --- the page of `blockqc adjust` (§RC-3)
+MESSAGES.update(
+    {
+        "ad_page_title": ("Block adjustment (recalculation)", "区域网平差（重新计算）"),
+        "ad_title": ("RFM-affine block adjustment", "RFM 仿射区域网平差"),
+        "ad_intro": (
+            "Independent recalculation (§RC-3) of the delivery {delivery} from its original\n"
+            "RPCs and tie observations alone; residuals v = computed − measured in image pixels.",
+            "仅用成果 {delivery} 的原始 RPC 和连接点观测独立重新计算（§RC-3）；"
+            "残差 v = 计算值 − 量测值，以影像像素计。",
+        ),
+        "ad_sec_result": ("Result", "平差结果"),
+        "ad_converged": ("converged", "是否收敛"),
+        "ad_iterations": ("iterations", "迭代次数"),
+        "ad_kept": ("scenes / points / observations kept", "保留的影像 / 点 / 观测数"),
+        "ad_observations_delivered": ("observations in the delivery", "成果中的观测数"),
+        "ad_outliers": ("outliers rejected (|v| > k·σ0)", "剔除的粗差观测（|v| > k·σ0）"),
+        "ad_without_second_ray": (
+            "observations left without a second ray",
+            "剔除后失去第二条光线的观测",
+        ),
+        "ad_sigma0": ("σ0 a posteriori (image measurement)", "验后单位权中误差 σ0（像点量测）"),
+        "ad_rms_before": ("residual RMS before (original RPCs)", "平差前残差均方根（原始 RPC）"),
+        "ad_rms_after": ("residual RMS after", "平差后残差均方根"),
+        "ad_time": ("time", "耗时"),
+        "ad_seconds": ("{s} s", "{s} 秒"),
+        "ad_sec_datum": ("Datum (no ground control)", "平差基准（无地面控制点）"),
+        "ad_height": ("Height: {prior}", "高程：{prior}"),
+        "ad_fixed": ("Fixed scenes: {scenes}", "固定的影像：{scenes}"),
+        "ad_sec_convergence": ("Convergence", "收敛过程"),
+        "ad_alt_convergence": ("convergence", "收敛过程"),
+        "ad_sec_residuals": ("Residuals", "残差"),
+        "ad_alt_histograms": ("residual histograms", "残差直方图"),
+        "ad_alt_vectors": ("residual vectors over the block", "区域网残差矢量"),
+        "ad_alt_scene_vectors": (
+            "residual vector map per scene, largest RMS first",
+            "各影像残差矢量图，均方根最大者在前",
+        ),
+        "ad_sec_checkpoints": (
+            "Checkpoints for the recalculation method (§CP-1, §RC-3)",
+            "其他软件重新计算法检查点（§CP-1、§RC-3）",
+        ),
+        "ad_checkpoints_text": (
+            "{n} well-spread points: the producer's position ({source})\n"
+            "against the recalculated one, in EPSG:{epsg} ({crs_source}), written to\n"
+            "{file} for {command}.",
+            "{n} 个分布均匀的点：生产单位的平差位置（{source}）与重新计算的位置比较，"
+            "坐标系 EPSG:{epsg}（{crs_source}），写入 {file}，供 {command} 使用。",
+        ),
+        "ad_sec_scenes": ("Per-scene precision", "各影像精度"),
+        "ad_alt_precision": ("per-scene precision", "各影像精度"),
+        "ad_col_scene": ("scene", "影像"),
+        "ad_col_obs": ("obs.", "观测数"),
+        "ad_col_outliers": ("outliers", "粗差数"),
+        "ad_col_without": ("without a second ray", "无第二条光线"),
+        "ad_col_rms": ("RMS (px)", "均方根（像素）"),
+        "ad_col_a0": ("a0 (px)", "a0（像素）"),
+        "ad_col_sigma_a0": ("σ a0 (px)", "σ a0（像素）"),
+        "ad_col_b0": ("b0 (px)", "b0（像素）"),
+        "ad_col_sigma_b0": ("σ b0 (px)", "σ b0（像素）"),
+        "ad_col_sigma_shift": ("σ shift at centre (px)", "影像中心平移量的 σ（像素）"),
+        # the figures
+        "ad_lg_rms": ("RMS |f| (px)", "|f| 的均方根（像素）"),
+        "ad_lg_update": ("largest update (px)", "最大改正量（像素）"),
+        "ad_ax_iteration": (
+            "iteration (Huber, then least squares after rejection)",
+            "迭代次数（先 Huber 抗差，剔除粗差后最小二乘）",
+        ),
+        "ad_ax_log_px": ("px (log scale)", "像素（对数刻度）"),
+        "ad_fig_before": ("|v| before adjustment (px)", "平差前 |v|（像素）"),
+        "ad_fig_after": ("|v| after adjustment (px)", "平差后 |v|（像素）"),
+        "ad_ax_clipped": ("px (clipped at the 99.5th percentile)", "像素（截断于 99.5% 分位数）"),
+        "ad_fig_vectors": (
+            "residual vectors (sample →, line ↓), scene outlines in grey",
+            "残差矢量（列 →，行 ↓），灰色为影像范围",
+        ),
+        "ad_fig_scene_vectors": (
+            "mean residual per {k}×{k} cell of the {n} scenes of largest RMS "
+            "(image space; longest arrow {ref} px)",
+            "均方根最大的 {n} 景影像各 {k}×{k} 格网的平均残差（像方；最长箭头 {ref} 像素）",
+        ),
+        "ad_no_kept": ("no kept observation", "无保留的观测"),
+        "ad_ax_sigma_shift": (
+            "σ of the shift at the image centre (px)",
+            "影像中心平移量的 σ（像素）",
+        ),
+        "ad_fig_precision": (
+            "per-scene precision (scene centre = mean of its tie points)",
+            "各影像精度（影像中心取其连接点的平均位置）",
+        ),
+        # fixed phrases of adjust.json (English there), translated on the page
+        "ad_affine_priors": (
+            "a-priori RPC accuracy: σ {shift} px for a0, b0 (shift at the image centre), "
+            "σ {linear} px at the image edge for the linear terms",
+            "RPC 先验精度：a0、b0（影像中心处的平移）σ {shift} 像素，"
+            "线性项在影像边缘处 σ {linear} 像素",
+        ),
+        "ad_prior_elsewhere": ("{dem}; elsewhere {weak}", "{dem}；其余点：{weak}"),
+        "ad_prior_weak": (
+            "weak height prior: the block's mean height {h} ± {sigma} m (mean HEIGHT_OFF ± "
+            "largest HEIGHT_SCALE), ± {each} m at each of its {n} points",
+            "弱高程先验：区域网平均高程 {h} ± {sigma} m（HEIGHT_OFF 的平均值 ± "
+            "最大的 HEIGHT_SCALE），{n} 个点每点 ± {each} m",
+        ),
+        "ad_prior_dem": (
+            "DEM height prior ± {sigma} m from {file} ({heights}) at {on} of {n} points",
+            "DEM 高程先验 ± {sigma} m，取自 {file}（{heights}），用于 {n} 个点中的 {on} 个",
+        ),
+        "ad_producer_delivered": (
+            "tie_points.csv lon, lat, h (delivered)",
+            "tie_points.csv 的 lon、lat、h（成果所给）",
+        ),
+        "ad_producer_none": (
+            "none (no lon/lat/h in tie_points and no producer adjustment)",
+            "无（tie_points 中没有 lon/lat/h，也没有生产单位的平差结果）",
+        ),
+        "ad_producer_intersected": (
+            "intersection with the producer's adjustment ({source})",
+            "按生产单位的平差结果（{source}）前方交会",
+        ),
+        "ad_crs_block": (
+            "block.yaml spatial_reference.epsg",
+            "block.yaml 的 spatial_reference.epsg",
+        ),
+        "ad_crs_utm": (
+            "UTM zone of the block centre (block.yaml gives no projected EPSG)",
+            "区域网中心所在的 UTM 投影带（block.yaml 未给出投影坐标系的 EPSG）",
+        ),
+        "ad_cps_none": (
+            "no point could be compared, so checkpoints.csv holds its header only: the "
+            "producer's positions come from tie_points lon/lat/h or from its adjustment "
+            "(adjustment.csv, rpc_adjusted/)",
+            "没有可比较的点，checkpoints.csv 只有表头：生产单位的位置取自 tie_points 的 "
+            "lon/lat/h 或其平差结果（adjustment.csv、rpc_adjusted/）",
+        ),
+        "ad_cps_few": (
+            "only {n} points could be compared (§CP-1 asks for 20–50)",
+            "仅 {n} 个点可比较（§CP-1 要求 20–50 个）",
+        ),
+    }
+)
+
+
 def translator(lang: str) -> Callable[..., str]:
     """`t(key, **values)`: the label in `lang`, formatted; unknown keys are a defect, loudly."""
     if lang not in LANGUAGES:
