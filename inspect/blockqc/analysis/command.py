@@ -28,6 +28,7 @@ from blockqc.outputs import (
     write_json_atomic,
     write_text_atomic,
 )
+from blockqc.report.messages import LANGUAGES
 from blockqc.verification import prepare
 
 
@@ -113,18 +114,21 @@ def _remove_stale(out: Path, written: list[Path]) -> None:
 
 
 def write_outputs(
-    out: Path, table: pd.DataFrame, results: dict[str, Any], user_templates: Path | None = None
+    out: Path,
+    table: pd.DataFrame,
+    results: dict[str, Any],
+    user_templates: Path | None = None,
+    lang: str = "en",
 ) -> list[Path]:
-    """Write the table, the analysis (CSV, JSON), the figures and the page; return the files."""
-    figures = {
-        name: made
-        for name, made in (
-            ("correlation", correlation_heatmap(results)),
-            ("structure", structure_plot(results)),
-        )
-        if made is not None
+    """Write the table, the analysis (CSV, JSON), the figures and the page (the figures and the
+    page in `lang`); return the files."""
+    made = {
+        "correlation": correlation_heatmap(results, lang),
+        "structure": structure_plot(results, lang),
     }
-    page = render_html(results, {name: svg for name, (svg, _) in figures.items()}, user_templates)
+    figures = {name: figure for name, figure in made.items() if figure is not None}
+    svgs = {name: svg for name, (svg, _) in figures.items()}
+    page = render_html(results, svgs, user_templates, lang)
     written: list[Path] = []  # the page is rendered first: a template that fails leaves no file
 
     def text(name: str, content: str) -> None:
@@ -270,6 +274,13 @@ _BATCH_ONLY = ("dems", "images_band", "period_gap_days", "overlap", "stereo_iou"
     type=TemplatesPath("factors"),
     help="A folder whose factors.html.j2 overrides the stock page.",
 )
+@click.option(
+    "--lang",
+    type=click.Choice(LANGUAGES),
+    default="en",
+    show_default=True,
+    help="Language of factors.html and its figures (factors.json is the same in either).",
+)
 def command(
     batch: Path | None,
     dems: tuple[Path, ...],
@@ -281,6 +292,7 @@ def command(
     stereo_iou: float,
     edge_correction: bool,
     user_templates: Path | None,
+    lang: str,
 ) -> int:
     """Adjustment factors, accuracy indicators, their correlation and CCA (DOMAIN.md §5).
 
@@ -316,7 +328,7 @@ def command(
         if batch is not None:
             results["options"] = asdict(options) | {"dem": [str(d) for d in dems]}
         with out_lock(out):  # one run at a time writes into a folder, as inspect's
-            written = write_outputs(out, table, results, user_templates)
+            written = write_outputs(out, table, results, user_templates, lang)
             _remove_stale(out, written)
     n_f, n_i = len(FACTOR_COLUMNS), len(INDICATOR_COLUMNS)
     if results["cca"]:

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import io
+from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -12,10 +14,15 @@ import numpy as np
 from markupsafe import Markup
 from matplotlib.figure import Figure
 
-from blockqc.report.format import number
+from blockqc.report.figure_lang import in_language
+from blockqc.report.format import Formatter, number
 from blockqc.report.html import environment as report_environment
+from blockqc.report.html import language_context
+from blockqc.report.messages import MESSAGES, translator
 
 TEMPLATE = "factors.html.j2"
+EN = translator("en")
+"""The figures' labels, in English unless a page's language is given."""
 
 
 def _save(fig: Figure) -> tuple[bytes, bytes]:
@@ -27,12 +34,26 @@ def _save(fig: Figure) -> tuple[bytes, bytes]:
     return svg.getvalue(), png.getvalue()
 
 
-def correlation_heatmap(results: dict[str, Any]) -> tuple[bytes, bytes] | None:
-    """Heatmap of the factors × indicators Pearson matrix, r in each cell (* for p < 0.05)."""
+def labels_in(results: dict[str, Any], lang: str) -> dict[str, str]:
+    """The factors' and indicators' labels in `lang` (results.json's, in English, for en)."""
+    if lang == "en":
+        return dict(results["labels"])
+    t = translator(lang)
+    keys = {
+        c: "clark_evans" if c == "tp_nn_coefficient" else f"af_label_{c}" for c in results["labels"]
+    }
+    return {c: t(k) if k in MESSAGES else results["labels"][c] for c, k in keys.items()}
+
+
+@in_language
+def correlation_heatmap(results: dict[str, Any], lang: str = "en") -> tuple[bytes, bytes] | None:
+    """Heatmap of the factors × indicators Pearson matrix, r in each cell (* for p < 0.05); its
+    text in `lang`."""
     corr = results.get("correlation")
     if not corr:
         return None
-    factors, indicators, labels = results["factors"], results["indicators"], results["labels"]
+    factors, indicators = results["factors"], results["indicators"]
+    t, labels = translator(lang), labels_in(results, lang)
     r = np.array(
         [
             [np.nan if corr["r"][f][i] is None else corr["r"][f][i] for i in indicators]
@@ -62,33 +83,29 @@ def correlation_heatmap(results: dict[str, Any]) -> tuple[bytes, bytes] | None:
             fontsize=8,
             color="white" if np.isfinite(v) and abs(v) > 0.6 else "black",
         )
-    fig.colorbar(im, ax=ax, fraction=0.05, pad=0.02, label="Pearson r")
-    ax.set_title(f"{_n_text(corr)}; * p < 0.05", fontsize=9, pad=28)
+    fig.colorbar(im, ax=ax, fraction=0.05, pad=0.02, label=t("af_ax_pearson"))
+    ax.set_title(t("af_fig_correlation", n=_n_text(corr, t)), fontsize=9, pad=28)
     return _save(fig)
 
 
-def _n_text(corr: dict[str, Any]) -> str:
+def _n_text(corr: dict[str, Any], t: Callable[..., str] = EN) -> str:
     lo, hi = corr["n_min"], corr["n_max"]
-    return f"n = {lo}" if lo == hi else f"n = {lo}–{hi} per cell"
+    return f"n = {lo}" if lo == hi else t("af_n_cells", low=lo, high=hi)
 
 
-def structure_plot(results: dict[str, Any]) -> tuple[bytes, bytes] | None:
-    """Structure coefficients of factors and indicators on the first canonical variates U1, V1."""
+@in_language
+def structure_plot(results: dict[str, Any], lang: str = "en") -> tuple[bytes, bytes] | None:
+    """Structure coefficients of factors and indicators on the first canonical variates U1, V1;
+    the text in `lang`."""
     res = results.get("cca")
     if not res:
         return None
-    labels = results["labels"]
+    t, labels = translator(lang), labels_in(results, lang)
     fig = Figure(figsize=(9.5, 0.42 * max(len(results["factors"]), 5) + 1.3))
     axes = fig.subplots(1, 2)
     panels = (
-        ("factors", res["structure_factors"], "U1", "V1", "factors on U1 (bars), on V1 (dots)"),
-        (
-            "indicators",
-            res["structure_indicators"],
-            "V1",
-            "U1",
-            "indicators on V1 (bars), on U1 (dots)",
-        ),
+        ("factors", res["structure_factors"], "U1", "V1", t("af_fig_factors")),
+        ("indicators", res["structure_indicators"], "V1", "U1", t("af_fig_indicators")),
     )
     for ax, (_, struct, own, other, title) in zip(axes, panels, strict=True):
         names = list(struct)
@@ -103,9 +120,10 @@ def structure_plot(results: dict[str, Any]) -> tuple[bytes, bytes] | None:
         ax.set_yticks(ypos, [labels[n] for n in names])
         ax.set_xlim(-1, 1)
         ax.set_title(title, fontsize=9)
-        ax.set_xlabel("structure coefficient")
+        ax.set_xlabel(t("af_ax_structure"))
     r1 = res["tests"][0]["canonical_correlation"]
-    fig.suptitle(f"First canonical pair, r₁ = {r1:.3f}", fontsize=10)
+    # r₁ outside the catalogue: the packaged CJK font has no subscript one (DejaVu draws it)
+    fig.suptitle(t("af_fig_first_pair", r=f"r₁ = {r1:.3f}"), fontsize=10)
     fig.tight_layout()
     return _save(fig)
 
@@ -115,7 +133,6 @@ def environment(user_templates: Path | None = None) -> jinja2.Environment:
     env = report_environment(user_templates)
     env.filters["num"] = _fmt
     env.filters["cell"] = _cell
-    env.globals["n_text"] = _n_text
     return env
 
 
@@ -133,11 +150,58 @@ def _cell(v: Any) -> str:
 
 
 def render_html(
-    results: dict[str, Any], figures: dict[str, bytes], user_templates: Path | None = None
+    results: dict[str, Any],
+    figures: dict[str, bytes],
+    user_templates: Path | None = None,
+    lang: str = "en",
 ) -> str:
-    """The page, from the results dictionary and the SVG figures (inlined, so it stands alone)."""
+    """The page in `lang` (en, zh), from the results dictionary and the SVG figures (inlined,
+    so it stands alone)."""
     svgs = {name: Markup(_strip_xml_header(data.decode("utf-8"))) for name, data in figures.items()}
-    return environment(user_templates).get_template(TEMPLATE).render(r=results, figures=svgs)
+    return (
+        environment(user_templates)
+        .get_template(TEMPLATE)
+        .render(r=results, figures=svgs, **_language(results, lang))
+    )
+
+
+def _language(results: dict[str, Any], lang: str) -> dict[str, Any]:
+    """The page's words in `lang`: the catalogue's, the labels of the factors and indicators
+    (`label`, `labels_of` a list of them), the experiments table's headings (`column`) and
+    cells (`cell_of`)."""
+    ctx = language_context(lang)
+    labels, f = labels_in(results, lang), ctx["f"]
+
+    def column(c: str) -> str:
+        if c in labels:
+            return labels[c]
+        return (
+            f.t(f"af_col_{c}")
+            if lang == "zh" and f"af_col_{c}" in MESSAGES
+            else c.replace("_", " ")
+        )
+
+    return ctx | {
+        "label": labels.__getitem__,
+        "labels_of": lambda columns: ("、" if lang == "zh" else ", ").join(
+            map(labels.get, columns)
+        ),
+        "column": column,
+        "cell_of": partial(_cell_of, f),
+        "n_text": partial(_n_text, t=f.t),
+    }
+
+
+def _cell_of(f: Formatter, column: str, v: Any) -> str:
+    """A cell of the experiments table: the methods and the band of the residuals named in the
+    page's language, other values as `_cell`."""
+    if f.lang == "en" or not isinstance(v, str) or not v:
+        return _cell(v)
+    if column.endswith("_method"):
+        return f.method(v)
+    if column == "residual_band":
+        return f.t("af_band_all") if v == "all" else f.cell(v.lower())
+    return v
 
 
 def _strip_xml_header(svg: str) -> str:

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from functools import cache
+from functools import cache, wraps
+from typing import Any, TypeVar
 
 from blockqc.report.html import FONT_FILE
+
+T = TypeVar("T")
 
 #: the packaged font's family (blockqc/report/fonts/README.md)
 CJK_FAMILY = "Blockqc Sans SC"
@@ -31,3 +34,14 @@ def figure_language(lang: str) -> Iterator[None]:
     _register()
     with matplotlib.rc_context({"font.family": ["DejaVu Sans", CJK_FAMILY]}):
         yield
+
+
+def in_language(plot: Callable[[Any, str], T]) -> Callable[[Any, str], T]:
+    """`plot(data, lang)` made and saved inside `figure_language(lang)`."""
+
+    @wraps(plot)
+    def speaking(data: Any, lang: str = "en") -> T:
+        with figure_language(lang):
+            return plot(data, lang)
+
+    return speaking

@@ -129,6 +129,17 @@ SENTENCES = (
     "ad_crs_utm",
     "ad_cps_none",
     "ad_cps_few",
+    "af_factor",
+    "af_indicator",
+    "af_few_values",
+    "af_constant",
+    "af_nearly_constant",
+    "af_too_few_rows",
+    "af_needs_rows",
+    "af_constant_group",
+    "af_combination",
+    "af_the_others",
+    "af_collinear",
 )
 _FIELD = re.compile(r"\{(\w+)\}")
 _METHOD = r"(?:high_precision|same_accuracy|recalculation)"
@@ -323,6 +334,12 @@ class Formatter:
                 values = {k: self.sentence(v) for k, v in match.groupdict().items()}
                 return self.t(key, **values)
         return s
+
+    def sentences(self, s: str) -> str:
+        """Fixed texts of a run's results joined by "; " (`sentence` each)."""
+        if self.lang == "en" or not isinstance(s, str) or not s:
+            return s
+        return "；".join(self.sentence(part) for part in s.split("; "))
 
     def method(self, m: str) -> str:
         return self._key("method", m, m)

@@ -1033,6 +1033,222 @@ MESSAGES.update(
 )
 
 
+# --- the page of `blockqc factors` (§AF)
+MESSAGES.update(
+    {
+        "af_page_title": (
+            "What drives accuracy: factors and indicators (§AF)",
+            "精度影响因素：平差因素与精度指标（§AF）",
+        ),
+        "af_title": ("What drives a block's accuracy", "区域网精度的影响因素"),
+        "af_intro": (
+            "Adjustment factors and accuracy indicators, DOMAIN.md §5 (§AF). Source: {source}.",
+            "平差因素与精度指标，DOMAIN.md §5（§AF）。数据来源：{source}。",
+        ),
+        "af_rows_one": (
+            "{n} experiment in the table, {used} complete and used.",
+            "表中共 {n} 个试验，其中 {used} 个数据完整并参与分析。",
+        ),
+        "af_rows": (
+            "{n} experiments in the table, {used} complete and used.",
+            "表中共 {n} 个试验，其中 {used} 个数据完整并参与分析。",
+        ),
+        "af_excluded": (
+            "Rows left out of the canonical correlation analysis because a factor or indicator "
+            "is missing (the correlations below use, cell by cell, every row where both values "
+            "are present):",
+            "因缺少某个因素或指标而未参与典型相关分析的行（下面的相关系数逐格使用两个值均存在的"
+            "所有行）：",
+        ),
+        "af_missing": ("no {columns}", "缺少 {columns}"),
+        "af_excluded_why": (
+            "δ_X, δ_Y, δ_H come from checkpoints (checkpoints.csv), which only the sampled "
+            "blocks carry; the terrain factors need a DEM over the block.",
+            "δ_X、δ_Y、δ_H 来自检查点（checkpoints.csv），只有抽样区域网才有；"
+            "地形因素需要覆盖区域网的 DEM。",
+        ),
+        "af_sec_correlation": (
+            "1. Pearson correlation of each factor with each indicator",
+            "1. 各因素与各指标的 Pearson 相关系数",
+        ),
+        "af_correlation_how": (
+            "r over the experiments where both values are present ({n}); p from the two-sided "
+            "t-test with n − 2 degrees of freedom. Bold: p < 0.05.",
+            "r 按两个值均存在的试验计算（{n}）；p 由自由度为 n − 2 的双侧 t 检验得出。"
+            "粗体：p < 0.05。",
+        ),
+        "af_n_cells": ("n = {low}–{high} per cell", "每格 n = {low}–{high}"),
+        "af_factor": ("factor", "因素"),
+        "af_indicator": ("indicator", "指标"),
+        "af_sec_cca": (
+            "2. Canonical correlation analysis: factors (U) against indicators (V)",
+            "2. 典型相关分析：因素（U）与指标（V）",
+        ),
+        "af_cca_pairs": (
+            "{pairs} canonical pairs from n = {n} experiments, p = {p} factors, "
+            "q = {q} indicators.",
+            "由 n = {n} 个试验、p = {p} 个因素和 q = {q} 个指标得到 {pairs} 对典型变量。",
+        ),
+        "af_bartlett": (
+            "Bartlett's test of pairs k … m: {formula}, with (p − k + 1)(q − k + 1) degrees of "
+            "freedom.",
+            "第 k … m 对的 Bartlett 检验：{formula}，自由度为 (p − k + 1)(q − k + 1)。",
+        ),
+        "af_pair": ("pair k", "第 k 对"),
+        "af_canonical_r": ("canonical r", "典型相关系数 r"),
+        "af_wilks": ("Wilks' Λ", "Wilks Λ"),
+        "af_df": ("df", "自由度"),
+        "af_structure": (
+            "Structure coefficients on the first canonical variates",
+            "第一对典型变量上的结构系数",
+        ),
+        "af_structure_how": (
+            "Correlation of each variable with the first canonical variate of its own group "
+            "(U1 for factors, V1 for indicators) and of the other group. |value| ≥ 0.5 is "
+            "usually read as a strong contribution.",
+            "各变量与本组第一典型变量（因素为 U1，指标为 V1）及另一组第一典型变量的相关系数。"
+            "|值| ≥ 0.5 通常视为贡献较大。",
+        ),
+        "af_on": ("on {variate}", "在 {variate} 上"),
+        "af_coefficient": ("standardized coefficient {variate}", "{variate} 的标准化系数"),
+        "af_coefficients_file": (
+            "Coefficients of every canonical pair are in {file}.",
+            "各对典型变量的系数见 {file}。",
+        ),
+        "af_no_cca": ("CCA not computed.", "未进行典型相关分析。"),
+        "af_no_cca_then": (
+            "The correlation matrix above is still shown. Run {command} on a table with enough "
+            "experiments (one row per block or adjustment run) for the full analysis.",
+            "上面仍给出相关矩阵。对试验足够多的表（每个区域网或每次平差一行）运行 {command}"
+            " 可得完整分析。",
+        ),
+        "af_sec_experiments": ("3. The experiments", "3. 试验数据"),
+        "af_summary": ("Summary of the columns analysed", "参与分析各列的统计"),
+        "af_column": ("column", "列"),
+        "af_mean": ("mean", "平均值"),
+        "af_sd": ("sd", "标准差"),
+        "af_rests_on": ("What the figures rest on", "数值的依据"),
+        "af_sec_definitions": ("Definitions", "定义"),
+        "af_def_indicators": (
+            "Indicators: RMSE about the mean (m − 1 denominator) of the tie-point residuals "
+            "{vl}, {vs} (px) and of the checkpoint differences in X, Y, H (m).",
+            "指标：连接点残差 {vl}、{vs}（像素）及检查点 X、Y、H 差值（m）相对于平均值的"
+            "均方根误差（分母为 m − 1）。",
+        ),
+        "af_def_terrain": (
+            "Terrain: mean elevation, mean slope (Horn's 3×3 stencil) and mean roughness "
+            "(max − min in the 3×3 window) over the block's covered area, area-weighted.",
+            "地形：区域网覆盖范围内按面积加权的平均高程、平均坡度（Horn 3×3 算子）和平均粗糙度"
+            "（3×3 窗口内最大值 − 最小值）。",
+        ),
+        "af_def_images": (
+            "Covered area: area of the union of the image footprints on an equal-area "
+            "projection. Overlap degree: area seen by two or more footprint units / covered "
+            "area, a unit being one stereo acquisition (same day, nearly the same footprint) or "
+            "one single image; image pairs: the number of such units. Periods: distinct "
+            "acquisition dates.",
+            "覆盖面积：影像范围在等积投影下的并集面积。重叠度：被两个及以上影像单元覆盖的面积 / "
+            "覆盖面积，一个单元为一次立体获取（同一天、范围几乎相同）或一景单独的影像；像对数："
+            "此类单元的个数。时相：不同的获取日期。",
+        ),
+        "af_def_tie_points": (
+            "Tie points: number of distinct points; density per km² of covered area; "
+            "Clark–Evans R = mean nearest-neighbour distance / (0.5 / √density).",
+            "连接点：不同点的个数；每平方千米覆盖面积的点数（密度）；"
+            "Clark–Evans R = 平均最近邻距离 / (0.5 / √密度)。",
+        ),
+        "af_def_correlations": (
+            "Correlations use, cell by cell, the experiments where both values are present; "
+            "the CCA uses the experiments where all fifteen are.",
+            "相关系数逐格使用两个值均存在的试验；典型相关分析使用十五个值全部存在的试验。",
+        ),
+        # the factors and indicators (results' labels in English) and the other columns
+        "af_label_mean_elevation_m": ("mean elevation (m)", "平均高程（m）"),
+        "af_label_mean_slope_deg": ("mean slope (°)", "平均坡度（°）"),
+        "af_label_mean_roughness_m": ("mean roughness (m)", "平均粗糙度（m）"),
+        "af_label_images_area_km2": ("covered area (km²)", "覆盖面积（km²）"),
+        "af_label_images_number": ("number of images", "影像数"),
+        "af_label_images_periods": ("acquisition periods", "获取时相数"),
+        "af_label_overlap_degree": ("overlap degree", "重叠度"),
+        "af_label_tp_number": ("tie-point number", "连接点数"),
+        "af_label_tp_density_per_km2": ("tie-point density (/km²)", "连接点密度（/km²）"),
+        "af_label_l_rmse_px": ("δ_l (px)", "δ_l（像素）"),
+        "af_label_s_rmse_px": ("δ_s (px)", "δ_s（像素）"),
+        "af_label_x_rmse_m": ("δ_X (m)", "δ_X（m）"),
+        "af_label_y_rmse_m": ("δ_Y (m)", "δ_Y（m）"),
+        "af_label_h_rmse_m": ("δ_H (m)", "δ_H（m）"),
+        "af_col_experiment": ("experiment", "试验"),
+        "af_col_region": ("region", "区域"),
+        "af_col_periods": ("periods", "时相"),
+        "af_col_image_pairs": ("image pairs", "像对数"),
+        "af_col_sensor": ("sensor", "传感器"),
+        "af_col_dem_coverage": ("dem coverage", "DEM 覆盖率"),
+        "af_col_dem_files": ("dem files", "DEM 文件"),
+        "af_col_overlap_union": ("overlap union", "重叠度（并集）"),
+        "af_col_overlap_pairwise_sum": ("overlap pairwise sum", "重叠度（逐对求和）"),
+        "af_col_overlapping_pairs": ("overlapping pairs", "重叠像对数"),
+        "af_col_n_tie_observations": ("n tie observations", "连接点观测数"),
+        "af_col_residual_band": ("residual band", "残差所用波段"),
+        "af_col_n_plane_checkpoints": ("n plane checkpoints", "平面检查点数"),
+        "af_col_n_height_checkpoints": ("n height checkpoints", "高程检查点数"),
+        "af_col_plane_method": ("plane method", "平面检查方法"),
+        "af_col_height_method": ("height method", "高程检查方法"),
+        "af_col_delivery": ("delivery", "成果"),
+        "af_band_all": ("all", "全部波段"),
+        # the figures
+        "af_ax_pearson": ("Pearson r", "Pearson 相关系数 r"),
+        "af_fig_correlation": ("{n}; * p < 0.05", "{n}；* p < 0.05"),
+        "af_fig_factors": (
+            "factors on U1 (bars), on V1 (dots)",
+            "因素：在 U1 上（条形），在 V1 上（圆点）",
+        ),
+        "af_fig_indicators": (
+            "indicators on V1 (bars), on U1 (dots)",
+            "指标：在 V1 上（条形），在 U1 上（圆点）",
+        ),
+        "af_ax_structure": ("structure coefficient", "结构系数"),
+        "af_fig_first_pair": ("First canonical pair, {r}", "第一对典型变量，{r}"),
+        # fixed phrases of factors.json (English there), translated on the page
+        "af_few_values": (
+            "fewer than {n} values, no correlation: {columns}",
+            "少于 {n} 个值，无相关系数：{columns}",
+        ),
+        "af_constant": (
+            "constant over the experiments, no correlation: {columns}",
+            "在各试验中为常数，无相关系数：{columns}",
+        ),
+        "af_nearly_constant": (
+            "varying by less than 0.1 % of their mean, so their correlations rest on very small "
+            "differences: {columns}",
+            "变化小于其平均值的 0.1%，其相关系数仅取决于极小的差异：{columns}",
+        ),
+        "af_too_few_rows": ("the table has {n} complete rows", "表中只有 {n} 个完整的行"),
+        "af_needs_rows": (
+            "the table has n = {n} complete rows but CCA of p = {p} factors and q = {q} "
+            "indicators needs n − 1 > p + q, i.e. at least {rows} rows (with fewer, some "
+            "canonical correlation is 1 by construction and Bartlett's statistic is undefined)",
+            "表中有 n = {n} 个完整的行，但 p = {p} 个因素与 q = {q} 个指标的典型相关分析需要 "
+            "n − 1 > p + q，即至少 {rows} 行（行数更少时，必有典型相关系数为 1，"
+            "Bartlett 统计量无定义）",
+        ),
+        "af_constant_group": (
+            "constant {group} column(s): {columns}",
+            "为常数的{group}列：{columns}",
+        ),
+        "af_combination": (
+            "{group} column {column} is (numerically) a linear combination of {others}",
+            "{group}列 {column}（在数值上）是 {others} 的线性组合",
+        ),
+        "af_the_others": ("the others", "其他列"),
+        "af_collinear": (
+            "the first canonical correlation is 1, so a combination of the factors reproduces a "
+            "combination of the indicators exactly (collinear groups)",
+            "第一典型相关系数为 1，即因素的某一组合与指标的某一组合完全一致（两组共线）",
+        ),
+    }
+)
+
+
 def translator(lang: str) -> Callable[..., str]:
     """`t(key, **values)`: the label in `lang`, formatted; unknown keys are a defect, loudly."""
     if lang not in LANGUAGES:
