@@ -34,9 +34,10 @@ def param_rows(spec: MetricSpec) -> list[tuple[str, str, str, str]]:
             default = f.default_factory()  # type: ignore[call-arg]
         else:
             default = "(required)"
-        rows.append(
-            (name, _type_name(f.annotation), _plain(default), spec.param_units.get(name, ""))
-        )
+        text = _plain(default)
+        if default is None and f.description:  # what leaving the parameter out means
+            text = f"none ({f.description})"
+        rows.append((name, _type_name(f.annotation), text, spec.param_units.get(name, "")))
     return rows
 
 
@@ -47,7 +48,7 @@ def _plain(value: Any) -> str:
         return "{" + ", ".join(f"{k}: {_plain(v)}" for k, v in value.items()) + "}"
     if isinstance(value, (list, tuple)):
         return "[" + ", ".join(_plain(v) for v in value) + "]"
-    return "none (every scene)" if value is None else str(value)
+    return "none" if value is None else str(value)
 
 
 def _scope_md(name: str, scope: Scope) -> list[str]:

@@ -18,11 +18,13 @@ from blockqc.outputs import records
 from blockqc.spatial import clark_evans_grouped
 
 Band = Literal["pan", "ms"]
+#: the scenes a tie-point rule judges when its `bands` are not given (`measured_bands`)
+MEASURED_BANDS = "the bands the tie points are measured on"
 
 
 class ErrorParams(BaseModel):
     model_config = ConfigDict(extra="forbid")
-    bands: list[Band] | None = None  # None: every scene
+    bands: list[Band] | None = Field(default=None, description=MEASURED_BANDS)
     interval_px: tuple[float, float] = (1.0, 1.5)  # share of errors in (lo, hi] (§TP-3)
 
     @model_validator(mode="after")
@@ -34,7 +36,7 @@ class ErrorParams(BaseModel):
 
 class DistributionParams(BaseModel):
     model_config = ConfigDict(extra="forbid")
-    bands: list[Band] | None = None
+    bands: list[Band] | None = Field(default=None, description=MEASURED_BANDS)
     grid: int = Field(default=3, ge=1, le=50)  # k×k cells over each scene (§TP-4 uniformity)
     min_points_per_cell: int = Field(default=1, ge=1)
     exempt_water_fraction: float = Field(default=0.5, ge=0.0, le=1.0)
@@ -91,8 +93,29 @@ def _on(d: Delivery, bands: list[str] | None) -> tuple[pd.DataFrame, np.ndarray 
 
 
 def _scenes(d: Delivery, bands: list[str] | None) -> pd.DataFrame:
-    """The delivery's scenes of the bands given (None: all)."""
-    return d.scenes if bands is None else d.scenes[d.scenes["band"].isin(bands)]
+    """The delivery's scenes of the bands given (None: of the bands its tie points are measured
+    on, `measured_bands`)."""
+    if bands is None:
+        bands = measured_bands(d)
+        if set(d.scenes["band"]) <= set(bands):
+            return d.scenes
+    return d.scenes[d.scenes["band"].isin(bands)]
+
+
+def measured_bands(d: Delivery) -> tuple[str, ...]:
+    """The bands of the scenes that hold tie points (every band when none does): a band whose
+    scenes hold none, such as the MS band of a block adjusted on its PAN scenes (the MS scenes
+    are registered to them, §RO-1), takes no part in the tie-point network, and its scenes are
+    not judged by a rule whose `bands` is not given. One count over the rows' scene codes."""
+
+    def bands() -> tuple[str, ...]:
+        codes, lookup = scene_lookup(d.tie_points["scene_id"], d.scenes["scene_id"])
+        held = np.bincount(codes[codes >= 0], minlength=len(lookup) - 1) > 0
+        at = lookup[:-1][held]
+        names = d.scenes["band"].to_numpy()[at[at >= 0]]
+        return tuple(sorted(set(names))) or tuple(sorted(set(d.scenes["band"])))
+
+    return _cached(d, "measured_bands", bands)
 
 
 def _bands(bands: list[str] | None) -> tuple[str, ...] | None:
@@ -453,6 +476,7 @@ def tie_point_errors(d: Delivery, p: ErrorParams, measure: Measure) -> Measureme
         detail={
             "histogram": {"edges_px": hist_edges.round(4).tolist(), "counts": counts.tolist()},
             "interval_px": [lo, hi],
+            "bands": list(p.bands or measured_bands(d)),
             "residual_cells": _residual_cells(d, p.bands, scenes),
         },
     )
@@ -522,7 +546,11 @@ def tie_point_distribution(d: Delivery, p: DistributionParams, measure: Measure)
 
     return Measurement(
         tables={"scene": Table(out, keys=["scene_id"], sort="n_points")},
-        detail={"grid": p.grid, "exempt_water_fraction": p.exempt_water_fraction},
+        detail={
+            "grid": p.grid,
+            "exempt_water_fraction": p.exempt_water_fraction,
+            "bands": list(p.bands or measured_bands(d)),
+        },
         unit_points=scene_points,
     )
 
