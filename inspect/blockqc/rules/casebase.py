@@ -16,11 +16,14 @@ A case changes it with explicit edits (no expression is evaluated):
   files:  {relative/path: "text" | null}  written or deleted inside the delivery
 A row is selected when every `where` condition holds and, if `any` is given, one of its
 mappings does; a condition is a value (equality) or {eq|ne|lt|le|gt|ge: value, in: [values]}.
+An edit that would change nothing (a selection of no row, a drop keeping every row selected, a
+column the table does not have) is refused (EditError).
 """
 
 from __future__ import annotations
 
 import copy
+import difflib
 from pathlib import Path
 from typing import Any
 
@@ -28,6 +31,7 @@ import numpy as np
 import pandas as pd
 import yaml
 
+from blockqc.schema import TABLES
 from blockqc.simulate import DOCUMENTS, minimal_pdf
 
 LON0, LAT0, SIZE = 116.30, 39.90, 0.02  # Beijing area: UTM zone 50N (EPSG:32650)
@@ -191,16 +195,32 @@ def _table(tables: dict[str, pd.DataFrame], name: str) -> pd.DataFrame:
     return tables[name]
 
 
+def _selected(df: pd.DataFrame, op: dict[str, Any], edit: str, table: str) -> np.ndarray:
+    """The rows an edit selects; EditError when its where/any selects none, since the edit
+    would then change nothing and its case judge the delivery unedited."""
+    m = select(df, op, table)
+    if (op.get("where") or op.get("any")) and not m.any():
+        raise EditError(f"{edit} {table}: where/any matches no row")
+    return m
+
+
+def _writable(df: pd.DataFrame, col: str, edit: str, table: str) -> None:
+    """A column an edit writes: one of the table's (or one the contract gives the table): a
+    misspelt name would add a column the delivery's reader ignores."""
+    known = [*df.columns, *(c.name for c in TABLES[table].columns if c.name not in df.columns)]
+    if col not in known:
+        hint = difflib.get_close_matches(col, known, n=1)
+        mean = f" (did you mean {hint[0]}?)" if hint else ""
+        raise EditError(f"{table} has no column '{col}'{mean} (columns: {', '.join(known)})")
+
+
 def _edit_rows(tables: dict[str, pd.DataFrame], case: dict[str, Any]) -> None:
     for name, ops in (case.get("set") or {}).items():
         df = _table(tables, name)
         for op in ops:
-            m = select(df, op, name)
-            if op.get("where") or op.get("any"):
-                if not m.any():
-                    raise EditError(f"set {name}: where/any matches no row")
+            m = _selected(df, op, "set", name)
             for col, val in op["values"].items():
-                _column(df, col, name)
+                _writable(df, col, "set", name)
                 try:
                     df.loc[m, col] = val
                 except (TypeError, ValueError) as exc:
@@ -208,18 +228,34 @@ def _edit_rows(tables: dict[str, pd.DataFrame], case: dict[str, Any]) -> None:
     for name, ops in (case.get("derive") or {}).items():
         df = _table(tables, name)
         for op in ops:
-            m = select(df, op, name)
+            m = _selected(df, op, "derive", name)
+            _writable(df, op["column"], "derive", name)
             src = _column(df, op["from"], name).to_numpy(dtype=float)
             value = src * float(op.get("times", 1.0)) + float(op.get("add", 0.0))
             df.loc[m, op["column"]] = value[m]
     for name, ops in (case.get("drop") or {}).items():
         df = _table(tables, name)
         for op in ops:
-            m = select(df, op, name)
-            if op.get("keep_first") is not None:
-                m[np.flatnonzero(m)[: op["keep_first"]]] = False
+            m = _selected(df, op, "drop", name)
+            keep = op.get("keep_first")
+            if keep is not None and keep >= np.count_nonzero(m):
+                raise EditError(
+                    f"drop {name}: keep_first {keep} keeps every one of the "
+                    f"{np.count_nonzero(m)} rows selected: nothing is removed"
+                )
+            if keep is not None:
+                m[np.flatnonzero(m)[:keep]] = False
             df = df[~m]
         tables[name] = df.reset_index(drop=True)
+
+
+def _appended(tables: dict[str, pd.DataFrame], name: str, rows: list[dict]) -> pd.DataFrame:
+    """The table with the rows added, each naming columns of the table."""
+    df = _table(tables, name)
+    for row in rows:
+        for col in row:
+            _writable(df, col, "append", name)
+    return pd.concat([df, pd.DataFrame(rows)], ignore_index=True)
 
 
 def edited_tables(case: dict[str, Any]) -> dict[str, pd.DataFrame]:
@@ -227,7 +263,7 @@ def edited_tables(case: dict[str, Any]) -> dict[str, pd.DataFrame]:
     tables = base_tables()
     _edit_rows(tables, case)
     for name, rows in (case.get("append") or {}).items():
-        tables[name] = pd.concat([_table(tables, name), pd.DataFrame(rows)], ignore_index=True)
+        tables[name] = _appended(tables, name, rows)
     for name in case.get("remove_tables") or []:
         _table(tables, name)
         tables.pop(name)
