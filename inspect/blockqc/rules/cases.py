@@ -186,6 +186,7 @@ def case_problems(path: Path, doc: CaseFile, pack: Pack, pack_file: Path) -> lis
             out.extend(_verdict_problems(path, doc, i, case_pack))
             _check_value(case.value, rule, bad)
             _check_group(case.group, rule, bad)
+            _check_evidence(case.evidence, rule, bad)
     return out
 
 
@@ -302,6 +303,34 @@ def _check_group(group: dict[str, Any], rule: Rule, bad: Callable[..., None]) ->
                 "group",
                 col,
             )
+
+
+def _check_evidence(
+    evidence: list[dict[str, Any]] | None, rule: Rule, bad: Callable[..., None]
+) -> None:
+    """A case's `evidence` rows name columns the rule's evidence has: the units of its scope
+    (scenes, pairs, points), else the rows of its `evidence_from` scope (a misspelt `scene`
+    for `scene_id` matches no row, and the case would fail whatever the rule gives)."""
+    if not evidence:
+        return
+    scopes = {} if rule.manual else REGISTRY[rule.metric or ""].scopes
+    name = rule.scope if scopes and scopes[rule.scope].keys else rule.evidence_from
+    if name is None:
+        why = "the inspector's verdict" if rule.manual else f"judged at scope {rule.scope}"
+        bad(f"rule {rule.id} lists no evidence ({why}, no evidence_from)", "evidence")
+        return
+    columns = scopes[name].all_columns()
+    for j, row in enumerate(evidence):
+        for key in row:
+            if key not in columns:
+                hint = did_you_mean(str(key), columns)
+                bad(
+                    f"rule {rule.id}'s evidence ({rule.metric} at scope {name}) has no column "
+                    f"'{key}'{hint} (columns: {', '.join(columns)})",
+                    "evidence",
+                    j,
+                    key,
+                )
 
 
 def aggregate_status(results: list[dict[str, Any]]) -> str:
