@@ -75,6 +75,12 @@ class Scope:
     columns: tuple[str, ...] = ()  # further columns of the table (some only when input has them)
     # the delivery table whose rows hold the keys (the units a waiver names are checked in it)
     table: str = ""
+    # further columns whose values are fixed (a scene's band): `where` is checked against them
+    values: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
+
+    def values_of(self, column: str) -> tuple[str, ...]:
+        """The values a column takes, when they are fixed (a group's, a band's); else ()."""
+        return tuple(self.groups.get(column) or self.values.get(column) or ())
 
     def all_columns(self) -> tuple[str, ...]:
         """Every column the scope's table may carry."""

@@ -176,6 +176,7 @@ _GROUPS = {"component": ("plane", "height"), "method": METHODS}
             },
             groups=_GROUPS,
             columns=("statistic", "used_mean", "norm_m", "bound_m"),
+            values={"statistic": ("M1", "M2", "M", "mean")},
         ),
         "point": Scope(
             {"abs_error_m": "m", "error_m": "m"},

@@ -60,8 +60,13 @@ def _scope_md(name: str, scope: Scope) -> list[str]:
     if scope.keys:
         out.append(f"  - units identified by: {', '.join(f'`{k}`' for k in scope.keys)}")
     if scope.columns:
-        out.append(f"  - other columns: {', '.join(f'`{c}`' for c in scope.columns)}")
+        other = [f"`{c}`" + _values(scope.values.get(c)) for c in scope.columns]
+        out.append(f"  - other columns: {', '.join(other)}")
     return out
+
+
+def _values(values: tuple[str, ...] | None) -> str:
+    return f" ({' / '.join(values)})" if values else ""
 
 
 def tie_point_reads(spec: MetricSpec) -> str:

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import replace
 from functools import partial
-from typing import Any, Literal
+from typing import Any, Literal, get_args
 
 import numpy as np
 import pandas as pd
@@ -500,6 +500,7 @@ NO_R = {"clark_evans": False}
             },
             keys=("scene_id",),
             columns=("band", "water_fraction", "cells_expected", "exempt", "exempt_reason"),
+            values={"band": get_args(Band)},
         )
     },
     param_units={

@@ -473,8 +473,7 @@ def _check_where(
                 key,
                 col,
             )
-        elif col in scope.groups and str(val) not in scope.groups[col]:
-            values = scope.groups[col]
+        elif (values := scope.values_of(col)) and str(val) not in values:
             hint = did_you_mean(str(val), values)
             bad(f"{key}.{col}: no {col} '{val}'{hint} (values: {', '.join(values)})", key, col)
 
