@@ -100,14 +100,19 @@ def passes(values: pd.Series, th: Threshold, lo: float | None, hi: float | None)
 
 def worst(values: pd.Series, ok: np.ndarray, th: Threshold, lo: Any, hi: Any) -> Any:
     """The worst case of the values: the one farthest beyond its bounds (nearest to them when
-    all pass): the largest against an upper bound, the smallest against a lower one."""
+    all pass): the largest against an upper bound, the smallest against a lower one. Units
+    without a value (a scene holding no tie point has no median) are left to the evidence:
+    the worst of the others is the value, None when none has one."""
     if values.empty:
         return None
     if th.equals is not None or th.in_ is not None:
         return values[~ok].iloc[0] if (~ok).any() else values.iloc[0]
     v = values.to_numpy() if _floats(values) else pd.to_numeric(values, errors="coerce")
-    if pd.isna(v).any():  # a float column: not copied
+    missing = pd.isna(v)
+    if missing.all():
         return None
+    if missing.any():  # (a float column without missing values is not copied)
+        v = np.asarray(v)[~missing]
     if hi is not None and lo is not None:
         at = int(np.argmax(_beyond(np.asarray(v, dtype=float), lo, hi)))
         return np.asarray(v)[at]
