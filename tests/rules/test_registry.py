@@ -110,4 +110,4 @@ def test_metrics_reference_is_generated_from_the_registry(blockqc) -> None:
                 assert f"`{stat}`" + (f" ({unit})" if unit else "") in text
         for param in spec.params.model_fields:
             assert f"| `{param}` |" in text
-    assert "| `plane_norm_m` | float | 10 | m |" in text
+    assert "| `plane_norm_m` | float | the pack's `norm.plane_m`, else 10 | m |" in text

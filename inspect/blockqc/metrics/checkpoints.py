@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from typing import Literal
+from typing import ClassVar, Literal
 
 import numpy as np
 import pandas as pd
@@ -19,6 +19,13 @@ Method = Literal["high_precision", "same_accuracy", "recalculation"]
 
 class AccuracyParams(BaseModel):
     model_config = ConfigDict(extra="forbid")
+    # a parameter a rule leaves out takes the pack's constant standing for it, when the pack
+    # sets one (the norms of §CP-N, the count of §CP-1/§CP-7), else the default below
+    CONSTANTS: ClassVar[dict[str, str]] = {
+        "plane_norm_m": "norm.plane_m",
+        "height_norm_m": "norm.height_m",
+        "min_points_for_medium_error": "cp.min_points",
+    }
     plane_norm_m: float = Field(default=10.0, gt=0)  # §CP-N
     height_norm_m: float = Field(default=6.0, gt=0)
     # gross-error bound = factor·norm, inclusive (§CP-4)

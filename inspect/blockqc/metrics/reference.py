@@ -37,6 +37,9 @@ def param_rows(spec: MetricSpec) -> list[tuple[str, str, str, str]]:
         text = _plain(default)
         if default is None and f.description:  # what leaving the parameter out means
             text = f"none ({f.description})"
+        standing = getattr(spec.params, "CONSTANTS", {}).get(name)
+        if standing:  # left out, the pack's constant when the pack sets it
+            text = f"the pack's `{standing}`, else {text}"
         rows.append((name, _type_name(f.annotation), text, spec.param_units.get(name, "")))
     return rows
 

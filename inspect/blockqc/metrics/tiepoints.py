@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import replace
 from functools import partial
-from typing import Any, Literal, get_args
+from typing import Any, ClassVar, Literal, get_args
 
 import numpy as np
 import pandas as pd
@@ -24,6 +24,8 @@ MEASURED_BANDS = "the bands the tie points are measured on"
 
 class ErrorParams(BaseModel):
     model_config = ConfigDict(extra="forbid")
+    # left out, the interval is the pack's tp.share_interval_px when it sets one (§TP-3)
+    CONSTANTS: ClassVar[dict[str, str]] = {"interval_px": "tp.share_interval_px"}
     bands: list[Band] | None = Field(default=None, description=MEASURED_BANDS)
     interval_px: tuple[float, float] = (1.0, 1.5)  # share of errors in (lo, hi] (§TP-3)
 

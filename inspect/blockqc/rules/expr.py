@@ -250,8 +250,27 @@ def _numbers(value: Any, constants: Mapping[str, Any]) -> Any:
     return value
 
 
+def constant_defaults(
+    model: Any, raw: Mapping[str, Any], constants: Mapping[str, Any]
+) -> dict[str, str]:
+    """The parameters a rule leaves out that take a constant of the pack (the model's
+    `CONSTANTS`, e.g. plane_norm_m: norm.plane_m), by name, for those the pack sets in the
+    parameter's shape (a list for a list; a number else)."""
+    import typing
+
+    known = flatten(constants)
+    out = {}
+    for key, name in getattr(model, "CONSTANTS", {}).items():
+        listed = typing.get_origin(model.model_fields[key].annotation) in (list, tuple)
+        if key not in raw and name in known and isinstance(known[name], list) == listed:
+            out[key] = name
+    return out
+
+
 def resolve_params(model: Any, raw: Mapping[str, Any], constants: Mapping[str, Any]) -> Any:
-    """Validate a metric's parameters, evaluating expressions in the fields that take numbers."""
+    """Validate a metric's parameters, evaluating expressions in the fields that take numbers;
+    a parameter left out that stands for a constant the pack sets takes it (`CONSTANTS`)."""
+    raw = {**constant_defaults(model, raw, constants), **raw}
     data = {}
     for key, value in raw.items():
         field = model.model_fields.get(key)

@@ -223,6 +223,16 @@ def _text_names(raw: Mapping[str, Any]) -> set[str]:
     return referenced_names(exprs)
 
 
+def _taken_by_default(raw: Mapping[str, Any]) -> set[str]:
+    """The constants a rule's metric takes for the parameters the rule leaves out (e.g.
+    checkpoint_accuracy's plane_norm_m: norm.plane_m)."""
+    spec = REGISTRY.get(raw.get("metric") or "") if isinstance(raw.get("metric"), str) else None
+    params = raw.get("params")
+    given = params if isinstance(params, Mapping) else {}
+    standing = getattr(spec.params, "CONSTANTS", {}) if spec is not None else {}
+    return {name for key, name in standing.items() if key not in given}
+
+
 def unused_constants(
     sites: list[ConstantSite], rules: Iterable[Mapping[str, Any]]
 ) -> list[Problem]:
@@ -232,7 +242,7 @@ def unused_constants(
     for raw in rules:
         for key in ("threshold", "thresholds", "params", "score"):  # score: its norm
             used |= referenced_names(raw.get(key))
-        used |= _text_names(raw)
+        used |= _text_names(raw) | _taken_by_default(raw)
     out = []
     for s in sites:
         if s.name in used:
