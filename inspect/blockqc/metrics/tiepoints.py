@@ -9,7 +9,7 @@ from typing import Any, ClassVar, Literal, get_args
 
 import numpy as np
 import pandas as pd
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from blockqc import grouped, pieces
 from blockqc.delivery import Delivery, distinct_count, scene_lookup, scene_positions
@@ -29,11 +29,13 @@ class ErrorParams(BaseModel):
     bands: list[Band] | None = Field(default=None, description=MEASURED_BANDS)
     interval_px: tuple[float, float] = (1.0, 1.5)  # share of errors in (lo, hi] (§TP-3)
 
-    @model_validator(mode="after")
-    def _order(self) -> ErrorParams:
-        if not self.interval_px[0] < self.interval_px[1]:
-            raise ValueError("interval_px must be (lower, upper) with lower < upper")
-        return self
+    @field_validator("interval_px")
+    @classmethod
+    def _order(cls, value: tuple[float, float]) -> tuple[float, float]:
+        if not value[0] < value[1]:
+            lo, hi = value
+            raise ValueError(f"expected [lower, upper] with lower < upper, got [{lo:g}, {hi:g}]")
+        return value
 
 
 class DistributionParams(BaseModel):

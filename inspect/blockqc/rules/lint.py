@@ -620,8 +620,8 @@ def _resolve(
                 hint = did_you_mean(str(err["loc"][-1]), spec.params.model_fields)
                 msg = f"unknown parameter{hint} (known: {', '.join(spec.params.model_fields)})"
             else:
-                msg = err["msg"]
-            bad(f"{label}.{loc}: {msg}", *at, *err["loc"])
+                msg = err["msg"].removeprefix("Value error, ")
+            bad(f"{'.'.join(filter(None, (label, loc)))}: {msg}", *at, *err["loc"])
     return None
 
 
