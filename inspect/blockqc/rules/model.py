@@ -257,6 +257,18 @@ class PackFile(BaseModel):
     # pack's rules read; the others, and the checks over them, are named as not made)
     columns: Literal["all", "used"] | None = None
 
+    @field_validator("version", mode="before")
+    @classmethod
+    def _version_text(cls, v: Any) -> Any:
+        """A version is a text: YAML reads `1.10` as the number 1.1, so a number is refused
+        with the quoted form to write."""
+        if isinstance(v, (int, float)) and not isinstance(v, bool):
+            raise ValueError(
+                f'a version is a text: write it in quotes (version: "{v}"), since YAML reads '
+                "an unquoted version as a number (1.10 as 1.1)"
+            )
+        return v
+
 
 @dataclass
 class Pack:
