@@ -905,3 +905,30 @@ def test_a_spreadsheets_separator_line_above_the_header_is_named_as_one(
     p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
     _refused(p, f"checkpoints.csv, line 1: a spreadsheet's separator line ('sep={sep}')")
     assert "separated by" not in p.stderr and "fields where" not in p.stderr
+
+
+def test_a_row_below_a_footprint_written_over_two_lines_is_named_by_its_own_line(
+    blockqc, block, tmp_path
+):
+    """A quoted footprint broken over two lines (as a GIS export wraps it) is legal CSV; the
+    row after it was said to be on the line above its own: row 3 (line 4) for the row on line
+    5. Lines are now counted as the file has them."""
+    lines = (block / "scenes.csv").read_text("utf-8").splitlines()
+    lines[1] = lines[1].replace('"POLYGON((', '"POLYGON((\n', 1)  # row 1: lines 2 and 3
+    lines[3] = lines[3].replace(",4282,4282,", ",4282,x4282,", 1)  # row 3: line 5
+    (block / "scenes.csv").write_text("\n".join(lines) + "\n", "utf-8")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    _refused(p, "scenes.csv, row 3 (line 5), column 'samples': expected a whole number")
+
+
+def test_a_row_below_empty_lines_is_named_by_its_own_line(blockqc, block, tmp_path):
+    """Empty lines in a table are skipped; the rows after them were said to be on the line
+    as many lines above their own: row 17 (line 18) for the row on line 20."""
+    lines = (block / "tie_points.csv").read_text("utf-8").splitlines()
+    fields = lines[17].split(",")
+    fields[4] = "abc"  # v_line of row 17
+    lines[17] = ",".join(fields)
+    lines[3:3] = ["", ""]  # after row 2 (line 3): row 17 moves to line 20
+    (block / "tie_points.csv").write_text("\n".join(lines) + "\n", "utf-8")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    _refused(p, "tie_points.csv, row 17 (line 20), column 'v_line': expected a number, got 'abc'")

@@ -24,6 +24,7 @@ from blockqc.delivery import (
 )
 from blockqc.errors import InputError, Problem
 from blockqc.schema import CHECKPOINTS, Column, TableSchema, near_column
+from blockqc.textio import located
 
 BLOCK = "block_id"
 
@@ -103,7 +104,7 @@ def load_checkpoint_files(paths: list[Path]) -> InspectorCheckpoints:
             problems.extend(_blank_blocks(path, df[BLOCK]))
         parts.append(df.assign(_file=str(path), _row=range(1, len(df) + 1)))
     if problems:
-        raise InputError(problems)
+        raise InputError(located(problems))
     if len(set(with_block)) > 1:
         raise InputError(
             Problem(str(paths[0]), f"give a '{BLOCK}' column in every checkpoint file or in none")
@@ -111,7 +112,7 @@ def load_checkpoint_files(paths: list[Path]) -> InspectorCheckpoints:
     rows = pd.concat(parts, ignore_index=True)
     problems.extend(_duplicates(rows, [BLOCK] if with_block[0] else []))
     if problems:
-        raise InputError(problems)
+        raise InputError(located(problems))
     return InspectorCheckpoints(rows, with_block[0], [str(p) for p in paths])
 
 

@@ -47,7 +47,7 @@ from blockqc.schema import (
     report_rows,
     validate_table,
 )
-from blockqc.textio import BOM, check_no_nul, check_utf8, header_problem, read_bytes
+from blockqc.textio import BOM, check_no_nul, check_utf8, header_problem, located, read_bytes
 from blockqc.yamlio import line_of, load_yaml, pydantic_problems
 
 MANIFEST = "block.yaml"
@@ -946,7 +946,7 @@ def load_delivery(
     if problems and manifest is not None:  # reported now too, not only once the tables are fixed
         problems.extend(_missing_documents(path, manifest))
     if problems:
-        raise InputError(problems)
+        raise InputError(located(problems))
     assert manifest is not None
     not_read = {
         name: [c for c in dict.fromkeys(headers[name]) if c and c not in tables[name].columns]

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import csv
+import io
 import re
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -157,3 +160,71 @@ def separator_problem(path: Path, header: list[str]) -> Problem | None:
         "comma-separated (RFC 4180); export the table with ',' as the separator",
         line=1,
     )
+
+
+def located(problems: list[Problem]) -> list[Problem]:
+    """The problems of CSV rows, each with the line its row starts on: a row's line is row + 1
+    only while no quoted field runs over several lines and no empty line (skipped by the
+    readers) lies above it. The file is read again only when one of them is in it."""
+    wanted: dict[str, int] = {}
+    for p in problems:
+        if _by_row(p):
+            wanted[p.file] = max(wanted.get(p.file, 0), p.row)
+    lines = {f: row_lines(Path(f), last) for f, last in wanted.items()}
+    return [
+        replace(p, line=lines[p.file].get(p.row, p.line)) if _by_row(p) else p for p in problems
+    ]
+
+
+def _by_row(p: Problem) -> bool:
+    """A problem located by a CSV row whose line was counted as row + 1."""
+    return p.row is not None and p.line == p.row + 1 and p.file.lower().endswith(".csv")
+
+
+#: bytes searched for quotes and line ends at once (no mask of the whole file)
+PIECE_BYTES = 1 << 26
+
+
+def _line_end_quoted(data: bytes) -> bool:
+    """Whether a line end lies after an odd number of quotes, within a quoted field: then a
+    row may span lines (quotes counted in pieces, without parsing the file)."""
+    view = np.frombuffer(data, dtype=np.uint8)
+    quotes = 0  # quotes before the piece
+    for at in range(0, view.size, PIECE_BYTES):
+        piece = view[at : at + PIECE_BYTES]
+        q = np.flatnonzero(piece == 34)
+        if q.size or quotes % 2:
+            ends = np.flatnonzero((piece == 10) | (piece == 13))
+            if ((np.searchsorted(q, ends) + quotes) % 2).any():
+                return True
+        quotes += q.size
+    return False
+
+
+def row_lines(path: Path, last: int) -> dict[int, int]:
+    """The line each data row (1-based, up to `last`) of a CSV starts on, for the rows not on
+    line row + 1; empty when every row is (or the file cannot be read again)."""
+    try:
+        data = path.read_bytes().removeprefix(BOM)
+    except OSError:
+        return {}
+    empty = (b"\n\n", b"\r\r", b"\r\n\r\n")
+    if not any(e in data for e in empty) and data[:1] not in (b"\n", b"\r"):
+        if not _line_end_quoted(data):
+            return {}
+    reader = csv.reader(io.StringIO(data.decode("utf-8", errors="replace"), newline=""))
+    out: dict[int, int] = {}
+    row, end = -1, 0  # row 0: the header; end: the last line read
+    try:
+        for record in reader:
+            start, end = end + 1, reader.line_num
+            if not record:  # an empty line, skipped by the readers
+                continue
+            row += 1
+            if row > last:
+                break
+            if row and start != row + 1:
+                out[row] = start
+    except csv.Error:  # a field beyond the csv module's limit: the lines found so far
+        pass
+    return out

@@ -19,6 +19,7 @@ from blockqc.errors import InputError, Problem
 from blockqc.geometry_inputs import AFFINE_KEYS, RPC_DIR, BlockGeometry
 from blockqc.rfm.model import RPCModel, wrap_lon
 from blockqc.schema import MAX_ROWS_LISTED as MAX_LISTED
+from blockqc.textio import located
 
 
 @dataclass
@@ -106,7 +107,7 @@ def _check_ground(file: Path, tie_points: pd.DataFrame) -> None:
                 )
             )
     if problems:
-        raise InputError(problems)
+        raise InputError(located(problems))
 
 
 def _producer(geometry: BlockGeometry, models: list[RPCModel], scene_ids: list[str]) -> tuple:
