@@ -932,3 +932,33 @@ def test_a_row_below_empty_lines_is_named_by_its_own_line(blockqc, block, tmp_pa
     (block / "tie_points.csv").write_text("\n".join(lines) + "\n", "utf-8")
     p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
     _refused(p, "tie_points.csv, row 17 (line 20), column 'v_line': expected a number, got 'abc'")
+
+
+@pytest.mark.parametrize(
+    "lat, sr",
+    [(86.0, {"epsg": 32661}), (86.0, {"epsg": 5041}), (86.0, {"epsg": "EPSG:5041", "zone": "N"}),
+     (-86.0, {"epsg": 32761}), (-86.0, {"epsg": 5042})],
+)  # fmt: skip
+def test_ups_is_judged_in_either_of_its_epsg_codes(blockqc, tmp_path, lat, sr):
+    """EPSG:5041 and 5042 are UPS North and South with the axes east, north (as GIS tools
+    give UPS now), the projections of 32661 and 32761: a polar block in 5041 failed MB-3
+    ("expected EPSG:32661 (UPS north)", zone None), and `zone: N` beside 5041 was refused."""
+    from casekit import write_delivery
+
+    sr = {"projection": "UPS", **sr}
+    block = write_delivery(
+        tmp_path / "POLAR",
+        {"manifest": {"spatial_reference": sr}, "remove_tables": ["checkpoints"]},
+    )
+    scenes = pd.read_csv(block / "scenes.csv")
+    south = lat - 0.02 if lat > 0 else lat
+    box = [(10.0, south + 0.02), (10.4, south + 0.02), (10.4, south), (10.0, south)]
+    ring = ", ".join(f"{x} {y}" for x, y in [*box, box[0]])
+    scenes["footprint_wkt"] = f"POLYGON(({ring}))"
+    scenes.to_csv(block / "scenes.csv", index=False)
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    assert p.returncode in (0, 1), p.stderr
+    results = json.loads((tmp_path / "out" / "CASE" / "results.json").read_text("utf-8"))
+    (mb3,) = [r for r in results["results"] if r["rule"] == "MB-3"]
+    assert mb3["status"] == "pass", mb3
+    assert mb3["detail"]["zone"] == ("UPS N" if lat > 0 else "UPS S")

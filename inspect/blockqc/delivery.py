@@ -81,6 +81,16 @@ class GSD(BaseModel):
 UTM_ZONE = re.compile(r"\s*(\d{1,2})\s*([NSns])\s*")
 
 
+#: EPSG codes of one projection under another code: UPS North and South with the axes east,
+#: north (5041, 5042, as GIS tools give UPS now) are the projections of 32661 and 32761
+SAME_PROJECTION = {5041: 32661, 5042: 32761}
+
+
+def canonical_epsg(code: int | None) -> int | None:
+    """The code of `SAME_PROJECTION` an EPSG code is judged as (any other code itself)."""
+    return SAME_PROJECTION.get(code, code) if code is not None else None
+
+
 class SpatialReference(BaseModel):
     model_config = ConfigDict(extra="allow", allow_inf_nan=False)
     geodetic_datum: str | None = None
@@ -123,7 +133,7 @@ class SpatialReference(BaseModel):
         code = self.zone_epsg()
         if utm and zone is not None and code is None:
             raise ValueError(f"zone {zone!r}: expected a UTM zone 1-60 and N or S, e.g. 50N")
-        if code is not None and self.epsg is not None and code != self.epsg:
+        if code is not None and self.epsg is not None and code != canonical_epsg(self.epsg):
             raise ValueError(
                 f"zone {zone} is EPSG:{code} but epsg is {self.epsg}: give one, or make them agree"
             )

@@ -10,7 +10,7 @@ import pandas as pd
 import shapely
 from pydantic import BaseModel, ConfigDict
 
-from blockqc.delivery import Delivery
+from blockqc.delivery import Delivery, canonical_epsg
 from blockqc.metrics import Measure, Measurement, Scope, Table, metric
 
 _WGS84 = {"WGS84", "WGS1984", "EPSG4326", "WORLDGEODETICSYSTEM1984", "G1762", "ITRF-WGS84"}
@@ -125,6 +125,8 @@ def delivered_epsg(sr) -> int | None:
 def describe_epsg(code: int | None) -> str:
     if code is None:
         return "not stated"
+    if canonical_epsg(code) != code:
+        return f"EPSG:{code} ({describe_epsg(canonical_epsg(code)).split(' (', 1)[1]}"
     if 32601 <= code <= 32660 or 32701 <= code <= 32760:
         return f"EPSG:{code} (UTM zone {code % 100}{'N' if code < 32700 else 'S'})"
     if code in (32661, 32761):
@@ -134,6 +136,7 @@ def describe_epsg(code: int | None) -> str:
 
 def zone_name(code: int | None) -> str | None:
     """'38N', '50S', 'UPS N', 'UPS S' for a UTM/UPS code; None for another code or none."""
+    code = canonical_epsg(code)
     if code is None:
         return None
     if 32601 <= code <= 32660 or 32701 <= code <= 32760:
@@ -165,7 +168,7 @@ def _projection_problem(projection: str | None, code: int | None) -> str | None:
     if not projection or code is None or zone_name(code) is None:
         return None
     key = _key(projection)
-    polar = code in (32661, 32761)
+    polar = canonical_epsg(code) in (32661, 32761)
     names = _UPS_NAMES if polar else _UTM_NAMES
     if any(name in key for name in names) and not any(name in key for name in _NOT_UTM):
         return None
@@ -200,7 +203,7 @@ def spatial_reference(d: Delivery, p: SpatialParams, measure: Measure) -> Measur
     allowed = expected_epsg(lon_min, lon_max, lat_min, lat_max, p)
     code = delivered_epsg(sr)
     named = _projection_problem(sr.projection if sr else None, code)
-    ok = code in allowed and named is None
+    ok = canonical_epsg(code) in allowed and named is None
     plain_grid = p.model_copy(update={"grid_exceptions": False})
     plain = expected_epsg(lon_min, lon_max, lat_min, lat_max, plain_grid)
     straddles = len(plain) > 1
@@ -208,7 +211,7 @@ def spatial_reference(d: Delivery, p: SpatialParams, measure: Measure) -> Measur
         note = named
     elif code is None:
         note = "block.yaml states no EPSG code (nor projection UTM with a zone such as 50N)"
-    elif ok and code not in plain:
+    elif ok and canonical_epsg(code) not in plain:
         note = (
             f"{describe_epsg(code)} is the zone the UTM grid's exceptions give here (Norway, "
             "Svalbard)"
