@@ -962,3 +962,25 @@ def test_ups_is_judged_in_either_of_its_epsg_codes(blockqc, tmp_path, lat, sr):
     (mb3,) = [r for r in results["results"] if r["rule"] == "MB-3"]
     assert mb3["status"] == "pass", mb3
     assert mb3["detail"]["zone"] == ("UPS N" if lat > 0 else "UPS S")
+
+
+def test_a_document_that_is_a_broken_link_is_said_to_be_one(blockqc, block, tmp_path):
+    """A document left as a link to a file that is not there was said to be missing while
+    being there: "documents/technical_design.pdf does not exist
+    (documents/technical_design.pdf is there: file names are matched exactly, in their case)"."""
+    doc = block / "documents" / "technical_design.pdf"
+    doc.unlink()
+    doc.symlink_to("design_final.pdf")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    assert p.returncode == 1, p.stderr
+    results = json.loads((tmp_path / "out" / "F1-B01" / "results.json").read_text("utf-8"))
+    (doc1,) = [r for r in results["results"] if r["rule"] == "DOC-1"]
+    (bad,) = [e for e in doc1["evidence"] if e["kind"] == "technical_design"]
+    assert bad["problem"] == (
+        "documents/technical_design.pdf is a symbolic link to a file that does not exist"
+    )
+    # beside another problem, the delivery is refused and its documents are listed too
+    (block / "scenes.csv").write_text("scene_id\n", "utf-8")
+    p = blockqc("inspect", block, "--out", tmp_path / "out2", "--pdf", "none")
+    _refused(p, "documents.technical_design: documents/technical_design.pdf is missing")
+    assert "is there" not in p.stderr

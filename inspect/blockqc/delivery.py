@@ -1211,10 +1211,17 @@ def _missing_documents(path: Path, manifest: Manifest) -> list[Problem]:
 
 def other_case(root: Path, rel: str) -> str:
     """Where the delivery holds a missing document under a name differing only in case
-    (`report.PDF`), said in parentheses; else nothing."""
+    (`report.PDF`), said in parentheses; a link of its own name to nothing, said so; else
+    nothing."""
     path = document_path(root, rel)
+    if path.is_symlink() and not path.exists():
+        return " (a symbolic link to a file that does not exist)"
     try:
-        near = [p for p in path.parent.iterdir() if p.name.casefold() == path.name.casefold()]
+        near = [
+            p
+            for p in path.parent.iterdir()
+            if p.name != path.name and p.name.casefold() == path.name.casefold()
+        ]
     except OSError:  # no such folder either
         return ""
     if not near:
