@@ -4,6 +4,7 @@ and line named (exit 2) or read correctly, never an internal error or a silent o
 from __future__ import annotations
 
 import json
+import os
 import re
 import shutil
 from pathlib import Path
@@ -984,3 +985,30 @@ def test_a_document_that_is_a_broken_link_is_said_to_be_one(blockqc, block, tmp_
     p = blockqc("inspect", block, "--out", tmp_path / "out2", "--pdf", "none")
     _refused(p, "documents.technical_design: documents/technical_design.pdf is missing")
     assert "is there" not in p.stderr
+
+
+@pytest.mark.parametrize("kind", ["folder", "pipe", "broken link"])
+def test_a_block_yaml_that_is_no_file_is_named_as_such(blockqc, block, tmp_path, kind):
+    """block.yaml as a folder, a pipe or a link to nothing was said to be absent: given alone,
+    "neither a delivery (no block.yaml) nor a batch"; in a batch, "block.yaml: missing"."""
+    manifest = block / "block.yaml"
+    manifest.unlink()
+    if kind == "folder":
+        manifest.mkdir()
+        why = "block.yaml: is a folder, not a file: expected the delivery's manifest"
+    elif kind == "pipe":
+        os.mkfifo(manifest)
+        why = "block.yaml: is not a regular file (a pipe, socket or device)"
+    else:
+        manifest.symlink_to("block_v2.yaml")
+        why = "block.yaml: a symbolic link to block_v2.yaml, which does not exist"
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    _refused(p, why)
+    assert "neither a delivery" not in p.stderr
+    batch = tmp_path / "batch"
+    batch.mkdir()
+    block.rename(batch / "F1-B01")
+    shutil.copytree(SAMPLE.parent / "F1-B02", batch / "F1-B02")
+    p = blockqc("inspect", batch, "--out", tmp_path / "out2", "--pdf", "none")
+    _refused(p, why)
+    assert "missing" not in p.stderr

@@ -48,6 +48,7 @@ from blockqc.delivery import (
     is_delivery,
     load_delivery,
     load_manifest,
+    not_a_manifest,
 )
 from blockqc.engine import inspect_delivery, names_for, tie_point_columns
 from blockqc.errors import InputError, OutputError, Problem
@@ -155,7 +156,8 @@ def collect(paths: Iterable[Path]) -> Collected:
         if not is_delivery(path):
             got.refused[path] = Problem(
                 str(path / MANIFEST),
-                "missing: every sub-folder of a batch is a delivery and needs its block.yaml "
+                not_a_manifest(path)
+                or "missing: every sub-folder of a batch is a delivery and needs its block.yaml "
                 f"(folders named '.…' are left out){_nested(path)}",
             )
             continue

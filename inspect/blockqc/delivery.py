@@ -249,6 +249,19 @@ def is_delivery(path: Path) -> bool:
     return (path / MANIFEST).is_file()
 
 
+def not_a_manifest(path: Path) -> str | None:
+    """Why a folder's block.yaml, there but no file, is not read: a folder, a link to nothing,
+    a pipe; None when it is a file or is not there."""
+    f = path / MANIFEST
+    if f.is_symlink() and not f.exists():
+        return f"a symbolic link to {os.readlink(f)}, which does not exist: expected the manifest"
+    if f.is_dir():
+        return "is a folder, not a file: expected the delivery's manifest"
+    if f.exists() and not f.is_file():
+        return "is not a regular file (a pipe, socket or device): expected the delivery's manifest"
+    return None
+
+
 def find_deliveries(path: Path) -> list[Path]:
     """A delivery folder gives itself; a batch folder gives its sub-folders, sorted.
 
@@ -267,6 +280,8 @@ def find_deliveries(path: Path) -> list[Path]:
         )
     if is_delivery(path):
         return refuse_undecodable([path])
+    if why := not_a_manifest(path):
+        raise InputError(Problem(str(path / MANIFEST), why))
     found = [p for p in _members(path) if p.is_dir() or dangling(p)]
     if not any(is_delivery(p) for p in found):
         raise InputError(
