@@ -1012,3 +1012,24 @@ def test_a_block_yaml_that_is_no_file_is_named_as_such(blockqc, block, tmp_path,
     p = blockqc("inspect", batch, "--out", tmp_path / "out2", "--pdf", "none")
     _refused(p, why)
     assert "missing" not in p.stderr
+
+
+@pytest.mark.parametrize(
+    "edit, message",
+    [(lambda row: row + ",9", "line 6: not a readable CSV table: 8 fields where the header has 7"),
+     (lambda row: row.rsplit(",", 1)[0], "line 6: not a readable CSV table: 6 fields where the "
+      "header has 7"),
+     (lambda row: row.replace('))"', "))", 1), "line 6: not a readable CSV table: a quoted "
+      "field opened on this line is never closed")],
+)  # fmt: skip
+def test_a_malformed_row_below_a_field_over_two_lines_is_named_by_its_own_line(
+    blockqc, block, tmp_path, edit, message
+):
+    """The CSV parser counts records, not the lines a quoted field runs over: with row 1's
+    footprint over two lines, a malformed row 4 (line 6) was said to be on line 5."""
+    lines = (block / "scenes.csv").read_text("utf-8").splitlines()
+    lines[1] = lines[1].replace('"POLYGON((', '"POLYGON((\n', 1)  # row 1: lines 2 and 3
+    lines[4] = edit(lines[4])  # row 4: line 6, the last (a quote left open runs to the end)
+    (block / "scenes.csv").write_text("\n".join(lines[:5]) + "\n", "utf-8")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    _refused(p, f"scenes.csv, {message}")

@@ -573,7 +573,7 @@ def _read_csv_slow(path: Path, data: bytes, reason: str) -> pd.DataFrame:
     except pd.errors.EmptyDataError:
         raise InputError(Problem(str(path), "the file is empty: expected a header row")) from None
     except (pd.errors.ParserError, ValueError) as exc:
-        raise InputError(_parser_problem(path, str(exc))) from None
+        raise InputError(_parser_problem(path, str(exc), data)) from None
     except Exception:  # pragma: no cover - report the original reader's reason
         raise InputError(Problem(str(path), f"not a readable CSV table: {reason}")) from None
     short = _short_rows(data)  # checked once the file parses: a quote never closed is said so
@@ -613,15 +613,16 @@ def _short_rows(data: bytes, limit: int = 5) -> list[tuple[int, int, int]]:
     return out
 
 
-def _parser_problem(path: Path, message: str) -> Problem:
-    """A CSV parser's complaint, with its line taken out into the problem's place."""
+def _parser_problem(path: Path, message: str, data: bytes) -> Problem:
+    """A CSV parser's complaint, with its line taken out into the problem's place (the parser
+    counts records: its number is turned into the line the record starts on)."""
     ragged = re.search(r"Expected (\d+) fields in line (\d+), saw (\d+)", message)
     if ragged:
-        want, line, got = map(int, ragged.groups())
+        want, record, got = map(int, ragged.groups())
         return Problem(
             str(path),
             f"not a readable CSV table: {got} fields where the header has {want}",
-            line=line,
+            line=_record_line(data, record),
         )
     unclosed = re.search(r"EOF inside string starting at row (\d+)", message)
     if unclosed:  # the parser counts its rows from 0, the header being row 0
@@ -629,7 +630,7 @@ def _parser_problem(path: Path, message: str) -> Problem:
             str(path),
             "not a readable CSV table: a quoted field opened on this line is never closed "
             '(expected a closing ", and "" for a quote inside a field)',
-            line=int(unclosed.group(1)) + 1,
+            line=_record_line(data, int(unclosed.group(1)) + 1),
         )
     line = re.search(r"(?:line|row) (\d+)", message)
     return Problem(
@@ -637,6 +638,24 @@ def _parser_problem(path: Path, message: str) -> Problem:
         f"not a readable CSV table: {message.strip()}",
         line=int(line.group(1)) if line else None,
     )
+
+
+def _record_line(data: bytes, record: int) -> int:
+    """The line on which a CSV's `record`-th record (1-based, the header first, an empty line
+    one record) starts: later than `record` by the line ends inside the quoted fields above."""
+    import csv
+
+    if b'"' not in data:
+        return record
+    reader = csv.reader(io.StringIO(data.decode("utf-8", errors="replace"), newline=""))
+    end = 0  # the last line read
+    try:
+        for _ in range(record - 1):
+            next(reader)
+            end = reader.line_num
+    except (StopIteration, csv.Error):
+        return record
+    return end + 1
 
 
 def _read_parquet(
