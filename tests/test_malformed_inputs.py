@@ -987,6 +987,21 @@ def test_a_document_that_is_a_broken_link_is_said_to_be_one(blockqc, block, tmp_
     assert "is there" not in p.stderr
 
 
+def test_a_document_that_is_a_pipe_is_not_said_to_be_missing(blockqc, block, tmp_path):
+    """A named pipe where a document is expected was reported as "does not exist"."""
+    doc = block / "documents" / "technical_design.pdf"
+    doc.unlink()
+    os.mkfifo(doc)
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    assert p.returncode == 1, p.stderr
+    results = json.loads((tmp_path / "out" / "F1-B01" / "results.json").read_text("utf-8"))
+    (doc1,) = [r for r in results["results"] if r["rule"] == "DOC-1"]
+    (bad,) = [e for e in doc1["evidence"] if e["kind"] == "technical_design"]
+    assert bad["problem"] == (
+        "documents/technical_design.pdf is not a regular file (a pipe, socket or device)"
+    )
+
+
 @pytest.mark.parametrize("kind", ["folder", "pipe", "broken link"])
 def test_a_block_yaml_that_is_no_file_is_named_as_such(blockqc, block, tmp_path, kind):
     """block.yaml as a folder, a pipe or a link to nothing was said to be absent: given alone,

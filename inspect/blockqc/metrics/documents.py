@@ -49,6 +49,8 @@ def check_document(root: Path, rel: str | None) -> tuple[bool, bool, int, str]:
         return False, False, 0, f"{rel} is a folder, not a document file"
     if document_path(root, rel).is_symlink() and not path.exists():
         return False, False, 0, f"{rel} is a symbolic link to a file that does not exist"
+    if path.exists() and not path.is_file():
+        return False, False, 0, f"{rel} is not a regular file (a pipe, socket or device)"
     if not path.is_file():
         return False, False, 0, f"{rel} does not exist{other_case(root, rel)}"
     size = path.stat().st_size
