@@ -8,6 +8,7 @@ are. A (point_id, method) given twice, in two files or in a file and the deliver
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -181,14 +182,11 @@ def merge_checkpoints(d: Delivery, extra: pd.DataFrame) -> Delivery:
         if not both.empty:
             where = d.files.get("checkpoints", d.path / "checkpoints.csv")
             raise InputError(
-                [
-                    Problem(
-                        r["_file"],
-                        f"checkpoint {r['point_id']} ({r['method']}) is also in {where}",
-                        row=int(r["_row"]),
-                    )
-                    for _, r in both.head(10).iterrows()
-                ]
+                _listed(
+                    both,
+                    lambda r: f"checkpoint {r['point_id']} ({r['method']}) is also in {where}",
+                    "a checkpoint the delivery also has",
+                )
             )
     mine = extra[cols].reset_index(drop=True)
     d.checkpoints = mine if d.checkpoints is None else pd.concat([d.checkpoints, mine])
@@ -216,13 +214,36 @@ def check_blocks(cp: InspectorCheckpoints, deliveries: list[Path]) -> None:
     bad = cp.rows[~cp.rows[BLOCK].isin(known)]
     if not bad.empty:
         raise InputError(
-            [
-                Problem(
-                    r["_file"],
-                    f"no block '{r[BLOCK]}' among the deliveries inspected",
-                    row=int(r["_row"]),
-                    column=BLOCK,
-                )
-                for _, r in bad.head(10).iterrows()
-            ]
+            _listed(
+                bad,
+                lambda r: f"no block '{r[BLOCK]}' among the deliveries inspected",
+                "no block among the deliveries inspected",
+                column=BLOCK,
+            )
         )
+
+
+#: the rows of the inspector's files listed in a refusal (the others are counted)
+ROWS_LISTED = 10
+
+
+def _listed(
+    rows: pd.DataFrame, message: Callable[[pd.Series], str], kind: str, column: str | None = None
+) -> list[Problem]:
+    """One problem per refused row (the first ROWS_LISTED), with its line in a CSV file, and
+    the count of the others per file."""
+    problems = [
+        Problem(
+            r["_file"],
+            message(r),
+            row=int(r["_row"]),
+            line=int(r["_row"]) + 1 if str(r["_file"]).lower().endswith(".csv") else None,
+            column=column,
+        )
+        for _, r in rows.head(ROWS_LISTED).iterrows()
+    ]
+    rest = rows.iloc[ROWS_LISTED:].groupby("_file", sort=False).size()
+    problems += [
+        Problem(str(f), f"{kind}: {n} more rows like this", column=column) for f, n in rest.items()
+    ]
+    return located(problems)

@@ -411,3 +411,29 @@ def test_an_affine_of_a_real_correction_is_read(tmp_path, tie_points) -> None:
     lines[at] = "L,12.5,2e-4,-3e-4,-8.0,1e-4,5e-5"  # det = (1 + 3e-4)(1 − 1e-4) − 1e-8
     (folder / "adjustment.csv").write_text("\n".join(lines) + "\n")
     assert load_delivery(folder).geometry.affine is not None
+
+
+def test_checkpoint_rows_refused_beyond_the_tenth_are_counted(tmp_path, blockqc) -> None:
+    """27 rows naming a block not inspected, or points the delivery has: the first 10 were
+    listed, by row only, and the other 17 went unsaid; their count is now given, and the line
+    of each row listed."""
+    batch = tmp_path / "batch"
+    write_delivery(batch / "a")
+    write_delivery(batch / "b", {"manifest": {"block_id": "CASE-B"}})
+    named = tmp_path / "named.csv"
+    base_tables()["checkpoints"].assign(block_id="NOPE").to_csv(named, index=False)
+    proc = blockqc("inspect", batch, "--out", tmp_path / "o1", "--no-pdf", "--checkpoints", named)
+    assert proc.returncode == 2, proc.stderr
+    assert f"{named}, row 10 (line 11), column 'block_id': no block 'NOPE'" in proc.stderr
+    assert "row 11 " not in proc.stderr
+    assert f"{named}, column 'block_id': no block among the deliveries inspected: 17 more" in (
+        proc.stderr
+    )
+    dup = tmp_path / "dup.csv"
+    base_tables()["checkpoints"].to_csv(dup, index=False)
+    proc = blockqc(
+        "inspect", batch / "a", "--out", tmp_path / "o2", "--no-pdf", "--checkpoints", dup
+    )
+    assert proc.returncode == 2, proc.stderr
+    assert f"{dup}, row 10 (line 11): checkpoint C09 (high_precision) is also in" in proc.stderr
+    assert f"{dup}: a checkpoint the delivery also has: 17 more rows like this" in proc.stderr
