@@ -1048,3 +1048,28 @@ def test_a_malformed_row_below_a_field_over_two_lines_is_named_by_its_own_line(
     (block / "scenes.csv").write_text("\n".join(lines[:5]) + "\n", "utf-8")
     p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
     _refused(p, f"scenes.csv, {message}")
+
+
+def test_a_line_of_spaces_in_a_table_is_said_to_be_one(blockqc, block, tmp_path):
+    """A line holding only spaces (left at the end of a table edited by hand) was refused as
+    "line 7: not a readable CSV table: 1 fields where the header has 6"; it is said what it is."""
+    f = block / "overlaps.csv"
+    f.write_text(f.read_text("utf-8") + "   \n", "utf-8")
+    last = len(f.read_text("utf-8").splitlines())
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    _refused(
+        p,
+        f"overlaps.csv, line {last}: not a readable CSV table: a line of spaces only, where a row "
+        "is expected (remove it; an empty line is skipped)",
+    )
+    assert "1 fields" not in p.stderr
+
+
+def test_a_short_row_over_two_lines_is_named_by_the_line_it_starts_on(blockqc, block, tmp_path):
+    """Row 1 with its footprint over lines 2 and 3 and no water_fraction: it was said to be on
+    line 3, where it ends."""
+    lines = (block / "scenes.csv").read_text("utf-8").splitlines()
+    lines[1] = lines[1].replace('"POLYGON((', '"POLYGON((\n', 1).rsplit(",", 1)[0]
+    (block / "scenes.csv").write_text("\n".join(lines) + "\n", "utf-8")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    _refused(p, "scenes.csv, line 2: not a readable CSV table: 6 fields where the header has 7")

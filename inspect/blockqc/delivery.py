@@ -580,32 +580,37 @@ def _read_csv_slow(path: Path, data: bytes, reason: str) -> pd.DataFrame:
     if short:
         raise InputError(
             [
-                Problem(
-                    str(path),
-                    f"not a readable CSV table: {got} fields where the header has {want}",
-                    line=line,
-                )
-                for line, got, want in short
+                Problem(str(path), f"not a readable CSV table: {why}", line=line)
+                for line, why in short
             ]
         )
     return raw.iloc[1:].set_axis(list(raw.iloc[0]), axis=1).reset_index(drop=True)
 
 
-def _short_rows(data: bytes, limit: int = 5) -> list[tuple[int, int, int]]:
-    """Rows with fewer fields than the header, as (line, fields, header's fields): pandas pads
-    them with empty cells, which would pass for cells left empty on purpose."""
+def _short_rows(data: bytes, limit: int = 5) -> list[tuple[int, str]]:
+    """Rows with fewer fields than the header, as (the line they start on, what is wrong):
+    pandas pads them with empty cells, which would pass for cells left empty on purpose."""
     import csv
 
     text = data.decode("utf-8", errors="replace").replace("\r\n", "\n")
     reader = csv.reader(io.StringIO(text, newline=""), skipinitialspace=True)
     header = next(reader, None)
-    out: list[tuple[int, int, int]] = []
+    out: list[tuple[int, str]] = []
     if not header:
         return out
+    end = reader.line_num  # the last line read
     try:
         for row in reader:
+            start, end = end + 1, reader.line_num
             if row and len(row) < len(header):
-                out.append((reader.line_num, len(row), len(header)))
+                spaces = len(row) == 1 and not row[0].strip()
+                why = (
+                    "a line of spaces only, where a row is expected (remove it; an empty line "
+                    "is skipped)"
+                    if spaces
+                    else f"{len(row)} fields where the header has {len(header)}"
+                )
+                out.append((start, why))
                 if len(out) >= limit:
                     break
     except csv.Error:  # e.g. a field beyond the csv module's limit: pandas reports it
