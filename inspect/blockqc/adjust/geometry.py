@@ -297,7 +297,7 @@ def inv3(u: FloatArray) -> tuple[FloatArray, NDArray[np.bool_]]:
 
 
 def accumulate_points(
-    point_index: IntArray, n_points: int, jx: FloatArray, f: FloatArray, w: FloatArray
+    point_index: IntArray, n_points: int, jx: FloatArray, f: FloatArray, w: FloatArray | float
 ) -> tuple[FloatArray, FloatArray]:
     """Per point U = Σ w·Jxᵀ·Jx (n_points, 3, 3) and g = Σ w·Jxᵀ·f (n_points, 3)."""
     u = np.empty((n_points, 3, 3))
@@ -325,21 +325,22 @@ def intersect_at_height(
 
     Newton on (lon, lat) per observation with the analytic partials; returns lon, lat and a
     convergence flag (NaN position where it did not converge). The observations are taken in
-    scene order, BATCH at a time: the memory of the iterations stays bounded, and each batch's
-    observations are projected without sorting them again at every iteration.
+    scene order, BATCH at a time (moved to RFM space a batch at a time too): the memory of the
+    iterations stays bounded, and each batch's observations are projected without sorting them
+    again at every iteration.
     """
     a = check_affine(affine, stack.n_scenes)
     idx = np.asarray(scene_index, np.int64).ravel()
     h = np.broadcast_to(np.asarray(h, np.float64).ravel(), idx.shape)
-    tl, ts = to_rfm_space(
-        a, idx, np.asarray(line, np.float64).ravel(), np.asarray(sample, np.float64).ravel()
-    )
+    line = np.asarray(line, np.float64).ravel()
+    sample = np.asarray(sample, np.float64).ravel()
     order = np.argsort(idx, kind="stable")
     lon, lat, ok = np.empty(idx.size), np.empty(idx.size), np.empty(idx.size, bool)
     for start in range(0, idx.size, BATCH):
         rows = order[start : start + BATCH]
+        tl, ts = to_rfm_space(a, idx[rows], line[rows], sample[rows])
         lon[rows], lat[rows], ok[rows] = _on_ground(
-            stack, idx[rows], tl[rows], ts[rows], h[rows], max_iter, tol_px
+            stack, idx[rows], tl, ts, h[rows], max_iter, tol_px
         )
     return lon, lat, ok
 
@@ -387,8 +388,6 @@ class Intersection:
     v_sample: FloatArray
     converged: NDArray[np.bool_]
     iterations: int
-    u: FloatArray
-    """Per point normal matrix in (east m, north m, h m), with the height prior (n, 3, 3)."""
 
 
 def _start(
@@ -442,8 +441,7 @@ def intersect(
     line = np.asarray(line, np.float64).ravel()
     samp = np.asarray(sample, np.float64).ravel()
     n_points = int(pidx.max()) + 1 if pidx.size else 0
-    w = np.ones(idx.size) if weights is None else np.asarray(weights, np.float64).ravel()
-    tl, ts = to_rfm_space(a, idx, line, samp)
+    w = None if weights is None else np.asarray(weights, np.float64).ravel()
     if height_prior is None:
         h_p = np.bincount(pidx, stack.offsets[idx, 4], n_points) / np.bincount(pidx, None, n_points)
         w_h = np.zeros(n_points)
@@ -451,81 +449,109 @@ def intersect(
         h_p = np.broadcast_to(np.asarray(height_prior[0], np.float64), (n_points,)).copy()
         w_h = 1.0 / np.broadcast_to(np.asarray(height_prior[1], np.float64), (n_points,)) ** 2
     lon, lat = _start(stack, a, idx, pidx, n_points, line, samp, h_p)
-    rays = _Rays(stack, a, idx, pidx, np.argsort(pidx, kind="stable"), tl, ts, w)
-    h = h_p.copy()
-    conv = np.zeros(n_points, bool)
-    todo = np.ones(n_points, bool)  # the points still moving: neither converged nor singular
+    pts = _Points(lon, lat, h_p.copy(), h_p, w_h, np.zeros(n_points, bool), np.ones(n_points, bool))
+    pts.unobserved(np.bincount(pidx, minlength=n_points) == 0)
+    rays = _Rays(stack, a, idx, pidx, np.argsort(pidx, kind="stable"), line, samp, w)
     iterations = 0
     for _ in range(max_iter):
         iterations += 1
-        t = np.flatnonzero(todo)
-        u, g, _ = rays.normal_equations(n_points, lon, lat, h, todo)
-        u, g = u[t], g[t]
-        u[:, 2, 2] += w_h[t]
-        g[:, 2] += w_h[t] * (h[t] - h_p[t])
+        rays.step(pts, tol_m)
+        if not pts.todo.any():
+            break
+    v_line, v_sample = rays.residuals(pts)
+    return Intersection(wrap_lon(pts.lon), pts.lat, pts.h, v_line, v_sample, pts.conv, iterations)
+
+
+@dataclass(frozen=True)
+class _Points:
+    """The points of an intersection: position, height prior (value, weight), which have
+    converged and which still move (neither converged nor singular); changed in place."""
+
+    lon: FloatArray
+    lat: FloatArray
+    h: FloatArray
+    h_p: FloatArray
+    w_h: FloatArray
+    conv: NDArray[np.bool_]
+    todo: NDArray[np.bool_]
+
+    def unobserved(self, none: NDArray[np.bool_]) -> None:
+        """Points without an observation: no position (their normal matrix is singular)."""
+        self.lon[none] = self.lat[none] = self.h[none] = np.nan
+        self.todo[none] = False
+
+    def step(self, t: IntArray, u: FloatArray, g: FloatArray, tol_m: float) -> None:
+        """One Gauss–Newton step of the points t from the normal equations (u, g) of their
+        observations, the height prior added here; a singular u leaves the point NaN."""
+        u[:, 2, 2] += self.w_h[t]
+        g[:, 2] += self.w_h[t] * (self.h[t] - self.h_p[t])
         u_inv, ok = inv3(u)
         step = -np.einsum("nij,nj->ni", u_inv, g)
-        deg_e, deg_n = metres_to_degrees(lat[t])
-        lon[t] += step[:, 0] * deg_e
-        lat[t] += step[:, 1] * deg_n
-        h[t] += step[:, 2]
-        conv[t] = ok & np.all(np.abs(step) < tol_m, axis=1)
-        todo[t] = ok & ~conv[t]
-        if not todo.any():
-            break
-    u, _, v = rays.normal_equations(n_points, lon, lat, h, residuals=True)
-    u[:, 2, 2] += w_h
-    return Intersection(wrap_lon(lon), lat, h, v[:, 0], v[:, 1], conv, iterations, u)
+        deg_e, deg_n = metres_to_degrees(self.lat[t])
+        self.lon[t] += step[:, 0] * deg_e
+        self.lat[t] += step[:, 1] * deg_n
+        self.h[t] += step[:, 2]
+        self.conv[t] = ok & np.all(np.abs(step) < tol_m, axis=1)
+        self.todo[t] = ok & ~self.conv[t]
 
 
 @dataclass(frozen=True)
 class _Rays:
-    """The observations of an intersection: scene, point, RFM-space target and weight each;
-    `by_point` the observations ordered by point (stable: each point's in the caller's order)."""
+    """The observations of an intersection: scene, point, measured (line, sample) and weight
+    (None: 1) each; `by_point` the observations ordered by point (stable: each point's in the
+    caller's order)."""
 
     stack: RPCStack
     affine: FloatArray
     idx: IntArray
     pidx: IntArray
     by_point: IntArray
-    tl: FloatArray
-    ts: FloatArray
-    w: FloatArray
+    line: FloatArray
+    samp: FloatArray
+    w: FloatArray | None
 
-    def normal_equations(
-        self,
-        n_points: int,
-        lon: FloatArray,
-        lat: FloatArray,
-        h: FloatArray,
-        points: NDArray[np.bool_] | None = None,
-        residuals: bool = False,
-    ) -> tuple[FloatArray, FloatArray, FloatArray | None]:
-        """`accumulate_points` of the image residuals v = M⁻¹·f and their partials M⁻¹·J at the
-        points' (lon, lat, h), over the observations of `points` (all by default), and v (n, 2)
-        if asked, BATCH observations at a time in point order: the memory stays bounded, and
-        each point's sums take its observations in the same order as one pass over all would."""
-        u, g = np.zeros((n_points, 3, 3)), np.zeros((n_points, 3))
-        v = np.empty((self.idx.size, 2)) if residuals else None
+    def batches(self, points: NDArray[np.bool_] | None = None) -> list[IntArray]:
+        """The observations of `points` (all by default) in point order, in batches of about
+        BATCH that each hold every observation of their points (cut where a point begins): the
+        memory stays bounded, and each point's sums take its observations in the same order as
+        one pass over all would."""
         order = self.by_point
         if points is not None and not points.all():
             order = order[points[self.pidx[order]]]
-        for start in range(0, order.size, BATCH):
-            rows = order[start : start + BATCH]
-            p = self.pidx[rows]
-            f, jx = _misclosure(
-                self.stack, self.idx[rows], lon[p], lat[p], h[p], self.tl[rows], self.ts[rows]
-            )
-            m_inv = m_inverse(self.affine, self.idx[rows])
-            v_b = np.stack(apply_2x2(m_inv, f[:, 0], f[:, 1]), axis=1)
-            jx[:, 0, :], jx[:, 1, :] = apply_2x2(m_inv, jx[:, 0, :], jx[:, 1, :])
+        p = self.pidx[order]
+        cuts = np.unique(np.r_[0, np.searchsorted(p, p[BATCH::BATCH]), order.size])
+        return [order[a:b] for a, b in zip(cuts[:-1], cuts[1:], strict=True)]
+
+    def misclosure(self, rows: IntArray, pts: _Points) -> tuple[IntArray, FloatArray, FloatArray]:
+        """The points of observations `rows`, their image residuals v = M⁻¹·f (n, 2) and the
+        partials M⁻¹·J in metres (n, 2, 3) at the points' (lon, lat, h)."""
+        p, idx = self.pidx[rows], self.idx[rows]
+        tl, ts = to_rfm_space(self.affine, idx, self.line[rows], self.samp[rows])
+        f, jx = _misclosure(self.stack, idx, pts.lon[p], pts.lat[p], pts.h[p], tl, ts)
+        m_inv = m_inverse(self.affine, idx)
+        v = np.stack(apply_2x2(m_inv, f[:, 0], f[:, 1]), axis=1)
+        jx[:, 0, :], jx[:, 1, :] = apply_2x2(m_inv, jx[:, 0, :], jx[:, 1, :])
+        return p, v, jx
+
+    def step(self, pts: _Points, tol_m: float) -> None:
+        """One Gauss–Newton step of the points still moving, a batch at a time: each batch's
+        points from `accumulate_points` of its observations."""
+        for rows in self.batches(pts.todo):
+            p, v, jx = self.misclosure(rows, pts)
             lo, hi = p[0], p[-1] + 1
-            du, dg = accumulate_points(p - lo, hi - lo, jx, v_b, self.w[rows])
-            u[lo:hi] += du
-            g[lo:hi] += dg
-            if v is not None:
-                v[rows] = v_b
-        return u, g, v
+            u, g = accumulate_points(
+                p - lo, hi - lo, jx, v, 1.0 if self.w is None else self.w[rows]
+            )
+            t = np.flatnonzero(pts.todo[lo:hi])
+            pts.step(lo + t, u[t], g[t], tol_m)
+
+    def residuals(self, pts: _Points) -> tuple[FloatArray, FloatArray]:
+        """The image residuals (line, sample) of every observation at the points' positions."""
+        v_line, v_sample = np.empty(self.idx.size), np.empty(self.idx.size)
+        for rows in self.batches():
+            _, v, _ = self.misclosure(rows, pts)
+            v_line[rows], v_sample[rows] = v[:, 0], v[:, 1]
+        return v_line, v_sample
 
 
 def _misclosure(
