@@ -169,20 +169,29 @@ def _texts(column: pd.Series, rows: np.ndarray) -> np.ndarray:
 
 def _pairs(point: np.ndarray, scene: np.ndarray, kept: np.ndarray) -> tuple[np.ndarray, ...]:
     """Rows (a, b) of every two kept observations of one point with scene[a] < scene[b],
-    ordered by a then b: each kept row is paired with every row of its point, and the pairs
-    not in scene order dropped."""
+    ordered by a then b: each two rows of a point taken once (the points of s kept rows, s·(s −
+    1)/2 pairs each, at once), put in scene order, and those of one scene dropped."""
     rows = np.flatnonzero(kept)
     rows = rows[np.argsort(point[rows], kind="stable")]  # by point, each point's rows in order
     first = np.flatnonzero(np.r_[True, np.diff(point[rows]) != 0])
     size = np.diff(np.r_[first, rows.size])
-    of = np.repeat(np.arange(first.size), size)  # each sorted row's point (group)
-    a = np.repeat(np.arange(rows.size), size[of])
-    b = first[of][a] + np.arange(a.size) - np.repeat(np.cumsum(size[of]) - size[of], size[of])
-    a, b = rows[a], rows[b]
-    keep = scene[a] < scene[b]
+    parts = [_two_of(rows, first[size == s], s) for s in np.unique(size[size > 1])]
+    a = np.concatenate([np.empty(0, np.int64), *(p[0] for p in parts)])
+    b = np.concatenate([np.empty(0, np.int64), *(p[1] for p in parts)])
+    del parts
+    swap = scene[a] > scene[b]  # a before b in row order: put them in scene order
+    a[swap], b[swap] = b[swap], a[swap]
+    keep = scene[a] != scene[b]
     a, b = a[keep], b[keep]
-    order = np.argsort(a, kind="stable")
+    order = np.argsort(a * scene.size + b)  # by a then b (each pair is once)
     return a[order], b[order]
+
+
+def _two_of(rows: np.ndarray, first: np.ndarray, s: int) -> tuple[np.ndarray, np.ndarray]:
+    """Every two of the s rows from each of `first` (positions in rows), earlier one first."""
+    group = rows[first[:, None] + np.arange(s)]
+    i, j = np.triu_indices(s, 1)
+    return group[:, i].ravel(), group[:, j].ravel()
 
 
 def radii(lat_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -20,6 +20,8 @@ from geokit import (
     reference_residuals,
     write_v11,
 )
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from pyproj import Geod
 
 from blockqc import verification
@@ -421,6 +423,24 @@ def test_the_overlap_map_without_a_mean_vector_says_zero(tmp_path, observations)
         row.update(dx_m=0.0, dy_m=0.0)
     page = maps.overlap_map(BlockResults.model_validate(doc), Formatter("en"))
     assert set(re.findall(r"mean vector \(longest ([0-9.]+) m\)", page)) == {"0"}
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 6), st.integers(0, 4), st.booleans()), max_size=60))
+def test_pairs_are_every_two_kept_rows_of_a_point_in_scene_order(rows):
+    """Points of any number of rows (one of them on a scene twice, or left out), against every
+    two rows tried: (a, b) with scene[a] < scene[b], in the order of a then b."""
+    point, scene, kept = (np.array([r[k] for r in rows], dtype=int) for k in range(3))
+    kept = kept.astype(bool)
+    a, b = verification._pairs(point, scene, kept)
+    n = len(rows)
+    want = [
+        (i, j)
+        for i in range(n)
+        for j in range(n)
+        if kept[i] and kept[j] and point[i] == point[j] and scene[i] < scene[j]
+    ]
+    assert list(zip(a.tolist(), b.tolist(), strict=True)) == want
 
 
 @pytest.mark.parametrize("dtype", [object, "category"])
