@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+import pyarrow as pa
 
 from blockqc.adjust.geometry import (
     Intersection,
@@ -64,11 +65,13 @@ def compute(d: Delivery) -> ProcessData:
     x, weak = _intersected(stack, geo.affine, scene, point, line, sample, n_rays)
     ok = x.converged & (n_rays >= 2)
     h = np.where(ok, x.h, np.nan)
-    obs = tp[["point_id", "scene_id", "line", "sample"]].copy()
+    obs = tp[["point_id", "scene_id", "line", "sample"]]  # the delivery's columns, not copied
     # a point seen once reproduces its observation exactly: residual 0 (nothing to intersect)
     single = n_rays[point] < 2
-    obs["v_line_computed"] = np.where(single, 0.0, np.where(ok[point], x.v_line, np.nan))
-    obs["v_sample_computed"] = np.where(single, 0.0, np.where(ok[point], x.v_sample, np.nan))
+    for v in (x.v_line, x.v_sample):  # the intersection's own arrays, set in place
+        v[~ok[point]] = np.nan
+        v[single] = 0.0
+    obs["v_line_computed"], obs["v_sample_computed"] = x.v_line, x.v_sample
     obs["n_rays"] = n_rays[point]
     points = pd.DataFrame(
         {
@@ -89,8 +92,9 @@ def compute(d: Delivery) -> ProcessData:
     }
     overlaps = None
     if d.overlaps is None:
-        lon_a, lat_a, _ = intersect_at_height(stack, geo.affine, scene, line, sample, h[point])
-        overlaps = derive_overlaps(obs, scene, lon_a, lat_a, h[point])
+        h_obs = h[point]
+        lon_a, lat_a, _ = intersect_at_height(stack, geo.affine, scene, line, sample, h_obs)
+        overlaps = derive_overlaps(obs, scene, lon_a, lat_a, h_obs)
     return ProcessData(obs, points, overlaps, notes)
 
 
@@ -144,27 +148,43 @@ def derive_overlaps(
     order of the first's row, then the second's.
     """
     a, b = _pairs(pd.factorize(obs["point_id"])[0], scene, np.isfinite(h))
-    e_m, n_m = radii(lat)
-    e_mid = 0.5 * (e_m[a] + e_m[b])
-    n_mid = 0.5 * (n_m[a] + n_m[b])
+    dx_m, dy_m = _differences(lon, lat, a, b)
     return pd.DataFrame(
         {
             "scene_a": _texts(obs["scene_id"], a),
             "scene_b": _texts(obs["scene_id"], b),
             "point_id": _texts(obs["point_id"], a),
-            "dx_m": np.radians(wrap_lon(lon[b] - lon[a])) * e_mid,
-            "dy_m": np.radians(lat[b] - lat[a]) * n_mid,
-        }
+            "dx_m": dx_m,
+            "dy_m": dy_m,
+        },
+        copy=False,  # the columns as made: neither copied nor gathered into blocks
     )
 
 
-def _texts(column: pd.Series, rows: np.ndarray) -> np.ndarray:
-    """A key column's values at rows, as an array of str: a categorical's from its categories
-    (each converted once, not once per row)."""
-    if isinstance(column.dtype, pd.CategoricalDtype):
-        words = column.cat.categories.to_numpy(dtype=object)
-        return words[column.cat.codes.to_numpy()[rows]]
-    return column.to_numpy()[rows]
+def _differences(
+    lon: np.ndarray, lat: np.ndarray, a: np.ndarray, b: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """East and north differences b − a (m) of the pairs of rows (a, b), at their mean radii."""
+    e_m, n_m = radii(lat)
+    dx_m = np.radians(wrap_lon(lon[b] - lon[a])) * (0.5 * (e_m[a] + e_m[b]))
+    del e_m
+    return dx_m, np.radians(lat[b] - lat[a]) * (0.5 * (n_m[a] + n_m[b]))
+
+
+#: the dtype pandas gives text (pandas 3: strings in Arrow; earlier: object)
+TEXT = pd.Series(["text"]).dtype
+
+
+def _texts(column: pd.Series, rows: np.ndarray) -> Any:
+    """A key column's values at rows, as pandas holds text: a categorical's taken from its
+    categories, in Arrow when pandas holds text in Arrow (no Python string per row or per
+    category), else each converted once, not once per row."""
+    if not isinstance(column.dtype, pd.CategoricalDtype):
+        return column.to_numpy()[rows]
+    codes = column.cat.codes.to_numpy()[rows]
+    if not isinstance(TEXT, pd.StringDtype):
+        return column.cat.categories.to_numpy(dtype=object)[codes]
+    return pd.array(pa.array(column.cat.categories.array).take(codes), dtype=TEXT)
 
 
 def _pairs(point: np.ndarray, scene: np.ndarray, kept: np.ndarray) -> tuple[np.ndarray, ...]:

@@ -466,6 +466,8 @@ def test_derived_overlaps_pair_every_two_scenes_of_a_point_in_row_order(dtype):
         if point[i] == point[j] and scene[i] < scene[j] and np.isfinite(h[i] + h[j])
     ]
     assert list(zip(got.scene_a, got.scene_b, got.point_id, strict=True)) == [w[:3] for w in want]
+    text = pd.Series(["S0"]).dtype  # as pandas holds text, whatever the key columns' dtype
+    assert all(got[c].dtype == text for c in ("scene_a", "scene_b", "point_id"))
     i, j = np.array([w[3] for w in want]), np.array([w[4] for w in want])
     geod = Geod(ellps="WGS84")
     _, _, east = geod.inv(lon[i], lat[i], lon[j], lat[i])
