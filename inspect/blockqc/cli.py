@@ -149,6 +149,22 @@ def cli() -> None:
     """Inspect satellite image blocks adjusted without ground control points."""
 
 
+#: the languages of every page (blockqc.report.messages.LANGUAGES, named here without importing
+#: the report's templates before a command runs)
+LANGUAGES = ("en", "zh")
+
+
+def lang_option(what: str):
+    """--lang en|zh: the language `what` is written in (the results files are the same)."""
+    return click.option(
+        "--lang",
+        type=click.Choice(LANGUAGES),
+        default="en",
+        show_default=True,
+        help=f"Language of {what}.",
+    )
+
+
 def pdf_engine_option(command):
     """--pdf-engine, shared by inspect and report."""
     return click.option(
@@ -204,13 +220,7 @@ def check_pdf_engine(engine: str, pdf: bool) -> None:
     type=TemplatesPath(),
     help="Folder of templates that take precedence over the stock ones.",
 )
-@click.option(
-    "--lang",
-    type=click.Choice(["en", "zh"]),
-    default="en",
-    show_default=True,
-    help="Language of the reports.",
-)
+@lang_option("the reports")
 @click.option(
     "--pdf",
     type=click.Choice(["all", "failing", "sampled", "none"]),

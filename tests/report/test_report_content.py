@@ -16,7 +16,7 @@ from blockqc.report import write_block_report, write_summary_report
 from blockqc.report.build import Formatter, block_context
 from blockqc.report.contents import content_rows
 from blockqc.report.html import FONT_FILE, render_block
-from blockqc.report.messages import MESSAGES, catalogue_characters
+from blockqc.report.messages import LANGUAGES, MESSAGES, catalogue_characters
 from blockqc.results import BlockResults, RuleResult
 from blockqc.rules import load_pack
 
@@ -55,6 +55,12 @@ TERMS_ZH = {
     "n_gross": "粗差个数",
     "gross_rate": "粗差率",
 }
+
+
+def test_every_command_offers_the_catalogues_languages():
+    from blockqc import cli
+
+    assert cli.LANGUAGES == LANGUAGES  # --lang of inspect, report, rfm-accuracy, adjust, factors
 
 
 def test_catalogue_has_both_languages_with_the_same_placeholders():

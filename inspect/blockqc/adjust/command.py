@@ -10,10 +10,9 @@ from click.core import ParameterSource
 
 from blockqc.adjust.run import DEFAULT_DEM_SIGMA_M, AdjustConfig, run_adjust
 from blockqc.adjust.solver import Settings
-from blockqc.cli import GivenPath
+from blockqc.cli import GivenPath, lang_option
 from blockqc.errors import UsageError
 from blockqc.outputs import empty_removed, refuse_inside
-from blockqc.report.messages import LANGUAGES
 
 #: the smallest σ or factor an option takes: below a millionth (of a pixel, of a metre) the
 #: weights overflow the normal equations (1e-300 made them singular)
@@ -120,13 +119,7 @@ def check_dem_options(dem: Path | None, geoid: Path | None) -> None:
     type=click.IntRange(1, 1000),
     help="Points compared with the producer's (§CP-1).",
 )
-@click.option(
-    "--lang",
-    type=click.Choice(LANGUAGES),
-    default="en",
-    show_default=True,
-    help="Language of adjust.html and its figures (adjust.json is the same in either).",
-)
+@lang_option("adjust.html and its figures (adjust.json is the same in either)")
 def command(
     delivery: Path,
     out: Path,

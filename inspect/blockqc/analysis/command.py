@@ -15,7 +15,7 @@ from blockqc.analysis.factors import FactorOptions, experiments_table
 from blockqc.analysis.render import correlation_heatmap, render_html, structure_plot
 from blockqc.analysis.table import FACTOR_COLUMNS, INDICATOR_COLUMNS, read_table, write_table_csv
 from blockqc.analysis.terrain import DemSet
-from blockqc.cli import GivenPath, TemplatesPath
+from blockqc.cli import GivenPath, TemplatesPath, lang_option
 from blockqc.delivery import find_deliveries, load_delivery
 from blockqc.errors import UsageError
 from blockqc.outputs import (
@@ -28,7 +28,6 @@ from blockqc.outputs import (
     write_json_atomic,
     write_text_atomic,
 )
-from blockqc.report.messages import LANGUAGES
 from blockqc.verification import prepare
 
 
@@ -274,13 +273,7 @@ _BATCH_ONLY = ("dems", "images_band", "period_gap_days", "overlap", "stereo_iou"
     type=TemplatesPath("factors"),
     help="A folder whose factors.html.j2 overrides the stock page.",
 )
-@click.option(
-    "--lang",
-    type=click.Choice(LANGUAGES),
-    default="en",
-    show_default=True,
-    help="Language of factors.html and its figures (factors.json is the same in either).",
-)
+@lang_option("factors.html and its figures (factors.json is the same in either)")
 def command(
     batch: Path | None,
     dems: tuple[Path, ...],

@@ -6,11 +6,10 @@ from pathlib import Path
 
 import click
 
-from blockqc.cli import GivenPath, TemplatesPath, check_pdf_engine, pdf_engine_option
+from blockqc.cli import GivenPath, TemplatesPath, check_pdf_engine, lang_option, pdf_engine_option
 from blockqc.errors import UsageError
 from blockqc.outputs import refuse_block_folders, refuse_delivery
 from blockqc.report.documents import gather
-from blockqc.report.messages import LANGUAGES
 from blockqc.results import (
     BlockResults,
     Summary,
@@ -49,13 +48,7 @@ def _check_out(out: Path, named: tuple[Path, ...], docs: list, summary: tuple | 
     "<out>/summary.html for a batch. Never inside an input, unless it is the folder the "
     "results are in (<out>/<block_id>/results.json): the reports are then re-rendered in place.",
 )
-@click.option(
-    "--lang",
-    type=click.Choice(LANGUAGES),
-    default="en",
-    show_default=True,
-    help="Language of the report.",
-)
+@lang_option("the report")
 @click.option(
     "--templates",
     type=TemplatesPath(),

@@ -11,11 +11,10 @@ import click
 from pyproj import CRS
 from pyproj.exceptions import CRSError
 
-from blockqc.cli import GivenPath
+from blockqc.cli import GivenPath, lang_option
 from blockqc.errors import UsageError
 from blockqc.matching.settings import MatchSettings
 from blockqc.outputs import check_out_dir, empty_removed, refuse_replacing
-from blockqc.report.messages import LANGUAGES
 from blockqc.rfm.pipeline import (
     METHODS,
     OUTPUT_NAMES,
@@ -289,13 +288,7 @@ def _finite(ctx: click.Context, param: click.Parameter, value: float | None) -> 
     is_flag=True,
     help="Also orthorectify IMAGE with the RFM refined from every CP (ortho_refined.tif).",
 )
-@click.option(
-    "--lang",
-    type=click.Choice(LANGUAGES),
-    default="en",
-    show_default=True,
-    help="Language of report.html and its figures (results.json is the same in either).",
-)
+@lang_option("report.html and its figures (results.json is the same in either)")
 def command(
     image: Path,
     rpc: Path | None,
