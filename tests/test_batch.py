@@ -992,6 +992,8 @@ def test_incremental_key_holds_the_chromium_writing_the_pdfs(monkeypatch, tmp_pa
     one, other = tmp_path / "chrome-a", tmp_path / "chrome-b"
     one.write_text("a", encoding="utf-8")
     other.write_text("bb", encoding="utf-8")
+    for program in (one, other):
+        program.chmod(0o755)  # a program BLOCKQC_CHROMIUM may name
 
     def digest(program: Path, pdf: str) -> str:
         monkeypatch.setenv("BLOCKQC_CHROMIUM", str(program))

@@ -11,7 +11,7 @@ size of each output, so that a re-run reads nothing else of an unchanged block, 
 cut output is written again; a digest of it all seals the file, so that one edited by hand is not
 trusted (the block is inspected again, and the run says so: `Untrusted`). The versions of the
 libraries that make the numbers and the pages count too (`DEPENDENCIES`), and so does the Chromium
-named by BLOCKQC_CHROMIUM when it writes the PDFs.
+that writes the PDFs (BLOCKQC_CHROMIUM's, or the one on the PATH).
 """
 
 from __future__ import annotations
@@ -162,15 +162,18 @@ def _versions(names: tuple[str, ...]) -> dict[str, str | None]:
 
 
 def _chromium(writer: Any) -> tuple[str, int, int] | None:
-    """The Chromium program BLOCKQC_CHROMIUM names (path, size, time), when it writes PDFs."""
-    given = os.environ.get("BLOCKQC_CHROMIUM")
-    if writer.pdf == "none" or writer.pdf_engine != "chromium" or not given:
+    """The Chromium that writes the PDFs (path, size, time): the program `find_chromium`
+    takes, named by BLOCKQC_CHROMIUM or found on the PATH; None when it writes none."""
+    from blockqc.report.chromium import ChromiumProblem, find_chromium
+
+    if writer.pdf == "none" or writer.pdf_engine != "chromium":
         return None
     try:
-        st = Path(given).stat()
-    except OSError:
-        return (given, -1, -1)
-    return (given, st.st_size, st.st_mtime_ns)
+        program = find_chromium()
+        st = Path(program).stat()
+    except (ChromiumProblem, OSError):
+        return None  # no Chromium: the run stops before any block (check_pdf_engine)
+    return (program, st.st_size, st.st_mtime_ns)
 
 
 def delivery_fingerprint(
