@@ -19,6 +19,7 @@ from blockqc.adjust.geometry import RPCStack, intersect, ray_tilts
 from blockqc.adjust.inputs import AdjustInput, load_adjust_input
 from blockqc.adjust.solver import Observations, Priors, Settings, Solution, adjust
 from blockqc.errors import InputError, Problem
+from blockqc.grouped import Groups
 from blockqc.outputs import check_out_dir
 
 if TYPE_CHECKING:
@@ -401,18 +402,14 @@ def base_to_height(block: Block, sol: Solution) -> np.ndarray:
     """Per point, the base-to-height ratio of its kept rays: the span of their tilts
     (`ray_tilts`; the diagonal of their east and north ranges, exact for two rays and at most
     √2 times the widest pair's for more); NaN for a point not used."""
-    obs, out = block.obs, np.full(block.obs.n_points, np.nan)
+    obs = block.obs
     kept = ~sol.outlier & sol.point_used[obs.point]
-    if not kept.any():
-        return out
     p = obs.point[kept]
     tilt = ray_tilts(block.stack, obs.scene[kept], sol.lon[p], sol.lat[p], sol.h[p])
-    order = np.argsort(p, kind="stable")
-    p, tilt = p[order], tilt[order]
-    starts = np.flatnonzero(np.r_[True, p[1:] != p[:-1]])
-    span = np.maximum.reduceat(tilt, starts) - np.minimum.reduceat(tilt, starts)
-    out[p[starts]] = np.hypot(span[:, 0], span[:, 1])
-    return out
+    per_point = Groups(p, obs.n_points)
+    (east_lo, east_hi), (north_lo, north_hi) = (per_point.extremes(t) for t in tilt.T)
+    seen = per_point.counts() > 0
+    return np.where(seen, np.hypot(east_hi - east_lo, north_hi - north_lo), np.nan)
 
 
 def height_warnings(
