@@ -164,6 +164,34 @@ def test_an_acquired_date_without_its_day_is_refused(blockqc, block, tmp_path, d
         _refused(p, "scenes.csv, row 1 (line 2), column 'acquired': expected an ISO date", date)
 
 
+@pytest.mark.parametrize(
+    ("date", "why"),
+    [
+        ("0000-01-01", "date before 1957-10-04"),
+        ("1900-01-01", "date before 1957-10-04"),
+        ("2999-04-11", "a scene cannot be acquired after the inspection"),
+    ],
+)
+def test_an_acquired_date_no_scene_can_have_is_refused(blockqc, block, tmp_path, date, why):
+    """A year 0000 or 1900 (an export's empty date) or a date centuries ahead was read as the
+    scene's date, and counted among the block's acquisition periods."""
+    scenes = pd.read_csv(block / "scenes.csv", dtype=str)
+    scenes.loc[2, "acquired"] = date
+    scenes.to_csv(block / "scenes.csv", index=False)
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    _refused(p, "scenes.csv, row 3 (line 4), column 'acquired'", why, date)
+
+
+def test_the_first_and_the_latest_possible_acquired_dates_are_read(blockqc, block, tmp_path):
+    today = pd.Timestamp.now(tz="UTC").date()
+    scenes = pd.read_csv(block / "scenes.csv", dtype=str)
+    scenes.loc[0, "acquired"] = "1957-10-04"
+    scenes.loc[1, "acquired"] = str(today + pd.Timedelta(days=1))  # east of UTC, already
+    scenes.to_csv(block / "scenes.csv", index=False)
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    assert p.returncode in (0, 1), p.stderr
+
+
 @pytest.mark.parametrize("text", ["C10\n1-01", "id\x00with nul", "x" * 200_000])
 def test_figure_text_with_control_characters_or_of_great_length(text):
     assert text_width(text, 8.0) > 0

@@ -279,6 +279,8 @@ def _check_column(
     ok = ~blank & (~bad if bad is not None else True)
     if col.kind == "wkt":
         _check_polygons(conv, ok, file, col.name, csv, problems)
+    if col.kind == "date":
+        _check_dates(conv, ok, file, col.name, raw, csv, problems)
     if col.kind not in ("float", "int"):
         return conv
     vals = conv.to_numpy(dtype=float, na_value=np.nan)
@@ -295,6 +297,27 @@ def _check_column(
     for mask, message in checks:
         report_rows(problems, file, col.name, ok & mask, message, raw, csv)
     return conv
+
+
+#: the launch of the first artificial satellite: no scene was acquired before it
+FIRST_LAUNCH = pd.Timestamp("1957-10-04")
+
+
+def _check_dates(
+    d: pd.Series, ok, file: str, name: str, raw: pd.Series, csv: bool, problems: list[Problem]
+) -> None:
+    """Dates no scene can have: before the first satellite's launch (a year 0000 or 1900 left
+    by an export), or after today (UTC, a day allowed for time zones)."""
+    values = pd.to_datetime(d, errors="coerce")
+    if getattr(values.dt, "tz", None) is not None:
+        values = values.dt.tz_convert(None)
+    tomorrow = pd.Timestamp.now(tz="UTC").tz_localize(None).normalize() + pd.Timedelta(days=1)
+    early = ok & (values < FIRST_LAUNCH).to_numpy(dtype=bool)
+    late = ok & (values >= tomorrow + pd.Timedelta(days=1)).to_numpy(dtype=bool)
+    why = f"date before {FIRST_LAUNCH.date()}, the first satellite's launch: not a scene's date"
+    report_rows(problems, file, name, early, why, raw, csv)
+    why = f"date after {tomorrow.date()}: a scene cannot be acquired after the inspection"
+    report_rows(problems, file, name, late, why, raw, csv)
 
 
 #: no value of the contract's units (metres, pixels, degrees, shares) comes near this size: a
