@@ -81,3 +81,26 @@ def test_threads_allocate_from_one_arena():
     glibc shrinks (and the next temporary faults in afresh); after it, one arena serves all."""
     assert _arenas(tuned=False) > 1
     assert _arenas(tuned=True) == 1
+
+
+RELEASE = """
+{tune}
+from blockqc import memory
+def rss():
+    status = dict(line.split(":", 1) for line in open("/proc/self/status"))
+    return int(status["VmRSS"].split()[0]) // 1024
+data = b"x" * (300 << 20)  # a file's bytes, read whole
+del data
+kept = rss()
+memory.release()
+print(kept, rss())
+"""
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/status"), reason="no /proc")
+@pytest.mark.skipif(not hasattr(__import__("ctypes").CDLL(None), "malloc_trim"), reason="not glibc")
+def test_a_large_buffer_freed_is_given_back_to_the_system_on_release():
+    """tune()'s heap keeps 300 MB freed (for the next temporaries); release() gives it back."""
+    tune = "from blockqc import memory; memory.tune()"
+    kept, released = map(int, _run(RELEASE.format(tune=tune), dict(os.environ)).stdout.split())
+    assert kept - released > 250
