@@ -239,3 +239,16 @@ def test_inspect_states_a_plan_drawn_under_another_standard(tmp_path: Path) -> N
     page = (out / "acceptance.html").read_text()
     flat = re.sub(r"\s+", " ", unescape(re.sub(r"<[^>]+>", " ", page.split("</style>")[1])))
     assert f"The plan was drawn under {old}; the batch is judged under GB/T 24356-2023" in flat
+
+
+def test_a_stratum_written_with_a_decimal_point_still_holds_its_blocks(tmp_path: Path) -> None:
+    """A plan drawn when a block.yaml's 1.0 was stratum '1.0' (now read as the number 1, stratum
+    '1') still places its blocks: the plan's value and the block's number are equal."""
+    edits = (
+        ("strata_key: terrain", "strata_key: test_field"),
+        ("value: flat", "value: '1.0'"),
+        ("value: hilly", "value: '2'"),
+    )
+    plan, path = _plan(tmp_path, *edits)
+    blocks = {f"B{i:02d}": {"test_field": 1.0 if i % 2 == 0 else 2} for i in range(4)}
+    check_strata(plan, path, blocks)

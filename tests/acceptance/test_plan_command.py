@@ -367,3 +367,45 @@ def test_meta_particulars_yaml_reads_otherwise_are_refused_saying_what_the_file_
         "written",
         "line 4: annexes: expected a list, got text 'notes'",
     ]
+
+
+def test_strata_numerically_equal_in_block_yaml_are_one_stratum(tmp_path: Path) -> None:
+    """work_unit 1 (B00) and 1.0 (B01) are the one work unit, YAML reads both as the number 1;
+    they were strata '1' and '1.0'. Strata 1 (2 units) and 2 (2 units) share a sample of 3:
+    quotas 1.5 and 1.5, the seat left to the first in order, so stratum 1 gives both units."""
+    units = {"B00": 1, "B01": 1.0, "B02": 2, "B03": 2}
+    for block, unit in units.items():
+        case = {"manifest": {"block_id": block, "work_unit": unit}}
+        write_delivery(tmp_path / "batch" / block, {**case, "remove_tables": ["checkpoints"]})
+    assert "work_unit: 1.0" in (tmp_path / "batch" / "B01" / "block.yaml").read_text()
+    plan = tmp_path / "plan.yaml"
+    r = run_blockqc(
+        "sample", tmp_path / "batch", "--seed", 5, "--strata", "work_unit", "--out", plan
+    )
+    assert r.returncode == 0, r.stderr
+    strata = yaml.safe_load(plan.read_text())["lots"][0]["strata"]
+    got = [(s["value"], s["units"], s["sample"]) for s in strata]
+    assert got == [("1", ["B00", "B01"], 2), ("2", ["B02", "B03"], 1)]
+
+
+def test_a_number_in_quotes_beside_the_same_number_is_refused_naming_both(tmp_path: Path) -> None:
+    """work_unit '1.0' (text, B00) and 1.0 (a number, B01): one stratum or two cannot be told;
+    stratum '1.0' (text) and stratum 1 (the number) would be drawn apart. Refused at the text's
+    line, naming the block.yaml that gives the number; '1' in quotes beside 1 reads alike."""
+    units = {"B00": "1.0", "B01": 1.0, "B02": "2", "B03": 2}
+    for block, unit in units.items():
+        case = {"manifest": {"block_id": block, "work_unit": unit}}
+        write_delivery(tmp_path / "batch" / block, {**case, "remove_tables": ["checkpoints"]})
+    text = tmp_path / "batch" / "B00" / "block.yaml"
+    line = text.read_text().splitlines().index("work_unit: '1.0'") + 1
+    plan = tmp_path / "plan.yaml"
+    r = run_blockqc(
+        "sample", tmp_path / "batch", "--seed", 5, "--strata", "work_unit", "--out", plan
+    )
+    assert r.returncode == 2, r.stderr
+    assert (
+        f"error: {text}, line {line}: key 'work_unit' is the text '1.0', and "
+        f"{tmp_path / 'batch' / 'B01' / 'block.yaml'} gives the number 1: one stratum or two? "
+        "write them alike (both numbers, or the same text in quotes)"
+    ) in r.stderr
+    assert "'2'" not in r.stderr and not plan.exists()

@@ -9,12 +9,12 @@ import click
 import yaml
 
 from blockqc.acceptance.plan import Plan, make_plan
-from blockqc.acceptance.sampling import draw
+from blockqc.acceptance.sampling import NUMBER, draw
 from blockqc.cli import GivenPath
 from blockqc.errors import InputError, Problem, RuleError, UsageError
 
 
-def _lookup(data: dict[str, Any], key: str) -> Any:
+def lookup(data: dict[str, Any], key: str) -> Any:
     """A dotted key of block.yaml (e.g. `producer` or `terrain.class`); KeyError when absent."""
     value: Any = data
     for part in key.split("."):
@@ -26,14 +26,20 @@ def _lookup(data: dict[str, Any], key: str) -> Any:
 
 def stratum_of(data: dict[str, Any], key: str) -> str:
     """A block's stratum: the key's value, text or a number; ValueError for anything else."""
-    value = _lookup(data, key)
+    value = lookup(data, key)
     if isinstance(value, (str, int, float)) and not isinstance(value, bool):
-        return str(value)
+        return number_text(value) if isinstance(value, float) else str(value)
     if isinstance(value, dict):
         why = f"a mapping (stratify by one of its keys, e.g. '{key}.{next(iter(value), 'name')}')"
     else:
         why = {bool: "true/false", list: "a list", type(None): "empty"}.get(type(value), "not text")
     raise ValueError(f"key '{key}' is {why}: a stratum is text or a number")
+
+
+def number_text(value: float) -> str:
+    """A number YAML reads with a decimal point, as a stratum: by its value, so that 1.0 is the
+    stratum of 1 (a whole number written without its point), 0.80 and 0.8 one stratum."""
+    return str(int(value)) if value.is_integer() else str(value)
 
 
 def read_units(batch: Path, key: str | None) -> tuple[list[str], dict[str, str] | None]:
@@ -44,6 +50,7 @@ def read_units(batch: Path, key: str | None) -> tuple[list[str], dict[str, str] 
     got = collect([batch])
     problems = list(got.refused.values())
     strata: dict[str, str] = {}
+    values: dict[Path, Any] = {}  # each block.yaml's value of the key, as YAML reads it
     for path in got.deliveries:
         if path in got.refused:
             continue
@@ -58,15 +65,38 @@ def read_units(batch: Path, key: str | None) -> tuple[list[str], dict[str, str] 
             try:
                 given = m.model_dump(mode="json", exclude_unset=True)  # a key left out: absent
                 strata[m.block_id] = stratum_of(given, key)
+                values[path / MANIFEST] = lookup(given, key)
             except KeyError:
                 why = f"no key '{key}' in block.yaml to stratify by"
                 problems.append(_key_problem(path / MANIFEST, key.split(".")[:-1], why))
             except ValueError as exc:
                 problems.append(_key_problem(path / MANIFEST, key.split("."), str(exc)))
+    problems += _number_as_text(key, values)
     if problems:
         raise InputError(problems)
     ids = [got.manifests[p].block_id for p in got.deliveries]
     return ids, strata if key else None
+
+
+def _number_as_text(key: str, values: dict[Path, Any]) -> list[Problem]:
+    """A number written as a number in one block.yaml and as other text in another ('1.0' in
+    quotes beside 1 or 1.0): one stratum or two cannot be told, refused at the text's line."""
+    numbers: dict[float, tuple[Path, str]] = {}
+    for path, v in values.items():
+        if isinstance(v, (int, float)) and not isinstance(v, bool):
+            numbers.setdefault(float(v), (path, number_text(v) if isinstance(v, float) else str(v)))
+    out = []
+    for path, v in values.items():
+        if not isinstance(v, str) or not NUMBER.fullmatch(v):
+            continue
+        other, spelled = numbers.get(float(v), (None, v))
+        if other is not None and spelled != v:
+            why = (
+                f"key '{key}' is the text '{v}', and {other} gives the number {spelled}: one "
+                "stratum or two? write them alike (both numbers, or the same text in quotes)"
+            )
+            out.append(_key_problem(path, key.split("."), why))
+    return out
 
 
 def _key_problem(path: Path, loc: list[str], why: str) -> Problem:
@@ -82,7 +112,7 @@ def _key_problem(path: Path, loc: list[str], why: str) -> Problem:
 
 def _has(data: dict[str, Any], loc: list[str]) -> bool:
     try:
-        _lookup(data, ".".join(loc))
+        lookup(data, ".".join(loc))
     except KeyError:
         return False
     return True

@@ -14,10 +14,10 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from blockqc.acceptance.command import stratum_of
+from blockqc.acceptance.command import lookup, stratum_of
 from blockqc.acceptance.model import PlanNote, Sampling
 from blockqc.acceptance.plan import Plan, key_path, listed
-from blockqc.acceptance.sampling import draw, natural_key, sample_size, split_sizes
+from blockqc.acceptance.sampling import NUMBER, draw, natural_key, sample_size, split_sizes
 from blockqc.errors import InputError, Problem
 
 Loc = tuple[str | int, ...]
@@ -70,10 +70,16 @@ def _gives(block: dict[str, Any], key: str) -> str:
 
 
 def _in_stratum(block: dict[str, Any], key: str, value: str) -> bool:
+    """The block's stratum is the plan's; a number also by value (a plan may write the 1.0 of a
+    block.yaml as '1.0', as `blockqc sample` did before it read numbers by value)."""
     try:
-        return stratum_of(block, key) == value
+        given = stratum_of(block, key)
     except (KeyError, ValueError):
         return False
+    raw = lookup(block, key)
+    if given == value or isinstance(raw, str) or not NUMBER.fullmatch(value):
+        return given == value
+    return float(value) == raw
 
 
 def check_strata(plan: Plan, path: Path, blocks: dict[str, dict[str, Any]]) -> None:
