@@ -57,6 +57,17 @@ class Context:
         return out
 
 
+class MissingGSD(ExpressionError):
+    """A band's GSD an expression names (gsd.ms) that block.yaml does not give."""
+
+    def __init__(self, band: str) -> None:
+        self.band = band
+        super().__init__(
+            f"block.yaml gives no gsd_m.{band}, which this rule's threshold (gsd.{band}) needs: "
+            f"add the {band.upper()} GSD in metres to gsd_m"
+        )
+
+
 class _GSDs(dict):
     """The delivery's GSD per band; a band block.yaml does not give is named as such when a
     threshold needs it (not as an unknown constant)."""
@@ -67,10 +78,7 @@ class _GSDs(dict):
         return band in self.BANDS or super().__contains__(band)
 
     def __missing__(self, band: str) -> float:
-        raise ExpressionError(
-            f"block.yaml gives no gsd_m.{band}, which this rule's threshold (gsd.{band}) needs: "
-            f"add the {band.upper()} GSD in metres to gsd_m"
-        )
+        raise MissingGSD(band)
 
 
 def names_for(delivery: Delivery, pack: Pack) -> dict[str, Any]:

@@ -11,6 +11,7 @@ stock weights (data .6, layout .2, attachment .2; in data: basis .2, plane .3, h
 from __future__ import annotations
 
 import json
+import shutil
 
 import pytest
 
@@ -182,3 +183,33 @@ def test_an_accuracy_norm_may_name_the_deliverys_gsd(tmp_path) -> None:
     m = ro1["value"]
     assert rec["norm"] == pytest.approx(2.6)
     assert rec["score"] == pytest.approx(60 + 40 * (2.6 - m) / (0.7 * 2.6))
+
+
+def test_an_accuracy_norm_naming_a_gsd_the_delivery_lacks_is_said(tmp_path) -> None:
+    """RO-1 judged against 2.6 m and scored against norm gsd.ms, on F1-B01 without its MS GSD:
+    judged (its threshold names no GSD), it cannot be scored; it was scored by deduction alone
+    (100 on a pass) and the evaluation said complete. Now unscored, it makes the evaluation
+    incomplete, naming the rule and the band."""
+    block = tmp_path / "F1-B01"
+    shutil.copytree(SAMPLES / "batch" / "F1-B01", block)
+    text = (block / "block.yaml").read_text(encoding="utf-8")
+    (block / "block.yaml").write_text(text.replace("  ms: 2.6\n", ""), encoding="utf-8")
+    pack = tmp_path / "pack.yaml"
+    pack.write_text(
+        "pack: gsd-norm\nversion: '1'\nextends: global-project\noverrides:\n"
+        "  RO-1: {threshold: {max: 2.6}, score: {kind: accuracy, norm: gsd.ms}}\n",
+        encoding="utf-8",
+    )
+    out = tmp_path / "out"
+    verdicts = tmp_path / "verdicts.yaml"
+    verdicts.write_text("inspector: Li Wei\nverdicts:\n  DOC-3: {status: pass}\n", "utf-8")
+    args = ("--rules", pack, "--verdicts", verdicts, "--out", out, "--pdf", "none")
+    p = run_blockqc("inspect", block, *args)
+    assert p.returncode == 0, p.stderr
+    doc = json.loads((out / "F1-B01" / "results.json").read_text())
+    ev = doc["evaluation"]
+    said = (
+        "RO-1 not scored: block.yaml gives no gsd_m.ms, which its score.norm (gsd.ms) needs: "
+        "add the MS GSD in metres to gsd_m"
+    )
+    assert (ev["complete"], ev["reasons"]) == (False, [said])

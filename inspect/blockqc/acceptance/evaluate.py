@@ -6,7 +6,8 @@ from collections.abc import Mapping
 from typing import Any
 
 from blockqc.acceptance.model import Evaluation
-from blockqc.acceptance.scoring import Finding, evaluate_block
+from blockqc.acceptance.scoring import JUDGED, Finding, evaluate_block
+from blockqc.engine import MissingGSD
 from blockqc.results import BlockResults, RuleResult
 from blockqc.rules.expr import ExpressionError, evaluate
 from blockqc.rules.model import Pack, Rule
@@ -24,33 +25,62 @@ def _places(res: RuleResult, tree: dict[str, tuple[str, str]]) -> tuple[tuple[st
 
 def _norm(rule: Rule, res: RuleResult, names: Mapping[str, Any]) -> float | None:
     """The norm m0 of a mathematical-accuracy result: the rule's `score.norm`, else its bound
-    (of a range [min, max], the upper: an error is never accurate for being small)."""
+    (of a range [min, max], the upper: an error is never accurate for being small).
+    ExpressionError when the norm cannot be computed (it names a GSD the delivery lacks)."""
     if rule.score is None or rule.score.kind != "accuracy":
         return None
     if rule.score.norm is not None:  # it may name the delivery's GSD, as thresholds do
-        try:
-            return float(evaluate(rule.score.norm, names))
-        except ExpressionError:  # a band the delivery gives no GSD for: nothing to score by
-            return None
+        return float(evaluate(rule.score.norm, names))
     th = res.threshold
     if isinstance(th, list | tuple) and len(th) == 2:
         th = th[1]
     return float(th) if isinstance(th, (int, float)) and not isinstance(th, bool) else None
 
 
+def unscored(results: BlockResults, pack: Pack, names: Mapping[str, Any]) -> list[str]:
+    """Why a judged accuracy result has no score, once per rule: its `score.norm` names a band
+    the delivery gives no GSD for (known only with the delivery: lint takes every band)."""
+    rules = {r.id: r for r in pack.rules}
+    out: dict[str, str] = {}
+    for res in results.results:
+        rule = rules.get(res.rule)
+        if rule is None or res.status not in JUDGED or res.rule in out:
+            continue
+        try:
+            _norm(rule, res, names)
+        except ExpressionError as exc:
+            out[res.rule] = f"{res.rule} not scored: {_norm_problem(exc, rule)}"
+    return list(out.values())
+
+
+def _norm_problem(exc: ExpressionError, rule: Rule) -> str:
+    if not isinstance(exc, MissingGSD):
+        return f"score.norm ({rule.score.norm}): {exc}"
+    return (
+        f"block.yaml gives no gsd_m.{exc.band}, which its score.norm ({rule.score.norm}) "
+        f"needs: add the {exc.band.upper()} GSD in metres to gsd_m"
+    )
+
+
 def findings(
     results: BlockResults, pack: Pack, names: Mapping[str, Any] | None = None
 ) -> list[Finding]:
     """Every result of the block as scoring sees it: places, class, norm (`names`: what a norm
-    may name, the pack's constants and the delivery's GSDs; the constants alone by default)."""
+    may name, the pack's constants and the delivery's GSDs; the constants alone by default).
+    A norm that cannot be computed leaves its result unscored, as `unscored` says."""
     assert pack.acceptance is not None
     tree = {c.id: (e.id, i.id) for e in results.elements for i in e.items for c in i.contents}
     rules = {r.id: r for r in pack.rules}
+    names = pack.constants if names is None else names
     out = []
     for res in results.results:
         rule = rules.get(res.rule)
         if rule is None:
             continue  # a result of a rule the pack no longer has cannot be classed
+        try:
+            norm = _norm(rule, res, names)
+        except ExpressionError:
+            norm = None
         out.append(
             Finding(
                 rule=res.rule,
@@ -59,7 +89,7 @@ def findings(
                 error_class=rule.error_class or pack.acceptance.default_error_class,
                 value=res.value,
                 threshold=res.threshold,
-                norm=_norm(rule, res, pack.constants if names is None else names),
+                norm=norm,
                 group=res.group,
             )
         )
@@ -85,4 +115,6 @@ def evaluate_results(
     if pack.acceptance is None:
         return None
     got = findings(results, pack, names)
-    return evaluate_block(results.elements, got, pack.acceptance, incomplete_reasons(results))
+    why = incomplete_reasons(results)
+    why += unscored(results, pack, pack.constants if names is None else names)
+    return evaluate_block(results.elements, got, pack.acceptance, why)
