@@ -11,7 +11,10 @@ from __future__ import annotations
 import pytest
 
 from blockqc.acceptance.scoring import Finding, accuracy_score, deduction_score, evaluate_block
+from blockqc.report.acceptance import evaluation_context
+from blockqc.report.format import Formatter
 from blockqc.rules import load_pack
+from casekit import extension_pack
 
 PACK = load_pack("global-project")
 ACC = PACK.acceptance
@@ -238,3 +241,24 @@ def test_an_element_on_the_fail_bound_does_not_fail() -> None:
     assert accuracy_score(9.3, 10) == 64
     assert scores(ev)["data"] == 60
     assert (ev.fails, ev.reasons, ev.score, ev.grade) == (False, [], 76, "good")
+
+
+def test_items_inspected_that_all_weigh_0_give_their_element_no_score(tmp_path) -> None:
+    """documents weighted 0 (not counted) and report not inspected: the element has nothing
+    counted and is left out. It took the plain mean of its items, documents' 100 − 4·12 = 52,
+    and failed the block (attachment 52 < 60) on an item the pack does not count.
+    Block by hand: (.6·100 + .2·100)/.8 = 100; the four B errors are still errors."""
+    pack = load_pack(
+        extension_pack(tmp_path, "acceptance:\n  weights:\n    items: {documents: 0}\n")
+    )
+    f = [x for x in base() if x.rule != "TP-1"] + [
+        bad(f"D-{i}", "documents", "B") for i in range(4)
+    ]
+    ev = evaluate_block(pack.elements, f, pack.acceptance)
+    attachment = next(e for e in ev.elements if e.id == "attachment")
+    assert scores(ev)["documents"] == 52 and scores(ev)["report"] is None
+    assert (attachment.score, attachment.inspected) == (None, True)
+    assert ev.score == 100 and not ev.fails and ev.grade == "excellent"
+    assert ev.counts["B"] == 4 and ev.reasons == []
+    rows = {r["name"]: r["score"] for r in evaluation_context(ev, Formatter("en"))["rows"]}
+    assert rows["Attachment quality"] == "only items of weight 0 inspected"

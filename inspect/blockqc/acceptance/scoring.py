@@ -121,14 +121,12 @@ def score_item(findings: list[Finding], acc: Acceptance) -> ItemScore:
 
 
 def weighted(parts: Iterable[tuple[float, float | None]]) -> float | None:
-    """Σ wᵢ·sᵢ / Σ wᵢ over the parts that were scored (§QE-4, re-weighted); None when none."""
-    got = [(w, s) for w, s in parts if s is not None]
-    total = math.fsum(w for w, _ in got)
+    """Σ wᵢ·sᵢ / Σ wᵢ over the parts that were scored (§QE-4, re-weighted); None when none. A
+    part weighted 0 is not counted: parts scored that all weigh 0 give no score (Σ wᵢ = 0)."""
+    got = [(w, s) for w, s in parts if s is not None and w > 0]
     if not got:
         return None
-    if total <= 0:
-        return mean(s for _, s in got)
-    return settled(math.fsum(w * s for w, s in got) / total)
+    return settled(math.fsum(w * s for w, s in got) / math.fsum(w for w, _ in got))
 
 
 def mean(scores: Iterable[float]) -> float:
@@ -155,7 +153,7 @@ def score_element(el: Any, findings: list[Finding], acc: Acceptance) -> ElementS
         title=el.title,
         title_zh=el.title_zh,
         weight=acc.weights.elements.get(el.id, 1.0),
-        inspected=score is not None,
+        inspected=any(i.inspected for i in items),  # scored only when a weighted one is
         score=score,
         items=items,
     )

@@ -64,7 +64,7 @@ def _part(p: Any, f: Formatter, level: str) -> dict[str, Any]:
         "level": level,
         "name": f.pick(p.title, p.title_zh) or p.id,
         "weight": f.num(p.weight, 2),
-        "score": f.score(p.score, f.t("not_inspected")),
+        "score": f.score(p.score, f.t("only_weight_0" if p.inspected else "not_inspected")),
         "errors": " ".join(f"{c}{counts[c]}" for c in CLASSES if counts.get(c)) or "–",
         "deduction": f.num(getattr(p, "deduction", 0.0), 1) if level == "item" else "",
         "accuracy": "; ".join(

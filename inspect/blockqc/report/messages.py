@@ -389,6 +389,7 @@ MESSAGES.update(
         "accuracy_scores": ("Accuracy m/m0 → score", "精度 m/m0 → 得分"),
         "element_item": ("Quality element / item", "质量元素 / 子元素"),
         "not_inspected": ("not inspected", "未检查"),
+        "only_weight_0": ("only items of weight 0 inspected", "仅检查了权为 0 的子元素"),
         "err_beyond_norm": ("beyond the norm", "超过规定中误差"),
         "err_fails": ("fails its threshold", "超出限值"),
         "err_beyond_norm_p": ("(beyond the norm)", "（超过规定中误差）"),
