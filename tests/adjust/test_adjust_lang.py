@@ -1,5 +1,5 @@
-"""The adjust page in Chinese (--lang zh): every label, heading and fixed phrase of adjust.json
-in Chinese, nothing English left but the run's warnings; English as it was."""
+"""The adjust page in Chinese (--lang zh): every label, heading, fixed phrase and warning of
+adjust.json in Chinese, nothing English left; English as it was."""
 
 from __future__ import annotations
 
@@ -7,7 +7,10 @@ import copy
 import json
 from pathlib import Path
 
+import numpy as np
+import pandas as pd
 import pytest
+from markupsafe import escape
 
 from blockqc.adjust.report import render_html
 from casekit import english_left, page_overflow_px
@@ -92,7 +95,9 @@ def test_the_english_page_is_unchanged_by_the_option(summary):
 
 @pytest.mark.browser
 def test_the_chinese_page_stays_within_the_window(summary, tmp_path):
-    assert page_overflow_px(render_html(summary, lang="zh"), tmp_path) <= 0
+    """With every kind of warning too."""
+    doc = {**summary, "warnings": _adjust_warnings()}
+    assert page_overflow_px(render_html(doc, lang="zh"), tmp_path) <= 0
 
 
 @pytest.mark.slow
@@ -117,3 +122,63 @@ def test_the_command_writes_the_page_in_chinese_and_the_same_results(tmp_path, b
         assert (tmp_path / "zh" / name).read_bytes() == (tmp_path / "en" / name).read_bytes()
     page = (tmp_path / "zh" / "adjust.html").read_text(encoding="utf-8")
     assert '<html lang="zh-CN">' in page and "<h2>平差结果</h2>" in page
+
+
+def _adjust_warnings() -> list[str]:
+    """One warning of every kind the run gives, from its producers."""
+    from types import SimpleNamespace
+
+    from blockqc.adjust.run import checkpoint_warning, fit_warnings, height_warnings, scene_warnings
+
+    rows = [
+        {"scene_id": "S1", "n_observations": 0, "n_outliers": 100, "n_without_second_ray": 20},
+        {
+            "scene_id": "S 02 (copy)",
+            "n_observations": 0,
+            "n_outliers": 0,
+            "n_without_second_ray": 0,
+        },
+    ]
+    out = scene_warnings(rows)
+    fit = {"sigma0_px": 6.123, "rms_px_before": 1.0, "rms_px_after": 2.0}
+    out += fit_warnings({**fit, "checkpoints": {"warning": checkpoint_warning(12)}})
+    out.append(checkpoint_warning(0))
+    sol = SimpleNamespace(
+        point_used=np.array([True, True, True, False, True]),
+        ground_sigma=np.array([[1.0, 1.0, 400.0]] * 5),
+    )
+    priors = SimpleNamespace(height_sigma=np.full(5, 885.0))
+    ids = np.array(["p0", "p1", "p2", "p3", "p4"])
+    bh = np.array([0.01, 0.02, 0.5, np.nan, 0.03])
+    cps = pd.DataFrame({"point_id": ["p0", "p4", "p2"]})
+    return out + height_warnings(bh, sol, priors, 10.0, cps, ids)
+
+
+def test_the_run_warnings_in_chinese(summary):
+    """Every kind of warning of the run is shown in Chinese on a Chinese page, its numbers and
+    scene ids kept; adjust.json keeps them in English (and the English page shows them so)."""
+    warnings = _adjust_warnings()
+    assert len(warnings) == 7
+    doc = {**summary, "warnings": warnings}
+    html = render_html(doc, lang="zh")
+    for text in (
+        "<li>影像 S1 经粗差剔除后，其 120 个观测仅保留 0 个（少于 3 个；粗差 100 个，"
+        "20 个失去第二条光线）：其仿射参数仅由先验确定，而非由数据确定；请检查其 RPC（rpc/）"
+        "及其连接点</li>",
+        "<li>影像 S 02 (copy) 没有连接点观测：",
+        "<li>σ0 为 6.12 像素，远高于连接点的量测精度（超过 5 像素）：",
+        "<li>平差后残差均方根反而增大（1.000 → 2.000 像素）：",
+        "<li>仅 12 个点可比较（§CP-1 要求 20–50 个）</li>",
+        "<li>没有可比较的点，checkpoints.csv 只有表头：",
+        "<li>4 个点中有 3 个点的光线基高比小于 0.05（中位数 0.020；观测方向几乎相同）："
+        "影像无法确定这些点的高程（σ_h 中位数 400 m），其高程取决于弱高程先验，"
+        "其中的 2 个检查点不能检查高程；请用 --dem 给出高程先验</li>",
+    ):
+        assert text in html, text
+    start = html.index("<h2>警告</h2>")
+    section = html[start : html.index("</ul>", start)]
+    assert section.count("<li>") == len(warnings)
+    assert english_left(section, ALLOWED | {"dem", "rpc", "copy"}) == set()  # option, folder, id
+    english = render_html(doc, lang="en")
+    assert all(f"<li>{escape(w)}</li>" in english for w in warnings)
+    assert english == render_html(doc)

@@ -274,15 +274,20 @@ def test_a_rejection_that_leaves_less_than_one_redundancy_is_refused(tmp_path, b
 
 def test_a_fit_that_is_no_estimate_is_warned_of(small_block, tmp_path, blockqc):
     """One scene given another's RPC: the adjustment converges on nonsense (σ0 of kilopixels,
-    residuals larger after than before). Said on the console and in adjust.json."""
+    residuals larger after than before). Said on the console and in adjust.json in English, on
+    a Chinese page in Chinese."""
     blk = _copy(small_block, tmp_path)
     shutil.copy(blk / "rpc" / "S0004.json", blk / "rpc" / "S0001.json")
-    r = blockqc("adjust", blk, "--out", tmp_path / "out")
+    r = blockqc("adjust", blk, "--out", tmp_path / "out", "--lang", "zh")
     assert r.returncode == 0, r.stderr
     assert "px, far above a tie-point measurement precision (above 5 px)" in r.stderr
     assert "warning: the residual RMS grew in the adjustment" in r.stderr
     warnings = json.loads((tmp_path / "out" / "adjust.json").read_text())["warnings"]
     assert any("far above a tie-point measurement precision" in w for w in warnings)
+    page = (tmp_path / "out" / "adjust.html").read_text(encoding="utf-8")
+    assert "像素，远高于连接点的量测精度（超过 5 像素）：" in page
+    assert "<li>平差后残差均方根反而增大（" in page
+    assert not any(w in page for w in warnings)
 
 
 @pytest.mark.parametrize("points", [1, 5])
@@ -387,11 +392,13 @@ def test_rays_that_fix_no_height_are_warned_of(tmp_path, blockqc):
     ground_points.csv."""
     cfg = SyntheticConfig(scenes=4, observations_per_scene=400, checkpoints=0, seed=21)
     _, folder = synthetic_block(MODELS[:1], cfg, tmp_path / "same")
-    r = blockqc("adjust", folder, "--out", tmp_path / "out")
+    r = blockqc("adjust", folder, "--out", tmp_path / "out", "--lang", "zh")
     assert r.returncode == 0, r.stderr
     assert "points are seen along rays with a base-to-height ratio below 0.05" in r.stderr
     summary = json.loads((tmp_path / "out" / "adjust.json").read_text())
     assert any("give --dem for a height prior" in w for w in summary["warnings"])
+    page = (tmp_path / "out" / "adjust.html").read_text(encoding="utf-8")
+    assert "个点的光线基高比小于 0.05（中位数 " in page and "请用 --dem 给出高程先验</li>" in page
     ground = pd.read_csv(tmp_path / "out" / "ground_points.csv")
     used = ground[ground.used]
     assert used.base_to_height.max() < 0.05

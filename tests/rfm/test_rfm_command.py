@@ -843,7 +843,10 @@ def _coarser_reference(path: Path, factor: int) -> None:
 @pytest.mark.parametrize("factor", [1, 5])
 def test_a_reference_much_coarser_than_the_image_is_warned_of(tmp_path: Path, factor: int):
     """§RA-2: a reference with pixels 5× the image's GSD is said to be too coarse (its GSD in
-    results.json and on the page); one at the image's own GSD is not."""
+    results.json and on the page, in Chinese on a Chinese one); one at the image's own GSD is
+    not."""
+    from blockqc.rfm.report import render_html
+
     cfg, g = _shifted_config(tmp_path, 0, 0, match_grid=50, repeats=2)
     if factor > 1:
         _coarser_reference(cfg.reference, factor)
@@ -855,6 +858,9 @@ def test_a_reference_much_coarser_than_the_image_is_warned_of(tmp_path: Path, fa
     else:
         (warning,) = coarse
         assert f"{5 * g:.3g} m, 5.0× the image's GSD" in warning, warning
+        zh = render_html(results, lang="zh")
+        assert f"<li>§RA-2：参考影像的像素大小为 {5 * g:.3g} m，是影像地面采样距离（" in zh
+        assert "<li>§RA-2: " not in zh
     page = (tmp_path / "out" / "report.html").read_text(encoding="utf-8")
     assert f"pixels of {factor * g:.3f} m" in page
 

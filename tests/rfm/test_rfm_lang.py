@@ -1,5 +1,5 @@
-"""The rfm-accuracy page in Chinese (--lang zh): every label, heading and fixed phrase of its
-results.json in Chinese, nothing English left but the run's warnings; English as it was."""
+"""The rfm-accuracy page in Chinese (--lang zh): every label, heading, fixed phrase and warning
+of its results.json in Chinese, nothing English left; English as it was."""
 
 from __future__ import annotations
 
@@ -8,6 +8,7 @@ import json
 from pathlib import Path
 
 import pytest
+from markupsafe import escape
 
 from blockqc.rfm.report import render_html
 from casekit import english_left, page_overflow_px
@@ -16,13 +17,14 @@ RESULTS = Path(__file__).resolve().parents[1] / "data" / "rfm" / "ventoux_result
 #: abbreviations, symbols and ids a Chinese page shows as they are
 ALLOWED = {"RFM", "RPC", "DEM", "GEV", "RMSE", "EPSG", "WGS", "GDAL", "RA", "geom", "dx", "dy"}
 ALLOWED |= {"cps", "html", "ortho", "png", "csv", "tif", "gtx", "egm", "srtm", "crop"}
+#: command-line options a warning names, as they are on either page
+OPTIONS = {"grid", "dem", "fill", "voids", "vertical", "ellipsoid"}
 
 
 @pytest.fixture
 def results() -> dict:
-    doc = json.loads(RESULTS.read_text(encoding="utf-8"))
-    doc["warnings"] = []  # stderr's warnings, English on either page
-    return doc
+    """The Ventoux pair's results, with the run's one warning (§RA-3, 45 CPs)."""
+    return json.loads(RESULTS.read_text(encoding="utf-8"))
 
 
 def test_the_page_in_chinese(results):
@@ -47,9 +49,10 @@ def test_the_page_in_chinese(results):
         "是：p = 3.1e-71",
         "a0 = 494.691 像素，a1",
         "约定：像素中心",
+        "<li>§RA-3：24 像素格网（自动选取）仅得到 45 个控制点：",
     ):
         assert text in html, text
-    assert english_left(html, ALLOWED) == set()
+    assert english_left(html, ALLOWED | OPTIONS) == set()
 
 
 def test_phrases_of_fewer_cps_and_another_dem_in_chinese(results):
@@ -93,7 +96,9 @@ def test_the_english_page_is_unchanged_by_the_option(results):
 
 @pytest.mark.browser
 def test_the_chinese_page_stays_within_the_window(results, tmp_path):
-    assert page_overflow_px(render_html(results, lang="zh"), tmp_path) <= 0
+    """With every kind of warning too."""
+    doc = {**results, "warnings": _rfm_warnings(tmp_path)}
+    assert page_overflow_px(render_html(doc, lang="zh"), tmp_path) <= 0
 
 
 @pytest.mark.slow
@@ -121,3 +126,55 @@ def test_the_command_writes_the_page_in_chinese_and_the_same_results(tmp_path):
     assert (outs["zh"] / "gev_histogram.png").read_bytes() != (
         outs["en"] / "gev_histogram.png"
     ).read_bytes()
+
+
+def _rfm_warnings(tmp_path: Path) -> list[str]:
+    """One warning of every kind the run gives, from its producers."""
+    from types import SimpleNamespace
+
+    from blockqc.rfm import accuracy
+    from blockqc.rfm.pipeline import RfmAccuracyConfig, reference_warning, run_warnings
+
+    dem = SimpleNamespace(
+        vertical="ellipsoidal (WGS-84) heights from d.tif (as stated by the user)"
+    )
+    out = []
+    for grid, no_height in ((None, (0.5, 0.02)), (40, (0.0, 0.123)), (None, (0.25, 0.0))):
+        paths = {"image": Path("a.tif"), "reference": Path("r.tif"), "out": tmp_path}
+        cfg = RfmAccuracyConfig(dem=Path("dem/partial (v2).tif"), match_grid=grid, **paths)
+        out += run_warnings(cfg, dem, 12, 24, no_height)
+    out += reference_warning(SimpleNamespace(reference_gsd_ratio=3.0), 2.5, 0.5)
+    return out + accuracy.k_warnings((6, 12, 16, 20), 18)
+
+
+def _warnings_section(html: str) -> str:
+    start = html.index("<h2>警告</h2>")
+    return html[start : html.index("</ul>", start)]
+
+
+def test_the_run_warnings_in_chinese(results, tmp_path):
+    """Every kind of warning of the run is shown in Chinese on a Chinese page, its numbers and
+    file name kept; results.json keeps them in English (and the English page shows them so)."""
+    warnings = _rfm_warnings(tmp_path)
+    assert len(warnings) == 13
+    doc = {**results, "warnings": warnings}
+    html = render_html(doc, lang="zh")
+    for text in (
+        "影像的 52.0% 在 DEM partial (v2).tif 上没有高程（50.0% 在其范围之外，2.0% 位于其数据空洞处"
+        "（--dem-fill-voids N 可填补较小的空洞））：这些像素在 ortho.tif 中为空，不产生控制点",
+        "影像的 12.3% 在 DEM partial (v2).tif 上没有高程（12.3% 位于其数据空洞处",
+        "影像的 25.0% 在 DEM partial (v2).tif 上没有高程（25.0% 在其范围之外）",
+        "§RA-3：24 像素格网（自动选取）仅得到 12 个控制点：",
+        "§RA-3：24 像素格网（由 --grid 指定）仅得到 12 个控制点：",
+        "仅凭 --dem-vertical ellipsoid 将 DEM 视为椭球高：",
+        "§RA-2：参考影像的像素大小为 2.5 m，是影像地面采样距离（0.5 m）的 5.0 倍（超过 3 倍）：",
+        "§RA-6：k = 12 仅留下 6 个检核点（&lt; 10）：其 RMSE 仅供粗略参考",
+        "§RA-6：k = 20 需要多于 20 个控制点，仅找到 18 个：该行留空",
+    ):
+        assert text in html, text
+    section = _warnings_section(html)
+    assert section.count("<li>") == len(warnings)
+    assert english_left(section, ALLOWED | OPTIONS | {"partial"}) == set()  # its file name
+    english = render_html(doc, lang="en")
+    assert all(f"<li>{escape(w)}</li>" in english for w in warnings)
+    assert english == render_html(doc)

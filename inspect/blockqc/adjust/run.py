@@ -21,9 +21,13 @@ from blockqc.adjust.solver import Observations, Priors, Settings, Solution, adju
 from blockqc.errors import InputError, Problem
 from blockqc.grouped import Groups
 from blockqc.outputs import check_out_dir
+from blockqc.report.messages import translator
 
 if TYPE_CHECKING:
     from blockqc.rfm.dem import DEM
+
+#: the catalogue's English: the run's warnings are its texts (Formatter.sentence translates them)
+EN = translator("en")
 
 DEFAULT_DEM_SIGMA_M = 10.0
 """σ of a DEM height prior: SRTM's ~16 m absolute LE90 is ≈ 10 m at 1σ."""
@@ -346,15 +350,17 @@ def checkpoints(block: Block, sol: Solution, priors: Priors, n: int) -> tuple[pd
         }
     )
     info["n"] = int(len(table))
-    if len(table) == 0:
-        info["warning"] = (
-            "no point could be compared, so checkpoints.csv holds its header only: the "
-            "producer's positions come from tie_points lon/lat/h or from its adjustment "
-            "(adjustment.csv, rpc_adjusted/)"
-        )
-    elif len(table) < 20:
-        info["warning"] = f"only {len(table)} points could be compared (§CP-1 asks for 20–50)"
+    if warning := checkpoint_warning(len(table)):
+        info["warning"] = warning
     return table, info
+
+
+def checkpoint_warning(n: int) -> str | None:
+    """That too few of the points could be compared with the producer's (§CP-1 asks for 20–50),
+    if so."""
+    if n == 0:
+        return EN("ad_cps_none")
+    return EN("ad_cps_few", n=n) if n < 20 else None
 
 
 def run_adjust(cfg: AdjustConfig) -> dict:
@@ -425,13 +431,8 @@ def height_warnings(
     among = int(np.isin(cps["point_id"].to_numpy(str), point_ids[narrow].astype(str)).sum())
     med_bh = float(np.median(bh[narrow]))
     med_sigma = float(np.median(sol.ground_sigma[narrow, 2]))
-    return [
-        f"{n} of {used} points are seen along rays with a base-to-height ratio below "
-        f"{MIN_BASE_TO_HEIGHT:g} (median {med_bh:.3f}; near-identical viewing directions): "
-        f"the images fix no height for them (σ_h median {med_sigma:.0f} m), so their heights "
-        f"are the weak height prior's and the {among} checkpoints among them check no height; "
-        "give --dem for a height prior"
-    ]
+    values = {"median": f"{med_bh:.3f}", "sigma": f"{med_sigma:.0f}", "among": among}
+    return [EN("ad_warn_narrow_rays", n=n, used=used, min=f"{MIN_BASE_TO_HEIGHT:g}", **values)]
 
 
 def _refuse_without_redundancy(block: Block, sol: Solution, settings: Settings) -> None:
@@ -522,17 +523,14 @@ def scene_warnings(scenes: list[dict]) -> list[str]:
         if kept >= MIN_SCENE_OBSERVATIONS:
             continue
         if kept + rejected == 0:
-            why = "has no tie-point observation"
+            why = EN("ad_warn_scene_empty")
         else:
-            why = (
-                f"keeps {kept} of its {kept + rejected} observations after outlier rejection "
-                f"(fewer than {MIN_SCENE_OBSERVATIONS}; {row['n_outliers']} outliers, "
-                f"{row['n_without_second_ray']} left without a second ray)"
+            counts = {"outliers": row["n_outliers"], "single": row["n_without_second_ray"]}
+            total = kept + rejected
+            why = EN(
+                "ad_warn_scene_few", kept=kept, total=total, min=MIN_SCENE_OBSERVATIONS, **counts
             )
-        out.append(
-            f"scene {row['scene_id']} {why}: its affine is set by the priors alone, not by "
-            "the data; check its RPC (rpc/) and its tie points"
-        )
+        out.append(EN("ad_warn_scene", scene=row["scene_id"], why=why))
     return out
 
 
@@ -548,17 +546,10 @@ def fit_warnings(summary: dict) -> list[str]:
     out = []
     sigma0 = summary["sigma0_px"]
     if sigma0 > MAX_SIGMA0_PX:
-        out.append(
-            f"σ0 {sigma0:.3g} px, far above a tie-point measurement precision (above "
-            f"{MAX_SIGMA0_PX:g} px): the RPCs (rpc/) and the tie points do not fit one another; "
-            "check that each scene's RPC is its own"
-        )
+        out.append(EN("ad_warn_sigma0", sigma0=f"{sigma0:.3g}", max=f"{MAX_SIGMA0_PX:g}"))
     before, after = summary["rms_px_before"], summary["rms_px_after"]
     if after > before * (1 + 1e-6) + 1e-9:  # grown, not 4e-10 px of rounding (all held fixed)
-        out.append(
-            f"the residual RMS grew in the adjustment ({before:.3f} → {after:.3f} px): the "
-            "corrections the data ask for are beyond the priors, or the data do not fit"
-        )
+        out.append(EN("ad_warn_rms_grew", before=f"{before:.3f}", after=f"{after:.3f}"))
     if summary["checkpoints"].get("warning"):
         out.append(summary["checkpoints"]["warning"])
     return out

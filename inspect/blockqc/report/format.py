@@ -119,6 +119,16 @@ SENTENCES = (
     "ra_convention_image",
     "ra_convention_gdal",
     "ra_convention_heights",
+    "ra_warn_no_height",
+    "ra_warn_outside_voids",
+    "ra_warn_outside",
+    "ra_warn_voids",
+    "ra_warn_few_cps",
+    "ra_grid_chosen_word",
+    "ra_warn_dem_ellipsoid",
+    "ra_warn_reference_gsd",
+    "ra_warn_k_unsupported",
+    "ra_warn_k_few_checks",
     "ad_affine_priors",
     "ad_prior_weak",
     "ad_prior_dem",
@@ -129,6 +139,12 @@ SENTENCES = (
     "ad_crs_utm",
     "ad_cps_none",
     "ad_cps_few",
+    "ad_warn_narrow_rays",
+    "ad_warn_scene",
+    "ad_warn_scene_empty",
+    "ad_warn_scene_few",
+    "ad_warn_sigma0",
+    "ad_warn_rms_grew",
     "af_factor",
     "af_indicator",
     "af_few_values",
@@ -151,17 +167,48 @@ SHOWN_UNITS = ("px", "m", "%", "degrees")
 LONG_WORD = 24
 
 
+#: fields of a sentence that hold one of other sentences (named here), so that the name before
+#: them (a file, a scene) may hold spaces and brackets: "scene S 01 has no tie-point observation"
+NESTED = {
+    ("ra_warn_no_height", "parts"): ("ra_warn_outside_voids", "ra_warn_outside", "ra_warn_voids"),
+    ("ad_warn_scene", "why"): ("ad_warn_scene_empty", "ad_warn_scene_few"),
+}
+
+
 @cache
 def _sentence(key: str) -> re.Pattern[str]:
     """The English of `key` as a pattern, each {field} a group that takes any text: the least
     it can, but all it can when the text begins with it ("{note}; only {n} check CPs": the note
-    up to the last "; ")."""
+    up to the last "; ") or a NESTED sentence follows it; a field named again is the same text
+    ("k = {k} needs more than {k}")."""
+    return re.compile(_pattern(key), re.S)
+
+
+@cache
+def _pattern(key: str, named: bool = True) -> str:
+    """`_sentence`'s pattern; not `named`, its groups do not capture (a sentence within one)."""
     parts = _FIELD.split(MESSAGES[key][0])
-    groups = [
-        re.escape(p) if i % 2 == 0 else f"(?P<{p}>.+{'' if i == 1 and not parts[0] else '?'})"
+    return "".join(
+        re.escape(p) if i % 2 == 0 else _field(key, p, parts[1:i:2], _greedy(key, parts, i), named)
         for i, p in enumerate(parts)
-    ]
-    return re.compile("".join(groups), re.S)
+    )
+
+
+def _greedy(key: str, parts: list[str], i: int) -> bool:
+    """Whether the field `parts[i]` takes all it can: at the start of the text, or before a
+    sentence NESTED names (known by its own words: the name before it, a file or a scene, is
+    all the text up to them)."""
+    return (i == 1 and not parts[0]) or (key, "".join(parts[i + 2 : i + 3])) in NESTED
+
+
+def _field(key: str, name: str, before: list[str], greedy: bool, named: bool) -> str:
+    """The pattern of the {field} `name` of `key`'s English, after the fields `before`: the same
+    text as a field of that name before it, one of the sentences NESTED names, or any text."""
+    if named and name in before:
+        return f"(?P={name})"
+    body = "|".join(_pattern(k, named=False) for k in NESTED.get((key, name), ()))
+    body = body or f".+{'' if greedy else '?'}"
+    return f"(?P<{name}>{body})" if named else f"(?:{body})"
 
 
 def metric_units(metric: str | None) -> dict[str, str]:

@@ -887,6 +887,53 @@ MESSAGES.update(
             "GDAL 的 RPC 变换以像素角点为准：GDAL = 本程序 + 0.5 像素",
         ),
         "ra_convention_heights": ("WGS-84 ellipsoidal", "WGS-84 椭球高"),
+        # the run's warnings (results.json "warnings", English there), translated on the page
+        "ra_warn_no_height": (
+            "{share} of the image has no height from the DEM {dem} ({parts}): those pixels stay "
+            "empty in ortho.tif and give no CP",
+            "影像的 {share} 在 DEM {dem} 上没有高程（{parts}）：这些像素在 ortho.tif 中为空，"
+            "不产生控制点",
+        ),
+        "ra_warn_outside": ("{outside} outside it", "{outside} 在其范围之外"),
+        "ra_warn_voids": (
+            "{void} on its voids (--dem-fill-voids N closes small ones)",
+            "{void} 位于其数据空洞处（--dem-fill-voids N 可填补较小的空洞）",
+        ),
+        "ra_warn_outside_voids": (
+            "{outside} outside it, {void} on its voids (--dem-fill-voids N closes small ones)",
+            "{outside} 在其范围之外，{void} 位于其数据空洞处"
+            "（--dem-fill-voids N 可填补较小的空洞）",
+        ),
+        "ra_warn_few_cps": (
+            "§RA-3: only {n} CPs with a {cell} px cell ({how}): the texture or the overlap "
+            "allows no more at this cell; a smaller --grid may find more",
+            "§RA-3：{cell} 像素格网（{how}）仅得到 {n} 个控制点：在此格网下，影像纹理或重叠范围"
+            "不能提供更多控制点；减小 --grid 或可找到更多",
+        ),
+        "ra_grid_chosen_word": ("chosen", "自动选取"),
+        "ra_warn_dem_ellipsoid": (
+            "the DEM was taken as ellipsoidal on --dem-vertical ellipsoid alone: if it holds "
+            "geoid heights every height is off by N (tens of metres) and the image by metres",
+            "仅凭 --dem-vertical ellipsoid 将 DEM 视为椭球高：若其高程以大地水准面为基准，"
+            "则所有高程均偏差 N（数十米），影像偏差达数米",
+        ),
+        "ra_warn_reference_gsd": (
+            "§RA-2: the reference's pixels cover {ref} m, {ratio}× the image's GSD ({gsd} m; "
+            "more than {limit}×): matched on the image's grid it is interpolated, and errors of "
+            "a fraction of its pixel — several image pixels — go unseen; use a reference at "
+            "least as fine as the image",
+            "§RA-2：参考影像的像素大小为 {ref} m，是影像地面采样距离（{gsd} m）的 {ratio} 倍"
+            "（超过 {limit} 倍）：在影像格网上匹配时参考影像须经内插，其像素几分之一的误差"
+            "（相当于影像的若干像素）无法发现；请使用分辨率不低于影像的参考影像",
+        ),
+        "ra_warn_k_unsupported": (
+            "§RA-6: k = {k} needs more than {k} CPs, only {n} found: row left empty",
+            "§RA-6：k = {k} 需要多于 {k} 个控制点，仅找到 {n} 个：该行留空",
+        ),
+        "ra_warn_k_few_checks": (
+            "§RA-6: k = {k} leaves {left} CPs to check on (< {min}): its RMSE is a rough figure",
+            "§RA-6：k = {k} 仅留下 {left} 个检核点（< {min}）：其 RMSE 仅供粗略参考",
+        ),
     }
 )
 
@@ -1029,6 +1076,42 @@ MESSAGES.update(
         "ad_cps_few": (
             "only {n} points could be compared (§CP-1 asks for 20–50)",
             "仅 {n} 个点可比较（§CP-1 要求 20–50 个）",
+        ),
+        # the run's warnings (adjust.json "warnings", English there), translated on the page
+        "ad_warn_narrow_rays": (
+            "{n} of {used} points are seen along rays with a base-to-height ratio below {min} "
+            "(median {median}; near-identical viewing directions): the images fix no height for "
+            "them (σ_h median {sigma} m), so their heights are the weak height prior's and the "
+            "{among} checkpoints among them check no height; give --dem for a height prior",
+            "{used} 个点中有 {n} 个点的光线基高比小于 {min}（中位数 {median}；观测方向几乎相同）："
+            "影像无法确定这些点的高程（σ_h 中位数 {sigma} m），其高程取决于弱高程先验，"
+            "其中的 {among} 个检查点不能检查高程；请用 --dem 给出高程先验",
+        ),
+        "ad_warn_scene": (
+            "scene {scene} {why}: its affine is set by the priors alone, not by the data; check "
+            "its RPC (rpc/) and its tie points",
+            "影像 {scene} {why}：其仿射参数仅由先验确定，而非由数据确定；请检查其 RPC（rpc/）"
+            "及其连接点",
+        ),
+        "ad_warn_scene_empty": ("has no tie-point observation", "没有连接点观测"),
+        "ad_warn_scene_few": (
+            "keeps {kept} of its {total} observations after outlier rejection (fewer than {min}; "
+            "{outliers} outliers, {single} left without a second ray)",
+            "经粗差剔除后，其 {total} 个观测仅保留 {kept} 个（少于 {min} 个；粗差 {outliers} 个，"
+            "{single} 个失去第二条光线）",
+        ),
+        "ad_warn_sigma0": (
+            "σ0 {sigma0} px, far above a tie-point measurement precision (above {max} px): the "
+            "RPCs (rpc/) and the tie points do not fit one another; check that each scene's RPC "
+            "is its own",
+            "σ0 为 {sigma0} 像素，远高于连接点的量测精度（超过 {max} 像素）：RPC（rpc/）与连接点"
+            "互不相符；请检查每景影像的 RPC 是否确为其本身的 RPC",
+        ),
+        "ad_warn_rms_grew": (
+            "the residual RMS grew in the adjustment ({before} → {after} px): the corrections "
+            "the data ask for are beyond the priors, or the data do not fit",
+            "平差后残差均方根反而增大（{before} → {after} 像素）：数据所要求的改正超出了先验范围，"
+            "或数据互不相符",
         ),
     }
 )

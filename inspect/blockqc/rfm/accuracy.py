@@ -453,12 +453,9 @@ def k_warnings(ks: tuple[int, ...], n: int) -> list[str]:
     out = []
     for k in ks:
         if k >= n:
-            out.append(f"§RA-6: k = {k} needs more than {k} CPs, only {n} found: row left empty")
+            out.append(EN("ra_warn_k_unsupported", k=k, n=n))
         elif n - k < MIN_CHECK_CPS:
-            out.append(
-                f"§RA-6: k = {k} leaves {n - k} CPs to check on (< {MIN_CHECK_CPS}): "
-                "its RMSE is a rough figure"
-            )
+            out.append(EN("ra_warn_k_few_checks", k=k, left=n - k, min=MIN_CHECK_CPS))
     return out
 
 

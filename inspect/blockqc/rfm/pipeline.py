@@ -49,6 +49,9 @@ from blockqc.rfm.readers import (
 
 Matcher = Callable[..., pd.DataFrame]
 
+#: the catalogue's English: the run's warnings are its texts (Formatter.sentence translates them)
+EN = translator("en")
+
 CP_COLUMNS = [
     "cp_id",
     "kind",
@@ -311,12 +314,8 @@ def reference_warning(cfg: RfmAccuracyConfig, ref_gsd: float, image_gsd: float) 
     ratio = ref_gsd / image_gsd if image_gsd > 0 else 0.0
     if not ratio > cfg.reference_gsd_ratio:
         return []
-    return [
-        f"§RA-2: the reference's pixels cover {ref_gsd:.3g} m, {ratio:.1f}× the image's GSD "
-        f"({image_gsd:.3g} m; more than {cfg.reference_gsd_ratio:g}×): matched on the image's "
-        f"grid it is interpolated, and errors of a fraction of its pixel — several image "
-        f"pixels — go unseen; use a reference at least as fine as the image"
-    ]
+    values = {"ref": f"{ref_gsd:.3g}", "ratio": f"{ratio:.1f}", "gsd": f"{image_gsd:.3g}"}
+    return [EN("ra_warn_reference_gsd", limit=f"{cfg.reference_gsd_ratio:g}", **values)]
 
 
 def reference_on_grid(
@@ -706,12 +705,13 @@ def height_warning(dem_file: Path, no_height: tuple[float, float]) -> list[str]:
     outside, void = no_height
     if outside + void <= 0:
         return []
-    parts = [f"{outside:.1%} outside it"] if outside > 0 else []
-    parts += [f"{void:.1%} on its voids (--dem-fill-voids N closes small ones)"] if void else []
-    return [
-        f"{outside + void:.1%} of the image has no height from the DEM {dem_file.name} "
-        f"({', '.join(parts)}): those pixels stay empty in ortho.tif and give no CP"
-    ]
+    if outside > 0:
+        key = "ra_warn_outside_voids" if void else "ra_warn_outside"
+    else:
+        key = "ra_warn_voids"
+    parts = EN(key, outside=f"{outside:.1%}", void=f"{void:.1%}")
+    share = f"{outside + void:.1%}"
+    return [EN("ra_warn_no_height", share=share, dem=dem_file.name, parts=parts)]
 
 
 def run_warnings(
@@ -725,16 +725,10 @@ def run_warnings(
     shares of the image outside the DEM and on its voids)."""
     out = height_warning(cfg.dem, no_height)
     if n < TARGET_CPS:
-        how = "given" if cfg.match_grid else "chosen"
-        out.append(
-            f"§RA-3: only {n} CPs with a {cell} px cell ({how}): the texture or the overlap "
-            f"allows no more at this cell; a smaller --grid may find more"
-        )
-    if "stated by the user" in dem.vertical:
-        out.append(
-            "the DEM was taken as ellipsoidal on --dem-vertical ellipsoid alone: if it holds "
-            "geoid heights every height is off by N (tens of metres) and the image by metres"
-        )
+        how = EN("ra_grid_given" if cfg.match_grid else "ra_grid_chosen_word")
+        out.append(EN("ra_warn_few_cps", n=n, cell=cell, how=how))
+    if EN("ra_stated_by_user") in dem.vertical:
+        out.append(EN("ra_warn_dem_ellipsoid"))
     return out
 
 
