@@ -1001,3 +1001,24 @@ def test_incremental_key_holds_the_chromium_writing_the_pdfs(monkeypatch, tmp_pa
 
     assert digest(one, "all") != digest(other, "all")
     assert digest(one, "none") == digest(other, "none")
+
+
+def test_incremental_rerun_sees_a_file_rewritten_with_its_size_and_time_kept(
+    small_batch: Path, tmp_path: Path
+):
+    """A residual's last digit corrected (-0.6294 to -0.6291 px), the file's size the same and
+    its mtime set back, as `cp -p` or `rsync -a` of an edited copy keeps it: the block was taken
+    as unchanged."""
+    out = tmp_path / "out"
+    assert _incremental(small_batch, out).returncode == 1
+    tie_points = small_batch / "F1-B02" / "tie_points.csv"
+    st = tie_points.stat()
+    lines = tie_points.read_text(encoding="utf-8").splitlines(keepends=True)
+    cells = lines[1].split(",")
+    cells[4] = cells[4][:-1] + ("1" if cells[4][-1] != "1" else "2")  # the same length
+    lines[1] = ",".join(cells)
+    tie_points.write_text("".join(lines), encoding="utf-8")
+    os.utime(tie_points, ns=(st.st_atime_ns, st.st_mtime_ns))
+    assert tie_points.stat().st_size == st.st_size
+    again = _incremental(small_batch, out)
+    assert again.stdout.count("outputs reused") == 2, again.stdout

@@ -1,8 +1,9 @@
 """Incremental inspection: a block's outputs are reused while nothing that made them changed.
 
 The key of a block is a SHA-256 over its delivery's path (as given, which its outputs record,
-and where it leads) and files (relative path, size and modification time of each — the quick
-check of make and rsync: a file rewritten with new content gets a new time), the inspector
+and where it leads) and files (relative path, size, modification time and change time of each — the
+quick check of make and rsync, and the inode's change time, which no program sets back: a file
+rewritten gets a new one even when its size and modification time are kept), the inspector
 (name, verdicts and waivers for the block), the resolved rule pack (its rules, constants, files
 and the columns it reads), the output options, and blockqc itself (its version, and the size and
 time of each of its modules and templates, so that a changed blockqc recomputes too). It is kept
@@ -85,10 +86,12 @@ def _sha(*parts: Any) -> str:
     return h.hexdigest()
 
 
-def _tree(folder: Path) -> list[tuple[str, int, int]]:
-    """(relative path, size, mtime in ns) of every file and folder under `folder`, in path
-    order: a folder's name counts (size -2), since the reader reads an empty one too (a
-    misnamed `RPC/` is refused); linked folders are followed, each real folder once."""
+def _tree(folder: Path) -> list[tuple[str, int, int, int]]:
+    """(relative path, size, mtime and ctime in ns) of every file and folder under `folder`, in
+    path order: a folder's name counts (size -2), since the reader reads an empty one too (a
+    misnamed `RPC/` is refused); linked folders are followed, each real folder once. The ctime
+    (the inode's last change, which no program sets back) tells a file rewritten whose size and
+    mtime were kept or set back (`cp -p`, `rsync -a`, `touch -r` of an older copy)."""
     out, seen = [], set()
     for root, dirs, files in os.walk(folder, followlinks=True):
         try:
@@ -101,15 +104,15 @@ def _tree(folder: Path) -> list[tuple[str, int, int]]:
         seen.add((st.st_dev, st.st_ino))
         dirs.sort()
         here = Path(root).relative_to(folder)
-        out += [(f"{here / name}{os.sep}", -2, 0) for name in dirs]
+        out += [(f"{here / name}{os.sep}", -2, 0, 0) for name in dirs]
         for name in sorted(files):
             p = Path(root) / name
             try:
                 st = p.stat()
             except OSError:
-                out.append((str(p.relative_to(folder)), -1, -1))  # dangling: changes the key
+                out.append((str(p.relative_to(folder)), -1, -1, -1))  # dangling: changes the key
                 continue
-            out.append((str(p.relative_to(folder)), st.st_size, st.st_mtime_ns))
+            out.append((str(p.relative_to(folder)), st.st_size, st.st_mtime_ns, st.st_ctime_ns))
     return out
 
 
