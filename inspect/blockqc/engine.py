@@ -20,7 +20,7 @@ from blockqc.results import BlockResults, MeasurementRecord, RuleResult, tally
 from blockqc.rules.expr import ExpressionError, evaluate, resolve_params
 from blockqc.rules.model import Pack, Rule, Threshold, selected, within
 from blockqc.schema import key_labels
-from blockqc.verification import annotate, prepare
+from blockqc.verification import annotate, annotated_keys, prepare
 
 #: tables up to this many rows are kept in results.json for the report
 MEASUREMENT_ROWS_KEPT = 5000
@@ -206,6 +206,25 @@ def _order(df: pd.DataFrame, stat: str | None, sort: str | None, lo: Any, hi: An
 
 #: the reason of a rule, or a group of it, that its metric measured nothing for
 NOTHING = "nothing measured for this group"
+
+
+#: the detail keys of a per-unit result (scenes, pairs, points) besides those of any result
+UNIT_DETAIL = ("n_units", "n_offending", "exempt", "waived")
+#: the detail keys any automatic result may have
+ANY_DETAIL = ("reason", "waiver_reason", "waiver_ignored", "evidence_truncated")
+#: the detail keys of a manual rule's result (the inspector's verdict)
+MANUAL_DETAIL = ("reason", "note", "decided_by", "condition")
+
+
+def detail_keys(rule: Rule) -> tuple[str, ...]:
+    """Every key the detail of a result of the rule may hold (what Judge writes): per unit its
+    counts, per row of a block or group the row's other columns; the statistic is the value."""
+    if rule.manual:
+        return MANUAL_DETAIL
+    scope = REGISTRY[rule.metric or ""].scopes[rule.scope]
+    own = scope.all_columns() if not scope.keys else UNIT_DETAIL
+    own = tuple(c for c in own if c not in scope.groups and c != rule.statistic)
+    return tuple(dict.fromkeys((*own, *ANY_DETAIL, *annotated_keys(rule.metric or ""))))
 
 
 class Judge:

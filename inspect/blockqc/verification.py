@@ -271,6 +271,15 @@ NOT_REPRODUCED = (
 )
 
 
+def annotated_keys(metric: str) -> tuple[str, ...]:
+    """The keys `annotate` may add to the detail of a result of that metric."""
+    note = ("note",) if metric == "residual_reproduction" else ()
+    source = SOURCES.get(metric)
+    computed = ("computed_by_blockqc",) if source else ()
+    rays = ("observations_without_residual", "observations_single_ray")
+    return (*note, *computed, *(rays if source == "tie_point_residuals" else ()))
+
+
 def annotate(results: list[Any], metric_of: dict[str, str], notes: dict) -> None:
     """Say in each result judged on inputs blockqc computed itself where they came from, and
     in RC-1's why its value is infinite (no number in JSON) when rays do not intersect."""

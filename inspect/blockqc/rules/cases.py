@@ -168,8 +168,9 @@ def read_case_file(path: Path) -> CaseFile:
 
 def case_problems(path: Path, doc: CaseFile, pack: Pack, pack_file: Path) -> list[Problem]:
     """What the cases of a file ask that their rule can never give — a `value` of another kind
-    than the rule's statistic, a `group` column or value the rule does not judge — by file and
-    line. Each case is checked against the rule it runs under: the pack's, or its own `pack:`'s."""
+    than the rule's statistic, a `group` column or value the rule does not judge, an evidence
+    column or detail key its results do not have — by file and line. Each case is checked
+    against the rule it runs under: the pack's, or its own `pack:`'s."""
     out: list[Problem] = []
     with tempfile.TemporaryDirectory(prefix="blockqc-case-") as tmp:
         for i, case in enumerate(doc.cases):
@@ -187,6 +188,7 @@ def case_problems(path: Path, doc: CaseFile, pack: Pack, pack_file: Path) -> lis
             _check_value(case.value, rule, bad)
             _check_group(case.group, rule, bad)
             _check_evidence(case.evidence, rule, bad)
+            _check_detail(case.detail, rule, bad)
     return out
 
 
@@ -331,6 +333,24 @@ def _check_evidence(
                     j,
                     key,
                 )
+
+
+def _check_detail(detail: dict[str, Any] | None, rule: Rule, bad: Callable[..., None]) -> None:
+    """A case's `detail` names keys the rule's results give (a misspelt `n_offendng` is in no
+    result's detail, and the case would fail whatever the rule gives)."""
+    from blockqc.engine import detail_keys
+
+    keys = detail_keys(rule)
+    what = "the inspector's verdict" if rule.manual else f"{rule.metric} at scope {rule.scope}"
+    for key in detail or {}:
+        if key == rule.statistic:
+            why = f"{key} is the statistic rule {rule.id} judges: give it as the case's value"
+        elif key not in keys:
+            hint = did_you_mean(str(key), keys)
+            why = f"rule {rule.id}'s detail ({what}) has no key '{key}'{hint}"
+        else:
+            continue
+        bad(f"{why} (keys: {', '.join(keys)})", "detail", key)
 
 
 def aggregate_status(results: list[dict[str, Any]]) -> str:
