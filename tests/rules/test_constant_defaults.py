@@ -17,7 +17,7 @@ PA3 = """\
   - id: PA-3
     title: Gross-error rate below 5 %
     clause: §CP-6
-    content: [cp_plane, cp_height]
+    content: {cp_plane: {component: plane}, cp_height: {component: height}}
     metric: checkpoint_accuracy
     scope: component_method
     statistic: gross_rate

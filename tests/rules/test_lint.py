@@ -195,7 +195,7 @@ def test_a_content_may_take_several_values_or_every_group(tmp_path: Path) -> Non
         "overrides:\n  RO-3:\n    content: {cp_plane: {component: [plane, height]}}\n"
         "  RO-4:\n    where: {component: plane}\n    content: {cp_plane: {component: plane}}\n"
         "    thresholds:\n      plane: {max: 20}\n"
-        "  CP-4:\n    content: [cp_plane]\n",
+        "  RO-2:\n    content: [cp_plane]\n",
     )
     assert _messages(pack) == []
     assert load_pack(pack).rule("RO-3").content == {"cp_plane": {"component": ["plane", "height"]}}

@@ -77,6 +77,9 @@ class Scope:
     table: str = ""
     # further columns whose values are fixed (a scene's band): `where` is checked against them
     values: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
+    # group columns whose values are contents of their own (checkpoint plane and height
+    # accuracy, DOMAIN §2): a rule gives each value judged its own content
+    apart: tuple[str, ...] = ()
 
     def values_of(self, column: str) -> tuple[str, ...]:
         """The values a column takes, when they are fixed (a group's, a band's); else ()."""

@@ -121,6 +121,7 @@ def _every(column: str) -> list[dict[str, str]]:
             },
             groups={"component": _GROUPS["component"]},
             columns=("ce90_m", "axis_ratio"),
+            apart=("component",),
         ),
         "axis": Scope(
             {"n": "points", "mean_m": "m", "abs_mean_m": "m", "std_m": "m", "rmse_m": "m"},

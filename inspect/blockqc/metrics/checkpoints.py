@@ -184,12 +184,14 @@ _GROUPS = {"component": ("plane", "height"), "method": METHODS}
             groups=_GROUPS,
             columns=("statistic", "used_mean", "norm_m", "bound_m"),
             values={"statistic": ("M1", "M2", "M", "mean")},
+            apart=("component",),
         ),
         "point": Scope(
             {"abs_error_m": "m", "error_m": "m"},
             groups=_GROUPS,
             keys=("point_id",),
             columns=("reference_id", "x_m", "y_m", "dx_m", "dy_m", "dz_m", "bound_m", "gross"),
+            apart=("component",),
         ),
     },
     param_units={

@@ -60,6 +60,11 @@ def _scope_md(name: str, scope: Scope) -> list[str]:
     if scope.groups:
         groups = "; ".join(f"`{c}`: {', '.join(v)}" for c, v in scope.groups.items())
         out.append(f"  - groups (one result each; `thresholds:` per value): {groups}")
+    for col in scope.apart:
+        out.append(
+            f"  - each `{col}` a content of its own: a rule judging more than one gives each "
+            f"its content (`where: {{{col}: …}}`, or `content: {{id: {{{col}: …}}, …}}`)"
+        )
     if scope.keys:
         out.append(f"  - units identified by: {', '.join(f'`{k}`' for k in scope.keys)}")
     if scope.columns:

@@ -305,6 +305,7 @@ def check_rule(
     _check_unit(rule, scope, bad)
     _check_where(rule.where, scope, f"{spec.name} at scope {rule.scope}", "where", bad)
     _check_content_groups(rule, scope, f"{spec.name} at scope {rule.scope}", bad)
+    _check_apart(rule, scope, f"{spec.name} at scope {rule.scope}", bad)
     _check_groups(rule, spec, scope, bad)
     _check_evidence(rule, spec, scope, bad)
     _check_params(rule, spec, names, bad)
@@ -522,6 +523,33 @@ def _check_content_groups(rule: Rule, scope: Scope, what: str, bad: Callable[...
                 f"(give each value of {col} to a content: {', '.join(judged)})",
                 "content",
             )
+
+
+def _check_apart(rule: Rule, scope: Scope, what: str, bad: Callable[..., None]) -> None:
+    """The values of a column decided apart (checkpoint plane and height) go to contents of
+    their own: a content that takes two (no `where` on the column, no selector in `content`)
+    would file the plane's results with the height's and judge them by its threshold."""
+    for col in scope.apart:
+        judged = _judged(rule, scope, col)
+        if col in rule.where or len(judged) < 2:
+            continue
+        for content, where in rule.content.items():
+            if not set(where) <= set(scope.groups):
+                continue  # a column that is no group column: reported as such
+            took = [v for v in judged if col not in where or v in selected(where[col])]
+            if len(took) > 1:
+                bad(_apart_message(content, col, took, what), "content")
+                return
+
+
+def _apart_message(content: str, col: str, took: list[str], what: str) -> str:
+    wheres = " or ".join(f"where: {{{col}: {v}}}" for v in took)
+    each = ", ".join(f"<{v} content>: {{{col}: {v}}}" for v in took)
+    return (
+        f"content: {content} would take the results of {col} {' and '.join(took)} of {what}, "
+        f"each a content of its own: add {wheres} to judge one, or give each its content "
+        f"(content: {{{each}}})"
+    )
 
 
 def _judged(rule: Rule, scope: Scope, col: str) -> tuple[str, ...]:
