@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pandas as pd
 import pytest
 import yaml
 
@@ -16,6 +17,7 @@ from blockqc.metrics.reference import markdown_reference
 from blockqc.resources import rules_dir
 from blockqc.rules import load_pack
 from blockqc.rules.casebase import write_delivery
+from blockqc.rules.lint import NOT_NUMBER_UNITS
 from blockqc.verification import prepare
 
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "metrics.md"
@@ -64,6 +66,17 @@ def test_declared_scopes_match_the_tables_measured(measured) -> None:
             assert set(table.keys) == set(scope.keys), where
             for col, values in scope.groups.items():
                 assert set(table.df[col].astype(str)) <= set(values), (where, col)
+
+
+def test_statistics_not_declared_signed_are_never_negative(measured) -> None:
+    """Lint refuses a max below 0 on a number not declared `signed`: none measured is below 0."""
+    for name, m in measured.items():
+        for scope_name, table in m.tables.items():
+            scope = REGISTRY[name].scopes[scope_name]
+            for stat, unit in scope.statistics.items():
+                if unit not in NOT_NUMBER_UNITS and stat not in scope.signed:
+                    values = pd.to_numeric(table.df[stat], errors="coerce")
+                    assert not (values < 0).any(), (name, scope_name, stat)
 
 
 def test_a_metric_may_offer_a_scope_of_its_own(monkeypatch, tmp_path: Path) -> None:

@@ -80,6 +80,9 @@ class Scope:
     # group columns whose values are contents of their own (checkpoint plane and height
     # accuracy, DOMAIN §2): a rule gives each value judged its own content
     apart: tuple[str, ...] = ()
+    # statistics that may be below 0 (a signed error, a bias); every other number is never
+    # negative (magnitudes, their RMS and medians, counts, shares), checked against its bounds
+    signed: tuple[str, ...] = ()
 
     def values_of(self, column: str) -> tuple[str, ...]:
         """The values a column takes, when they are fixed (a group's, a band's); else ()."""

@@ -126,6 +126,7 @@ def _every(column: str) -> list[dict[str, str]]:
         "axis": Scope(
             {"n": "points", "mean_m": "m", "abs_mean_m": "m", "std_m": "m", "rmse_m": "m"},
             groups={"axis": _GROUPS["axis"]},
+            signed=("mean_m",),
         ),
     },
 )

@@ -192,6 +192,7 @@ _GROUPS = {"component": ("plane", "height"), "method": METHODS}
             keys=("point_id",),
             columns=("reference_id", "x_m", "y_m", "dx_m", "dy_m", "dz_m", "bound_m", "gross"),
             apart=("component",),
+            signed=("error_m",),
         ),
     },
     param_units={

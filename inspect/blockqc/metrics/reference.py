@@ -57,6 +57,9 @@ def _plain(value: Any) -> str:
 def _scope_md(name: str, scope: Scope) -> list[str]:
     stats = ", ".join(f"`{s}`" + (f" ({u})" if u else "") for s, u in scope.statistics.items())
     out = [f"- **{name}** — statistics: {stats}"]
+    if scope.signed:
+        signed = ", ".join(f"`{s}`" for s in scope.signed)
+        out.append(f"  - may be below 0: {signed} (every other number is never negative)")
     if scope.groups:
         groups = "; ".join(f"`{c}`: {', '.join(v)}" for c, v in scope.groups.items())
         out.append(f"  - groups (one result each; `thresholds:` per value): {groups}")

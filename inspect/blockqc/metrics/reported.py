@@ -126,6 +126,7 @@ def _tie_point_columns(p: ReportedParams) -> set[str] | None:
             {"agrees": "true/false", "difference": "the figure's unit"},
             keys=("figure",),
             columns=("reported", "recomputed", "exempt", "exempt_reason", "note"),
+            signed=("difference",),
         )
     },
     param_units={"rel_tol": "fraction", "abs_tol": "the figure's unit"},

@@ -302,6 +302,7 @@ def check_rule(
             "statistic",
         )
     _check_threshold_kinds(rule, scope, bad)
+    _check_never_negative(rule, scope, names, f"{spec.name} at scope {rule.scope}", bad)
     _check_unit(rule, scope, bad)
     _check_where(rule.where, scope, f"{spec.name} at scope {rule.scope}", "where", bad)
     _check_content_groups(rule, scope, f"{spec.name} at scope {rule.scope}", bad)
@@ -458,6 +459,32 @@ def _check_threshold_kinds(rule: Rule, scope: Scope, bad: Callable[..., None]) -
             kind = f"is a number ({unit}): compare it with min/max or numbers"
         if wrong:
             bad(f"{'.'.join(loc)}: statistic {rule.statistic} {kind}", *loc)
+
+
+def _check_never_negative(
+    rule: Rule, scope: Scope, names: Mapping[str, Any], what: str, bad: Callable[..., None]
+) -> None:
+    """A statistic that is never negative passes no max below 0, nor max 0 exclusive: the rule
+    would fail every delivery. Bounds naming the delivery are left to inspect."""
+    unit = scope.statistics.get(rule.statistic or "", "")
+    if unit in NOT_NUMBER_UNITS or rule.statistic in scope.signed:
+        return
+    for group, th in rule.all_thresholds().items():
+        if th.max is None or delivery_named(th.max):
+            continue
+        try:
+            hi = evaluate(th.max, names)
+        except ExpressionError:
+            continue  # reported by the threshold checks
+        if not isinstance(hi, (int, float)) or not (hi < 0 or (hi == 0 and not th.inclusive)):
+            continue  # (a NaN is neither)
+        loc = ("thresholds", group) if group else ("threshold",)
+        how = "is below 0" if hi < 0 else "with inclusive: false"
+        bad(
+            f"{'.'.join(loc)}.max: {hi:g} {how}, and statistic {rule.statistic} ({unit}) of "
+            f"{what} is never negative: nothing can pass",
+            *loc,
+        )
 
 
 def _check_unit(rule: Rule, scope: Scope, bad: Callable[..., None]) -> None:
