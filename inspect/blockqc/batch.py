@@ -374,6 +374,17 @@ def graded(r: BlockResults) -> BlockGrade | None:
     )  # fmt: skip
 
 
+def delivery_warnings(path: Path, r: BlockResults) -> list[str]:
+    """What the delivery gives that its rules judge as given, but an inspector should know."""
+    n = r.summary.get("tie_points_on_one_scene")
+    if not n:
+        return []
+    return [
+        f"{path}: {n} of {r.summary['tie_points']} tie points are observed on one scene only: "
+        "they tie no scenes, and are counted as delivered (TP-1..TP-4)"
+    ]
+
+
 def rule_counts(r: BlockResults) -> dict[str, dict[str, int]]:
     out: dict[str, dict[str, int]] = {}
     for res in r.results:
@@ -403,7 +414,7 @@ class Job:
                     return o
             results = inspect_one(path, self.pack, self.inspector, manifest, self.extra)
             o = self._written(path, results, key)
-            o.warnings = untrusted
+            o.warnings = [*untrusted, *o.warnings]
             return o
         except OutputError:
             raise  # no fault of the delivery: the run stops
@@ -441,6 +452,7 @@ class Job:
                 if r.status == "error"
             ]
             o.key = key
+            o.warnings = delivery_warnings(path, results)
             if key:
                 write_cached(folder, Cached(key, o.entry, o.rules, grade, errors=o.errors))
             return o

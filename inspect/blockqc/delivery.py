@@ -1316,25 +1316,33 @@ def document_path(root: Path, rel: str) -> Path:
 
 
 def summary(d: Delivery) -> dict[str, Any]:
-    """Counts for messages and reports."""
-    return {
+    """Counts for messages and reports; with the point ids read, also the tie points observed
+    on one scene only (an observation a row, a point on a scene once: they tie no scenes)."""
+    out: dict[str, Any] = {
         "scenes": len(d.scenes),
         "tie_point_observations": len(d.tie_points),
-        "tie_points": (
-            distinct_count(d.tie_points["point_id"]) if "point_id" in d.tie_points else None
-        ),
+        "tie_points": None,
         "checkpoints": 0 if d.checkpoints is None else distinct_count(d.checkpoints["point_id"]),
     }
+    if "point_id" in d.tie_points:
+        counts = value_counts(d.tie_points["point_id"])
+        out["tie_points"] = int(np.count_nonzero(counts))
+        out["tie_points_on_one_scene"] = int(np.count_nonzero(counts == 1))
+    return out
 
 
 def distinct_count(values: pd.Series) -> int:
-    """How many distinct values, missing ones aside; a Categorical's counted by one bincount
-    of its codes (millions of point ids are not hashed again)."""
+    """How many distinct values, missing ones aside."""
+    return int(np.count_nonzero(value_counts(values)))
+
+
+def value_counts(values: pd.Series) -> np.ndarray:
+    """How many times each value is given (some counts may be 0), missing ones aside; a
+    Categorical's by one bincount of its codes (millions of point ids are not hashed again)."""
     if not isinstance(values.dtype, pd.CategoricalDtype):
-        return int(values.nunique())
+        return values.value_counts(dropna=True).to_numpy()
     codes = values.array.codes
-    counts = np.bincount(codes + 1, minlength=len(values.cat.categories) + 1)
-    return int(np.count_nonzero(counts[1:]))
+    return np.bincount(codes + 1, minlength=len(values.cat.categories) + 1)[1:]
 
 
 def scene_positions(scene_id: pd.Series, scene_ids: Any) -> np.ndarray:

@@ -343,9 +343,15 @@ def _header(results: BlockResults, f: Formatter) -> dict[str, Any]:
             tie_points=s.get("tie_points") if s.get("tie_points") is not None else "–",
             observations=s.get("tie_point_observations", "–"),
             checkpoints=s.get("checkpoints", "–"),
-        ),
+        )
+        + (t("contents_one_scene", n=s["tie_points_on_one_scene"]) if _one_scene(s) else ""),
         "not_read_text": _not_read(results, f),
     }
+
+
+def _one_scene(s: dict) -> bool:
+    """Whether the delivery gives tie points observed on one scene only (counted as given)."""
+    return bool(s.get("tie_points_on_one_scene"))
 
 
 def _not_read(results: BlockResults, f: Formatter) -> str:

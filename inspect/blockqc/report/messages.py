@@ -32,6 +32,11 @@ MESSAGES: dict[str, tuple[str, str]] = {
     "verdict": ("Overall verdict", "总体结论"),
     "delivery": ("Delivery", "成果路径"),
     "contents": ("Contents", "成果内容"),
+    "contents_one_scene": (
+        "; {n} of the tie points are observed on one scene only: they tie no scenes, and are "
+        "counted as delivered",
+        "；其中 {n} 个连接点仅在一景影像上有观测：未连接任何影像，按所交数据计入",
+    ),
     "contents_text": (
         "{scenes} scenes, {tie_points} tie points ({observations} observations), "
         "{checkpoints} checkpoints",
