@@ -32,6 +32,33 @@ __all__ = [
 ]
 
 
+#: a project's tie-point rules over the stock pack, for tests of rule cases: PA-1 a count per
+#: PAN scene (≥ 100), PA-2 the RMS error over the block (≤ 0.5 px)
+PA1_RULE = """\
+  - id: PA-1
+    title: At least 100 tie points in every PAN scene
+    clause: §TP-4
+    content: tp_number
+    metric: tie_point_distribution
+    params: {bands: [pan]}
+    scope: scene
+    statistic: n_points
+    threshold: {min: 100}
+    unit: points
+"""
+PA2_RULE = """\
+  - id: PA-2
+    title: Tie-point RMS error within 0.5 px
+    clause: §TP-1
+    content: ro_report
+    metric: tie_point_errors
+    params: {bands: [pan]}
+    statistic: rms
+    threshold: {max: 0.5}
+    unit: px
+"""
+
+
 def run_blockqc(*args: object, cwd: Path | None = None) -> subprocess.CompletedProcess:
     """Run the real command line in a child process (exit status, stdout, stderr)."""
     return subprocess.run(
@@ -50,6 +77,15 @@ def extension_pack(
     path = tmp_path / f"{name}.yaml"
     path.write_text(f"pack: {name}\nextends: {extends}\n{body}", "utf-8")
     return path
+
+
+def project_with_cases(tmp_path: Path, rules: str, cases: dict[str, str]) -> Path:
+    """A project pack of `rules` over the stock pack, with a case file per rule id given."""
+    pack = extension_pack(tmp_path, rules)
+    (tmp_path / "project.cases").mkdir()
+    for rule, text in cases.items():
+        (tmp_path / "project.cases" / f"{rule}.yaml").write_text(text, "utf-8")
+    return pack
 
 
 def lint_messages(path: Path) -> list[str]:

@@ -9,21 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from casekit import extension_pack, lint_messages
+from casekit import PA1_RULE, extension_pack, lint_messages
 
-RULE = """\
-rules:
-  - id: PA-1
-    title: At least 100 tie points in every PAN scene
-    clause: §TP-4
-    content: tp_number
-    metric: tie_point_distribution
-    params: {bands: [pan]}
-    scope: scene
-    statistic: n_points
-    threshold: {min: 100}
-    unit: points
-"""
+RULE = "rules:\n" + PA1_RULE
 
 # the base delivery: 121 tie points on each of S1..S4 (casebase.py)
 GOOD = """\

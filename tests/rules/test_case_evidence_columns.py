@@ -6,30 +6,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from casekit import extension_pack, lint_messages
+from casekit import PA1_RULE, PA2_RULE, lint_messages, project_with_cases
 
-RULES = """\
-rules:
-  - id: PA-1
-    title: At least 100 tie points in every PAN scene
-    clause: §TP-4
-    content: tp_number
-    metric: tie_point_distribution
-    params: {bands: [pan]}
-    scope: scene
-    statistic: n_points
-    threshold: {min: 100}
-    unit: points
-  - id: PA-2
-    title: Tie-point RMS error within 0.5 px
-    clause: §TP-1
-    content: ro_report
-    metric: tie_point_errors
-    params: {bands: [pan]}
-    statistic: rms
-    threshold: {max: 0.5}
-    unit: px
-"""
+RULES = "rules:\n" + PA1_RULE + PA2_RULE
 
 # the base delivery: 121 tie points on each of S1..S4, every error 0.3 px (casebase.py)
 PA1 = """\
@@ -59,11 +38,7 @@ cases:
 
 
 def _project(tmp_path: Path, pa1: str = PA1, pa2: str = PA2) -> Path:
-    pack = extension_pack(tmp_path, RULES)
-    (tmp_path / "project.cases").mkdir()
-    (tmp_path / "project.cases" / "PA-1.yaml").write_text(pa1, "utf-8")
-    (tmp_path / "project.cases" / "PA-2.yaml").write_text(pa2, "utf-8")
-    return pack
+    return project_with_cases(tmp_path, RULES, {"PA-1": pa1, "PA-2": pa2})
 
 
 def test_cases_whose_evidence_the_rule_gives_lint_clean(blockqc, tmp_path: Path) -> None:
