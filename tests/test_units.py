@@ -13,12 +13,12 @@ from hypothesis import strategies as st
 from blockqc.metrics.spatial_ref import (
     SpatialParams,
     expected_epsg,
-    lon_extent,
     normalize_datum,
     normalize_height_datum,
     utm_zone,
 )
 from blockqc.metrics.tiepoints import _stats, tie_point_error_px
+from blockqc.rfm.model import lon_extent
 from blockqc.rules.expr import ExpressionError, evaluate
 
 P = SpatialParams()

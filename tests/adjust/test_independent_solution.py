@@ -246,3 +246,28 @@ def test_rc1_reproduces_the_residuals_across_the_antimeridian(tmp_path, blockqc)
     assert process["n_points_not_intersected"] == 0
     pairs = tp.groupby("point_id").size()
     assert process["n_overlap_discrepancies"] == int((pairs * (pairs - 1) // 2).sum())
+
+
+def test_the_dem_is_read_over_the_block_across_the_antimeridian(tmp_path, monkeypatch):
+    """The block above across ±180° with a global DEM: the DEM was asked for lon −179.99 to
+    179.99 (round the globe, every column of a global DEM), and is now asked for the block's
+    0.2° across the antimeridian; each point's height prior is the DEM's."""
+    import rasterio
+    from rasterio.transform import from_origin
+
+    from blockqc.adjust import run
+
+    blk = tmp_path / "blk"
+    write_block(blk, 180.0)
+    dem = tmp_path / "globe.tif"
+    profile = {"driver": "GTiff", "width": 360, "height": 180, "count": 1, "dtype": "float32"}
+    transform = from_origin(-180.0, 90.0, 1.0, 1.0)
+    with rasterio.open(dem, "w", crs="EPSG:4326", transform=transform, **profile) as ds:
+        ds.write(np.full((1, 180, 360), H0, dtype=np.float32))
+    asked = []
+    load = run._load_dem
+    monkeypatch.setattr(run, "_load_dem", lambda cfg, box: asked.append(box) or load(cfg, box))
+    cfg = run.AdjustConfig(blk, tmp_path / "out", dem=dem, dem_vertical="ellipsoid")
+    h, sigma, text = run.height_priors(run.index_block(run.load_adjust_input(blk)), cfg)
+    assert asked and all(179.7 < west < 180.0 < east < 180.3 for west, _, east, _ in asked)
+    assert np.allclose(h, H0) and np.allclose(sigma, cfg.dem_sigma_m), text

@@ -22,6 +22,7 @@ from blockqc.errors import InputError, Problem
 from blockqc.grouped import Groups
 from blockqc.outputs import check_out_dir
 from blockqc.report.messages import translator
+from blockqc.rfm.model import lon_extent, wrap_lon
 
 if TYPE_CHECKING:
     from blockqc.rfm.dem import DEM
@@ -127,12 +128,7 @@ def height_priors(block: Block, cfg: AdjustConfig) -> tuple[np.ndarray, np.ndarr
         ok = np.isfinite(res.lon) & np.isfinite(res.lat)
         if not ok.any():
             break
-        box = (
-            float(res.lon[ok].min()) - 0.05,
-            float(res.lat[ok].min()) - 0.05,
-            float(res.lon[ok].max()) + 0.05,
-            float(res.lat[ok].max()) + 0.05,
-        )
+        box = _points_box(res.lon[ok], res.lat[ok])
         dem = _load_dem(cfg, box)
         dem_h = dem.height(np.where(ok, res.lon, 0.0), np.where(ok, res.lat, 0.0))
         here = ok & np.isfinite(dem_h)
@@ -151,6 +147,13 @@ def height_priors(block: Block, cfg: AdjustConfig) -> tuple[np.ndarray, np.ndarr
     return h, sig, text
 
 
+def _points_box(lon: np.ndarray, lat: np.ndarray) -> tuple[float, float, float, float]:
+    """West, south, east, north of the points with a margin of 0.05°: the shortest arc of
+    longitude (a block across ±180° spans 179.9…180.1, east beyond 180, not the globe)."""
+    west, east = lon_extent(lon)
+    return west - 0.05, float(lat.min()) - 0.05, east + 0.05, float(lat.max()) + 0.05
+
+
 def _load_dem(cfg: AdjustConfig, bounds: tuple[float, float, float, float]) -> DEM:
     """The DEM over `bounds` as ellipsoidal heights (adjust has no --geoid-offset)."""
     from blockqc.rfm.dem import load_dem
@@ -165,7 +168,7 @@ def _no_height(n_points: int, box: tuple[float, ...] | None) -> str:
         ""
         if box is None
         else (
-            f" (lon {box[0] + 0.05:.4f}..{box[2] - 0.05:.4f}, lat {box[1] + 0.05:.4f}.."
+            f" (lon {box[0] + 0.05:.4f}..{wrap_lon(box[2] - 0.05):.4f}, lat {box[1] + 0.05:.4f}.."
             f"{box[3] - 0.05:.4f})"
         )
     )

@@ -5,13 +5,13 @@ from __future__ import annotations
 import math
 import re
 
-import numpy as np
 import pandas as pd
 import shapely
 from pydantic import BaseModel, ConfigDict
 
 from blockqc.delivery import Delivery, canonical_epsg
 from blockqc.metrics import Measure, Measurement, Scope, Table, metric
+from blockqc.rfm.model import lon_extent
 
 _WGS84 = {"WGS84", "WGS1984", "EPSG4326", "WORLDGEODETICSYSTEM1984", "G1762", "ITRF-WGS84"}
 _ELLIPSOIDAL = {
@@ -57,20 +57,6 @@ def utm_zone(lon: float) -> int:
     """UTM zone number of a longitude (1..60; 180° is zone 60's east edge, a longitude beyond
     ±180° is taken round the globe); the Norway/Svalbard exceptions are `exception_zone`'s."""
     return int(min(60, math.floor((wrap_lon(lon) + 180.0) / 6.0) + 1))
-
-
-def lon_extent(lon: np.ndarray) -> tuple[float, float]:
-    """West and east ends of the shortest arc of longitude holding every `lon` (degrees): the
-    circle less its widest gap between neighbouring longitudes, so that a block across ±180°
-    spans 179.8…180.4, not −179.6…179.8 round the globe; east may exceed 180."""
-    lon = np.sort(np.mod(np.asarray(lon, np.float64) + 180.0, 360.0) - 180.0)
-    if lon.size == 0:
-        return math.nan, math.nan
-    gaps = np.append(np.diff(lon), lon[0] + 360.0 - lon[-1])  # the last: across ±180°
-    widest = int(np.argmax(gaps))
-    if widest == len(lon) - 1:
-        return float(lon[0]), float(lon[-1])
-    return float(lon[widest + 1]), float(lon[widest] + 360.0)
 
 
 def wrap_lon(lon: float) -> float:

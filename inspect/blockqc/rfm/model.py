@@ -131,6 +131,20 @@ def wrap_lon(lon: ArrayLike) -> FloatArray:
         return np.where(out, (lon + 180.0) % 360.0 - 180.0, lon)
 
 
+def lon_extent(lon: np.ndarray) -> tuple[float, float]:
+    """West and east ends of the shortest arc of longitude holding every `lon` (degrees): the
+    circle less its widest gap between neighbouring longitudes, so that a block across ±180°
+    spans 179.8…180.4, not −179.6…179.8 round the globe; east may exceed 180."""
+    lon = np.sort(np.mod(np.asarray(lon, np.float64) + 180.0, 360.0) - 180.0)
+    if lon.size == 0:
+        return float("nan"), float("nan")
+    gaps = np.append(np.diff(lon), lon[0] + 360.0 - lon[-1])  # the last: across ±180°
+    widest = int(np.argmax(gaps))
+    if widest == len(lon) - 1:
+        return float(lon[0]), float(lon[-1])
+    return float(lon[widest + 1]), float(lon[widest] + 360.0)
+
+
 @dataclass(frozen=True, eq=False)
 class RPCModel:
     """One scene's RPC00B model: ten offsets/scales and the 4×20 coefficients (§3).
