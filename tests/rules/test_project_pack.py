@@ -157,3 +157,12 @@ def test_the_readme_example_lints_and_its_cases_pass(tmp_path: Path) -> None:
     test = run_blockqc("rules", "test", tmp_path / "project.yaml")
     assert test.returncode == 0, test.stdout + test.stderr
     assert "pass  PR-1     13 of S1's 121 observations at 1.2 px (10.74 %)" in test.stdout
+
+
+def test_rules_test_help_shows_the_pack_optional_and_its_default(blockqc) -> None:
+    """`rules test` without a pack runs the stock pack's cases: its usage line shows PACK as
+    optional, and its help names the default."""
+    p = blockqc("rules", "test", "--help")
+    assert p.returncode == 0, p.stderr
+    assert "Usage: blockqc rules test [OPTIONS] [PACK]" in p.stdout
+    assert "default: global-project" in " ".join(p.stdout.split())

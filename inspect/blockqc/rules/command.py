@@ -191,11 +191,11 @@ def rules_lint(packs: tuple[str, ...]) -> int:
 
 
 @command.command("test")
-@click.argument("pack_ref", metavar="PACK", default="global-project")
+@click.argument("pack_ref", metavar="[PACK]", default="global-project")
 @click.option("--own", is_flag=True, help="Only the pack's own cases, not its parents'.")
 def rules_test(pack_ref: str, own: bool) -> int:
-    """Run the pass/fail cases beside a pack (PACK.cases/RULE.yaml) and the packs it extends;
-    exit 1 when a case fails, 2 when a case file is broken."""
+    """Run the pass/fail cases beside a pack (PACK.cases/RULE.yaml; default: global-project)
+    and the packs it extends; exit 1 when a case fails, 2 when a case file is broken."""
     from blockqc.rules import load_pack
     from blockqc.rules.cases import run_pack_cases
 
