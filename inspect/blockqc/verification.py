@@ -14,7 +14,6 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-import pyarrow as pa
 
 from blockqc.adjust.geometry import (
     Intersection,
@@ -145,15 +144,16 @@ def derive_overlaps(
     the east and north differences (scene_b − scene_a) in metres on the WGS-84 ellipsoid (as a
     map projection measures them, heights aside), for every two scenes seeing the same point:
     one row per two observations of a point (scene_a before scene_b in `scene` order), in the
-    order of the first's row, then the second's.
+    order of the first's row, then the second's. The ids are the observations' own: Categoricals
+    over the tie points' categories when they are so held (codes, no text per pair).
     """
     a, b = _pairs(pd.factorize(obs["point_id"])[0], scene, np.isfinite(h))
     dx_m, dy_m = _differences(lon, lat, a, b)
     return pd.DataFrame(
         {
-            "scene_a": _texts(obs["scene_id"], a),
-            "scene_b": _texts(obs["scene_id"], b),
-            "point_id": _texts(obs["point_id"], a),
+            "scene_a": _ids(obs["scene_id"], a),
+            "scene_b": _ids(obs["scene_id"], b),
+            "point_id": _ids(obs["point_id"], a),
             "dx_m": dx_m,
             "dy_m": dy_m,
         },
@@ -171,20 +171,13 @@ def _differences(
     return dx_m, np.radians(lat[b] - lat[a]) * (0.5 * (n_m[a] + n_m[b]))
 
 
-#: the dtype pandas gives text (pandas 3: strings in Arrow; earlier: object)
-TEXT = pd.Series(["text"]).dtype
-
-
-def _texts(column: pd.Series, rows: np.ndarray) -> Any:
-    """A key column's values at rows, as pandas holds text: a categorical's taken from its
-    categories, in Arrow when pandas holds text in Arrow (no Python string per row or per
-    category), else each converted once, not once per row."""
+def _ids(column: pd.Series, rows: np.ndarray) -> Any:
+    """A key column's values at rows: a categorical's codes at rows over its categories (one
+    small integer per row, no text), any other column's values."""
     if not isinstance(column.dtype, pd.CategoricalDtype):
         return column.to_numpy()[rows]
     codes = column.cat.codes.to_numpy()[rows]
-    if not isinstance(TEXT, pd.StringDtype):
-        return column.cat.categories.to_numpy(dtype=object)[codes]
-    return pd.array(pa.array(column.cat.categories.array).take(codes), dtype=TEXT)
+    return pd.Categorical.from_codes(codes, dtype=column.dtype, validate=False)
 
 
 def _pairs(point: np.ndarray, scene: np.ndarray, kept: np.ndarray) -> tuple[np.ndarray, ...]:

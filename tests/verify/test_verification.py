@@ -466,9 +466,35 @@ def test_derived_overlaps_pair_every_two_scenes_of_a_point_in_row_order(dtype):
         if point[i] == point[j] and scene[i] < scene[j] and np.isfinite(h[i] + h[j])
     ]
     assert list(zip(got.scene_a, got.scene_b, got.point_id, strict=True)) == [w[:3] for w in want]
-    text = pd.Series(["S0"]).dtype  # as pandas holds text, whatever the key columns' dtype
-    assert all(got[c].dtype == text for c in ("scene_a", "scene_b", "point_id"))
+    ids = {"scene_a": "scene_id", "scene_b": "scene_id", "point_id": "point_id"}
+    text = pd.Series(["S0"]).dtype  # as pandas holds text
+    want_dtype = {c: obs[ids[c]].dtype if dtype == "category" else text for c in ids}
+    assert all(got[c].dtype == want_dtype[c] for c in ids)  # Categoricals kept, else text
     i, j = np.array([w[3] for w in want]), np.array([w[4] for w in want])
     geod = Geod(ellps="WGS84")
     _, _, east = geod.inv(lon[i], lat[i], lon[j], lat[i])
     np.testing.assert_allclose(np.abs(got.dx_m), east, rtol=1e-3)
+
+
+def test_derived_overlaps_keys_are_codes_into_the_tie_points_categories():
+    """Point P1 on scenes S2, S1, S3 (rows 0, 1, 3), P2 on S1, S2 (rows 2, 4); scene order S1,
+    S2, S3. P1 gives (S2, S3), (S1, S2), (S1, S3) from rows (0, 3), (1, 0), (1, 3), P2 (S1,
+    S2) from rows (2, 4), in the order of a then b. The key columns are Categoricals over the
+    tie points' categories, unused ones (S9, P9) kept: codes, no text per pair."""
+    scenes = pd.CategoricalDtype(["S2", "S1", "S3", "S9"])
+    points = pd.CategoricalDtype(["P1", "P2", "P9"])
+    obs = pd.DataFrame(
+        {
+            "point_id": pd.Series(["P1", "P1", "P2", "P1", "P2"], dtype=points),
+            "scene_id": pd.Series(["S2", "S1", "S1", "S3", "S2"], dtype=scenes),
+        }
+    )
+    scene = np.array([1, 0, 0, 2, 1])
+    lon, lat, h = np.full(5, 5.0), np.full(5, 44.0), np.full(5, 500.0)
+    got = verification.derive_overlaps(obs, scene, lon, lat, h)
+    assert got["scene_a"].dtype == scenes and got["scene_b"].dtype == scenes
+    assert got["point_id"].dtype == points
+    assert got["scene_a"].cat.codes.tolist() == [0, 1, 1, 1]  # S2, S1, S1, S1
+    assert got["scene_b"].cat.codes.tolist() == [2, 0, 2, 0]  # S3, S2, S3, S2
+    assert got["point_id"].cat.codes.tolist() == [0, 0, 0, 1]  # P1, P1, P1, P2
+    assert got["dx_m"].tolist() == [0.0] * 4 and got["dy_m"].tolist() == [0.0] * 4
