@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from blockqc import memory, pieces
 from blockqc.adjust.geometry import (
     Intersection,
     RPCStack,
@@ -51,27 +52,42 @@ class ProcessData:
 
 
 def compute(d: Delivery) -> ProcessData:
-    """Intersect every tie point with the producer's adjusted models and back-project (§RC-1)."""
+    """Intersect every tie point with the producer's adjusted models and back-project (§RC-1);
+    derive the adjacent-image discrepancies when the delivery gives none (§RC-2)."""
     geo = d.geometry
     assert geo is not None and geo.adjusted is not None and geo.affine is not None
-    tp = d.tie_points
     stack = RPCStack.from_models(geo.adjusted)
-    scene = scene_positions(tp["scene_id"], geo.scene_ids)
+    scene = scene_positions(d.tie_points["scene_id"], geo.scene_ids)
+    obs, points, counts, h_obs = _reproduced(d.tie_points, stack, geo.affine, scene)
+    notes = {"geometry": geo.source, **counts}
+    overlaps = None
+    if d.overlaps is None:
+        line, sample = (obs[c].to_numpy(dtype=float) for c in ("line", "sample"))
+        lon_a, lat_a, _ = intersect_at_height(stack, geo.affine, scene, line, sample, h_obs)
+        memory.release()  # the intersections' temporaries: freed in pieces the pairs cannot use
+        overlaps = derive_overlaps(obs, scene, lon_a, lat_a, h_obs)
+    return ProcessData(obs, points, overlaps, notes)
+
+
+def _reproduced(
+    tp: pd.DataFrame, stack: RPCStack, affine: np.ndarray, scene: np.ndarray
+) -> tuple[pd.DataFrame, pd.DataFrame, dict[str, int], np.ndarray]:
+    """The observations with their computed residuals, the points intersected, their counts,
+    and each observation's point height (NaN where not intersected). The point codes and the
+    intersection's own points are not held past it (while the overlaps are derived)."""
     point, point_ids = pd.factorize(tp["point_id"])
     line = tp["line"].to_numpy(dtype=float)
     sample = tp["sample"].to_numpy(dtype=float)
     n_rays = np.bincount(point, minlength=len(point_ids))
-    x, weak = _intersected(stack, geo.affine, scene, point, line, sample, n_rays)
+    x, weak = _intersected(stack, affine, scene, point, line, sample, n_rays)
     ok = x.converged & (n_rays >= 2)
     h = np.where(ok, x.h, np.nan)
-    obs = tp[["point_id", "scene_id", "line", "sample"]]  # the delivery's columns, not copied
     # a point seen once reproduces its observation exactly: residual 0 (nothing to intersect)
     single = n_rays[point] < 2
     for v in (x.v_line, x.v_sample):  # the intersection's own arrays, set in place
         v[~ok[point]] = np.nan
         v[single] = 0.0
-    obs["v_line_computed"], obs["v_sample_computed"] = x.v_line, x.v_sample
-    obs["n_rays"] = n_rays[point]
+    obs = _observations(tp, x.v_line, x.v_sample, n_rays[point])
     points = pd.DataFrame(
         {
             "point_id": point_ids,
@@ -81,20 +97,24 @@ def compute(d: Delivery) -> ProcessData:
             "n_rays": n_rays,
         }
     )
-    notes = {
-        "geometry": geo.source,
+    counts = {
         "n_points": int(len(point_ids)),
         "n_points_single_ray": int((n_rays < 2).sum()),
         "n_points_not_intersected": int(((n_rays >= 2) & ~ok).sum()),
         "n_points_height_undetermined": int((weak & ok).sum()),
         "iterations": int(x.iterations),
     }
-    overlaps = None
-    if d.overlaps is None:
-        h_obs = h[point]
-        lon_a, lat_a, _ = intersect_at_height(stack, geo.affine, scene, line, sample, h_obs)
-        overlaps = derive_overlaps(obs, scene, lon_a, lat_a, h_obs)
-    return ProcessData(obs, points, overlaps, notes)
+    return obs, points, counts, h[point]
+
+
+def _observations(
+    tp: pd.DataFrame, v_line: np.ndarray, v_sample: np.ndarray, n_rays: np.ndarray
+) -> pd.DataFrame:
+    """The delivery's observations with their computed residuals and rays: the delivery's
+    columns and the arrays given, neither copied (setting a column copies its array)."""
+    columns = {c: tp[c] for c in ("point_id", "scene_id", "line", "sample")}
+    computed = {"v_line_computed": v_line, "v_sample_computed": v_sample, "n_rays": n_rays}
+    return pd.DataFrame({**columns, **computed}, copy=False)
 
 
 #: σ of the height prior given to the points whose rays alone fix no height (parallel rays: PAN
@@ -147,7 +167,8 @@ def derive_overlaps(
     order of the first's row, then the second's. The ids are the observations' own: Categoricals
     over the tie points' categories when they are so held (codes, no text per pair).
     """
-    a, b = _pairs(pd.factorize(obs["point_id"])[0], scene, np.isfinite(h))
+    a, b = _pairs(_point_codes(obs["point_id"]), scene, np.isfinite(h))
+    memory.release()  # the pairing's sorts of every row: not held through the differences
     dx_m, dy_m = _differences(lon, lat, a, b)
     return pd.DataFrame(
         {
@@ -164,11 +185,32 @@ def derive_overlaps(
 def _differences(
     lon: np.ndarray, lat: np.ndarray, a: np.ndarray, b: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """East and north differences b − a (m) of the pairs of rows (a, b), at their mean radii."""
-    e_m, n_m = radii(lat)
-    dx_m = np.radians(wrap_lon(lon[b] - lon[a])) * (0.5 * (e_m[a] + e_m[b]))
-    del e_m
-    return dx_m, np.radians(lat[b] - lat[a]) * (0.5 * (n_m[a] + n_m[b]))
+    """East and north differences b − a (m) of the pairs of rows (a, b), at their mean radii;
+    a piece of rows at a time (`blockqc.pieces`): no row-sized temporaries."""
+    e_m, n_m = np.empty(lat.size), np.empty(lat.size)
+    dx_m, dy_m = np.empty(a.size), np.empty(a.size)
+
+    def at_rows(start: int) -> None:
+        rows = slice(start, start + pieces.CHUNK)
+        e_m[rows], n_m[rows] = radii(lat[rows])
+
+    def of_pairs(start: int) -> None:
+        p = slice(start, start + pieces.CHUNK)
+        pa, pb = a[p], b[p]
+        dx_m[p] = np.radians(wrap_lon(lon[pb] - lon[pa])) * (0.5 * (e_m[pa] + e_m[pb]))
+        dy_m[p] = np.radians(lat[pb] - lat[pa]) * (0.5 * (n_m[pa] + n_m[pb]))
+
+    pieces.each(at_rows, lat.size)
+    pieces.each(of_pairs, a.size)
+    return dx_m, dy_m
+
+
+def _point_codes(point_id: pd.Series) -> np.ndarray:
+    """A code per observation, the same for the observations of one point: a Categorical's
+    own codes (no copy), other ids factorized."""
+    if isinstance(point_id.dtype, pd.CategoricalDtype):
+        return point_id.cat.codes.to_numpy()
+    return pd.factorize(point_id)[0]
 
 
 def _ids(column: pd.Series, rows: np.ndarray) -> Any:
@@ -184,20 +226,28 @@ def _pairs(point: np.ndarray, scene: np.ndarray, kept: np.ndarray) -> tuple[np.n
     """Rows (a, b) of every two kept observations of one point with scene[a] < scene[b],
     ordered by a then b: each two rows of a point taken once (the points of s kept rows, s·(s −
     1)/2 pairs each, at once), put in scene order, and those of one scene dropped."""
-    rows = np.flatnonzero(kept)
+    rows = np.flatnonzero(kept).astype(_row_type(kept.size))
     rows = rows[np.argsort(point[rows], kind="stable")]  # by point, each point's rows in order
     first = np.flatnonzero(np.r_[True, np.diff(point[rows]) != 0])
     size = np.diff(np.r_[first, rows.size])
     parts = [_two_of(rows, first[size == s], s) for s in np.unique(size[size > 1])]
-    a = np.concatenate([np.empty(0, np.int64), *(p[0] for p in parts)])
-    b = np.concatenate([np.empty(0, np.int64), *(p[1] for p in parts)])
+    a = np.concatenate([np.empty(0, rows.dtype), *(p[0] for p in parts)])
+    b = np.concatenate([np.empty(0, rows.dtype), *(p[1] for p in parts)])
     del parts
     swap = scene[a] > scene[b]  # a before b in row order: put them in scene order
     a[swap], b[swap] = b[swap], a[swap]
     keep = scene[a] != scene[b]
     a, b = a[keep], b[keep]
-    order = np.argsort(a * scene.size + b)  # by a then b (each pair is once)
+    key = np.multiply(a, scene.size, dtype=np.int64)
+    key += b
+    order = np.argsort(key)  # by a then b (each pair is once)
+    del key
     return a[order], b[order]
+
+
+def _row_type(n: int) -> type:
+    """The integer type of row numbers below n: 32 bits when they fit (half the memory)."""
+    return np.int32 if n < np.iinfo(np.int32).max else np.int64
 
 
 def _two_of(rows: np.ndarray, first: np.ndarray, s: int) -> tuple[np.ndarray, np.ndarray]:
@@ -221,7 +271,7 @@ def _with_computed_residuals(d: Delivery, obs: pd.DataFrame, notes: dict[str, An
     none (NaN): the rules judging residuals are in error with them, the others count them. The
     notes count both (`observations_single_ray`, `observations_without_residual`)."""
     v_l, v_s = obs["v_line_computed"].to_numpy(), obs["v_sample_computed"].to_numpy()
-    tp = d.tie_points.assign(v_line=v_l, v_sample=v_s)
+    tp = _assigned(d.tie_points, v_line=v_l, v_sample=v_s)
     computed = np.isfinite(v_l) & np.isfinite(v_s)
     single = obs["n_rays"].to_numpy() < 2
     if single.any():
@@ -234,6 +284,14 @@ def _with_computed_residuals(d: Delivery, obs: pd.DataFrame, notes: dict[str, An
     notes["tie_point_residuals"] = COMPUTED_RESIDUALS
 
 
+def _assigned(df: pd.DataFrame, **arrays: np.ndarray) -> pd.DataFrame:
+    """df.assign(**arrays) without copying the arrays (assign copies each): added at the end,
+    or, where df has a column of that name, assigned so."""
+    if any(c in df.columns for c in arrays):
+        return df.assign(**arrays)
+    return pd.concat([df, pd.DataFrame(arrays, index=df.index, copy=False)], axis=1)
+
+
 def prepare(d: Delivery) -> dict[str, Any]:
     """Compute the process data once; fill absent residuals and overlaps; say what was done."""
     if d.process_data.get("prepared"):
@@ -242,8 +300,10 @@ def prepare(d: Delivery) -> dict[str, Any]:
     d.process_data["prepared"] = True
     if d.geometry is None or d.geometry.adjusted is None or d.tie_points.empty:
         return notes
+    memory.release()  # the read's freed temporaries: not held through the intersections
     with np.errstate(all="ignore"):  # a geometry that overflows: its points are not intersected
         pdata = compute(d)
+    memory.release()  # the verification's, not held through the rules
     notes.update(pdata.notes)
     if "v_line" not in d.tie_points.columns:
         _with_computed_residuals(d, pdata.observations, notes)
