@@ -18,6 +18,8 @@ from blockqc.metrics import (
 from blockqc.verification import DERIVED_OVERLAPS
 
 COMPONENTS = ("plane", "height")
+#: the component of a discrepancy table's rows, a code each (no text repeated per row)
+COMPONENT = pd.CategoricalDtype(list(COMPONENTS))
 _STATS = {"n": "points", "rms_m": "m", "max_m": "m", "mean_m": "m"}
 
 
@@ -29,7 +31,7 @@ def plane_discrepancy(dx: np.ndarray, dy: np.ndarray) -> np.ndarray:
 def _long(df: pd.DataFrame, keys: list[str]) -> pd.DataFrame:
     """One row per point and component: plane √(dx²+dy²), height |dz| where dz is given."""
     plane = df[keys].assign(
-        component="plane",
+        component=_component("plane", len(df)),
         value_m=plane_discrepancy(df["dx_m"].to_numpy(), df["dy_m"].to_numpy()),
         dx_m=df["dx_m"].to_numpy(),
         dy_m=df["dy_m"].to_numpy(),
@@ -38,7 +40,7 @@ def _long(df: pd.DataFrame, keys: list[str]) -> pd.DataFrame:
     if "dz_m" in df.columns:
         has = df["dz_m"].notna().to_numpy()
         height = df.loc[has, keys].assign(
-            component="height",
+            component=_component("height", int(has.sum())),
             value_m=np.abs(df.loc[has, "dz_m"].to_numpy()),
             dz_m=df.loc[has, "dz_m"].to_numpy(),
         )
@@ -46,8 +48,16 @@ def _long(df: pd.DataFrame, keys: list[str]) -> pd.DataFrame:
     return pd.concat(parts, ignore_index=True)
 
 
+def _component(name: str, n: int) -> pd.Categorical:
+    """The component `name` for n rows."""
+    codes = np.full(n, COMPONENTS.index(name), dtype=np.int8)
+    return pd.Categorical.from_codes(codes, dtype=COMPONENT)
+
+
 def _agg(long: pd.DataFrame, by: list[str]) -> pd.DataFrame:
-    g = long.assign(v2=long["value_m"] ** 2).groupby(by, sort=False)
+    value = long["value_m"]
+    columns = {**{c: long[c] for c in by}, "value_m": value, "v2": value.to_numpy() ** 2}
+    g = pd.DataFrame(columns, copy=False).groupby(by, sort=False)  # (assign copies v2)
     return pd.DataFrame(
         {
             "n": g["value_m"].size(),
