@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pandas as pd
 
@@ -30,22 +32,32 @@ def plane_discrepancy(dx: np.ndarray, dy: np.ndarray) -> np.ndarray:
 
 def _long(df: pd.DataFrame, keys: list[str]) -> pd.DataFrame:
     """One row per point and component: plane √(dx²+dy²), height |dz| where dz is given."""
-    plane = df[keys].assign(
+    dx, dy = df["dx_m"].to_numpy(), df["dy_m"].to_numpy()
+    plane = _beside(
+        df[keys],
         component=_component("plane", len(df)),
-        value_m=plane_discrepancy(df["dx_m"].to_numpy(), df["dy_m"].to_numpy()),
-        dx_m=df["dx_m"].to_numpy(),
-        dy_m=df["dy_m"].to_numpy(),
+        value_m=plane_discrepancy(dx, dy),
+        dx_m=dx,
+        dy_m=dy,
     )
     parts = [plane]
     if "dz_m" in df.columns:
         has = df["dz_m"].notna().to_numpy()
-        height = df.loc[has, keys].assign(
+        dz = df.loc[has, "dz_m"].to_numpy()
+        height = _beside(
+            df.loc[has, keys],
             component=_component("height", int(has.sum())),
-            value_m=np.abs(df.loc[has, "dz_m"].to_numpy()),
-            dz_m=df.loc[has, "dz_m"].to_numpy(),
+            value_m=np.abs(dz),
+            dz_m=dz,
         )
         parts.append(height)
     return pd.concat(parts, ignore_index=True)
+
+
+def _beside(keys: pd.DataFrame, **columns: Any) -> pd.DataFrame:
+    """The key columns with the columns given after them, neither copied (assign copies each
+    array: three of the rows of the 8.2 M derived overlaps, 196 MB)."""
+    return pd.DataFrame({**{c: keys[c] for c in keys.columns}, **columns}, copy=False)
 
 
 def _component(name: str, n: int) -> pd.Categorical:
