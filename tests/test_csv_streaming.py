@@ -24,6 +24,7 @@ def _rows(values: list[str]) -> str:
 @pytest.fixture
 def small_blocks(monkeypatch):
     monkeypatch.setattr(delivery, "STREAM_BYTES", 64)  # a few rows per block
+    monkeypatch.setattr(delivery, "RELEASE_BYTES", 0)  # every file streamed
 
 
 @given(
@@ -43,12 +44,12 @@ def test_a_column_read_as_the_whole_table_reader_reads_it(tmp_path_factory, valu
     reader takes a column's type from its first block) come out as one float column."""
     path = tmp_path_factory.mktemp("csv") / "tie_points.csv"
     path.write_text(HEADER + _rows(values))
-    old = delivery.STREAM_BYTES
-    delivery.STREAM_BYTES = 64
+    old = delivery.STREAM_BYTES, delivery.RELEASE_BYTES
+    delivery.STREAM_BYTES, delivery.RELEASE_BYTES = 64, 0  # every file streamed, a few rows a block
     try:
         frame, header = _read_csv(path, TIE_POINTS)
     finally:
-        delivery.STREAM_BYTES = old
+        delivery.STREAM_BYTES, delivery.RELEASE_BYTES = old
     expected = np.array([float(v) if v else np.nan for v in values])
     got = pd.to_numeric(frame["line"], errors="coerce").to_numpy(dtype=float)
     np.testing.assert_array_equal(got, expected)
@@ -68,7 +69,8 @@ def test_a_byte_order_mark_and_crlf_lines_over_many_blocks(tmp_path: Path, small
 def test_the_files_bytes_are_released_before_it_is_parsed(tmp_path: Path, monkeypatch):
     """A 900 MB file of 10.8 M rows was parsed from its bytes, held beside the table (3.4 GB at
     the peak of its block's inspection, 1.5 GB now): above RELEASE_BYTES they are freed and
-    given back to the system first, and Arrow reads the file itself."""
+    given back to the system first, and Arrow reads the file itself; a smaller file is parsed
+    from its bytes, read once."""
     path = tmp_path / "tie_points.csv"
     path.write_text(HEADER + _rows([str(i) for i in range(2000)]))
     monkeypatch.setattr(delivery, "RELEASE_BYTES", 1000)
@@ -83,3 +85,7 @@ def test_the_files_bytes_are_released_before_it_is_parsed(tmp_path: Path, monkey
     monkeypatch.setattr(delivery, "_arrow_csv", arrow_csv)
     frame, _ = _read_csv(path, TIE_POINTS)
     assert events == ["released", "parsed from the file"] and len(frame) == 2000
+    monkeypatch.setattr(delivery, "RELEASE_BYTES", path.stat().st_size + 1)
+    events.clear()
+    assert len(_read_csv(path, TIE_POINTS)[0]) == 2000
+    assert events == ["parsed from bytes"]

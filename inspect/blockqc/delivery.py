@@ -367,10 +367,9 @@ def _read_csv(
     header = None if columns is None else first
     include = None if header is None else [h for h in header if h.strip() in columns]
     convert = _convert_options(schema, first, include)
-    if path.is_file():  # parsed from the file again: its bytes are not held beside the table
-        large, data = len(data) >= RELEASE_BYTES, None
-        if large:
-            memory.release()
+    if len(data) >= RELEASE_BYTES and path.is_file():  # parsed from the file again: its
+        data = None  # bytes are not held beside the table, and go back to the system first
+        memory.release()
     try:
         table = _arrow_csv(path, data, convert)
     except (pa.ArrowInvalid, pa.ArrowKeyError) as exc:
@@ -410,21 +409,24 @@ def _convert_options(
 
 
 def _arrow_csv(path: Path, data: bytes | None, convert: pacsv.ConvertOptions) -> pa.Table:
-    """The CSV (its `data`, or the file when None) parsed by Arrow's streaming reader,
-    `STREAM_BYTES` at a time, each column's type taken from the first block; a file a later
-    block does not fit (whole numbers turning to decimals further down, a line longer than a
-    block, a malformed row) is parsed again by the reader of whole tables, which widens a
-    column's type as it goes. Arrow leaves a byte order mark out, as `_csv_bytes` does."""
+    """The CSV parsed from its `data` by the reader of whole tables, or, when None (a large
+    file), from the file by Arrow's streaming reader, `STREAM_BYTES` at a time, each column's
+    type taken from the first block; a file a later block does not fit (whole numbers turning
+    to decimals further down, a line longer than a block, a malformed row) is then parsed
+    whole. Arrow leaves a byte order mark out, as `_csv_bytes` does."""
+    if data is not None:  # a small file, or not a regular one: its bytes, whole
+        return _whole_csv(data, convert)
     options = pacsv.ReadOptions(use_threads=True, block_size=STREAM_BYTES)
     try:
-        with pa.OSFile(str(path)) if data is None else pa.BufferReader(data) as source:
+        with pa.OSFile(str(path)) as source:
             return pacsv.open_csv(source, options, convert_options=convert).read_all()
     except pa.ArrowInvalid:
-        return _whole_csv(data or _csv_bytes(path), convert)
+        return _whole_csv(_csv_bytes(path), convert)
 
 
-#: a CSV file's bytes, freed before the file is parsed, are given back to the system from this
-#: size (`memory.release`): the heap would keep them, unused by the parse
+#: a CSV file of this size or more is streamed from the file, its bytes (read for their checks)
+#: freed and given back to the system first (`memory.release`: the heap would keep them, unused
+#: by Arrow's parse); a smaller one is parsed from its bytes, read once
 RELEASE_BYTES = 1 << 26
 #: CSV bytes the streaming reader parses at once. The reader of whole tables held about as much
 #: again as the table while it parsed (a 400 MB file of 10 M rows: 1.5 GB at its peak, 2.4 s;
