@@ -993,6 +993,16 @@ def test_ups_is_judged_in_either_of_its_epsg_codes(blockqc, tmp_path, lat, sr):
     assert mb3["detail"]["zone"] == ("UPS N" if lat > 0 else "UPS S")
 
 
+def _design_problem(blockqc, block: Path, out: Path) -> str:
+    """DOC-1's problem with the technical design document, the block inspected (DOC-1 fails)."""
+    p = blockqc("inspect", block, "--out", out, "--pdf", "none")
+    assert p.returncode == 1, p.stderr
+    results = json.loads((out / "F1-B01" / "results.json").read_text("utf-8"))
+    (doc1,) = [r for r in results["results"] if r["rule"] == "DOC-1"]
+    (bad,) = [e for e in doc1["evidence"] if e["kind"] == "technical_design"]
+    return bad["problem"]
+
+
 def test_a_document_that_is_a_broken_link_is_said_to_be_one(blockqc, block, tmp_path):
     """A document left as a link to a file that is not there was said to be missing while
     being there: "documents/technical_design.pdf does not exist
@@ -1000,12 +1010,7 @@ def test_a_document_that_is_a_broken_link_is_said_to_be_one(blockqc, block, tmp_
     doc = block / "documents" / "technical_design.pdf"
     doc.unlink()
     doc.symlink_to("design_final.pdf")
-    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
-    assert p.returncode == 1, p.stderr
-    results = json.loads((tmp_path / "out" / "F1-B01" / "results.json").read_text("utf-8"))
-    (doc1,) = [r for r in results["results"] if r["rule"] == "DOC-1"]
-    (bad,) = [e for e in doc1["evidence"] if e["kind"] == "technical_design"]
-    assert bad["problem"] == (
+    assert _design_problem(blockqc, block, tmp_path / "out") == (
         "documents/technical_design.pdf is a symbolic link to a file that does not exist"
     )
     # beside another problem, the delivery is refused and its documents are listed too
@@ -1020,12 +1025,7 @@ def test_a_document_that_is_a_pipe_is_not_said_to_be_missing(blockqc, block, tmp
     doc = block / "documents" / "technical_design.pdf"
     doc.unlink()
     os.mkfifo(doc)
-    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
-    assert p.returncode == 1, p.stderr
-    results = json.loads((tmp_path / "out" / "F1-B01" / "results.json").read_text("utf-8"))
-    (doc1,) = [r for r in results["results"] if r["rule"] == "DOC-1"]
-    (bad,) = [e for e in doc1["evidence"] if e["kind"] == "technical_design"]
-    assert bad["problem"] == (
+    assert _design_problem(blockqc, block, tmp_path / "out") == (
         "documents/technical_design.pdf is not a regular file (a pipe, socket or device)"
     )
 
