@@ -37,22 +37,6 @@ def _norm(rule: Rule, res: RuleResult, names: Mapping[str, Any]) -> float | None
     return float(th) if isinstance(th, (int, float)) and not isinstance(th, bool) else None
 
 
-def unscored(results: BlockResults, pack: Pack, names: Mapping[str, Any]) -> list[str]:
-    """Why a judged accuracy result has no score, once per rule: its `score.norm` names a band
-    the delivery gives no GSD for (known only with the delivery: lint takes every band)."""
-    rules = {r.id: r for r in pack.rules}
-    out: dict[str, str] = {}
-    for res in results.results:
-        rule = rules.get(res.rule)
-        if rule is None or res.status not in JUDGED or res.rule in out:
-            continue
-        try:
-            _norm(rule, res, names)
-        except ExpressionError as exc:
-            out[res.rule] = f"{res.rule} not scored: {_norm_problem(exc, rule)}"
-    return list(out.values())
-
-
 def _norm_problem(exc: ExpressionError, rule: Rule) -> str:
     if not isinstance(exc, MissingGSD):
         return f"score.norm ({rule.score.norm}): {exc}"
@@ -63,11 +47,16 @@ def _norm_problem(exc: ExpressionError, rule: Rule) -> str:
 
 
 def findings(
-    results: BlockResults, pack: Pack, names: Mapping[str, Any] | None = None
+    results: BlockResults,
+    pack: Pack,
+    names: Mapping[str, Any] | None = None,
+    unscored: dict[str, str] | None = None,
 ) -> list[Finding]:
     """Every result of the block as scoring sees it: places, class, norm (`names`: what a norm
     may name, the pack's constants and the delivery's GSDs; the constants alone by default).
-    A norm that cannot be computed leaves its result unscored, as `unscored` says."""
+    A judged result whose norm cannot be computed (its `score.norm` names a band the delivery
+    gives no GSD for: known only with the delivery, lint takes every band) is left unscored,
+    and why is put in `unscored`, once per rule."""
     assert pack.acceptance is not None
     tree = {c.id: (e.id, i.id) for e in results.elements for i in e.items for c in i.contents}
     rules = {r.id: r for r in pack.rules}
@@ -79,8 +68,10 @@ def findings(
             continue  # a result of a rule the pack no longer has cannot be classed
         try:
             norm = _norm(rule, res, names)
-        except ExpressionError:
+        except ExpressionError as exc:
             norm = None
+            if unscored is not None and res.status in JUDGED:
+                unscored.setdefault(res.rule, f"{res.rule} not scored: {_norm_problem(exc, rule)}")
         out.append(
             Finding(
                 rule=res.rule,
@@ -114,7 +105,7 @@ def evaluate_results(
     """§QE-2..5 for one block (None when the pack has no acceptance section)."""
     if pack.acceptance is None:
         return None
-    got = findings(results, pack, names)
-    why = incomplete_reasons(results)
-    why += unscored(results, pack, pack.constants if names is None else names)
+    unscored: dict[str, str] = {}
+    got = findings(results, pack, names, unscored)
+    why = incomplete_reasons(results) + list(unscored.values())
     return evaluate_block(results.elements, got, pack.acceptance, why)
