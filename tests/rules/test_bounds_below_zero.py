@@ -72,3 +72,56 @@ def test_a_signed_statistic_may_be_bounded_below_zero(tmp_path: Path) -> None:
         "    threshold: {max: -0.1}\n    unit: m\n"
     )
     assert load_pack(extension_pack(tmp_path, rule)).rule("PA-1").threshold.max == -0.1
+
+
+COUNT_RULE = """\
+rules:
+  - id: PA-1
+    title: Tie points in every scene
+    clause: §TP-4
+    content: tp_number
+    metric: tie_point_distribution
+    params: {bands: [pan]}
+    scope: scene
+    statistic: n_points
+    threshold: THRESHOLD
+"""
+
+
+def _notes(tmp_path: Path, threshold: str) -> list[str]:
+    pack = load_pack(extension_pack(tmp_path, COUNT_RULE.replace("THRESHOLD", threshold)))
+    return [f"line {p.line}: {p.message}" for p in pack.notes]
+
+
+@pytest.mark.parametrize(
+    ("threshold", "how"),
+    [("{min: 0}", "0 takes 0 in"), ("{min: -5, inclusive: false}", "-5 is below 0")],
+)
+def test_a_lower_bound_every_count_meets_is_a_warning(
+    tmp_path: Path, threshold: str, how: str
+) -> None:
+    """A count of tie points is never below 0: `min: 0` passes every scene, a rule that cannot
+    fail (kept, said at lint)."""
+    assert _notes(tmp_path, threshold) == [
+        f"line 12: rule PA-1: threshold.min: {how}, and statistic n_points (points) of "
+        "tie_point_distribution at scope scene is never negative: every delivery passes "
+        "(the rule cannot fail)"
+    ]
+
+
+@pytest.mark.parametrize(
+    "threshold", ["{min: 0, max: 5000}", "{min: 0, inclusive: false}", "{min: 100}"]
+)
+def test_lower_bounds_that_can_fail_are_not_warned(tmp_path: Path, threshold: str) -> None:
+    """A range from 0, more than 0 points, or at least 100 can each fail a scene."""
+    assert _notes(tmp_path, threshold) == []
+
+
+def test_a_signed_statistic_bounded_below_zero_from_below_is_not_warned(tmp_path: Path) -> None:
+    rule = (
+        "rules:\n  - id: PA-1\n    title: Heights above a floor\n    clause: §CP-3\n"
+        "    content: cp_height\n    metric: checkpoint_accuracy\n    scope: point\n"
+        "    where: {component: height}\n    statistic: error_m\n"
+        "    threshold: {min: -3}\n    unit: m\n"
+    )
+    assert load_pack(extension_pack(tmp_path, rule)).notes == []

@@ -465,26 +465,41 @@ def _check_never_negative(
     rule: Rule, scope: Scope, names: Mapping[str, Any], what: str, bad: Callable[..., None]
 ) -> None:
     """A statistic that is never negative passes no max below 0, nor max 0 exclusive: the rule
-    would fail every delivery. Bounds naming the delivery are left to inspect."""
+    would fail every delivery (refused). A min at or below 0 with no max passes every delivery
+    (a warning: a rule that cannot fail). Bounds naming the delivery are left to inspect."""
     unit = scope.statistics.get(rule.statistic or "", "")
     if unit in NOT_NUMBER_UNITS or rule.statistic in scope.signed:
         return
+    never = f"statistic {rule.statistic} ({unit}) of {what} is never negative"
     for group, th in rule.all_thresholds().items():
-        if th.max is None or delivery_named(th.max):
-            continue
-        try:
-            hi = evaluate(th.max, names)
-        except ExpressionError:
-            continue  # reported by the threshold checks
-        if not isinstance(hi, (int, float)) or not (hi < 0 or (hi == 0 and not th.inclusive)):
-            continue  # (a NaN is neither)
         loc = ("thresholds", group) if group else ("threshold",)
-        how = "is below 0" if hi < 0 else "with inclusive: false"
-        bad(
-            f"{'.'.join(loc)}.max: {hi:g} {how}, and statistic {rule.statistic} ({unit}) of "
-            f"{what} is never negative: nothing can pass",
-            *loc,
-        )
+        hi = _constant_bound(th.max, names)
+        if hi is not None and (hi < 0 or (hi == 0 and not th.inclusive)):
+            how = "is below 0" if hi < 0 else "with inclusive: false"
+            bad(f"{'.'.join(loc)}.max: {hi:g} {how}, and {never}: nothing can pass", *loc)
+        lo = _constant_bound(th.min, names)
+        if th.max is None and lo is not None and (lo < 0 or (lo == 0 and th.inclusive)):
+            how = "is below 0" if lo < 0 else "takes 0 in"
+            bad(
+                f"{'.'.join(loc)}.min: {lo:g} {how}, and {never}: every delivery passes "
+                "(the rule cannot fail)",
+                *loc,
+                warning=True,
+            )
+
+
+def _constant_bound(bound: Any, names: Mapping[str, Any]) -> float | None:
+    """A bound's number when the pack fixes it (None: absent, naming the delivery, not a
+    number, or not evaluable: the threshold checks report that)."""
+    if bound is None or delivery_named(bound):
+        return None
+    try:
+        value = evaluate(bound, names)
+    except ExpressionError:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or value != value:
+        return None
+    return float(value)
 
 
 def _check_unit(rule: Rule, scope: Scope, bad: Callable[..., None]) -> None:
