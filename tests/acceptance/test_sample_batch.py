@@ -213,3 +213,30 @@ def test_an_accuracy_norm_naming_a_gsd_the_delivery_lacks_is_said(tmp_path) -> N
         "add the MS GSD in metres to gsd_m"
     )
     assert (ev["complete"], ev["reasons"]) == (False, [said])
+    zh = tmp_path / "zh"
+    assert run_blockqc("report", out, "--out", zh, "--lang", "zh", "--no-pdf").returncode == 0
+    page = (zh / "F1-B01" / "report.html").read_text(encoding="utf-8")
+    assert "not scored" not in page
+    assert (
+        "RO-1 未计分：block.yaml 未给出 gsd_m.ms，而其 score.norm（gsd.ms）需要它："
+        "请在 gsd_m 中给出以米为单位的 MS 地面采样距离"
+    ) in page
+
+
+def test_why_an_evaluation_is_incomplete_is_said_in_the_pages_language() -> None:
+    """The reasons results.json records in English (a rule not judged, a rule not scored and
+    why) read in Chinese on a zh page, the rule ids and the norm as written."""
+    from types import SimpleNamespace
+
+    from blockqc.acceptance.evaluate import incomplete_reasons
+    from blockqc.report.acceptance import reason_text
+    from blockqc.report.format import Formatter
+
+    error = SimpleNamespace(rule="RO-2", status="error", detail={})
+    results = SimpleNamespace(results=[error], pending_manual=[])
+    (why,) = incomplete_reasons(results)
+    assert why == "rule RO-2 could not be judged"
+    zh, en = Formatter("zh"), Formatter("en")
+    assert (reason_text(why, zh), reason_text(why, en)) == ("规则 RO-2 无法判定", why)
+    other = "PA-1 not scored: score.norm (2 * k): unknown name 'k'"
+    assert reason_text(other, zh) == "PA-1 未计分：score.norm（2 * k）无法计算：unknown name 'k'"

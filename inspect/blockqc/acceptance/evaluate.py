@@ -8,9 +8,12 @@ from typing import Any
 from blockqc.acceptance.model import Evaluation
 from blockqc.acceptance.scoring import JUDGED, Finding, evaluate_block
 from blockqc.engine import MissingGSD
+from blockqc.report.messages import translator
 from blockqc.results import BlockResults, RuleResult
 from blockqc.rules.expr import ExpressionError, evaluate
 from blockqc.rules.model import Pack, Rule
+
+EN = translator("en")
 
 
 def _places(res: RuleResult, tree: dict[str, tuple[str, str]]) -> tuple[tuple[str, str], ...]:
@@ -38,12 +41,11 @@ def _norm(rule: Rule, res: RuleResult, names: Mapping[str, Any]) -> float | None
 
 
 def _norm_problem(exc: ExpressionError, rule: Rule) -> str:
+    """Why a result's norm cannot be computed (the catalogue's sentence: pages translate it)."""
+    norm = rule.score.norm
     if not isinstance(exc, MissingGSD):
-        return f"score.norm ({rule.score.norm}): {exc}"
-    return (
-        f"block.yaml gives no gsd_m.{exc.band}, which its score.norm ({rule.score.norm}) "
-        f"needs: add the {exc.band.upper()} GSD in metres to gsd_m"
-    )
+        return EN("qe_norm_problem", norm=norm, problem=exc)
+    return EN("qe_norm_no_gsd", band=exc.band, norm=norm, upper=exc.band.upper())
 
 
 def findings(
@@ -71,7 +73,8 @@ def findings(
         except ExpressionError as exc:
             norm = None
             if unscored is not None and res.status in JUDGED:
-                unscored.setdefault(res.rule, f"{res.rule} not scored: {_norm_problem(exc, rule)}")
+                why = EN("qe_not_scored", rule=res.rule, why=_norm_problem(exc, rule))
+                unscored.setdefault(res.rule, why)
         out.append(
             Finding(
                 rule=res.rule,
@@ -89,7 +92,7 @@ def findings(
 
 def incomplete_reasons(results: BlockResults) -> list[str]:
     """Why an evaluation cannot be final: rules not judged, verdicts awaited, plan notes."""
-    out = [f"rule {r.rule} could not be judged" for r in results.results if r.status == "error"]
+    out = [EN("qe_not_judged", rule=r.rule) for r in results.results if r.status == "error"]
     out += [f"awaiting the inspector's verdict on {rid}" for rid in results.pending_manual]
     out += [
         f"{r.rule}: {r.detail['plan']}"

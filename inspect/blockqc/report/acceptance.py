@@ -273,6 +273,8 @@ def reason_text(reason: str, f: Formatter) -> str:
     """An evaluation's reason (recorded in English) in the page's language."""
     if f.lang == "en":
         return reason
+    if (sentence := f.sentence(reason)) != reason:  # why a rule is not judged or not scored
+        return sentence
     for en, key in (
         ("A-class error", "a_class_error"),
         ("(fails its threshold)", "err_fails_p"),

@@ -80,6 +80,10 @@ PHRASES = (
 #: turn, is shown in the page's language (Formatter.sentence); tried in this order, so that
 #: "{note}; only {n} check CPs" is taken apart before its parts
 SENTENCES = (
+    "qe_not_scored",
+    "qe_not_judged",
+    "qe_norm_no_gsd",
+    "qe_norm_problem",
     "ra_grid_again",
     "ad_prior_elsewhere",
     "ra_note_few_checks",
@@ -172,6 +176,7 @@ LONG_WORD = 24
 NESTED = {
     ("ra_warn_no_height", "parts"): ("ra_warn_outside_voids", "ra_warn_outside", "ra_warn_voids"),
     ("ad_warn_scene", "why"): ("ad_warn_scene_empty", "ad_warn_scene_few"),
+    ("qe_not_scored", "why"): ("qe_norm_no_gsd", "qe_norm_problem"),
 }
 
 

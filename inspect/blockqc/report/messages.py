@@ -401,6 +401,18 @@ MESSAGES.update(
         "err_fails_p": ("(fails its threshold)", "（超出限值）"),
         "a_class_error": ("A-class error", "A 类错漏"),
         "awaiting_on": ("awaiting the inspector's verdict on", "等待检查员判定："),
+        "qe_not_judged": ("rule {rule} could not be judged", "规则 {rule} 无法判定"),
+        "qe_not_scored": ("{rule} not scored: {why}", "{rule} 未计分：{why}"),
+        "qe_norm_no_gsd": (
+            "block.yaml gives no gsd_m.{band}, which its score.norm ({norm}) needs: add the "
+            "{upper} GSD in metres to gsd_m",
+            "block.yaml 未给出 gsd_m.{band}，而其 score.norm（{norm}）需要它："
+            "请在 gsd_m 中给出以米为单位的 {upper} 地面采样距离",
+        ),
+        "qe_norm_problem": (
+            "score.norm ({norm}): {problem}",
+            "score.norm（{norm}）无法计算：{problem}",
+        ),
         "rules_failed": (
             "rules failed: {rules}",
             "未通过的规则：{rules}",
