@@ -262,3 +262,13 @@ def test_items_inspected_that_all_weigh_0_give_their_element_no_score(tmp_path) 
     assert ev.counts["B"] == 4 and ev.reasons == []
     rows = {r["name"]: r["score"] for r in evaluation_context(ev, Formatter("en"))["rows"]}
     assert rows["Attachment quality"] == "only items of weight 0 inspected"
+
+
+def test_a_score_a_hair_below_a_grade_bound_is_kept_below_it() -> None:
+    """plane alone inspected: m = 4.75000007 of m0 = 10 scores 60 + 40·5.24999993/7 =
+    89.9999996, good (< 90). Kept to 9 decimals, the block's score stays below 90: rounded to 6
+    it read 90.0, the bound of a grade it does not reach, on the page and in the sample's mean."""
+    ev = run([acc("CP-2", "cp_plane", 4.75000007, 10)])
+    assert ev.score == pytest.approx(89.9999996, abs=1e-9) and ev.score < 90
+    assert ev.grade == "good"
+    assert evaluation_context(ev, Formatter("en"))["score"].startswith("89.9")

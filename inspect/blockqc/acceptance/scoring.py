@@ -183,7 +183,7 @@ def evaluate_block(
     ev = Evaluation(
         standard=acc.standard,
         standard_zh=acc.standard_zh,
-        score=None if score is None else round(score, 6),
+        score=score,
         grade=grade.id if grade else None,
         grade_title=grade.title if grade else "",
         grade_title_zh=grade.title_zh if grade else "",
