@@ -220,3 +220,19 @@ def test_the_shipped_egm96_grid_given_as_a_file_agrees_with_egm96():
 
     grid = geoid_from_file(EGM96_GRID, (5.0, 44.0, 6.0, 45.0))
     assert grid.undulation(5.19, 44.2) == pytest.approx(egm96().undulation(5.19, 44.2))
+
+
+def test_geographic_dem_on_another_datum_is_sampled_through_its_crs(tmp_path: Path):
+    """A lon/lat DEM on ED50 (EPSG:4230): its longitudes are not WGS-84's (about 0.0011° east
+    over Provence, ~90 m). A plane z = 5000·(lon_ED50 − 5) gives, at a WGS-84 lon/lat, 5000 times
+    the ED50 longitude less 5: read as WGS-84 degrees it was 5.5 m off."""
+    from pyproj import Transformer
+
+    cols = np.arange(100)
+    values = np.tile(5000.0 * ((cols + 0.5) * 0.01), (100, 1))
+    write_grid(tmp_path / "dem.tif", values, 5.0, 44.5, 0.01, crs="EPSG:4230")
+    dem = load_dem(tmp_path / "dem.tif", vertical="ellipsoid", bounds=(5.2, 44.0, 5.4, 44.2))
+    lon, lat = 5.3, 44.1
+    lon_ed50, _ = Transformer.from_crs(4326, 4230, always_xy=True).transform(lon, lat)
+    assert abs(lon_ed50 - lon) > 5e-4  # the datums differ here by ~90 m
+    assert dem.height(lon, lat) == pytest.approx(5000.0 * (lon_ed50 - 5.0), abs=1e-3)

@@ -28,6 +28,16 @@ from blockqc.rfm.readers import check_whole, reading_pixels
 FloatArray = NDArray[np.float64]
 
 
+WGS84 = CRS.from_epsg(4326)
+
+
+def wgs84_lonlat(crs: CRS) -> bool:
+    """Whether a grid's x, y are WGS-84 longitude and latitude in degrees. A lon/lat CRS on
+    another datum (ED50, Pulkovo 1942, Beijing 1954) is not: its coordinates of a place differ
+    from WGS-84's by up to a few hundred metres, and are transformed as a projected CRS's are."""
+    return crs.is_geographic and crs.equals(WGS84, ignore_axis_order=True)
+
+
 @dataclass(frozen=True, eq=False)
 class Grid:
     """A north-up raster of values with its GDAL geotransform (pixel corner) and CRS."""
@@ -101,9 +111,7 @@ class DEM:
         object.__setattr__(
             self,
             "_to_grid",
-            None
-            if crs.is_geographic
-            else Transformer.from_crs(CRS.from_epsg(4326), crs, always_xy=True),
+            None if wgs84_lonlat(crs) else Transformer.from_crs(WGS84, crs, always_xy=True),
         )
 
     def height(self, lon: ArrayLike, lat: ArrayLike) -> FloatArray:
@@ -216,8 +224,8 @@ def _read_grid(path: Path, bounds: tuple[float, float, float, float] | None, wha
         closing = _round_the_globe(crs, t, ds.width)
         if bounds is not None:
             west, south, east, north = bounds
-            if not crs.is_geographic:
-                tr = Transformer.from_crs(CRS.from_epsg(4326), crs, always_xy=True)
+            if not wgs84_lonlat(crs):
+                tr = Transformer.from_crs(WGS84, crs, always_xy=True)
                 west, south, east, north = tr.transform_bounds(west, south, east, north)
             if crs.is_geographic:  # the RPCs' and the grid's longitudes: −180…180 or 0…360
                 shift = _lon_shift(west, east, t.c, t.c + ds.width * t.a)
@@ -372,9 +380,9 @@ def _node_lonlat(grid: Grid) -> tuple[FloatArray, FloatArray]:
     cols, rows = np.meshgrid(np.arange(nc) + 0.5, np.arange(nr) + 0.5)
     xs = grid.transform.c + cols * grid.transform.a
     ys = grid.transform.f + rows * grid.transform.e
-    if grid.crs.is_geographic:
+    if wgs84_lonlat(grid.crs):
         return np.asarray(xs), np.asarray(ys)
-    tr = Transformer.from_crs(grid.crs, CRS.from_epsg(4326), always_xy=True)
+    tr = Transformer.from_crs(grid.crs, WGS84, always_xy=True)
     lon, lat = tr.transform(xs, ys)
     return np.asarray(lon), np.asarray(lat)
 
