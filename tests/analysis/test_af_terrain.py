@@ -112,6 +112,31 @@ def test_projected_plane_through_demset(tmp_path, dem_writer):
     assert f.mean_elevation_m == pytest.approx(z[inside].mean(), abs=1e-3)
 
 
+def test_geographic_dem_on_another_datum_through_demset(tmp_path, dem_writer):
+    """A lon/lat DEM on ED50 (EPSG:4230), whose longitudes over Provence are ~0.0011° (90 m)
+    east of WGS-84's: the block's lon/lat polygon is taken to the DEM's datum, as to a projected
+    DEM's CRS. A plane z = 5000·(lon_ED50 − 5) over cells of 0.0005°: the means are over the
+    cells whose centres fall in the polygon on ED50 (read on WGS-84 degrees: 5.5 m low)."""
+    res, lon0, lat0, n = 0.0005, 5.2, 44.2, 400
+    rows, cols = np.mgrid[0:n, 0:n]
+    lon = lon0 + (cols + 0.5) * res
+    lat = lat0 - (rows + 0.5) * res
+    z = 5000.0 * (lon - 5.0)
+    path = dem_writer(tmp_path / "plane_ed50.tif", z, lon0, lat0, res, "EPSG:4230")
+    poly = shapely.box(5.25, 44.05, 5.35, 44.15)
+    f = DemSet([path]).factors(poly)
+    to_ed50 = Transformer.from_crs(4326, 4230, always_xy=True)
+    poly_ed50 = shapely.transform(
+        shapely.segmentize(poly, 1e-3),
+        lambda c: np.column_stack(to_ed50.transform(c[:, 0], c[:, 1])),
+    )
+    inside = shapely.contains_xy(poly_ed50, lon, lat)
+    weights = np.cos(np.radians(lat))  # cell areas shrink with cos φ
+    expected = np.average(z[inside], weights=weights[inside])
+    assert abs(expected - 5000.0 * 0.3) > 4.0  # the datums differ here by ~90 m
+    assert f.mean_elevation_m == pytest.approx(expected, abs=0.05)
+
+
 def _srtm(data_dir):
     with rasterio.open(data_dir / "srtm_turkey_crop.tif") as src:
         z = src.read(1).astype(float)

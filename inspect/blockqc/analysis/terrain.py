@@ -20,7 +20,7 @@ from pyproj import CRS, Transformer
 from rasterio.enums import Resampling
 
 from blockqc.errors import InputError, Problem
-from blockqc.rfm.dem import check_heights, check_one_band
+from blockqc.rfm.dem import WGS84, check_heights, check_one_band, wgs84_lonlat
 
 WGS84_A = 6378137.0
 WGS84_F = 1.0 / 298.257223563
@@ -208,10 +208,10 @@ def _check_full_resolution(
 def _terrain_over(
     polygon_lonlat: shapely.Geometry, paths: list[Path], crs: CRS, max_pixels: int
 ) -> TerrainFactors:
-    if crs.is_geographic:
+    if wgs84_lonlat(crs):
         poly = polygon_lonlat
     else:
-        tr = Transformer.from_crs(CRS.from_epsg(4326), crs, always_xy=True)
+        tr = Transformer.from_crs(WGS84, crs, always_xy=True)
         poly = shapely.transform(
             shapely.segmentize(polygon_lonlat, 0.01),
             lambda xy: np.column_stack(tr.transform(xy[:, 0], xy[:, 1])),
