@@ -11,7 +11,7 @@ from __future__ import annotations
 import pytest
 
 from blockqc.acceptance.scoring import Finding, accuracy_score, deduction_score, evaluate_block
-from blockqc.report.acceptance import evaluation_context
+from blockqc.report.acceptance import evaluation_context, reason_text
 from blockqc.report.format import Formatter
 from blockqc.rules import load_pack
 from casekit import extension_pack
@@ -272,3 +272,21 @@ def test_a_score_a_hair_below_a_grade_bound_is_kept_below_it() -> None:
     assert ev.score == pytest.approx(89.9999996, abs=1e-9) and ev.score < 90
     assert ev.grade == "good"
     assert evaluation_context(ev, Formatter("en"))["score"].startswith("89.9")
+
+
+def test_a_score_below_every_grade_fails_the_block(tmp_path) -> None:
+    """A project's lowest grade, pass, from 70: plane alone inspected, m = 9.3 m of m0 = 10
+    scores 64 (≥ 60: no element fails), below every grade. The block fails, graded so and
+    said, rather than being graded 'fail' while not failing (a sample of it then passed)."""
+    grades = (
+        "acceptance:\n  grades:\n"
+        "    - {id: excellent, min: 90, title: Excellent}\n"
+        "    - {id: good, min: 80, title: Good}\n"
+        "    - {id: pass, min: 70, title: Pass}\n"
+    )
+    pack = load_pack(extension_pack(tmp_path, grades))
+    ev = evaluate_block(pack.elements, [acc("CP-2", "cp_plane", 9.3, 10)], pack.acceptance)
+    assert ev.score == 64
+    assert (ev.fails, ev.grade) == (True, "fail")
+    assert ev.reasons == ["score below the lowest grade: 64.0 < 70 (pass)"]
+    assert reason_text(ev.reasons[0], Formatter("zh")).startswith("得分低于最低质量等级")

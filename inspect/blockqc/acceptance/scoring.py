@@ -178,6 +178,7 @@ def evaluate_block(
         for e in els
         if e.score is not None and e.score < acc.element_fail_below
     ]
+    reasons += _below_grades(score, acc)
     fails = bool(reasons)
     grade = acc.fail_grade if fails else acc.grade(score) if score is not None else None
     ev = Evaluation(
@@ -195,6 +196,16 @@ def evaluate_block(
         elements=els,
     )
     return ev
+
+
+def _below_grades(score: float | None, acc: Acceptance) -> list[str]:
+    """A score that reaches no grade (a pack whose lowest grade starts above
+    element_fail_below) fails the block: its grade is the fail grade."""
+    lowest = acc.grades[-1]
+    if score is None or score >= lowest.min:
+        return []
+    shown = math.floor(score * 10 + 1e-9) / 10
+    return [f"score below the lowest grade: {shown:.1f} < {lowest.min:g} ({lowest.id})"]
 
 
 def a_class_errors(ev: Evaluation) -> list[ErrorRecord]:

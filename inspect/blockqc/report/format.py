@@ -54,6 +54,7 @@ PHRASES = (
     "ph_not_sampled_plan",
     "awaiting_on",  # before its shorter "awaiting the inspector's verdict"
     "ph_awaiting",
+    "ph_below_grades",
     "ph_nothing_measured",
     "ph_no_adjustment",
     "ph_no_pan_ms",

@@ -598,6 +598,7 @@ MESSAGES.update(
         "condition": ("Condition", "条件"),
         # fixed phrases of results.json (English there), translated when the page is rendered
         "ph_awaiting": ("awaiting the inspector's verdict", "等待检查员判定"),
+        "ph_below_grades": ("score below the lowest grade", "得分低于最低质量等级"),
         "ph_no_geometry": (
             "no geometry in the delivery (rpc/ with adjustment.csv, or rpc_adjusted/)",
             "成果中没有几何模型（rpc/ 及 adjustment.csv，或 rpc_adjusted/）",
