@@ -192,6 +192,15 @@ def test_an_empty_crs_is_refused(tmp_path: Path, capsys):
     assert "--crs is empty" in err
 
 
+@pytest.mark.parametrize("crs", ["EPSG:2263", "+proj=utm +zone=31 +datum=WGS84 +units=ft"])
+def test_a_crs_in_feet_is_refused(tmp_path: Path, capsys, crs: str):
+    """The grid's CRS gives the CPs' positions and shifts in metres (dx_m, cps.csv, the exported
+    checkpoints): in feet, a 2.43 m shift was reported as 8.01 m."""
+    err = refused(ventoux_args(tmp_path / "out") + ["--crs", crs], capsys)
+    assert "--crs" in err and "metre" in err and "foot" in err
+    assert not (tmp_path / "out").exists()
+
+
 def test_a_k_given_twice_is_refused(tmp_path: Path, capsys):
     err = refused(ventoux_args(tmp_path / "out") + ["--k", "6,12,6,20,12"], capsys)
     assert "--k gives 6, 12 more than once" in err
