@@ -137,6 +137,36 @@ def test_geographic_dem_on_another_datum_through_demset(tmp_path, dem_writer):
     assert f.mean_elevation_m == pytest.approx(expected, abs=0.05)
 
 
+@pytest.mark.parametrize(
+    ("dtype", "unit", "scale", "to_metres"),
+    [("float32", "ft", 1.0, 0.3048), ("int16", "", 0.1, 0.1), ("int16", "ft", 0.5, 0.1524)],
+)
+def test_heights_in_feet_or_stored_scaled_are_read_in_metres(
+    tmp_path, dtype, unit, scale, to_metres
+):
+    """A UTM plane rising 0.3 per metre east, stored in feet or as scaled integers (decimetres):
+    its heights are the stored values × the band's scale × metres per unit. Read as stored, the
+    mean elevation and roughness were 3.28 (or 10) times too large, and the slope steeper."""
+    res, x0, y0, n = 30.0, 400_000.0, 4_400_000.0, 200
+    cols = np.arange(n)
+    metres = np.tile(1000.0 + 0.3 * (cols + 0.5) * res, (n, 1))
+    path = tmp_path / "plane.tif"
+    with rasterio.open(
+        path, "w", driver="GTiff", width=n, height=n, count=1, dtype=dtype,
+        crs="EPSG:32637", transform=from_origin(x0, y0, res, res), nodata=-9999,
+    ) as ds:  # fmt: skip
+        ds.write(np.round(metres / to_metres).astype(dtype), 1)
+        ds.scales = (scale,)
+        if unit:
+            ds.units = (unit,)
+    to_ll = Transformer.from_crs(32637, 4326, always_xy=True)
+    lo, la = to_ll.transform([x0 + 1000, x0 + 5000], [y0 - 5000, y0 - 1000])
+    f = DemSet([path]).factors(shapely.box(lo[0], la[0], lo[1], la[1]))
+    assert f.mean_slope_deg == pytest.approx(math.degrees(math.atan(0.3)), abs=0.05)
+    assert f.mean_roughness_m == pytest.approx(2 * res * 0.3, abs=0.5)
+    assert 1000 + 0.3 * 1000 < f.mean_elevation_m < 1000 + 0.3 * 5000
+
+
 def _srtm(data_dir):
     with rasterio.open(data_dir / "srtm_turkey_crop.tif") as src:
         z = src.read(1).astype(float)

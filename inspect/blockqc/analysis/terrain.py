@@ -20,7 +20,7 @@ from pyproj import CRS, Transformer
 from rasterio.enums import Resampling
 
 from blockqc.errors import InputError, Problem
-from blockqc.rfm.dem import WGS84, check_heights, check_one_band, wgs84_lonlat
+from blockqc.rfm.dem import WGS84, check_heights, check_one_band, height_unit, wgs84_lonlat
 
 WGS84_A = 6378137.0
 WGS84_F = 1.0 / 298.257223563
@@ -187,6 +187,8 @@ def _check_full_resolution(
     srcs: list[rasterio.DatasetReader],
     bounds: tuple[float, float, float, float],
     max_pixels: int,
+    gain: float = 1.0,
+    offset: float = 0.0,
 ) -> None:
     """`check_heights` on every cell of the tiles within `bounds`, read at their own grid in
     strips of at most `max_pixels` cells: an average over k×k cells would hide a no-data value
@@ -202,7 +204,28 @@ def _check_full_resolution(
         for top in range(row0, row1, rows):
             strip = rasterio.windows.Window(col0, top, col1 - col0, min(rows, row1 - top))
             values = src.read(1, window=strip, masked=True).astype(np.float32).filled(np.nan)
+            values = values * gain + offset
             check_heights(src.name, values, src.window_transform(strip), origin=(top, col0))
+
+
+def _to_metres(srcs: list[rasterio.DatasetReader]) -> tuple[float, float]:
+    """Gain and offset taking the tiles' stored values to metres: the band's scale and offset
+    (heights stored as decimetres) and its unit (feet). Tiles that disagree are refused: one
+    mosaic holds one kind of value."""
+    got = {}
+    for src in srcs:
+        metres, _ = height_unit(Path(src.name))
+        got[src.name] = (src.scales[0] * metres, src.offsets[0] * metres)
+    if len(set(got.values())) > 1:
+        shown = ", ".join(f"{name} (×{g:g} + {o:g} m)" for name, (g, o) in got.items())
+        raise InputError(
+            Problem(
+                file=", ".join(got),
+                message=f"the DEM tiles covering this block store their heights in different "
+                f"units or scales: {shown}; give tiles of one kind",
+            )
+        )
+    return next(iter(got.values()))
 
 
 def _terrain_over(
@@ -228,8 +251,9 @@ def _terrain_over(
         bottom = t0.f - (math.ceil((t0.f - miny) / res_y) + 2) * res_y
         npix = (right - left) / res_x * (top - bottom) / res_y
         k = max(1, math.ceil(math.sqrt(npix / max_pixels)))
+        gain, offset = _to_metres(srcs)
         if k > 1:
-            _check_full_resolution(srcs, (left, bottom, right, top), max_pixels)
+            _check_full_resolution(srcs, (left, bottom, right, top), max_pixels, gain, offset)
         z, transform = rasterio.merge.merge(
             srcs,
             bounds=(left, bottom, right, top),
@@ -239,7 +263,7 @@ def _terrain_over(
             resampling=Resampling.average if k > 1 else Resampling.nearest,
             masked=True,
         )
-    zf = np.ma.filled(z[0].astype(float), np.nan)
+    zf = np.ma.filled(z[0].astype(float), np.nan) * gain + offset
     check_heights(", ".join(str(p) for p in paths), zf, transform)
     inside = rasterio.features.geometry_mask(
         [poly], out_shape=zf.shape, transform=transform, invert=True
