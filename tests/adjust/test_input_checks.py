@@ -131,3 +131,22 @@ def test_the_per_scene_table_gives_the_unit_of_every_shift(block, tmp_path, bloc
     heads = re.findall(r"<th[^>]*>([^<]*)</th>", table[: table.index("</tr>")])
     for name in ("a0", "σ a0", "b0", "σ b0"):
         assert f"{name} (px)" in heads
+
+
+def test_a_block_crs_in_feet_gives_checkpoints_in_metres_of_the_utm_zone():
+    """block.yaml's EPSG:2263 (NY State Plane, US survey feet): the checkpoints' x_m, y_m, z_m
+    are metres, so they are taken in the UTM zone of the block centre, and that is said (in
+    feet, every plane difference was 3.28 times too large)."""
+    from types import SimpleNamespace
+
+    from blockqc.adjust.run import projected_crs
+    from blockqc.report.format import Formatter
+
+    sr = SimpleNamespace(epsg=2263)
+    block = SimpleNamespace(data=SimpleNamespace(manifest=SimpleNamespace(spatial_reference=sr)))
+    epsg, source = projected_crs(block, np.array([-74.0]), np.array([40.7]))
+    assert epsg == 32618
+    assert source == "UTM zone of the block centre (block.yaml's EPSG:2263 is not in metres)"
+    assert Formatter("zh").sentence(source) == (
+        "区域网中心所在的 UTM 投影带（block.yaml 的 EPSG:2263 不以米为单位）"
+    )

@@ -291,12 +291,16 @@ def projected_crs(block: Block, lon: np.ndarray, lat: np.ndarray) -> tuple[int, 
     from blockqc.rfm.ortho import utm_crs
 
     sr = block.data.manifest.spatial_reference
+    why = "block.yaml gives no projected EPSG"
     if sr is not None and sr.epsg is not None:
         crs = CRS.from_epsg(sr.epsg)
-        if crs.is_projected:
+        metres = all(a.unit_conversion_factor == 1.0 for a in crs.axis_info)
+        if crs.is_projected and metres:
             return int(sr.epsg), "block.yaml spatial_reference.epsg"
+        if crs.is_projected:  # checkpoints are x_m, y_m: not feet
+            why = f"block.yaml's EPSG:{sr.epsg} is not in metres"
     crs = utm_crs(float(np.nanmedian(lon)), float(np.nanmedian(lat)))
-    return int(crs.to_epsg()), "UTM zone of the block centre (block.yaml gives no projected EPSG)"
+    return int(crs.to_epsg()), f"UTM zone of the block centre ({why})"
 
 
 def spread_points(x: np.ndarray, y: np.ndarray, weight: np.ndarray, n: int) -> np.ndarray:

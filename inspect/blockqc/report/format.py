@@ -142,6 +142,7 @@ SENTENCES = (
     "ad_producer_intersected",
     "ad_crs_block",
     "ad_crs_utm",
+    "ad_crs_utm_not_metres",
     "ad_cps_none",
     "ad_cps_few",
     "ad_warn_narrow_rays",
