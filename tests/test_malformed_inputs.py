@@ -1093,6 +1093,22 @@ def test_a_line_of_spaces_in_a_table_is_said_to_be_one(blockqc, block, tmp_path)
     assert "1 fields" not in p.stderr
 
 
+def test_a_line_of_spaces_above_the_header_is_said_to_be_one(blockqc, block, tmp_path):
+    """A line of spaces above the header was passed over unsaid, and every row after it named
+    by a line one short (a text in row 3, on line 5, was said to be on line 4)."""
+    f = block / "pan_ms.csv"
+    lines = f.read_text("utf-8").splitlines()
+    lines[3] = lines[3].replace(lines[3].split(",")[3], "abc", 1)
+    f.write_text("   \n" + "\n".join(lines) + "\n", "utf-8")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    _refused(
+        p,
+        "pan_ms.csv, line 1: a line of spaces only where the header row is expected: remove it "
+        "so that the first line names the columns",
+    )
+    assert "line 4" not in p.stderr
+
+
 def test_a_short_row_over_two_lines_is_named_by_the_line_it_starts_on(blockqc, block, tmp_path):
     """Row 1 with its footprint over lines 2 and 3 and no water_fraction: it was said to be on
     line 3, where it ends."""

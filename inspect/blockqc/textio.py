@@ -122,9 +122,16 @@ OTHER_SEPARATORS = {";": "semicolons", "\t": "tabs", "|": "vertical bars", " ": 
 
 def header_problem(path: Path, header: list[str], columns: int = 2) -> Problem | None:
     """What makes a CSV's first record no header, to report once rather than every column
-    missing: a comment line, a spreadsheet's `sep=,` line, or (for a table of more than one
-    column) another dialect's separator. None when the header is not such."""
+    missing: a line of spaces, a comment line, a spreadsheet's `sep=,` line, or (for a table
+    of more than one column) another dialect's separator. None when the header is not such."""
     line = ",".join(header)
+    if line and not line.strip():  # an empty line is skipped; one of spaces is a record
+        return Problem(
+            str(path),
+            "a line of spaces only where the header row is expected: remove it so that the "
+            "first line names the columns",
+            line=1,
+        )
     if line.lstrip().startswith("#"):
         shown = line.strip() if len(line.strip()) <= 60 else line.strip()[:59] + "…"
         return Problem(
