@@ -777,6 +777,28 @@ def test_a_nan_coordinate_in_a_footprint_is_refused_without_a_library_warning(
     assert "RuntimeWarning" not in p.stderr and "shapely" not in p.stderr
 
 
+@pytest.mark.parametrize(
+    ("corner", "said"),
+    [
+        ("180.033519 39.714500", "a longitude beyond ±180°: expected lon/lat degrees"),
+        ("39.714500 100.033519", "a latitude beyond ±90°: expected lon/lat degrees (longitude"),
+    ],
+)
+def test_a_footprint_beyond_the_globe_says_which_coordinate(blockqc, block, tmp_path, corner, said):
+    """A footprint with a longitude beyond 180° (a block east of the antimeridian) or a
+    latitude beyond 90° (longitude and latitude swapped) was refused as "expected a WKT polygon
+    in lon/lat degrees", as if it were no polygon: the coordinate out of range is said."""
+    f = block / "scenes.csv"
+    lines = f.read_text(encoding="utf-8").splitlines()
+    start = lines[1].index("((") + 2
+    first = lines[1][start : lines[1].index(",", start)]
+    lines[1] = lines[1].replace(first, corner)  # the first corner, and the last (the same)
+    f.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    _refused(p, f"scenes.csv, row 1 (line 2), column 'footprint_wkt': {said}")
+    assert "expected a WKT polygon" not in p.stderr
+
+
 def test_an_output_folder_that_cannot_be_made_stops_the_run_naming_it(blockqc, block, tmp_path):
     """A file where the block's output folder goes: the delivery was inspected and is fine, so
     it is not listed as unreadable; the run stops naming the folder, the file left as it is."""

@@ -362,6 +362,15 @@ def _check_polygons(
     (an image's outline has none; its corners and area would be read from different rings)."""
     text = wkt.where(ok, "").fillna("").to_numpy(dtype=object)
     geoms = _from_wkt(text)
+    bounds = shapely.bounds(geoms)
+    with np.errstate(invalid="ignore"):  # NaN: no polygon (not ok)
+        lon = ok & ((bounds[:, 0] < -180) | (bounds[:, 2] > 180))
+        lat = ok & ((bounds[:, 1] < -90) | (bounds[:, 3] > 90))
+    msg = "a longitude beyond ±180°: expected lon/lat degrees, longitudes within -180…180"
+    report_rows(problems, file, column, lon, msg, wkt, csv)
+    msg = "a latitude beyond ±90°: expected lon/lat degrees (longitude and latitude swapped?)"
+    report_rows(problems, file, column, lat & ~lon, msg, wkt, csv)
+    ok = ok & ~lon & ~lat
     invalid = ok & ~shapely.is_valid(geoms)
     rings = shapely.get_exterior_ring(geoms)
     few = ok & ~invalid & (shapely.get_num_coordinates(rings) < 5)
@@ -608,14 +617,6 @@ def _convert(raw: pd.Series, col: Column, blank: np.ndarray) -> tuple[pd.Series,
             geoms[one] = shapely.get_geometry(geoms[one], 0)
             stripped[one] = shapely.to_wkt(geoms[one], rounding_precision=-1)
         poly = shapely.get_type_id(geoms) == 3  # Polygon
-        bad = ~blank & ~poly
-        bounds = shapely.bounds(geoms)
-        inside = (
-            (bounds[:, 0] >= -180)
-            & (bounds[:, 2] <= 180)
-            & (bounds[:, 1] >= -90)
-            & (bounds[:, 3] <= 90)
-        )
-        bad = bad | (~blank & poly & ~np.nan_to_num(inside, nan=0).astype(bool))
-        return stripped, bad
+        finite = np.isfinite(shapely.bounds(geoms)).all(axis=1)  # beyond the globe: said apart
+        return stripped, ~blank & ~(poly & finite)
     raise AssertionError(col.kind)
