@@ -320,6 +320,22 @@ def test_block_yaml_unknown_key_is_a_stated_warning(blockqc, block, tmp_path):
             "tie_point_error_px: yes",
             ("block.yaml, line 18", "reported.tie_point_error_px", "expected a number, got true"),
         ),
+        # keys YAML reads as no text: 'null' was said to be on line 1 and 'yes' to be the key 1
+        (
+            "sampled: true",
+            "sampled: true\nnull: x",
+            ("block.yaml, line 24: (top level): a key YAML reads as an empty value, not text",),
+        ),
+        (
+            "sampled: true",
+            "sampled: true\nyes: x",
+            ("block.yaml, line 24: (top level): a key YAML reads as true/false (true), not text",),
+        ),
+        (
+            "  technical_design:",
+            "  1:",
+            ("block.yaml, line 12: documents: a key YAML reads as a number (1), not text",),
+        ),
     ],
 )
 def test_block_yaml_values_that_would_be_misread(blockqc, block, tmp_path, old, new, words):

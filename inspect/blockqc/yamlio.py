@@ -209,10 +209,24 @@ def pydantic_problems(
         loc = tuple(prefix) + tuple(err["loc"])
         path = ".".join(str(p) for p in loc) or "(top level)"
         msg = err["msg"].removeprefix("Value error, ")
-        if err["type"] == "extra_forbidden":
+        if _key_not_text(err):  # pydantic names the key as text ('None', 1 for true)
+            key = err.get("input")
+            loc = loc[:-2] if loc[-1] == "[key]" else loc[:-1]
+            path = ".".join(str(p) for p in loc) or "(top level)"
+            msg = f"a key YAML reads as {yaml_kind(key)}, not text: write it in quotes"
+            loc = (*loc, key)
+        elif err["type"] == "extra_forbidden":
             msg = "unknown key"
         elif err["type"] in ("model_type", "model_attributes_type", "dataclass_type"):
             msg = f"expected a mapping of keys, got {yaml_kind(err.get('input'))}"
         msg = (say(err) if say else None) or msg
         problems.append(Problem(str(file), f"{path}: {msg}", line=line_of(data, loc)))
     return problems
+
+
+def _key_not_text(err: dict[str, Any]) -> bool:
+    """A pydantic error about a mapping key that YAML read as no text (null, true, 12)."""
+    key = err.get("input")
+    return not isinstance(key, str) and (
+        err["type"] == "invalid_key" or err["loc"][-1:] == ("[key]",)
+    )
