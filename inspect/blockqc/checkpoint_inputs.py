@@ -126,7 +126,15 @@ def _blank_blocks(path: Path, block: pd.Series) -> list[Problem]:
     """Rows with an empty block_id: they name no block (the first ten)."""
     blank = np.flatnonzero((block.isna() | (block == "")).to_numpy())
     message = "empty: every row names the block of its checkpoint"
-    return [Problem(str(path), message, row=int(i) + 1, column=BLOCK) for i in blank[:10]]
+    return [
+        Problem(str(path), message, row=int(i) + 1, line=_line(path, int(i) + 1), column=BLOCK)
+        for i in blank[:10]
+    ]
+
+
+def _line(path: Path | str, row: int) -> int | None:
+    """The line of a CSV file's row as counted before `located` (row + 1; None in Parquet)."""
+    return row + 1 if str(path).lower().endswith(".csv") else None
 
 
 def _misspelt_block(path: Path, df: pd.DataFrame) -> list[Problem]:
@@ -167,6 +175,7 @@ def _duplicates(rows: pd.DataFrame, extra: list[str]) -> list[Problem]:
             f"checkpoint {r['point_id']} ({r['method']}) is also in "
             f"{first.loc[tuple(r[k] for k in keys), '_file']}",
             row=int(r["_row"]),
+            line=_line(r["_file"], int(r["_row"])),
         )
         for _, r in rows[dup].head(10).iterrows()
     ]
@@ -237,7 +246,7 @@ def _listed(
             r["_file"],
             message(r),
             row=int(r["_row"]),
-            line=int(r["_row"]) + 1 if str(r["_file"]).lower().endswith(".csv") else None,
+            line=_line(r["_file"], int(r["_row"])),
             column=column,
         )
         for _, r in rows.head(ROWS_LISTED).iterrows()

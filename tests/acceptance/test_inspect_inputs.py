@@ -55,7 +55,8 @@ def test_an_empty_block_id_is_named_by_row(tmp_path: Path) -> None:
     with pytest.raises(InputError) as exc:
         load_checkpoint_files([path])
     assert [str(p) for p in exc.value.problems] == [
-        f"{path}, row 2, column 'block_id': empty: every row names the block of its checkpoint"
+        f"{path}, row 2 (line 3), column 'block_id': empty: every row names the block of its "
+        "checkpoint"
     ]
 
 

@@ -239,6 +239,26 @@ def test_a_file_of_several_blocks_numbers_each_blocks_points(tmp_path, blockqc) 
     assert f"{both}, row 7 (line 8): duplicated key (block_id, point_id, method)" in proc.stderr
 
 
+def test_rows_refused_across_the_inspectors_files_name_their_lines(tmp_path, blockqc) -> None:
+    """A checkpoint given in two files, and a row without its block_id, were named by their row
+    alone, where every other refused row of a CSV file is named by its line too."""
+    write_delivery(tmp_path / "a")
+    first, second = tmp_path / "first.csv", tmp_path / "second.csv"
+    _recalculation(3).to_csv(first, index=False)
+    _recalculation(3).iloc[[1]].to_csv(second, index=False)
+    proc = blockqc(
+        "inspect", tmp_path / "a", "--out", tmp_path / "o", "--no-pdf",
+        "--checkpoints", first, "--checkpoints", second,
+    )  # fmt: skip
+    assert proc.returncode == 2, proc.stderr
+    assert f"{second}, row 1 (line 2): checkpoint" in proc.stderr and "is also in" in proc.stderr
+    _recalculation(3).assign(block_id=["CASE", "", "CASE"]).to_csv(first, index=False)
+    args = ("--no-pdf", "--checkpoints", first)
+    proc = blockqc("inspect", tmp_path / "a", "--out", tmp_path / "o", *args)
+    assert proc.returncode == 2, proc.stderr
+    assert f"{first}, row 2 (line 3), column 'block_id': empty" in proc.stderr
+
+
 @pytest.mark.parametrize("header", ["Block_ID", "blockid", "block-id"])
 def test_a_misspelt_block_id_column_is_refused(tmp_path, blockqc, header) -> None:
     """Its blocks would go unread and every row be merged into the one block inspected."""
