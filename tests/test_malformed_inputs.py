@@ -1095,6 +1095,23 @@ def test_a_block_yaml_that_is_no_file_is_named_as_such(blockqc, block, tmp_path,
     assert "missing" not in p.stderr
 
 
+@pytest.mark.parametrize("name", ["block.yml", "Block.yaml", "BLOCK.YML"])
+def test_a_manifest_under_another_name_is_named(blockqc, block, tmp_path, name):
+    """block.yml or Block.yaml went unsaid: given alone, the folder was "neither a delivery (no
+    block.yaml) nor a batch"; in a batch, its block.yaml "missing"."""
+    (block / "block.yaml").rename(block / name)
+    why = f"block.yaml: missing; {name} is there: the manifest is read from block.yaml"
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    _refused(p, why)
+    assert "neither a delivery" not in p.stderr
+    batch = tmp_path / "batch"
+    batch.mkdir()
+    block.rename(batch / "F1-B01")
+    shutil.copytree(SAMPLE.parent / "F1-B02", batch / "F1-B02")
+    p = blockqc("inspect", batch, "--out", tmp_path / "out2", "--pdf", "none")
+    _refused(p, why)
+
+
 @pytest.mark.parametrize(
     "edit, message",
     [(lambda row: row + ",9", "line 6: not a readable CSV table: 8 fields where the header has 7"),

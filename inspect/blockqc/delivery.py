@@ -251,7 +251,8 @@ def is_delivery(path: Path) -> bool:
 
 def not_a_manifest(path: Path) -> str | None:
     """Why a folder's block.yaml, there but no file, is not read: a folder, a link to nothing,
-    a pipe; None when it is a file or is not there."""
+    a pipe; or, not there, the file beside it named otherwise (block.yml, Block.yaml); None
+    when it is a file, or neither it nor such a file is there."""
     f = path / MANIFEST
     if f.is_symlink() and not f.exists():
         return f"a symbolic link to {os.readlink(f)}, which does not exist: expected the manifest"
@@ -259,7 +260,20 @@ def not_a_manifest(path: Path) -> str | None:
         return "is a folder, not a file: expected the delivery's manifest"
     if f.exists() and not f.is_file():
         return "is not a regular file (a pipe, socket or device): expected the delivery's manifest"
+    if not f.exists() and (other := _manifest_named_otherwise(path)):
+        return f"missing; {other} is there: the manifest is read from {MANIFEST} (lower case)"
     return None
+
+
+def _manifest_named_otherwise(path: Path) -> str | None:
+    """The name of a file in the folder that is block.yaml named otherwise (block.yml,
+    Block.yaml, BLOCK.YML), or None."""
+    names = {MANIFEST, "block.yml"}
+    try:
+        found = sorted(p.name for p in path.iterdir() if p.name.casefold() in names)
+    except OSError:
+        return None
+    return next((n for n in found if n != MANIFEST), None)
 
 
 def find_deliveries(path: Path) -> list[Path]:
