@@ -1005,6 +1005,31 @@ def test_parquet_text_that_is_not_utf8_is_refused_at_its_row(
     )
 
 
+def test_parquet_footprints_stored_as_wkb_are_said_to_be(
+    blockqc, delivery: Path, tmp_path: Path
+) -> None:
+    """Footprints as WKB, the binary geometry GeoParquet stores, were refused as "text that is
+    not UTF-8 … expected UTF-8": what the bytes are, and what is expected, is said."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+    import shapely
+
+    scenes = pd.read_csv(delivery / "scenes.csv", dtype={"scene_id": str})
+    (delivery / "scenes.csv").unlink()
+    wkb = shapely.to_wkb(shapely.from_wkt(scenes["footprint_wkt"].to_numpy()))
+    table = pa.table({c: scenes[c] for c in scenes}).set_column(
+        list(scenes.columns).index("footprint_wkt"), "footprint_wkt", pa.array(wkb, pa.binary())
+    )
+    pq.write_table(table, delivery / "scenes.parquet")
+    _refused(
+        blockqc,
+        delivery,
+        tmp_path / "out",
+        "scenes.parquet, row 1, column 'footprint_wkt': a geometry in WKB (binary, as GeoParquet "
+        "stores geometries): expected the footprint as WKT text",
+    )
+
+
 # ------------------------------------------------ tie-point keys held as Categoricals
 def test_categorical_keys_by_hand() -> None:
     import pyarrow as pa

@@ -755,7 +755,7 @@ def _read_parquet(
         for f in table.schema
         if f.name in names and pa.types.is_nested(f.type)
     ]
-    problems += _not_utf8(path, table, names)
+    problems += _not_utf8(path, table, schema)
     if problems:
         raise InputError(problems)
     try:
@@ -794,9 +794,10 @@ def _unreadable_row_group(path: Path, columns: list[str] | None) -> str:
     return ""
 
 
-def _not_utf8(path: Path, table: pa.Table, names: set[str]) -> list[Problem]:
+def _not_utf8(path: Path, table: pa.Table, schema: TableSchema) -> list[Problem]:
     """The first row of each text column of the contract (text or bytes) whose bytes are not
     UTF-8: Arrow keeps such text as it is read, and it would reach the outputs."""
+    names = {c.name for c in schema.columns}
     problems = []
     for f in table.schema:
         t = f.type.value_type if pa.types.is_dictionary(f.type) else f.type
@@ -806,9 +807,21 @@ def _not_utf8(path: Path, table: pa.Table, names: set[str]) -> list[Problem]:
             found = _first_not_utf8(table.column(f.name))
             if found is not None:
                 row, value = found
-                message = f"text that is not UTF-8 (got the bytes {value[:40]!r}): expected UTF-8"
+                message = _undecodable(value, schema.column(f.name).kind == "wkt")
                 problems.append(Problem(str(path), message, row=row + 1, column=f.name))
     return problems
+
+
+def _undecodable(value: bytes, wkt: bool) -> str:
+    """Why a text cell's bytes are refused: no UTF-8, or (a footprint) a geometry in WKB."""
+    import shapely
+
+    if wkt and shapely.from_wkb(value, on_invalid="ignore") is not None:
+        return (
+            "a geometry in WKB (binary, as GeoParquet stores geometries): expected the "
+            "footprint as WKT text, e.g. POLYGON((lon lat, …))"
+        )
+    return f"text that is not UTF-8 (got the bytes {value[:40]!r}): expected UTF-8"
 
 
 def _first_not_utf8(col: pa.ChunkedArray) -> tuple[int, bytes] | None:
