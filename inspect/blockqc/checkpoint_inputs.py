@@ -208,20 +208,22 @@ def merge_checkpoints(d: Delivery, extra: pd.DataFrame) -> Delivery:
 
 
 def check_blocks(cp: InspectorCheckpoints, deliveries: list[Path]) -> None:
-    """Rows naming a block that is not inspected would be ignored: refuse them; and files
-    without a block_id column when several deliveries are inspected, once, before any is read."""
+    """Rows naming a block that is not inspected would be ignored: refuse them, when every
+    block id is known (a delivery whose block.yaml cannot be read may be the block they name:
+    it is refused when read, its problems listed); and files without a block_id column when
+    several deliveries are inspected, once, before any is read."""
     if not cp.by_block:
         if len(deliveries) > 1:
             raise cp.no_block_column()
         return
-    known = set()
+    known, unread = set(), False
     for path in deliveries:
         try:
             known.add(load_manifest(path / MANIFEST).block_id)
         except InputError:
-            continue  # reported in full when the delivery is read
+            unread = True  # reported in full when the delivery is read
     bad = cp.rows[~cp.rows[BLOCK].isin(known)]
-    if not bad.empty:
+    if not bad.empty and not unread:
         raise InputError(
             _listed(
                 bad,

@@ -239,6 +239,28 @@ def test_a_file_of_several_blocks_numbers_each_blocks_points(tmp_path, blockqc) 
     assert f"{both}, row 7 (line 8): duplicated key (block_id, point_id, method)" in proc.stderr
 
 
+def test_checkpoints_of_a_block_whose_manifest_cannot_be_read_are_not_unknown(
+    tmp_path, blockqc
+) -> None:
+    """A batch block whose block.yaml is refused (a GSD below 0) has a block id no run knows:
+    its checkpoint rows were refused as naming "no block among the deliveries inspected", the
+    run stopped there and the block.yaml's own problem went unsaid. Block ids are now checked
+    when every block id is known, as a verdicts file's are."""
+    batch = tmp_path / "batch"
+    write_delivery(batch / "a")
+    write_delivery(batch / "b", {"manifest": {"block_id": "CASE-B", "gsd_m": {"pan": -1.0}}})
+    both = tmp_path / "recalc.csv"
+    rows = [_recalculation(3).assign(block_id=b) for b in ("CASE", "CASE-B")]
+    pd.concat(rows).to_csv(both, index=False)
+    out = tmp_path / "out"
+    proc = blockqc("inspect", batch, "--out", out, "--no-pdf", "--checkpoints", both)
+    assert proc.returncode == 2, proc.stderr
+    assert "no block 'CASE-B'" not in proc.stderr
+    assert f"{batch / 'b' / 'block.yaml'}" in proc.stderr and "gsd_m.pan" in proc.stderr
+    doc = json.loads((out / "CASE" / "results.json").read_text())
+    assert doc["process_data"]["inspector_checkpoints"] == {str(both): 3}
+
+
 def test_rows_refused_across_the_inspectors_files_name_their_lines(tmp_path, blockqc) -> None:
     """A checkpoint given in two files, and a row without its block_id, were named by their row
     alone, where every other refused row of a CSV file is named by its line too."""
