@@ -434,7 +434,8 @@ def _acceptance_inputs(plan_file: Path | None, meta_file: Path | None, got, path
     if plan is None:
         return plan, meta, []
     ids = [m.block_id for m in got.manifests.values()]
-    check_blocks(plan, plan_file, ids, got.is_batch)
+    unread = any(d not in got.manifests for d in got.deliveries)
+    check_blocks(plan, plan_file, ids, got.is_batch, unread)
     blocks = {m.block_id: m.model_dump(mode="json") for m in got.manifests.values()}
     check_strata(plan, plan_file, blocks)
     if not got.is_batch:

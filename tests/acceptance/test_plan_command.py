@@ -272,6 +272,26 @@ def test_inspect_plan_names_the_line_of_a_sampled_block_not_inspected(tmp_path: 
     ) in r.stderr
 
 
+def test_inspect_plan_with_a_sampled_block_whose_block_yaml_cannot_be_read(tmp_path: Path) -> None:
+    """B02, sampled, with a block.yaml refused (a GSD below 0): the plan was refused as sampling
+    "a block not among the deliveries inspected", the run stopped there and B02's own problem
+    went unsaid. The sampled blocks are now checked when every block id is known: the batch is
+    inspected, B02 refused with its problem, and the decision left incomplete for want of it."""
+    batch = _batch(tmp_path / "batch", 4, with_cps={0})
+    manifest = batch / "B02" / "block.yaml"
+    manifest.write_text(manifest.read_text().replace("pan: 1.0", "pan: -1.0"))
+    plan = tmp_path / "plan.yaml"
+    _write_plan_b00_b02(plan)
+    out = tmp_path / "o"
+    r = run_blockqc("inspect", batch, "--plan", plan, "--out", out, "--no-pdf")
+    assert r.returncode == 2, r.stderr
+    assert "not among the deliveries inspected" not in r.stderr
+    assert "no delivery of the batch is block B02" not in r.stderr  # it is there, and sampled
+    assert f"{manifest}" in r.stderr and "gsd_m.pan" in r.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["acceptance"]["decision"] == "incomplete"
+
+
 def test_inspect_plan_names_the_line_of_its_units_for_a_block_outside_it(tmp_path: Path) -> None:
     batch = _batch(tmp_path / "batch", 5)  # B04 is not among the plan's units B00..B03
     plan = tmp_path / "plan.yaml"

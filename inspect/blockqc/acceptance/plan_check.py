@@ -23,9 +23,13 @@ from blockqc.errors import InputError, Problem
 Loc = tuple[str | int, ...]
 
 
-def check_blocks(plan: Plan, path: Path, block_ids: list[str], whole_batch: bool) -> None:
-    """Every block inspected is in the plan's batch; with a whole batch, every sampled block too.
-    Each problem names the plan's line: its `units`, or the sampled block's."""
+def check_blocks(
+    plan: Plan, path: Path, block_ids: list[str], whole_batch: bool, unread: bool = False
+) -> None:
+    """Every block inspected is in the plan's batch; with a whole batch, every sampled block too,
+    unless a delivery's block.yaml cannot be read (`unread`: it may be the sampled block; it is
+    refused when read, and leaves the decision incomplete). Each problem names the plan's line:
+    its `units`, or the sampled block's."""
     units = f"its {plan.units} units: {listed(sorted(plan.population))}"
     problems = [
         Problem(
@@ -36,7 +40,7 @@ def check_blocks(plan: Plan, path: Path, block_ids: list[str], whole_batch: bool
         for b in block_ids
         if b not in plan.population
     ]
-    if whole_batch:
+    if whole_batch and not unread:
         problems += [
             Problem(
                 str(path),
@@ -149,9 +153,10 @@ def plan_notes(
 
 
 def _absent(plan: Plan, path: Path, block_ids: list[str]) -> tuple[list[PlanNote], list[Problem]]:
-    """The plan's units that no delivery is (none sampled): a note, and a warning for each."""
-    ids = set(block_ids)
-    absent = [(loc, u) for loc, u, _ in _placed(plan) if u not in ids]
+    """The plan's units that no delivery is (none sampled: a sampled one missing is refused, or
+    is a delivery whose block.yaml cannot be read): a note, and a warning for each."""
+    ids, sampled = set(block_ids), set(plan.sampled)
+    absent = [(loc, u) for loc, u, _ in _placed(plan) if u not in ids and u not in sampled]
     if not absent:
         return [], []
     note = PlanNote(
