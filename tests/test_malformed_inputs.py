@@ -1095,6 +1095,19 @@ def test_a_block_yaml_that_is_no_file_is_named_as_such(blockqc, block, tmp_path,
     assert "missing" not in p.stderr
 
 
+@pytest.mark.parametrize("invisible", ["\u200b", "\ufeff", "\u00ad"])
+def test_a_column_name_holding_an_invisible_character_shows_it(blockqc, block, tmp_path, invisible):
+    """A zero-width space, a byte order mark or a soft hyphen after a column's name (pasted
+    from a document) made it missing with the hint "is 'dx_m' meant to be it?", the name shown
+    as the one expected: the character is now shown escaped."""
+    f = block / "pan_ms.csv"
+    f.write_text(f.read_text("utf-8").replace("dx_m", f"dx_m{invisible}", 1), "utf-8")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    shown = ascii(invisible)[1:-1]
+    _refused(p, "pan_ms.csv: missing column 'dx_m'", f"is 'dx_m{shown}' meant to be it?")
+    assert f"dx_m{invisible}" not in p.stderr
+
+
 @pytest.mark.parametrize("name", ["block.yml", "Block.yaml", "BLOCK.YML"])
 def test_a_manifest_under_another_name_is_named(blockqc, block, tmp_path, name):
     """block.yml or Block.yaml went unsaid: given alone, the folder was "neither a delivery (no
