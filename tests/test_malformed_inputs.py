@@ -320,6 +320,12 @@ def test_block_yaml_unknown_key_is_a_stated_warning(blockqc, block, tmp_path):
             "tie_point_error_px: yes",
             ("block.yaml, line 18", "reported.tie_point_error_px", "expected a number, got true"),
         ),
+        (  # a zero-width space after a key was not shown: "sensor: unknown key; did you mean
+            # 'sensor'?"
+            "sensor: GF-7",
+            "sensor\u200b: GF-7",
+            ("block.yaml, line 2: sensor\\u200b: unknown key; did you mean 'sensor'?",),
+        ),
         # keys YAML reads as no text: 'null' was said to be on line 1 and 'yes' to be the key 1
         (
             "sampled: true",

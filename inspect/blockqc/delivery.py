@@ -46,6 +46,7 @@ from blockqc.schema import (
     did_you_mean,
     report_rows,
     validate_table,
+    visible_name,
 )
 from blockqc.textio import BOM, check_no_nul, check_utf8, header_problem, located, read_bytes
 from blockqc.yamlio import line_of, load_yaml, pydantic_problems
@@ -991,7 +992,7 @@ def _unknown_keys(path: Path, data: dict, manifest: Manifest) -> list[Problem]:
     return [
         Problem(
             str(path),
-            f"unknown key '{'.'.join(loc)}': not read by the rules"
+            f"unknown key '{'.'.join(visible_name(str(k)) for k in loc)}': not read by the rules"
             + (strata if len(loc) == 1 else ""),
             line=line_of(data, loc),
         )
@@ -1013,7 +1014,7 @@ def _misspelt_keys(path: Path, data: dict) -> list[Problem]:
             same = folded.get(str(key).casefold())
             close = [same] if same else difflib.get_close_matches(str(key), known, n=1, cutoff=0.75)
             if key not in known and close:
-                where = ".".join((*loc, str(key)))
+                where = ".".join((*loc, visible_name(str(key))))
                 problems.append(
                     Problem(
                         str(path),

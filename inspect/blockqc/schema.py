@@ -448,19 +448,20 @@ def _missing(col: Column, near: str | None, file: str, found: list) -> list[Prob
     """A column of the schema that the file lacks: refused when required; when optional, only
     beside a column that looks like it misspelt, whose checks would else go unmade."""
     if col.required:
-        hint = f"; is '{_visible(near)}' meant to be it?" if near else ""
-        names = ", ".join(_visible(str(c)) for c in found)
+        hint = f"; is '{visible_name(near)}' meant to be it?" if near else ""
+        names = ", ".join(visible_name(str(c)) for c in found)
         why = f"expected a {col.kind} column; columns found: {names}{hint}"
         return [Problem(file, f"missing column '{col.name}' ({why})")]
     if near:
         why = "rename it: misspelt, the checks of that optional column would not be made"
-        return [Problem(file, f"column '{_visible(near)}': did you mean '{col.name}'? ({why})")]
+        return [Problem(file, f"column '{visible_name(near)}': did you mean '{col.name}'? ({why})")]
     return []
 
 
-def _visible(name: str) -> str:
-    """A column name as shown in a message: a character that shows nothing (a zero-width space,
-    a byte order mark, a soft hyphen pasted with the name) escaped, as Python writes it."""
+def visible_name(name: str) -> str:
+    """A name (a column's, a key's) as shown in a message: a character that shows nothing (a
+    zero-width space, a byte order mark, a soft hyphen pasted with the name) escaped, as Python
+    writes it."""
     return name if name.isprintable() else repr(name)[1:-1]
 
 
