@@ -20,6 +20,7 @@ import pandas as pd
 from blockqc.errors import InputError, Problem
 from blockqc.rfm.model import RPCModel
 from blockqc.rfm.readers import read_rpc
+from blockqc.schema import visible_name
 
 RPC_DIR = "rpc"
 ADJUSTED_DIR = "rpc_adjusted"
@@ -59,7 +60,11 @@ def _scan(folder: Path, scene_ids: set[str], problems: list[Problem]) -> dict[st
             problems.append(Problem(str(f), "expected an RPC file named <scene_id>.<ext>"))
         elif sid not in scene_ids:
             problems.append(
-                Problem(str(f), f"no scene '{sid}' in the scenes table: expected <scene_id>.<ext>")
+                Problem(
+                    str(f),
+                    f"no scene '{visible_name(sid)}' in the scenes table: expected "
+                    "<scene_id>.<ext>",
+                )
             )
         elif sid in found:
             problems.append(

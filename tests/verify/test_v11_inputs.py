@@ -85,6 +85,16 @@ def test_rpc_for_unknown_scene_and_no_residuals_without_adjustment(tmp_path, tie
     assert any("missing column 'v_line'" in m and "rpc_adjusted" in m for m in msgs)
 
 
+def test_an_rpc_file_named_with_an_invisible_character_shows_it(tmp_path, tie_points) -> None:
+    """rpc/L\u200b.geom (a zero-width space pasted after the scene id) was said to be of "no
+    scene 'L'", the scene that has no RPC, as if they were one: the character is shown."""
+    folder = write_v11(tmp_path / "d", tie_points)
+    (folder / "rpc" / "L.geom").rename(folder / "rpc" / "L\u200b.geom")
+    msgs = _problems(folder)
+    assert "no scene 'L\\u200b' in the scenes table" in msgs[0]
+    assert "no RPC for scene 'L'" in msgs[1]
+
+
 def test_refined_rpc_of_another_place_is_refused(tmp_path, tie_points) -> None:
     """rpc_adjusted/R with its latitude and longitude offsets swapped (lon ~44°, lat ~5°): its
     ground domain was checked for rpc/ only, so every point was left not intersected and,
