@@ -1191,3 +1191,40 @@ def test_a_short_row_over_two_lines_is_named_by_the_line_it_starts_on(blockqc, b
     (block / "scenes.csv").write_text("\n".join(lines) + "\n", "utf-8")
     p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
     _refused(p, "scenes.csv, line 2: not a readable CSV table: 6 fields where the header has 7")
+
+
+@pytest.mark.parametrize(
+    ("table", "rules", "edit", "why"),
+    [
+        ("overlaps.csv", ("RO-3", "RO-4"), "drop", "no dz_m column"),
+        ("overlaps.csv", ("RO-3", "RO-4"), "rename", "no dz_m column"),
+        ("edges.csv", ("RO-2",), "empty", "dz_m empty in every row"),
+    ],
+)
+def test_a_discrepancy_table_without_heights_says_why_its_height_rules_judge_nothing(
+    blockqc, block, tmp_path, table, rules, edit, why
+):
+    """dz_m is optional (plane-only discrepancies): left out, named otherwise (dh_m, kept and
+    ignored as any extra column) or empty throughout, the height groups are not applicable, and
+    say that the table gives no heights rather than that nothing was measured."""
+    path = block / table
+    cells = [line.split(",") for line in path.read_text(encoding="utf-8").splitlines()]
+    at = cells[0].index("dz_m")
+    if edit == "drop":
+        cells = [row[:at] + row[at + 1 :] for row in cells]
+    elif edit == "rename":
+        cells[0][at] = "dh_m"
+    else:
+        for row in cells[1:]:
+            row[at] = ""
+    path.write_text("\n".join(",".join(r) for r in cells) + "\n", encoding="utf-8")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    assert p.returncode in (0, 1), p.stderr
+    results = json.loads((tmp_path / "out" / "F1-B01" / "results.json").read_text("utf-8"))
+    by = {(r["rule"], r["group"].get("component")): r for r in results["results"]}
+    for rule in rules:
+        height, plane = by[(rule, "height")], by[(rule, "plane")]
+        assert height["status"] == "not_applicable", rule
+        said = f"{table}: {why}, so no height discrepancies are given"
+        assert height["detail"]["reason"] == said, rule
+        assert plane["status"] in ("pass", "fail"), rule

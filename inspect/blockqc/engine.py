@@ -309,7 +309,8 @@ class Judge:
             group = {**fixed, **group}
             self.bind(group)
             if sub.empty:
-                out.append(self.result(group, "not_applicable", None, {"reason": NOTHING}))
+                why = table.empty_reason(group) or NOTHING
+                out.append(self.result(group, "not_applicable", None, {"reason": why}))
             elif table.keys:
                 out.append(self._units(group, sub, table))
             else:

@@ -226,6 +226,12 @@ def test_overlaps_derived_from_geometry(tmp_path, observations) -> None:
     assert ro3["detail"]["computed_by_blockqc"] == DERIVED_OVERLAPS
     ro4 = [r for r in _rule(doc, "RO-4") if r["group"]["component"] == "plane"][0]
     assert ro4["status"] in ("pass", "fail")
+    for rule in ("RO-3", "RO-4"):  # heights aside: said, not "nothing measured"
+        (height,) = [r for r in _rule(doc, rule) if r["group"]["component"] == "height"]
+        assert (height["status"], height["detail"]["reason"]) == (
+            "not_applicable",
+            "the discrepancies derived from the geometry are plane only (§RC-2)",
+        )
     # independent: each observation put on the ground alone (rfm.model's Newton) at the point's
     # height, the geodesic distance between the two positions (pyproj)
     h = d.process_data["data"].points.set_index("point_id")["h"]

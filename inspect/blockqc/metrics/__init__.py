@@ -26,10 +26,17 @@ class Table:
     keys: list[str] = field(default_factory=list)
     sort: str | None = None  # default order of evidence rows (descending), e.g. "error_px"
     groups: list[dict[str, Any]] | None = None  # groups to report even when they hold no rows
+    # why some of those groups hold no rows, where the delivery says it (no dz_m column: no
+    # heights); each a group's values and the reason
+    empty: tuple[tuple[Mapping[str, Any], str], ...] = ()
     # columns left out of `df` because the delivery's columns behind them were not read (a pack
     # with `columns: used`), and how to add them to some of its rows (those shown as evidence)
     lazy: tuple[str, ...] = ()
     fill: Callable[[pd.DataFrame], pd.DataFrame] | None = None
+
+    def empty_reason(self, group: Mapping[str, Any]) -> str | None:
+        """Why `group` holds no rows, when the metric knows (None: nothing measured)."""
+        return next((why for g, why in self.empty if g.items() <= group.items()), None)
 
     def complete(self, rows: pd.DataFrame, columns: Iterable[str] | None = None) -> pd.DataFrame:
         """`rows` of this table with its lazy columns added (those of `columns`, or all)."""

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -80,26 +81,41 @@ def _agg(long: pd.DataFrame, by: list[str]) -> pd.DataFrame:
     ).reset_index()
 
 
-def _measure(df: pd.DataFrame | None, unit: list[str], what: str) -> Measurement:
+def _measure(
+    df: pd.DataFrame | None, unit: list[str], what: str, no_heights: str | None
+) -> Measurement:
+    """Per point, unit and component; `no_heights`: why the table gives no height (None: it
+    gives some), said for the height groups."""
     if df is None or df.empty:
         return not_applicable(f"no {what} in the delivery")
     long = _long(df, unit + ["point_id"])
     groups = [{"component": c} for c in COMPONENTS]
+    empty = (({"component": "height"}, no_heights),) if no_heights else ()
+    by_component = partial(Table, group=["component"], groups=groups, empty=empty)
     return Measurement(
         tables={
-            "point": Table(
-                long, group=["component"], keys=unit + ["point_id"], sort="value_m", groups=groups
-            ),
-            "pair": Table(
-                _agg(long, ["component"] + unit),
-                group=["component"],
-                keys=unit,
-                sort="rms_m",
-                groups=groups,
-            ),
-            "component": Table(_agg(long, ["component"]), group=["component"], groups=groups),
+            "point": by_component(long, keys=unit + ["point_id"], sort="value_m"),
+            "pair": by_component(_agg(long, ["component"] + unit), keys=unit, sort="rms_m"),
+            "component": by_component(_agg(long, ["component"])),
         }
     )
+
+
+def _no_heights(df: pd.DataFrame | None, file: str) -> str | None:
+    """Why a discrepancy table gives no height discrepancy (None: it gives some, or is none)."""
+    if df is None:
+        return None
+    if "dz_m" not in df.columns:
+        return f"{file}: {NO_DZ_COLUMN}"
+    if df["dz_m"].isna().all():
+        return f"{file}: {DZ_EMPTY}"
+    return None
+
+
+#: why the height group of a discrepancy table holds nothing (fixed phrases, translated)
+NO_DZ_COLUMN = "no dz_m column, so no height discrepancies are given"
+DZ_EMPTY = "dz_m empty in every row, so no height discrepancies are given"
+PLANE_ONLY = "the discrepancies derived from the geometry are plane only (§RC-2)"
 
 
 def _scopes(unit: tuple[str, ...], table: str) -> dict[str, Scope]:
@@ -133,13 +149,16 @@ def overlap_discrepancy(d: Delivery, p: NoParams, measure: Measure) -> Measureme
             "no overlaps table (overlaps.csv), and no tie point seen on two scenes to derive "
             "the adjacent-image discrepancies from"
         )
-    return _measure(d.overlaps, ["scene_a", "scene_b"], "overlaps table (overlaps.csv)")
+    derived = notes.get("overlaps") == DERIVED_OVERLAPS
+    why = PLANE_ONLY if derived else _no_heights(d.overlaps, "overlaps.csv")
+    return _measure(d.overlaps, ["scene_a", "scene_b"], "overlaps table (overlaps.csv)", why)
 
 
 @metric("edge_discrepancy", scopes=_scopes(("neighbour_block",), "edges"), tie_points=())
 def edge_discrepancy(d: Delivery, p: NoParams, measure: Measure) -> Measurement:
     """Discrepancies against adjacent blocks, per point and neighbour (§RO-2)."""
-    return _measure(d.edges, ["neighbour_block"], "edges table (edges.csv)")
+    why = _no_heights(d.edges, "edges.csv")
+    return _measure(d.edges, ["neighbour_block"], "edges table (edges.csv)", why)
 
 
 _PAN_MS = ("pan_scene_id", "ms_scene_id")

@@ -605,6 +605,18 @@ MESSAGES.update(
         ),
         "ph_mostly_sea": (" (mostly sea)", "（大部分为水域）"),
         "ph_nothing_measured": ("nothing measured for this group", "该组无测量数据"),
+        "ph_no_dz_column": (
+            "no dz_m column, so no height discrepancies are given",
+            "无 dz_m 列，未给出高程较差",
+        ),
+        "ph_dz_empty": (
+            "dz_m empty in every row, so no height discrepancies are given",
+            "dz_m 列全部为空，未给出高程较差",
+        ),
+        "ph_plane_only": (
+            "the discrepancies derived from the geometry are plane only (§RC-2)",
+            "依据所交几何模型推算的接边差仅有平面分量（§RC-2）",
+        ),
         "ph_no_pan_ms": (
             "no PAN–MS registration table (pan_ms.csv) in the delivery",
             "成果中没有全色–多光谱配准表（pan_ms.csv）",
