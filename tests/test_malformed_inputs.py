@@ -868,7 +868,9 @@ def test_checkpoints_without_heights_leave_the_height_rules_not_applicable_not_u
     by = {(r["rule"], r["group"].get("component")): r for r in results["results"]}
     for key in (("CP-3", "height"), ("CP-4", "height")):
         assert by[key]["status"] == "not_applicable", key
-        assert by[key]["detail"]["reason"] == "nothing measured for this group"
+        assert by[key]["detail"]["reason"] == (
+            "ref_z_m empty on all these checkpoints (plane-only references), so no height error"
+        )
     assert by[("CP-2", "plane")]["status"] == "pass"
     assert by[("CP-4", "plane")]["status"] == "pass"
 

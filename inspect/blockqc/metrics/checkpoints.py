@@ -219,21 +219,31 @@ def checkpoint_accuracy(d: Delivery, p: AccuracyParams, measure: Measure) -> Mea
     # throughout) is judged not applicable, not left out unsaid
     methods = d.checkpoints["method"].drop_duplicates().tolist()
     present = [{"component": c, "method": m} for m in methods for c in ("plane", "height")]
+    heights = set(points.loc[points["component"] == "height", "method"])
+    no_z = tuple(
+        ({"component": "height", "method": m}, NO_REF_Z) for m in methods if m not in heights
+    )
     return Measurement(
         tables={
             "block": Table(block),
-            "component_method": Table(groups, group=["component", "method"], groups=present),
+            "component_method": Table(
+                groups, group=["component", "method"], groups=present, empty=no_z
+            ),
             "point": Table(
                 points,
                 group=["component", "method"],
                 keys=["point_id"],
                 sort="abs_error_m",
                 groups=present,
+                empty=no_z,
             ),
         },
         detail={"agreement": method_agreement(groups)},
     )
 
+
+#: why a method's height results judge nothing: its references give plane only (a fixed phrase)
+NO_REF_Z = "ref_z_m empty on all these checkpoints (plane-only references), so no height error"
 
 #: checkpoints may lie this far beyond the bounding box of the block's footprints in its
 #: projection (metres, or this share of the box's larger side): farther, they are in another

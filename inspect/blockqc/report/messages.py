@@ -613,6 +613,10 @@ MESSAGES.update(
             "dz_m empty in every row, so no height discrepancies are given",
             "dz_m 列全部为空，未给出高程较差",
         ),
+        "ph_no_ref_z": (
+            "ref_z_m empty on all these checkpoints (plane-only references), so no height error",
+            "这些检查点的 ref_z_m 均为空（参考仅有平面位置），无高程误差",
+        ),
         "ph_plane_only": (
             "the discrepancies derived from the geometry are plane only (§RC-2)",
             "依据所交几何模型推算的接边差仅有平面分量（§RC-2）",
