@@ -708,6 +708,7 @@ def adjust(
     converged, step = iterate(ctx, state, huber, "huber", settings.huber_iterations)
     converged = False
     rejected = np.zeros(obs.point.size, bool)
+    weights_sig = sig  # the σ of the last step's weights
     for _ in range(4):
         share = loop_affine_share(step, ctx)
         s0 = sigma0(step.lin.f, step.w, priors, ctx.used, step.u_inv[:, 2, 2], share) * sig
@@ -725,13 +726,15 @@ def adjust(
         if budget <= 0:
             break
         converged, step = iterate(ctx, state, fixed_weights(ctx.kept, sig), "ls", budget)
-    return _solution(ctx, state, step, sig, converged, rejected), v0l, v0s
+        weights_sig = sig
+    return _solution(ctx, state, step, weights_sig, converged, rejected), v0l, v0s
 
 
 def _solution(
     ctx: Context, state: State, last: Step, sig: float, converged: bool, rejected: BoolArray
 ) -> Solution:
     """Final residuals, σ0 and the precision of every parameter (σ0²·S⁻¹ and the points');
+    `sig`: the σ of the last step's weights, of which σ0 (unitless) is the variance factor;
     `rejected`: the observations the rule |v| > k·σ0 rejected."""
     obs, lines, samples = ctx.obs, *_sizes(ctx.norm)
     kept = ctx.kept.copy()
