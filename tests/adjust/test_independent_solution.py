@@ -14,6 +14,7 @@ antimeridian, each RPC's LON_OFF written within ±180° as RPC00B has it.
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -269,6 +270,47 @@ def test_rc1_reproduces_the_residuals_across_the_antimeridian(tmp_path, blockqc)
     assert process["n_points_not_intersected"] == 0
     pairs = tp.groupby("point_id").size()
     assert process["n_overlap_discrepancies"] == int((pairs * (pairs - 1) // 2).sum())
+
+
+def point_east(seed: int = 1) -> dict[str, float]:
+    """Each point's longitude east of the block's centre (degrees), as write_block draws it."""
+    rng = np.random.default_rng(seed)
+    rng.normal(0.0, 1.0, (3, 6))  # the affines
+    east = {}
+    for k in range(120):
+        e = rng.uniform(-0.06, 0.06)
+        rng.uniform(44.96, 45.04), rng.uniform(200, 800)
+        for sid in SCENES:
+            if abs(e - SCENES[sid][0]) <= 0.045:
+                rng.normal(0.0, 0.3, 2)  # the noise of each observation
+        east[f"P{k:04d}"] = e
+    return east
+
+
+def test_the_checkpoints_of_a_block_across_the_antimeridian_are_in_its_utm_zone(tmp_path, blockqc):
+    """The block above across ±180° with no EPSG in block.yaml and as many points east of 180°
+    as west: the checkpoints' UTM zone was that of the median of the longitudes written within
+    ±180°, about 0° (zone 30, EPSG:32630, 180° from the block); it is now that of the block,
+    60 or 1."""
+    blk = tmp_path / "blk"
+    tp = write_block(blk, 180.0)
+    east = pd.Series(point_east()).loc[tp["point_id"].unique()]
+    east = east[east.abs() > 1e-3]  # clearly on one side
+    n = min((east > 0).sum(), (east < 0).sum())
+    keep = [*east[east > 0].index[:n], *east[east < 0].index[:n]]
+    tp[tp["point_id"].isin(keep)].to_csv(blk / "tie_points.csv", index=False)
+    rows = [(sid, *a) for sid, a in zip(SCENES, true_affine(), strict=True)]
+    columns = ["scene_id", "a0", "a1", "a2", "b0", "b1", "b2"]
+    pd.DataFrame(rows, columns=columns).to_csv(blk / "adjustment.csv", index=False)
+    manifest = (blk / "block.yaml").read_text()
+    (blk / "block.yaml").write_text(re.sub(r"\n  epsg: \d+", "", manifest))
+    r = blockqc("adjust", blk, "--out", tmp_path / "out")
+    assert r.returncode == 0, r.stderr
+    got = json.loads((tmp_path / "out" / "adjust.json").read_text())["checkpoints"]
+    assert got["crs_source"].startswith("UTM zone of the block centre")
+    assert got["epsg"] in (32601, 32660), got
+    cps = pd.read_csv(tmp_path / "out" / "checkpoints.csv")
+    assert len(cps) >= 20 and cps["y_m"].between(4.9e6, 5.1e6).all()  # 45° N in its zone
 
 
 def test_the_dem_is_read_over_the_block_across_the_antimeridian(tmp_path, monkeypatch):

@@ -299,7 +299,11 @@ def projected_crs(block: Block, lon: np.ndarray, lat: np.ndarray) -> tuple[int, 
             return int(sr.epsg), "block.yaml spatial_reference.epsg"
         if crs.is_projected:  # checkpoints are x_m, y_m: not feet
             why = f"block.yaml's EPSG:{sr.epsg} is not in metres"
-    crs = utm_crs(float(np.nanmedian(lon)), float(np.nanmedian(lat)))
+    # the median longitude about the block's west end: across ±180° (179.9…180.1 written as
+    # 179.9 and −179.9) the longitudes' own median may fall near 0°
+    west = lon_extent(lon[np.isfinite(lon)])[0]
+    centre = west + float(np.nanmedian(np.mod(lon - west, 360.0)))
+    crs = utm_crs(centre, float(np.nanmedian(lat)))
     return int(crs.to_epsg()), f"UTM zone of the block centre ({why})"
 
 
