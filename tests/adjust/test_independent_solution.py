@@ -336,3 +336,27 @@ def test_the_dem_is_read_over_the_block_across_the_antimeridian(tmp_path, monkey
     h, sigma, text = run.height_priors(run.index_block(run.load_adjust_input(blk)), cfg)
     assert asked and all(179.7 < west < 180.0 < east < 180.3 for west, _, east, _ in asked)
     assert np.allclose(h, H0) and np.allclose(sigma, cfg.dem_sigma_m), text
+
+
+@pytest.mark.parametrize(
+    ("lat", "epsg", "said"),
+    [
+        (86.0, 32661, "UPS of the block centre's pole (block.yaml gives no projected EPSG)"),
+        (-82.0, 32761, "UPS of the block centre's pole (block.yaml gives no projected EPSG)"),
+        (60.0, 32633, "UTM zone of the block centre (block.yaml gives no projected EPSG)"),
+    ],
+)
+def test_the_checkpoints_of_a_polar_block_are_in_ups(lat: float, epsg: int, said: str) -> None:
+    """A block beyond UTM's latitudes (84° N, 80° S) and no EPSG in block.yaml: its checkpoints
+    were refused ("outside UTM"); they are in UPS north or south, the codes MB-3 takes (§MB-3),
+    said in Chinese on the zh page."""
+    from types import SimpleNamespace
+
+    from blockqc.adjust.run import projected_crs
+    from blockqc.report.format import Formatter
+
+    manifest = SimpleNamespace(spatial_reference=None)
+    block = SimpleNamespace(data=SimpleNamespace(manifest=manifest))
+    lon, lats = np.array([15.0, 15.2, 15.4]), np.full(3, lat)
+    assert projected_crs(block, lon, lats) == (epsg, said)
+    assert "EPSG" in Formatter("zh").sentence(said) != said

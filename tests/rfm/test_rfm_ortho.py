@@ -13,7 +13,13 @@ from rfm_helpers import VENTOUX, gdal_transformer
 
 from blockqc.errors import InputError
 from blockqc.rfm.dem import constant_height, load_dem
-from blockqc.rfm.ortho import crop_offset_from_file, ortho_grid, orthorectify, read_ortho, utm_crs
+from blockqc.rfm.ortho import (
+    crop_offset_from_file,
+    ortho_grid,
+    orthorectify,
+    read_ortho,
+    utm_ups_crs,
+)
 from blockqc.rfm.readers import read_rpc
 
 LEFT = read_rpc(VENTOUX / "left_image.geom")
@@ -53,7 +59,7 @@ def test_ortho_matches_direct_sampling_through_gdal(ramp_image: Path, tmp_path: 
     assert crop_offset_from_file(ramp_image) == CROP
     grid = orthorectify(ramp_image, LEFT, dem, tmp_path / "ortho.tif", chunk=40)
     values, grid_read = read_ortho(tmp_path / "ortho.tif")
-    assert grid_read.transform == grid.transform and grid_read.crs == utm_crs(5.19, 44.2)
+    assert grid_read.transform == grid.transform and grid_read.crs == utm_ups_crs(5.19, 44.2)
     assert 0.45 < grid.gsd < 0.55  # Pléiades PAN, ~0.5 m
     # expected value of every output pixel, computed independently: pixel centre → lon/lat
     # (pyproj) → height (DEM) → GDAL's RPC transformer (pixel corner) → file pixel → ramp
@@ -115,10 +121,15 @@ def test_dem_that_misses_the_image_is_refused(tmp_path: Path):
 
 
 def test_utm_zone():
-    assert utm_crs(5.19, 44.2).to_epsg() == 32631
-    assert utm_crs(55.7, -21.2).to_epsg() == 32740
-    with pytest.raises(InputError):
-        utm_crs(0.0, 85.0)
+    assert utm_ups_crs(5.19, 44.2).to_epsg() == 32631
+    assert utm_ups_crs(55.7, -21.2).to_epsg() == 32740
+    # UPS beyond UTM's latitudes, the codes MB-3 takes (§MB-3)
+    assert [utm_ups_crs(0.0, lat).to_epsg() for lat in (84.0, 84.5, -80.0, -80.5)] == [
+        32631,
+        32661,
+        32731,
+        32761,
+    ]
 
 
 def test_a_finer_image_is_smoothed_before_it_is_sampled_coarser_and_nothing_shifts():

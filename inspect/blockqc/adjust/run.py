@@ -288,23 +288,24 @@ def projected_crs(block: Block, lon: np.ndarray, lat: np.ndarray) -> tuple[int, 
     """The block's projected CRS (block.yaml spatial_reference.epsg), else the UTM zone."""
     from pyproj import CRS
 
-    from blockqc.rfm.ortho import utm_crs
+    from blockqc.rfm.ortho import utm_ups_crs
 
     sr = block.data.manifest.spatial_reference
-    why = "block.yaml gives no projected EPSG"
+    feet = None
     if sr is not None and sr.epsg is not None:
         crs = CRS.from_epsg(sr.epsg)
         metres = all(a.unit_conversion_factor == 1.0 for a in crs.axis_info)
         if crs.is_projected and metres:
             return int(sr.epsg), "block.yaml spatial_reference.epsg"
         if crs.is_projected:  # checkpoints are x_m, y_m: not feet
-            why = f"block.yaml's EPSG:{sr.epsg} is not in metres"
+            feet = sr.epsg
     # the median longitude about the block's west end: across ±180° (179.9…180.1 written as
     # 179.9 and −179.9) the longitudes' own median may fall near 0°
     west = lon_extent(lon[np.isfinite(lon)])[0]
     centre = west + float(np.nanmedian(np.mod(lon - west, 360.0)))
-    crs = utm_crs(centre, float(np.nanmedian(lat)))
-    return int(crs.to_epsg()), f"UTM zone of the block centre ({why})"
+    epsg = int(utm_ups_crs(centre, float(np.nanmedian(lat))).to_epsg())
+    key = "ad_crs_ups" if epsg in (32661, 32761) else "ad_crs_utm"
+    return epsg, EN(key) if feet is None else EN(f"{key}_not_metres", epsg=feet)
 
 
 def spread_points(x: np.ndarray, y: np.ndarray, weight: np.ndarray, n: int) -> np.ndarray:

@@ -31,7 +31,7 @@ from blockqc.adjust.geometry import (
 from blockqc.errors import UsageError
 from blockqc.outputs import write_text_atomic
 from blockqc.rfm.model import RPCModel
-from blockqc.rfm.ortho import utm_crs
+from blockqc.rfm.ortho import utm_ups_crs
 
 FloatArray = NDArray[np.float64]
 
@@ -288,7 +288,7 @@ def _footprints(truth: Truth, stack: RPCStack) -> list[str]:
 def _manifest(cfg: SyntheticConfig, truth: Truth) -> str:
     import yaml
 
-    crs = utm_crs(float(np.mean(truth.point_lon)), float(np.mean(truth.point_lat)))
+    crs = utm_ups_crs(float(np.mean(truth.point_lon)), float(np.mean(truth.point_lat)))
     doc = {
         "block_id": cfg.block_id,
         "sensor": "synthetic (re-centred real RPCs)",

@@ -147,6 +147,8 @@ SENTENCES = (
     "ad_crs_block",
     "ad_crs_utm",
     "ad_crs_utm_not_metres",
+    "ad_crs_ups",
+    "ad_crs_ups_not_metres",
     "ad_cps_none",
     "ad_cps_few",
     "ad_warn_narrow_rays",

@@ -1104,6 +1104,14 @@ MESSAGES.update(
             "UTM zone of the block centre (block.yaml's EPSG:{epsg} is not in metres)",
             "区域网中心所在的 UTM 投影带（block.yaml 的 EPSG:{epsg} 不以米为单位）",
         ),
+        "ad_crs_ups": (
+            "UPS of the block centre's pole (block.yaml gives no projected EPSG)",
+            "区域网中心所在极区的 UPS 投影（block.yaml 未给出投影坐标系的 EPSG）",
+        ),
+        "ad_crs_ups_not_metres": (
+            "UPS of the block centre's pole (block.yaml's EPSG:{epsg} is not in metres)",
+            "区域网中心所在极区的 UPS 投影（block.yaml 的 EPSG:{epsg} 不以米为单位）",
+        ),
         "ad_cps_none": (
             "no point could be compared, so checkpoints.csv holds its header only: the "
             "producer's positions come from tie_points lon/lat/h or from its adjustment "

@@ -87,12 +87,13 @@ class OrthoGrid:
                 yield r0, c0, min(size, self.height - r0), min(size, self.width - c0)
 
 
-def utm_crs(lon: float, lat: float) -> CRS:
-    """WGS-84 / UTM zone containing (lon, lat) (§MB-3); UPS beyond ±84° is not handled here."""
-    if not -80.0 <= lat <= 84.0:
-        raise InputError(
-            Problem(file="<scene>", message=f"latitude {lat:.3f}° is outside UTM; give a CRS")
-        )
+def utm_ups_crs(lon: float, lat: float) -> CRS:
+    """WGS-84 / UTM zone containing (lon, lat), or UPS north of 84° N and south of 80° S, where
+    UTM ends (§MB-3; the codes MB-3 takes for UPS, 32661 and 32761)."""
+    if lat > 84.0:
+        return CRS.from_epsg(32661)
+    if lat < -80.0:
+        return CRS.from_epsg(32761)
     zone = int(np.floor((lon + 180.0) / 6.0)) % 60 + 1
     return CRS.from_epsg((32600 if lat >= 0 else 32700) + zone)
 
@@ -230,7 +231,7 @@ def ortho_grid(
             br[missing] + r0, bc[missing] + c0, mean_height
         )
     if crs is None:
-        crs = utm_crs(float(np.mean(lon)), float(np.mean(lat)))
+        crs = utm_ups_crs(float(np.mean(lon)), float(np.mean(lat)))
     gsd_given = gsd is not None
     if gsd is None:
         gsd = round(image_gsd(model, centre[0], centre[1], dem, crs, mean_height), 3)
