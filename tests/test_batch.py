@@ -452,6 +452,50 @@ def test_dask_block_that_raises_once_is_retried(tmp_path: Path):
     assert got == ["A"]
 
 
+def _waits_for(marker: Path, name: str):
+    def job(path: Path, manifest: object) -> str:
+        import time
+
+        for _ in range(100):  # at most 10 s
+            if marker.exists():
+                break
+            time.sleep(0.1)
+        return f"{name}:{path.name}"
+
+    return job
+
+
+def test_dask_runs_sharing_a_scheduler_get_their_own_outcomes(tmp_path: Path):
+    """Two runs on one scheduler (two inspectors' batches on a shared cluster): every task was
+    keyed inspect-0, inspect-1 …, and a run submitting a key the scheduler held got the other
+    run's outcome, its block line in place of its own. Each run's tasks are now its own."""
+    import threading
+    import time
+
+    from blockqc.distributed import run_on_dask
+
+    LocalCluster = pytest.importorskip("dask.distributed").LocalCluster
+    marker = tmp_path / "second-run-done"
+    first: list[str] = []
+    second: list[str] = []
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=False) as cluster:
+        address = cluster.scheduler_address
+        job = _waits_for(marker, "first")
+        todo = [(tmp_path / "F1-B01", None)]
+        running = threading.Thread(target=run_on_dask, args=(address, job, todo, first.append))
+        running.start()
+        try:
+            time.sleep(1)  # the first run's task is on the scheduler
+            run_on_dask(
+                address, lambda p, m: f"second:{p.name}", [(tmp_path / "F2-B01", None)],
+                second.append,
+            )  # fmt: skip
+        finally:
+            marker.write_text("done", encoding="utf-8")
+            running.join()
+    assert second == ["second:F2-B01"] and first == ["first:F1-B01"]
+
+
 def test_a_report_failing_after_results_json_leaves_no_results(small_batch, tmp_path, monkeypatch):
     """results.json is written before the report: when the report fails, results.json goes too,
     so that no block folder holds results without their report."""

@@ -10,6 +10,7 @@ run stops). `blockqc[dask]` installs what it needs.
 from __future__ import annotations
 
 import socket
+import uuid
 from collections.abc import Callable
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -87,13 +88,16 @@ def run_on_dask(
     todo: list[tuple[Path, Any]],
     done: Callable[[Any], None],
 ) -> None:
-    """Submit one task per delivery and hand each outcome on as it arrives."""
+    """Submit one task per delivery and hand each outcome on as it arrives. The tasks' keys
+    are this run's own: a scheduler shared by several runs gives a task of a key it holds the
+    outcome of that task, whatever run submitted it."""
     from dask.distributed import as_completed
 
+    run = uuid.uuid4().hex
     with client_for(scheduler) as client:
         futures = [
             client.submit(
-                _task, job, path, manifest, key=f"inspect-{i}", retries=RETRIES, pure=False
+                _task, job, path, manifest, key=f"inspect-{run}-{i}", retries=RETRIES, pure=False
             )
             for i, (path, manifest) in enumerate(todo)
         ]
