@@ -416,3 +416,42 @@ def test_a_template_no_page_has_is_warned_of(tmp_path, results_file, capsys):
         f"warning: {mine / 'blok.html.j2'}: no page of blockqc has this template, not used "
         "(did you mean block.html.j2?)"
     ) in capsys.readouterr().err
+
+
+def _failing_on(tmp_path: Path, page: str, when: str) -> Path:
+    """Templates whose `page` fails (an undefined name) where `when` holds."""
+    mine = tmp_path / "templates"
+    mine.mkdir()
+    stock = (Path(__file__).parents[2] / "templates" / page).read_text(encoding="utf-8")
+    (mine / page).write_text(f"{{% if {when} %}}{{{{ no_such_name }}}}{{% endif %}}" + stock)
+    return mine
+
+
+def test_a_template_failing_on_one_block_leaves_no_page_written(batch_out, tmp_path, capsys):
+    """The blocks rendered before it kept their new pages, and the failing block its copied
+    results.json without a report; the summary was not written. Every page is now made apart
+    and put in place only when all are: nothing is written, the folder made is removed."""
+    mine = _failing_on(tmp_path, "block.html.j2", "r.block_id == 'F1-B02'")
+    out = tmp_path / "o"
+    args = ("report", str(batch_out), "--out", str(out), "--no-pdf", "--templates", str(mine))
+    assert run(*args) == 2
+    assert "'no_such_name' is undefined" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_a_summary_template_failing_in_place_leaves_the_pages_as_they_were(
+    batch_out, tmp_path, capsys
+):
+    """Re-rendered in place in Chinese, the blocks' pages were rewritten before the summary's
+    template failed: English summary, Chinese blocks. They are now left as they were."""
+    out = Path(shutil.copytree(batch_out, tmp_path / "in"))
+    before = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    mine = _failing_on(tmp_path, "summary.html.j2", "true")
+    args = ("report", str(out), "--out", str(out), "--no-pdf", "--lang", "zh")
+    assert run(*args, "--templates", str(mine)) == 2
+    assert "'no_such_name' is undefined" in capsys.readouterr().err
+    assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
+    assert run(*args) == 0  # and without the failing template, made in place as before
+    assert "验收报告" in (out / "F1-B01" / "report.html").read_text(encoding="utf-8")
+    assert (out / "F1-B01" / "results.json").read_bytes() == before[out / "F1-B01" / "results.json"]
+    assert sorted(p.name for p in out.iterdir() if p.name.startswith(".")) == []

@@ -68,7 +68,7 @@ def command(
 
     A batch folder (or its summary.json) re-renders the batch summary as well.
     """
-    from blockqc.outputs import make_out_dir, out_lock
+    from blockqc.outputs import empty_removed, make_out_dir, out_lock
 
     check_pdf_engine(pdf_engine, pdf)
     docs, summary, repeated, left_out, unchecked = gather(list(results))
@@ -83,9 +83,10 @@ def command(
     for note in unchecked:
         click.echo(f"warning: {note}", err=True)
     _check_out(out, results, docs, summary)
-    make_out_dir(out, out.resolve())
-    with out_lock(out):  # one run at a time writes into a folder, as inspect's
-        written = _render(out, docs, summary, lang, templates, pdf, pdf_engine)
+    with empty_removed(out):  # a folder made for pages none of which could be rendered
+        make_out_dir(out, out.resolve())
+        with out_lock(out):  # one run at a time writes into a folder, as inspect's
+            written = _render(out, docs, summary, lang, templates, pdf, pdf_engine)
     click.echo(f"{len(written)} files written in {out}")
     return 0
 
@@ -99,37 +100,114 @@ def _render(
     pdf: bool,
     pdf_engine: str,
 ) -> list[Path]:
-    """Each block's report, and the batch summary's pages; the files written."""
-    from blockqc.outputs import BATCH_OUTPUTS, safe_child, write_bytes_atomic, write_json_atomic
-    from blockqc.report import write_block_report, write_summary_report
+    """Each block's report, and the batch summary's pages, written apart
+    (`<out>/.blockqc-staging`) and put in place once every page is made: a page that cannot be
+    rendered (a template failing on one block, or on the summary) leaves no page written; the
+    files written."""
+    from blockqc.outputs import clear_staging, staged_folder
 
-    written: list[Path] = []
-    for path, doc, raw in docs:
-        folder = safe_child(out, doc.block_id, source=path)
-        if (folder / "results.json").resolve() != path.resolve():
-            write_bytes_atomic(folder / "results.json", raw)
-        written += write_block_report(
-            folder, doc, lang=lang, templates=templates, pdf=pdf, pdf_engine=pdf_engine
-        )
-        if not pdf:
-            (folder / "report.pdf").unlink(missing_ok=True)  # never a stale PDF beside
-        click.echo(f"{doc.block_id:12} {doc.verdict.upper():5}  {folder}")
-    if summary is not None:
-        path, doc, raw = summary
-        doc = _with_pdfs(doc, pdf)
-        if doc is not summary[1]:  # its PDF links say what is now beside each report
-            write_json_atomic(out / "summary.json", doc)
-            written.append(out / "summary.json")
-        elif (out / "summary.json").resolve() != path.resolve():
-            write_bytes_atomic(out / "summary.json", raw)
-        written += write_summary_report(
-            out, doc, lang=lang, templates=templates, pdf=pdf, pdf_engine=pdf_engine
-        )
-        for name in BATCH_OUTPUTS:  # an earlier run's summary PDF or acceptance page, not remade
-            if name != "summary.json" and out / name not in written:
-                (out / name).unlink(missing_ok=True)
-        click.echo(f"summary      {out / 'summary.html'}")
+    clear_staging(out)  # what a run stopped half-way left
+    try:
+        staged = staged_folder(out, "report")
+        blocks = [_stage_block(staged, out, d, lang, templates, pdf, pdf_engine) for d in docs]
+        batch = None
+        if summary is not None:
+            batch = _stage_summary(staged, out, summary, lang, templates, pdf, pdf_engine)
+        written: list[Path] = []
+        for doc, folder, names in blocks:
+            written += _put_block(staged / doc.block_id, folder, names)
+            click.echo(f"{doc.block_id:12} {doc.verdict.upper():5}  {folder}")
+        if batch is not None:
+            written += _put_summary(staged, out, batch)
+            click.echo(f"summary      {out / 'summary.html'}")
+    finally:
+        clear_staging(out)
     return written
+
+
+def _stage_block(
+    staged: Path,
+    out: Path,
+    given: tuple[Path, BlockResults, bytes],
+    lang: str,
+    templates: Path | None,
+    pdf: bool,
+    pdf_engine: str,
+) -> tuple[BlockResults, Path, list[str]]:
+    """A block's outputs written into `staged`/<block_id>: its report, and its results file
+    unless it is already where it would be written; the block, its folder, the names written."""
+    from blockqc.outputs import safe_child, write_bytes_atomic
+    from blockqc.report import write_block_report
+
+    path, doc, raw = given
+    folder = safe_child(out, doc.block_id, source=path)
+    here = staged / doc.block_id
+    here.mkdir()
+    names = []
+    if (folder / "results.json").resolve() != path.resolve():
+        write_bytes_atomic(here / "results.json", raw)
+        names.append("results.json")
+    made = write_block_report(
+        here, doc, lang=lang, templates=templates, pdf=pdf, pdf_engine=pdf_engine
+    )
+    return doc, folder, names + [p.name for p in made]
+
+
+def _put_block(staged: Path, folder: Path, names: list[str]) -> list[Path]:
+    """The block's staged outputs moved into its folder (`publish`: results.json removed first
+    and put back last; a PDF not made now removed, never left beside); a results file that is
+    already there is left as it is."""
+    from blockqc.outputs import BLOCK_OUTPUTS, publish
+
+    if "results.json" in names:
+        publish(staged, folder, BLOCK_OUTPUTS, last="results.json")
+    else:
+        publish(staged, folder, [n for n in BLOCK_OUTPUTS if n != "results.json"], "report.html")
+    return [folder / name for name in names]
+
+
+def _stage_summary(
+    staged: Path,
+    out: Path,
+    summary: tuple[Path, Summary, bytes],
+    lang: str,
+    templates: Path | None,
+    pdf: bool,
+    pdf_engine: str,
+) -> list[str]:
+    """The batch summary's pages written into `staged`, and its summary.json unless it is
+    already there as it would be written; the names written."""
+    from blockqc.outputs import write_bytes_atomic, write_json_atomic
+    from blockqc.report import write_summary_report
+
+    path, doc, raw = summary
+    doc = _with_pdfs(doc, pdf)
+    names = []
+    if doc is not summary[1]:  # its PDF links say what is now beside each report
+        write_json_atomic(staged / "summary.json", doc)
+        names.append("summary.json")
+    elif (out / "summary.json").resolve() != path.resolve():
+        write_bytes_atomic(staged / "summary.json", raw)
+        names.append("summary.json")
+    made = write_summary_report(
+        staged, doc, lang=lang, templates=templates, pdf=pdf, pdf_engine=pdf_engine
+    )
+    return names + [p.name for p in made]
+
+
+def _put_summary(staged: Path, out: Path, names: list[str]) -> list[Path]:
+    """The summary's staged outputs moved into `out`; an earlier run's summary PDF or
+    acceptance page that is not made again removed."""
+    import os
+
+    from blockqc.outputs import BATCH_OUTPUTS
+
+    for name in BATCH_OUTPUTS:
+        if name in names:
+            os.replace(staged / name, out / name)
+        elif name != "summary.json":
+            (out / name).unlink(missing_ok=True)
+    return [out / name for name in names]
 
 
 def _with_pdfs(summary: Summary, pdf: bool) -> Summary:
