@@ -875,7 +875,9 @@ def test_a_block_folder_keeps_its_link_mode_and_other_files(small_batch, tmp_pat
 def test_a_summary_that_fails_to_be_written_leaves_no_mix_of_two_runs(small_batch, tmp_path):
     """The summary page failing once the blocks are written: the earlier run's summary.csv,
     .parquet, .html were put back and then only partly replaced, beside this run's
-    summary.json. Now the earlier ones stay set aside, said so."""
+    summary.json. Now the earlier ones stay set aside, said so; and this run's summary.json,
+    which was left without its pages while the run said it stopped before writing its own, is
+    not put in place either: the summary's files are written apart and put in place together."""
     out = tmp_path / "out"
     earlier = _earlier_run(small_batch, out)
     p = _with_a_failing_template(small_batch, out, tmp_path, "summary.html.j2")
@@ -883,7 +885,8 @@ def test_a_summary_that_fails_to_be_written_leaves_no_mix_of_two_runs(small_batc
     aside = out / ".blockqc-previous-summary"
     for name in ("summary.json", "summary.html", "summary.csv", "summary.parquet"):
         assert (aside / name).read_bytes() == earlier[name], name
-        assert not (out / name).exists() or (out / name).read_bytes() != earlier[name], name
+    assert sorted(q.name for q in out.iterdir() if q.is_file()) == []
+    assert not (out / ".blockqc-staging").exists()
 
 
 def test_outputs_that_cannot_be_written_are_not_retried_on_dask():

@@ -296,17 +296,22 @@ class Writer:
                 (self.out / name).unlink(missing_ok=True)
 
     def summary(self, summary: Summary, jobs: int = 1) -> list[Path]:
-        """summary.json and the summary reports; the files written."""
-        write_json_atomic(self.out / "summary.json", summary)
-        pdf = self.pdf != "none"
-        written = [self.out / "summary.json"] + write_summary_report(
-            self.out, summary, lang=self.lang, templates=self.templates, pdf=pdf, jobs=jobs,
-            pdf_engine=self.pdf_engine,
-        )  # fmt: skip
-        for name in BATCH_OUTPUTS:  # an earlier run's summary PDF or acceptance page, not remade
-            if self.out / name not in written:
-                (self.out / name).unlink(missing_ok=True)
-        return written
+        """summary.json and the summary reports, written apart and put in place together
+        (`publish`: summary.json last; an earlier run's summary PDF or acceptance page not
+        made again removed): a page that cannot be made, or a run stopped meanwhile, leaves
+        none of them; the files written."""
+        staged = staged_folder(self.out, "summary")
+        try:
+            write_json_atomic(staged / "summary.json", summary)
+            pdf = self.pdf != "none"
+            made = write_summary_report(
+                staged, summary, lang=self.lang, templates=self.templates, pdf=pdf, jobs=jobs,
+                pdf_engine=self.pdf_engine,
+            )  # fmt: skip
+            publish(staged, self.out, BATCH_OUTPUTS, last="summary.json")
+        finally:
+            clear_staging(self.out)
+        return [self.out / "summary.json"] + [self.out / p.name for p in made]
 
 
 def block_entry(path: Path, r: BlockResults, pdf: bool) -> BlockEntry:
