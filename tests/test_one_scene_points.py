@@ -52,3 +52,18 @@ def test_a_block_whose_points_all_tie_scenes_says_nothing(tmp_path: Path):
     assert results["summary"]["tie_points_on_one_scene"] == 0
     assert "one scene only" not in proc.stderr
     assert "仅在一景影像上有观测" not in (out / "F1-B01" / "report.html").read_text("utf-8")
+
+
+def test_an_incremental_rerun_says_them_again(tmp_path: Path):
+    """A block whose outputs were reused unchanged said nothing of its points on one scene
+    (the rules in error of a reused block are said again; these were not)."""
+    block, lone = _with_lone_points(tmp_path, (0, 5, 17))
+    out = tmp_path / "out"
+    args = ("inspect", block, "--out", out, "--pdf", "none", "--incremental")
+    first = run_blockqc(*args)
+    again = run_blockqc(*args)
+    assert "outputs reused" in again.stdout, again.stdout
+    said = [x for x in first.stderr.splitlines() if "observed on one scene" in x]
+    assert len(said) == 1 and said == [
+        x for x in again.stderr.splitlines() if "observed on one scene" in x
+    ]

@@ -416,6 +416,7 @@ class Job:
                 if hit is not None:
                     o = Outcome(path, hit.entry, hit.rules, cached=True, grade=hit.grade, key=key)
                     o.errors = hit.errors or []  # why its rules in error are, said again
+                    o.warnings = hit.warnings or []  # and what its delivery gives, said again
                     return o
             results = inspect_one(path, self.pack, self.inspector, manifest, self.extra)
             o = self._written(path, results, key)
@@ -459,7 +460,8 @@ class Job:
             o.key = key
             o.warnings = delivery_warnings(path, results)
             if key:
-                write_cached(folder, Cached(key, o.entry, o.rules, grade, errors=o.errors))
+                cached = Cached(key, o.entry, o.rules, grade, errors=o.errors, warnings=o.warnings)
+                write_cached(folder, cached)
             return o
         except (InputError, OutputError):
             raise  # an output name the block id cannot give (safe_child): the delivery's own;

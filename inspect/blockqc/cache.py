@@ -40,7 +40,8 @@ SUMMARY_OUTPUTS = tuple(n for n in BATCH_OUTPUTS if n.startswith("summary.") and
 #: outputs that must still be there, at the size written, for a block's outputs to be reused
 #: (its PDF too when it has one)
 OUTPUTS = tuple(n for n in BLOCK_OUTPUTS if n != "report.pdf")
-#: a block's results per rule and status, and its rules in error ("RULE: why"), as cached
+#: a block's results per rule and status, and its rules in error ("RULE: why") or warnings, as
+#: cached
 _RULES = TypeAdapter(dict[str, dict[str, StrictInt]])
 _ERRORS = TypeAdapter(list[StrictStr])
 
@@ -76,6 +77,7 @@ class Cached:
     grade: Any = None  # the block's §QE grade (BlockGrade), when the pack has acceptance
     sizes: dict[str, int] | None = None  # of the outputs, as written
     errors: list[str] | None = None  # the block's rules in error, "RULE: why"
+    warnings: list[str] | None = None  # what its delivery gives that is said (`delivery_warnings`)
 
 
 def _sha(*parts: Any) -> str:
@@ -235,7 +237,8 @@ def _cached(doc: dict[str, Any], key: str) -> Cached:
     entry = BlockEntry.model_validate(doc["entry"])
     grade = BlockGrade.model_validate(doc["grade"]) if doc["grade"] else None
     rules, errors = _RULES.validate_python(doc["rules"]), _ERRORS.validate_python(doc["errors"])
-    return Cached(key, entry, rules, grade, dict(doc["sizes"]), errors)
+    warnings = _ERRORS.validate_python(doc["warnings"])
+    return Cached(key, entry, rules, grade, dict(doc["sizes"]), errors, warnings)
 
 
 def _sizes(folder: Path, names: list[str]) -> dict[str, int]:
@@ -254,6 +257,7 @@ def write_cached(folder: Path, cached: Cached) -> None:
         "grade": cached.grade,
         "sizes": _sizes(folder, names),
         "errors": cached.errors or [],
+        "warnings": cached.warnings or [],
     }
     plain = json.loads(pydantic_core.to_json(jsonable(doc)))  # as it will be read back
     write_json_atomic(folder / CACHE_FILE, {**plain, "seal": _sha(plain)})
