@@ -164,6 +164,20 @@ def test_output_whose_block_folder_is_the_delivery_is_refused(tmp_path):
     assert _files(tmp_path) == before
 
 
+def test_output_that_is_the_folder_holding_the_delivery_is_refused_whatever_its_name(tmp_path):
+    """The same --out, the delivery's folder not named by its block id: F1-B01/ was written
+    beside the delivery in its batch, which then held a sub-folder without block.yaml, an
+    unreadable delivery (exit 2) at its next inspection. Refused, as when the names agree."""
+    batch = tmp_path / "batch"
+    shutil.copytree(SAMPLE, batch / "delivered")
+    before = _files(tmp_path)
+    p = run_blockqc("inspect", batch / "delivered", "--out", batch, "--pdf", "none")
+    _refused(p, f"error: --out {batch} is the folder holding the delivery {batch / 'delivered'}")
+    assert _files(tmp_path) == before and sorted(batch.iterdir()) == [batch / "delivered"]
+    p = run_blockqc("inspect", "delivered", "--out", ".", "--pdf", "none", cwd=batch)
+    _refused(p, "error: --out . is the folder holding the delivery delivered")
+
+
 def test_writer_never_writes_into_nor_clears_a_delivery(tmp_path):
     """The last guard, wherever a block's folder is named (a worker, a re-run's clean-up): a
     block folder that is a delivery is refused, and nothing of it is removed."""

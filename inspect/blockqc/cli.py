@@ -304,6 +304,7 @@ def inspect_cmd(
         out_lock,
         refuse_block_folders,
         refuse_delivered,
+        refuse_holding,
         refuse_inside,
     )
     from blockqc.rules import load_pack
@@ -321,6 +322,7 @@ def inspect_cmd(
     inspector = load_inspector_input(verdicts) if verdicts else None
     got = batch.collect(paths)
     refuse_block_folders(out, [m.block_id for m in got.manifests.values()])
+    refuse_holding(out, got.deliveries)
     for f in got.files:
         _warn(f"{f}: a file beside the deliveries of a batch, not read")
     for d in got.repeated:

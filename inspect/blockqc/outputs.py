@@ -217,6 +217,22 @@ def refuse_block_folders(out: Path, block_ids: Iterable[str]) -> None:
             )
 
 
+def refuse_holding(out: Path, deliveries: Iterable[Path]) -> None:
+    """Refuse an output folder that is the folder holding a delivery inspected (its batch, by
+    the path given or its real path): the blocks' folders written beside the delivery would be
+    read as deliveries without block.yaml when that batch is inspected, whatever block ids
+    they have."""
+    out_r = Path(os.path.realpath(out))
+    for d in deliveries:
+        d = Path(d)
+        if out_r in (Path(os.path.realpath(d.absolute().parent)), Path(os.path.realpath(d)).parent):
+            raise UsageError(
+                f"--out {out} is the folder holding the delivery {d}: the outputs of its blocks "
+                "would be sub-folders of its batch beside the deliveries; choose an output "
+                "folder outside the inputs"
+            )
+
+
 def _delivery_at(folder: Path) -> Path | None:
     """The folder's real path when it is a delivery (holds block.yaml)."""
     from blockqc.delivery import MANIFEST
