@@ -645,6 +645,24 @@ def test_a_delivery_whose_block_yaml_went_leaves_no_earlier_results(small_batch,
     assert (out / "F4-B02" / "results.json").is_file()
 
 
+def test_a_delivery_whose_block_yaml_went_after_a_stopped_run_leaves_no_earlier_results(
+    small_batch, tmp_path
+):
+    """The last summary set aside by a run that stopped half-way: the block id was looked for
+    in <out>/summary.json only, not found, and the block's earlier results.json was left (its
+    pass taken for the unreadable delivery's). The summary set aside is read too."""
+    from blockqc.outputs import set_aside_summary
+
+    out = tmp_path / "out"
+    assert run_blockqc("inspect", small_batch, "--out", out, "--no-pdf").returncode == 1
+    set_aside_summary(out)  # as a run stopped while writing the blocks leaves it
+    (small_batch / "F1-B02" / "block.yaml").unlink()
+    again = run_blockqc("inspect", small_batch, "--out", out, "--no-pdf")
+    assert again.returncode == 2 and "F1-B02" in again.stderr
+    assert not (out / "F1-B02").exists()
+    assert (out / "F4-B02" / "results.json").is_file()
+
+
 def test_a_block_inspected_alone_removes_the_batch_summary_that_lists_it(small_batch, tmp_path):
     """The summary would go on giving the block's earlier verdict beside its new results."""
     out = tmp_path / "out"

@@ -703,14 +703,17 @@ def run(
 
 def _discard_refused(writer: Writer, refused: list[Path]) -> None:
     """Outputs of deliveries refused unread (their block.yaml, so their block id, unreadable):
-    found by the block id the last summary in `--out` gave their path, and removed."""
+    found by the block id the last summary in `--out` gave their path (in `--out`, or set
+    aside by a run that stopped half-way), and removed."""
     if not refused:
         return
-    try:
-        doc = json.loads((writer.out / "summary.json").read_text(encoding="utf-8"))
-        ids = {Path(b["path"]).resolve(): str(b["block_id"]) for b in doc["blocks"]}
-    except (OSError, ValueError, KeyError, TypeError):
-        return  # no summary (or not one of ours): nothing to find them by
+    ids: dict[Path, str] = {}
+    for folder in (writer.out / PREVIOUS_SUMMARY_DIR, writer.out):  # the later one wins
+        try:
+            doc = json.loads((folder / "summary.json").read_text(encoding="utf-8"))
+            ids.update({Path(b["path"]).resolve(): str(b["block_id"]) for b in doc["blocks"]})
+        except (OSError, ValueError, KeyError, TypeError):
+            continue  # no summary (or not one of ours): nothing to find them by
     for p in refused:
         if (block_id := ids.get(Path(p).resolve())) is not None:
             writer.discard(block_id)
