@@ -455,3 +455,20 @@ def test_a_summary_template_failing_in_place_leaves_the_pages_as_they_were(
     assert "验收报告" in (out / "F1-B01" / "report.html").read_text(encoding="utf-8")
     assert (out / "F1-B01" / "results.json").read_bytes() == before[out / "F1-B01" / "results.json"]
     assert sorted(p.name for p in out.iterdir() if p.name.startswith(".")) == []
+
+
+def test_a_file_where_a_block_folder_goes_is_refused_before_anything_is_written(
+    batch_out, tmp_path, capsys
+):
+    """The blocks before it were written, then the run stopped on "File exists"; it is now
+    named, and nothing is written."""
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "F1-B02").write_text("not a folder", encoding="utf-8")
+    assert run("report", str(batch_out), "--out", str(out), "--no-pdf") == 2
+    assert (
+        f"error: {out / 'F1-B02'}: a file where the outputs of block F1-B02 go"
+        in capsys.readouterr().err
+    )
+    assert sorted(p.name for p in out.iterdir()) == ["F1-B02"]
+    assert (out / "F1-B02").read_text(encoding="utf-8") == "not a folder"

@@ -141,6 +141,11 @@ def _stage_block(
 
     path, doc, raw = given
     folder = safe_child(out, doc.block_id, source=path)
+    if folder.exists() and not folder.is_dir():
+        raise UsageError(
+            f"{folder}: a file where the outputs of block {doc.block_id} go: move it away, or "
+            "choose another --out"
+        )
     here = staged / doc.block_id
     here.mkdir()
     names = []
