@@ -435,6 +435,30 @@ def test_dask_block_of_a_worker_that_dies_runs_again(tmp_path: Path):
     assert marker.exists() and sorted(got) == ["A", "B", "C"]
 
 
+def test_dask_block_whose_workers_all_die_is_not_inspected_and_the_others_go_on(tmp_path):
+    """A block that kills every worker that runs it (out of memory each time): the scheduler
+    gives up on it (KilledWorker), which stopped the whole run as an internal error, with no
+    summary. It is now recorded as not inspected, as with --jobs, and the others go on."""
+    pytest.importorskip("dask.distributed")
+
+    def job(path: Path, manifest: object) -> str:
+        import os
+
+        if path.name == "B":
+            os._exit(1)
+        return path.name
+
+    got: list = []
+    todo = [(tmp_path / name, None) for name in "ABC"]
+    batch.Runner(scheduler="local").run(job, todo, got.append)
+    assert sorted(o for o in got if isinstance(o, str)) == ["A", "C"]
+    (lost,) = [o for o in got if isinstance(o, batch.Outcome)]
+    assert lost.path == tmp_path / "B" and lost.entry is None
+    assert lost.problems[0].message == (
+        "could not be inspected: every worker that ran it died (killed, or out of memory)"
+    )
+
+
 def test_dask_block_that_raises_once_is_retried(tmp_path: Path):
     """A task that raises (a file briefly unreachable on the shared disk) is retried."""
     from blockqc.distributed import run_on_dask

@@ -588,7 +588,9 @@ class Runner:
         if self.scheduler:
             from blockqc.distributed import run_on_dask
 
-            run_on_dask(self.scheduler, job, todo, done)
+            run_on_dask(
+                self.scheduler, job, todo, done, lambda p, m, why: _died(job, p, m, done, why)
+            )
         elif self.jobs > 1 and len(todo) > 1:
             self._in_processes(job, todo, done)
         else:
@@ -606,13 +608,17 @@ class Runner:
         if lost:
             lost = _pooled(job, lost, done, min(self.jobs, len(lost)))
         for p, m in lost:
-            if not _pooled(job, [(p, m)], done, 1):
-                continue
-            if m is not None:
-                job.writer.discard(m.block_id)  # what it wrote before it died
-            why = "could not be inspected: its worker process died, again when it ran alone"
-            problem = Problem(str(p), f"{why} (killed, or out of memory)")
-            done(Outcome(p, problems=[problem], block_id=m.block_id if m else None))
+            if _pooled(job, [(p, m)], done, 1):
+                _died(job, p, m, done, "its worker process died, again when it ran alone")
+
+
+def _died(job: Job, p: Path, m: Manifest | None, done: Callable, why: str) -> None:
+    """A block whose process died each time it ran: what it wrote before removed, and recorded
+    as not inspected (`why`), the others going on."""
+    if m is not None:
+        job.writer.discard(m.block_id)  # what it wrote before it died
+    problem = Problem(str(p), f"could not be inspected: {why} (killed, or out of memory)")
+    done(Outcome(p, problems=[problem], block_id=m.block_id if m else None))
 
 
 def _worker_start(parent: int) -> None:

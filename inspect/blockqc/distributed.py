@@ -87,22 +87,32 @@ def run_on_dask(
     job: Callable[..., Any],
     todo: list[tuple[Path, Any]],
     done: Callable[[Any], None],
+    died: Callable[[Path, Any, str], None] | None = None,
 ) -> None:
     """Submit one task per delivery and hand each outcome on as it arrives. The tasks' keys
     are this run's own: a scheduler shared by several runs gives a task of a key it holds the
-    outcome of that task, whatever run submitted it."""
+    outcome of that task, whatever run submitted it. A task whose workers all died running it
+    (the scheduler gave up on it: KilledWorker) is handed to `died` (path, manifest, why), and
+    the others go on; without `died` it stops the run."""
     from dask.distributed import as_completed
+    from distributed import KilledWorker
 
     run = uuid.uuid4().hex
     with client_for(scheduler) as client:
-        futures = [
+        futures = {
             client.submit(
                 _task, job, path, manifest, key=f"inspect-{run}-{i}", retries=RETRIES, pure=False
-            )
+            ): (path, manifest)
             for i, (path, manifest) in enumerate(todo)
-        ]
+        }
         for future in as_completed(futures):
-            outcome = future.result()
+            try:
+                outcome = future.result()
+            except KilledWorker:
+                if died is None:
+                    raise
+                died(*futures[future], "every worker that ran it died")
+                continue
             if isinstance(outcome, _Stopped):
                 raise OutputError(outcome.problems)
             done(outcome)
