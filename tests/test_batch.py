@@ -459,6 +459,40 @@ def test_dask_block_whose_workers_all_die_is_not_inspected_and_the_others_go_on(
     )
 
 
+def test_a_scheduler_whose_workers_run_elsewhere_gets_the_paths_of_the_deliveries(
+    small_batch, tmp_path
+):
+    """A batch named by a relative path (`blockqc inspect batch --scheduler tcp://…`): the
+    workers, started in folders of their own, looked for it there, and every delivery was
+    unreadable ("No such file or directory: 'batch/F1-B02'"). They now get its full path."""
+    distributed = pytest.importorskip("dask.distributed")
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    with distributed.LocalCluster(
+        n_workers=0, processes=False, protocol="tcp", dashboard_address=None
+    ) as cluster:
+        worker = subprocess.Popen(
+            [sys.executable, "-m", "dask", "worker", cluster.scheduler_address,
+             "--nworkers", "1", "--nthreads", "1", "--no-dashboard"],
+            cwd=elsewhere, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+        )  # fmt: skip
+        try:
+            with distributed.Client(cluster) as client:
+                client.wait_for_workers(1, timeout=60)
+            p = run_blockqc(
+                "inspect", small_batch.name, "--out", "out", "--no-pdf",
+                "--scheduler", cluster.scheduler_address, cwd=small_batch.parent,
+            )  # fmt: skip
+        finally:
+            worker.terminate()
+            worker.wait(timeout=60)
+    assert p.returncode == 1 and "UNREADABLE" not in p.stdout, p.stdout + p.stderr
+    doc = json.loads((tmp_path / "out" / "summary.json").read_text(encoding="utf-8"))
+    assert sorted(b["path"] for b in doc["blocks"]) == [
+        str(small_batch / name) for name in ("F1-B02", "F3-B02", "F4-B02")
+    ]
+
+
 def test_dask_block_that_raises_once_is_retried(tmp_path: Path):
     """A task that raises (a file briefly unreachable on the shared disk) is retried."""
     from blockqc.distributed import run_on_dask

@@ -311,6 +311,9 @@ def inspect_cmd(
 
     _refuse_conflicts(no_pdf, pdf, scheduler)
     runner = batch.Runner(jobs or os.cpu_count() or 1, scheduler)  # its scheduler checked first
+    if scheduler not in (None, "local"):  # workers of other machines, each in a folder its own
+        paths = tuple(p.absolute() for p in paths)  # the same paths for all (docs: NFS)
+        templates = templates.absolute() if templates is not None else None
     pdf = "none" if no_pdf else pdf
     check_pdf_engine(pdf_engine, pdf != "none")
     refuse_inside(out, paths)
