@@ -236,6 +236,24 @@ def test_scheduler_address_refused_before_anything_runs(
     assert not out.exists() or not any(out.iterdir())
 
 
+def test_a_scheduler_that_does_not_answer_leaves_the_earlier_summary_in_place(
+    small_batch, tmp_path
+):
+    """Nothing answering at the address was found once the run had set the earlier run's
+    summary aside: exit 2, and the batch's summary gone from the output folder although no
+    block was touched. It is now refused before anything of the folder is set aside."""
+    pytest.importorskip("dask.distributed")
+    out = tmp_path / "out"
+    assert run_blockqc("inspect", small_batch, "--out", out, "--no-pdf").returncode == 1
+    before = {q: q.read_bytes() for q in out.rglob("*") if q.is_file()}
+    p = run_blockqc(
+        "inspect", small_batch, "--out", out, "--no-pdf", "--scheduler", "tcp://127.0.0.1:1"
+    )
+    assert p.returncode == 2 and "no scheduler answers there" in p.stderr, p.stderr
+    assert "earlier run's batch summary is kept" not in p.stderr
+    assert {q: q.read_bytes() for q in out.rglob("*") if q.is_file()} == before
+
+
 def test_scheduler_addresses_accepted():
     from blockqc.distributed import check_scheduler
 

@@ -579,10 +579,11 @@ class Runner:
     scheduler: str | None = None
 
     def __post_init__(self) -> None:
-        if self.scheduler is not None:  # a wrong or empty address: refused before anything runs
-            from blockqc.distributed import check_scheduler
+        if self.scheduler is not None:  # a wrong or empty address, or one where no scheduler
+            from blockqc.distributed import check_reachable, check_scheduler  # answers: refused
 
-            check_scheduler(self.scheduler)
+            check_scheduler(self.scheduler)  # before anything runs
+            check_reachable(self.scheduler)
 
     def run(self, job: Job, todo: list[tuple[Path, Manifest | None]], done: Callable) -> None:
         if self.scheduler:

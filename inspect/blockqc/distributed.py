@@ -60,15 +60,29 @@ def _probe(address: str) -> None:
         raise UsageError(f"--scheduler {address}: no scheduler answers there ({why})") from None
 
 
-@contextmanager
-def client_for(scheduler: str):
-    """A client of the scheduler at `scheduler`, or of a LocalCluster for 'local'."""
+def check_reachable(scheduler: str) -> None:
+    """dask.distributed installed, and a tcp:// scheduler answering (`_probe`): refused
+    before a run sets anything of its output folder aside or writes into it."""
+    _dask()
+    if scheduler != "local":
+        _probe(scheduler)
+
+
+def _dask():
     try:
-        from dask.distributed import Client, LocalCluster
+        import dask.distributed
     except ImportError:
         raise UsageError(
             "--scheduler needs dask.distributed: pip install 'blockqc[dask]'"
         ) from None
+    return dask.distributed
+
+
+@contextmanager
+def client_for(scheduler: str):
+    """A client of the scheduler at `scheduler`, or of a LocalCluster for 'local'."""
+    dd = _dask()
+    Client, LocalCluster = dd.Client, dd.LocalCluster
     if scheduler == "local":
         with LocalCluster(processes=True, threads_per_worker=1) as cluster, Client(cluster) as c:
             yield c
