@@ -63,6 +63,26 @@ def test_a_reader_that_stops_reading_does_not_stop_the_run(tmp_path):
     assert (tmp_path / "o" / "summary.json").is_file()
 
 
+@pytest.mark.parametrize("closed", ["stdout", "stderr"])
+def test_a_run_started_with_an_output_stream_closed_is_done_as_any(tmp_path, closed):
+    """`blockqc inspect … >&-` (a job started without a stdout, or a stderr): Python gives no
+    stream, and the run ended in an internal error and a traceback (exit 1 or 2) once the
+    outputs were written. It now ends as any, its exit status that of its blocks."""
+    batch = tmp_path / "batch"
+    for name in ("F1-B02", "F4-B02"):
+        shutil.copytree(SAMPLES / "batch" / name, batch / name)
+    fd = 1 if closed == "stdout" else 2
+    cmd = [sys.executable, "-m", "blockqc", "inspect", str(batch), "--out", str(tmp_path / "o"),
+           "--pdf", "none"]  # fmt: skip
+    other = subprocess.PIPE
+    proc = subprocess.run(
+        cmd, stdout=other, stderr=other, text=True, timeout=600, preexec_fn=lambda: os.close(fd)
+    )
+    said = proc.stdout + proc.stderr
+    assert proc.returncode == 0 and "Traceback" not in said and "internal error" not in said, said
+    assert (tmp_path / "o" / "summary.json").is_file()
+
+
 def test_no_colour_codes_with_no_color_or_into_a_pipe(tmp_path):
     batch = tmp_path / "batch"
     for name in ("F1-B02", "F3-B02"):

@@ -347,7 +347,7 @@ def inspect_cmd(
     with empty_removed(out):
         out = check_out_dir(out, paths)  # created once every input is read
         writer = batch.Writer(out, templates, lang, pdf, pdf_engine)
-        show = sys.stderr.isatty() if progress is None else progress
+        show = _is_terminal(sys.stderr) if progress is None else progress
         with out_lock(out), _progress(len(got.deliveries) if show else 0) as tick:
             outdated = batch.drop_outdated_summary(writer, got)
             if outdated:
@@ -526,12 +526,20 @@ def _progress(total: int):
         yield tick
 
 
+def _is_terminal(stream) -> bool:
+    """Whether `stream` is a terminal; not when there is none (None: the process was started
+    with it closed, `2>&-`)."""
+    return stream is not None and stream.isatty()
+
+
 def _echo(line: str) -> None:
     """A line on stdout; when its reader has gone (`| head -1`) the run goes on, silent: stdout
-    is pointed at the null device, so that nothing more is lost but the lines not wanted."""
+    is pointed at the null device, so that nothing more is lost but the lines not wanted. A
+    process started without a stdout (`>&-`: None) writes nothing, as click.echo does."""
     try:
         click.echo(line)
-        sys.stdout.flush()
+        if sys.stdout is not None:
+            sys.stdout.flush()
     except BrokenPipeError:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
@@ -762,6 +770,8 @@ def run() -> None:
     if not ends_here or sys.gettrace() is not None or sys.getprofile() is not None:
         sys.exit(status)
     for stream in (sys.stdout, sys.stderr):
+        if stream is None:  # the process was started with it closed (`>&-`): nothing to flush
+            continue
         with contextlib.suppress(OSError, ValueError):  # a pipe its reader closed: nothing to do
             stream.flush()
     atexit._run_exitfuncs()
