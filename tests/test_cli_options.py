@@ -83,6 +83,27 @@ def test_a_run_started_with_an_output_stream_closed_is_done_as_any(tmp_path, clo
     assert (tmp_path / "o" / "summary.json").is_file()
 
 
+def test_a_reader_of_both_streams_that_stops_reading_leaves_the_exit_status(tmp_path):
+    """`blockqc inspect BATCH 2>&1 | head -1`: the warnings said once the blocks are written
+    met a closed pipe, and the run ended in a traceback with exit 1 ("some block fails") over
+    a batch that passes. It ends as a run whose reader stays, exit 0."""
+    batch = tmp_path / "batch"
+    for name in ("F1-B02", "F4-B02", "F2-B01"):
+        shutil.copytree(SAMPLES / "batch" / name, batch / name)
+    out = tmp_path / "o"
+    assert run_blockqc("inspect", batch, "--out", out, "--pdf", "none").returncode == 0
+    shutil.rmtree(batch / "F2-B01")  # withdrawn: its outputs in OUT are warned of at the end
+    read, write = os.pipe()
+    cmd = [sys.executable, "-m", "blockqc", "inspect", str(batch), "--out", str(out),
+           "--pdf", "none"]  # fmt: skip
+    proc = subprocess.Popen(cmd, stdout=write, stderr=write)
+    os.close(write)
+    with os.fdopen(read) as reader:
+        assert reader.readline().startswith("F1-B02")
+    assert proc.wait(timeout=600) == 0
+    assert json.loads((out / "summary.json").read_text(encoding="utf-8"))["counts"]["blocks"] == 2
+
+
 def test_no_colour_codes_with_no_color_or_into_a_pipe(tmp_path):
     batch = tmp_path / "batch"
     for name in ("F1-B02", "F3-B02"):
