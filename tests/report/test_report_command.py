@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -472,3 +473,20 @@ def test_a_file_where_a_block_folder_goes_is_refused_before_anything_is_written(
     )
     assert sorted(p.name for p in out.iterdir()) == ["F1-B02"]
     assert (out / "F1-B02").read_text(encoding="utf-8") == "not a folder"
+
+
+def test_a_reader_that_stops_reading_stops_no_rendering(batch_out, tmp_path):
+    """`blockqc report OUT --out DIR | head -1`: the line after the reader had gone raised
+    a broken pipe between two blocks put in place, and the run stopped with exit 1 (click's,
+    for a broken pipe); the others were not written. It now goes on, silent: exit 0, all
+    written."""
+    read, write = os.pipe()
+    os.close(read)  # a reader gone before the first line
+    out = tmp_path / "o"
+    cmd = [sys.executable, "-m", "blockqc", "report", str(batch_out), "--out", str(out),
+           "--no-pdf"]  # fmt: skip
+    proc = subprocess.run(cmd, stdout=write, stderr=subprocess.PIPE, text=True, timeout=600)
+    os.close(write)
+    assert proc.returncode == 0 and "Traceback" not in proc.stderr, proc.stderr
+    assert sorted(p.parent.name for p in out.glob("*/report.html")) == ["F1-B01", "F1-B02"]
+    assert (out / "summary.html").is_file()
