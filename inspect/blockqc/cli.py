@@ -373,7 +373,7 @@ def _said_if_stopped(out: Path):
         yield
     except BaseException:
         if (out / PREVIOUS_SUMMARY_DIR).is_dir():
-            _echo(
+            echo(
                 f"note: the earlier run's batch summary is kept in {out / PREVIOUS_SUMMARY_DIR}:"
                 " this run stopped before writing its own (its blocks written so far are in "
                 f"{out}, each whole)",
@@ -479,7 +479,7 @@ def _page_not_written(meta, meta_file: Path, is_batch: bool, pack) -> None:
 
 def _warn(message: str) -> None:
     """A warning on stderr, its input text shown escaped where a terminal would obey it."""
-    _echo(f"warning: {shown(str(message))}", err=True)
+    echo(f"warning: {shown(str(message))}", err=True)
 
 
 def _style(text: str, **how) -> str:
@@ -507,7 +507,7 @@ def _outcome_line(o) -> str:
 def _progress(total: int):
     """A progress bar on stderr for batches (total > 1), else one line per outcome on stdout."""
     if total <= 1:
-        yield lambda o: _echo(_outcome_line(o))
+        yield lambda o: echo(_outcome_line(o))
         return
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
@@ -532,7 +532,7 @@ def _is_terminal(stream) -> bool:
     return stream is not None and stream.isatty()
 
 
-def _echo(line: str, err: bool = False) -> None:
+def echo(line: str, err: bool = False) -> None:
     """A line on stdout (stderr with `err`); when its reader has gone (`| head -1`, `2>&1 |
     head -1`) the run goes on, silent: the stream is pointed at the null device, so that nothing
     more is lost but the lines not wanted, and the run's exit status is its own. A process
@@ -552,22 +552,22 @@ def _closing_lines(outcomes, summary, out: Path) -> None:
     """Every problem, then where the results are — or that nothing was written."""
     for o in outcomes:
         for p in o.problems:
-            _echo(f"error: {p}", err=True)
+            echo(f"error: {p}", err=True)
         for e in o.errors:  # a rule that could not be judged: why, beside the block's line
-            _echo(f"error: {shown(f'{o.path}: {e}')}", err=True)
+            echo(f"error: {shown(f'{o.path}: {e}')}", err=True)
         for w in o.warnings:
             _warn(w)
     if summary is not None:
         _warn_other_blocks(out, {b.block_id for b in summary.blocks})
         c = summary.counts
-        _echo(
+        echo(
             f"{c.blocks} block{'' if c.blocks == 1 else 's'}: {c.pass_} pass, {c.fail} fail, "
             f"{c.unreadable} unreadable — {out / 'summary.html'}"
         )
     elif all(o.entry is None for o in outcomes):
-        _echo("nothing was written: the delivery could not be inspected", err=True)
+        echo("nothing was written: the delivery could not be inspected", err=True)
     else:
-        _echo(f"results in {out}")
+        echo(f"results in {out}")
 
 
 def _warn_other_blocks(out: Path, blocks: set[str]) -> None:
@@ -576,7 +576,7 @@ def _warn_other_blocks(out: Path, blocks: set[str]) -> None:
     otherwise find them beside the summary."""
     for folder in sorted(out.iterdir()):
         if folder.name not in blocks and (folder / "results.json").is_file():
-            _echo(
+            echo(
                 f"warning: {folder}: outputs of block {folder.name}, which this batch does not "
                 "hold (an earlier run's?): left as they are, not in the summary",
                 err=True,
@@ -713,41 +713,41 @@ def main(argv: list[str] | None = None) -> None:
         rc = cli.main(args=argv, prog_name="blockqc", standalone_mode=False)
     except BlockqcError as exc:
         for problem in exc.problems:
-            _echo(f"error: {problem}", err=True)
+            echo(f"error: {problem}", err=True)
         sys.exit(exc.exit_code)
     except click.exceptions.Abort as exc:
         if isinstance(exc.__cause__, Terminated):
-            _echo("terminated", err=True)
+            echo("terminated", err=True)
             sys.exit(143)
-        _echo("aborted", err=True)
+        echo("aborted", err=True)
         sys.exit(130)
     except click.ClickException as exc:
         exc.show()
         sys.exit(2)
     except KeyboardInterrupt as exc:
         terminated = isinstance(exc, Terminated)
-        _echo("terminated" if terminated else "interrupted", err=True)
+        echo("terminated" if terminated else "interrupted", err=True)
         sys.exit(143 if terminated else 130)
     except OSError as exc:  # the system refused a path: too long, a link loop, no space …
         where = f"{exc.filename}: " if exc.filename else ""  # a raster library's names the file
-        _echo(f"error: {where}{exc.strerror or exc}", err=True)
+        echo(f"error: {where}{exc.strerror or exc}", err=True)
         sys.exit(2)
     except Exception as exc:  # a defect of blockqc, not of the input: say so, briefly
         if os.environ.get("BLOCKQC_DEBUG"):
             raise
         if isinstance(exc, RuntimeError) and str(exc).startswith("Symlink loop"):
-            _echo(f"error: {exc}: a symbolic link leads back to itself", err=True)
+            echo(f"error: {exc}: a symbolic link leads back to itself", err=True)
             sys.exit(2)
         from blockqc.outputs import template_problem
 
         if (found := template_problem(exc)) is not None:
-            _echo(f"error: {found}", err=True)
+            echo(f"error: {found}", err=True)
             sys.exit(2)
         if _template_error(exc):
             why = f"{type(exc).__name__}: {exc}"
-            _echo(f"error: a template of --templates failed: {why}", err=True)
+            echo(f"error: a template of --templates failed: {why}", err=True)
             sys.exit(2)
-        _echo(
+        echo(
             f"internal error: {type(exc).__name__}: {exc} (set BLOCKQC_DEBUG=1 for the "
             "traceback; please report it)",
             err=True,

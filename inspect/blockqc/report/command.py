@@ -9,8 +9,8 @@ import click
 from blockqc.cli import (
     GivenPath,
     TemplatesPath,
-    _echo,
     check_pdf_engine,
+    echo,
     lang_option,
     pdf_engine_option,
 )
@@ -80,21 +80,21 @@ def command(
     check_pdf_engine(pdf_engine, pdf)
     docs, summary, repeated, left_out, unchecked = gather(list(results))
     for f in repeated:
-        _echo(f"warning: {f}: named more than once, rendered once", err=True)
+        echo(f"warning: {f}: named more than once, rendered once", err=True)
     for f in left_out:
-        _echo(
+        echo(
             f"warning: {f}: a block the summary beside it does not list (an earlier run's, of "
             "a delivery since withdrawn?): not rendered",
             err=True,
         )
     for note in unchecked:
-        _echo(f"warning: {note}", err=True)
+        echo(f"warning: {note}", err=True)
     _check_out(out, results, docs, summary)
     with empty_removed(out):  # a folder made for pages none of which could be rendered
         make_out_dir(out, out.resolve())
         with out_lock(out):  # one run at a time writes into a folder, as inspect's
             written = _render(out, docs, summary, lang, templates, pdf, pdf_engine)
-    _echo(f"{len(written)} files written in {out}")
+    echo(f"{len(written)} files written in {out}")
     return 0
 
 
@@ -123,10 +123,10 @@ def _render(
         written: list[Path] = []
         for doc, folder, names in blocks:
             written += _put_block(staged / doc.block_id, folder, names)
-            _echo(f"{doc.block_id:12} {doc.verdict.upper():5}  {folder}")
+            echo(f"{doc.block_id:12} {doc.verdict.upper():5}  {folder}")
         if batch is not None:
             written += _put_summary(staged, out, batch)
-            _echo(f"summary      {out / 'summary.html'}")
+            echo(f"summary      {out / 'summary.html'}")
     finally:
         clear_staging(out)
     return written
