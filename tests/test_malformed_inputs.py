@@ -1091,6 +1091,13 @@ def test_a_block_yaml_that_is_no_file_is_named_as_such(blockqc, block, tmp_path,
     else:
         manifest.symlink_to("block_v2.yaml")
         why = "block.yaml: a symbolic link to block_v2.yaml, which does not exist"
+    p = _refused_alone_and_in_a_batch(blockqc, block, tmp_path, why)
+    assert "missing" not in p.stderr
+
+
+def _refused_alone_and_in_a_batch(blockqc, block: Path, tmp_path: Path, why: str):
+    """`block` inspected alone, then in a batch beside F1-B02: refused saying `why` both times
+    (the batch's run returned)."""
     p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
     _refused(p, why)
     assert "neither a delivery" not in p.stderr
@@ -1100,7 +1107,7 @@ def test_a_block_yaml_that_is_no_file_is_named_as_such(blockqc, block, tmp_path,
     shutil.copytree(SAMPLE.parent / "F1-B02", batch / "F1-B02")
     p = blockqc("inspect", batch, "--out", tmp_path / "out2", "--pdf", "none")
     _refused(p, why)
-    assert "missing" not in p.stderr
+    return p
 
 
 @pytest.mark.parametrize("invisible", ["\u200b", "\ufeff", "\u00ad"])
@@ -1122,15 +1129,7 @@ def test_a_manifest_under_another_name_is_named(blockqc, block, tmp_path, name):
     block.yaml) nor a batch"; in a batch, its block.yaml "missing"."""
     (block / "block.yaml").rename(block / name)
     why = f"block.yaml: missing; {name} is there: the manifest is read from block.yaml"
-    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
-    _refused(p, why)
-    assert "neither a delivery" not in p.stderr
-    batch = tmp_path / "batch"
-    batch.mkdir()
-    block.rename(batch / "F1-B01")
-    shutil.copytree(SAMPLE.parent / "F1-B02", batch / "F1-B02")
-    p = blockqc("inspect", batch, "--out", tmp_path / "out2", "--pdf", "none")
-    _refused(p, why)
+    _refused_alone_and_in_a_batch(blockqc, block, tmp_path, why)
 
 
 @pytest.mark.parametrize(

@@ -11,7 +11,7 @@ import pytest
 
 from blockqc.errors import RuleError
 from blockqc.rules import load_pack
-from casekit import extension_pack
+from casekit import PA1_RULE, extension_pack
 
 RULE = """\
 rules:
@@ -74,18 +74,7 @@ def test_a_signed_statistic_may_be_bounded_below_zero(tmp_path: Path) -> None:
     assert load_pack(extension_pack(tmp_path, rule)).rule("PA-1").threshold.max == -0.1
 
 
-COUNT_RULE = """\
-rules:
-  - id: PA-1
-    title: Tie points in every scene
-    clause: §TP-4
-    content: tp_number
-    metric: tie_point_distribution
-    params: {bands: [pan]}
-    scope: scene
-    statistic: n_points
-    threshold: THRESHOLD
-"""
+COUNT_RULE = "rules:\n" + PA1_RULE.replace("threshold: {min: 100}", "threshold: THRESHOLD")
 
 
 def _notes(tmp_path: Path, threshold: str) -> list[str]:
