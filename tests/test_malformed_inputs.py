@@ -1229,3 +1229,28 @@ def test_a_discrepancy_table_without_heights_says_why_its_height_rules_judge_not
         said = f"{table}: {why}, so no height discrepancies are given"
         assert height["detail"]["reason"] == said, rule
         assert plane["status"] in ("pass", "fail"), rule
+
+
+def test_ids_stored_as_numbers_name_the_id_that_lost_its_leading_zeros(blockqc, block, tmp_path):
+    """Scenes numbered 001, 002 … in scenes.csv, and tie_points.parquet written with scene_id as
+    whole numbers (1, 2 …, as a spreadsheet or a data frame makes them): every row was refused as
+    an unknown scene '2', and nothing said why; the hint names '002' and the zeros lost."""
+    tables = {n: pd.read_csv(block / n, dtype=str) for n in ("scenes.csv", "tie_points.csv")}
+    ids = {s: f"{i:03d}" for i, s in enumerate(sorted(tables["scenes.csv"]["scene_id"]), 1)}
+    for t in tables.values():
+        t["scene_id"] = t["scene_id"].map(ids)
+    tables["scenes.csv"].to_csv(block / "scenes.csv", index=False)
+    for name in ("pan_ms.csv", "overlaps.csv"):  # their scene ids, left as they were, unread
+        (block / name).unlink()
+    tp = tables["tie_points.csv"]
+    numbers = {c: "int64" if c == "scene_id" else "float64" for c in tp.columns if c != "point_id"}
+    tp.astype(numbers).to_parquet(block / "tie_points.parquet")
+    (block / "tie_points.csv").unlink()
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    first = tp["scene_id"].iloc[0]
+    _refused(
+        p,
+        f"tie_points.parquet, row 1, column 'scene_id': unknown scene_id (not in scenes.csv), "
+        f"got '{int(first)}'; did you mean '{first}'? (its leading zeros lost: give the ids "
+        "as text)",
+    )

@@ -218,9 +218,13 @@ def did_you_mean(choices: Iterable[object]) -> Callable[[object], str]:
     case (gf7-1010000-f for GF7-1010000-F), else when one is close."""
     pool = [str(c) for c in choices]
     folded = {c.casefold(): c for c in reversed(pool)}  # the first of those alike
+    zeros = {c.lstrip("0"): c for c in reversed(pool) if c.isdigit() and c.startswith("0")}
 
     def hint(value: object) -> str:
         text = str(value).strip()
+        padded = zeros.get(text.lstrip("0")) if text.isdigit() else None
+        if padded is not None and padded != text:  # ids stored as numbers: 0012 read as 12
+            return f"; did you mean '{padded}'? (its leading zeros lost: give the ids as text)"
         same = folded.get(text.casefold())
         close = [same] if same else difflib.get_close_matches(text, pool, n=1, cutoff=0.6)
         return f"; did you mean '{close[0]}'?" if close else ""
