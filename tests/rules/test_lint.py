@@ -685,3 +685,19 @@ def test_a_unit_other_than_the_statistics_is_refused(tmp_path: Path) -> None:
     ]
     with pytest.raises(RuleError):
         load_pack(pack)
+
+
+@pytest.mark.parametrize("given", ["[1.0]", "[1.0, 1.2, 1.5]"])
+def test_an_interval_of_other_than_two_numbers_is_refused_saying_so(
+    tmp_path: Path, given: str
+) -> None:
+    """TP-3's interval_px of one or three numbers was refused as "params.interval_px.1: Field
+    required" (or "Tuple should have at most 2 items"): it now says two numbers are expected."""
+    pack = _pack(
+        tmp_path, f"overrides:\n  TP-3: {{params: {{bands: [pan], interval_px: {given}}}}}\n"
+    )
+    n = given.count(",") + 1
+    assert _messages(pack) == [
+        f"{pack}, line 4: rule TP-3: params.interval_px: expected two numbers [lower, upper], "
+        f"got {n}: {given}"
+    ]

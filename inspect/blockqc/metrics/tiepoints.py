@@ -29,6 +29,14 @@ class ErrorParams(BaseModel):
     bands: list[Band] | None = Field(default=None, description=MEASURED_BANDS)
     interval_px: tuple[float, float] = (1.0, 1.5)  # share of errors in (lo, hi] (§TP-3)
 
+    @field_validator("interval_px", mode="before")
+    @classmethod
+    def _two(cls, value: Any) -> Any:
+        """Two numbers, the interval's ends: one or three were refused as a missing item."""
+        if isinstance(value, list | tuple) and len(value) != 2:
+            raise ValueError(f"expected two numbers [lower, upper], got {len(value)}: {value}")
+        return value
+
     @field_validator("interval_px")
     @classmethod
     def _order(cls, value: tuple[float, float]) -> tuple[float, float]:
