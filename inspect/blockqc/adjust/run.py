@@ -288,13 +288,13 @@ def projected_crs(block: Block, lon: np.ndarray, lat: np.ndarray) -> tuple[int, 
     """The block's projected CRS (block.yaml spatial_reference.epsg), else the UTM zone."""
     from pyproj import CRS
 
-    from blockqc.rfm.ortho import utm_ups_crs
+    from blockqc.rfm.ortho import units_not_metres, utm_ups_crs
 
     sr = block.data.manifest.spatial_reference
     feet = None
     if sr is not None and sr.epsg is not None:
         crs = CRS.from_epsg(sr.epsg)
-        metres = all(a.unit_conversion_factor == 1.0 for a in crs.axis_info)
+        metres = not units_not_metres(crs)
         if crs.is_projected and metres:
             return int(sr.epsg), "block.yaml spatial_reference.epsg"
         if crs.is_projected:  # checkpoints are x_m, y_m: not feet

@@ -76,7 +76,9 @@ def _crs(text: str | None) -> CRS | None:
         raise UsageError(f"--crs {text!r} is not a CRS pyproj knows") from None
     if not crs.is_projected:
         raise UsageError(f"--crs {text!r} must be a projected CRS (metres)")
-    units = {a.unit_name for a in crs.axis_info if a.unit_conversion_factor != 1.0}
+    from blockqc.rfm.ortho import units_not_metres
+
+    units = units_not_metres(crs)
     if units:
         raise UsageError(
             f"--crs {text!r} is in {', '.join(sorted(units))}: expected a projected CRS in "

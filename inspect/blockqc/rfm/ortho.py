@@ -87,6 +87,12 @@ class OrthoGrid:
                 yield r0, c0, min(size, self.height - r0), min(size, self.width - c0)
 
 
+def units_not_metres(crs: CRS) -> set[str]:
+    """The units of a CRS's axes that are not the metre (feet, US survey feet); empty when
+    every axis is in metres."""
+    return {a.unit_name for a in crs.axis_info if a.unit_conversion_factor != 1.0}
+
+
 def utm_ups_crs(lon: float, lat: float) -> CRS:
     """WGS-84 / UTM zone containing (lon, lat), or UPS north of 84° N and south of 80° S, where
     UTM ends (§MB-3; the codes MB-3 takes for UPS, 32661 and 32761)."""
