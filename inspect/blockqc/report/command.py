@@ -208,17 +208,15 @@ def _stage_summary(
 
 
 def _put_summary(staged: Path, out: Path, names: list[str]) -> list[Path]:
-    """The summary's staged outputs moved into `out`; an earlier run's summary PDF or
-    acceptance page that is not made again removed."""
-    import os
+    """The summary's staged outputs moved into `out` as a block's are (`publish`: summary.json
+    last; an earlier run's summary PDF or acceptance page not made again removed); a
+    summary.json that is already there is left as it is."""
+    from blockqc.outputs import BATCH_OUTPUTS, publish
 
-    from blockqc.outputs import BATCH_OUTPUTS
-
-    for name in BATCH_OUTPUTS:
-        if name in names:
-            os.replace(staged / name, out / name)
-        elif name != "summary.json":
-            (out / name).unlink(missing_ok=True)
+    if "summary.json" in names:
+        publish(staged, out, BATCH_OUTPUTS, last="summary.json")
+    else:
+        publish(staged, out, [n for n in BATCH_OUTPUTS if n != "summary.json"], "summary.html")
     return [out / name for name in names]
 
 
