@@ -119,6 +119,32 @@ def test_the_packs_grade_names_and_element_bound_are_what_the_pages_show(tmp_pat
     assert "拒收" in html and "顶级" in html and "（低于 97 分）" in html
 
 
+def test_a_fail_grade_of_the_packs_own_id_is_shown_as_failing(tmp_path) -> None:
+    """F3-B01 fails (52.0, A-class errors) under a pack whose fail grade is `rejected`: its grade
+    was shown in the colours of a passing grade (only the id `fail` was), on its report, on
+    summary.html and in the filed report's statistics; F1-B01 (excellent) passes."""
+    pack = tmp_path / "rejected.yaml"
+    pack.write_text(
+        "pack: rejected\nversion: '1'\nextends: global-project\nacceptance:\n"
+        "  fail_grade: {id: rejected, min: 0, title: Rejected, title_zh: 拒收}\n",
+        encoding="utf-8",
+    )
+    out = tmp_path / "out"
+    blocks = [SAMPLES / "batch" / b for b in ("F1-B01", "F3-B01")]
+    args = ("--rules", pack, "--verdicts", SAMPLES / "verdicts.yaml", "--no-pdf", "--out", out)
+    assert run_blockqc("inspect", *blocks, *args).returncode == 1
+    failing = '<span class="status fail">Rejected</span>'
+    report = (out / "F3-B01" / "report.html").read_text(encoding="utf-8")
+    assert f'data-grade="rejected">52.0 — {failing}' in report
+    assert f"52.0 — {failing}" in report.split('<section id="evaluation">', 1)[1]
+    summary = (out / "summary.html").read_text(encoding="utf-8")
+    assert f'<td data-grade="rejected">{failing}</td>' in summary
+    assert '<td data-grade="excellent"><span class="status pass">Excellent</span>' in summary
+    filed = (out / "acceptance.html").read_text(encoding="utf-8")
+    row = filed.split('id="grades-table"', 1)[1].split('<td class="id">F3-B01</td>', 1)[1]
+    assert row.split("</tr>", 1)[0].endswith(f"<td>{failing}</td>")
+
+
 def _inspect_f1(tmp_path, pack_text: str | None, status: int) -> dict:
     """F1-B01 inspected with a pack of `pack_text` (None: the stock pack), expecting `status`;
     its results.json."""
