@@ -175,6 +175,33 @@ def test_a_rule_placed_by_its_quality_element_alone_counts_in_the_grade(tmp_path
     assert layout["score"] == 0
 
 
+@pytest.mark.parametrize(("cls", "fails"), [("A", True), ("C", False)])
+def test_a_rule_deciding_no_content_counts_its_errors_for_the_block(tmp_path, cls, fails) -> None:
+    """The same rule (F1-B01's smallest PAN scene holds 271 points < 280) placed nowhere: no
+    `content`, no `quality_element` (an "other rule" of the pack). Its error counted in no item
+    and was dropped: A-class, the block was graded excellent, 97.44, with no error. It now counts
+    for the block: an A-class one fails it; any class is in its counts and `other_errors`, and
+    no item's score changes (97.44, as without the rule)."""
+    pack = (
+        "pack: unplaced\nversion: '1'\nextends: global-project\nrules:\n"
+        "  - {id: PR-1, title: t, clause: §TP-4, metric: tie_point_distribution,\n"
+        "     params: {bands: [pan]}, scope: scene, statistic: n_points,\n"
+        f"     threshold: {{min: 280}}, unit: points, error_class: {cls}}}\n"
+    )
+    ev = _inspect_f1(tmp_path, pack, 1)["evaluation"]
+    assert ev["fails"] is fails and ev["grade"] == ("fail" if fails else "excellent")
+    assert ev["counts"] == {"A": 0, "B": 0, "C": 0, "D": 0, cls: 1}
+    (err,) = ev["other_errors"]
+    assert (err["rule"], err["error_class"], err["value"], err["threshold"]) == (
+        "PR-1",
+        cls,
+        271,
+        280,
+    )
+    assert ev["score"] == pytest.approx(97.44, abs=0.005)
+    assert ("A-class error: PR-1 271 (fails its threshold)" in ev["reasons"]) is fails
+
+
 def test_an_accuracy_rule_given_a_range_keeps_its_upper_bound_as_norm(tmp_path) -> None:
     """RO-4 bounded {min: 0, max: √2·m} instead of {max: √2·m}: the same norm, so the same
     accuracy scores and block score (97.44 on F1-B01); the range dropped them (98.13)."""

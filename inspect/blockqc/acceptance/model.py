@@ -304,6 +304,8 @@ class Evaluation(_M):
     element_fail_below: float = 60.0  # the pack's bound below which an element fails (§QE-2)
     counts: dict[str, int] = Field(default_factory=dict)  # errors by class over the block
     elements: list[ElementScore] = Field(default_factory=list)
+    # errors of rules that decide no content of the pack's tree: the block's, in no item
+    other_errors: list[ErrorRecord] = Field(default_factory=list)
 
 
 class BlockGrade(_M):

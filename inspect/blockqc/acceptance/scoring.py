@@ -165,7 +165,8 @@ def evaluate_block(
     """§QE-2..5: the block's score (weighted over its elements), whether it fails, its grade."""
     els = [score_element(e, findings, acc) for e in elements]
     score = weighted((e.weight, e.score) for e in els)
-    errors = [x for e in els for i in e.items for x in i.errors]
+    other = other_errors(findings, acc)
+    errors = [x for e in els for i in e.items for x in i.errors] + other
     counts = {c: sum(x.error_class == c for x in _unique(errors)) for c in CLASSES}
     reasons = [
         f"A-class error: {x.rule}{_group_text(x.group)} {_num(x.value)} ({x.reason})"
@@ -194,8 +195,17 @@ def evaluate_block(
         element_fail_below=acc.element_fail_below,
         counts=counts,
         elements=els,
+        other_errors=other,
     )
     return ev
+
+
+def other_errors(findings: list[Finding], acc: Acceptance) -> list[ErrorRecord]:
+    """The errors of results that decide no content of the pack's tree (a rule naming neither
+    `content` nor `quality_element`): no item to count them in, they count for the block (an
+    A-class one fails it, §QE-2), not deducted from any item's score."""
+    judged = [f for f in findings if not f.places and f.status in JUDGED]
+    return [err for f in judged if (err := _judge_finding(f, acc)[1]) is not None]
 
 
 def _below_grades(score: float | None, acc: Acceptance) -> list[str]:
@@ -210,7 +220,7 @@ def _below_grades(score: float | None, acc: Acceptance) -> list[str]:
 
 def a_class_errors(ev: Evaluation) -> list[ErrorRecord]:
     """The block's A-class errors, each (rule, group) once."""
-    errors = [x for e in ev.elements for i in e.items for x in i.errors]
+    errors = [x for e in ev.elements for i in e.items for x in i.errors] + ev.other_errors
     return [x for x in _unique(errors) if x.error_class == "A"]
 
 

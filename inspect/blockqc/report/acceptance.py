@@ -83,7 +83,7 @@ def evaluation_context(
     errors are shown with the units and comparisons of the rule `results` that found them."""
     if ev is None:
         return None
-    errors = [x for e in ev.elements for i in e.items for x in i.errors]
+    errors = [x for e in ev.elements for i in e.items for x in i.errors] + ev.other_errors
     seen, unique = set(), []
     for x in errors:
         if (x.rule, str(x.group)) not in seen:
