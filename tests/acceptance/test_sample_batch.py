@@ -145,6 +145,33 @@ def test_a_fail_grade_of_the_packs_own_id_is_shown_as_failing(tmp_path) -> None:
     assert row.split("</tr>", 1)[0].endswith(f"<td>{failing}</td>")
 
 
+def test_sampled_blocks_with_rules_failed_are_main_quality_problems(tmp_path) -> None:
+    """TP-4 asking 280 points per PAN scene fails on F1-B01 (271) and F2-B01, both sampled
+    (they carry checkpoints): a C-class error each, deducted (4 points from the points
+    distribution item), the sample passes. The filed report said "No quality problem was found";
+    it now lists both, with the rule failed, their grades shown as passing."""
+    pack = tmp_path / "tight.yaml"
+    pack.write_text(
+        "pack: tight\nversion: '1'\nextends: global-project\n"
+        "overrides:\n  TP-4: {threshold: {min: 280}}\n",
+        encoding="utf-8",
+    )
+    verdicts = tmp_path / "verdicts.yaml"
+    verdicts.write_text("verdicts:\n  DOC-3: {status: pass, note: follows the templates}\n")
+    out = tmp_path / "out"
+    blocks = [SAMPLES / "batch" / b for b in ("F1-B01", "F2-B01")]
+    args = ("--rules", pack, "--verdicts", verdicts, "--no-pdf", "--out", out)
+    assert run_blockqc("inspect", *blocks, *args).returncode == 1
+    s = json.loads((out / "summary.json").read_text(encoding="utf-8"))["acceptance"]
+    assert s["decision"] == "pass" and s["sample"] == ["F1-B01", "F2-B01"] and not s["returned"]
+    filed = (out / "acceptance.html").read_text(encoding="utf-8")
+    problems = filed.split('<section id="problems">', 1)[1].split("</section>", 1)[0]
+    assert "No quality problem was found." not in problems
+    for block in ("F1-B01", "F2-B01"):
+        row = problems.split(f'<td class="id">{block}</td>', 1)[1].split("</tr>", 1)[0]
+        assert '<span class="status pass">Excellent</span>' in row and "rules failed: TP-4" in row
+
+
 def _inspect_f1(tmp_path, pack_text: str | None, status: int) -> dict:
     """F1-B01 inspected with a pack of `pack_text` (None: the stock pack), expecting `status`;
     its results.json."""

@@ -190,6 +190,10 @@ def decision_context(s: Summary, f: Formatter) -> dict[str, Any] | None:
         if d.better_pct is None
         else f.t("shares", better=f.num(d.better_pct, 1), top=f.num(d.top_pct, 1)),
         "failing": [_block_line(b, f) for b in d.failing],
+        # sampled blocks with rules failed that do not fail the sample (errors of class B–D)
+        "corrected": [
+            _block_line(b, f) for b in d.blocks if b.sampled and not b.fails and b.failed_rules
+        ],
         "returned": [_block_line(b, f) for b in d.returned],
         "incomplete": id_list(d.incomplete, empty=""),
         "unread": _unread(d, f),
