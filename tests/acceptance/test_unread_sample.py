@@ -45,13 +45,19 @@ PLAN = {
 }
 
 
-def _inspect(tmp_path: Path, broken: str | None, plan: bool) -> tuple[dict, str]:
+def _inspect(
+    tmp_path: Path, broken: str | None, plan: bool, folder: str | None = None
+) -> tuple[dict, str]:
     """Four deliveries with checkpoints, DOC-3 passed by the inspector, `broken`'s scenes.csv
-    naming a band 'pann'; the summary's acceptance and the acceptance page's text."""
+    naming a band 'pann' (with `folder`: its folder so named, its block.yaml not YAML); the
+    summary's acceptance and the acceptance page's text."""
     batch = tmp_path / "batch"
     for b in ("B00", "B01", "B02", "B03"):
         write_delivery(batch / b, {"manifest": {"block_id": b}})
-    if broken:
+    if broken and folder:
+        (batch / broken).rename(batch / folder)
+        (batch / folder / "block.yaml").write_text("block_id: [B02\n")
+    elif broken:
         scenes = batch / broken / "scenes.csv"
         head, first, *rest = scenes.read_text().splitlines(keepends=True)
         assert ",pan," in first
@@ -101,3 +107,20 @@ def test_without_a_plan_a_block_not_read_leaves_the_decision_incomplete(tmp_path
         "Blocks that could not be read: without a sampling plan, whether they carry "
         "checkpoints, so belong to the sample, is not known: B03"
     ) in text
+
+
+def test_a_sampled_block_whose_block_yaml_cannot_be_read_leaves_the_decision_incomplete(
+    tmp_path: Path,
+) -> None:
+    """B02 (sampled) in a folder X2, its block.yaml not read: the delivery is named by its
+    folder, so it was taken for one not sampled, and the sample's B00 alone accepted the batch.
+    B02 is among no block read: X2 may be it, and the decision is incomplete."""
+    a, text = _inspect(tmp_path, "B02", plan=True, folder="X2")
+    assert a["decision"] == "incomplete" and a["unreadable"] == ["X2"]
+    assert a["batch_grade"] is None and a["mean_score"] is None
+    assert (
+        "Blocks that could not be read (the plan's sampled B02, not among the blocks read, may "
+        "be one of them): X2"
+    ) in text
+    assert "X2 – – could not be read (see summary.json)" in text  # among the problems
+    assert "not sampled" not in text and "Accepted" not in text

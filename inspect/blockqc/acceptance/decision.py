@@ -71,7 +71,18 @@ def decide(
 
 
 def unread_in_sample(d: BatchDecision) -> list[str]:
-    """The deliveries not read that belong, or (without a plan) may belong, to the sample."""
-    if d.sample_source != "plan":
+    """The deliveries not read that belong, or may belong, to the sample: without a plan any;
+    with one, those named as sampled blocks, and any when a sampled block is among neither the
+    blocks read nor the deliveries not read (one named by its folder may be it)."""
+    if d.sample_source != "plan" or unaccounted(d):
         return list(d.unreadable)
     return [u for u in d.unreadable if u in d.sample]
+
+
+def unaccounted(d: BatchDecision) -> list[str]:
+    """A plan's sampled blocks that no block read is, nor a delivery not read by its block id:
+    one of the deliveries whose block.yaml could not be read (named by folder) may be each."""
+    if d.sample_source != "plan":
+        return []
+    known = {b.block_id for b in d.blocks} | set(d.unreadable)
+    return [u for u in d.sample if u not in known]

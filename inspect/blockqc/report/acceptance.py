@@ -11,7 +11,7 @@ from collections.abc import Sequence
 from pathlib import PurePath
 from typing import Any
 
-from blockqc.acceptance.decision import unread_in_sample
+from blockqc.acceptance.decision import unaccounted, unread_in_sample
 from blockqc.acceptance.model import BatchDecision, ErrorRecord, Evaluation, PlanNote
 from blockqc.report.format import Formatter
 from blockqc.results import BlockResults, RuleResult, Summary
@@ -216,15 +216,18 @@ def _unread(d: BatchDecision, f: Formatter) -> list[dict[str, str]]:
     bearing = unread_in_sample(d)
     other = [u for u in d.unreadable if u not in bearing]
     plan = d.sample_source == "plan"
+    missing = unaccounted(d)
+    key = "unread_maybe_sampled" if missing else "unread_sampled" if plan else "unread_no_plan"
     lines = [
-        ("unread_sampled" if plan else "unread_no_plan", bearing, f.num(True) if plan else "–"),
+        (key, bearing, f.num(True) if plan and not missing else "–"),
         ("unread_not_sampled", other, f.num(False)),
     ]
     return [
-        {"label": f.t(k), "blocks": id_list(ids), "ids": ids, "sampled": sampled}
+        {"label": f.t(k, blocks=id_list(missing)), "blocks": id_list(ids), "ids": ids,
+         "sampled": sampled}
         for k, ids, sampled in lines
         if ids
-    ]
+    ]  # fmt: skip
 
 
 def _plan_note(n: PlanNote, f: Formatter) -> str:

@@ -456,6 +456,11 @@ MESSAGES.update(
             "Blocks not sampled that could not be read (returned for correction)",
             "无法读取的非样本区域网（退回修改）",
         ),
+        "unread_maybe_sampled": (
+            "Blocks that could not be read (the plan's sampled {blocks}, not among the blocks "
+            "read, may be one of them)",
+            "无法读取的区域网（抽样方案的样本单位 {blocks} 不在已读取的区域网中，可能为其中之一）",
+        ),
         "unread_no_plan": (
             "Blocks that could not be read: without a sampling plan, whether they carry "
             "checkpoints, so belong to the sample, is not known",
