@@ -172,6 +172,32 @@ def test_sampled_blocks_with_rules_failed_are_main_quality_problems(tmp_path) ->
         assert '<span class="status pass">Excellent</span>' in row and "rules failed: TP-4" in row
 
 
+def test_without_a_plan_a_sample_below_the_table_is_said(tmp_path, out) -> None:
+    """F1-B01, F2-B01 (with checkpoints) and F1-B02 (without): a batch of 3, of which the table
+    asks 3 (every unit, §QE-1); the sample is the 2 blocks with checkpoints. The batch was
+    accepted on them with no word of the table; the pages now say it. The sample batch's 4 of 8
+    (the table asks 3) are not said short."""
+    verdicts = tmp_path / "verdicts.yaml"
+    verdicts.write_text("verdicts:\n  DOC-3: {status: pass, note: follows the templates}\n")
+    three = tmp_path / "out"
+    blocks = [SAMPLES / "batch" / b for b in ("F1-B01", "F2-B01", "F1-B02")]
+    args = ("--verdicts", verdicts, "--no-pdf", "--out", three)
+    assert run_blockqc("inspect", *blocks, *args).returncode == 0
+    s = json.loads((three / "summary.json").read_text(encoding="utf-8"))["acceptance"]
+    assert s["decision"] == "pass" and s["sample"] == ["F1-B01", "F2-B01"]
+    said = (
+        "The pack's table (§QE-1) asks a sample of 3 of a batch of 3 deliveries; 2 carry "
+        "checkpoints: the batch is judged on the smaller sample."
+    )
+    for page in ("acceptance.html", "summary.html"):
+        assert said.replace("'", "&#39;") in (three / page).read_text(encoding="utf-8"), page
+        assert 'id="short-sample"' not in (out / page).read_text(encoding="utf-8"), page
+    zh = tmp_path / "zh"
+    assert run_blockqc("report", three, "--out", zh, "--lang", "zh", "--no-pdf").returncode == 0
+    text = (zh / "acceptance.html").read_text(encoding="utf-8")
+    assert "规则包的抽样表（§QE-1）要求从 3 个成果中抽取 3 个；带检查点的仅 2 个" in text
+
+
 def _inspect_f1(tmp_path, pack_text: str | None, status: int) -> dict:
     """F1-B01 inspected with a pack of `pack_text` (None: the stock pack), expecting `status`;
     its results.json."""

@@ -11,8 +11,11 @@ from collections.abc import Sequence
 from pathlib import PurePath
 from typing import Any
 
+from pydantic import ValidationError
+
 from blockqc.acceptance.decision import unaccounted, unread_in_sample
-from blockqc.acceptance.model import BatchDecision, ErrorRecord, Evaluation, PlanNote
+from blockqc.acceptance.model import BatchDecision, ErrorRecord, Evaluation, PlanNote, Sampling
+from blockqc.acceptance.sampling import sample_size, split_sizes
 from blockqc.report.format import Formatter
 from blockqc.results import BlockResults, RuleResult, Summary
 
@@ -198,6 +201,7 @@ def decision_context(s: Summary, f: Formatter) -> dict[str, Any] | None:
         "incomplete": id_list(d.incomplete, empty=""),
         "unread": _unread(d, f),
         "plan_notes": [_plan_note(n, f) for n in d.plan_notes],
+        "short_sample": _short_sample(s, d, f),
         "blocks": [
             {
                 **_block_line(b, f),
@@ -228,6 +232,22 @@ def _unread(d: BatchDecision, f: Formatter) -> list[dict[str, str]]:
         for k, ids, sampled in lines
         if ids
     ]  # fmt: skip
+
+
+def _short_sample(s: Summary, d: BatchDecision, f: Formatter) -> str:
+    """Without a plan the sample is the blocks that carry checkpoints: said when they are fewer
+    than the pack's table (§QE-1) asks of a batch of the deliveries inspected ("" otherwise)."""
+    if d.sample_source == "plan" or not s.sampling_table or not s.counts.blocks:
+        return ""
+    try:
+        sampling = Sampling.model_validate({"table": s.sampling_table})
+    except ValidationError:
+        return ""
+    units = s.counts.blocks
+    wanted = sum(sample_size(n, sampling) for n in split_sizes(units, sampling.max_batch))
+    if len(d.sample) >= wanted:
+        return ""
+    return f.t("sample_below_table", n=len(d.sample), wanted=wanted, units=units)
 
 
 def _plan_note(n: PlanNote, f: Formatter) -> str:

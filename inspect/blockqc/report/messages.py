@@ -521,6 +521,12 @@ MESSAGES.update(
             "No sampling plan was given: the sample is the blocks with checkpoints ({sample}).",
             "未给出抽样方案：样本为带检查点的区域网（{sample}）。",
         ),
+        "sample_below_table": (
+            "The pack's table (§QE-1) asks a sample of {wanted} of a batch of {units} "
+            "deliveries; {n} carry checkpoints: the batch is judged on the smaller sample.",
+            "规则包的抽样表（§QE-1）要求从 {units} 个成果中抽取 {wanted} 个；带检查点的仅 {n} 个："
+            "按较小的样本评定。",
+        ),
         "sampling_table": (
             "Sample size by batch size (the pack's table)",
             "批量与样本量（规则包中的表）",
