@@ -311,6 +311,27 @@ def test_scores_are_shown_rounded_down_never_onto_a_grade_bound_they_miss():
     assert evaluation_context(ev, f)["score"] == "89.9"
 
 
+def test_batch_shares_are_shown_rounded_down_never_onto_a_bound_they_miss():
+    """§QE-5: excellent needs ≥ 90 % good or better. 403 of 448 sampled units good or better is
+    89.955 %: graded good, the share read "90.0 %" beside it; it reads 89.9 %."""
+    from blockqc.acceptance.decision import batch_grade
+    from blockqc.acceptance.model import BatchDecision
+    from blockqc.report.acceptance import decision_context
+    from blockqc.results import Summary
+    from blockqc.rules import load_pack
+
+    acc = load_pack("global-project").acceptance
+    grades = ["excellent"] * 224 + ["good"] * 179 + ["pass"] * 45
+    grade, better, top = batch_grade(acc, grades)
+    assert (grade, better, top) == ("good", pytest.approx(100 * 403 / 448), 50.0)
+    d = BatchDecision(
+        sample_source="plan", decision="pass", batch_grade=grade, better_pct=better, top_pct=top
+    )
+    shown = decision_context(Summary.model_construct(acceptance=d, blocks=[]), Formatter("en"))
+    assert shown["batch_grade"] == "Good"
+    assert shown["shares"] == "89.9 % good or better, 50.0 % excellent"
+
+
 @pytest.mark.parametrize(
     "reason",
     [

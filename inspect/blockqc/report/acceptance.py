@@ -191,7 +191,7 @@ def decision_context(s: Summary, f: Formatter) -> dict[str, Any] | None:
         "batch_grade": grade_text(f, d.batch_grade),
         "shares": ""
         if d.better_pct is None
-        else f.t("shares", better=f.num(d.better_pct, 1), top=f.num(d.top_pct, 1)),
+        else f.t("shares", better=f.score(d.better_pct), top=f.score(d.top_pct)),
         "failing": [_block_line(b, f) for b in d.failing],
         # sampled blocks with rules failed that do not fail the sample (errors of class B–D)
         "corrected": [
