@@ -319,6 +319,38 @@ def test_failing_scenes_get_a_distribution_map(results_doc):
     assert maps[0]["svg"] is None and "not in results.json" in maps[0]["caption"]
 
 
+def test_scenes_failing_beyond_the_evidence_shown_are_marked_on_the_scene_figures(results_doc):
+    """TP-4 failing on 199 of 200 scenes keeps the 50 worst as evidence; the other failing scenes
+    were drawn as passing (plain bars, green footprints). Here TP-4 keeps one of two failing
+    scenes (S-002 with 60 points, under 100, cut from the evidence): both are marked failing,
+    the exempt sea scene and a waived scene are not, a scene at the minimum (100) passes (the
+    statuses of TP-4 alone, as the tie points per scene figure takes them)."""
+    from blockqc.report.figures import scene_statuses
+
+    distribution = next(
+        m for m in results_doc["measurements"] if m["metric"] == "tie_point_distribution"
+    )
+    scene_table = distribution["tables"]["scene"]
+    scene_table[1]["n_points"] = 60  # S-002
+    scene_table += [
+        {"scene_id": "S-WAIVED", "n_points": 70, "coverage": 1.0, "exempt": False},
+        {"scene_id": "S-EDGE", "n_points": 100, "coverage": 1.0, "exempt": False},
+    ]
+    tp4 = next(r for r in results_doc["results"] if r["rule"] == "TP-4")
+    tp4["statistic"] = "n_points"  # as the engine writes it
+    tp4["detail"].update({"n_offending": 3, "evidence_truncated": 1, "waived": ["S-WAIVED"]})
+    results = BlockResults.model_validate(results_doc)
+    statuses = scene_statuses(results, [r for r in results.results if r.rule == "TP-4"])
+    bad = "S-003<script>alert(1)</script>"
+    assert statuses[bad] == "fail" and statuses["S-002"] == "fail"
+    assert statuses["S-SEA"] == "exempt" and statuses["S-WAIVED"] == "waived"
+    assert "S-EDGE" not in statuses and "S-001" not in statuses
+    # without a cut, the evidence is the whole list: nothing is added from the table
+    del tp4["detail"]["evidence_truncated"]
+    results = BlockResults.model_validate(results_doc)
+    assert "S-002" not in scene_statuses(results, [r for r in results.results if r.rule == "TP-4"])
+
+
 @pytest.mark.parametrize("lang", ["en", "zh"])
 def test_a_value_just_past_its_threshold_does_not_read_as_the_threshold(tmp_path, lang):
     """RC-1 failing by 0.0004 px (worst difference 0.1004 px against ≤ 0.1 px) read 'Value: 0.100

@@ -141,7 +141,7 @@ _NOT_MET = ("fail", "warn", "waived")
 def _misjudged(r: RuleResult) -> str | None:
     """Why a result's status is not the one its value, threshold and severity make (None when
     it is, or when the result states no value to judge)."""
-    met = _meets(r.value, r.threshold, r.comparison)
+    met = meets(r.value, r.threshold, r.comparison)
     shown = f"its value {r.value!r} against {r.comparison} {r.threshold!r}"
     if met is False and r.status == "pass":
         return f"status pass, but {shown} does not meet the threshold"
@@ -158,7 +158,7 @@ def _number(v: Any) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool)
 
 
-def _meets(value: Any, threshold: Any, comparison: str | None) -> bool | None:
+def meets(value: Any, threshold: Any, comparison: str | None) -> bool | None:
     """Whether a value meets a threshold as the engine judges it (`rules.model.within`); None
     when there is nothing to judge."""
     if value is None or comparison is None:

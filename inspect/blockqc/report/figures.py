@@ -6,6 +6,7 @@ from typing import Any
 
 from blockqc.report import plots
 from blockqc.report.checkpoints import checkpoint_measurement
+from blockqc.report.documents import meets
 from blockqc.report.format import Formatter
 from blockqc.report.svg import cut
 from blockqc.results import BlockResults, MeasurementRecord, RuleResult
@@ -42,11 +43,32 @@ def scene_statuses(results: BlockResults, rules: list[RuleResult] | None = None)
             for part in str(label).split("/"):
                 mark(part, "waived")
         if res.status in ("fail", "error", "warn"):
-            for row in res.evidence:
+            for row in res.evidence + _beyond_evidence(results, res):
                 for k in SCENE_KEYS:
                     if k in row:
                         mark(row[k], res.status)
     return out
+
+
+def _beyond_evidence(results: BlockResults, res: RuleResult) -> list[dict[str, Any]]:
+    """The rows of a result's measurement that do not meet its threshold, when its evidence was
+    cut (`evidence_truncated`): the units beyond the worst shown fail too. Exempt rows, waived
+    scenes and rows of another group are left out."""
+    m = results.measurement(res.measurement)
+    if not res.detail.get("evidence_truncated") or m is None:
+        return []
+    waived = {p for label in res.detail.get("waived") or [] for p in str(label).split("/")}
+    return [
+        row
+        for rows in m.tables.values()
+        for row in rows
+        if res.statistic in row
+        and any(k in row for k in SCENE_KEYS)
+        and not row.get("exempt")
+        and all(row.get(k, v) == v for k, v in res.group.items())
+        and not waived & {str(row[k]) for k in SCENE_KEYS if k in row}
+        and meets(row[res.statistic], res.threshold, res.comparison) is False
+    ]
 
 
 def _numeric_thresholds(rules: list[RuleResult]) -> list[float]:
