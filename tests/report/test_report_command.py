@@ -390,6 +390,60 @@ def test_results_without_any_rule_result_are_refused(tmp_path, results_doc, caps
     assert f"{empty}: $.results is empty" in capsys.readouterr().err
 
 
+def _edit(doc, metric, table, row, key, value):
+    m = next(m for m in doc["measurements"] if m["metric"] == metric)
+    i = doc["measurements"].index(m)
+    if value is None:
+        del m["tables"][table][row][key]
+    else:
+        m["tables"][table][row][key] = value
+    return f"$.measurements[{i}].tables.{table}[{row}]"
+
+
+@pytest.mark.parametrize(
+    ("metric", "table", "key", "value", "expected"),
+    [
+        ("checkpoint_accuracy", "point", "error_m", "abc", ".error_m: expected a number or null"),
+        ("checkpoint_accuracy", "point", "x_m", "east", ".x_m: expected a number or null"),
+        ("checkpoint_accuracy", "point", "point_id", None, ": no point_id"),
+        ("checkpoint_accuracy", "component_method", "norm_m", "ten", ".norm_m: expected a number"),
+        ("tie_point_distribution", "scene", "scene_id", None, ": no scene_id"),
+    ],
+)
+def test_measurement_values_the_figures_draw_are_checked(
+    tmp_path, results_doc, capsys, metric, table, key, value, expected
+):
+    """A hand-edited table the figures draw (a checkpoint's error written as text, a row without
+    its id) was an internal error (ValueError: could not convert string to float: 'abc'); it is
+    refused with the field named, exit status 2, nothing written."""
+    at = _edit(results_doc, metric, table, 0, key, value)
+    path = tmp_path / "results.json"
+    path.write_text(json.dumps(results_doc), encoding="utf-8")
+    assert run("report", str(path), "--out", str(tmp_path / "o"), "--no-pdf") == 2
+    err = capsys.readouterr().err
+    assert f"{path}: {at}{expected}" in err and "internal error" not in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_scene_map_point_or_histogram_count_written_as_text_is_refused(
+    tmp_path, results_doc, capsys
+):
+    """The scene maps' points and the histogram's counts are numbers too."""
+    distribution = next(
+        m for m in results_doc["measurements"] if m["metric"] == "tie_point_distribution"
+    )
+    scene = next(iter(distribution["failing_scene_points"]))
+    distribution["failing_scene_points"][scene]["line"][3] = "12"
+    errors = next(m for m in results_doc["measurements"] if m["metric"] == "tie_point_errors")
+    errors["detail"]["histogram"]["counts"][0] = None
+    path = tmp_path / "results.json"
+    path.write_text(json.dumps(results_doc), encoding="utf-8")
+    assert run("report", str(path), "--out", str(tmp_path / "o"), "--no-pdf") == 2
+    err = capsys.readouterr().err
+    assert f".failing_scene_points.{scene}.line[3]: expected a number, not '12'" in err
+    assert ".detail.histogram.counts[0]: expected a number, not None" in err
+
+
 def test_a_summary_naming_a_block_by_another_id_is_refused(batch_out, tmp_path, capsys):
     """A block renamed in summary.json (its results file still F1-B01's): the page would list
     a block no results file is of."""

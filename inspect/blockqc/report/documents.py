@@ -12,6 +12,7 @@ from typing import Any, NamedTuple
 from pydantic import ValidationError
 
 from blockqc.errors import InputError, Problem
+from blockqc.report.drawn import drawn_problems
 from blockqc.results import (
     STATUSES,
     BlockEntry,
@@ -187,7 +188,7 @@ def _check_results(path: Path, doc: Any) -> BlockResults:
     """A results document to re-render: valid, its types strict, not contradicting itself."""
     _strict(path, doc, "results")
     results = parse(doc, str(path), "results")
-    problems = _contradictions(path, results)
+    problems = _contradictions(path, results) + drawn_problems(path, results)
     if problems:
         raise InputError(problems)
     return results
