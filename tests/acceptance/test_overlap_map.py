@@ -35,10 +35,34 @@ def test_map_of_a_delivery(tmp_path) -> None:
     res = inspect_delivery(
         load_delivery(write_delivery(tmp_path / "d")), load_pack("global-project")
     )
-    rows, bound = _overlap_points(res)
-    assert len(rows) == 5 and math.isclose(bound, 2 * math.sqrt(2) * 10)
+    rows, judge = _overlap_points(res)
+    assert len(rows) == 5 and math.isclose(judge.threshold, 2 * math.sqrt(2) * 10)
     svg = overlap_map(res, Formatter("en"))
     assert svg is not None and svg.startswith("<svg")
+
+
+@pytest.mark.parametrize(
+    ("comparison", "threshold", "red"),
+    [
+        ("<=", 5.0, False),  # on an inclusive bound: passes (it was drawn red, 5 ≥ 5)
+        ("<", 5.0, True),  # on a strict bound: fails
+        ("<", 5.0 * (1 + 1e-10), True),  # within a billionth of it: on it, fails (was green)
+        ("<", 5.01, False),
+        ("<=", 4.99, True),
+    ],
+)
+def test_a_pair_is_red_as_the_rule_judges_its_largest_discrepancy(
+    tmp_path, comparison, threshold, red
+) -> None:
+    """The pair's colour follows the rule's comparison, as the engine judges it (rules.model
+    .within): the case delivery's pair S1/S2 has every plane discrepancy √(3² + 4²) = 5 m."""
+    res = inspect_delivery(
+        load_delivery(write_delivery(tmp_path / "d")), load_pack("global-project")
+    )
+    ro3 = next(r for r in res.results if r.rule == "RO-3" and r.group == {"component": "plane"})
+    ro3.threshold, ro3.comparison = threshold, comparison
+    svg = overlap_map(res, Formatter("en"))
+    assert ('fill="#c62828"' in svg) is red and ('fill="#2e7d32"' in svg) is not red
 
 
 def test_residual_vectors_by_hand() -> None:

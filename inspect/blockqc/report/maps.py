@@ -14,20 +14,22 @@ import numpy as np
 import pandas as pd
 
 from blockqc.report import plots, svg, svgplot
+from blockqc.report.documents import meets
 from blockqc.report.format import Formatter, number
-from blockqc.results import BlockResults
+from blockqc.results import BlockResults, RuleResult
 
 
-def _overlap_points(results: BlockResults) -> tuple[list[dict[str, Any]], float | None]:
-    """The plane rows of the overlap measurement, and the bound a rule judged them against."""
+def _overlap_points(results: BlockResults) -> tuple[list[dict[str, Any]], RuleResult | None]:
+    """The plane rows of the overlap measurement, and the rule result that judged them against
+    a bound."""
     for res in results.results:
         m = results.measurement(res.measurement)
         if m is None or m.metric != "overlap_discrepancy" or "point" not in m.tables:
             continue
         rows = [r for r in m.tables["point"] if r.get("component") == "plane"]
-        bound = next(
+        judge = next(
             (
-                float(x.threshold)
+                x
                 for x in results.results
                 if x.measurement == m.key
                 and x.group.get("component") == "plane"
@@ -37,7 +39,7 @@ def _overlap_points(results: BlockResults) -> tuple[list[dict[str, Any]], float 
             ),
             None,
         )
-        return rows, bound
+        return rows, judge
     return [], None
 
 
@@ -65,7 +67,7 @@ def overlap_map(results: BlockResults, f: Formatter) -> str | None:
     """The map as SVG, or None when the results keep no overlap points or footprints."""
     import shapely
 
-    rows, bound = _overlap_points(results)
+    rows, judge = _overlap_points(results)
     ids, geoms = _footprints(results)
     at = {sid: k for k, sid in enumerate(ids) if geoms[k] is not None}
     pairs = _pairs(rows)
@@ -84,7 +86,13 @@ def overlap_map(results: BlockResults, f: Formatter) -> str | None:
     x0, y0, x1, y1 = shapely.total_bounds(geoms[list(at.values())])
     span = max(x1 - x0, y1 - y0, 1e-3)  # the map's extent (one pair: its centres do not spread)
     scale = 0.15 * span / biggest  # degrees per metre of mean discrepancy
-    bad = (pairs["max"] >= bound).to_numpy() if bound is not None else np.zeros(len(pairs), bool)
+    bad = np.array(  # as the rule judges them: a bound inclusive or not, ON_BOUND
+        [
+            judge is not None and meets(v, judge.threshold, judge.comparison) is False
+            for v in pairs["max"]
+        ],
+        dtype=bool,
+    )
     colours = np.where(bad, plots.STATUS_COLOURS["fail"], plots.STATUS_COLOURS["pass"])
     plot = plots.lonlat_plot(rings, f.t, f.t("fig_overlap_map", m=f.num(longest)))
     outline = np.full(len(rings.owner), "#9e9e9e", dtype=object)
