@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import pytest
 
+from blockqc.acceptance.model import Grade
 from blockqc.acceptance.scoring import Finding, accuracy_score, deduction_score, evaluate_block
 from blockqc.report.acceptance import evaluation_context, reason_text
 from blockqc.report.format import Formatter
@@ -290,3 +291,14 @@ def test_a_score_below_every_grade_fails_the_block(tmp_path) -> None:
     assert (ev.fails, ev.grade) == (True, "fail")
     assert ev.reasons == ["score below the lowest grade: 64.0 < 70 (pass)"]
     assert reason_text(ev.reasons[0], Formatter("zh")).startswith("得分低于最低质量等级")
+
+
+@pytest.mark.parametrize(
+    ("grades", "shown"),
+    [((), "合格"), ([Grade(id="pass", min=70, title="Pass", title_zh="及格")], "及格")],
+)
+def test_the_grade_a_score_does_not_reach_is_named_in_chinese(grades, shown) -> None:
+    """The zh page read '得分低于最低质量等级: 52.0 < 60 (pass)', the grade's English id left in;
+    it names the grade as the page does (the pack's title, else the catalogue's)."""
+    text = reason_text("score below the lowest grade: 52.0 < 60 (pass)", Formatter("zh", grades))
+    assert text == f"得分低于最低质量等级：52.0 < 60（{shown}）"

@@ -20,6 +20,8 @@ from blockqc.report.format import Formatter
 from blockqc.results import BlockResults, RuleResult, Summary
 
 CLASSES = ("A", "B", "C", "D")
+#: the reason of a score that reaches no grade (acceptance.scoring), the lowest grade by its id
+_BELOW_GRADES = re.compile(r"score below the lowest grade: (\S+) < (\S+) \((.+)\)")
 
 
 def grade_text(f: Formatter, grade: str | None, en: str = "", zh: str = "") -> str:
@@ -300,6 +302,9 @@ def reason_text(reason: str, f: Formatter) -> str:
     """An evaluation's reason (recorded in English) in the page's language."""
     if f.lang == "en":
         return reason
+    if below := _BELOW_GRADES.fullmatch(reason):  # the lowest grade by its name, not its id
+        score, least, grade = below.groups()
+        return f.t("qe_below_grades", score=score, min=least, grade=grade_text(f, grade))
     if (sentence := f.sentence(reason)) != reason:  # why a rule is not judged or not scored
         return sentence
     for en, key in (

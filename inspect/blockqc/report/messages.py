@@ -610,6 +610,10 @@ MESSAGES.update(
         # fixed phrases of results.json (English there), translated when the page is rendered
         "ph_awaiting": ("awaiting the inspector's verdict", "等待检查员判定"),
         "ph_below_grades": ("score below the lowest grade", "得分低于最低质量等级"),
+        "qe_below_grades": (
+            "score below the lowest grade: {score} < {min} ({grade})",
+            "得分低于最低质量等级：{score} < {min}（{grade}）",
+        ),
         "ph_no_geometry": (
             "no geometry in the delivery (rpc/ with adjustment.csv, or rpc_adjusted/)",
             "成果中没有几何模型（rpc/ 及 adjustment.csv，或 rpc_adjusted/）",
