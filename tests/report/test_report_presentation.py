@@ -213,6 +213,36 @@ def test_zh_report_translates_fixed_phrases_of_the_results():
     assert Formatter("en").text("(mostly sea)") == "(mostly sea)"
 
 
+def test_zh_report_translates_the_problems_of_the_documents(tmp_path):
+    """DOC-1's evidence on a zh page read 'documents/absolute_orientation.pdf does not exist';
+    each problem check_document gives is shown in Chinese, the file names kept as they are."""
+    from blockqc.metrics.documents import check_document
+
+    root = tmp_path / "delivery"
+    (root / "documents" / "folder.pdf").mkdir(parents=True)
+    (root / "documents" / "empty.pdf").write_bytes(b"")
+    (root / "documents" / "fake.pdf").write_bytes(b"not a pdf")
+    (root / "documents" / "Report.PDF").write_bytes(b"%PDF-1.4")
+    (root / "documents" / "latin1.txt").write_bytes("caf\xe9".encode("latin-1"))
+    (root / "documents" / "gone.pdf").symlink_to(root / "documents" / "nowhere.pdf")
+    expected = {
+        None: "未在 block.yaml 的 documents 中列出",
+        "documents/absolute_orientation.pdf": "documents/absolute_orientation.pdf 不存在",
+        "documents/report.pdf": "documents/report.pdf 不存在（成果中有 documents/Report.PDF：",
+        "documents/folder.pdf": "documents/folder.pdf 是文件夹，不是文档文件",
+        "documents/empty.pdf": "documents/empty.pdf 是空文件",
+        "documents/fake.pdf": "documents/fake.pdf 不是有效的 PDF 文件",
+        "documents/latin1.txt": "documents/latin1.txt 不是 UTF-8 文本",
+        "documents/gone.pdf": "documents/gone.pdf 是指向不存在文件的符号链接",
+        "../outside.pdf": "../outside.pdf 指向成果之外",
+    }
+    f = Formatter("zh")
+    for rel, shown in expected.items():
+        problem = check_document(root, rel)[3]
+        assert f.cell(problem).startswith(shown), problem
+    assert Formatter("en").cell("a.pdf does not exist") == "a.pdf does not exist"
+
+
 def test_zh_report_translates_the_sampling_reasons():
     """The reasons the sampling gives a checkpoint rule (not sampled by the plan; sampled
     without checkpoints; no checkpoints at all), as results.json writes them: in Chinese on a

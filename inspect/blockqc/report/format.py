@@ -85,6 +85,19 @@ PHRASES = (
 #: turn, is shown in the page's language (Formatter.sentence); tried in this order, so that
 #: "{note}; only {n} check CPs" is taken apart before its parts
 SENTENCES = (
+    "doc_not_declared",  # a document's problems: those naming a link before those they hold
+    "doc_loop",
+    "doc_outside",
+    "doc_folder",
+    "doc_dangling",
+    "doc_not_regular",
+    "doc_missing_case",
+    "doc_missing_link",
+    "doc_missing",
+    "doc_empty",
+    "doc_unreadable",
+    "doc_invalid",
+    "doc_not_utf8",
     "qe_not_scored",
     "qe_not_judged",
     "qe_norm_no_gsd",
@@ -361,9 +374,11 @@ class Formatter:
         return "ident" if any(len(w) > LONG_WORD for v in texts for w in str(v).split()) else ""
 
     def cell(self, v: Any) -> str:
-        """An evidence value: named values (band pan, …) and fixed phrases translated."""
+        """An evidence value: named values (band pan, …), fixed phrases and sentences (a
+        document's problem) translated."""
         if isinstance(v, str):
-            return self._key("val", v, self.text(v))
+            said = self.sentence(v)
+            return self._key("val", v, said if said != v else self.text(v))
         return self.num(v)
 
     def text(self, s: str) -> str:

@@ -614,6 +614,39 @@ MESSAGES.update(
             "score below the lowest grade: {score} < {min} ({grade})",
             "得分低于最低质量等级：{score} < {min}（{grade}）",
         ),
+        # the problems of a document (§DOC-1, metrics.documents.check_document)
+        "doc_not_declared": (
+            "not declared in block.yaml documents",
+            "未在 block.yaml 的 documents 中列出",
+        ),
+        "doc_loop": (
+            "{path}: a symbolic link that leads back to itself",
+            "{path}：指向自身的符号链接",
+        ),
+        "doc_outside": ("{path} points outside the delivery", "{path} 指向成果之外"),
+        "doc_folder": ("{path} is a folder, not a document file", "{path} 是文件夹，不是文档文件"),
+        "doc_dangling": (
+            "{path} is a symbolic link to a file that does not exist",
+            "{path} 是指向不存在文件的符号链接",
+        ),
+        "doc_not_regular": (
+            "{path} is not a regular file (a pipe, socket or device)",
+            "{path} 不是普通文件（而是管道、套接字或设备）",
+        ),
+        "doc_missing_case": (
+            "{path} does not exist ({found} is there: file names are matched exactly, in their "
+            "case)",
+            "{path} 不存在（成果中有 {found}：文件名须完全一致，区分大小写）",
+        ),
+        "doc_missing_link": (
+            "{path} does not exist (a symbolic link to a file that does not exist)",
+            "{path} 不存在（是指向不存在文件的符号链接）",
+        ),
+        "doc_missing": ("{path} does not exist", "{path} 不存在"),
+        "doc_empty": ("{path} is empty", "{path} 是空文件"),
+        "doc_unreadable": ("{path} cannot be read: {why}", "{path} 无法读取：{why}"),
+        "doc_invalid": ("{path} is not a valid {kind} file", "{path} 不是有效的 {kind} 文件"),
+        "doc_not_utf8": ("{path} is not UTF-8 text", "{path} 不是 UTF-8 文本"),
         "ph_no_geometry": (
             "no geometry in the delivery (rpc/ with adjustment.csv, or rpc_adjusted/)",
             "成果中没有几何模型（rpc/ 及 adjustment.csv，或 rpc_adjusted/）",
