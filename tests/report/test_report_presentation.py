@@ -243,6 +243,21 @@ def test_zh_report_translates_the_problems_of_the_documents(tmp_path):
     assert Formatter("en").cell("a.pdf does not exist") == "a.pdf does not exist"
 
 
+def test_zh_report_translates_why_a_reported_figure_is_not_recomputed():
+    """The exemptions of DOC-2 on a zh page read 'cannot be recomputed: 无检查点：…', half
+    English."""
+    f = Formatter("zh")
+    reason = (
+        "cannot be recomputed: no checkpoints: the block was not sampled for detailed inspection"
+    )
+    assert f.text(reason) == "无法复算：无检查点：本区域网未抽为详查样本"
+    assert f.text("no recomputation is defined for this figure") == "该数值未定义复算方法"
+    assert (
+        f.text("cannot be recomputed: nothing to recompute it from")
+        == "无法复算：无可用于复算的数据"
+    )
+
+
 def test_zh_report_translates_the_sampling_reasons():
     """The reasons the sampling gives a checkpoint rule (not sampled by the plan; sampled
     without checkpoints; no checkpoints at all), as results.json writes them: in Chinese on a

@@ -79,6 +79,9 @@ PHRASES = (
     "ph_bands",
     "ph_mostly_sea",
     "ph_water_fraction",
+    "ph_not_recomputed",
+    "ph_no_recomputation",
+    "ph_nothing_to_recompute",
 )
 #: whole fixed texts of the results of rfm-accuracy, adjust and factors, each a catalogue key
 #: whose English may hold {fields}: a text that is one of them, its fields' values translated in

@@ -614,6 +614,13 @@ MESSAGES.update(
             "score below the lowest grade: {score} < {min} ({grade})",
             "得分低于最低质量等级：{score} < {min}（{grade}）",
         ),
+        # why a reported figure is not recomputed (§DOC-2, metrics.reported)
+        "ph_not_recomputed": ("cannot be recomputed: ", "无法复算："),
+        "ph_no_recomputation": (
+            "no recomputation is defined for this figure",
+            "该数值未定义复算方法",
+        ),
+        "ph_nothing_to_recompute": ("nothing to recompute it from", "无可用于复算的数据"),
         # the problems of a document (§DOC-1, metrics.documents.check_document)
         "doc_not_declared": (
             "not declared in block.yaml documents",
