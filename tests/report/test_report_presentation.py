@@ -81,6 +81,34 @@ def test_checkpoint_table_with_long_ids_fits_the_page(tmp_path, engine):
     assert 'class="id ident"' in html  # the long point ids wrap
 
 
+@pytest.mark.parametrize("engine", ["weasyprint", "chromium"])
+def test_the_scene_maps_heading_is_printed_on_the_page_of_its_first_maps(tmp_path, engine):
+    """With 12 scene maps (more than a page), WeasyPrint printed their heading alone at the foot
+    of a page and the maps from the next one (a flex box it would not start below the heading);
+    the heading's page now holds the first maps."""
+    require_tool("pdftotext")
+    if engine == "chromium":
+        require_chromium()
+    doc = make_results()
+    tp4 = _result(doc, "TP-4")
+    distribution = next(m for m in doc["measurements"] if m["metric"] == "tie_point_distribution")
+    points = next(iter(distribution["failing_scene_points"].values()))
+    for i in range(11):
+        sid = f"S-F{i:02d}"
+        tp4["evidence"].append({**tp4["evidence"][0], "scene_id": sid})
+        distribution["failing_scene_points"][sid] = points
+        doc["scenes"].append({**doc["scenes"][0], "scene_id": sid})
+    write_block_report(tmp_path, doc, pdf_engine=engine)
+    text = subprocess.run(
+        ["pdftotext", "-layout", str(tmp_path / "report.pdf"), "-"],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
+    page = next(p for p in text.split("\f") if "Tie-point distribution of the scenes" in p)
+    assert "S-F00" in page
+
+
 def test_scene_map_captions_are_cut_to_their_figure():
     f = Formatter("en")
     from blockqc.report.figures import _scene_names
