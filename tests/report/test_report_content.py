@@ -179,6 +179,9 @@ def test_formatter_thresholds_and_groups():
     assert f.threshold(_th("<=", 10.0, "m")) == "≤ 10 m"
     assert f.threshold(_th("<", 28.284271247461902, "m")) == "< 28.28 m"
     assert f.threshold(_th("between", [20.0, 50.0], "points")) == "20 … 50 points"
+    # a range without its bounds (inclusive: false): 20 points fail it, so it does not read as
+    # the inclusive one ("20 … 50 points" beside a failing 20)
+    assert f.threshold(_th("strictly_between", [20.0, 50.0], "points")) == "20 <…< 50 points"
     z = Formatter("zh")
     assert z.group({"component": "plane", "method": "same_accuracy"}) == "平面 · 同精度数据法"
     assert z.status("fail") == "不合格" and z.verdict("pass") == "合格"

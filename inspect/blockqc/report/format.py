@@ -330,7 +330,8 @@ class Formatter:
         if comp in SYMBOLS:
             text = f"{SYMBOLS[comp]} {self.num(th) if isinstance(th, bool) else bound(th)}"
         elif comp in ("between", "strictly_between") and isinstance(th, list) and len(th) == 2:
-            text = f"{bound(th[0])} … {bound(th[1])}"
+            dots = "…" if comp == "between" else "<…<"  # as the pack's threshold_text
+            text = f"{bound(th[0])} {dots} {bound(th[1])}"
         elif comp == "in":
             names = th if isinstance(th, list) else [th]
             text = "∈ {" + ", ".join(self._key("val", v, self.num(v)) for v in names) + "}"
