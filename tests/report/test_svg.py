@@ -343,3 +343,14 @@ def test_control_characters_of_delivered_ids_keep_the_figure_well_formed():
     shown = "\ufffd[31mS1\ufffd]0;t\ufffd\ufffd\ufffd\ufffd"
     assert f"scene {shown}" in texts and shown in texts and "S&2\t" in texts
     assert root.get("aria-label") == f"scene {shown}"
+
+
+def test_scene_counts_name_every_colour_they_draw() -> None:
+    """A per-scene rule of severity warn draws its scenes orange: the legend names them (it
+    named exempt, waived and failing scenes only)."""
+    scenes = [{"scene_id": s, "n_points": n} for s, n in (("A", 40), ("B", 300), ("C", 12))]
+    status = {"A": "warn", "C": "exempt"}
+    svg_text = plots.scene_counts(scenes, 100, status, _t, "c")
+    legend = re.findall(r">([^<>]+)</text>", svg_text)
+    assert "status_warn" in legend and "lg_exempt" in legend
+    assert plots.STATUS_COLOURS["warn"] in svg_text

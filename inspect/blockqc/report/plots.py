@@ -274,6 +274,7 @@ def scene_counts(
     for st, key in (
         ("exempt", "lg_exempt"),
         ("waived", "status_waived"),
+        ("warn", "status_warn"),
         ("fail", "status_fail"),
     ):
         if st in present or (st == "fail" and "error" in present):
