@@ -108,6 +108,27 @@ def _write_plan_b00_b02(path: Path) -> None:
     path.write_text(yaml.safe_dump(plan))
 
 
+def test_a_sampled_block_without_checkpoints_is_not_said_unsampled(tmp_path: Path) -> None:
+    """A block the plan samples, delivered without checkpoints: its checkpoint rules kept the
+    metric's reason 'no checkpoints: the block was not sampled for detailed inspection' beside
+    the plan's 'sampled …, incomplete', and its report said both; the reason is the plan's."""
+    from blockqc.acceptance.plan import NO_CHECKPOINTS, apply_plan
+    from blockqc.delivery import load_delivery
+    from blockqc.engine import inspect_delivery
+    from blockqc.report.html import render_block
+    from blockqc.rules import load_pack
+
+    case = {"manifest": {"block_id": "B00"}, "remove_tables": ["checkpoints"]}
+    delivery = load_delivery(write_delivery(tmp_path / "B00", case))
+    results = apply_plan(inspect_delivery(delivery, load_pack("global-project")), True)
+    for r in results.results:
+        if r.rule in ("CP-1", "CP-2", "CP-3", "CP-4"):
+            assert r.detail["reason"] == NO_CHECKPOINTS, r.rule
+    for lang in ("en", "zh"):
+        page = render_block(results.model_dump(mode="json"), lang=lang)
+        assert "not sampled" not in page and "未抽为详查样本" not in page
+
+
 def test_inspect_with_plan(tmp_path: Path) -> None:
     batch = _batch(tmp_path / "batch", 4, with_cps={0, 1})
     _write_plan_b00_b02(tmp_path / "plan.yaml")

@@ -13,6 +13,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError
 
+from blockqc import metrics
 from blockqc.acceptance.model import ReportMeta
 from blockqc.acceptance.sampling import Lot, natural_key
 from blockqc.errors import InputError, Problem
@@ -260,6 +261,8 @@ def apply_plan(results: BlockResults, sampled: bool) -> BlockResults:
             r.detail = {"reason": NOT_SAMPLED, "plan": NOT_SAMPLED}
         elif not has_cps:
             r.detail = {**r.detail, "plan": NO_CHECKPOINTS, "plan_incomplete": True}
+            if r.detail.get("reason") == metrics.NO_CHECKPOINTS:  # "… was not sampled …"
+                r.detail["reason"] = NO_CHECKPOINTS
     if sampled and not has_cps:
         results.complete = False
     _recount(results)
