@@ -50,3 +50,25 @@ def test_a_long_list_is_folded_on_screen_with_its_length(summary):
 def test_a_long_list_is_open_in_print(summary, engine):
     got = _failing_list(summary, 11, engine)
     assert got == '<details class="listing" open>Sampled blocks that fail (11)'
+
+
+def test_short_headings_of_the_decision_tables_are_not_broken_in_chinese(summary, tmp_path):
+    """Beside the long reasons of a failing block, the zh PDFs printed the headings of the
+    narrow columns a character or two a line (得/分, 质量等/级, 抽/样); each is whole."""
+    import subprocess
+
+    from report_helpers import require_tool
+
+    from blockqc.report import write_summary_report
+
+    require_tool("pdftotext")
+    write_summary_report(tmp_path, summary, lang="zh")
+    for page, headings in (("summary", ("得分", "质量等级")), ("acceptance", ("抽样", "质量等级"))):
+        text = subprocess.run(
+            ["pdftotext", "-layout", str(tmp_path / f"{page}.pdf"), "-"],
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout
+        line = next(x for x in text.splitlines() if re.search(r"区域网\s.*原因", x))
+        assert all(h in line for h in headings), (page, line)
