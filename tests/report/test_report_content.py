@@ -354,6 +354,23 @@ def test_scenes_failing_beyond_the_evidence_shown_are_marked_on_the_scene_figure
     assert "S-002" not in scene_statuses(results, [r for r in results.results if r.rule == "TP-4"])
 
 
+def test_the_scene_maps_note_counts_the_failing_scenes_beyond_the_evidence(results_doc):
+    """The maps note counted the scenes of the evidence kept: 'The first 24 of 55 failing scenes
+    are drawn' of a block where 199 scenes fail TP-4 (50 kept); it counts every failing scene,
+    and says so when fewer maps than that are drawn. Here TP-4 keeps S-003 of two failing
+    scenes (S-002, 60 points, cut from the evidence): one map of two failing scenes."""
+    distribution = next(
+        m for m in results_doc["measurements"] if m["metric"] == "tie_point_distribution"
+    )
+    distribution["tables"]["scene"][1]["n_points"] = 60  # S-002
+    tp4 = next(r for r in results_doc["results"] if r["rule"] == "TP-4")
+    tp4["statistic"] = "n_points"  # as the engine writes it
+    tp4["detail"].update({"n_offending": 2, "evidence_truncated": 1})
+    figures = block_context(results_doc, "en")["figures"]
+    assert [m["scene"] for m in figures["scene_maps"]] == ["S-003<script>alert(1)</script>"]
+    assert "The first 1 of 2 failing scenes are drawn." in figures["general_notes"]
+
+
 @pytest.mark.parametrize("lang", ["en", "zh"])
 def test_a_value_just_past_its_threshold_does_not_read_as_the_threshold(tmp_path, lang):
     """RC-1 failing by 0.0004 px (worst difference 0.1004 px against ≤ 0.1 px) read 'Value: 0.100

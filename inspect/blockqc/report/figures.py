@@ -135,6 +135,10 @@ def _scene_maps(results: BlockResults, f: Formatter, figs: dict[str, Any]) -> No
     failing = list(
         dict.fromkeys(str(e["scene_id"]) for r in rules for e in r.evidence if "scene_id" in e)
     )
+    beyond = {  # failing too, beyond the evidence kept (their points are not kept either)
+        str(e["scene_id"]) for r in rules for e in _beyond_evidence(results, r) if "scene_id" in e
+    }
+    total = len(beyond.union(failing))
     measured = [m for r in rules if (m := results.measurement(r.measurement))]
     kept = {k: v for m in measured for k, v in (m.failing_scene_points or {}).items()}
     grid = int(next((m.detail["grid"] for m in measured if "grid" in m.detail), 3))
@@ -151,8 +155,9 @@ def _scene_maps(results: BlockResults, f: Formatter, figs: dict[str, Any]) -> No
         )
         caption = f.t("scene_points_caption", n=len(lines), k=grid)
         figs["scene_maps"].append({**_scene_names(sid), "svg": svg, "caption": caption})
-    if len(failing) > MAX_SCENE_MAPS:
-        figs["general_notes"].append(f.t("maps_capped", n=MAX_SCENE_MAPS, total=len(failing)))
+    drawn = min(len(failing), MAX_SCENE_MAPS)
+    if total > drawn:
+        figs["general_notes"].append(f.t("maps_capped", n=drawn, total=total))
 
 
 def block_figures(results: BlockResults, f: Formatter, statuses: dict[str, str]) -> dict[str, Any]:
