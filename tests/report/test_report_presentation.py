@@ -269,6 +269,8 @@ def test_zh_report_translates_the_problems_of_the_documents(tmp_path):
         problem = check_document(root, rel)[3]
         assert f.cell(problem).startswith(shown), problem
     assert Formatter("en").cell("a.pdf does not exist") == "a.pdf does not exist"
+    # a value that is the English of another page's text (rfm-accuracy's 'given') is input
+    assert [f.cell(v) for v in ("given", "affine", "factor")] == ["given", "affine", "factor"]
 
 
 def test_zh_report_translates_why_a_reported_figure_is_not_recomputed():

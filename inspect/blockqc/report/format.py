@@ -185,6 +185,8 @@ SENTENCES = (
     "af_the_others",
     "af_collinear",
 )
+#: the sentences an evidence cell may be: a document's problem (§DOC-1)
+CELL_SENTENCES = tuple(k for k in SENTENCES if k.startswith("doc_"))
 _FIELD = re.compile(r"\{(\w+)\}")
 _METHOD = r"(?:high_precision|same_accuracy|recalculation)"
 _NO_METHOD = re.compile(rf"\bno ({_METHOD}) checkpoints\b")
@@ -381,7 +383,7 @@ class Formatter:
         """An evidence value: named values (band pan, …), fixed phrases and sentences (a
         document's problem) translated."""
         if isinstance(v, str):
-            said = self.sentence(v)
+            said = self.sentence(v, CELL_SENTENCES)
             return self._key("val", v, said if said != v else self.text(v))
         return self.num(v)
 
@@ -401,13 +403,13 @@ class Formatter:
         )
         return s.replace("： ", "：")  # a full-width colon takes no space after it
 
-    def sentence(self, s: str) -> str:
-        """A fixed text of a run's results (SENTENCES) in the page's language, the values in it
-        (numbers, file names, the texts nested in it) kept or translated in turn; others as
-        they are."""
+    def sentence(self, s: str, keys: Iterable[str] = ()) -> str:
+        """A fixed text of a run's results (SENTENCES, or those of `keys`) in the page's
+        language, the values in it (numbers, file names, the texts nested in it) kept or
+        translated in turn; others as they are."""
         if self.lang == "en" or not isinstance(s, str) or not s:
             return s
-        for key in SENTENCES:
+        for key in keys or SENTENCES:
             match = _sentence(key).fullmatch(s)
             if match:
                 values = {k: self.sentence(v) for k, v in match.groupdict().items()}
