@@ -302,3 +302,30 @@ def test_the_grade_a_score_does_not_reach_is_named_in_chinese(grades, shown) -> 
     it names the grade as the page does (the pack's title, else the catalogue's)."""
     text = reason_text("score below the lowest grade: 52.0 < 60 (pass)", Formatter("zh", grades))
     assert text == f"得分低于最低质量等级：52.0 < 60（{shown}）"
+
+
+def test_the_reasons_of_a_block_are_punctuated_in_chinese() -> None:
+    """The zh batch pages read 'RO-3 平面 36.42 （超出限值）' and 'CP-1: 已抽为详查样本…': a
+    space before the full-width bracket, an ASCII colon after the rule."""
+    from blockqc.acceptance.model import BlockGrade, ErrorRecord
+    from blockqc.acceptance.plan import NO_CHECKPOINTS
+    from blockqc.report.acceptance import _reasons
+
+    error = ErrorRecord(
+        rule="RO-3",
+        error_class="A",
+        group={"component": "plane"},
+        value=36.42,
+        threshold=28.28,
+        reason="fails its threshold",
+    )
+    reasons = [f"CP-1: {NO_CHECKPOINTS}"]
+    line = BlockGrade(block_id="B1", sampled=True, fails=True, a_errors=[error], reasons=reasons)
+    assert _reasons(line, Formatter("zh")) == [
+        "A 类错漏：RO-3 平面 36.42（超出限值）",
+        "CP-1：已抽为详查样本，但成果中没有检查点：详查不完整",
+    ]
+    assert _reasons(line, Formatter("en")) == [
+        "A-class error: RO-3 Plane 36.42 (fails its threshold)",
+        f"CP-1: {NO_CHECKPOINTS}",
+    ]

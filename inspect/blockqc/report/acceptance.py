@@ -22,6 +22,8 @@ from blockqc.results import BlockResults, RuleResult, Summary
 CLASSES = ("A", "B", "C", "D")
 #: the reason of a score that reaches no grade (acceptance.scoring), the lowest grade by its id
 _BELOW_GRADES = re.compile(r"score below the lowest grade: (\S+) < (\S+) \((.+)\)")
+#: a reason a rule gives (acceptance.evaluate: a rule's word on the sampling plan)
+_RULE_SAYS = re.compile(r"([A-Z][A-Za-z0-9]*-\d+\w*): (.+)", re.S)
 
 
 def grade_text(f: Formatter, grade: str | None, en: str = "", zh: str = "") -> str:
@@ -275,10 +277,11 @@ def _block_line(b: Any, f: Formatter) -> dict[str, Any]:
 
 def _reasons(b: Any, f: Formatter) -> list[str]:
     """Why a block fails or is incomplete, in the page's language, from the structured record."""
-    colon, (lp, rp) = ("：", "（）") if f.lang == "zh" else (": ", "()")
+    # a full-width bracket takes no space before it
+    colon, lp, rp = ("：", "（", "）") if f.lang == "zh" else (": ", " (", ")")
     out = [
         f"{f.t('a_class_error')}{colon}{x.rule}{(' ' + f.group(x.group)) if x.group else ''} "
-        f"{f.num(x.value)} {lp}{_why(x, f)}{rp}"
+        f"{f.num(x.value)}{lp}{_why(x, f)}{rp}"
         for x in b.a_errors
     ]
     out += [
@@ -307,6 +310,8 @@ def reason_text(reason: str, f: Formatter) -> str:
         return f.t("qe_below_grades", score=score, min=least, grade=grade_text(f, grade))
     if (sentence := f.sentence(reason)) != reason:  # why a rule is not judged or not scored
         return sentence
+    if ruled := _RULE_SAYS.fullmatch(reason):  # "CP-1: sampled …, but …": the plan's word
+        return f"{ruled[1]}：{f.text(ruled[2])}"
     for en, key in (
         ("A-class error", "a_class_error"),
         ("(fails its threshold)", "err_fails_p"),
