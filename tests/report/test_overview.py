@@ -30,3 +30,27 @@ def test_the_outline_is_the_union_of_the_footprints_each_counted_once() -> None:
 
 def test_no_footprint_gives_no_outline() -> None:
     assert block_extent([{"footprint_wkt": None}, {}]) is None
+
+
+def test_the_overview_legend_names_the_verdicts_drawn() -> None:
+    """A batch whose only red block is in error (a rule could not be judged) was keyed FAIL;
+    the legend names the verdicts shown: ERROR for it, FAIL only beside a failing block."""
+    from types import SimpleNamespace
+
+    from blockqc.report.overview import overview_map
+
+    def block(bid: str, verdict: str, wkt: str) -> SimpleNamespace:
+        return SimpleNamespace(block_id=bid, verdict=verdict, extent_wkt=wkt)
+
+    def legend(blocks: list) -> list[str]:
+        svg = overview_map(blocks, lambda key, **kw: key, "o")
+        return [k for k in ("verdict_pass", "verdict_fail", "verdict_error") if f">{k}<" in svg]
+
+    assert legend([block("A", "pass", SQUARE_A), block("B", "error", FAR)]) == [
+        "verdict_pass",
+        "verdict_error",
+    ]
+    assert legend([block("A", "fail", SQUARE_A), block("B", "error", FAR)]) == [
+        "verdict_fail",
+        "verdict_error",
+    ]

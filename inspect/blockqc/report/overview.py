@@ -42,9 +42,9 @@ def overview_map(blocks: list[Any], t: Callable[..., str], name: str) -> str | N
         ids = np.array([b.block_id for b in blocks], dtype=object)
         plot.add(plots.ring_labels(rings, ids, plots.MAX_FOOTPRINT_LABELS), z=4)
     present = set(verdict.tolist())
-    plot.legend += [
+    plot.legend += [  # an error (a rule not judged) red as a failure, and named so
         svgplot.LegendEntry(t(f"verdict_{k}"), plots.STATUS_COLOURS[k], alpha=0.6)
-        for k in ("pass", "fail")
-        if k in present or (k == "fail" and "error" in present)
+        for k in ("pass", "fail", "error")
+        if k in present
     ]
     return plot.svg(name)
