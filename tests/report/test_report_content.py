@@ -392,3 +392,29 @@ def test_a_value_just_past_its_threshold_does_not_read_as_the_threshold(tmp_path
     assert len(rows) >= 3  # failed items on page 1, the rule tables, the failure itself
     for row in rows:
         assert f"0.1004 {unit}" in row and f"0.100 {unit}" not in row
+
+
+def _near(value: float, threshold: float, comparison: str) -> RuleResult:
+    return RuleResult(
+        rule="RO-4", title="x", clause="§RO-3", status="pass", value=value,
+        threshold=threshold, comparison=comparison, unit="m",
+    )  # fmt: skip
+
+
+def test_a_value_beside_a_bound_of_more_decimals_compares_with_it_as_shown():
+    """RO-4's plane bound √2·10 m = 14.14214 m and RO-3's height bound 2√2·6 m = 16.97056 m are
+    shown to two decimals: an RMS of 14.1425 m (fail) read '14.14 m, ≤ 14.14 m' and a single
+    16.9702 m (pass) '16.97 m, < 16.97 m'. Value and bound now take the decimals that set them
+    apart, in the order they have; away from the bound both read as before."""
+    f = Formatter("en")
+    root2 = 2**0.5
+    over = _near(14.1425, root2 * 10, "<=")  # 14.1425 > 14.14214: fails
+    assert (f.value(over), f.threshold(over)) == ("14.143 m", "≤ 14.142 m")
+    under = _near(16.9702, 2 * root2 * 6, "<")  # 16.9702 < 16.97056: passes
+    assert (f.value(under), f.threshold(under)) == ("16.970 m", "< 16.971 m")
+    on = _near(2 * root2 * 10, 2 * root2 * 10, "<")  # on the strict bound: fails, reads equal
+    assert (f.value(on), f.threshold(on)) == ("28.28 m", "< 28.28 m")
+    far = _near(11.59, root2 * 10, "<=")
+    assert (f.value(far), f.threshold(far)) == ("11.59 m", "≤ 14.14 m")
+    third = _near(0.3332, 1 / 3, "<=")  # 0.333 against 0.33 read as above a bound it is under
+    assert (f.value(third), f.threshold(third)) == ("0.3332 m", "≤ 0.3333 m")

@@ -37,11 +37,17 @@ def number(v: Any, digits: int | None = None) -> str:
     return f"{v:.{d}f}"
 
 
-def bound(v: Any) -> str:
-    """A threshold as the specification writes it: 0.5, 2.6, 28.28 (two decimals at most)."""
+def bound(v: Any, digits: int = 2) -> str:
+    """A threshold as the specification writes it: 0.5, 2.6, 28.28 (two decimals at most, or
+    the `digits` a value beside it needs to compare with it as it does: `_apart`)."""
     if isinstance(v, float) and math.isfinite(v):
-        return f"{v:.2f}".rstrip("0").rstrip(".")
+        text = f"{v:.{digits}f}" if digits <= MAX_DECIMALS else f"{v:.12g}"
+        return text.rstrip("0").rstrip(".") if "." in text and "e" not in text else text
     return number(v)
+
+
+#: decimals a value and its bounds are shown with at most; beyond, 12 significant digits
+MAX_DECIMALS = 6
 
 
 #: fixed English phrases of results.json (the contract's text) and their catalogue keys, the
@@ -261,16 +267,26 @@ def _bounds(threshold: Any) -> list[float]:
     return [float(b) for b in values if isinstance(b, int | float) and not isinstance(b, bool)]
 
 
-def _apart(v: float, text: str, bounds: list[float]) -> str:
-    """`text` (v shown) with more decimals while it reads as a bound v is not: a failing 0.1004
-    against ≤ 0.1 shows 0.1004, not 0.100; beyond 6 decimals, to 12 significant digits."""
-    digits = 3 if abs(v) < 1 else 2
-    while any(v != b and _reads(text) == b for b in bounds):
-        digits += 1
-        text = f"{v:.{digits}f}" if digits <= 6 else f"{v:.12g}"
-        if digits > 6:
+def _apart(v: float, text: str, bounds: list[float]) -> tuple[str, int]:
+    """`text` (v shown) and the decimals of its bounds (`bound`), both with more decimals while
+    they do not compare as v and the bounds do: a failing 0.1004 against ≤ 0.1 shows 0.1004, not
+    0.100; a failing 14.1425 against ≤ √2·10 = 14.14214 shows 14.143 against ≤ 14.142, not 14.14
+    against ≤ 14.14; beyond 6 decimals, to 12 significant digits."""
+    digits, shown = 3 if abs(v) < 1 else 2, 2
+    while not all(_same_order(v, b, text, bound(b, shown)) for b in bounds):
+        if digits > MAX_DECIMALS:
             break
-    return text
+        digits = shown = max(digits, shown) + 1
+        text = f"{v:.{digits}f}" if digits <= MAX_DECIMALS else f"{v:.12g}"
+    return text, shown
+
+
+def _same_order(v: float, b: float, text: str, shown: str) -> bool:
+    """Whether the texts of v and of its bound b read as v and b compare (below, equal, above)."""
+    a, c = _reads(text), _reads(shown)
+    if a is None or c is None:
+        return True
+    return (a > c) - (a < c) == (v > b) - (v < b)
 
 
 def _reads(text: str) -> float | None:
@@ -321,7 +337,7 @@ class Formatter:
             return self._key("val", res.value, self._key("status", res.value, res.value))
         text = self.num(res.value)
         if isinstance(res.value, float):
-            text = _apart(res.value, text, _bounds(res.threshold))
+            text = _apart(res.value, text, _bounds(res.threshold))[0]
         unit = self.unit(res.unit)
         return f"{text} {unit}".strip() if unit and not isinstance(res.value, str) else text
 
@@ -329,11 +345,15 @@ class Formatter:
         comp, th = res.comparison, res.threshold
         if comp is None or th is None:
             return res.threshold_text or MISSING
+        digits = 2  # more when the value beside it needs them to read apart (`_apart`)
+        if isinstance(res.value, float):
+            digits = _apart(res.value, self.num(res.value), _bounds(th))[1]
         if comp in SYMBOLS:
-            text = f"{SYMBOLS[comp]} {self.num(th) if isinstance(th, bool) else bound(th)}"
+            shown = self.num(th) if isinstance(th, bool) else bound(th, digits)
+            text = f"{SYMBOLS[comp]} {shown}"
         elif comp in ("between", "strictly_between") and isinstance(th, list) and len(th) == 2:
             dots = "…" if comp == "between" else "<…<"  # as the pack's threshold_text
-            text = f"{bound(th[0])} {dots} {bound(th[1])}"
+            text = f"{bound(th[0], digits)} {dots} {bound(th[1], digits)}"
         elif comp == "in":
             names = th if isinstance(th, list) else [th]
             text = "∈ {" + ", ".join(self._key("val", v, self.num(v)) for v in names) + "}"
