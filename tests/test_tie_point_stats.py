@@ -284,3 +284,35 @@ def test_cells_per_scene_as_counted_row_by_row(ids, positions, k, categorical, c
             cells[s].append((i, j))
     assert got["n_points"].tolist() == [len(cells[s]) for s in scenes["scene_id"]]
     assert got["cells_covered"].tolist() == [len(set(cells[s])) for s in scenes["scene_id"]]
+
+
+def test_the_counts_beside_the_block_statistics_are_whole_numbers(tmp_path) -> None:
+    """TP-1 and TP-3 give the block's counts beside their statistic; they were written as
+    floats (n 1378.0, n_points 606.0, n_in_interval 3.0), each now the whole number counted
+    here with the csv module over the sample block's PAN observations."""
+    import csv
+    import json
+    import math
+    from pathlib import Path
+
+    from casekit import run_blockqc
+
+    block = Path(__file__).parents[1] / "samples" / "batch" / "F1-B01"
+    with (block / "scenes.csv").open(newline="", encoding="utf-8") as fh:
+        pan = {r["scene_id"] for r in csv.DictReader(fh) if r["band"] == "pan"}
+    with (block / "tie_points.csv").open(newline="", encoding="utf-8") as fh:
+        rows = [r for r in csv.DictReader(fh) if r["scene_id"] in pan]
+    errors = [math.hypot(float(r["v_line"]), float(r["v_sample"])) for r in rows]
+    expected = {
+        "n": len(rows),
+        "n_points": len({r["point_id"] for r in rows}),
+        "n_in_interval": sum(1.0 < e <= 1.5 for e in errors),
+        "n_other_bands": 0,
+    }
+    out = tmp_path / "out"
+    proc = run_blockqc("inspect", block, "--out", out, "--pdf", "none")
+    assert proc.returncode in (0, 1), proc.stderr
+    results = json.loads((out / "F1-B01" / "results.json").read_text(encoding="utf-8"))
+    for res in (r for r in results["results"] if r["rule"] in ("TP-1", "TP-3")):
+        counts = {k: res["detail"][k] for k in expected}
+        assert counts == expected and all(type(v) is int for v in counts.values()), res["rule"]

@@ -390,7 +390,9 @@ class Judge:
         r = self.rule
         out = []
         ok_all = passes(sub[r.statistic], self.th, self.lo, self.hi)
-        for (_, row), ok in zip(sub.iterrows(), ok_all, strict=True):  # one row per group
+        # one row per group, each value of its column's type (iterrows made a block table's
+        # counts floats: TP-1's n 1378.0 beside its median)
+        for row, ok in zip(records(sub), ok_all, strict=True):
             detail = {k: v for k, v in row.items() if k not in group and k != r.statistic}
             detail.update(self._waiver_note())
             status = "pass" if ok else _severity_status(r)
