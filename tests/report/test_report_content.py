@@ -418,3 +418,32 @@ def test_a_value_beside_a_bound_of_more_decimals_compares_with_it_as_shown():
     assert (f.value(far), f.threshold(far)) == ("11.59 m", "≤ 14.14 m")
     third = _near(0.3332, 1 / 3, "<=")  # 0.333 against 0.33 read as above a bound it is under
     assert (f.value(third), f.threshold(third)) == ("0.3332 m", "≤ 0.3333 m")
+
+
+@pytest.mark.parametrize("lang", ["en", "zh"])
+@pytest.mark.parametrize("statistic", ["median", "rms"])
+def test_the_other_tie_point_statistic_is_shown_beside_the_one_judged(tmp_path, lang, statistic):
+    """§TP-1: the stock TP-1 judges the median of the tie-point errors and the RMS (中误差) is
+    always reported beside it; results.json kept it in TP-1's detail, but no page showed it.
+    Under TP-1's title, in every table of results, the other statistic now reads as the detail
+    gives it (median 0.332 px judged: RMS 0.412 px; a pack judging the RMS: median 0.332 px)."""
+    from report_helpers import make_results
+
+    results = make_results()
+    tp1 = next(r for r in results["results"] if r["rule"] == "TP-1")
+    other = "rms" if statistic == "median" else "median"
+    tp1.update(
+        statistic=statistic, measurement="tie_point_errors",
+        value={"median": 0.332, "rms": 0.412}[statistic],
+        detail={"n": 1378, other: {"median": 0.332, "rms": 0.412}[other]},
+    )  # fmt: skip
+    write_block_report(tmp_path / "T-B01", results, lang=lang, pdf=False)
+    page = (tmp_path / "T-B01" / "report.html").read_text()
+    beside = {
+        ("en", "rms"): "RMS (medium error) 0.412 px",
+        ("zh", "rms"): "中误差（均方根）0.412 像素",
+        ("en", "median"): "Median 0.332 px",
+        ("zh", "median"): "中位数 0.332 像素",
+    }[lang, other]
+    rows = re.findall(r'<tr><td class="id">TP-1</td><td>.*?</tr>', page, re.S)  # with title
+    assert rows and all(beside in row for row in rows)

@@ -69,7 +69,22 @@ def _notes(res: RuleResult, f: Formatter) -> list[str]:
     used_mean = detail.get("used_mean") or detail.get("statistic") == "mean"
     if used_mean and res.statistic in MEDIUM_ERROR_STATISTICS:
         notes.append(f.t("used_mean_note"))
-    return notes
+    return notes + _beside(res, f)
+
+
+#: of the tie-point errors over the block, the statistic shown beside the one a rule judges
+#: (§TP-1: the median judged, the RMS — 中误差 — always reported beside it; or the reverse)
+TIE_POINT_BESIDE = {"median": ("rms", "tp_rms_beside"), "rms": ("median", "tp_median_beside")}
+
+
+def _beside(res: RuleResult, f: Formatter) -> list[str]:
+    """The other tie-point error statistic of the block, under a rule judging one of them."""
+    other, key = TIE_POINT_BESIDE.get(res.statistic or "", ("", ""))
+    value = res.detail.get(other)
+    number = isinstance(value, int | float) and not isinstance(value, bool)
+    if (res.measurement or "").split("#")[0] != "tie_point_errors" or not number:
+        return []
+    return [f.t(key, value=f.num(value), unit=f.unit(res.unit))]
 
 
 def _status_text(res: RuleResult, f: Formatter) -> str:

@@ -209,6 +209,8 @@ MESSAGES: dict[str, tuple[str, str]] = {
         "Fewer than 20 checkpoints: the mean error replaces the medium error (§CP-7).",
         "检查点少于 20 个：以平均误差代替中误差（§CP-7）。",
     ),
+    "tp_rms_beside": ("RMS (medium error) {value} {unit}", "中误差（均方根）{value} {unit}"),
+    "tp_median_beside": ("Median {value} {unit}", "中位数 {value} {unit}"),
     "checkpoint_list": ("Checkpoints", "检查点明细"),
     "point_id": ("Point", "点号"),
     "reference_id": ("Reference", "参考数据"),
