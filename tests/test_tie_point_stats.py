@@ -316,3 +316,36 @@ def test_the_counts_beside_the_block_statistics_are_whole_numbers(tmp_path) -> N
     for res in (r for r in results["results"] if r["rule"] in ("TP-1", "TP-3")):
         counts = {k: res["detail"][k] for k in expected}
         assert counts == expected and all(type(v) is int for v in counts.values()), res["rule"]
+
+
+def test_a_failing_scenes_map_points_spread_over_it_as_its_tie_points_do(tmp_path) -> None:
+    """The map of a scene failing TP-5 keeps at most 2000 of its points: its first 2000 rows
+    were kept, so a table written in the order of line showed the top of the scene alone (3
+    of 9 cells holding points, of a scene whose tie points are in 8). The points kept are
+    now spread over the table's rows: they hold the same 8 cells, counted here with numpy."""
+    import pandas as pd
+
+    from blockqc.delivery import load_delivery
+    from blockqc.metrics.tiepoints import DistributionParams, tie_point_distribution
+    from casekit import write_delivery
+
+    block = write_delivery(tmp_path / "block")
+    tp = pd.read_csv(block / "tie_points.csv", dtype={"point_id": str})
+    rng = np.random.default_rng(11)
+    line, sample = rng.uniform(0, 1000, 6000), rng.uniform(0, 1000, 6000)
+    keep = ~((line >= 2000 / 3) & (sample >= 2000 / 3))  # the lower right of 3×3 cells: none
+    order = np.argsort(line[keep])  # in the order of line
+    line, sample = line[keep][order], sample[keep][order]
+    s1 = pd.DataFrame({"point_id": [f"Q{i}" for i in range(line.size)], "scene_id": "S1",
+                       "line": line, "sample": sample, "v_line": 0.1, "v_sample": 0.1})  # fmt: skip
+    pd.concat([tp[tp["scene_id"] != "S1"], s1]).to_csv(block / "tie_points.csv", index=False)
+
+    def cells(lines, samples) -> set[tuple[int, int]]:
+        i, j = (np.floor(np.asarray(v) / 1000 * 3).astype(int).tolist() for v in (lines, samples))
+        return set(zip(i, j, strict=True))
+
+    assert len(cells(line, sample)) == 8
+    m = tie_point_distribution(load_delivery(block), DistributionParams(bands=["pan"]), None)
+    shown = m.unit_points(["S1"])["S1"]
+    assert len(shown["line"]) <= 2000
+    assert cells(shown["line"], shown["sample"]) == cells(line, sample)

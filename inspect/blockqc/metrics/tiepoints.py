@@ -543,10 +543,12 @@ def tie_point_distribution(d: Delivery, p: DistributionParams, measure: Measure)
     out = out.drop(columns=["lines", "samples"])
 
     def scene_points(scene_ids: list[str], cap: int = 2000) -> dict:
-        """Tie-point positions of the scenes named (at most `cap` each), for maps."""
+        """Tie-point positions of the scenes named (at most `cap` each, `_spread`), for maps."""
         on = scene_positions(tp["scene_id"], pd.Index(scene_ids)) >= 0
         sub = tp.loc[on, list(DISTRIBUTION_COLUMNS)]
-        sub = sub.groupby("scene_id", sort=False, observed=True).head(cap)
+        kept = {
+            sid: _spread(g, cap) for sid, g in sub.groupby("scene_id", sort=False, observed=True)
+        }
         return {
             sid: {
                 "lines": int(geo.loc[sid, "lines"]),
@@ -554,7 +556,7 @@ def tie_point_distribution(d: Delivery, p: DistributionParams, measure: Measure)
                 "line": g["line"].round(1).tolist(),
                 "sample": g["sample"].round(1).tolist(),
             }
-            for sid, g in sub.groupby("scene_id", sort=False, observed=True)
+            for sid, g in kept.items()
         }
 
     return Measurement(
@@ -566,6 +568,13 @@ def tie_point_distribution(d: Delivery, p: DistributionParams, measure: Measure)
         },
         unit_points=scene_points,
     )
+
+
+def _spread(rows: pd.DataFrame, cap: int) -> pd.DataFrame:
+    """At most `cap` of a scene's rows for its map: every ⌈n / cap⌉-th of its n, in the table's
+    order, so that they spread over the scene as all do (its first `cap` rows, of a table in
+    the order of line, lay in the top of the scene alone, its other cells drawn empty)."""
+    return rows.iloc[:: max(1, -(-len(rows) // cap))]
 
 
 def _with_clark_evans(d: Delivery, p: DistributionParams, base: Measurement) -> Measurement:
