@@ -129,6 +129,19 @@ def test_a_crashing_block_is_recorded_and_the_others_go_on(small_batch, tmp_path
     assert (tmp_path / "out" / "F4-B02" / "report.html").is_file()
 
 
+def test_the_console_says_how_many_of_the_failing_blocks_are_in_error(small_batch, tmp_path):
+    """A block in error (RO-1 cannot be judged: block.yaml gives no MS GSD) is counted among
+    those that fail; the last line read '3 blocks: 1 pass, 2 fail, 0 unreadable' beside one
+    FAIL and one ERROR line. It now says which share is in error."""
+    manifest = small_batch / "F1-B02" / "block.yaml"
+    manifest.write_text(manifest.read_text(encoding="utf-8").replace("  ms: 2.6\n", ""), "utf-8")
+    proc = run_blockqc("inspect", small_batch, "--out", tmp_path / "out", "--pdf", "none")
+    assert proc.returncode == 2, proc.stderr
+    assert "F1-B02       ERROR" in proc.stdout and "F3-B02       FAIL" in proc.stdout
+    said = "3 blocks: 1 pass, 2 fail (of which 1 ERROR: a rule could not be judged), 0 unreadable"
+    assert said in proc.stdout
+
+
 def test_an_unreadable_delivery_says_nothing_was_written(tmp_path: Path):
     bad = tmp_path / "bad"
     shutil.copytree(SAMPLES / "batch" / "F1-B02", bad)

@@ -560,9 +560,10 @@ def _closing_lines(outcomes, summary, out: Path) -> None:
     if summary is not None:
         _warn_other_blocks(out, {b.block_id for b in summary.blocks})
         c = summary.counts
+        error = f" (of which {c.error} ERROR: a rule could not be judged)" if c.error else ""
         echo(
-            f"{c.blocks} block{'' if c.blocks == 1 else 's'}: {c.pass_} pass, {c.fail} fail, "
-            f"{c.unreadable} unreadable — {out / 'summary.html'}"
+            f"{c.blocks} block{'' if c.blocks == 1 else 's'}: {c.pass_} pass, {c.fail} fail"
+            f"{error}, {c.unreadable} unreadable — {out / 'summary.html'}"
         )
     elif all(o.entry is None for o in outcomes):
         echo("nothing was written: the delivery could not be inspected", err=True)

@@ -6,6 +6,7 @@ import csv
 import io
 import re
 import string
+from html import unescape
 from pathlib import Path
 
 import pytest
@@ -447,3 +448,26 @@ def test_the_other_tie_point_statistic_is_shown_beside_the_one_judged(tmp_path, 
     }[lang, other]
     rows = re.findall(r'<tr><td class="id">TP-1</td><td>.*?</tr>', page, re.S)  # with title
     assert rows and all(beside in row for row in rows)
+
+
+@pytest.mark.parametrize("lang", ["en", "zh"])
+def test_the_summary_says_how_many_of_the_failing_blocks_are_in_error(tmp_path, lang):
+    """summary.json counts a block in error (a rule it could not judge) among those that fail;
+    its page read '3 blocks: 1 pass, 2 fail, 0 unreadable' beside a table of one FAIL and one
+    ERROR block. It now says that one of the two is in error, and nothing more when none is."""
+    entries = [
+        summary_entry("T-B01", "pass"),
+        summary_entry("T-B02", "fail", failed_rules=["TP-4"]),
+        summary_entry("T-B03", "error", failed_rules=["RO-1"]),
+    ]
+    summary = make_summary(entries)
+    summary["counts"]["error"] = 1
+    page = write_summary_report(tmp_path / "one", summary, lang=lang, pdf=False)[0].read_text()
+    said = {
+        "en": "3 blocks: 1 pass, 2 fail (of which 1 ERROR: a rule could not be judged), "
+        "0 unreadable",
+        "zh": "区域网 3 个：合格 1，不合格 2（其中“错误”1 个：有规则无法判定），无法读取 0",
+    }[lang]
+    assert said in unescape(page)
+    none = write_summary_report(tmp_path / "none", make_summary(entries[:2]), lang=lang, pdf=False)
+    assert {"en": "ERROR: a rule", "zh": "有规则无法判定"}[lang] not in none[0].read_text()

@@ -463,11 +463,12 @@ def summary_context(
         "verdict_text": f.verdict(summary.verdict),
         "inspector": summary.inspector or t("not_given"),
         "date": local_time(summary.generated_at),
-        "counts_text": t(
-            "batch_counts",
+        "counts_text": t(  # the blocks in error are among those that fail: said apart
+            "batch_counts_error" if c.error else "batch_counts",
             blocks=c.blocks,
             pass_=c.pass_,
             fail=c.fail,
+            error=c.error,
             unreadable=c.unreadable,
         ),
         "blocks": [_summary_block(b, f, pdf) for b in summary.blocks],

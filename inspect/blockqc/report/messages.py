@@ -162,6 +162,12 @@ MESSAGES: dict[str, tuple[str, str]] = {
         "{blocks} blocks: {pass_} pass, {fail} fail, {unreadable} unreadable",
         "区域网 {blocks} 个：合格 {pass_}，不合格 {fail}，无法读取 {unreadable}",
     ),
+    "batch_counts_error": (
+        "{blocks} blocks: {pass_} pass, {fail} fail (of which {error} ERROR: a rule could not be "
+        "judged), {unreadable} unreadable",
+        "区域网 {blocks} 个：合格 {pass_}，不合格 {fail}（其中“错误”{error} 个：有规则无法判定），"
+        "无法读取 {unreadable}",
+    ),
     "blocks": ("Blocks", "区域网"),
     "sampled": ("Sampled", "抽样"),
     "failed_rules": ("Failed rules", "不合格规则"),
