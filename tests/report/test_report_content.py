@@ -471,3 +471,19 @@ def test_the_summary_says_how_many_of_the_failing_blocks_are_in_error(tmp_path, 
     assert said in unescape(page)
     none = write_summary_report(tmp_path / "none", make_summary(entries[:2]), lang=lang, pdf=False)
     assert {"en": "ERROR: a rule", "zh": "有规则无法判定"}[lang] not in none[0].read_text()
+
+
+def test_an_accuracy_beside_its_norm_reads_in_the_order_it_has():
+    """§QE-3's line 'm/m0 → score' showed RO-4's plane RMS of 14.1425 m, beyond its norm
+    √2·10 = 14.14214 m (an A-class error), as '14.14/14.14 → A'; both now take the decimals
+    that set them apart (14.143/14.142), and read as before away from the norm."""
+    from blockqc.acceptance.model import AccuracyRecord, ItemScore
+    from blockqc.report.acceptance import _part
+
+    def line(value: float, norm: float, score: float | None) -> str:
+        record = AccuracyRecord(rule="RO-4", value=value, norm=norm, score=score)
+        item = ItemScore(id="edge_accuracy", weight=0.2, inspected=True, accuracy=[record])
+        return _part(item, Formatter("en"), level="item")["accuracy"]
+
+    assert line(14.1425, 2**0.5 * 10, None) == "RO-4: 14.143/14.142 → A"
+    assert line(11.59, 2**0.5 * 10, 70.31) == "RO-4: 11.59/14.14 → 70.3"

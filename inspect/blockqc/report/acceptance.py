@@ -16,7 +16,7 @@ from pydantic import ValidationError
 from blockqc.acceptance.decision import unaccounted, unread_in_sample
 from blockqc.acceptance.model import BatchDecision, ErrorRecord, Evaluation, PlanNote, Sampling
 from blockqc.acceptance.sampling import sample_size, split_sizes
-from blockqc.report.format import Formatter
+from blockqc.report.format import Formatter, apart
 from blockqc.results import BlockResults, RuleResult, Summary
 
 CLASSES = ("A", "B", "C", "D")
@@ -76,7 +76,7 @@ def _part(p: Any, f: Formatter, level: str) -> dict[str, Any]:
         "deduction": f.num(getattr(p, "deduction", 0.0), 1) if level == "item" else "",
         "accuracy": "; ".join(
             f"{a.rule}{(' ' + f.group(a.group)) if a.group else ''}: "
-            f"{f.num(a.value, 2)}/{f.num(a.norm, 2)} → "
+            f"{'/'.join(apart(a.value, a.norm))} → "
             f"{f.score(a.score, 'A')}"
             for a in acc
         ),

@@ -281,6 +281,20 @@ def _apart(v: float, text: str, bounds: list[float]) -> tuple[str, int]:
     return text, shown
 
 
+def apart(v: Any, b: Any, digits: int = 2) -> tuple[str, str]:
+    """A value and the bound it is judged against side by side (an accuracy m/m0), each to
+    `digits` decimals, or to as many more as read them in the order they have: 14.1425 against
+    √2·10 = 14.14214 reads 14.143/14.142, not 14.14/14.14; to 6 decimals at most."""
+    shown = number(v, digits), number(b, digits)
+    real = all(isinstance(x, int | float) and not isinstance(x, bool) for x in (v, b))
+    if not real or not (math.isfinite(v) and math.isfinite(b)):
+        return shown
+    while digits < MAX_DECIMALS and not _same_order(v, b, *shown):
+        digits += 1
+        shown = f"{v:.{digits}f}", f"{b:.{digits}f}"
+    return shown
+
+
 def _same_order(v: float, b: float, text: str, shown: str) -> bool:
     """Whether the texts of v and of its bound b read as v and b compare (below, equal, above)."""
     a, c = _reads(text), _reads(shown)
