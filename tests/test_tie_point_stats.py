@@ -349,3 +349,38 @@ def test_a_failing_scenes_map_points_spread_over_it_as_its_tie_points_do(tmp_pat
     shown = m.unit_points(["S1"])["S1"]
     assert len(shown["line"]) <= 2000
     assert cells(shown["line"], shown["sample"]) == cells(line, sample)
+
+
+def test_a_scene_without_tie_points_is_no_evidence_of_the_block_errors(tmp_path) -> None:
+    """TP-1 and TP-3 judge the block and list the scenes beyond the threshold; a scene holding
+    no tie point (no median, no share) was listed among them, so that a mostly-sea scene
+    exempt from TP-4 was drawn failing on the report's map. The evidence is now the scenes
+    whose own figure is beyond it, found here with pandas: the three land scenes, not S4."""
+    import json
+
+    import pandas as pd
+
+    from blockqc.report.figures import scene_statuses
+    from blockqc.results import BlockResults
+    from casekit import run_blockqc, write_delivery
+
+    block = write_delivery(tmp_path / "block")
+    tp = pd.read_csv(block / "tie_points.csv", dtype={"point_id": str})
+    tp[["v_line", "v_sample"]] *= 4  # each error 1.2 px: TP-1 (≤ 0.5 px) and TP-3 fail
+    tp = tp[tp["scene_id"] != "S4"]
+    tp.to_csv(block / "tie_points.csv", index=False)
+    scenes = pd.read_csv(block / "scenes.csv")
+    scenes["water_fraction"] = np.where(scenes["scene_id"] == "S4", 0.9, 0.0)
+    scenes.to_csv(block / "scenes.csv", index=False)
+
+    errors = np.hypot(tp["v_line"], tp["v_sample"]).groupby(tp["scene_id"])
+    share = errors.apply(lambda e: ((e > 1.0) & (e <= 1.5)).mean())
+    beyond = {"TP-1": errors.median() > 0.5, "TP-3": share > 0.05}
+    proc = run_blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    assert proc.returncode == 1, proc.stderr
+    doc = json.loads((tmp_path / "out" / "CASE" / "results.json").read_text(encoding="utf-8"))
+    for res in (r for r in doc["results"] if r["rule"] in ("TP-1", "TP-3")):
+        assert res["status"] == "fail", res["rule"]
+        listed = sorted(e["scene_id"] for e in res["evidence"])
+        assert listed == sorted(beyond[res["rule"]][beyond[res["rule"]]].index), res["rule"]
+    assert scene_statuses(BlockResults.model_validate(doc))["S4"] == "exempt"

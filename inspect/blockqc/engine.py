@@ -418,8 +418,10 @@ class Judge:
         df = _filter(table.complete(df, where), where)
         if "exempt" in df.columns:
             df = df[~df["exempt"].to_numpy(dtype=bool)]
-        if r.statistic in df.columns:
-            df = df[~passes(df[r.statistic], self.th, self.lo, self.hi)]
+        if r.statistic in df.columns:  # the units beyond the threshold; not those without a
+            # value (a scene holding no tie point has no median: no part in the block's figure)
+            values = df[r.statistic]
+            df = df[~passes(values, self.th, self.lo, self.hi) & values.notna().to_numpy()]
         df = _order(df, r.statistic, table.sort, self.lo, self.hi)
         more = max(0, len(df) - r.evidence_limit)
         return records(table.complete(df.head(r.evidence_limit))), more
