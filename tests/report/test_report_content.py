@@ -419,6 +419,8 @@ def test_a_value_beside_a_bound_of_more_decimals_compares_with_it_as_shown():
     assert (f.value(far), f.threshold(far)) == ("11.59 m", "≤ 14.14 m")
     third = _near(0.3332, 1 / 3, "<=")  # 0.333 against 0.33 read as above a bound it is under
     assert (f.value(third), f.threshold(third)) == ("0.3332 m", "≤ 0.3333 m")
+    on = _near(root2 * 10 * (1 + 5e-10), root2 * 10, "<=")  # judged on the bound: reads so
+    assert (f.value(on), f.threshold(on)) == ("14.14 m", "≤ 14.14 m")
 
 
 @pytest.mark.parametrize("lang", ["en", "zh"])

@@ -12,6 +12,7 @@ import numpy as np
 
 from blockqc.report.messages import MESSAGES, translator
 from blockqc.results import RuleResult
+from blockqc.rules.model import ON_BOUND
 
 MISSING = "–"
 
@@ -296,11 +297,13 @@ def apart(v: Any, b: Any, digits: int = 2) -> tuple[str, str]:
 
 
 def _same_order(v: float, b: float, text: str, shown: str) -> bool:
-    """Whether the texts of v and of its bound b read as v and b compare (below, equal, above)."""
+    """Whether the texts of v and of its bound b read as v and b compare (below, equal, above;
+    a value within ON_BOUND of the bound's magnitude is on it, as the rules judge it)."""
     a, c = _reads(text), _reads(shown)
     if a is None or c is None:
         return True
-    return (a > c) - (a < c) == (v > b) - (v < b)
+    on = abs(v - b) <= ON_BOUND * abs(b)
+    return (a > c) - (a < c) == (0 if on else (v > b) - (v < b))
 
 
 def _reads(text: str) -> float | None:
