@@ -10,7 +10,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from blockqc.metrics.checkpoints import AccuracyParams, accuracy_by_group, checkpoint_errors
+from blockqc.metrics.checkpoints import (
+    AccuracyParams,
+    accuracy_by_group,
+    checkpoint_errors,
+    method_agreement,
+)
 
 P = AccuracyParams()
 TOL = 1e-9  # far below any real difference
@@ -89,6 +94,34 @@ def test_height_error_is_signed_dz_and_judged_by_magnitude() -> None:
     assert s["n_gross"] == 1  # |−12| and 12 are on the bound 2·6 m
     assert s["max_error"] == pytest.approx(12.0)
     assert s["medium_error"] == pytest.approx(math.sqrt((144 * 2 + 20) / 22), abs=TOL)
+
+
+def test_agreement_has_no_spread_when_a_method_has_no_medium_error() -> None:
+    # §CP-8: 20 high-precision points at 25 m, all beyond 2·10 m, leave no medium error; the
+    # same-accuracy method's M2 is 3/√2 = 2.121 m. The spread between them is undefined (it
+    # read 0.00 m, as if the methods had found the same error), and they do not agree.
+    df = pd.concat(
+        [
+            frame("high_precision", [25.0] * 20, [0.0] * 20),
+            frame("same_accuracy", [3.0] * 20, [0.0] * 20),
+        ]
+    )
+    groups, _ = accuracy_by_group(checkpoint_errors(df), P)
+    (plane,) = method_agreement(groups)
+    assert plane["methods"] == ["high_precision", "same_accuracy"]
+    assert math.isnan(plane["medium_error"][0])
+    assert plane["medium_error"][1] == pytest.approx(3.0 / math.sqrt(2), abs=1e-3)
+    assert plane["spread_m"] is None and plane["agree"] is False
+    # both defined: the spread is the difference, 2.121 − 1.0 (a 1 m high-precision M1)
+    df = pd.concat(
+        [
+            frame("high_precision", [1.0] * 20, [0.0] * 20),
+            frame("same_accuracy", [3.0] * 20, [0.0] * 20),
+        ]
+    )
+    (plane,) = method_agreement(accuracy_by_group(checkpoint_errors(df), P)[0])
+    assert plane["spread_m"] == pytest.approx(3.0 / math.sqrt(2) - 1.0, abs=1e-3)
+    assert plane["agree"] is True
 
 
 def test_plane_only_reference_gives_no_height_rows() -> None:

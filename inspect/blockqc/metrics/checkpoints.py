@@ -145,18 +145,21 @@ def accuracy_by_group(points: pd.DataFrame, p: AccuracyParams) -> tuple[pd.DataF
 
 
 def method_agreement(groups: pd.DataFrame) -> list[dict]:
-    """Where two methods check the same component, whether their medium errors agree (§CP-8)."""
+    """Where two methods check the same component, whether their medium errors agree (§CP-8).
+    The spread is None when a method has no medium error (every checkpoint a gross error)."""
     out = []
     for component, g in groups.groupby("component", sort=False):
         if len(g) < 2:
             continue
-        within = (g["medium_error"] <= g["norm_m"]).tolist()
+        errors = g["medium_error"]
+        within = (errors <= g["norm_m"]).tolist()
+        spread = float(errors.max() - errors.min()) if errors.notna().all() else None
         out.append(
             {
                 "component": component,
                 "methods": g["method"].tolist(),
-                "medium_error": [round(float(v), 3) for v in g["medium_error"]],
-                "spread_m": round(float(g["medium_error"].max() - g["medium_error"].min()), 3),
+                "medium_error": [round(float(v), 3) for v in errors],
+                "spread_m": None if spread is None else round(spread, 3),
                 "agree": len(set(within)) == 1,
             }
         )
