@@ -328,6 +328,7 @@ def test_medium_error_note_only_on_medium_error_rules():
     for r in doc["results"]:
         if r["rule"] in ("CP-2", "CP-4"):
             r["detail"]["used_mean"] = True
+            r["detail"]["min_points_for_medium_error"] = 20
             r["statistic"] = "medium_error" if r["rule"] == "CP-2" else "gross_rate"
     ctx = block_context(doc, figures=False)
     note = "Fewer than 20 checkpoints"

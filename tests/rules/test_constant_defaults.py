@@ -100,3 +100,21 @@ def test_a_pack_of_its_own_uses_its_norm_through_the_default(tmp_path: Path) -> 
     )
     messages = lint_messages(path)
     assert not [m for m in messages if "used by no rule" in m], messages
+
+
+def test_the_report_names_the_project_count_below_which_the_mean_is_used(tmp_path: Path) -> None:
+    """cp.min_points 30, 27 checkpoints: the report's §CP-7 note reads 'fewer than 30', the
+    count that put the mean in place of M1 (it read 'fewer than 20', the stock count, which 27
+    checkpoints are not), in the result and under the checkpoint table, in both languages."""
+    from blockqc.report.build import block_context
+
+    pack = load_pack(
+        extension_pack(tmp_path, "constants:\n  cp: {min_points: 30}\nrules:\n" + RULE)
+    )
+    results = inspect_delivery(load_delivery(write_delivery(tmp_path / "delivery")), pack)
+    for lang, note in (("en", "Fewer than 30 checkpoints"), ("zh", "检查点少于 30 个")):
+        ctx = block_context(results, lang=lang, figures=False)
+        notes = [n for row in ctx["detailed"] if row["rule"] == "CP-2" for n in row["notes"]]
+        assert any(note in n for n in notes) and not any("20" in n for n in notes)
+        (plane,) = [tb for tb in ctx["cp_tables"] if tb["key"] == "plane"]
+        assert plane["any_mean"] and note in plane["mean_note"]

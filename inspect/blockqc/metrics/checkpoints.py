@@ -117,6 +117,7 @@ def accuracy_by_group(points: pd.DataFrame, p: AccuracyParams) -> tuple[pd.DataF
     out["gross_rate"] = 100.0 * out["n_gross"] / out["n_total"]
     counted = out["n_total"] if p.count_for_mean == "all" else out["n"]
     out["used_mean"] = counted < p.min_points_for_medium_error
+    out["min_points_for_medium_error"] = p.min_points_for_medium_error
     n = out["n"].where(out["n"] > 0)
     medium = np.sqrt(out["sum_sq"] / (out["divisor"] * n))
     mean = out["sum_abs"] / n / np.sqrt(out["divisor"])
@@ -137,6 +138,7 @@ def accuracy_by_group(points: pd.DataFrame, p: AccuracyParams) -> tuple[pd.DataF
         "medium_error",
         "statistic",
         "used_mean",
+        "min_points_for_medium_error",
         "max_error",
         "norm_m",
         "bound_m",
@@ -185,7 +187,7 @@ _GROUPS = {"component": ("plane", "height"), "method": METHODS}
                 "n_total": "points",
             },
             groups=_GROUPS,
-            columns=("statistic", "used_mean", "norm_m", "bound_m"),
+            columns=("statistic", "used_mean", "min_points_for_medium_error", "norm_m", "bound_m"),
             values={"statistic": ("M1", "M2", "M", "mean")},
             apart=("component",),
         ),

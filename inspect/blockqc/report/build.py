@@ -68,7 +68,7 @@ def _notes(res: RuleResult, f: Formatter) -> list[str]:
         notes[notes.index(f.text(str(detail["note"])))] = f.t("condition") + colon + detail["note"]
     used_mean = detail.get("used_mean") or detail.get("statistic") == "mean"
     if used_mean and res.statistic in MEDIUM_ERROR_STATISTICS:
-        notes.append(f.t("used_mean_note"))
+        notes.append(_mean_note(f, [detail.get("min_points_for_medium_error")]))
     return notes + _beside(res, f)
 
 
@@ -85,6 +85,14 @@ def _beside(res: RuleResult, f: Formatter) -> list[str]:
     if (res.measurement or "").split("#")[0] != "tie_point_errors" or not number:
         return []
     return [f.t(key, value=f.num(value), unit=f.unit(res.unit))]
+
+
+def _mean_note(f: Formatter, counts: list[Any]) -> str:
+    """The §CP-7 note, naming the number of checkpoints below which the mean error replaced
+    the medium error (the pack's cp.min_points) when the results give that one number."""
+    if counts and len(set(counts)) == 1 and counts[0] is not None:
+        return f.t("used_mean_note_n", n=f.num(counts[0]))
+    return f.t("used_mean_note")
 
 
 def _status_text(res: RuleResult, f: Formatter) -> str:
@@ -210,6 +218,9 @@ def _checkpoint_tables(results: BlockResults, f: Formatter) -> list[dict[str, An
                 "rows": _cp_stat_rows(f, cols) + _axis_rows(f, cols, axes, failed),
                 "statuses": [(s["status"], f.status(s["status"])) for s in cols],
                 "any_mean": any(bool(s.get("used_mean")) for s in cols),
+                "mean_note": _mean_note(
+                    f, [s.get("min_points_for_medium_error") for s in cols if s.get("used_mean")]
+                ),
                 "agreement": [
                     _agreement(f, a) for a in agreement if a.get("component") == component
                 ],
@@ -475,6 +486,16 @@ def summary_context(
         "overview": overview_map(summary.blocks, t, "overview") if figures else None,
         "sampled": sampled,
         "any_mean": any(x["used_mean"] for x in sampled),
+        "mean_note": _mean_note(
+            f,
+            [
+                s.get("min_points_for_medium_error")
+                for b in summary.blocks
+                if b.sampled
+                for s in b.checkpoints
+                if s.get("used_mean")
+            ],
+        ),
         "rule_statuses": [f.status(s) for s in STATUSES],
         "rules": [
             {"rule": rid, "counts": [cnt.get(s, 0) for s in STATUSES]}

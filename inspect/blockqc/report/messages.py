@@ -212,8 +212,12 @@ MESSAGES: dict[str, tuple[str, str]] = {
     "disagree": ("differ", "不一致"),
     "spread": ("Spread (m)", "差值（m）"),
     "used_mean_note": (
-        "Fewer than 20 checkpoints: the mean error replaces the medium error (§CP-7).",
-        "检查点少于 20 个：以平均误差代替中误差（§CP-7）。",
+        "Too few checkpoints for the medium error: the mean error replaces it (§CP-7).",
+        "检查点数不足：以平均误差代替中误差（§CP-7）。",
+    ),
+    "used_mean_note_n": (
+        "Fewer than {n} checkpoints: the mean error replaces the medium error (§CP-7).",
+        "检查点少于 {n} 个：以平均误差代替中误差（§CP-7）。",
     ),
     "tp_rms_beside": ("RMS (medium error) {value} {unit}", "中误差（均方根）{value} {unit}"),
     "tp_median_beside": ("Median {value} {unit}", "中位数 {value} {unit}"),
