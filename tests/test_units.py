@@ -114,6 +114,20 @@ def test_datum_names() -> None:
         assert normalize_datum(name) == "WGS84"
     assert normalize_datum("CGCS2000") == "CGCS2000"
     assert normalize_height_datum("WGS84 ellipsoid") == "ellipsoidal"
+    # §MB-2's own words, and the pack's zh title (椭球高（大地高）): ellipsoidal heights, not a
+    # failure of MB-2 as an unknown height datum
+    for name in (
+        "geodetic height",
+        "ellipsoid height",
+        "WGS84 ellipsoidal height",
+        "WGS 84 geodetic heights",
+        "大地高",
+        "椭球高",
+        "WGS-84 大地高",
+    ):
+        assert normalize_height_datum(name) == "ellipsoidal", name
+    for name in ("CGCS2000 ellipsoidal height", "EGM96 height", "正常高", "orthometric height"):
+        assert normalize_height_datum(name) != "ellipsoidal", name
     assert normalize_height_datum("egm2008") == "EGM2008"
 
 

@@ -14,16 +14,18 @@ from blockqc.metrics import Measure, Measurement, Scope, Table, metric
 from blockqc.rfm.model import lon_extent
 
 _WGS84 = {"WGS84", "WGS1984", "EPSG4326", "WORLDGEODETICSYSTEM1984", "G1762", "ITRF-WGS84"}
+#: names of heights above the WGS-84 ellipsoid (§MB-2 calls them geodetic (ellipsoidal)
+#: heights; 大地高 and 椭球高 in Chinese), written alone, after 'WGS 84' and before 'height(s)'
 _ELLIPSOIDAL = {
-    "ELLIPSOIDAL",
-    "ELLIPSOID",
-    "WGS84ELLIPSOID",
-    "WGS84ELLIPSOIDAL",
-    "GEODETIC",
-    "ELLIPSOIDALHEIGHT",
-    "ELLIPSOIDALHEIGHTS",
-    "EPSG4979",
+    f"{datum}{name}{height}"
+    for datum in ("", "WGS84", "WGS1984")
+    for name in ("ELLIPSOIDAL", "ELLIPSOID", "GEODETIC")
+    for height in ("", "HEIGHT", "HEIGHTS")
 }
+_ELLIPSOIDAL |= {
+    f"{datum}{name}" for datum in ("", "WGS84", "WGS1984") for name in ("大地高", "椭球高")
+}
+_ELLIPSOIDAL |= {"EPSG4979"}
 
 
 class SpatialParams(BaseModel):
