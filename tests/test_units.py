@@ -45,6 +45,29 @@ def test_expected_epsg_north_south_straddle_and_polar() -> None:
     assert expected_epsg(10.0, 20.0, 83.8, 84.0, P) == [32632, 32633, 32634]
 
 
+def test_the_projection_note_is_said_by_mb3_alone(tmp_path) -> None:
+    """§MB-3 'report it': a straddled edge, or why the projection fails, is the note of MB-3's
+    result (it was in the measurement only, so the report said nothing), and not repeated
+    under the datum rules MB-1 and MB-2; a block plainly in its zone has none to say."""
+    from blockqc.delivery import load_delivery
+    from blockqc.engine import inspect_delivery
+    from blockqc.rules import load_pack
+    from blockqc.rules.casebase import write_delivery
+
+    pack = load_pack("global-project")
+    base = write_delivery(tmp_path / "delivery")  # 116.3 E in EPSG:32650, its zone
+    got = {r.rule: r.detail for r in inspect_delivery(load_delivery(base), pack).results}
+    for rule in ("MB-1", "MB-2", "MB-3"):
+        assert "note" not in got[rule] and "projection_note" not in got[rule]
+    yaml = base / "block.yaml"
+    yaml.write_text(yaml.read_text("utf-8").replace("32650", "32651"), "utf-8")
+    got = {r.rule: r.detail for r in inspect_delivery(load_delivery(base), pack).results}
+    expected = "EPSG:32651 (UTM zone 51N) delivered, expected EPSG:32650 (UTM zone 50N)"
+    assert got["MB-3"]["note"] == expected
+    for rule in ("MB-1", "MB-2"):
+        assert "note" not in got[rule] and "projection_note" not in got[rule]
+
+
 def test_a_block_across_the_equator_may_use_either_hemisphere() -> None:
     """0.2 S…0.1 N at 36.5…37.0 E: zone 37 north or south; wholly south, 37S only."""
     assert expected_epsg(36.5, 37.0, -0.2, 0.1, P) == [32637, 32737]

@@ -223,8 +223,13 @@ def detail_keys(rule: Rule) -> tuple[str, ...]:
         return MANUAL_DETAIL
     scope = REGISTRY[rule.metric or ""].scopes[rule.scope]
     own = scope.all_columns() if not scope.keys else UNIT_DETAIL
-    own = tuple(c for c in own if c not in scope.groups and c != rule.statistic)
-    return tuple(dict.fromkeys((*own, *ANY_DETAIL, *annotated_keys(rule.metric or ""))))
+    own = tuple(
+        c
+        for c in own
+        if c not in scope.groups and c != rule.statistic and c not in scope.notes.values()
+    )
+    note = ("note",) if rule.statistic in scope.notes else ()
+    return tuple(dict.fromkeys((*own, *note, *ANY_DETAIL, *annotated_keys(rule.metric or ""))))
 
 
 class Judge:
@@ -389,11 +394,18 @@ class Judge:
         """Block- or group-level rows: one result per row, evidence from `evidence_from`."""
         r = self.rule
         out = []
+        notes = REGISTRY[r.metric or ""].scopes[r.scope].notes
         ok_all = passes(sub[r.statistic], self.th, self.lo, self.hi)
         # one row per group, each value of its column's type (iterrows made a block table's
         # counts floats: TP-1's n 1378.0 beside its median)
         for row, ok in zip(records(sub), ok_all, strict=True):
-            detail = {k: v for k, v in row.items() if k not in group and k != r.statistic}
+            detail = {
+                k: v
+                for k, v in row.items()
+                if k not in group and k != r.statistic and k not in notes.values()
+            }
+            if row.get(notes.get(r.statistic, "")):
+                detail["note"] = row[notes[r.statistic]]
             detail.update(self._waiver_note())
             status = "pass" if ok else _severity_status(r)
             if not ok and self.waiver is not None and self.rule.waivable and self.waiver.whole_rule:

@@ -90,6 +90,9 @@ class Scope:
     # statistics that may be below 0 (a signed error, a bias); every other number is never
     # negative (magnitudes, their RMS and medians, counts, shares), checked against its bounds
     signed: tuple[str, ...] = ()
+    # statistic -> the column holding what its results say beside the value (their detail's
+    # `note`); the results of the other statistics leave that column out
+    notes: Mapping[str, str] = field(default_factory=dict)
 
     def values_of(self, column: str) -> tuple[str, ...]:
         """The values a column takes, when they are fixed (a group's, a band's); else ()."""

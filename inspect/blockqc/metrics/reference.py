@@ -73,6 +73,8 @@ def _scope_md(name: str, scope: Scope) -> list[str]:
     if scope.columns:
         other = [f"`{c}`" + _values(scope.values.get(c)) for c in scope.columns]
         out.append(f"  - other columns: {', '.join(other)}")
+    for stat, col in scope.notes.items():
+        out.append(f"  - `{col}` is the `note` of the results on `{stat}` (and left out of others)")
     return out
 
 

@@ -176,7 +176,8 @@ def _projection_problem(projection: str | None, code: int | None) -> str | None:
                 "projection_ok": "true/false",
                 "epsg": "EPSG code",
             },
-            columns=("projection", "zone", "expected_epsg", "expected_zone"),
+            columns=("projection", "zone", "expected_epsg", "expected_zone", "projection_note"),
+            notes={"projection_ok": "projection_note"},
         )
     },
     param_units={"ups_north_lat": "degrees", "ups_south_lat": "degrees"},
@@ -195,6 +196,7 @@ def spatial_reference(d: Delivery, p: SpatialParams, measure: Measure) -> Measur
     plain_grid = p.model_copy(update={"grid_exceptions": False})
     plain = expected_epsg(lon_min, lon_max, lat_min, lat_max, plain_grid)
     straddles = len(plain) > 1
+    in_zone = ok and not straddles and canonical_epsg(code) in plain  # nothing more to say
     if named is not None:
         note = named
     elif code is None:
@@ -229,6 +231,8 @@ def spatial_reference(d: Delivery, p: SpatialParams, measure: Measure) -> Measur
             "zone": [zone_name(code)],
             **{k: [v] for k, v in _zones(allowed).items()},
             "projection_ok": [ok],
+            # MB-3's note when there is more to say than the zone (§MB-3 'report it')
+            "projection_note": ["" if in_zone else note],
         }
     )
     return Measurement(
