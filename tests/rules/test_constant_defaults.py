@@ -118,3 +118,27 @@ def test_the_report_names_the_project_count_below_which_the_mean_is_used(tmp_pat
         assert any(note in n for n in notes) and not any("20" in n for n in notes)
         (plane,) = [tb for tb in ctx["cp_tables"] if tb["key"] == "plane"]
         assert plane["any_mean"] and note in plane["mean_note"]
+
+
+def test_the_mean_error_is_labelled_with_its_divisor(tmp_path: Path) -> None:
+    """§CP-7: the mean error in place of M2 is divided by √2 as M2 is, and the table says so
+    beside the value (it read 'mean error' alone, which a reader takes for Σ|Δ|/n): 27
+    checkpoints of plane Δ = 5 m under cp.min_points 30 give 5 m high-precision (Σ|Δ|/n) and
+    5/√2 = 3.54 m same-accuracy (Σ|Δ|/(√2·n))."""
+    from blockqc.report.build import block_context
+
+    pack = load_pack(
+        extension_pack(tmp_path, "constants:\n  cp: {min_points: 30}\nrules:\n" + RULE)
+    )
+    base = write_delivery(tmp_path / "delivery")
+    for method, label, value in (
+        ("high_precision", "mean error = Σ|Δ|/n", "5.00"),
+        ("same_accuracy", "mean error = Σ|Δ|/(√2·n)", "3.54"),
+    ):
+        table = base / "checkpoints.csv"
+        text = table.read_text("utf-8")
+        table.write_text(text.replace("high_precision", method), "utf-8")
+        ctx = block_context(inspect_delivery(load_delivery(base), pack), figures=False)
+        (plane,) = [tb for tb in ctx["cp_tables"] if tb["key"] == "plane"]
+        rows = dict(plane["rows"])
+        assert rows["Statistic"] == [label] and rows["Medium error (m)"] == [f"* {value}"]

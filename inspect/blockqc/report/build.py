@@ -147,9 +147,13 @@ def _gross_rate(f: Formatter, s: dict[str, Any]) -> str:
     return f.num(s.get("gross_rate"), 1) + " %" if s.get("gross_rate") is not None else "–"
 
 
-def _cp_stat_rows(f: Formatter, cols: list[dict[str, Any]]) -> list[tuple[str, list[str]]]:
+def _cp_stat_rows(
+    f: Formatter, cols: list[dict[str, Any]], divisor: dict[str, Any]
+) -> list[tuple[str, list[str]]]:
     def stat(s: dict[str, Any]) -> str:
         key = f"stat_{s.get('statistic')}"
+        if s.get("statistic") == "mean":  # §CP-7: Σ|Δ|/n, or /(√2·n) where M2 is the statistic
+            key += {1: "_M1", 2: "_M2"}.get(divisor.get(s.get("method")), "")
         return f.t(key) if key in MESSAGES else f.num(s.get("statistic"))
 
     mean = [bool(s.get("used_mean")) for s in cols]
@@ -207,6 +211,7 @@ def _checkpoint_tables(results: BlockResults, f: Formatter) -> list[dict[str, An
     m = checkpoint_measurement(results)
     axes, failed = axis_statistics(results), failed_criteria(results)
     agreement = (m.detail.get("agreement") if m else None) or []
+    divisor = (m.params.get("divisor") if m else None) or {}
     tables = []
     for component in dict.fromkeys(s["component"] for s in stats):
         cols = [s for s in stats if s["component"] == component]
@@ -215,7 +220,7 @@ def _checkpoint_tables(results: BlockResults, f: Formatter) -> list[dict[str, An
                 "component": f.component(component),
                 "key": component,
                 "methods": [f.method(s["method"]) for s in cols],
-                "rows": _cp_stat_rows(f, cols) + _axis_rows(f, cols, axes, failed),
+                "rows": _cp_stat_rows(f, cols, divisor) + _axis_rows(f, cols, axes, failed),
                 "statuses": [(s["status"], f.status(s["status"])) for s in cols],
                 "any_mean": any(bool(s.get("used_mean")) for s in cols),
                 "mean_note": _mean_note(

@@ -302,6 +302,9 @@ MESSAGES: dict[str, tuple[str, str]] = {
     "component_height": ("Height", "高程"),
     "stat_M1": ("M1 = √(ΣΔ²/n)", "M1 = √(ΣΔ²/n)"),
     "stat_M2": ("M2 = √(ΣΔ²/2n)", "M2 = √(ΣΔ²/2n)"),
+    # the mean error in place of M1 or M2 (§CP-7): divided by √2 as M2 is
+    "stat_mean_M1": ("mean error = Σ|Δ|/n", "平均误差 = Σ|Δ|/n"),
+    "stat_mean_M2": ("mean error = Σ|Δ|/(√2·n)", "平均误差 = Σ|Δ|/(√2·n)"),
     "stat_mean": ("mean error", "平均误差"),
     # --- plots
     "fig_cp_errors": ("Checkpoint errors per point, {component}", "检查点误差分布（{component}）"),
