@@ -136,6 +136,18 @@ def test_datum_names() -> None:
     for name in ("WGS84", "WGS 84", "wgs-84", "EPSG:4326", "WGS_1984"):
         assert normalize_datum(name) == "WGS84"
     assert normalize_datum("CGCS2000") == "CGCS2000"
+    # §MB-1: WGS 84 with its realization, or followed by 'coordinate system' in Chinese, is
+    # WGS 84 (it failed MB-1, an A-class error, where 'G1762' alone passed)
+    for name in (
+        "WGS 84 (G1762)",
+        "WGS84 (G2139)",
+        "WGS-84 G1674",
+        "WGS-84坐标系",
+        "WGS84 大地坐标系",
+    ):
+        assert normalize_datum(name) == "WGS84", name
+    for name in ("CGCS2000 坐标系", "ITRF2014", "PZ-90 (G1762)", "Beijing 1954"):
+        assert normalize_datum(name) != "WGS84", name
     assert normalize_height_datum("WGS84 ellipsoid") == "ellipsoidal"
     # §MB-2's own words, and the pack's zh title (椭球高（大地高）): ellipsoidal heights, not a
     # failure of MB-2 as an unknown height datum

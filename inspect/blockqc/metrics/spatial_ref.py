@@ -41,11 +41,20 @@ def _key(text: str | None) -> str:
     return re.sub(r"[\s_\-:.]", "", (text or "").upper())
 
 
+#: what may follow a datum's name and leave it the same datum: a realization of WGS 84
+#: ('WGS 84 (G1762)') and the words 'coordinate system' in Chinese ('WGS-84 坐标系')
+_DATUM_SUFFIX = re.compile(r"(\(?G\d{3,4}\)?)?(大地坐标系|坐标系)?$")
+
+
 def normalize_datum(text: str | None) -> str | None:
-    """'WGS 84', 'WGS-84', 'EPSG:4326', 'WGS_1984' … → 'WGS84'; other names upper-cased."""
+    """'WGS 84', 'WGS-84', 'EPSG:4326', 'WGS_1984', 'WGS 84 (G1762)', 'WGS84 坐标系' … →
+    'WGS84'; other names upper-cased."""
     if not text:
         return None
-    return "WGS84" if _key(text) in {_key(x) for x in _WGS84} else text.strip().upper()
+    names = {_key(x) for x in _WGS84}
+    key = _key(text)
+    wgs84 = key in names or _DATUM_SUFFIX.sub("", key, count=1) in names
+    return "WGS84" if wgs84 else text.strip().upper()
 
 
 def normalize_height_datum(text: str | None) -> str | None:
