@@ -875,6 +875,34 @@ def test_checkpoints_without_heights_leave_the_height_rules_not_applicable_not_u
     assert by[("CP-4", "plane")]["status"] == "pass"
 
 
+def test_checkpoints_without_plane_references_say_why_the_plane_rules_judge_nothing(
+    blockqc, block, tmp_path
+):
+    """ref_x_m and ref_y_m empty throughout (height-only references, e.g. laser altimetry, as
+    the schema allows): CP-2 and the plane group of CP-4 say why they judge nothing, as the
+    plane-only case does for heights (they read 'nothing measured for this group')."""
+    (block / "checkpoints.parquet").unlink(missing_ok=True)
+    table = block / "checkpoints.csv"
+    lines = table.read_text(encoding="utf-8").splitlines()
+    at = [lines[0].split(",").index(c) for c in ("ref_x_m", "ref_y_m")]
+    cells = [line.split(",") for line in lines]
+    for row in cells[1:]:
+        for i in at:
+            row[i] = ""
+    table.write_text("\n".join(",".join(r) for r in cells) + "\n", encoding="utf-8")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    assert p.returncode == 0, p.stderr
+    results = json.loads((tmp_path / "out" / "F1-B01" / "results.json").read_text("utf-8"))
+    by = {(r["rule"], r["group"].get("component")): r for r in results["results"]}
+    for key in (("CP-2", "plane"), ("CP-4", "plane")):
+        assert by[key]["status"] == "not_applicable", key
+        assert by[key]["detail"]["reason"] == (
+            "ref_x_m and ref_y_m empty on all these checkpoints (height-only references), so "
+            "no plane error"
+        )
+    assert by[("CP-3", "height")]["status"] == "pass"
+
+
 def test_an_id_column_whose_header_is_padded_keeps_its_leading_zeros(blockqc, block, tmp_path):
     """' scene_id' (a space before the name, accepted as scene_id) with ids 0001…: read as text
     as under the bare name; it was type-guessed (0001 → 1) and the delivery refused."""

@@ -429,6 +429,8 @@ def test_batch_shares_are_shown_rounded_down_never_onto_a_bound_they_miss():
         "edges.csv: dz_m empty in every row, so no height discrepancies are given",
         "the discrepancies derived from the geometry are plane only (§RC-2)",
         "ref_z_m empty on all these checkpoints (plane-only references), so no height error",
+        "ref_x_m and ref_y_m empty on all these checkpoints (height-only references), so no "
+        "plane error",
         "awaiting the inspector's verdict on DOC-3",
     ],
 )
@@ -438,7 +440,7 @@ def test_not_applicable_reasons_and_notes_read_in_chinese_on_zh_pages(reason):
     zh = Formatter("zh").text(reason)
     words = re.findall(r"[A-Za-z_]{3,}", zh)
     names = {"pan_ms", "csv", "overlaps", "edges", "block", "yaml", "blockqc", "rpc", "adjustment",
-             "rpc_adjusted", "pan", "DOC", "dz_m", "ref_z_m"}  # fmt: skip
+             "rpc_adjusted", "pan", "DOC", "dz_m", "ref_z_m", "ref_x_m", "ref_y_m"}  # fmt: skip
     assert set(words) <= names, (reason, zh)
     assert Formatter("en").text(reason) == reason
 

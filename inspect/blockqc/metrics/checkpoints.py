@@ -220,13 +220,16 @@ def checkpoint_accuracy(d: Delivery, p: AccuracyParams, measure: Measure) -> Mea
     block = pd.DataFrame(
         {"n_points": [d.checkpoints["point_id"].nunique()], "n_rows": [len(d.checkpoints)]}
     )
-    # every component of every method delivered: one with no difference (ref_z_m left empty
-    # throughout) is judged not applicable, not left out unsaid
+    # every component of every method delivered: one with no difference (ref_z_m, or ref_x_m
+    # and ref_y_m, left empty throughout) is judged not applicable, saying why
     methods = d.checkpoints["method"].drop_duplicates().tolist()
     present = [{"component": c, "method": m} for m in methods for c in ("plane", "height")]
-    heights = set(points.loc[points["component"] == "height", "method"])
+    measured = points.groupby("component")["method"].unique()
     no_z = tuple(
-        ({"component": "height", "method": m}, NO_REF_Z) for m in methods if m not in heights
+        ({"component": c, "method": m}, why)
+        for c, why in (("plane", NO_REF_XY), ("height", NO_REF_Z))
+        for m in methods
+        if m not in set(measured.get(c, []))
     )
     return Measurement(
         tables={
@@ -249,6 +252,10 @@ def checkpoint_accuracy(d: Delivery, p: AccuracyParams, measure: Measure) -> Mea
 
 #: why a method's height results judge nothing: its references give plane only (a fixed phrase)
 NO_REF_Z = "ref_z_m empty on all these checkpoints (plane-only references), so no height error"
+#: why a method's plane results judge nothing: its references give heights only
+NO_REF_XY = (
+    "ref_x_m and ref_y_m empty on all these checkpoints (height-only references), so no plane error"
+)
 
 #: checkpoints may lie this far beyond the bounding box of the block's footprints in its
 #: projection (metres, or this share of the box's larger side): farther, they are in another

@@ -66,6 +66,7 @@ PHRASES = (
     "ph_no_dz_column",
     "ph_dz_empty",
     "ph_plane_only",
+    "ph_no_ref_xy",
     "ph_no_ref_z",
     "ph_no_adjustment",
     "ph_no_pan_ms",

@@ -683,6 +683,11 @@ MESSAGES.update(
             "dz_m empty in every row, so no height discrepancies are given",
             "dz_m 列全部为空，未给出高程较差",
         ),
+        "ph_no_ref_xy": (
+            "ref_x_m and ref_y_m empty on all these checkpoints (height-only references), so no "
+            "plane error",
+            "这些检查点的 ref_x_m、ref_y_m 均为空（参考仅有高程），无平面误差",
+        ),
         "ph_no_ref_z": (
             "ref_z_m empty on all these checkpoints (plane-only references), so no height error",
             "这些检查点的 ref_z_m 均为空（参考仅有平面位置），无高程误差",
