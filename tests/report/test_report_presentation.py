@@ -532,3 +532,42 @@ def test_maps_results_do_not_keep_are_said_to_be_left_out(lang):
     assert "30400" in notes[1]
     kept = block_context(make_results(), lang)["figures"]["general_notes"]
     assert kept == []  # a small block: nothing left out, nothing said
+
+
+@pytest.mark.parametrize(
+    ("note", "zh"),
+    [
+        (
+            "the block straddles a zone edge (lon 119.800…120.300); EPSG:32650 (UTM zone 50N) "
+            "is one of the neighbours allowed",
+            "区域网跨越投影带边界（经度 119.800…120.300）；EPSG:32650 (UTM zone 50N) "
+            "为允许的相邻投影带之一",
+        ),
+        (
+            "EPSG:32651 (UTM zone 51N) delivered, expected EPSG:32650 (UTM zone 50N)",
+            "所交为 EPSG:32651 (UTM zone 51N)，应为 EPSG:32650 (UTM zone 50N)",
+        ),
+        (
+            "projection 'Gauss-Kruger' stated beside EPSG:32650 (UTM zone 50N): expected UTM",
+            "所述投影“Gauss-Kruger”与 EPSG:32650 (UTM zone 50N) 不符：应为 UTM",
+        ),
+    ],
+)
+def test_the_mb3_note_reads_in_chinese_on_zh_pages(note, zh):
+    """§MB-3: MB-3's note (the zone edge straddled, the zone expected, the projection named
+    beside the code) is in the page's language, as its rule row shows it; an inspector's own
+    note is shown as written."""
+    doc = make_results()
+    mb3 = _result(doc, "MB-3")
+    mb3["detail"]["note"] = note
+    rows = {x["rule"]: x for x in block_context(doc, lang="zh", figures=False)["general"]}
+    assert zh in rows["MB-3"]["notes"]
+    doc3 = _result(doc, "DOC-3")
+    doc3.update(status="pass", detail={"note": "stated", "decided_by": "inspector"})
+    ctx = block_context(doc, lang="zh", figures=False)
+    assert {x["rule"]: x for x in ctx["manual"]}["DOC-3"]["note"] == "stated"
+    assert "stated" in {x["rule"]: x for x in ctx["general"]}["DOC-3"]["notes"]
+    # another note of blockqc's that reads as another page's text is not taken for it
+    mb3["detail"]["note"] = "stated"
+    rows = {x["rule"]: x for x in block_context(doc, lang="zh", figures=False)["general"]}
+    assert "stated" in rows["MB-3"]["notes"]

@@ -26,7 +26,7 @@ from blockqc.report.checkpoints import (
 )
 from blockqc.report.contents import content_rows
 from blockqc.report.figures import block_figures, scene_statuses
-from blockqc.report.format import Formatter, metric_units
+from blockqc.report.format import SENTENCES, Formatter, metric_units
 from blockqc.report.messages import MESSAGES
 from blockqc.report.overview import overview_map
 from blockqc.report.process import process_rows
@@ -56,11 +56,21 @@ def _conditional(res: RuleResult) -> bool:
     return res.value == "conditional_pass"
 
 
+#: the notes of blockqc's own a result may carry that read in the page's language (MB-3's)
+PROJECTION_NOTES = tuple(k for k in SENTENCES if k.startswith("mb_"))
+
+
 def _notes(res: RuleResult, f: Formatter) -> list[str]:
     """The result's reason, note (the condition of a conditional pass), waiver and §CP-7 notes."""
     detail, colon = res.detail, "：" if f.lang == "zh" else ": "
+    measured = detail.get("decided_by") != "inspector"  # a note of blockqc's, not a person's
+
+    def said(k: str) -> str:
+        text = f.text(str(detail[k]))
+        return f.sentence(text, PROJECTION_NOTES) if measured and k == "note" else text
+
     notes = [
-        f.text(str(detail[k]))
+        said(k)
         for k in ("reason", "note", "computed_by_blockqc", "waiver_reason", "waiver_ignored")
         if detail.get(k)
     ]

@@ -683,6 +683,30 @@ MESSAGES.update(
             "dz_m empty in every row, so no height discrepancies are given",
             "dz_m 列全部为空，未给出高程较差",
         ),
+        # MB-3's note (spatial_ref.py), shown in the page's language (Formatter.sentence)
+        "mb_straddles": (
+            "the block straddles {edges}; {code} is one of the neighbours allowed",
+            "区域网跨越{edges}；{code} 为允许的相邻投影带之一",
+        ),
+        "mb_edge_both": (
+            "a zone edge (lon {west}…{east}) and the equator (lat {south}…{north})",
+            "投影带边界（经度 {west}…{east}）和赤道（纬度 {south}…{north}）",
+        ),
+        "mb_edge_zone": ("a zone edge (lon {west}…{east})", "投影带边界（经度 {west}…{east}）"),
+        "mb_edge_equator": ("the equator (lat {south}…{north})", "赤道（纬度 {south}…{north}）"),
+        "mb_wrong_zone": ("{code} delivered, expected {codes}", "所交为 {code}，应为 {codes}"),
+        "mb_grid_exception": (
+            "{code} is the zone the UTM grid's exceptions give here (Norway, Svalbard)",
+            "{code} 为 UTM 格网在此处的例外投影带（挪威、斯瓦尔巴）",
+        ),
+        "mb_no_epsg": (
+            "block.yaml states no EPSG code (nor projection UTM with a zone such as 50N)",
+            "block.yaml 未给出 EPSG 代码（也未给出 projection UTM 及 50N 之类的投影带）",
+        ),
+        "mb_projection_named": (
+            "projection '{name}' stated beside {code}: expected {wanted}",
+            "所述投影“{name}”与 {code} 不符：应为 {wanted}",
+        ),
         "ph_no_ref_xy": (
             "ref_x_m and ref_y_m empty on all these checkpoints (height-only references), so no "
             "plane error",
