@@ -107,6 +107,22 @@ def test_real_pair_gives_a_believable_rmse_and_a_failing_verdict(real_run):
     np.testing.assert_allclose(cps.gev_px, gev, atol=1e-5)
 
 
+def test_cps_geographic_coordinates_give_back_every_gev(real_run):
+    """§RA-4 takes (x, y) and (x′, y′) as geographic coordinates: the ellipsoidal distance
+    between a CP's lon/lat on the image and on the reference, over d_s, is its GEV to a
+    thousandth of a pixel (written to 1e-6 degree, 0.11 m in latitude, they gave it to only
+    0.2 px on this 0.5 m image), and the RMSE of those distances is the run's."""
+    from pyproj import Geod
+
+    out, _ = real_run
+    acc = json.loads((out / "results.json").read_text())["accuracy"]
+    cps = pd.read_csv(out / "cps.csv")
+    _, _, dist = Geod(ellps="WGS84").inv(cps.ref_lon, cps.ref_lat, cps.lon, cps.lat)
+    np.testing.assert_allclose(dist / acc["image_gsd_m"], cps.gev_px, atol=1e-3)
+    rmse = np.sqrt(np.mean(dist**2)) / acc["image_gsd_m"]
+    assert rmse == pytest.approx(acc["rmse_px"], abs=1e-3)
+
+
 def test_refined_rfm_table_falls_below_the_original(real_run):
     out, _ = real_run
     table = pd.read_csv(out / "refined_rfm.csv").set_index("k")
