@@ -873,9 +873,10 @@ def test_a_reference_much_coarser_than_the_image_is_warned_of(tmp_path: Path, fa
         assert coarse == []
     else:
         (warning,) = coarse
-        assert f"{5 * g:.3g} m, 5.0× the image's GSD" in warning, warning
+        shown = f"{results['reference']['gsd_m']:.3g}"  # 5·g, as asserted above
+        assert f"{shown} m, 5.0× the image's GSD" in warning, warning
         zh = render_html(results, lang="zh")
-        assert f"<li>§RA-2：参考影像的像素大小为 {5 * g:.3g} m，是影像地面采样距离（" in zh
+        assert f"<li>§RA-2：参考影像的像素大小为 {shown} m，是影像地面采样距离（" in zh
         assert "<li>§RA-2: " not in zh
     page = (tmp_path / "out" / "report.html").read_text(encoding="utf-8")
     assert f"pixels of {factor * g:.3f} m" in page

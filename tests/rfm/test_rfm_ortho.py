@@ -7,14 +7,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 import rasterio
-from pyproj import Transformer
+from pyproj import CRS, Transformer
 from rasterio.transform import Affine
 from rfm_helpers import VENTOUX, gdal_transformer
 
 from blockqc.errors import InputError
-from blockqc.rfm.dem import constant_height, load_dem
+from blockqc.rfm.dem import DEM, Grid, constant_height, load_dem
 from blockqc.rfm.ortho import (
     crop_offset_from_file,
+    image_gsd,
     ortho_grid,
     orthorectify,
     read_ortho,
@@ -100,6 +101,34 @@ def test_grid_covers_the_footprint_at_the_requested_gsd(ramp_image: Path):
     x, y = Transformer.from_crs(4326, grid.crs, always_xy=True).transform(corners[0], corners[1])
     r, c = grid.rowcol(x, y)
     assert np.all((r >= -0.5) & (r <= grid.height - 0.5) & (c >= -0.5) & (c <= grid.width - 0.5))
+
+
+def _plane(h0: float, north: float, east: float) -> DEM:
+    """A planar DEM over the left crop: h0 at (5.1955 E, 44.207 N), rising `north` and `east`
+    metres per metre (bilinear sampling reproduces a plane exactly)."""
+    lon, lat = np.meshgrid(np.linspace(5.15, 5.25, 41), np.linspace(44.25, 44.15, 41))
+    metres_lon, metres_lat = 79_830.0, 111_130.0  # one degree at 44.2° N
+    values = h0 + east * (lon - 5.1955) * metres_lon + north * (lat - 44.207) * metres_lat
+    t = Affine(0.0025, 0.0, 5.15 - 0.00125, 0.0, -0.0025, 44.25 + 0.00125)
+    return DEM(Grid(values, t, CRS.from_epsg(4326), "plane"), "ellipsoidal (WGS-84)")
+
+
+def test_image_gsd_is_the_image_s_not_the_slope_s():
+    """d_s of §RA-4 is the image's GSD: at the left crop's centre, 0.50501 m by the .geom's
+    meters_per_pixel (√(0.506057 × 0.503974)); taken along the SRTM's slope there it was
+    0.4988 m (a 1.2 % larger RMSE in pixels), and along a 50 % slope it moved by up to 4 %."""
+    srtm = load_dem(VENTOUX / "srtm_N44E005_crop.tif", geoid=VENTOUX / "egm96_15_crop.gtx")
+    crs = utm_ups_crs(5.19, 44.2)
+    centre = (CROP[0] + 249.5, CROP[1] + 249.5)
+    assert image_gsd(LEFT, *centre, srtm, crs) == pytest.approx(
+        np.sqrt(0.506057 * 0.503974), rel=1e-3
+    )
+    flat = image_gsd(LEFT, *centre, constant_height(580.0), crs)
+    for north, east in ((0.5, 0.0), (-0.5, 0.3), (0.0, -0.5)):
+        assert image_gsd(LEFT, *centre, _plane(580.0, north, east), crs) == pytest.approx(
+            flat,
+            rel=1e-4,  # the plane is not at 580 m exactly under the centre
+        )
 
 
 def test_dem_that_misses_the_image_is_refused(tmp_path: Path):

@@ -141,13 +141,17 @@ def image_gsd(
     fallback_height: float | None = None,
 ) -> float:
     """Ground sampling distance (m) at image position (row, col): the geometric mean of the
-    ground lengths of one-pixel steps along rows and columns, measured on the DEM (or at
-    `fallback_height` where the DEM has no value)."""
+    ground lengths of one-pixel steps along rows and columns, on the level surface at the DEM's
+    height there (or at `fallback_height` where the DEM has no value). Level, not along the
+    DEM: the slope of the DEM under one pixel would change what one pixel steps over by
+    tan(view angle) × slope (0.499 m for 0.505 m on the Ventoux image, 8° off nadir)."""
     rows = np.array([row, row + 1.0, row])
     cols = np.array([col, col, col + 1.0])
-    lon, lat, _ = model.image_to_ground(rows, cols, dem)
-    if not np.all(np.isfinite(lon)) and fallback_height is not None:
-        lon, lat, _ = model.image_to_ground(rows, cols, fallback_height)
+    _, _, h = model.image_to_ground(rows[:1], cols[:1], dem)
+    height = float(h[0]) if np.isfinite(h[0]) else fallback_height
+    lon = np.full(3, np.nan)
+    if height is not None:
+        lon, lat, _ = model.image_to_ground(rows, cols, height)
     if not np.all(np.isfinite(lon)):
         raise InputError(
             Problem(file=dem.grid.source, message="the DEM does not cover the image centre")
