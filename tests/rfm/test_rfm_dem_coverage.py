@@ -116,6 +116,30 @@ def test_scattered_voids_are_named_as_the_cause_of_no_cp():
     assert "no texture" in reason and "0% of the 50 px matching windows" in reason
 
 
+def test_scattered_voids_are_named_also_when_the_dem_misses_half_of_the_image():
+    """The s2p Réunion pair on its own DSM (721 × 739 px, 11 % voids): 52 % of img_01 lies
+    outside the DSM, and every matching window of the rest touches a void. The run said "the DEM
+    does not reach most of the image: give a DEM that covers the image", where closing the
+    voids (--dem-fill-voids 5) gave 95 CPs. Here: the left 52 % of the grid without a height,
+    3 × 3 px holes every 20 px over the rest."""
+    rng = np.random.default_rng(5)
+    image = rng.uniform(0, 100, (600, 600))
+    image[:, :312] = np.nan
+    for r in range(5, 600, 20):
+        for c in range(317, 600, 20):
+            image[r : r + 3, c : c + 3] = np.nan
+    dem_values = np.full((100, 100), 500.0)
+    dem_values[::9, ::9] = np.nan  # 1.4 % of the DSM's window
+    dem = DEM(Grid(dem_values, from_origin(5.0, 45.0, 0.01, 0.01), CRS.from_epsg(4326)), "test")
+    reason = no_cp_cause(image, np.isfinite(image), dem, 0, no_height=(0.52, 0.024))[1]
+    assert reason.startswith("no control point found: DEM voids scattered across the image")
+    assert "--dem-fill-voids" in reason and "image outside the DEM 52%" in reason
+    # the covered part without holes: the DEM's reach is the cause, as before
+    image[:, 312:] = np.nan_to_num(image[:, 312:])
+    reason = no_cp_cause(image, np.isfinite(image), dem, 0, no_height=(0.52, 0.0))[1]
+    assert "the DEM does not reach most of the image (52% of it is outside" in reason
+
+
 def test_a_dem_that_misses_most_of_the_image_is_named_as_the_cause_of_no_cp(tmp_path: Path):
     """The SRTM crop cut at lon 5.1945° leaves 89 % of the image without a height: the run
     said 'DEM voids: most of the image has no height (fill voids with --dem-fill-voids?)' of a

@@ -619,16 +619,17 @@ NO_CP_CAUSES = {
         "is expected)"
     ),
     "no_overlap": "the reference does not overlap the image (wrong reference, CRS or crop offset?)",
-    "dem_outside": (
-        "the DEM does not reach most of the image ({outside:.0%} of it is outside {dem}): give a "
-        "DEM that covers the image"
-    ),
-    "dem_voids": "DEM voids: most of the image has no height (fill voids with --dem-fill-voids?)",
+    # before the DEM's reach: the part of the image the DEM reaches would match without them
     "scattered_dem_voids": (
         "DEM voids scattered across the image: the image has no height (no pixel) on them "
         "and most matching windows touch one (close them with --dem-fill-voids N, holes up "
         "to ~2·N DEM cells across)"
     ),
+    "dem_outside": (
+        "the DEM does not reach most of the image ({outside:.0%} of it is outside {dem}): give a "
+        "DEM that covers the image"
+    ),
+    "dem_voids": "DEM voids: most of the image has no height (fill voids with --dem-fill-voids?)",
     "scattered_image_voids": (
         "the image has empty pixels (no data or NaN) scattered over it and most matching "
         "windows touch one: an image with data over whole windows is expected"
