@@ -7,6 +7,7 @@ import json
 import os
 from pathlib import Path
 
+import numpy as np
 import pytest
 from affine import Affine
 from click.testing import CliRunner
@@ -199,6 +200,25 @@ def test_a_crs_in_feet_is_refused(tmp_path: Path, capsys, crs: str):
     err = refused(ventoux_args(tmp_path / "out") + ["--crs", crs], capsys)
     assert "--crs" in err and "metre" in err and "foot" in err
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("crs", ["EPSG:3857", "EPSG:32661"])
+def test_a_crs_whose_metres_are_not_the_ground_s_is_refused(tmp_path: Path, capsys, crs: str):
+    """Web Mercator at 44.2° N stretches every length by 1/cos(44.2°) = 1.39: its metres gave the
+    Ventoux image a GSD of 0.705 m (0.505 m) and a shift of −0.75 m (−0.53 m); UPS north of a
+    scene at 44° N, 1.17."""
+    err = refused(ventoux_args(tmp_path / "out") + ["--crs", crs], capsys)
+    assert "--crs" in err and "scale" in err and "ground" in err
+    if crs == "EPSG:3857":
+        assert f"{1 / np.cos(np.radians(44.2)):.2f}" in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_neighbouring_utm_zone_is_taken(tmp_path: Path):
+    """UTM zone 30 at 5.2° E, 2.2° beyond its edge: its scale there is 1.005, within 1 %."""
+    cfg = ventoux_config(tmp_path / "out", crs=CRS.from_epsg(32630), repeats=2)
+    results = run_rfm_accuracy(cfg)
+    assert results["grid"]["crs"] == "EPSG:32630"
 
 
 def test_a_k_given_twice_is_refused(tmp_path: Path, capsys):

@@ -93,6 +93,28 @@ def units_not_metres(crs: CRS) -> set[str]:
     return {a.unit_name for a in crs.axis_info if a.unit_conversion_factor != 1.0}
 
 
+CRS_SCALE_TOLERANCE = 0.01
+"""Largest departure from 1 of the grid CRS's scale at the scene: its metres are those of the
+CPs' shifts, of the RMSE in metres and of the GSD (a neighbouring UTM zone: 0.5 %)."""
+
+
+def scale_off(crs: CRS, lon: float, lat: float) -> str:
+    """Why `crs`'s metres are not the ground's at (lon, lat): its scales along the meridian and
+    the parallel there when one departs from 1 by more than CRS_SCALE_TOLERANCE, else ''."""
+    from pyproj import Proj
+
+    factors = Proj(crs).get_factors(lon, lat)
+    scales = (float(factors.meridional_scale), float(factors.parallel_scale))
+    if all(abs(k - 1.0) <= CRS_SCALE_TOLERANCE for k in scales):
+        return ""
+    return (
+        f"its scale at the scene (lon {lon:.4f}, lat {lat:.4f}) is {scales[0]:.4g} along the "
+        f"meridian and {scales[1]:.4g} along the parallel: one of its metres is not a metre on "
+        "the ground, and the CPs' shifts, the RMSE in metres and the image's GSD would be "
+        f"off by up to {max(abs(k - 1.0) for k in scales):.0%}"
+    )
+
+
 def utm_ups_crs(lon: float, lat: float) -> CRS:
     """WGS-84 / UTM zone containing (lon, lat), or UPS north of 84° N and south of 80° S, where
     UTM ends (§MB-3; the codes MB-3 takes for UPS, 32661 and 32761)."""
@@ -242,6 +264,12 @@ def ortho_grid(
         )
     if crs is None:
         crs = utm_ups_crs(float(np.mean(lon)), float(np.mean(lat)))
+    else:
+        why = scale_off(crs, float(np.mean(lon)), float(np.mean(lat)))
+        if why:
+            why = f"--crs {crs.name}: {why}; give a CRS whose scale there is within "
+            why += f"{CRS_SCALE_TOLERANCE:.0%} of 1 (leave --crs out for the UTM zone)"
+            raise InputError(Problem(file="<arguments>", message=why))
     gsd_given = gsd is not None
     if gsd is None:
         gsd = round(image_gsd(model, centre[0], centre[1], dem, crs, mean_height), 3)
