@@ -455,6 +455,27 @@ def test_console_line_gives_the_systematic_shift(real_run):
     assert line in result.output
 
 
+@pytest.mark.parametrize(
+    ("rmse", "verdict", "shown"),
+    [(0.99962, "pass", "0.9996"), (0.999999, "pass", "0.999999"), (1.0004, "fail", "1.000")],
+)
+def test_the_rmse_shown_is_on_the_side_of_the_requirement_its_verdict_is(
+    real_run, tmp_path: Path, rmse: float, verdict: str, shown: str
+):
+    """An RMSE of 0.99962 px passes (< 1 px): the console line and the page read 0.9996 px,
+    not the "1.000 px → pass" they gave, which the requirement "< 1 px" contradicts."""
+    from blockqc.rfm.report import render_html
+
+    out, _ = real_run
+    results = json.loads((out / "results.json").read_text())
+    results["accuracy"].update(rmse_px=rmse, verdict=verdict, requirement_px=1.0)
+    line = console_line("x.tif", results, 1.0, tmp_path)
+    assert f"RMSE {shown} px" in line and f"→ {verdict}" in line
+    for lang in ("en", "zh"):
+        page = render_html(results, lang=lang)
+        assert f"<td>{shown} " in page
+
+
 def test_no_overlap_is_an_input_error_with_its_reason(tmp_path: Path, capsys):
     """A reference placed elsewhere (wrong crop offset): 0 CPs is exit 2, not a failed verdict."""
     from blockqc.cli import main

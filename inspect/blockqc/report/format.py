@@ -38,6 +38,19 @@ def number(v: Any, digits: int | None = None) -> str:
     return f"{v:.{d}f}"
 
 
+def number_beside(v: Any, limit: float, digits: int = 3) -> str:
+    """`number(v, digits)`, or with as many more decimals as it takes (up to 12) for the figure
+    shown to fall on the same side of `limit` as `v`: an RMSE of 0.99962 px that passes
+    "< 1 px" reads 0.9996, not 1.000."""
+    if not isinstance(v, float) or not math.isfinite(v) or not math.isfinite(limit):
+        return number(v, digits)
+    for d in range(digits, 13):
+        shown = number(v, d)
+        if (float(shown) < limit) == (v < limit):
+            return shown
+    return shown
+
+
 def bound(v: Any, digits: int = 2) -> str:
     """A threshold as the specification writes it: 0.5, 2.6, 28.28 (two decimals at most, or
     the `digits` a value beside it needs to compare with it as it does: `_apart`)."""

@@ -15,6 +15,7 @@ from blockqc.cli import GivenPath, lang_option
 from blockqc.errors import UsageError
 from blockqc.matching.settings import MatchSettings
 from blockqc.outputs import check_out_dir, empty_removed, refuse_replacing
+from blockqc.report.format import number_beside
 from blockqc.rfm.pipeline import (
     METHODS,
     OUTPUT_NAMES,
@@ -400,7 +401,7 @@ def console_line(name: str, results: dict, requirement: float, out_dir: Path) ->
         )
     return (
         f"{name}: {acc['n']} CPs{bands}, RMSE "
-        + (f"{rmse:.3f} px" if rmse is not None else "n/a")
+        + (f"{number_beside(rmse, acc['requirement_px'])} px" if rmse is not None else "n/a")
         + shift
         + f" → {acc['verdict']} (requirement < {requirement:g} px); results in {out_dir}"
     )

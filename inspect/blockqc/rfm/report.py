@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from blockqc.report.format import number
+from blockqc.report.format import number, number_beside
 from blockqc.report.html import environment, language_context
 
 
@@ -16,10 +16,12 @@ def render_html(results: dict, template_dir: Path | None = None, lang: str = "en
     """HTML for one run in `lang` (en, zh); `template_dir` may hold a user's
     `rfm_accuracy.html.j2` that overrides."""
     template = environment(template_dir).get_template("rfm_accuracy.html.j2")
+    acc = results["accuracy"]
     return template.render(
         r=results,
-        a=results["accuracy"],
+        a=acc,
         d=results["distortion"],
+        rmse_shown=number_beside(acc["rmse_px"], acc["requirement_px"]),
         image_name=Path(str(results["image"])).name,
         fmt=_fmt,
         **language_context(lang),
