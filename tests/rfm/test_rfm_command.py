@@ -496,6 +496,26 @@ def test_no_overlap_is_an_input_error_with_its_reason(tmp_path: Path, capsys):
     assert not (tmp_path / "out" / "results.json").exists()
 
 
+def test_a_reference_without_data_over_the_image_is_named(tmp_path: Path):
+    """A georeferenced reference over the image whose pixels there are all no data: the run said
+    "the reference does not overlap the image" and named the image; it is the reference that
+    holds nothing there. The same reference placed 10 km east does not overlap, as before."""
+    cfg, _ = _shifted_config(tmp_path, 0, 0)
+    with rasterio.open(cfg.reference, "r+") as ds:
+        ds.write(np.full((ds.height, ds.width), np.nan, np.float32), 1)
+    with pytest.raises(InputError) as exc:
+        run_rfm_accuracy(cfg)
+    message = str(exc.value)
+    assert str(cfg.reference) in message and str(cfg.image) not in message
+    assert "no control point found: the reference has no data over the image" in message
+    with rasterio.open(cfg.reference, "r+") as ds:
+        t = ds.transform
+        ds.transform = rasterio.Affine(t.a, 0, t.c + 10_000, 0, t.e, t.f)
+    with pytest.raises(InputError) as exc:
+        run_rfm_accuracy(cfg)
+    assert "the reference does not overlap the image" in str(exc.value)
+
+
 def test_no_texture_is_an_input_error_with_its_reason(tmp_path: Path):
 
     def nothing(image, reference, **_):

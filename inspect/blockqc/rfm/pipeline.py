@@ -309,6 +309,22 @@ def reference_gsd(cfg: RfmAccuracyConfig, grid: OrthoGrid, dem: DEM, rpc: RPCMod
     return float(np.sqrt(sides[0] * sides[1]))
 
 
+def reference_meets(path: Path, grid: OrthoGrid) -> bool:
+    """Whether a georeferenced reference's extent meets the grid (its bounds taken to the grid's
+    CRS), whatever its pixels hold."""
+    import rasterio
+    from rasterio.warp import transform_bounds
+
+    with rasterio.open(path) as src:
+        crs, bounds = src.crs, src.bounds
+    west, south, east, north = transform_bounds(
+        crs, rasterio.crs.CRS.from_wkt(grid.crs.to_wkt()), *bounds, densify_pts=21
+    )
+    x0, y1 = grid.transform * (0, 0)
+    x1, y0 = grid.transform * (grid.width, grid.height)
+    return bool(west < x1 and east > x0 and south < y1 and north > y0)
+
+
 def reference_warning(cfg: RfmAccuracyConfig, ref_gsd: float, image_gsd: float) -> list[str]:
     """That the reference is much coarser than the image (§RA-2), if it is."""
     ratio = ref_gsd / image_gsd if image_gsd > 0 else 0.0
@@ -618,6 +634,10 @@ NO_CP_CAUSES = {
         "the image has no data on the grid: every pixel is no data or NaN (an image with data "
         "is expected)"
     ),
+    "empty_reference": (
+        "the reference has no data over the image: it covers the image, but every pixel of it "
+        "there is no data or NaN (a reference with data over the image is expected)"
+    ),
     "no_overlap": "the reference does not overlap the image (wrong reference, CRS or crop offset?)",
     # before the DEM's reach: the part of the image the DEM reaches would match without them
     "scattered_dem_voids": (
@@ -657,7 +677,7 @@ NO_CP_CAUSES = {
     ),
 }
 """Why a run found no CP, in the order they are tried (`no_cp_cause`)."""
-REFERENCE_CAUSES = ("scattered_reference_voids", "flat_reference")
+REFERENCE_CAUSES = ("empty_reference", "scattered_reference_voids", "flat_reference")
 """The causes that lie in the reference: the message names the reference file."""
 
 
@@ -668,11 +688,13 @@ def no_cp_cause(
     n_matches: int,
     reference: np.ndarray | None = None,
     no_height: tuple[float, float] = (0.0, 0.0),
+    reference_covers: bool = False,
 ) -> tuple[bool, str]:
     """Why matching gave no CP: whether its cause lies in the reference, and the message: the
     likely cause first, then the figures behind it (`reference`: the reference on the image's
     grid, the image's shape, its empty pixels and spread then weighed too; `no_height`: the
-    shares of the image outside the DEM and on its voids)."""
+    shares of the image outside the DEM and on its voids; `reference_covers`: the reference's
+    extent meets the image's grid, so that no data from it is its pixels' doing)."""
     valid = float(np.isfinite(image).mean())
     both = float(overlap.sum() / max(np.isfinite(image).sum(), 1))
     voids = float(np.isnan(dem.grid.values).mean())
@@ -697,6 +719,7 @@ def no_cp_cause(
     found = {
         "dem_under_matches": n_matches > 0,
         "empty_image": valid == 0,
+        "empty_reference": reference_covers and both == 0,
         "no_overlap": both < 0.05,
         "dem_outside": no_height[0] > 0.5 and no_height[0] > no_height[1],
         "dem_voids": voids > 0.2 or (valid < 0.2 and voids > 0),
@@ -817,8 +840,9 @@ def _correct_and_match(run: _Run, matcher: Matcher | None) -> None:
     if run.cps.empty:
         (h, w), m = image.shape, cfg.margin
         on_grid = reference[m : m + h, m : m + w]
+        covers = run.reference is None and reference_meets(cfg.reference, run.grid)
         at_reference, reason = no_cp_cause(
-            image, overlap, run.dem, len(matches), on_grid, run.no_height
+            image, overlap, run.dem, len(matches), on_grid, run.no_height, covers
         )
         culprit = cfg.reference if at_reference else cfg.image
         raise InputError(Problem(file=str(culprit), message=reason))
