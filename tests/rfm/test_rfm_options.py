@@ -274,6 +274,21 @@ def test_the_image_as_its_own_reference_is_refused(tmp_path: Path, capsys):
     assert not (tmp_path / "out").exists()
 
 
+def test_a_copy_of_the_image_as_its_reference_is_refused(tmp_path: Path, capsys):
+    """A copy of the image (another file, the same bytes) with the image's RPCs as the
+    reference: RMSE 0.045 px, "pass" (exit 0), of resampling alone."""
+    import shutil
+
+    copy = tmp_path / "copy.tif"
+    shutil.copyfile(VENTOUX / "left_image.tif", copy)
+    args = ventoux_args(tmp_path / "out")
+    args[args.index("--reference") + 1] = str(copy)
+    args[args.index("--reference-rpc") + 1] = str(VENTOUX / "left_image.geom")
+    err = refused(args, capsys)
+    assert "a copy of the image" in err and "independent of the image" in err
+    assert not (tmp_path / "out").exists()
+
+
 @pytest.mark.parametrize(
     ("option", "value"),
     [

@@ -88,13 +88,23 @@ def _crs(text: str | None) -> CRS | None:
     return crs
 
 
+INDEPENDENT = (
+    "a reference must be independent of the image (a reference orthoimage, or another image "
+    "of the scene with its own RPCs)"
+)
+
+
 def refuse_self_reference(image: Path, reference: Path) -> None:
-    """The image given as its own reference would measure nothing but the resampling."""
+    """The image given as its own reference, or a copy of it, would measure nothing but the
+    resampling (0.045 px, "pass", on the Ventoux image)."""
+    import filecmp
+
     if os.path.samefile(image, reference):
+        raise UsageError(f"--reference {reference} is the image {image} itself: {INDEPENDENT}")
+    if filecmp.cmp(image, reference, shallow=False):
         raise UsageError(
-            f"--reference {reference} is the image {image} itself: a reference must be "
-            "independent of the image (a reference orthoimage, or another image of the scene "
-            "with its own RPCs)"
+            f"--reference {reference} holds the same bytes as the image {image} (a copy of the "
+            f"image): {INDEPENDENT}"
         )
 
 
