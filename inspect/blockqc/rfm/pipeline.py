@@ -542,6 +542,24 @@ def overlap_mask(image: np.ndarray, reference: np.ndarray, margin: int) -> np.nd
     return np.isfinite(image) & np.isfinite(reference[margin : margin + h, margin : margin + w])
 
 
+OWN_PIXELS = (
+    "on the image's grid the reference holds the image's own pixels (the same value at every "
+    "pixel both cover: an orthoimage of the image itself, such as an earlier run's ortho.tif?): "
+    "it would measure the resampling alone; a reference must be independent of the image (a "
+    "reference orthoimage, or another image of the scene with its own RPCs)"
+)
+
+
+def own_pixels(image: np.ndarray, on_grid: np.ndarray, overlap: np.ndarray) -> bool:
+    """Whether the reference on the image's grid (`on_grid`) holds the image's own values: all
+    but 1 % of the pixels both cover equal, over at least one matching window (a reference
+    taken independently never repeats the image's values; a flat image is left to "no
+    texture")."""
+    if not holds_window(overlap) or _spread(image[overlap]) <= 0:
+        return False
+    return bool(np.mean(image[overlap] == on_grid[overlap]) > 0.99)
+
+
 def choose_cell(overlap_px: int) -> tuple[int, str]:
     """§RA-3 cell from the area both images cover: TARGET_CELLS cells, within MIN..MAX_CELL."""
     cell = int(np.clip(np.floor(np.sqrt(max(overlap_px, 1) / TARGET_CELLS)), MIN_CELL, MAX_CELL))
@@ -835,11 +853,13 @@ def _correct_and_match(run: _Run, matcher: Matcher | None) -> None:
     image, run.grid = read_ortho(out / "ortho.tif")
     reference, ref_grid = read_ortho(out / "reference_on_grid.tif")
     overlap = overlap_mask(image, reference, cfg.margin)
+    (h, w), m = image.shape, cfg.margin
+    on_grid = reference[m : m + h, m : m + w]
+    if own_pixels(image, on_grid, overlap):
+        raise InputError(Problem(file=str(cfg.reference), message=OWN_PIXELS))
     matches, run.cell, run.cell_how = match_cps(cfg, image, reference, overlap, matcher)
     run.cps = build_cp_table(matches, run.grid, ref_grid, run.rpc, run.dem, run.image_gsd)
     if run.cps.empty:
-        (h, w), m = image.shape, cfg.margin
-        on_grid = reference[m : m + h, m : m + w]
         covers = run.reference is None and reference_meets(cfg.reference, run.grid)
         at_reference, reason = no_cp_cause(
             image, overlap, run.dem, len(matches), on_grid, run.no_height, covers
