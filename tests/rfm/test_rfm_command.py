@@ -756,8 +756,9 @@ def _texture(shape):
     ("case", "start"),
     [
         ("all empty", "the image has no data on the grid: every pixel is no data or NaN"),
-        ("one row", "the image's data hold no whole 50 px matching window: the image is too small"),
-        ("16 px", "the image's data hold no whole 50 px matching window: the image is too small"),
+        ("one row", "the image's data hold no whole 51 px matching window: the image is too small"),
+        ("16 px", "the image's data hold no whole 51 px matching window: the image is too small"),
+        ("50 px", "the image's data hold no whole 51 px matching window: the image is too small"),
         ("scattered", "the image has empty pixels (no data or NaN) scattered over it"),
     ],
 )
@@ -773,12 +774,33 @@ def test_no_cp_for_the_image_itself_is_not_put_on_the_reference_or_the_dem(case,
         image[250] = _texture(500)
     elif case == "16 px":
         image[200:216, 300:316] = _texture((16, 16))
+    elif case == "50 px":  # a corner needs 25 px of data on every side: 51 px, none fits in 50
+        image[200:250, 300:350] = _texture((50, 50))
     elif case == "scattered":
         image = _texture((500, 500))
         image[np.random.default_rng(1).random(image.shape) < 0.02] = np.nan
     reference = _texture((500, 500))
     reason = no_cp_cause(image, np.isfinite(image), _full_dem(), 0, reference)[1]
     assert reason.startswith(f"no control point found: {start}")
+
+
+def test_an_image_of_50_px_is_too_small_and_one_of_60_px_is_not():
+    """The matcher takes a corner only 25 px from any empty pixel (its BRIEF patch and NCC
+    template): an image whose data are 50 × 50 px holds no corner, and was said to lack texture
+    ("a 50 px window fits"); one of 60 × 60 px holds 10 × 10 corner positions."""
+    from blockqc.matching.matcher import _image_chunk
+    from blockqc.matching.settings import MatchSettings
+    from blockqc.rfm.pipeline import no_cp_cause
+
+    reference = _texture((500, 500))
+    for side, corners, cause in ((50, 0, "the image is too small"), (60, 100, "no texture")):
+        image = np.full((500, 500), np.nan)
+        image[200 : 200 + side, 300 : 300 + side] = reference[200 : 200 + side, 300 : 300 + side]
+        valid = np.isfinite(image)
+        usable = _image_chunk(image, valid, (0, 500, 0, 500), MatchSettings().margin)[1]
+        assert usable.sum() == corners
+        reason = no_cp_cause(image, valid, _full_dem(), 0, reference)[1]
+        assert cause in reason, reason
 
 
 def test_a_colour_references_transparent_pixels_have_no_data(tmp_path: Path):

@@ -21,6 +21,7 @@ import pandas as pd
 from pyproj import CRS, Transformer
 
 from blockqc.errors import InputError, Problem
+from blockqc.matching.settings import MatchSettings
 from blockqc.outputs import write_bytes_atomic, write_json_atomic, write_text_atomic
 from blockqc.report.messages import translator
 from blockqc.rfm import accuracy
@@ -610,6 +611,9 @@ def match_cps(
 MATCH_WINDOW = 50
 """Side (px) of the window a match needs free of voids: the matcher's BRIEF patch and NCC
 template (`blockqc.matching.MatchSettings.margin`, 25 px, on each side of a corner)."""
+CORNER_WINDOW = 2 * MatchSettings().margin + 1
+"""Side (px) of the square of image data a corner needs: 25 px (`MatchSettings.margin`) on
+every side of it, so 51 px; an image of 50 × 50 px of data holds no corner."""
 VOIDED_WINDOWS = 0.5
 """Share of matching windows touching a void above which voids are named as the cause."""
 
@@ -673,8 +677,8 @@ NO_CP_CAUSES = {
         "windows touch one: an image with data over whole windows is expected"
     ),
     "small_image": (
-        f"the image's data hold no whole {MATCH_WINDOW} px matching window: the image is "
-        f"too small or too thin (at least {MATCH_WINDOW} px each way is expected)"
+        f"the image's data hold no whole {CORNER_WINDOW} px matching window: the image is "
+        f"too small or too thin (at least {CORNER_WINDOW} px each way is expected)"
     ),
     "scattered_reference_voids": (
         "the reference has empty pixels (no data or NaN) scattered over the image and most "
@@ -741,7 +745,7 @@ def no_cp_cause(
         "no_overlap": both < 0.05,
         "dem_outside": no_height[0] > 0.5 and no_height[0] > no_height[1],
         "dem_voids": voids > 0.2 or (valid < 0.2 and voids > 0),
-        "small_image": not holds_window(np.isfinite(image)),
+        "small_image": not holds_window(np.isfinite(image), CORNER_WINDOW),
         "scattered_dem_voids": touched > VOIDED_WINDOWS and voids > 0,
         "scattered_image_voids": touched > VOIDED_WINDOWS,
         "scattered_reference_voids": ref_touched > VOIDED_WINDOWS,
