@@ -123,6 +123,26 @@ def test_cps_geographic_coordinates_give_back_every_gev(real_run):
     assert rmse == pytest.approx(acc["rmse_px"], abs=1e-3)
 
 
+def test_the_affine_of_every_cp_is_given_at_the_image_centre(real_run):
+    """The §3 affine is in full-image coordinates: on the Ventoux crop (rows and columns 5000 to
+    5499 of the scene) a0 is hundreds of pixels where the correction over the image is a few;
+    the page gave a0 alone. Δl, Δs at the crop's centre (line, sample 5249.5) are now given,
+    a0 + a1·s + a2·l and b0 + b1·s + b2·l by hand."""
+    out, _ = real_run
+    all_cps = json.loads((out / "results.json").read_text())["refined_rfm"]["all_cps"]
+    a = all_cps["affine"]
+    line = sample = 5249.5
+    d_line = a["a0"] + a["a1"] * sample + a["a2"] * line
+    d_sample = a["b0"] + a["b1"] * sample + a["b2"] * line
+    centre = all_cps["centre"]
+    assert (centre["line"], centre["sample"]) == (line, sample)
+    assert centre["d_line_px"] == pytest.approx(d_line, abs=1e-9)
+    assert centre["d_sample_px"] == pytest.approx(d_sample, abs=1e-9)
+    assert abs(d_line) < 20 < abs(a["a0"])
+    page = (out / "report.html").read_text(encoding="utf-8")
+    assert f"Δl = {d_line:.2f} px, Δs = {d_sample:.2f} px" in page
+
+
 def test_refined_rfm_table_falls_below_the_original(real_run):
     out, _ = real_run
     table = pd.read_csv(out / "refined_rfm.csv").set_index("k")

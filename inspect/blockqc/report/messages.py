@@ -892,6 +892,11 @@ MESSAGES.update(
             "Affine fitted to every CP ({note}):",
             "以全部控制点拟合的仿射变换（{note}）：",
         ),
+        "ra_affine_centre": (
+            "at the image centre (line {line}, sample {sample}) the correction is "
+            "Δl = {dl} px, Δs = {ds} px;",
+            "影像中心（行 {line}，列 {sample}）处的改正为 Δl = {dl} 像素，Δs = {ds} 像素；",
+        ),
         "ra_affine_rms": ("residual RMS {rms} px.", "残差均方根 {rms} 像素。"),
         "files": ("Files", "文件"),
         "ra_conventions": (

@@ -992,6 +992,22 @@ def _inputs(run: _Run) -> dict[str, object]:
     }
 
 
+def _at_centre(run: _Run, refined: RefinedRFM) -> dict[str, float]:
+    """The correction of the affine at the image's centre (full-image line and sample): its
+    coefficients are in full-image coordinates, so a0, b0 alone can be hundreds of pixels
+    where the correction over the image is a few."""
+    (rows, cols), _ = _raster_shape(run.cfg.image)
+    line = run.offset[0] + (rows - 1) / 2
+    sample = run.offset[1] + (cols - 1) / 2
+    d_line, d_sample = refined.affine.delta(line, sample)
+    return {
+        "line": line,
+        "sample": sample,
+        "d_line_px": float(d_line),
+        "d_sample_px": float(d_sample),
+    }
+
+
 def _refined_doc(run: _Run, table: pd.DataFrame, refined_all: Any) -> dict[str, object]:
     cfg = run.cfg
     return {
@@ -1003,6 +1019,7 @@ def _refined_doc(run: _Run, table: pd.DataFrame, refined_all: Any) -> dict[str, 
         if refined_all is None
         else {
             "affine": refined_all[0].affine.as_dict(),
+            "centre": _at_centre(run, refined_all[0]),
             "fit_rms_px": refined_all[1],
             "note": "image-space affine (§3) fitted to every CP; its residual is in-sample",
         },
