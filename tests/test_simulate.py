@@ -179,3 +179,19 @@ def test_a_dem_tile_that_is_no_raster_is_named(tmp_path: Path) -> None:
     r = run_blockqc("simulate", tmp_path / "out", "--fields", "2", "--dem-dir", dems)
     assert r.returncode == 2 and not (tmp_path / "out").exists()
     assert r.stderr.startswith(f"error: '{dems / 'srtm_N44E005.tif'}' not recognized as ")
+
+
+def test_a_block_of_one_footprint_has_no_overlaps_table(tmp_path: Path) -> None:
+    """One footprint has no adjacent images: overlaps.csv is left out, as edges.csv is for a
+    block without neighbours (a header-only table made the delivery unreadable, and field 3's
+    own offset pairs stopped the run); the clean block passes, RO-3 not applicable."""
+    layout = Layout(rows=1, cols=1)
+    ids = simulate(tmp_path, Options(fields=(3, 4), blocks_per_field=1, layout=layout), DEM)
+    assert ids == ["F3-B01", "F4-B01"]
+    for block in ids:
+        assert not (tmp_path / block / "overlaps.csv").exists()
+    doc = dump(inspect_delivery(load_delivery(tmp_path / "F4-B01"), load_pack("global-project")))
+    assert doc["verdict"] == "pass"
+    assert aggregate_status([r for r in doc["results"] if r["rule"] == "RO-3"]) == (
+        "not_applicable"
+    )

@@ -362,8 +362,9 @@ class _Block:
             }
         )
 
-    def overlaps(self, scenes: pd.DataFrame) -> pd.DataFrame:
-        """Adjacent footprints (grid neighbours), backward PAN views, 20 points a pair."""
+    def overlaps(self, scenes: pd.DataFrame) -> pd.DataFrame | None:
+        """Adjacent footprints (grid neighbours), backward PAN views, 20 points a pair; None for
+        a block of one footprint (no adjacent images)."""
         rng = self.rng
         b = scenes[scenes["scene_id"].str.endswith("-B")].set_index(["_col", "_row"])["scene_id"]
         pairs = [
@@ -372,6 +373,8 @@ class _Block:
             for dc, dr in ((1, 0), (0, 1))
             if (c + dc, r + dr) in b.index
         ]
+        if not pairs:
+            return None
         n = 20
         a, bb = np.repeat([p[0] for p in pairs], n), np.repeat([p[1] for p in pairs], n)
         d = rng.normal(0.0, 4.0, (len(a), 3))
@@ -574,7 +577,9 @@ def write_block(out: Path, spec: FieldSpec, index: int, opts: Options, dem_dir: 
     _write_csv(folder / "scenes.csv", scenes[[c for c in scenes if not c.startswith("_")]])
     _write_csv(folder / "tie_points.csv", tp)
     _write_csv(folder / "pan_ms.csv", b.pan_ms(scenes))
-    _write_csv(folder / "overlaps.csv", b.overlaps(scenes))
+    overlaps = b.overlaps(scenes)
+    if overlaps is not None:
+        _write_csv(folder / "overlaps.csv", overlaps)
     edges = b.edges(neighbours)
     if edges is not None:
         _write_csv(folder / "edges.csv", edges)
