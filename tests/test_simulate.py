@@ -181,6 +181,33 @@ def test_a_dem_tile_that_is_no_raster_is_named(tmp_path: Path) -> None:
     assert r.stderr.startswith(f"error: '{dems / 'srtm_N44E005.tif'}' not recognized as ")
 
 
+@pytest.mark.parametrize(
+    ("grid", "blocks", "fault", "why"),
+    [
+        ("1x1", 1, "sparse-scene", "needs blocks of at least 3 footprints (--grid 1x1 has 1)"),
+        ("1x2", 1, "sparse-scene", "needs blocks of at least 3 footprints (--grid 1x2 has 2)"),
+        ("1x3", 1, "clustered-scene", "needs blocks of at least 4 footprints (--grid 1x3 has 3)"),
+        ("1x1", 1, "sea-scene", "needs blocks of at least 2 footprints (--grid 1x1 has 1)"),
+        ("1x1", 1, "overlap-shift", "needs blocks of at least 2 footprints (--grid 1x1 has 1)"),
+        ("2x2", 1, "edge-shift", "needs adjacent blocks (--blocks-per-field 2 or more)"),
+    ],
+)
+def test_a_fault_the_blocks_cannot_hold_is_refused(
+    tmp_path: Path, grid: str, blocks: int, fault: str, why: str
+) -> None:
+    """The scene a fault alters, or the adjacent images or blocks it offsets, must be there: the
+    scene faults stopped with an IndexError on small grids, overlap-shift with a ValueError on
+    one footprint, and edge-shift on one block per field wrote a delivery without it."""
+    out = tmp_path / "out"
+    r = run_blockqc(
+        "simulate", out, "--fields", "4", "--grid", grid, "--blocks-per-field", blocks,
+        "--fault", fault,
+    )  # fmt: skip
+    assert r.returncode == 2
+    assert r.stderr == f"error: --fault {fault} {why}: {FAULTS[fault]}\n"
+    assert not out.exists()
+
+
 def test_a_block_of_one_footprint_has_no_overlaps_table(tmp_path: Path) -> None:
     """One footprint has no adjacent images: overlaps.csv is left out, as edges.csv is for a
     block without neighbours (a header-only table made the delivery unreadable, and field 3's

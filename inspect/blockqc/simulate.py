@@ -39,6 +39,10 @@ FAULTS = {
     "misreported": "the reported tie-point error differs from the process data (DOC-2)",
 }
 
+#: the footprints a block needs for a fault to act on it: the PAN scene it alters (the 6th, the
+#: 7th, the 3rd; two PAN scenes a footprint), a pair of adjacent footprints
+FAULT_FOOTPRINTS = {"sparse-scene": 3, "clustered-scene": 4, "sea-scene": 2, "overlap-shift": 2}
+
 DOCUMENTS = {
     "technical_design": "documents/technical_design.pdf",
     "technical_summary": "documents/technical_summary.pdf",
@@ -645,12 +649,35 @@ def prepare_out(out: Path | str, ids: list[str]) -> Path:
     return out
 
 
+def _fault_beyond_layout(opts: Options) -> str | None:
+    """Why a fault asked for cannot act on these blocks (None when all can): it would be left
+    out unsaid, or fail on a scene the block does not have."""
+    lay = opts.layout
+    footprints = lay.rows * lay.cols
+    for name in (f for f in FAULTS if f in opts.faults):
+        need = FAULT_FOOTPRINTS.get(name, 1)
+        if footprints < need:
+            return (
+                f"--fault {name} needs blocks of at least {need} footprints "
+                f"(--grid {lay.rows}x{lay.cols} has {footprints}): {FAULTS[name]}"
+            )
+    if "edge-shift" in opts.faults and opts.blocks_per_field < 2:
+        return (
+            "--fault edge-shift needs adjacent blocks (--blocks-per-field 2 or more): "
+            f"{FAULTS['edge-shift']}"
+        )
+    return None
+
+
 def simulate(out: Path | str, opts: Options, dem_dir: Path | None = None) -> list[str]:
     """Write a batch of deliveries for the chosen fields into OUT (new or empty delivery
     folders only); return the block ids."""
     unknown = sorted(set(opts.faults) - set(FAULTS))
     if unknown:
         raise UsageError(f"unknown fault {', '.join(unknown)} (known: {', '.join(FAULTS)})")
+    beyond = _fault_beyond_layout(opts)
+    if beyond:
+        raise UsageError(beyond)
     bad = [f for f in opts.fields if f not in FIELDS]
     if bad:
         raise UsageError(f"unknown test field {bad[0]} (fields: 1, 2, 3, 4)")
