@@ -5,6 +5,8 @@ from __future__ import annotations
 import hashlib
 from pathlib import Path
 
+import numpy as np
+import pandas as pd
 import pytest
 
 from blockqc.delivery import load_delivery
@@ -222,3 +224,17 @@ def test_a_block_of_one_footprint_has_no_overlaps_table(tmp_path: Path) -> None:
     assert aggregate_status([r for r in doc["results"] if r["rule"] == "RO-3"]) == (
         "not_applicable"
     )
+
+
+def test_pan_ms_shift_misregisters_one_pair_by_one_and_a_half_ms_pixels(tmp_path: Path) -> None:
+    """pan-ms-shift offsets the first PAN/MS pair's 15 points by 1.5 MS pixels, 1.5 × 2.6 m =
+    3.9 m (it added 1.5 pixels to dx and to dy alike: 5.52 m, 2.12 pixels); the same seed
+    draws the same discrepancies, so the shift is the difference from the clean delivery."""
+    clean, shifted = tmp_path / "clean", tmp_path / "shifted"
+    simulate(clean, Options(seed=3, **TINY), DEM)
+    simulate(shifted, Options(seed=3, faults=frozenset({"pan-ms-shift"}), **TINY), DEM)
+    a = pd.read_csv(clean / "F4-B01" / "pan_ms.csv")
+    b = pd.read_csv(shifted / "F4-B01" / "pan_ms.csv")
+    shift = np.hypot(b["dx_m"] - a["dx_m"], b["dy_m"] - a["dy_m"]).to_numpy()
+    assert shift[:15] == pytest.approx(np.full(15, 3.9), abs=2e-3)
+    assert (shift[15:] == 0).all()

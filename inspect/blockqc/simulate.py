@@ -355,7 +355,7 @@ class _Block:
         pan_id, ms_id = np.repeat(b, n), np.repeat(m, n)
         d = rng.normal(0.3, 0.8, (len(pan_id), 2))
         if "pan-ms-shift" in self.faults:
-            d[:n] += 1.5 * self.lay.gsd_ms
+            d[:n] += 1.5 * self.lay.gsd_ms / math.sqrt(2)  # 1.5 MS pixels along the diagonal
         return pd.DataFrame(
             {
                 "pan_scene_id": pan_id,
