@@ -238,3 +238,17 @@ def test_pan_ms_shift_misregisters_one_pair_by_one_and_a_half_ms_pixels(tmp_path
     shift = np.hypot(b["dx_m"] - a["dx_m"], b["dy_m"] - a["dy_m"]).to_numpy()
     assert shift[:15] == pytest.approx(np.full(15, 3.9), abs=2e-3)
     assert (shift[15:] == 0).all()
+
+
+def test_edge_shift_puts_three_points_a_neighbour_beyond_two_m(tmp_path: Path) -> None:
+    """edge-shift moved three points 22 m in dx on top of a draw of up to ±15 m, so that some
+    blocks kept every discrepancy below 2·m = 20 m and passed RO-2 (seed 6: F4-B02's largest
+    17.59 m); the three are now beyond 20 m in every block."""
+    layout = Layout(rows=2, cols=2, obs_per_scene=20)
+    for seed in (6, 29):
+        out = tmp_path / str(seed)
+        opts = Options(seed=seed, fields=(4,), layout=layout, faults=frozenset({"edge-shift"}))
+        for block in simulate(out, opts, DEM):
+            edges = pd.read_csv(out / block / "edges.csv")
+            plane = np.hypot(edges["dx_m"], edges["dy_m"]).to_numpy()
+            assert (plane[:3] > 20.0).all(), (seed, block, plane[:3])

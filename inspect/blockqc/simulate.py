@@ -409,7 +409,7 @@ class _Block:
             d = np.clip(rng.normal(0.0, 4.0, (25, 3)), -15, 15)
             d[:, 2] = np.clip(d[:, 2], -9, 9)
             if "edge-shift" in self.faults:
-                d[:3, 0] += 22
+                d[:3, 0] = 22 + np.abs(d[:3, 0])  # beyond 2·m = 20 m whatever the draw
             rows.append(
                 pd.DataFrame(
                     {
