@@ -252,3 +252,26 @@ def test_edge_shift_puts_three_points_a_neighbour_beyond_two_m(tmp_path: Path) -
             edges = pd.read_csv(out / block / "edges.csv")
             plane = np.hypot(edges["dx_m"], edges["dy_m"]).to_numpy()
             assert (plane[:3] > 20.0).all(), (seed, block, plane[:3])
+
+
+@pytest.mark.parametrize(
+    ("grid", "obs", "total"),
+    [("20x20", 100_000, "80,000,000"), ("5x4", 80_001, "3,200,040")],
+)
+def test_a_block_too_large_to_build_is_refused(
+    tmp_path: Path, grid: str, obs: int, total: str
+) -> None:
+    """Grid and observations per scene were bounded one by one: 20x20 at 100000, 2·400·100000 =
+    80 million observations a block, ran for about 40 minutes a block towards some 35 GB of
+    memory. A block holds at most 3.2 million (4x4 at 100000); one more is refused up front."""
+    out = tmp_path / "out"
+    r = run_blockqc(
+        "simulate", out, "--fields", "4", "--grid", grid, "--obs-per-scene", obs
+    )  # fmt: skip
+    assert r.returncode == 2
+    assert r.stderr == (
+        f"error: --grid {grid} with --obs-per-scene {obs}: {total} tie-point observations per "
+        "block (2 PAN scenes a footprint), more than the 3,200,000 a block may hold (memory and "
+        "time); make the grid or --obs-per-scene smaller\n"
+    )
+    assert not out.exists()

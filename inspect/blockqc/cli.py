@@ -601,6 +601,10 @@ def schema_cmd(kind: str) -> None:
 #: scene: bound memory and time
 MAX_GRID = 20
 MAX_OBS_PER_SCENE = 100_000
+#: tie-point observations per block (2 PAN scenes a footprint): the 4x4 grid's at the largest
+#: --obs-per-scene, about 1.4 GB of memory and 2 minutes a block (20x20 at 100000 would need
+#: some 35 GB and 40 minutes)
+MAX_OBS_PER_BLOCK = 3_200_000
 
 
 @cli.command("simulate")
@@ -675,6 +679,14 @@ def simulate_cmd(
         ) from None
     if not (1 <= rows <= MAX_GRID and 1 <= cols <= MAX_GRID):
         raise UsageError(f"--grid {grid}: ROWS and COLS are 1 to {MAX_GRID} (e.g. 4x4)")
+    per_block = 2 * rows * cols * obs_per_scene
+    if per_block > MAX_OBS_PER_BLOCK:
+        raise UsageError(
+            f"--grid {grid} with --obs-per-scene {obs_per_scene}: {per_block:,} tie-point "
+            f"observations per block (2 PAN scenes a footprint), more than the "
+            f"{MAX_OBS_PER_BLOCK:,} a block may hold (memory and time); make the grid or "
+            "--obs-per-scene smaller"
+        )
     if len(set(chosen)) != len(chosen):
         raise UsageError(f"--fields {fields}: a field is named twice")
     opts = Options(
