@@ -300,3 +300,25 @@ def test_options_of_a_batch_are_refused_with_a_table(appendix_path, tmp_path, op
     named = [o for o in options if o.startswith("--")]
     assert str(result.exception).startswith(f"{', '.join(named)}: options that build the table")
     assert not out.exists()
+
+
+@pytest.mark.parametrize("lang", ["en", "zh"])
+def test_one_row_gives_the_rows_the_cca_needs(appendix_path, tmp_path, lang):
+    """A table of one row said only "the table has 1 complete rows"; it now says, as for any
+    count below p + q + 2 = 17, what the CCA needs (and no column is called constant, though
+    every column of one row is)."""
+    table = tmp_path / "one.csv"
+    lines = appendix_path.read_text(encoding="utf-8").splitlines()[:2]
+    table.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    out = tmp_path / "out"
+    res = CliRunner().invoke(command, ["--table", str(table), "--out", str(out), "--lang", lang])
+    assert res.exit_code == 0, res.output
+    results = json.loads((out / "factors.json").read_text(encoding="utf-8"))
+    assert results["cca_not_computed"] == [
+        "the table has n = 1 complete rows but CCA of p = 10 factors and q = 5 indicators needs "
+        "n − 1 > p + q, i.e. at least 17 rows (with fewer, some canonical correlation is 1 by "
+        "construction and Bartlett's statistic is undefined)"
+    ]
+    page = (out / "factors.html").read_text(encoding="utf-8")
+    said = {"en": "at least 17 rows", "zh": "表中有 n = 1 个完整的行，但 p = 10 个因素"}[lang]
+    assert said in page and "constant" not in results["cca_not_computed"][0]

@@ -125,12 +125,9 @@ def _correlation_note(numeric: pd.DataFrame) -> str | None:
 
 def _cca_of(used: pd.DataFrame, factors: list[str], indicators: list[str]) -> dict[str, Any]:
     """The CCA of the complete rows, or why it was not computed."""
-    n = len(used)
-    reasons = (
-        cca_requirements(used, factors, indicators)
-        if n >= 2
-        else [f"the table has {n} complete rows"]
-    )
+    reasons = cca_requirements(used, factors, indicators)
+    if len(used) < 2:  # every column of one row (or none) reads constant: the rows are why
+        reasons = reasons[:1]
     if reasons:
         return {"cca": None, "cca_not_computed": reasons}
     try:

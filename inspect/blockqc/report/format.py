@@ -207,7 +207,6 @@ SENTENCES = (
     "af_few_values",
     "af_constant",
     "af_nearly_constant",
-    "af_too_few_rows",
     "af_needs_rows",
     "af_constant_group",
     "af_combination",

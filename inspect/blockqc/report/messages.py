@@ -1456,7 +1456,6 @@ MESSAGES.update(
             "differences: {columns}",
             "变化小于其平均值的 0.1%，其相关系数仅取决于极小的差异：{columns}",
         ),
-        "af_too_few_rows": ("the table has {n} complete rows", "表中只有 {n} 个完整的行"),
         "af_needs_rows": (
             "the table has n = {n} complete rows but CCA of p = {p} factors and q = {q} "
             "indicators needs n − 1 > p + q, i.e. at least {rows} rows (with fewer, some "
