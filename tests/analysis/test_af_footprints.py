@@ -174,3 +174,26 @@ def test_stereo_pairs_are_one_unit(footprint):
         scenes_frame(footprint, [a, a_back], ["2023-01-01"] * 2), stereo_iou=0.99
     )
     assert strict.footprint_units == 2 and strict.overlap_degree > 0.9
+
+
+def test_identical_footprints_are_one_unit_at_stereo_iou_one():
+    """The bound is included: two views of one footprint (intersection over union 1) are one unit
+    at --stereo-iou 1. The areas' rounding made the ratio of this footprint 1 − 2e-16, two
+    units, and an overlap degree of 1 for a single stereo pair."""
+    wkt = (
+        "POLYGON((40.137376 39.714500, 40.266579 39.724953, 40.280159 39.625500, "
+        "40.150956 39.615047, 40.137376 39.714500))"
+    )
+    sc = pd.DataFrame(
+        {
+            "scene_id": ["F", "B"],
+            "band": "pan",
+            "acquired": pd.to_datetime(["2021-04-11"] * 2),
+            "lines": 13915,
+            "samples": 13915,
+            "footprint_wkt": [wkt, wkt],
+        }
+    )
+    f = footprint_factors(sc, stereo_iou=1.0)
+    assert f.footprint_units == 1 and f.images_number == 2
+    assert f.overlap_degree == 0.0 and f.overlapping_pairs == 0

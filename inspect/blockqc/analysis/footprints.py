@@ -17,6 +17,9 @@ from blockqc.errors import InputError, Problem
 DENSIFY_DEG = 0.01
 #: Pairs whose common area is below this share of the covered area only touch: not an overlap.
 TOUCH_SHARE = 1e-9
+#: An intersection over union this close below --stereo-iou reaches it: the areas carry rounding
+#: (two identical footprints may give 1 − 2e-16), and the bound itself is included.
+IOU_ROUNDING = 1e-9
 
 
 def scene_polygons(scenes: pd.DataFrame, file: str = "scenes.csv") -> np.ndarray:
@@ -137,7 +140,7 @@ def footprint_units(proj: np.ndarray, days: np.ndarray, stereo_iou: float) -> np
         return np.arange(n)
     a, b = pairs[:, 0], pairs[:, 1]
     iou = areas / (shapely.area(proj[a]) + shapely.area(proj[b]) - areas)
-    link = (iou >= stereo_iou) & (days[a] == days[b])
+    link = (iou >= stereo_iou - IOU_ROUNDING) & (days[a] == days[b])
     graph = coo_matrix((np.ones(int(link.sum())), (a[link], b[link])), shape=(n, n))
     return connected_components(graph, directed=False)[1]
 
