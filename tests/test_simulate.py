@@ -256,14 +256,15 @@ def test_edge_shift_puts_three_points_a_neighbour_beyond_two_m(tmp_path: Path) -
 
 @pytest.mark.parametrize(
     ("grid", "obs", "total"),
-    [("20x20", 100_000, "80,000,000"), ("5x4", 80_001, "3,200,040")],
+    [("20x20", 100_000, "80,000,000"), ("20x20", 15_001, "12,000,800")],
 )
 def test_a_block_too_large_to_build_is_refused(
     tmp_path: Path, grid: str, obs: int, total: str
 ) -> None:
     """Grid and observations per scene were bounded one by one: 20x20 at 100000, 2·400·100000 =
     80 million observations a block, ran for about 40 minutes a block towards some 35 GB of
-    memory. A block holds at most 3.2 million (4x4 at 100000); one more is refused up front."""
+    memory. A block holds at most 12 million (20x20 at 15000, beyond a national project's
+    largest of 10 million); one more is refused up front."""
     out = tmp_path / "out"
     r = run_blockqc(
         "simulate", out, "--fields", "4", "--grid", grid, "--obs-per-scene", obs
@@ -271,7 +272,7 @@ def test_a_block_too_large_to_build_is_refused(
     assert r.returncode == 2
     assert r.stderr == (
         f"error: --grid {grid} with --obs-per-scene {obs}: {total} tie-point observations per "
-        "block (2 PAN scenes a footprint), more than the 3,200,000 a block may hold (memory and "
+        "block (2 PAN scenes a footprint), more than the 12,000,000 a block may hold (memory and "
         "time); make the grid or --obs-per-scene smaller\n"
     )
     assert not out.exists()

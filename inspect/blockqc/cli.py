@@ -601,10 +601,10 @@ def schema_cmd(kind: str) -> None:
 #: scene: bound memory and time
 MAX_GRID = 20
 MAX_OBS_PER_SCENE = 100_000
-#: tie-point observations per block (2 PAN scenes a footprint): the 4x4 grid's at the largest
-#: --obs-per-scene, about 1.4 GB of memory and 2 minutes a block (20x20 at 100000 would need
-#: some 35 GB and 40 minutes)
-MAX_OBS_PER_BLOCK = 3_200_000
+#: tie-point observations per block (2 PAN scenes a footprint): 12 million (20x20 at 15000) holds
+#: the 10 million of a national project's largest block; written at about 0.44 GB of memory and
+#: 33 s a million (20x20 at 100000 would need some 35 GB and 40 minutes)
+MAX_OBS_PER_BLOCK = 12_000_000
 
 
 @cli.command("simulate")
