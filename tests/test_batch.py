@@ -1157,6 +1157,30 @@ def test_incremental_key_holds_the_chromium_writing_the_pdfs(monkeypatch, tmp_pa
     assert digest(one, "none") == digest(other, "none")
 
 
+def test_incremental_key_holds_whether_chromium_tags_the_pdfs(monkeypatch, tmp_path):
+    """BLOCKQC_PDF_TAGGED=1 has Chromium write another PDF (tagged: about twice the bytes): an
+    untagged one of an earlier run was reused in its place. It is another key when Chromium
+    writes the PDFs, and no other key when no PDF is written."""
+    from blockqc import cache
+
+    pack = load_pack("global-project")
+    program = tmp_path / "chrome"
+    program.write_text("a", encoding="utf-8")
+    program.chmod(0o755)
+    monkeypatch.setenv("BLOCKQC_CHROMIUM", str(program))
+
+    def digest(tagged: str | None, pdf: str) -> str:
+        if tagged is None:
+            monkeypatch.delenv("BLOCKQC_PDF_TAGGED", raising=False)
+        else:
+            monkeypatch.setenv("BLOCKQC_PDF_TAGGED", tagged)
+        return cache.run_digest(pack, batch.Writer(tmp_path, pdf=pdf, pdf_engine="chromium"))
+
+    assert digest(None, "all") != digest("1", "all")
+    assert digest(None, "all") == digest("0", "all")  # only 1 tags them
+    assert digest(None, "none") == digest("1", "none")
+
+
 def test_incremental_rerun_sees_a_file_rewritten_with_its_size_and_time_kept(
     small_batch: Path, tmp_path: Path
 ):

@@ -12,7 +12,8 @@ size of each output, so that a re-run reads nothing else of an unchanged block, 
 cut output is written again; a digest of it all seals the file, so that one edited by hand is not
 trusted (the block is inspected again, and the run says so: `Untrusted`). The versions of the
 libraries that make the numbers and the pages count too (`DEPENDENCIES`), and so does the Chromium
-that writes the PDFs (BLOCKQC_CHROMIUM's, or the one on the PATH).
+that writes the PDFs (BLOCKQC_CHROMIUM's, or the one on the PATH) and whether it tags them
+(BLOCKQC_PDF_TAGGED).
 """
 
 from __future__ import annotations
@@ -166,10 +167,11 @@ def _versions(names: tuple[str, ...]) -> dict[str, str | None]:
     return found
 
 
-def _chromium(writer: Any) -> tuple[str, int, int] | None:
-    """The Chromium that writes the PDFs (path, size, time): the program `find_chromium`
-    takes, named by BLOCKQC_CHROMIUM or found on the PATH; None when it writes none."""
-    from blockqc.report.chromium import ChromiumProblem, find_chromium
+def _chromium(writer: Any) -> tuple[str, int, int, bool] | None:
+    """The Chromium that writes the PDFs (path, size, time) and whether it tags them
+    (BLOCKQC_PDF_TAGGED=1: another PDF, twice the size): the program `find_chromium` takes,
+    named by BLOCKQC_CHROMIUM or found on the PATH; None when it writes none."""
+    from blockqc.report.chromium import TAGGED, ChromiumProblem, find_chromium
 
     if writer.pdf == "none" or writer.pdf_engine != "chromium":
         return None
@@ -178,7 +180,7 @@ def _chromium(writer: Any) -> tuple[str, int, int] | None:
         st = Path(program).stat()
     except (ChromiumProblem, OSError):
         return None  # no Chromium: the run stops before any block (check_pdf_engine)
-    return (program, st.st_size, st.st_mtime_ns)
+    return (program, st.st_size, st.st_mtime_ns, os.environ.get(TAGGED) == "1")
 
 
 def delivery_fingerprint(
