@@ -714,6 +714,35 @@ def test_a_run_stopped_while_writing_leaves_no_key_vouching_for_it(
     assert not (out / ".blockqc-summary-cache.json").exists()
 
 
+def test_a_block_yaml_edited_while_the_batch_runs_is_inspected_again(small_batch, tmp_path):
+    """A batch reads every block.yaml before its first block: F4-B02's reported tie-point
+    error edited from 0.33 to 0.05 px meanwhile, its results were made from 0.33 under a key
+    of the edited file, and the next incremental run reused them (DOC-2 passing a figure the
+    block.yaml no longer gives). The key holds block.yaml as read: the block is inspected
+    again, with 0.05."""
+    out = tmp_path / "out"
+    got = batch.collect([small_batch])  # every block.yaml read here
+    manifest = small_batch / "F4-B02" / "block.yaml"
+    text = manifest.read_text(encoding="utf-8")
+    assert "tie_point_error_px: 0.33\n" in text
+    edited = text.replace("tie_point_error_px: 0.33", "tie_point_error_px: 0.05")
+    manifest.write_text(edited, encoding="utf-8")
+    batch.run(got, load_pack("global-project"), batch.Writer(out, pdf="none"), incremental=True)
+    again = _incremental(small_batch, out)
+    lines = [line for line in again.stdout.splitlines() if line.startswith("F4-B02")]
+    assert lines and "outputs reused" not in lines[0], again.stdout
+    results = json.loads((out / "F4-B02" / "results.json").read_text(encoding="utf-8"))
+    figures = [
+        row
+        for m in results["measurements"]
+        for row in (m.get("tables") or {}).get("figure", [])
+        if row.get("reported") is not None
+    ]
+    assert 0.05 in [row["reported"] for row in figures] and 0.33 not in [
+        row["reported"] for row in figures
+    ]
+
+
 def test_summary_pdf_of_an_earlier_run_is_removed(small_batch: Path, tmp_path: Path):
     out = tmp_path / "out"
     assert run_blockqc("inspect", small_batch, "--out", out, "--pdf", "failing").returncode == 1

@@ -488,7 +488,7 @@ class Job:
         cps = extra.checkpoints
         rows = None if cps is None else cps.for_block(block_id, extra.single)
         sampled = None if extra.plan is None else block_id in extra.plan.sampled
-        return delivery_fingerprint(path, self.digest, block_input, rows, sampled)
+        return delivery_fingerprint(path, self.digest, block_input, rows, sampled, manifest)
 
 
 def output_error(block_id: str, out: Path, exc: Exception) -> OutputError:

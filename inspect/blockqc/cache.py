@@ -189,17 +189,20 @@ def delivery_fingerprint(
     block_input: BaseModel | None,
     checkpoints: Any = None,
     sampled: bool | None = None,
+    manifest: BaseModel | None = None,
 ) -> str:
     """The key of one block: its delivery's path (as given, which its results.json and line of
     the summary record, and where it leads), files, verdicts, its rows of the inspector's
     checkpoint files (a DataFrame, their file named in each), whether the plan samples it (None
-    without a plan) and the run's digest."""
+    without a plan), its block.yaml as read (a batch reads them all before the first block: one
+    edited meanwhile is in its files, not in its results) and the run's digest."""
     verdicts = block_input.model_dump(mode="json") if block_input is not None else None
     where = (str(path), str(Path(path).resolve()))
     rows = None  # none given for it: the delivery's own checkpoints, as without the files
     if checkpoints is not None and not checkpoints.empty:
         rows = checkpoints.drop(columns="_row").to_csv(index=False)
-    return _sha(digest, where, _tree(Path(path)), verdicts, rows, sampled)
+    read = manifest.model_dump(mode="json") if manifest is not None else None
+    return _sha(digest, where, _tree(Path(path)), verdicts, rows, sampled, read)
 
 
 def read_cached(folder: Path, key: str) -> Cached | None:
