@@ -1166,6 +1166,21 @@ def test_incremental_key_holds_the_libraries_versions(monkeypatch, tmp_path):
     assert cache.run_digest(pack, writer) != before
 
 
+def test_incremental_key_holds_pillows_version(monkeypatch, tmp_path):
+    """Pillow measures the figures' text and encodes their raster layers (report.svg): another
+    Pillow is another key, as another numpy is; it was left out, and the pages of the earlier
+    one reused."""
+    from blockqc import cache
+
+    pack, writer = load_pack("global-project"), batch.Writer(tmp_path, pdf="none")
+    before = cache.run_digest(pack, writer)
+    real = cache.metadata.version
+    monkeypatch.setattr(
+        cache.metadata, "version", lambda name: "0.0.1" if name == "pillow" else real(name)
+    )
+    assert cache.run_digest(pack, writer) != before
+
+
 def test_incremental_key_holds_the_chromium_writing_the_pdfs(monkeypatch, tmp_path):
     """BLOCKQC_CHROMIUM naming another program is another key when it writes the PDFs, and no
     other key when no PDF is written."""

@@ -47,7 +47,8 @@ _RULES = TypeAdapter(dict[str, dict[str, StrictInt]])
 _ERRORS = TypeAdapter(list[StrictStr])
 
 
-#: the distributions whose versions make a block's numbers or pages (blockqc's own dependencies)
+#: the distributions whose versions make a block's numbers or pages (blockqc's own dependencies,
+#: and Pillow, which measures the figures' text and encodes their raster layers: `report.svg`)
 DEPENDENCIES = (
     "numpy",
     "scipy",
@@ -62,6 +63,7 @@ DEPENDENCIES = (
     "shapely",
     "pyproj",
     "weasyprint",
+    "pillow",
 )
 
 
