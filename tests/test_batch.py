@@ -1181,6 +1181,26 @@ def test_incremental_key_holds_pillows_version(monkeypatch, tmp_path):
     assert cache.run_digest(pack, writer) != before
 
 
+def test_incremental_key_holds_blockqcs_report_font(monkeypatch, tmp_path):
+    """The packaged font (report/fonts/*.otf) is embedded in the PDFs and measures figure text
+    where DejaVu Sans is missing: a font replaced (a checkout updated) is another key, as a
+    module changed is; only the modules were keyed, and the earlier font's PDFs reused."""
+    from blockqc import cache
+
+    package = tmp_path / "blockqc"
+    fonts = package / "report" / "fonts"
+    fonts.mkdir(parents=True)
+    (package / "cache.py").write_text("", encoding="utf-8")
+    font = fonts / "BlockqcSansSC-Regular.otf"
+    font.write_bytes(b"OTTO" + b"\0" * 60)
+    monkeypatch.setattr(cache, "__file__", str(package / "cache.py"))
+    pack, writer = load_pack("global-project"), batch.Writer(tmp_path / "out", pdf="none")
+    before = cache.run_digest(pack, writer)
+    assert cache.run_digest(pack, writer) == before
+    font.write_bytes(b"OTTO" + b"\1" * 80)
+    assert cache.run_digest(pack, writer) != before
+
+
 def test_incremental_key_holds_the_chromium_writing_the_pdfs(monkeypatch, tmp_path):
     """BLOCKQC_CHROMIUM naming another program is another key when it writes the PDFs, and no
     other key when no PDF is written."""

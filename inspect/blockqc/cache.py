@@ -6,14 +6,14 @@ quick check of make and rsync, and the inode's change time, which no program set
 rewritten gets a new one even when its size and modification time are kept), the inspector
 (name, verdicts and waivers for the block), the resolved rule pack (its rules, constants, files
 and the columns it reads), the output options, and blockqc itself (its version, and the size and
-time of each of its modules and templates, so that a changed blockqc recomputes too). It is kept
-beside the block's outputs in `.blockqc-cache.json` with the block's line of the summary and the
-size of each output, so that a re-run reads nothing else of an unchanged block, and a missing or
-cut output is written again; a digest of it all seals the file, so that one edited by hand is not
-trusted (the block is inspected again, and the run says so: `Untrusted`). The versions of the
-libraries that make the numbers and the pages count too (`DEPENDENCIES`), and so does the Chromium
-that writes the PDFs (BLOCKQC_CHROMIUM's, or the one on the PATH) and whether it tags them
-(BLOCKQC_PDF_TAGGED).
+time of each of its modules, its report font and templates, so that a changed blockqc recomputes
+too). It is kept beside the block's outputs in `.blockqc-cache.json` with the block's line of the
+summary and the size of each output, so that a re-run reads nothing else of an unchanged block,
+and a missing or cut output is written again; a digest of it all seals the file, so that one
+edited by hand is not trusted (the block is inspected again, and the run says so: `Untrusted`).
+The versions of the libraries that make the numbers and the pages count too (`DEPENDENCIES`),
+and so does the Chromium that writes the PDFs (BLOCKQC_CHROMIUM's, or the one on the PATH) and
+whether it tags them (BLOCKQC_PDF_TAGGED).
 """
 
 from __future__ import annotations
@@ -149,12 +149,13 @@ def run_digest(pack: Any, writer: Any, extra: Any = None, inspector: str | None 
 
 
 def _blockqc() -> tuple[str, list, list, dict[str, str | None]]:
-    """blockqc's version, the size and time of its modules and stock templates, and the
-    versions of the libraries it computes and renders with."""
+    """blockqc's version, the size and time of its modules, its report font (in the PDFs and
+    the figures) and stock templates, and the versions of the libraries it computes and renders
+    with."""
     from blockqc.resources import templates_dir
 
     package = Path(__file__).resolve().parent
-    modules = [f for f in _tree(package) if f[0].endswith(".py")]
+    modules = [f for f in _tree(package) if f[0].endswith((".py", ".otf"))]
     return __version__, modules, _tree(templates_dir()), _versions(DEPENDENCIES)
 
 
