@@ -743,6 +743,22 @@ def test_a_block_yaml_edited_while_the_batch_runs_is_inspected_again(small_batch
     ]
 
 
+def test_incremental_runs_key_a_block_yaml_of_any_yaml_values(small_batch, tmp_path):
+    """Keys no rule reads may hold what YAML reads besides text and numbers: bytes that are not
+    UTF-8 (!!binary "/w==" is 0xFF), a set, a date. The block was refused in incremental runs
+    (UnicodeDecodeError while keying its block.yaml); it is inspected, and a re-run reuses it
+    (the set's order, which changes from one process to the next, does not change its key)."""
+    out = tmp_path / "out"
+    manifest = small_batch / "F1-B02" / "block.yaml"
+    extra = 'label: !!binary "/w=="\ntags: !!set {west, east, north}\ndelivered: 2024-05-01\n'
+    manifest.write_text(manifest.read_text(encoding="utf-8") + extra, encoding="utf-8")
+    first = _incremental(small_batch, out)
+    assert first.returncode == 1, first.stderr  # F3-B02 fails RO-3, as without the keys
+    assert "UNREADABLE" not in first.stdout and (out / "F1-B02" / "results.json").is_file()
+    again = _incremental(small_batch, out)
+    assert again.stdout.count("outputs reused") == 3, again.stdout
+
+
 def test_summary_pdf_of_an_earlier_run_is_removed(small_batch: Path, tmp_path: Path):
     out = tmp_path / "out"
     assert run_blockqc("inspect", small_batch, "--out", out, "--pdf", "failing").returncode == 1

@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import Any
 
 import pydantic_core
+import yaml
 from pydantic import BaseModel, StrictInt, StrictStr, TypeAdapter, ValidationError
 
 from blockqc import __version__
@@ -198,13 +199,14 @@ def delivery_fingerprint(
     the summary record, and where it leads), files, verdicts, its rows of the inspector's
     checkpoint files (a DataFrame, their file named in each), whether the plan samples it (None
     without a plan), its block.yaml as read (a batch reads them all before the first block: one
-    edited meanwhile is in its files, not in its results) and the run's digest."""
+    edited meanwhile is in its files, not in its results; written back as YAML, which writes
+    whatever YAML read: bytes of `!!binary`, a `!!set` in order) and the run's digest."""
     verdicts = block_input.model_dump(mode="json") if block_input is not None else None
     where = (str(path), str(Path(path).resolve()))
     rows = None  # none given for it: the delivery's own checkpoints, as without the files
     if checkpoints is not None and not checkpoints.empty:
         rows = checkpoints.drop(columns="_row").to_csv(index=False)
-    read = manifest.model_dump(mode="json") if manifest is not None else None
+    read = None if manifest is None else yaml.safe_dump(manifest.model_dump(), sort_keys=True)
     return _sha(digest, where, _tree(Path(path)), verdicts, rows, sampled, read)
 
 
