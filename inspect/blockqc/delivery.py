@@ -93,7 +93,9 @@ def canonical_epsg(code: int | None) -> int | None:
 
 
 class SpatialReference(BaseModel):
-    model_config = ConfigDict(extra="allow", allow_inf_nan=False)
+    # bytes of an unread key (YAML's !!binary), dumped as JSON for a plan's strata, as base64:
+    # as UTF-8 they may be no text at all
+    model_config = ConfigDict(extra="allow", allow_inf_nan=False, ser_json_bytes="base64")
     geodetic_datum: str | None = None
     height_datum: str | None = None
     projection: str | None = None
@@ -151,7 +153,8 @@ def _figure(value: Any) -> Any:
 class Manifest(BaseModel):
     """block.yaml: the block's identity, GSDs, spatial reference, documents, reported figures."""
 
-    model_config = ConfigDict(extra="allow", allow_inf_nan=False)
+    # bytes of an unread key, as base64 (SpatialReference)
+    model_config = ConfigDict(extra="allow", allow_inf_nan=False, ser_json_bytes="base64")
     block_id: str = Field(min_length=1)
     sensor: str | None = None
     gsd_m: GSD

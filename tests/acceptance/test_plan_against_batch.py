@@ -252,3 +252,27 @@ def test_a_stratum_written_with_a_decimal_point_still_holds_its_blocks(tmp_path:
     plan, path = _plan(tmp_path, *edits)
     blocks = {f"B{i:02d}": {"test_field": 1.0 if i % 2 == 0 else 2} for i in range(4)}
     check_strata(plan, path, blocks)
+
+
+def test_a_block_yaml_key_of_bytes_does_not_stop_sample_or_inspect_plan(tmp_path: Path) -> None:
+    """A key no rule reads holding bytes that are not UTF-8 (label: !!binary "/w==", 0xFF):
+    `sample --strata` and `inspect --plan` stopped with an internal error (UnicodeDecodeError
+    while reading the strata); they run, and the block is inspected as without the key."""
+    import shutil
+
+    from casekit import SAMPLES
+
+    batch = tmp_path / "batch"
+    for block in ("F1-B02", "F3-B02", "F4-B02"):
+        shutil.copytree(SAMPLES / "batch" / block, batch / block)
+    manifest = batch / "F1-B02" / "block.yaml"
+    manifest.write_text(
+        manifest.read_text(encoding="utf-8") + 'label: !!binary "/w=="\n', encoding="utf-8"
+    )
+    plan = tmp_path / "plan.yaml"
+    drawn = run_blockqc("sample", batch, "--seed", 1, "--strata", "test_field", "--out", plan)
+    assert drawn.returncode == 0, drawn.stderr
+    done = run_blockqc("inspect", batch, "--plan", plan, "--out", tmp_path / "out", "--no-pdf")
+    assert done.returncode == 1, done.stderr  # F3-B02 fails RO-3
+    assert "internal error" not in done.stderr
+    assert (tmp_path / "out" / "F1-B02" / "results.json").is_file()
