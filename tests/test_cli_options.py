@@ -387,3 +387,29 @@ def test_empty_inputs_and_a_folder_for_an_output_file_are_named(tmp_path):
 def test_repeated_short_options_and_rules_subcommands_are_refused_too(tmp_path, args):
     """-j2 -j1 kept the last unsaid, and the rules subcommands were not checked at all."""
     _refused(run_blockqc(*args, cwd=tmp_path), "given twice: give it once")
+
+
+@pytest.mark.parametrize(
+    "args, named",
+    [
+        (("sample", "", "--seed", "7", "--out", "../plan.yaml"), "'BATCH': an empty path"),
+        (("report", "", "--out", "../r"), "'RESULTS...': an empty path"),
+        (("adjust", "", "--out", "../a"), "'DELIVERY': an empty path"),
+        (("adjust", SAMPLE, "--out", "../a", "--dem", ""), "'--dem': an empty path"),
+        (("adjust", SAMPLE, "--out", "../a", "--dem", DEM, "--geoid", ""), "'--geoid': an empty"),
+        (("inspect", SAMPLE, "--out", "../o", "--verdicts", ""), "'--verdicts': an empty path"),
+        (("inspect", SAMPLE, "--out", "../o", "--checkpoints", ""), "'--checkpoints': an empty"),
+        (("inspect", SAMPLE, "--out", "../o", "--plan", ""), "'--plan': an empty path"),
+        (("inspect", SAMPLE, "--out", "../o", "--meta", ""), "'--meta': an empty path"),
+        (("simulate", "../s", "--dem-dir", ""), "'--dem-dir': an empty path"),
+    ],
+)
+def test_an_empty_input_path_is_refused_not_read_as_the_current_folder(tmp_path, args, named):
+    """'' was read as the current folder: `sample ""` run inside a batch drew a plan from it
+    (exit 0), `report ""` re-rendered the results there, and `--verdicts ""` was named '.'
+    ("is a folder", or "lies inside the delivery" run inside one)."""
+    here = tmp_path / "batch"
+    shutil.copytree(SAMPLES / "batch", here, ignore=shutil.ignore_patterns("F[2-4]-*"))
+    p = run_blockqc(*args, cwd=here)
+    _refused(p, named)
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["batch"]  # nothing written

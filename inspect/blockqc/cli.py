@@ -206,7 +206,7 @@ def check_pdf_engine(engine: str, pdf: bool) -> None:
 )
 @click.option(
     "--verdicts",
-    type=click.Path(path_type=Path),
+    type=GivenPath("the inspector's file"),
     help="Inspector's file: verdicts for manual items and waivers.",
 )
 @click.option(
@@ -257,20 +257,20 @@ def check_pdf_engine(engine: str, pdf: bool) -> None:
     "--checkpoints",
     "checkpoint_files",
     multiple=True,
-    type=click.Path(path_type=Path),
+    type=GivenPath("a checkpoints table"),
     help="The inspector's checkpoints (checkpoints.csv columns [+ block_id]), merged with the "
     "delivered ones; repeat for several files.",
 )
 @click.option(
     "--plan",
     "plan_file",
-    type=click.Path(path_type=Path),
+    type=GivenPath("the sampling plan's file"),
     help="Sampling plan (blockqc sample): detailed inspection on its sampled blocks only.",
 )
 @click.option(
     "--meta",
     "meta_file",
-    type=click.Path(path_type=Path),
+    type=GivenPath("the report particulars' file"),
     help="The filed report's particulars: report number, project, producer, basis, signatures.",
 )
 def inspect_cmd(
@@ -647,7 +647,7 @@ MAX_OBS_PER_BLOCK = 12_000_000
 @click.option("--list-faults", is_flag=True, help="List the faults and exit.")
 @click.option(
     "--dem-dir",
-    type=click.Path(path_type=Path, file_okay=False),
+    type=GivenPath("the folder of the DEM tiles", file_okay=False),
     help="Folder of the DEM tiles (default: samples/dem of the checkout).",
 )
 def simulate_cmd(

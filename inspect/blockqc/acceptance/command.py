@@ -134,7 +134,7 @@ def _echo_plan(plan: Plan, out: Path) -> None:
 
 
 @click.command("sample")
-@click.argument("batch", type=click.Path(path_type=Path))
+@click.argument("batch", type=GivenPath("a batch folder"))
 @click.option(
     "--seed", required=True, type=click.IntRange(min=0), help="Seed of the random generator."
 )

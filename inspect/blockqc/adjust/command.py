@@ -59,12 +59,12 @@ def check_dem_options(dem: Path | None, geoid: Path | None) -> None:
 
 
 @click.command("adjust")
-@click.argument("delivery", type=click.Path(path_type=Path))
+@click.argument("delivery", type=GivenPath("a delivery folder"))
 @click.option("--out", required=True, type=GivenPath(), help="Output folder.")
-@click.option("--dem", type=click.Path(path_type=Path), help="DEM for height priors.")
+@click.option("--dem", type=GivenPath("a DEM file"), help="DEM for height priors.")
 @click.option(
     "--geoid",
-    type=click.Path(path_type=Path),
+    type=GivenPath("a geoid grid file, or egm96"),
     help="Geoid of a geoid-height DEM (needs --dem): a grid file, or egm96 (shipped).",
 )
 @click.option(

@@ -46,7 +46,9 @@ def _check_out(out: Path, named: tuple[Path, ...], docs: list, summary: tuple | 
 
 
 @click.command("report")
-@click.argument("results", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.argument(
+    "results", nargs=-1, required=True, type=GivenPath("a results.json or a folder of them")
+)
 @click.option(
     "--out",
     required=True,
