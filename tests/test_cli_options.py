@@ -413,3 +413,33 @@ def test_an_empty_input_path_is_refused_not_read_as_the_current_folder(tmp_path,
     p = run_blockqc(*args, cwd=here)
     _refused(p, named)
     assert sorted(f.name for f in tmp_path.iterdir()) == ["batch"]  # nothing written
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (("report", SAMPLE, "--out", "o", "--no-pdf", "--pdf"), "--no-pdf contradicts --pdf"),
+        (
+            ("inspect", SAMPLE, "--out", "o", "--progress", "--no-progress"),
+            "--progress contradicts --no-progress",
+        ),  # fmt: skip
+        (
+            (
+                "factors",
+                "--table",
+                "t.csv",
+                "--out",
+                "o",
+                "--no-edge-correction",
+                "--edge-correction",
+            ),
+            "--no-edge-correction contradicts --edge-correction",
+        ),  # fmt: skip
+    ],
+)
+def test_a_switch_given_both_ways_is_refused(tmp_path, args, words):
+    """`report … --no-pdf --pdf` wrote the PDFs (the last kept unsaid, exit 0), where `inspect
+    --no-pdf --pdf all` is refused."""
+    p = run_blockqc(*args, cwd=tmp_path)
+    _refused(p, words, "give one of them")
+    assert list(tmp_path.iterdir()) == []

@@ -138,6 +138,25 @@ def refuse_repeated(command: click.Command, args: list[str]) -> None:
                 "replace the first unsaid)"
             )
         seen[once[given]] = given
+    refuse_both_ways(command, args)
+
+
+def refuse_both_ways(command: click.Command, args: list[str]) -> None:
+    """A switch given both ways (`--pdf --no-pdf`, `--progress --no-progress`): click keeps the
+    last unsaid, so it is refused as contradicting itself, naming both."""
+    args = list(map(str, args))
+    options = args[: args.index("--")] if "--" in args else args
+    for p in command.params:
+        if not (isinstance(p, click.Option) and p.is_flag and p.secondary_opts):
+            continue
+        given = [a for a in options if a in p.opts or a in p.secondary_opts]
+        on = [a for a in given if a in p.opts]
+        off = [a for a in given if a in p.secondary_opts]
+        if on and off:
+            raise click.UsageError(
+                f"{given[0]} contradicts {off[0] if given[0] in p.opts else on[0]}: give one "
+                "of them"
+            )
 
 
 @click.group(
