@@ -340,6 +340,17 @@ def test_sample_names_a_stray_file_and_a_strata_key_left_out(tmp_path: Path) -> 
     assert "block.yaml: no key 'sampled' in block.yaml to stratify by" in p.stderr
 
 
+def test_sample_names_a_link_to_a_delivery_of_the_batch(tmp_path: Path) -> None:
+    """A sub-folder linking to another delivery of the batch is one unit: the plan counted 3
+    units of 4 sub-folders unsaid, where inspect warns that it inspects it once."""
+    batch = _batch(tmp_path / "batch", 3)
+    (batch / "B03").symlink_to(batch / "B01", target_is_directory=True)
+    p = run_blockqc("sample", batch, "--seed", 1, "--out", tmp_path / "a.yaml")
+    assert p.returncode == 0, p.stderr
+    assert f"warning: {batch / 'B03'}: named more than once, drawn from once" in p.stderr
+    assert yaml.safe_load((tmp_path / "a.yaml").read_text())["units"] == 3
+
+
 def test_a_sampled_block_swapped_by_hand_is_said(tmp_path: Path) -> None:
     """A plan edited by hand, one flat block sampled swapped for the flat block left out (in the
     stratum, the lot and the plan alike, so that its counts agree): its seed does not draw that

@@ -48,6 +48,8 @@ def read_units(batch: Path, key: str | None) -> tuple[list[str], dict[str, str] 
     from blockqc.delivery import MANIFEST, load_manifest
 
     got = collect([batch])
+    for d in got.repeated:  # a link to another delivery of the batch: one unit, as inspect says
+        click.echo(f"warning: {d}: named more than once, drawn from once", err=True)
     problems = list(got.refused.values())
     strata: dict[str, str] = {}
     values: dict[Path, Any] = {}  # each block.yaml's value of the key, as YAML reads it
