@@ -55,3 +55,14 @@ def test_list_shows_units_and_waivable(blockqc) -> None:
         assert (" yes " if r.waivable else " no ") in lines[r.id], lines[r.id]
     assert "≥ 100 points" in lines["TP-4"] and "≤ 0.5 px" in lines["TP-1"]
     assert "plane: < 28.2843 m" in lines["RO-3"]
+
+
+def test_explain_of_a_disabled_rule_says_so_without_another_rule_offered(blockqc) -> None:
+    """CP-5, disabled by the sample project pack, was 'no rule CP-5 … (did you mean TP-5?); CP-5
+    is disabled', offering another rule; lower case (cp-5) lost the 'disabled' altogether."""
+    pack = Path(__file__).parents[2] / "samples" / "packs" / "strict-project.yaml"
+    for asked in ("CP-5", "cp-5"):
+        p = blockqc("rules", "explain", asked, "--rules", pack)
+        assert p.returncode == 2, p.stdout
+        assert f"no rule {asked} in pack strict-project: CP-5 is disabled by the pack" in p.stderr
+        assert "did you mean" not in p.stderr

@@ -101,10 +101,10 @@ def _find(pack: Pack, rule_id: str, rules_ref: str) -> Rule:
         return pack.rule(rule_id)
     except KeyError:
         ids = [x.id for x in pack.rules]
-        hint = did_you_mean(rule_id, ids)
-        disabled = f"; {rule_id} is disabled by the pack" if rule_id in pack.disabled else ""
+        off = [d for d in pack.disabled if d.upper() == rule_id.upper()]
+        why = f": {off[0]} is disabled by the pack" if off else did_you_mean(rule_id, ids)
         raise RuleError(
-            f"no rule {rule_id} in pack {pack.name}{hint}{disabled} (rules: {', '.join(ids)})",
+            f"no rule {rule_id} in pack {pack.name}{why} (rules: {', '.join(ids)})",
             file=rules_ref,
         ) from None
 
