@@ -68,8 +68,8 @@ def test_sample_refuses_a_plan_inside_a_delivery_the_batch_links_to(tmp_path: Pa
     r = run_blockqc("sample", batch, "--seed", 1, "--out", real / "p.yaml")
     assert r.returncode == 2, r.stderr
     assert (
-        f"error: --out {real} lies inside the delivery {real}: blockqc never writes into "
-        "a delivery; choose an output folder outside it"
+        f"error: --out {real / 'p.yaml'} lies inside the delivery {real}: blockqc never writes "
+        "into a delivery; choose an output folder outside it"
     ) in r.stderr
     assert not (real / "p.yaml").exists()
 
@@ -349,6 +349,21 @@ def test_sample_names_a_link_to_a_delivery_of_the_batch(tmp_path: Path) -> None:
     assert p.returncode == 0, p.stderr
     assert f"warning: {batch / 'B03'}: named more than once, drawn from once" in p.stderr
     assert yaml.safe_load((tmp_path / "a.yaml").read_text())["units"] == 3
+
+
+def test_sample_names_its_plan_file_not_the_folder_as_out(tmp_path: Path) -> None:
+    """`--out notes.txt/plan.yaml` was 'error: --out …/notes.txt is a file', and a plan inside
+    the batch '--out BATCH lies inside the input BATCH': the folder named as the --out given."""
+    batch = _batch(tmp_path / "batch", 2)
+    (tmp_path / "notes.txt").write_text("x", encoding="utf-8")
+    p = run_blockqc("sample", batch, "--seed", 1, "--out", tmp_path / "notes.txt" / "plan.yaml")
+    assert p.returncode == 2
+    plan, file = tmp_path / "notes.txt" / "plan.yaml", tmp_path / "notes.txt"
+    assert f"error: --out {plan} lies under the file {file}: give a folder" in p.stderr
+    p = run_blockqc("sample", batch, "--seed", 1, "--out", batch / "plan.yaml")
+    assert p.returncode == 2
+    assert f"error: --out {batch / 'plan.yaml'} lies inside the input {batch}" in p.stderr
+    assert not (batch / "plan.yaml").exists()
 
 
 def test_a_sampled_block_swapped_by_hand_is_said(tmp_path: Path) -> None:

@@ -135,6 +135,15 @@ def _echo_plan(plan: Plan, out: Path) -> None:
             click.echo(f"    {label}{s.size} → {s.sample}: {', '.join(s.sampled) or '-'}")
 
 
+def _refuse_under_a_file(out: Path) -> None:
+    """A file where the plan's folder would be: named as the plan's file lying under it (the
+    folder's own check would name the folder as --out)."""
+    real = out.resolve()
+    blocker = next((p for p in real.parents if p.exists() and not p.is_dir()), None)
+    if blocker is not None:
+        raise UsageError(f"--out {out} lies under the file {blocker}: give a folder for the plan")
+
+
 @click.command("sample")
 @click.argument("batch", type=GivenPath("a batch folder"))
 @click.option(
@@ -166,10 +175,11 @@ def command(batch: Path, seed: int, key: str | None, rules_ref: str, out: Path) 
         )
     if out.suffix not in (".yaml", ".yml"):
         raise UsageError(f"--out {out}: the plan is a YAML file (.yaml)")
-    refuse_inside(out.parent, [batch])  # before reading; its folder is made once the batch is read
+    refuse_inside(out, [batch])  # before reading; its folder is made once the batch is read
     ids, strata = read_units(batch, key)
     for f in batch_files(batch):  # as inspect says of them: the plan draws from the deliveries
         click.echo(f"warning: {f}: a file beside the deliveries of a batch, not read", err=True)
+    _refuse_under_a_file(out)
     check_out_dir(out.parent, [batch])
     lots = draw(ids, pack.acceptance.sampling, seed, strata)
     plan = make_plan(
