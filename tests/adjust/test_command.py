@@ -178,7 +178,14 @@ def test_no_output_folder_when_the_delivery_is_unreadable(small_block, tmp_path,
     assert r.returncode == 2 and "rpc/ is missing" in r.stderr
     assert not out.exists()
     r = blockqc("adjust", tmp_path / "nothing", "--out", out)
-    assert r.returncode == 2 and "not a delivery folder (no block.yaml)" in r.stderr
+    assert r.returncode == 2 and "nothing: no such file or folder: expected a delivery" in r.stderr
+    assert not out.exists()
+    r = blockqc("adjust", blk / "block.yaml", "--out", out)
+    assert r.returncode == 2
+    assert "block.yaml: a file, not a delivery folder (the folder holding block.yaml)" in r.stderr
+    (tmp_path / "empty").mkdir()
+    r = blockqc("adjust", tmp_path / "empty", "--out", out)
+    assert r.returncode == 2 and "empty: not a delivery folder (no block.yaml)" in r.stderr
     assert not out.exists()
 
 

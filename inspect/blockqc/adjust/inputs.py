@@ -125,11 +125,20 @@ def _producer(geometry: BlockGeometry, models: list[RPCModel], scene_ids: list[s
     return adjusted, affine
 
 
+def _not_a_delivery(path: Path) -> str:
+    """Why DELIVERY is none: nothing there, a file (block.yaml itself, say), or no block.yaml."""
+    if not path.exists():
+        return "no such file or folder: expected a delivery folder (with block.yaml)"
+    if not path.is_dir():
+        return f"a file, not a delivery folder (the folder holding {MANIFEST})"
+    return f"not a delivery folder (no {MANIFEST})"
+
+
 def load_adjust_input(path: str | Path) -> AdjustInput:
     """Read a delivery for the adjustment; InputError naming the file, row or scene on problems."""
     path = Path(path)
     if not (path / MANIFEST).is_file():
-        raise InputError(Problem(str(path), f"not a delivery folder (no {MANIFEST})"))
+        raise InputError(Problem(str(path), _not_a_delivery(path)))
     d = load_delivery(path, residuals=False)  # the observations alone are adjusted
     _check_multi_ray(d.files["tie_points"], d.tie_points)
     _check_ground(d.files["tie_points"], d.tie_points)
