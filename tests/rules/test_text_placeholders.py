@@ -72,6 +72,16 @@ def test_unknown_placeholder_is_refused_at_its_line(tmp_path: Path) -> None:
             "below {norm.plane_m:x} m",
             "placeholder {norm.plane_m:x}: unknown format 'x' (give .1f, .3g, g or d)",
         ),
+        (
+            "at most {tp.max_error_px:d} px",
+            "placeholder {tp.max_error_px:d}: 1.5 is not a whole number, which format 'd' "
+            "writes: give g or .1f",
+        ),
+        (
+            "in ({tp.share_interval_px:d}] px",
+            "placeholder {tp.share_interval_px:d}: 1.5 is not a whole number, which format "
+            "'d' writes: give g or .1f",
+        ),
         ("a set {a, b", "a lone '{': write {{ for a literal brace"),
         ("empty {}", "an empty placeholder {}: name a constant, e.g. {norm.plane_m}"),
     ],
@@ -87,6 +97,10 @@ def test_render_formats_lists_and_literal_braces() -> None:
     assert render("{2 * sqrt(2) * norm.plane_m:.1f} m; {tp.n} points", consts) == (
         "28.3 m; 100 points"
     )
+    # `d` writes whole numbers as such, also one computed a hair off (3 · 0.1 · 20 = 6)
+    assert render("{tp.n:d}; {3 * 0.1 * 20:d}; {tp.n / 4:3d}", consts) == "100; 6;  25"
+    with pytest.raises(ExpressionError, match="0.5 is not a whole number"):
+        render("{tp.share:d}", {"tp": {"share": [1.0, 0.5]}})
     with pytest.raises(ExpressionError, match="a lone '}'"):
         render("x}", consts)
 

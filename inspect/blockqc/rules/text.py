@@ -69,8 +69,20 @@ def _formatted(value: Any, spec: str, inner: str) -> str:
         )
     values = value if isinstance(value, list) else [value]
     if spec.endswith("d"):
-        values = [round(v) for v in values]
+        values = [_whole(v, inner) for v in values]
     return ", ".join(format(v, spec) for v in values)
+
+
+def _whole(value: float, inner: str) -> int:
+    """A number `d` writes: a whole one (within a billionth of its magnitude, the rounding of
+    a computed value), never a fraction rounded away (1.5 px read as 2 px)."""
+    near = round(value)
+    if abs(value - near) > 1e-9 * max(1.0, abs(value)):
+        raise ExpressionError(
+            f"placeholder {{{inner}}}: {value:g} is not a whole number, which format 'd' "
+            "writes: give g or .1f"
+        )
+    return near
 
 
 def render_rule(
