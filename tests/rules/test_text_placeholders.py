@@ -29,6 +29,25 @@ def test_stock_texts_follow_the_constants_a_project_changes(tmp_path: Path) -> N
     )
 
 
+def test_a_projects_decimal_is_written_whole_not_rounded_to_the_texts_format(
+    tmp_path: Path,
+) -> None:
+    # TP-3 writes its interval `.1f`: a project's (0.75, 1.25] read (0.8, 1.2] px, a bound
+    # the rule does not judge by; irrational figures (2·√2·7.25 = 20.506…) are still rounded
+    pack = load_pack(
+        _pack(
+            tmp_path,
+            "constants:\n  norm: {plane_m: 7.25}\n  tp: {share_interval_px: [0.75, 1.25]}\n",
+        )
+    )
+    tp3 = pack.rule("TP-3")
+    assert tp3.title == "Share of tie points with errors in (0.75, 1.25] px"
+    assert tp3.title_zh == "误差在 (0.75, 1.25] 像素之间的连接点比例"
+    assert "errors in (0.75, 1.25] px" in " ".join(tp3.description.split())
+    ro3 = " ".join(pack.rule("RO-3").description.split())
+    assert "plane below 20.5 m, height below 17.0 m" in ro3
+
+
 def test_stock_texts_with_the_default_constants() -> None:
     pack = load_pack("global-project")
     assert pack.rule("TP-4").title == "At least 100 tie points in every scene"
@@ -96,6 +115,9 @@ def test_render_formats_lists_and_literal_braces() -> None:
     assert render("({tp.share:.1f}] px, {{x}}", consts) == "(1.0, 1.5] px, {x}"
     assert render("{2 * sqrt(2) * norm.plane_m:.1f} m; {tp.n} points", consts) == (
         "28.3 m; 100 points"
+    )
+    assert render("{tp.share:.1f}; {norm.plane_m:.3g}; {0.125:.2g}", consts) == (
+        "1.0, 1.5; 10; 0.125"
     )
     # `d` writes whole numbers as such, also one computed a hair off (3 · 0.1 · 20 = 6)
     assert render("{tp.n:d}; {3 * 0.1 * 20:d}; {tp.n / 4:3d}", consts) == "100; 6;  25"

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable, Mapping
+from decimal import Decimal
 from typing import Any
 
 from blockqc.errors import Problem
@@ -70,7 +71,21 @@ def _formatted(value: Any, spec: str, inner: str) -> str:
     values = value if isinstance(value, list) else [value]
     if spec.endswith("d"):
         values = [_whole(v, inner) for v in values]
-    return ", ".join(format(v, spec) for v in values)
+    return ", ".join(format(v, _precise(v, spec)) for v in values)
+
+
+def _precise(value: float, spec: str) -> str:
+    """The format for one number: as asked, with more digits where the number is a decimal of
+    up to six significant digits that the asked precision would round (a constant 0.75 with
+    `.1f` reads 0.75, not 0.8: the text must state the number the rule judges by); a number
+    with more digits (2·√2·10) is rounded as asked."""
+    m = re.fullmatch(r"\.(\d{1,2})([fg])", spec)
+    short = format(value, ".6g")
+    if not m or abs(float(short) - value) > 1e-9 * max(1.0, abs(value)):
+        return spec
+    digits = Decimal(short).normalize().as_tuple()
+    need = -int(digits.exponent) if m[2] == "f" else len(digits.digits)
+    return f".{max(int(m[1]), need)}{m[2]}"
 
 
 def _whole(value: float, inner: str) -> int:
