@@ -114,3 +114,43 @@ def test_an_asprs_rule_over_both_components_is_refused(tmp_path: Path) -> None:
     message = _refused(extension_pack(tmp_path, rule, extends="asprs-2023"))
     assert "component horizontal and vertical" in message
     assert "add where: {component: horizontal} or where: {component: vertical}" in message
+
+
+def test_a_height_content_given_the_plane_results_by_its_where_is_refused(
+    blockqc, tmp_path: Path
+) -> None:
+    """A rule copied from CP-3 with `where: {component: plane}` filed plane results under
+    cp_height (where CP-3 and CP-4 file the heights), judged by the height norm of 6 m."""
+    path = extension_pack(
+        tmp_path, RULE.replace(THRESHOLD, "    where: {component: plane}\n" + THRESHOLD)
+    )
+    assert _refused(path) == (
+        "rule PA-1: content: cp_height would take the results of component height (CP-3, "
+        "CP-4) and plane (PA-1) of checkpoint_accuracy, each component a content of its own: "
+        "write content: cp_plane for this rule's component plane, or where: {component: "
+        "height} to judge the other"
+    )
+    p = blockqc("rules", "lint", path)
+    assert p.returncode == 2, p.stdout + p.stderr
+    assert f"{path}, line 7: rule PA-1: content: cp_height would take" in p.stderr
+
+
+def test_a_stock_rule_overridden_to_the_other_component_is_refused(tmp_path: Path) -> None:
+    """CP-2 (content cp_plane) overridden to judge heights: refused at the override's line."""
+    path = extension_pack(tmp_path, "overrides:\n  CP-2: {where: {component: height}}\n")
+    with pytest.raises(RuleError) as exc:
+        load_pack(path)
+    (problem,) = exc.value.problems
+    assert (problem.file, problem.line) == (str(path), 4)
+    assert problem.message.startswith(
+        "rule CP-2: content: cp_plane would take the results of component height (CP-2) and "
+        "plane (CP-4) of checkpoint_accuracy"
+    )
+    assert "write content: cp_height for this rule's component height" in problem.message
+
+
+def test_each_component_to_the_content_the_stock_rules_give_it_is_kept(tmp_path: Path) -> None:
+    own = RULE.replace(THRESHOLD, WHERE + THRESHOLD)
+    plane = own.replace("rules:\n", "").replace("PA-1", "PA-3").replace("height", "plane")
+    pack = load_pack(extension_pack(tmp_path, own + plane + SPLIT))
+    assert [r.id for r in pack.rules][-3:] == ["PA-1", "PA-3", "PA-2"]

@@ -584,6 +584,49 @@ def _check_apart(rule: Rule, scope: Scope, what: str, bad: Callable[..., None]) 
                 return
 
 
+def apart_contents(rules: Iterable[tuple[Rule, int]]) -> dict[str, str]:
+    """Across rules: a content that takes the results of one value of a column decided apart
+    (checkpoint plane) from one rule and of another (height) from another would file them
+    together, each judged by its own rule's threshold (a project rule `content: cp_height`
+    with `where: {component: plane}`, CP-2 overridden to `where: {component: height}`).
+    Rules come with their rank (0: written or overridden in the pack named, higher: in the packs
+    it extends); each mix is reported once, at the rule of lowest rank (the last written of
+    them): {rule id: message}."""
+    taken: dict[tuple[str, str, str], dict[str, list[tuple[str, int, int]]]] = {}
+    for pos, (rule, rank) in enumerate(rules):
+        spec = None if rule.manual else REGISTRY.get(rule.metric or "")
+        scope = spec.scopes.get(rule.scope) if spec else None
+        if spec is None or scope is None:
+            continue
+        for col in scope.apart:
+            judged = _judged(rule, scope, col)
+            for content, where in rule.content.items():
+                if not set(where) <= set(scope.groups):
+                    continue
+                took = [v for v in judged if col not in where or v in selected(where[col])]
+                if len(took) == 1:  # two in one content: reported at the rule (_check_apart)
+                    by_value = taken.setdefault((spec.name, col, content), {})
+                    by_value.setdefault(took[0], []).append((rule.id, rank, pos))
+    out: dict[str, str] = {}
+    for (metric, col, content), by_value in taken.items():
+        if len(by_value) < 2:
+            continue
+        rid, mine = min(
+            ((r, v) for v, rs in by_value.items() for r in rs), key=lambda rv: (rv[0][1], -rv[0][2])
+        )
+        took = " and ".join(f"{v} ({', '.join(r[0] for r in rs)})" for v, rs in by_value.items())
+        others = sorted({k[2] for k, vs in taken.items() if k[:2] == (metric, col) and mine in vs})
+        elsewhere = [c for c in others if c != content]
+        to = f"content: {' or '.join(elsewhere)}" if elsewhere else "a content of their own"
+        other = " or ".join(f"where: {{{col}: {v}}}" for v in by_value if v != mine)
+        out[rid[0]] = (
+            f"content: {content} would take the results of {col} {took} of {metric}, each "
+            f"{col} a content of its own: write {to} for this rule's {col} {mine}, or "
+            f"{other} to judge the other"
+        )
+    return out
+
+
 def _apart_message(content: str, col: str, took: list[str], what: str) -> str:
     wheres = " or ".join(f"where: {{{col}: {v}}}" for v in took)
     each = ", ".join(f"<{v} content>: {{{col}: {v}}}" for v in took)

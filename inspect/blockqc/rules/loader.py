@@ -20,6 +20,7 @@ from blockqc.resources import rules_dir
 from blockqc.rules import accept
 from blockqc.rules.expr import flatten
 from blockqc.rules.lint import (
+    apart_contents,
     check_constants,
     check_rule,
     did_you_mean,
@@ -299,6 +300,7 @@ def read_pack(ref: str | Path) -> tuple[Pack | None, list[Problem]]:
         problems.extend(_with_constants_set(found, raw, loaded))
         problems.extend(_check_contents(rule, elements, raw))
         rules.append(rule)
+    problems.extend(_mixed_contents(rules, loaded))
     if not loaded.rules:
         problems.append(_no_rules(path, loaded))
     pf = loaded.pf
@@ -338,6 +340,21 @@ def _with_constants_set(found: list[Problem], raw: _Raw, loaded: _Loaded) -> lis
     hint = f" (constants set elsewhere: {'; '.join(set_elsewhere)})"
     return [
         Problem(p.file, p.message + hint, line=p.line) if p.file == raw.file else p for p in found
+    ]
+
+
+def _mixed_contents(rules: list[Rule], loaded: _Loaded) -> list[Problem]:
+    """A content given checkpoint plane results by one rule and height by another (lint's
+    apart_contents), at the content line of the rule the pack wrote last."""
+    chain = loaded.chain
+    ranked = [
+        (r, chain.index(loaded.rules[r.id].file) if loaded.rules[r.id].file in chain else 0)
+        for r in rules
+    ]
+    return [
+        Problem(raw.file, f"rule {rid}: {msg}", line=_line(raw, "content"))
+        for rid, msg in apart_contents(ranked).items()
+        for raw in (loaded.rules[rid],)
     ]
 
 
