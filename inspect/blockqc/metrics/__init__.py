@@ -113,6 +113,9 @@ class MetricSpec:
     description: str
     param_units: Mapping[str, str] = field(default_factory=dict)  # parameter -> unit
     tie_points: TiePointColumns = None
+    # measured on the blocks sampled for detailed inspection (checkpoints, DOMAIN §2): a rule
+    # over it that does not say `inspection:` is of the detailed inspection
+    detailed: bool = False
 
     def tie_point_columns(self, params: BaseModel | None) -> set[str] | None:
         """The tie_points columns this metric reads with these parameters (None: all)."""
@@ -132,9 +135,11 @@ def metric(
     scopes: Mapping[str, Scope],
     param_units: Mapping[str, str] | None = None,
     tie_points: TiePointColumns = None,
+    detailed: bool = False,
 ) -> Callable[[MetricFunc], MetricFunc]:
-    """Register a measurement under `name`, declaring its parameters, the scopes it offers and
-    the tie_points columns it reads (None: every column; `()` for a metric that reads none)."""
+    """Register a measurement under `name`, declaring its parameters, the scopes it offers,
+    the tie_points columns it reads (None: every column; `()` for a metric that reads none)
+    and whether it measures the sampled blocks' checkpoints (`detailed`)."""
 
     def register(func: MetricFunc) -> MetricFunc:
         doc = (func.__doc__ or "").strip().splitlines()
@@ -149,6 +154,7 @@ def metric(
             doc[0] if doc else "",
             dict(param_units or {}),
             tie_points,
+            detailed,
         )
         return func
 

@@ -109,6 +109,7 @@ def _every(column: str) -> list[dict[str, str]]:
 @metric(
     "asprs_accuracy",
     tie_points=(),
+    detailed=True,
     params=AsprsParams,
     scopes={
         "component": Scope(

@@ -174,6 +174,7 @@ _GROUPS = {"component": ("plane", "height"), "method": METHODS}
 @metric(
     "checkpoint_accuracy",
     tie_points=(),
+    detailed=True,
     params=AccuracyParams,
     scopes={
         "block": Scope({"n_points": "points", "n_rows": "rows"}),
@@ -321,6 +322,7 @@ def _footprint_box(d: Delivery, code: int | None) -> tuple | None:
 @metric(
     "reference_coverage",
     tie_points=(),
+    detailed=True,
     params=CoverageParams,
     scopes={
         "block": Scope(

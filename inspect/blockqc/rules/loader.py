@@ -16,6 +16,7 @@ from pydantic import ValidationError
 
 from blockqc.acceptance.model import Acceptance
 from blockqc.errors import Problem, RuleError
+from blockqc.metrics import REGISTRY
 from blockqc.resources import rules_dir
 from blockqc.rules import accept
 from blockqc.rules.expr import flatten
@@ -288,7 +289,7 @@ def read_pack(ref: str | Path) -> tuple[Pack | None, list[Problem]]:
     names = {**loaded.constants, **DELIVERY_NAMES}
     for rid, raw in loaded.rules.items():
         try:
-            rule = Rule.model_validate(raw.data)
+            rule = Rule.model_validate(_with_inspection(raw.data))
         except ValidationError as exc:
             for p in pydantic_problems(exc, Path(raw.file), raw.src):
                 problems.append(
@@ -341,6 +342,16 @@ def _with_constants_set(found: list[Problem], raw: _Raw, loaded: _Loaded) -> lis
     return [
         Problem(p.file, p.message + hint, line=p.line) if p.file == raw.file else p for p in found
     ]
+
+
+def _with_inspection(data: dict[str, Any]) -> dict[str, Any]:
+    """A rule that does not say `inspection:` is of the detailed inspection when its metric
+    measures the sampled blocks' checkpoints (DOMAIN §2): under a sampling plan it judges the
+    sampled blocks only, as CP-1..CP-5 do; of the general inspection otherwise."""
+    spec = REGISTRY.get(data.get("metric") or "") if isinstance(data.get("metric"), str) else None
+    if "inspection" in data or spec is None or not spec.detailed:
+        return data
+    return {**data, "inspection": "detailed"}
 
 
 def _mixed_contents(rules: list[Rule], loaded: _Loaded) -> list[Problem]:
