@@ -205,7 +205,7 @@ def pydantic_problems(
     """Turn a pydantic ValidationError into problems naming the file, the line and the key path;
     `say` words an error its own way (None: pydantic's message)."""
     problems = []
-    for err in exc.errors():
+    for err in _union_errors_joined(exc.errors()):
         loc = tuple(prefix) + tuple(err["loc"])
         path = ".".join(str(p) for p in loc) or "(top level)"
         msg = err["msg"].removeprefix("Value error, ")
@@ -222,6 +222,46 @@ def pydantic_problems(
         msg = (say(err) if say else None) or msg
         problems.append(Problem(str(file), f"{path}: {msg}", line=line_of(data, loc)))
     return problems
+
+
+#: the member of a union pydantic names as the last part of an error's location, in the
+#: words of a YAML file
+_MEMBERS = {"str": "text", "float": "a number", "int": "a whole number", "bool": "true/false"}
+
+
+def _member(tag: Any) -> str | None:
+    if not isinstance(tag, str):
+        return None
+    if tag.startswith("list["):
+        return "a list"
+    return "a mapping" if tag.startswith("dict[") else _MEMBERS.get(tag)
+
+
+def _union_errors_joined(errors: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """A value that is none of a union's members gives pydantic one error per member, each
+    at a location ending in the member's type (`where.method.str`, `where.method.float`, …):
+    joined into one at the value's own location, saying what it may be and what it is."""
+    members: dict[tuple[Any, ...], list[str]] = {}
+    for err in errors:
+        kind = _member(err["loc"][-1]) if err["loc"] else None
+        if kind is not None:
+            members.setdefault(tuple(err["loc"][:-1]), []).append(kind)
+    out, done = [], set()
+    for err in errors:
+        at = tuple(err["loc"][:-1])
+        kinds = list(dict.fromkeys(members.get(at, [])))
+        if "a number" in kinds and "a whole number" in kinds:
+            kinds.remove("a whole number")
+        if len(members.get(at, [])) < 2 or _member(err["loc"][-1]) is None:
+            out.append(err)
+        elif at not in done:
+            done.add(at)
+            given = yaml_kind(err.get("input"))
+            either = ", ".join(kinds[:-1]) + f" or {kinds[-1]}" if len(kinds) > 1 else kinds[0]
+            out.append(
+                {**err, "loc": at, "type": "union", "msg": f"expected {either}, got {given}"}
+            )
+    return out
 
 
 def _key_not_text(err: dict[str, Any]) -> bool:
