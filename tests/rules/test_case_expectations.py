@@ -154,3 +154,22 @@ def test_a_case_verdict_for_an_automatic_rule_is_refused(tmp_path: Path) -> None
     ]
     assert _messages(pack) == expected
     assert _refused(pack) == expected
+
+
+def test_the_cases_of_a_rule_the_pack_disables_are_listed_not_run(blockqc, tmp_path: Path) -> None:
+    """lint accepts a case file of a rule the pack disables; `rules test` refused it as a
+    broken case file (exit 2, "no such rule in the pack"). Its cases are listed as not run."""
+    pack = _pack(tmp_path, "disable: [CP-5]\n")
+    (tmp_path / "project.cases").mkdir()
+    case_file = tmp_path / "project.cases" / "CP-5.yaml"
+    case_file.write_text("rule: CP-5\ncases:\n  - name: covered\n    expect: pass\n", "utf-8")
+    assert _messages(pack) == []
+    (outcome,) = run_pack_cases(load_pack(pack), own_only=True)
+    assert (outcome.rule, outcome.ok, outcome.skipped, outcome.line) == ("CP-5", True, True, 3)
+    p = blockqc("rules", "test", pack, "--own")
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert (
+        f"skip  CP-5     covered\n      {case_file}, line 3: not run: the pack disables CP-5"
+        in (p.stdout)
+    )
+    assert p.stdout.rstrip().endswith("0 cases, 0 failed, 1 not run (their rule disabled)")

@@ -115,6 +115,7 @@ class Outcome:
     name: str
     ok: bool
     message: str = ""
+    skipped: bool = False  # a case of a rule the pack disables: not run (lint accepts it)
 
 
 def case_folder(pack_file: Path) -> Path:
@@ -453,6 +454,10 @@ def run_file_cases(pack_file: Path) -> list[Outcome]:
     out = []
     for f, doc, i, case in iter_cases(pack_file):
         line = doc.line(i)
+        if doc.rule in pack.disabled and doc.rule not in ids:
+            why = f"not run: the pack disables {doc.rule}"
+            out.append(Outcome(f, line, doc.rule, case.name, True, why, skipped=True))
+            continue
         if doc.rule not in ids:
             raise RuleError(Problem(str(f), f"cases for {doc.rule}: no such rule in the pack"))
         if i == 0 and (problems := case_problems(f, doc, pack, pack_file)):

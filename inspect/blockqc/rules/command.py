@@ -203,11 +203,15 @@ def rules_test(pack_ref: str, own: bool) -> int:
     outcomes = run_pack_cases(pack, own_only=own)
     for o in outcomes:
         mark = click.style("pass", fg="green") if o.ok else click.style("FAIL", fg="red")
+        mark = click.style("skip", fg="yellow") if o.skipped else mark
         click.echo(f"{mark}  {o.rule:8} {o.name}")
-        if not o.ok:
+        if not o.ok or o.skipped:
             click.echo(f"      {o.file}, line {o.line}: {o.message}")
     failed = sum(not o.ok for o in outcomes)
-    click.echo(f"{len(outcomes)} cases, {failed} failed")
+    skipped = sum(o.skipped for o in outcomes)
+    run = len(outcomes) - skipped
+    more = f", {skipped} not run (their rule disabled)" if skipped else ""
+    click.echo(f"{run} cases, {failed} failed{more}")
     return 1 if failed else 0
 
 
