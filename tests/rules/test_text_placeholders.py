@@ -135,3 +135,46 @@ def test_a_constant_used_only_in_a_text_is_used(tmp_path: Path) -> None:
     )
     assert _messages(pack) == []
     assert load_pack(pack).rule("TP-5").title == "Tie points in each of 4 cells"
+
+
+def test_an_override_judging_by_another_figure_than_its_texts_state_is_warned_of(
+    blockqc, tmp_path: Path
+) -> None:
+    """TP-4 overridden to `min: 150` judged 150 tie points while its title read "At least 100
+    tie points in every scene", in every report, and lint said nothing."""
+    path = _pack(
+        tmp_path,
+        "overrides:\n  TP-4: {threshold: {min: 150}}\n"
+        "  TP-3: {params: {interval_px: [0.75, 1.25]}}\n"
+        "  CP-2: {threshold: {max: 8}}\n"
+        "  TP-2: {threshold: {max: tp.max_error_px, inclusive: false}}\n",
+    )
+    pack = load_pack(path)
+    assert [str(n) for n in pack.notes] == [
+        f"{path}, line 4: overrides.TP-4: its title and description still state "
+        "tp.min_points_per_scene = 100, which the rule no longer judges by: set the constant "
+        "instead, or override the texts too",
+        f"{path}, line 5: overrides.TP-3: its title and description still state "
+        "tp.share_interval_px = [1.0, 1.5], which the rule no longer judges by: set the "
+        "constant instead, or override the texts too",
+        f"{path}, line 6: overrides.CP-2: its description still states norm.plane_m = 10, "
+        "which the rule no longer judges by: set the constant instead, or override the texts "
+        "too",
+    ]
+    assert pack.rule("TP-4").title == "At least 100 tie points in every scene"
+    p = blockqc("rules", "lint", path)
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert f"warning: {path}, line 4: overrides.TP-4: its title" in p.stderr
+
+
+def test_an_override_with_its_own_texts_or_the_same_constant_is_not_warned_of(
+    tmp_path: Path,
+) -> None:
+    path = _pack(
+        tmp_path,
+        "overrides:\n  TP-4:\n    threshold: {min: 150}\n    title: At least 150 tie points\n"
+        "    title_zh: 至少 150 个连接点\n    description: Every scene holds 150.\n"
+        "    description_zh: 每景 150 个。\n"
+        "  TP-1: {threshold: {max: 0.4}}\n",
+    )
+    assert load_pack(path).notes == []

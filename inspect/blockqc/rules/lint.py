@@ -223,6 +223,29 @@ def _text_names(raw: Mapping[str, Any]) -> set[str]:
     return referenced_names(exprs)
 
 
+#: the fields of a rule that say what it judges by, the bound given either way
+_JUDGING = (("threshold", "thresholds"), ("params",), ("score",))
+
+
+def stale_texts(before: Mapping[str, Any], after: Mapping[str, Any]) -> tuple[set[str], list[str]]:
+    """An override replacing a threshold (or params, score) that read a constant its texts
+    state: the constants the texts still state that the replaced field no longer reads
+    (TP-4 overridden to `min: 150` while its title says "At least {tp.min_points_per_scene}"
+    tie points, i.e. 100), and the texts stating them."""
+    stale: set[str] = set()
+    for fields in _JUDGING:
+        if not any(f in after and after.get(f) is not before.get(f) for f in fields):
+            continue
+        was = referenced_names([before.get(f) for f in fields])
+        now = referenced_names([after.get(f) for f in fields])
+        if fields == ("params",):
+            was, now = was | _taken_by_default(before), now | _taken_by_default(after)
+        stale |= was - now
+    stale &= _text_names(after)
+    texts = [k for k in TEXT_FIELDS if _text_names({k: after.get(k)}) & stale]
+    return stale, texts
+
+
 def _taken_by_default(raw: Mapping[str, Any]) -> set[str]:
     """The constants a rule's metric takes for the parameters the rule leaves out (e.g.
     checkpoint_accuracy's plane_norm_m: norm.plane_m)."""

@@ -28,6 +28,7 @@ from blockqc.rules.lint import (
     new_constant_sites,
     referenced_names,
     reshaped_constants,
+    stale_texts,
     stand_in_invalid,
     unused_constants,
     without_reserved,
@@ -132,6 +133,7 @@ class _Loaded:
     disabled: list[str] = field(default_factory=list)
     disabled_at: dict[str, tuple[str, int | None]] = field(default_factory=dict)  # file, line
     problems: list[Problem] = field(default_factory=list)
+    notes: list[Problem] = field(default_factory=list)  # warnings: the pack is usable
     # where each constant was last set: dotted name → (file, line, value)
     constant_set_at: dict[str, tuple[str, int | None, Any]] = field(default_factory=dict)
     # every file of the chain as read, the root pack first: (file, its YAML, its model)
@@ -242,8 +244,37 @@ def _apply_overrides(out: _Loaded, pf: PackFile, data: Any, path: Path) -> None:
             continue
         prev = out.rules[rid]
         merged = _merge_rule(prev.data, override)
+        out.notes += _stale_texts(rid, prev.data, merged, out.constants, (str(path), line))
         out.rules[rid] = _Raw(merged, str(path), line, data["overrides"][rid])
         out.rules[rid].history = [*prev.history, (str(path), line, dict(override))]
+
+
+def _stale_texts(
+    rid: str,
+    before: dict[str, Any],
+    after: dict[str, Any],
+    constants: dict[str, Any],
+    site: tuple[str, int | None],
+) -> list[Problem]:
+    """A warning at an override whose threshold (params, score) no longer reads a constant
+    the rule's title or description states: the report would state the constant's figure
+    beside a rule judging by another."""
+    stale, texts = stale_texts(before, after)
+    flat = flatten(constants)
+    stale = {n for n in stale if n in flat}  # a group's name (tp of tp.error_px) is no value
+    if not stale:
+        return []
+    said = ", ".join(f"{n} = {flat[n]}" for n in sorted(stale))
+    which = " and ".join(dict.fromkeys(t.removesuffix("_zh") for t in texts))
+    return [
+        Problem(
+            site[0],
+            f"overrides.{rid}: its {which} still {'state' if ' and ' in which else 'states'} "
+            f"{said}, which the rule no longer "
+            "judges by: set the constant instead, or override the texts too",
+            line=site[1],
+        )
+    ]
 
 
 def _apply_disable(out: _Loaded, pf: PackFile, data: Any, path: Path) -> None:
@@ -285,7 +316,7 @@ def read_pack(ref: str | Path) -> tuple[Pack | None, list[Problem]]:
     acceptance, found = _acceptance(loaded.sources, elements)
     problems.extend(found)
     rules: list[Rule] = []
-    notes: list[Problem] = []
+    notes: list[Problem] = list(loaded.notes)
     names = {**loaded.constants, **DELIVERY_NAMES}
     for rid, raw in loaded.rules.items():
         try:
