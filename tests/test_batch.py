@@ -1280,3 +1280,27 @@ def test_incremental_rerun_sees_a_file_rewritten_with_its_size_and_time_kept(
     assert tie_points.stat().st_size == st.st_size
     again = _incremental(small_batch, out)
     assert again.stdout.count("outputs reused") == 2, again.stdout
+
+
+def test_sampled_false_beside_checkpoints_is_said(tmp_path: Path):
+    """F1-B01 carries checkpoints; its block.yaml made to say `sampled: false` was inspected in
+    detail without a word (without a plan the blocks with checkpoints are the sample). It is
+    said; F1-B02 (sampled: false, no checkpoints) and F2-B01 (sampled: true) are not named."""
+    folder = tmp_path / "batch"
+    for block in ("F1-B01", "F1-B02", "F2-B01"):
+        shutil.copytree(SAMPLES / "batch" / block, folder / block)
+    manifest = folder / "F1-B01" / "block.yaml"
+    text = manifest.read_text(encoding="utf-8")
+    assert "sampled: true\n" in text
+    manifest.write_text(text.replace("sampled: true\n", "sampled: false\n"), encoding="utf-8")
+    proc = run_blockqc("inspect", folder, "--out", tmp_path / "out", "--pdf", "none")
+    assert proc.returncode == 0, proc.stderr
+    warned = [line for line in proc.stderr.splitlines() if "sampled: false" in line]
+    assert warned == [
+        f"warning: {manifest}: sampled: false, but its checkpoints are given (checkpoints.csv): "
+        "without a --plan a block that carries checkpoints is inspected in detail (its "
+        "checkpoint rules judged) and counted in the sample"
+    ]
+    results = json.loads((tmp_path / "out" / "F1-B01" / "results.json").read_text("utf-8"))
+    cp2 = [r for r in results["results"] if r["rule"] == "CP-2"]
+    assert cp2 and all(r["status"] == "pass" for r in cp2)  # judged in detail, as warned

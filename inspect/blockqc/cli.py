@@ -363,6 +363,9 @@ def inspect_cmd(
         checkpoints = load_checkpoint_files(list(checkpoint_files))
         check_blocks(checkpoints, got.deliveries)
     plan, meta, notes = _acceptance_inputs(plan_file, meta_file, got, paths, pack)
+    if plan is None:
+        for w in _sampled_false_with_checkpoints(got, checkpoints):
+            _warn(w)
     with empty_removed(out):
         out = check_out_dir(out, paths)  # created once every input is read
         writer = batch.Writer(out, templates, lang, pdf, pdf_engine)
@@ -442,6 +445,28 @@ def _refuse_conflicts(no_pdf: bool, pdf: str, scheduler: str | None) -> None:
             "--jobs runs processes on this machine, --scheduler tasks on a Dask cluster's "
             "workers: give one of them"
         )
+
+
+def _sampled_false_with_checkpoints(got, checkpoints) -> list[str]:
+    """block.yaml's `sampled: false` of a delivery that carries checkpoints (its own, or the
+    inspector's rows for it): without a plan, such a block is inspected in detail (§QE-1, the
+    blocks with checkpoints are the sample) — said, never left unsaid."""
+    by_block = checkpoints.block_ids() if checkpoints is not None else set()
+    out = []
+    for path, m in got.manifests.items():
+        delivered = [
+            f"checkpoints{x}" for x in (".csv", ".parquet") if (path / f"checkpoints{x}").is_file()
+        ]
+        given = checkpoints is not None and (m.block_id in by_block or not checkpoints.by_block)
+        theirs = ["--checkpoints"] if given else []
+        if m.sampled is False and delivered + theirs:
+            out.append(
+                f"{path / 'block.yaml'}: sampled: false, but its checkpoints are given "
+                f"({', '.join(delivered + theirs)}): without a --plan a block that carries "
+                "checkpoints is inspected in detail (its checkpoint rules judged) and counted in "
+                "the sample"
+            )
+    return out
 
 
 def _acceptance_inputs(plan_file: Path | None, meta_file: Path | None, got, paths, pack):
