@@ -12,7 +12,7 @@ from typing import Any, NamedTuple
 from pydantic import ValidationError
 
 from blockqc.errors import InputError, Problem
-from blockqc.report.drawn import drawn_problems
+from blockqc.report.drawn import drawn_problems, is_number
 from blockqc.results import (
     STATUSES,
     BlockEntry,
@@ -155,10 +155,6 @@ def _misjudged(r: RuleResult) -> str | None:
     return None
 
 
-def _number(v: Any) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool)
-
-
 def meets(value: Any, threshold: Any, comparison: str | None) -> bool | None:
     """Whether a value meets a threshold as the engine judges it (`rules.model.within`); None
     when there is nothing to judge."""
@@ -177,10 +173,10 @@ def meets(value: Any, threshold: Any, comparison: str | None) -> bool | None:
         "between": pair,
         "strictly_between": pair,
     }.get(comparison, (None, None))
-    if not _number(value) or not any(_number(b) for b in (lo, hi)):
+    if not is_number(value) or not any(is_number(b) for b in (lo, hi)):
         return None
     inclusive = comparison in ("<=", ">=", "between")
-    lo, hi = (b if _number(b) else None for b in (lo, hi))
+    lo, hi = (b if is_number(b) else None for b in (lo, hi))
     return bool(within(value, lo, hi, inclusive))
 
 
@@ -678,6 +674,6 @@ def _decision_difference(name: str, given: Any, made: Any) -> str | None:
 
 def _same(given: Any, made: Any) -> bool:
     """Equal, a float within the rounding of its JSON text."""
-    if _number(given) and _number(made):
+    if is_number(given) and is_number(made):
         return math.isclose(given, made, rel_tol=1e-9, abs_tol=1e-9)
     return bool(given == made)

@@ -31,7 +31,8 @@ SCENE = (("scene_id",), ("lines", "samples"))
 MOST = 20
 
 
-def _number(v: Any) -> bool:
+def is_number(v: Any) -> bool:
+    """A number (int or float), not true/false."""
     return isinstance(v, int | float) and not isinstance(v, bool)
 
 
@@ -50,7 +51,7 @@ def _rows(where: str, rows: Any, keys: tuple[tuple[str, ...], tuple[str, ...]]) 
             if row.get(k) is None:
                 yield f"{where}[{i}]: no {k} (the report draws each row by it)"
         for k in numbers:
-            if row.get(k) is not None and not _number(row[k]):
+            if row.get(k) is not None and not is_number(row[k]):
                 yield f"{where}[{i}].{k}: expected a number or null, not {row[k]!r}"
 
 
@@ -59,7 +60,7 @@ def _numbers(where: str, values: Any) -> Iterator[str]:
         yield f"{where}: expected a list of numbers, not {type(values).__name__}"
         return
     for i, v in enumerate(values):
-        if not _number(v):
+        if not is_number(v):
             yield f"{where}[{i}]: expected a number, not {v!r}"
 
 
