@@ -1304,3 +1304,31 @@ def test_sampled_false_beside_checkpoints_is_said(tmp_path: Path):
     results = json.loads((tmp_path / "out" / "F1-B01" / "results.json").read_text("utf-8"))
     cp2 = [r for r in results["results"] if r["rule"] == "CP-2"]
     assert cp2 and all(r["status"] == "pass" for r in cp2)  # judged in detail, as warned
+
+
+def test_table_files_read_as_no_table_are_said(tmp_path: Path):
+    """A delivery's table file of a name no table of the contract is read from
+    (checkpoints_extra.csv beside checkpoints.csv, tie_points_part2.parquet, gcp.xlsx) was
+    passed over without a word: the inspector reading the results would take its rows for
+    judged. Each is named in a warning; block.yaml, the contract's tables and documents/ are
+    not."""
+    block = tmp_path / "F1-B01"
+    shutil.copytree(SAMPLES / "batch" / "F1-B01", block)
+    extra = [
+        block / "checkpoints_extra.csv",
+        block / "gcp.xlsx",
+        block / "tie_points_part2.parquet",
+    ]
+    shutil.copy(block / "checkpoints.csv", extra[0])
+    extra[1].write_bytes(b"PK")
+    extra[2].write_bytes(b"PAR1")
+    (block / "notes.txt").write_text("producer's notes\n", encoding="utf-8")
+    proc = run_blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    assert proc.returncode == 0, proc.stderr
+    warned = [line for line in proc.stderr.splitlines() if "no table of the contract" in line]
+    assert warned == [
+        f"warning: {f}: not read: no table of the contract is read from it (a delivery's tables "
+        "are scenes, tie_points, pan_ms, overlaps, edges, checkpoints, adjustment, each .csv or "
+        ".parquet)"
+        for f in sorted(extra)
+    ]

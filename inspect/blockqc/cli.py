@@ -314,7 +314,7 @@ def inspect_cmd(
     if len(paths) == 1 and scheduler is None and not incremental:
         _read_ahead(paths[0])
     from blockqc import batch
-    from blockqc.delivery import block_ids
+    from blockqc.delivery import block_ids, unread_tables
     from blockqc.engine import reported_figure_names
     from blockqc.inspector import check_inspector_input, load_inspector_input
     from blockqc.outputs import (
@@ -350,8 +350,8 @@ def inspect_cmd(
     for d in got.repeated:
         _warn(f"{d}: named more than once, inspected once")
     figures = reported_figure_names(pack)
-    for manifest in got.manifests.values():
-        for w in manifest.unknown_keys + _unread_figures(manifest, figures):
+    for path, manifest in got.manifests.items():
+        for w in manifest.unknown_keys + _unread_figures(manifest, figures) + unread_tables(path):
             _warn(w)
     if inspector is not None:
         ids, unread = block_ids(got.deliveries, got.manifests)

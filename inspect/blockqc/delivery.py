@@ -1163,6 +1163,28 @@ def _misnamed_tables(path: Path) -> list[Problem]:
     return problems
 
 
+#: the endings of files read as tables elsewhere: such a file in a delivery's folder that is no
+#: table of the contract is said not to be read (`unread_tables`)
+TABLE_SUFFIXES = (".csv", ".tsv", ".parquet", ".xlsx", ".xls")
+
+
+def unread_tables(path: Path) -> list[str]:
+    """Warnings for the table files of a delivery's folder from which no table of the contract
+    is read (checkpoints_extra.csv beside checkpoints.csv): their rows are judged by no rule,
+    and said so. Those taken for a misnamed table are refused (`_misnamed_tables`) instead."""
+    try:
+        files = sorted(f for f in path.iterdir() if f.name.lower().endswith(TABLE_SUFFIXES))
+        refused = {p.file for p in _misnamed_tables(path)}
+    except OSError:  # the delivery's reader says what is wrong with the folder
+        return []
+    tables = {f"{n}.{ext}" for n in TABLES for ext in ("csv", "parquet")}
+    why = (
+        "not read: no table of the contract is read from it (a delivery's tables are "
+        f"{', '.join(TABLES)}, each .csv or .parquet)"
+    )
+    return [f"{f}: {why}" for f in files if f.name not in tables and str(f) not in refused]
+
+
 def _check_references(tables: dict[str, pd.DataFrame], files: dict[str, Path]) -> list[Problem]:
     """Every reference between tables must resolve (e.g. a tie point's scene_id is a scene)."""
     problems: list[Problem] = []
