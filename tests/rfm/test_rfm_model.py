@@ -132,6 +132,29 @@ def test_points_outside_a_dem_get_nan():
     assert np.isnan(lon).all() and np.isnan(lat).all()
 
 
+def test_rays_over_a_dem_void_get_nan_not_the_void_edge():
+    """A flat DEM at 1000 m with a void of ±2e-5° (about ±2 m) around where pixel (5000, 5000)
+    sees it: that ray meets no DEM value and gets NaN; its search for the surface bisected
+    into the void (a void sample taken for 'below the surface') and stopped at the void's
+    edge, some metres above the surface and off it. Every other pixel around lands on 1000 m."""
+    m = LEFT
+    lon0, lat0, _ = m.image_to_ground(np.array([5000.0]), np.array([5000.0]), 1000.0)
+
+    def holed(lon, lat):
+        void = (np.abs(lon - lon0[0]) < 2e-5) & (np.abs(lat - lat0[0]) < 2e-5)
+        return np.where(void, np.nan, 1000.0)
+
+    row, col = np.meshgrid(np.arange(4980.0, 5021.0, 2.0), np.arange(4980.0, 5021.0, 2.0))
+    lon, lat, h = m.image_to_ground(row.ravel(), col.ravel(), holed)
+    centre = (row.ravel() == 5000.0) & (col.ravel() == 5000.0)
+    assert np.isnan(h[centre]).all() and np.isnan(lon[centre]).all()
+    found = np.isfinite(h)
+    assert np.array_equal(found, np.isfinite(lon)) and np.array_equal(found, np.isfinite(lat))
+    np.testing.assert_allclose(holed(lon[found], lat[found]), 1000.0)  # on the surface, no void
+    np.testing.assert_allclose(h[found], 1000.0, atol=1e-6)
+    assert found.sum() > 0.8 * found.size
+
+
 # -- §3 affine refinement ---------------------------------------------------------------------
 KNOWN = ImageAffine(a0=3.2, a1=2e-5, a2=-1.5e-5, b0=-4.7, b1=-3e-5, b2=1e-5)
 

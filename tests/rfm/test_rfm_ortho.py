@@ -180,3 +180,32 @@ def test_a_finer_image_is_smoothed_before_it_is_sampled_coarser_and_nothing_shif
     out = antialiased(holed, 4.0)
     assert np.isnan(out[30:33, 30:33]).all() and np.isfinite(out[:20]).all()
     assert antialiased(board, 1.2) is board
+
+
+def test_a_dem_reaching_neither_the_border_nor_the_centre_still_gives_the_grid():
+    """A DEM at 560 m over the inner part of the image's footprint, with a void under the
+    image centre (as the s2p Réunion DSM under its image: 52 % outside it, voids inside): the
+    border rays miss it and the centre's meets the void, yet half the image has heights. It was
+    refused as "the DEM does not cover the image footprint"; the grid is the one at 560 m."""
+    rows, cols = 120, 150
+    lon, lat, _ = LEFT.image_to_ground(
+        np.array([-0.5, -0.5, 119.5, 119.5]) + CROP[0],
+        np.array([-0.5, 149.5, -0.5, 149.5]) + CROP[1],
+        560.0,
+    )
+    step = (lon.max() - lon.min()) / 100
+    west, east = np.quantile(lon, [0.0, 1.0]) + np.array([0.15, -0.15]) * np.ptp(lon)
+    south, north = np.quantile(lat, [0.0, 1.0]) + np.array([0.15, -0.15]) * np.ptp(lat)
+    grid_lon = np.arange(west, east, step)
+    grid_lat = np.arange(north, south, -step)
+    values = np.full((grid_lat.size, grid_lon.size), 560.0)
+    centre_lon, centre_lat = lon.mean(), lat.mean()
+    near = (np.abs(grid_lon - centre_lon) < 0.1 * np.ptp(lon))[None, :] & (
+        np.abs(grid_lat - centre_lat) < 0.1 * np.ptp(lat)
+    )[:, None]
+    values[near] = np.nan
+    t = Affine(step, 0.0, west - step / 2, 0.0, -step, north + step / 2)
+    dem = DEM(Grid(values, t, CRS.from_epsg(4326), "inner"), "ellipsoidal (WGS-84)")
+    grid = ortho_grid(LEFT, (rows, cols), dem, crop_offset=CROP, gsd=2.0)
+    flat = ortho_grid(LEFT, (rows, cols), constant_height(560.0), crop_offset=CROP, gsd=2.0)
+    assert (grid.transform, grid.width, grid.height) == (flat.transform, flat.width, flat.height)

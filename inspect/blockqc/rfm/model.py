@@ -63,6 +63,9 @@ DEM_LEVELS = 64
 """Heights scanned along a line of sight when the DEM iteration does not converge."""
 DEM_BISECTIONS = 48
 """Halvings of the bracketing interval after the scan (2630 m / 2⁴⁸ ≈ 1e-11 m)."""
+SURFACE_TOL_M = 1e-3
+"""A crossing found by bisection lies this close to the surface (bilinear heights are
+continuous: the last bracket leaves it far closer); beyond, the ray met a void."""
 
 
 def _powers(x: FloatArray) -> list[FloatArray | float]:
@@ -362,7 +365,9 @@ class RPCModel:
     ) -> tuple[FloatArray, FloatArray, FloatArray]:
         """Highest intersection of each pixel's line of sight with the surface h(lon, lat):
         scan DEM_LEVELS heights from the top of the height range down to the first level where
-        the ray is at or below the surface, then bisect (DEM_BISECTIONS halvings)."""
+        the ray is at or below the surface, then bisect (DEM_BISECTIONS halvings). A ray whose
+        bisection ends off the surface (it bisected into a void, whose samples read as below
+        the surface, and stopped at its edge) gets NaN: it meets no DEM value there."""
         lo = self.height_off - abs(self.height_scale)
         hi = self.height_off + abs(self.height_scale)
         span = getattr(height, "height_range", None)
@@ -394,6 +399,8 @@ class RPCModel:
         h = np.full(n, np.nan)
         h[found] = 0.5 * (a + b)
         lon, lat = self._solve_at_height(row, col, h)
+        off = ~(np.abs(np.asarray(height(lon, lat), dtype=np.float64) - h) <= SURFACE_TOL_M)
+        h[off], lon[off], lat[off] = np.nan, np.nan, np.nan
         return lon, lat, h
 
 

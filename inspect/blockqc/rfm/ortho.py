@@ -236,6 +236,8 @@ def ortho_grid(
     centre = (r0 + (rows - 1) / 2, c0 + (cols - 1) / 2)
     _, _, h_centre = model.image_to_ground(np.array([centre[0]]), np.array([centre[1]]), dem)
     heights = np.concatenate([h[~missing], h_centre[np.isfinite(h_centre)]])
+    if heights.size == 0:  # a DEM inside the border, a void at the centre: look inside
+        heights = _inner_heights(model, shape, crop_offset, dem)
     if heights.size == 0:
         # say where the image is: its footprint at the DEM's mean height
         finite = dem.grid.values[np.isfinite(dem.grid.values)]
@@ -286,6 +288,23 @@ def ortho_grid(
     grid = OrthoGrid(crs, Affine(gsd, 0.0, x0, 0.0, -gsd, y1), width, height)
     check_grid_size(grid, margin, gsd_given)
     return grid
+
+
+#: image positions per side of the lattice searched for heights when neither the image's
+#: border nor its centre has one
+INNER_LATTICE = 17
+
+
+def _inner_heights(
+    model: GroundToImage, shape: tuple[int, int], crop_offset: tuple[float, float], dem: DEM
+) -> FloatArray:
+    """The DEM heights found at an INNER_LATTICE² lattice of image positions (those with one)."""
+    (rows, cols), (r0, c0) = shape, crop_offset
+    r, c = np.meshgrid(
+        np.linspace(r0, r0 + rows - 1, INNER_LATTICE), np.linspace(c0, c0 + cols - 1, INNER_LATTICE)
+    )
+    _, _, h = model.image_to_ground(r.ravel(), c.ravel(), dem)
+    return h[np.isfinite(h)]
 
 
 def sensor_positions(
