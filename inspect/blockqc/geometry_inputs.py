@@ -78,7 +78,9 @@ def _scan(folder: Path, scene_ids: set[str], problems: list[Problem]) -> dict[st
 def _read_models(
     folder: Path, needed: list[str], scene_ids: set[str], problems: list[Problem]
 ) -> dict[str, RPCModel]:
-    """Read the RPC of every needed scene from a folder; list every missing or unreadable one."""
+    """Read the RPC of every needed scene from a folder; list every missing or unreadable one.
+    Each model counts image positions as its file does (a DIMAP file's first pixel is (1, 1)):
+    the tie points on its scene are measured in that convention (contract v1.1)."""
     if not folder.is_dir():
         problems.append(Problem(str(folder), "expected a folder of RPC files <scene_id>.<ext>"))
         return {}
@@ -95,12 +97,12 @@ def _read_models(
             )
             continue
         try:
-            models[sid] = read_rpc(files[sid])
+            models[sid] = read_rpc(files[sid]).in_file_convention()
         except InputError as exc:
             problems.extend(exc.problems)
     for sid in sorted(set(files) - set(needed)):  # scenes without observations: still read
         try:
-            models[sid] = read_rpc(files[sid])
+            models[sid] = read_rpc(files[sid]).in_file_convention()
         except InputError as exc:
             problems.extend(exc.problems)
     return models

@@ -14,6 +14,7 @@ import pytest
 from geokit import (
     FILES,
     KEYS,
+    RPCS,
     adjusted_models,
     ground_points,
     observe,
@@ -504,3 +505,28 @@ def test_derived_overlaps_keys_are_codes_into_the_tie_points_categories():
     assert got["scene_b"].cat.codes.tolist() == [2, 0, 2, 0]  # S3, S2, S3, S2
     assert got["point_id"].cat.codes.tolist() == [0, 0, 0, 1]  # P1, P1, P1, P2
     assert got["dx_m"].tolist() == [0.0] * 4 and got["dy_m"].tolist() == [0.0] * 4
+
+
+def test_positions_measured_in_a_dimap_rpc_s_own_convention(tmp_path, observations) -> None:
+    """Scene L's RPC given as its DIMAP XML, whose first pixel is (1, 1), and its tie points
+    measured in that convention ("in the convention of the scene's RPC", contract v1.1): one
+    pixel more in line and sample than on the OSSIM .geom of the same model. The reader turns
+    DIMAP's offsets to a first pixel of 0, and every residual of L came out about 1.2 px off
+    (RC-1 failing a delivery whose residuals are right); they are the independent solver's."""
+    _, ref = observations
+    on_l = ref["scene_id"] == "L"
+    dimap = ref.assign(
+        line=ref["line"].where(~on_l, ref["line"] + 1.0),
+        sample=ref["sample"].where(~on_l, ref["sample"] + 1.0),
+    )
+    folder = write_v11(tmp_path / "d", dimap.drop(columns=["v_line", "v_sample"]))
+    (folder / "rpc" / "L.geom").unlink()
+    shutil.copy(
+        RPCS / "RPC_PHR1B_P_201308051042194_SEN_690908101-001.XML", folder / "rpc" / "L.XML"
+    )
+    d = load_delivery(folder)
+    dump(inspect_delivery(d, load_pack("global-project")))
+    got = d.tie_points.set_index(["point_id", "scene_id"])
+    want = ref.set_index(["point_id", "scene_id"]).loc[got.index]
+    assert np.allclose(got["v_line"], want["v_line"], atol=2e-3)
+    assert np.allclose(got["v_sample"], want["v_sample"], atol=2e-3)

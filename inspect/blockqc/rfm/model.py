@@ -16,7 +16,7 @@ Conventions, used everywhere in `blockqc.rfm`:
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -174,6 +174,9 @@ class RPCModel:
     """File the model was read from (for messages)."""
     err_bias: float | None = None
     err_rand: float | None = None
+    first_pixel: float = 0.0
+    """The first pixel's line and sample in the file's own convention (DIMAP: 1), whose
+    offsets the reader turned to a first pixel of 0 (`in_file_convention` turns them back)."""
 
     def __post_init__(self) -> None:
         for name in ("line_num", "line_den", "samp_num", "samp_den"):
@@ -225,6 +228,16 @@ class RPCModel:
                     )
                 )
             object.__setattr__(self, name, value)
+
+    def in_file_convention(self) -> RPCModel:
+        """The model for image positions counted as its file counts them (a DIMAP file's from
+        1), as the positions measured on its scene are (contract v1.1)."""
+        if not self.first_pixel:
+            return self
+        shift = self.first_pixel
+        return replace(
+            self, line_off=self.line_off + shift, samp_off=self.samp_off + shift, first_pixel=0.0
+        )
 
     # -- helpers -------------------------------------------------------------------------------
     @property

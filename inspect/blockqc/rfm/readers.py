@@ -418,7 +418,7 @@ def _read_dimap(path: Path, root: ElementTree.Element) -> RPCModel:
     # DIMAP: the first pixel is (1, 1); ours is (0, 0) (pixel centres in both).
     values["line_off"] = float(values["line_off"]) - 1.0  # type: ignore[arg-type]
     values["samp_off"] = float(values["samp_off"]) - 1.0  # type: ignore[arg-type]
-    return _build(path, values)
+    return _build(path, values, first_pixel=1.0)
 
 
 def _in_1_to_20(tag: str) -> bool:
