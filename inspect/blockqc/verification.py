@@ -65,8 +65,15 @@ def compute(d: Delivery) -> ProcessData:
         line, sample = (obs[c].to_numpy(dtype=float) for c in ("line", "sample"))
         lon_a, lat_a, _ = intersect_at_height(stack, geo.affine, scene, line, sample, h_obs)
         memory.release()  # the intersections' temporaries: freed in pieces the pairs cannot use
-        overlaps = derive_overlaps(obs, scene, lon_a, lat_a, h_obs)
+        overlaps = derive_overlaps(obs, scene, lon_a, lat_a, h_obs, _bands(d, geo.scene_ids))
     return ProcessData(obs, points, overlaps, notes)
+
+
+def _bands(d: Delivery, scene_ids: list[str]) -> np.ndarray | None:
+    """A band code per scene of `scene_ids` (None when the scenes give no band)."""
+    if d.scenes is None or "band" not in d.scenes.columns:
+        return None
+    return pd.factorize(d.scenes.set_index("scene_id")["band"].reindex(scene_ids))[0]
 
 
 def _reproduced(
@@ -156,7 +163,12 @@ def _intersected(
 
 
 def derive_overlaps(
-    obs: pd.DataFrame, scene: np.ndarray, lon: np.ndarray, lat: np.ndarray, h: np.ndarray
+    obs: pd.DataFrame,
+    scene: np.ndarray,
+    lon: np.ndarray,
+    lat: np.ndarray,
+    h: np.ndarray,
+    band: np.ndarray | None = None,
 ) -> pd.DataFrame:
     """Differences between the scenes of each observation's position at its point's height.
 
@@ -165,9 +177,15 @@ def derive_overlaps(
     map projection measures them, heights aside), for every two scenes seeing the same point:
     one row per two observations of a point (scene_a before scene_b in `scene` order), in the
     order of the first's row, then the second's. The ids are the observations' own: Categoricals
-    over the tie points' categories when they are so held (codes, no text per pair).
+    over the tie points' categories when they are so held (codes, no text per pair). `band`
+    (a code per scene): only scenes of one band are paired, a PAN–MS pair being a registration
+    (§RO-1), not two adjacent images (§RO-3).
     """
-    a, b = _pairs(_point_codes(obs["point_id"]), scene, np.isfinite(h))
+    kept = np.isfinite(h)
+    a, b = _pairs(_point_codes(obs["point_id"]), scene, kept)
+    if band is not None:
+        same = band[scene[a]] == band[scene[b]]
+        a, b = a[same], b[same]
     memory.release()  # the pairing's sorts of every row: not held through the differences
     dx_m, dy_m = _differences(lon, lat, a, b)
     return pd.DataFrame(

@@ -483,6 +483,30 @@ def test_derived_overlaps_pair_every_two_scenes_of_a_point_in_row_order(dtype):
     np.testing.assert_allclose(np.abs(got.dx_m), east, rtol=1e-3)
 
 
+def test_derived_overlaps_pair_scenes_of_one_band_only():
+    """A point seen on PAN and MS scenes (an MS scene observed in the tie-point network): a
+    PAN–MS pair is a registration (§RO-1, bound 1 MS pixel), not two adjacent images (§RO-3);
+    every two observations of a point on scenes of one band are paired, no other."""
+    rng = np.random.default_rng(5)
+    n = 80
+    point = rng.integers(0, 10, n)
+    scene = rng.integers(0, 6, n)
+    keep = ~pd.DataFrame({"p": point, "s": scene}).duplicated().to_numpy()
+    point, scene = point[keep], scene[keep]
+    band = np.array([0, 0, 1, 0, 1, 1])  # per scene: pan, pan, ms, pan, ms, ms
+    obs = pd.DataFrame({"point_id": [f"P{p}" for p in point], "scene_id": [f"S{s}" for s in scene]})
+    lon, lat, h = np.full(point.size, 5.0), np.full(point.size, 44.0), np.full(point.size, 500.0)
+    got = verification.derive_overlaps(obs, scene, lon, lat, h, band=band)
+    want = [
+        (f"S{scene[i]}", f"S{scene[j]}", f"P{point[i]}")
+        for i in range(point.size)
+        for j in range(point.size)
+        if point[i] == point[j] and scene[i] < scene[j] and band[scene[i]] == band[scene[j]]
+    ]
+    assert want and len(want) < len(verification.derive_overlaps(obs, scene, lon, lat, h))
+    assert list(zip(got.scene_a, got.scene_b, got.point_id, strict=True)) == want
+
+
 def test_derived_overlaps_keys_are_codes_into_the_tie_points_categories():
     """Point P1 on scenes S2, S1, S3 (rows 0, 1, 3), P2 on S1, S2 (rows 2, 4); scene order S1,
     S2, S3. P1 gives (S2, S3), (S1, S2), (S1, S3) from rows (0, 3), (1, 0), (1, 3), P2 (S1,
