@@ -186,6 +186,40 @@ def test_dimap_without_inverse_model_is_refused(tmp_path: Path):
         read_rpc(bad)
 
 
+@pytest.mark.parametrize("first", [0, 1])
+def test_dimap_v3_of_pleiades_neo_is_read_with_its_own_first_pixel(tmp_path: Path, first: int):
+    """DIMAP v3 (Pléiades Neo) names the ground→image RPCs GroundtoImage_Values and gives the
+    first pixel in RFM_Validity/ImagetoGround_Validity_Domain/FIRST_COL (0 for Neo), as GDAL
+    reads it (offsets minus FIRST_COL). It was refused: "missing element …/Inverse_Model". The
+    Ventoux v2 file rewritten so, its offsets counted from `first`: the same model as v2's."""
+    v2 = VENTOUX / "RPC_PHR1B_P_201308051042194_SEN_690908101-001.XML"
+    text = v2.read_text().replace("Inverse_Model>", "GroundtoImage_Values>")
+    domain = (
+        f"<ImagetoGround_Validity_Domain><FIRST_ROW>{first}</FIRST_ROW><FIRST_COL>{first}"
+        "</FIRST_COL><LAST_ROW>42274</LAST_ROW><LAST_COL>38414</LAST_COL>"
+        "</ImagetoGround_Validity_Domain>"
+    )
+    text = text.replace("<RFM_Validity>", "<RFM_Validity>" + domain, 1)
+    for key, value in (("LINE_OFF", "21110.49999999999"), ("SAMP_OFF", "19208.5")):
+        counted = float(value) - 1 + first  # the v2 offsets count from 1
+        text = text.replace(f"<{key}>{value}</{key}>", f"<{key}>{counted!r}</{key}>", 1)
+    v3 = tmp_path / "RPC_PNEO.XML"
+    v3.write_text(text)
+    neo, old = read_rpc(v3), read_rpc(v2)
+    assert neo.first_pixel == first
+    assert neo.line_off == pytest.approx(21109.5, abs=1e-9)
+    assert neo.samp_off == pytest.approx(19207.5, abs=1e-9)
+    assert_same_model(neo, old, offsets_tol=1e-9, coeff_rtol=0.0)
+
+
+def test_dimap_without_ground_to_image_rpcs_names_both_versions(tmp_path: Path):
+    text = (FORMATS / "rpc_PLEIADES.xml").read_text()
+    bad = tmp_path / "dimap.xml"
+    bad.write_text(text.replace("Inverse_Model", "Inverse_Modl"))
+    with pytest.raises(InputError, match="Inverse_Model .DIMAP v2. or .*GroundtoImage_Values"):
+        read_rpc(bad)
+
+
 def test_broken_xml_names_the_line(tmp_path: Path):
     bad = tmp_path / "broken.xml"
     bad.write_text("<?xml version='1.0'?>\n<isd>\n<RPB>\n</isd>\n")

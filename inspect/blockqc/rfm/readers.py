@@ -7,6 +7,8 @@ Formats, told apart by their content (not their name) in `read_rpc`:
 * DIMAP v2 XML (Pléiades, SPOT 6/7): inverse model + RFM_Validity; DIMAP counts the first pixel
   as 1, so 1 is subtracted from LINE_OFF and SAMP_OFF to reach our pixel-centre convention
   (first pixel centre at (0, 0)); checked against the OSSIM `.geom` of the same Pléiades image;
+  DIMAP v3 (Pléiades Neo): GroundtoImage_Values, its first pixel ImagetoGround_Validity_Domain's
+  FIRST_COL (as GDAL reads it);
 * OSSIM keyword lists (`.geom`, `polynomial_format: B`), already first-pixel-centre (0, 0);
 * the `KEY: value [unit]` text of IKONOS and of Chinese satellites (GF/ZY `*_rpc.txt`), also
   used by Planet and SkySat (`LINE_OFF: +015750.00 pixels`, `LINE_NUM_COEFF_1: …`);
@@ -390,35 +392,49 @@ def _xml_number(path: Path, parent: ElementTree.Element, tag: str, where: str) -
     return _number(path, f"{where}/{tag}", el.text)
 
 
+#: the ground→image RPCs of DIMAP v2 (Pléiades, SPOT 6/7) and of DIMAP v3 (Pléiades Neo)
+DIMAP_GROUND_TO_IMAGE = ("Inverse_Model", "GroundtoImage_Values")
+#: DIMAP v3's first pixel (v2 counts from 1): <this>/FIRST_COL wherever it is, as GDAL reads it
+DIMAP_V3_DOMAIN = "ImagetoGround_Validity_Domain"
+
+
 def _read_dimap(path: Path, root: ElementTree.Element) -> RPCModel:
     base = "Rational_Function_Model/Global_RFM"
-    inverse = root.find(f"{base}/Inverse_Model")
+    found = [(t, root.find(f"{base}/{t}")) for t in DIMAP_GROUND_TO_IMAGE]
+    tag, inverse = next(((t, e) for t, e in found if e is not None), (None, None))
     validity = root.find(f"{base}/RFM_Validity")
     if inverse is None:
-        raise _error(path, f"missing element {base}/Inverse_Model (ground→image RPCs)")
+        v2, v3 = DIMAP_GROUND_TO_IMAGE
+        raise _error(
+            path, f"missing element {base}/{v2} (DIMAP v2) or {base}/{v3} (DIMAP v3): the "
+            "ground→image RPCs",
+        )  # fmt: skip
     if validity is None:
         raise _error(path, f"missing element {base}/RFM_Validity (offsets and scales)")
+    where = f"{base}/{tag}"
     extra = [c.tag for c in inverse if _TXT_COEFF.fullmatch(c.tag) and not _in_1_to_20(c.tag)]
     if extra:
         raise _error(
-            path,
-            f"{base}/Inverse_Model/{extra[0]}: an RPC00B polynomial has 20 coefficients, "
-            "numbered 1 to 20",
+            path, f"{where}/{extra[0]}: an RPC00B polynomial has 20 coefficients, numbered 1 to 20"
         )
     values: dict[str, object] = {}
     for kind in ("LINE", "SAMP"):
         for part in ("NUM", "DEN"):
             values[f"{kind.lower()}_{part.lower()}"] = [
-                _xml_number(path, inverse, f"{kind}_{part}_COEFF_{i}", f"{base}/Inverse_Model")
-                for i in range(1, 21)
+                _xml_number(path, inverse, f"{kind}_{part}_COEFF_{i}", where) for i in range(1, 21)
             ]
     where = f"{base}/RFM_Validity"
     for key, name in _TXT_NAMES.items():
         values[name] = _xml_number(path, validity, key, where)
-    # DIMAP: the first pixel is (1, 1); ours is (0, 0) (pixel centres in both).
-    values["line_off"] = float(values["line_off"]) - 1.0  # type: ignore[arg-type]
-    values["samp_off"] = float(values["samp_off"]) - 1.0  # type: ignore[arg-type]
-    return _build(path, values, first_pixel=1.0)
+    # DIMAP counts the first pixel from 1 (v2) or from v3's FIRST_COL; ours is (0, 0) (pixel
+    # centres in all)
+    domain = root.find(f".//{DIMAP_V3_DOMAIN}")
+    first = 1.0
+    if domain is not None:
+        first = _xml_number(path, domain, "FIRST_COL", DIMAP_V3_DOMAIN)
+    values["line_off"] = float(values["line_off"]) - first  # type: ignore[arg-type]
+    values["samp_off"] = float(values["samp_off"]) - first  # type: ignore[arg-type]
+    return _build(path, values, first_pixel=first)
 
 
 def _in_1_to_20(tag: str) -> bool:
