@@ -538,3 +538,16 @@ def test_a_nan_in_geotiff_rpc_tags_is_named(tmp_path: Path, field, index, messag
     with rasterio.open(image, "w", rpcs=RPC(**values), **profile) as ds:
         ds.write(np.zeros((1, 4, 4), np.uint8))
     assert refused_raster(image).message == message
+
+
+def test_a_denominator_of_zero_at_the_centre_is_refused(tmp_path: Path):
+    """SAMP_DEN's constant term 0 (the denominator's value at the centre of the normalized
+    domain; 1 in every RPC): the sample divides by zero at the image centre. It was read, and
+    the commands then blamed the DEM ("the DEM does not cover the image footprint")."""
+    bad = edited(tmp_path, GEOM, "l.geom", "samp_den_coeff_00:  1\n", "samp_den_coeff_00:  0\n")
+    problem = refused(bad)
+    assert "SAMP_DEN" in problem.message and "centre" in problem.message
+    small = edited(
+        tmp_path, GEOM, "s.geom", "samp_den_coeff_00:  1\n", "samp_den_coeff_00:  1e-3\n"
+    )
+    assert read_rpc(small).samp_den[0] == 1e-3  # small, yet not nothing: read

@@ -123,6 +123,9 @@ MAX_COEFFICIENT = 1e6
 #: the smallest scale accepted: a line/sample scale is about half the image, a lat/lon one at
 #: least thousandths of a degree (the smallest met: 0.002°), a height one metres
 MIN_SCALE = 1e-9
+#: a denominator's constant term (its value at the normalized domain's centre) is refused at or
+#: below this share of its largest coefficient: the model would divide by zero there
+CENTRE_DEN_MIN = 1e-9
 
 
 def wrap_lon(lon: ArrayLike) -> FloatArray:
@@ -212,6 +215,15 @@ class RPCModel:
                         file=self.source or "<rpc>",
                         message=f"{name.upper()} holds 20 zeros: a denominator that is zero "
                         "everywhere divides by zero (its constant term is normally 1)",
+                    )
+                )
+            if name.endswith("_den") and abs(arr[0]) <= CENTRE_DEN_MIN * np.abs(arr).max():
+                raise InputError(
+                    Problem(
+                        file=self.source or "<rpc>",
+                        message=f"{name.upper()}'s constant term is {arr[0]:g}: the "
+                        "denominator is zero at the centre of the normalized domain (the image "
+                        "centre), where the model divides by zero (the term is normally 1)",
                     )
                 )
             object.__setattr__(self, name, arr)
