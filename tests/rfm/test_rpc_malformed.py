@@ -551,3 +551,22 @@ def test_a_denominator_of_zero_at_the_centre_is_refused(tmp_path: Path):
         tmp_path, GEOM, "s.geom", "samp_den_coeff_00:  1\n", "samp_den_coeff_00:  1e-3\n"
     )
     assert read_rpc(small).samp_den[0] == 1e-3  # small, yet not nothing: read
+
+
+def test_rpb_empty_coefficient_between_commas_is_refused(tmp_path: Path):
+    """lineNumCoef with its second coefficient left empty ('9.3e-03,,-2.36e+00') and a 21st
+    written after: 20 numbers, one of them shifted to another term, were read without a word.
+    A trailing comma before ')' stays allowed."""
+    bad = edited(
+        tmp_path, FORMATS / "sample.RPB", "gap.RPB",
+        "\t\t-5.508823053e-01,\n", "\t\t,\n",
+    )  # fmt: skip
+    text = bad.read_text().replace("lineNumCoef = (", "lineNumCoef = (\n\t\t 1.0e-09,", 1)
+    bad.write_text(text)
+    problem = refused(bad)
+    assert problem.line == 17 and "lineNumCoef" in problem.message
+    assert "coefficient 3 is empty" in problem.message
+    source = (FORMATS / "sample.RPB").read_text()
+    trailing = tmp_path / "trailing.RPB"
+    trailing.write_text(source.replace(");", ",);"))
+    assert_identical(read_rpc(trailing), read_rpc(FORMATS / "sample.RPB"))

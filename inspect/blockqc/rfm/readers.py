@@ -348,7 +348,16 @@ def read_rpc_rpb(path: Path, text: str | None = None) -> RPCModel:
         if key not in items:
             raise _rpb_missing(path, text, key)
         raw, line = items[key]
-        parts = [p for p in raw.strip().strip("()").replace("\n", " ").split(",") if p.strip()]
+        parts = [p.strip() for p in raw.strip().strip("()").split(",")]
+        if len(parts) > 1 and not parts[-1]:
+            parts.pop()  # a trailing comma before ')'
+        if "" in parts and parts != [""]:
+            at = parts.index("") + 1
+            raise _error(
+                path, f"{key}: coefficient {at} is empty (two commas with no number between): "
+                "expected 20 numbers separated by commas", line,
+            )  # fmt: skip
+        parts = [p for p in parts if p]
         if len(parts) != 20:
             raise _error(path, f"{key}: expected 20 coefficients, got {len(parts)}", line)
         values[name] = [_number(path, key, p, line) for p in parts]
