@@ -570,3 +570,14 @@ def test_rpb_empty_coefficient_between_commas_is_refused(tmp_path: Path):
     trailing = tmp_path / "trailing.RPB"
     trailing.write_text(source.replace(");", ",);"))
     assert_identical(read_rpc(trailing), read_rpc(FORMATS / "sample.RPB"))
+
+
+def test_digitalglobe_xml_with_two_rpb_blocks_is_refused(tmp_path: Path):
+    """An isd XML holding two <RPB> blocks (two images' RPCs pasted into one file): the first
+    was read and the second passed over unsaid; which one is the scene's is not known."""
+    text = (FORMATS / "rpc_WV2.xml").read_text()
+    start, end = text.index("<RPB>"), text.index("</RPB>") + len("</RPB>")
+    two = tmp_path / "two.xml"
+    two.write_text(text[:end] + text[start:end] + text[end:])
+    problem = refused(two)
+    assert "2 RPB/IMAGE elements" in problem.message

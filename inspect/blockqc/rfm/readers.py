@@ -501,9 +501,14 @@ def read_rpc_xml(path: Path, text: str | None = None) -> RPCModel:
         raise _error(path, f"not well-formed XML: {exc}", line) from None
     if root.tag == "Dimap_Document":
         return _read_dimap(path, root)
-    image = root.find("IMAGE") if root.tag == "RPB" else root.find(".//RPB/IMAGE")
-    if image is not None:
-        return _read_dg_xml(path, image)
+    images = root.findall("IMAGE") if root.tag == "RPB" else root.findall(".//RPB/IMAGE")
+    if len(images) > 1:
+        raise _error(
+            path, f"{len(images)} RPB/IMAGE elements: expected the RPCs of one image (which of "
+            "them is the scene's?)",
+        )  # fmt: skip
+    if images:
+        return _read_dg_xml(path, images[0])
     raise _error(
         path,
         f"XML root <{root.tag}> holds no RPCs this reader knows "
