@@ -226,10 +226,10 @@ def load_geometry(
         _refined(geometry, refined, needed)
         geometry.source = f"{ADJUSTED_DIR}/"
     elif adjustment is not None and rpc_dir.exists():
+        geometry.source = files["adjustment"].name
         if not {"scene_id", *AFFINE_KEYS} <= set(adjustment.columns):
             return geometry, problems  # the missing columns are reported with the table
         problems.extend(_with_affine(geometry, adjustment, files["adjustment"], needed))
-        geometry.source = files["adjustment"].name
     return geometry, problems
 
 
