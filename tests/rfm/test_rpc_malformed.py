@@ -581,3 +581,13 @@ def test_digitalglobe_xml_with_two_rpb_blocks_is_refused(tmp_path: Path):
     two.write_text(text[:end] + text[start:end] + text[end:])
     problem = refused(two)
     assert "2 RPB/IMAGE elements" in problem.message
+
+
+@pytest.mark.parametrize("content", [b"", b" \n\t\r\n"])
+def test_an_empty_rpc_file_is_said_to_be_empty(tmp_path: Path, content: bytes):
+    """An RPC file of 0 bytes (a copy cut short) was called 'not a known RPC format', as if
+    written in another format; it is said to be empty."""
+    empty = tmp_path / "S1_rpc.txt"
+    empty.write_bytes(content)
+    problem = refused(empty)
+    assert problem.message.startswith(f"empty ({len(content)} bytes")
