@@ -251,9 +251,19 @@ def project_adjusted(
     return from_rfm_space(a, idx, line_r, samp_r)
 
 
-def metres_to_degrees(lat: FloatArray) -> tuple[FloatArray, float]:
-    """Degrees per metre east (per point) and north of the local metre parametrization."""
-    return 1.0 / (M_PER_DEG * np.cos(np.radians(lat))), 1.0 / M_PER_DEG
+WGS84_E2 = 6.69437999014e-3
+"""First eccentricity squared of the WGS84 ellipsoid."""
+
+
+def metres_to_degrees(lat: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Degrees per metre east and north at each latitude, on the WGS84 ellipsoid: the prime
+    vertical radius N·cos φ east, the meridian radius M north (metres on the ground, so that
+    the points' σ in metres are; a sphere of radius a is 0.7 % off at the equator)."""
+    lat = np.asarray(lat, np.float64)
+    w2 = 1.0 - WGS84_E2 * np.sin(np.radians(lat)) ** 2
+    n = EARTH_RADIUS_M / np.sqrt(w2)
+    m = EARTH_RADIUS_M * (1.0 - WGS84_E2) / (w2 * np.sqrt(w2))
+    return np.degrees(1.0 / (n * np.cos(np.radians(lat)))), np.degrees(1.0 / m)
 
 
 def ground_jacobian_m(jac: FloatArray, lat: FloatArray) -> FloatArray:
@@ -261,7 +271,7 @@ def ground_jacobian_m(jac: FloatArray, lat: FloatArray) -> FloatArray:
     deg_e, deg_n = metres_to_degrees(lat)
     out = jac.copy()
     out[:, :, 0] *= deg_e[:, None]
-    out[:, :, 1] *= deg_n
+    out[:, :, 1] *= deg_n[:, None]
     return out
 
 
