@@ -644,32 +644,45 @@ def fixed_weights(kept: BoolArray, sig: float) -> Callable[[FloatArray], FloatAr
     return lambda f: w
 
 
-def initial_state(
-    stack: RPCStack, obs: Observations, priors: Priors
-) -> tuple[State, BoolArray, FloatArray, FloatArray]:
-    """Zero affines; points intersected with the original RPCs (and their height priors).
-
-    Also returns each point's convergence flag and the residuals before adjustment.
-    """
+def _original(stack: RPCStack, obs: Observations, priors: Priors, weights: FloatArray | None):
+    """The points intersected with the original RPCs (zero affines) and their height priors,
+    from the observations of nonzero `weights` (None: all)."""
     from blockqc.adjust.geometry import intersect
 
     zero = np.zeros((obs.n_scenes, 6))
-    res = intersect(
-        stack,
-        zero,
-        obs.scene,
-        obs.point,
-        obs.line,
-        obs.sample,
-        height_prior=(priors.height, priors.height_sigma),
+    prior = (priors.height, priors.height_sigma)
+    return intersect(
+        stack, zero, obs.scene, obs.point, obs.line, obs.sample, height_prior=prior, weights=weights
     )
+
+
+def initial_state(stack: RPCStack, obs: Observations, priors: Priors) -> tuple[State, BoolArray]:
+    """Zero affines; points intersected with the original RPCs (and their height priors); and
+    each point's convergence flag."""
+    res = _original(stack, obs, priors, None)
     ok = res.converged & np.isfinite(res.lon) & np.isfinite(res.h)
     lon = np.where(ok, res.lon, np.nan)
-    state = State(zero.copy(), lon, res.lat.copy(), res.h.copy())
-    return state, ok, res.v_line, res.v_sample
+    state = State(np.zeros((obs.n_scenes, 6)), lon, res.lat.copy(), res.h.copy())
+    return state, ok
 
 
-@threadpool_limits.wrap(limits=1, user_api="blas")
+MAX_ROUNDS = 12
+"""Rounds of σ re-estimation and rejection (one observation per point and round)."""
+
+
+def largest_per_point(point: IntArray, kept: BoolArray, v: FloatArray, bound: float) -> BoolArray:
+    """The kept observations with |v| > bound that have the largest |v| of their point: one
+    per point and round, so that a gross error does not take its point's good rays with it."""
+    size = np.hypot(v[:, 0], v[:, 1])
+    cand = np.flatnonzero(kept & (size > bound))
+    out = np.zeros(point.size, bool)
+    if cand.size:
+        order = cand[np.lexsort((-size[cand], point[cand]))]
+        _, first = np.unique(point[order], return_index=True)
+        out[order[first]] = True
+    return out
+
+
 def adjust(
     stack: RPCStack,
     obs: Observations,
@@ -685,7 +698,7 @@ def adjust(
     """
     check_datum(priors)
     norm = normalization(lines, samples)
-    state, ok, v0l, v0s = initial_state(stack, obs, priors)
+    state, ok = initial_state(stack, obs, priors)
     ctx = Context(
         stack,
         obs,
@@ -707,27 +720,31 @@ def adjust(
 
     converged, step = iterate(ctx, state, huber, "huber", settings.huber_iterations)
     converged = False
+    settled = False  # the σ and the rejections no longer change at a converged solution
     rejected = np.zeros(obs.point.size, bool)
     weights_sig = sig  # the σ of the last step's weights
-    for _ in range(4):
+    for round_ in range(MAX_ROUNDS + 1):
         share = loop_affine_share(step, ctx)
         s0 = sigma0(step.lin.f, step.w, priors, ctx.used, step.u_inv[:, 2, 2], share) * sig
-        vl, vs = step.lin.f.T
         s0 = max(s0, settings.min_sigma_px) if np.isfinite(s0) else sig
-        new = ctx.kept & (np.hypot(vl, vs) > settings.reject_k * s0)
+        new = largest_per_point(obs.point, ctx.kept, step.lin.f, settings.reject_k * s0)
+        changed = abs(s0 / sig - 1.0) > 0.02 or bool(new.any())
+        if not changed and converged:
+            settled = True
+            break
+        budget = settings.max_iterations - sum(h["phase"] == "ls" for h in ctx.history)
+        if budget <= 0 or round_ == MAX_ROUNDS:
+            break
         ctx.kept &= ~new
         rejected |= new
         ctx.drop_weak_points()
-        changed = abs(s0 / sig - 1.0) > 0.02 or bool(new.any())
         sig = s0
-        if not changed and converged:
-            break
-        budget = settings.max_iterations - sum(h["phase"] == "ls" for h in ctx.history)
-        if budget <= 0:
-            break
         converged, step = iterate(ctx, state, fixed_weights(ctx.kept, sig), "ls", budget)
         weights_sig = sig
-    return _solution(ctx, state, step, weights_sig, converged, rejected), v0l, v0s
+    converged = converged and settled
+    sol = _solution(ctx, state, step, weights_sig, converged, rejected)
+    before = _original(stack, obs, priors, (~sol.outlier).astype(float))  # the same rays as after
+    return sol, before.v_line, before.v_sample
 
 
 def _solution(
