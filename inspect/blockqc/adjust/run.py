@@ -395,6 +395,7 @@ def run_adjust(cfg: AdjustConfig) -> dict:
     summary = summarize(block, sol, v0l, v0s, datum_desc, cp_info)
     summary["base_to_height"] = _spread(bh[sol.point_used])
     summary["warnings"] += height_warnings(bh, sol, priors, cfg.dem_sigma_m, cps, block.point_ids)
+    summary["warnings"] += datum_warnings(sol)
     summary["settings"] = dataclasses.asdict(cfg.settings)
     summary["settings"]["sigma_image_px_estimated"] = sol.sigma_image_px
     summary["seconds"] = round(time.perf_counter() - t0, 2)
@@ -445,6 +446,27 @@ def height_warnings(
     med_sigma = float(np.median(sol.ground_sigma[narrow, 2]))
     values = {"median": f"{med_bh:.3f}", "sigma": f"{med_sigma:.0f}", "among": among}
     return [EN("ad_warn_narrow_rays", n=n, used=used, min=f"{MIN_BASE_TO_HEIGHT:g}", **values)]
+
+
+#: §CP-N's plane norm m (m) and §CP-4's bound of the recalculation method's checkpoints, 2√2·m:
+#: recalculated points whose own plane σ is beyond it check no producer's position
+PLANE_NORM_M = 10.0
+DATUM_MAX_SIGMA_M = 2.0 * np.sqrt(2.0) * PLANE_NORM_M
+
+
+def datum_warnings(sol: Solution) -> list[str]:
+    """A datum the priors barely hold (σ of the affine parameters very large, or infinite on all
+    scenes but one fixed): the block moves freely, its points' σ run to hundreds of metres."""
+    used = sol.point_used
+    if not used.any():
+        return []
+    sigma = sol.ground_sigma[used]
+    plane = float(np.median(np.hypot(sigma[:, 0], sigma[:, 1])))
+    if not plane > DATUM_MAX_SIGMA_M:
+        return []
+    height, most = float(np.median(sigma[:, 2])), f"{DATUM_MAX_SIGMA_M:.1f}"
+    values = {"plane": f"{plane:.3g}", "height": f"{height:.3g}", "max": most}
+    return [EN("ad_warn_datum", norm=f"{PLANE_NORM_M:g}", **values)]
 
 
 def _refuse_without_redundancy(block: Block, sol: Solution, settings: Settings) -> None:

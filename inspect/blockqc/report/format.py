@@ -201,6 +201,7 @@ SENTENCES = (
     "ad_warn_scene_empty",
     "ad_warn_scene_few",
     "ad_warn_sigma0",
+    "ad_warn_datum",
     "ad_warn_rms_grew",
     "af_factor",
     "af_indicator",

@@ -1257,6 +1257,17 @@ MESSAGES.update(
             "σ0 为 {sigma0} 像素，远高于连接点的量测精度（超过 {max} 像素）：RPC（rpc/）与连接点"
             "互不相符；请检查每景影像的 RPC 是否确为其本身的 RPC",
         ),
+        "ad_warn_datum": (
+            "the datum is barely held: the recalculated points' plane σ is {plane} m (median; "
+            "height {height} m), beyond {max} m, the bound 2√2·m of the recalculation method's "
+            "checkpoints (§CP-4, m = {norm} m): the priors on the affine parameters "
+            "(--sigma-shift, --sigma-linear, --fix) leave the block free to move, and its "
+            "checkpoints check nothing; give the RPCs' a-priori accuracy",
+            "平差基准几乎未被约束：重算点的平面 σ 为 {plane} m（中位数；高程 {height} m），超过 "
+            "{max} m，即重算法检查点的限差 2√2·m（§CP-4，m = {norm} m）：仿射参数的先验"
+            "（--sigma-shift、--sigma-linear、--fix）使区域网可以整体移动，其检查点不能检查任何"
+            "内容；请给出 RPC 的先验精度",
+        ),
         "ad_warn_rms_grew": (
             "the residual RMS grew in the adjustment ({before} → {after} px): the corrections "
             "the data ask for are beyond the priors, or the data do not fit",
