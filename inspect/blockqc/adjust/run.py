@@ -615,9 +615,9 @@ def summarize(
         "rms_px_after": _rms(sol.v_line, sol.v_sample, kept),
         "n_outliers": int(sol.rejected.sum()),
         "n_without_second_ray": int((sol.outlier & ~sol.rejected).sum()),
-        "outlier_rule": "|v| > k·σ0 after a Huber IRLS pass, and observations of points left "
-        "with fewer than two (k in settings); n_outliers counts the first, "
-        "n_without_second_ray the second",
+        "outlier_rule": "|v| > k·σ0 after a Huber IRLS pass, the largest of each point in a "
+        "round, and observations of points left with fewer than two (k in settings); "
+        "n_outliers counts the first, n_without_second_ray the second",
         "datum": datum_desc,
         "checkpoints": cp_info,
         "producer_adjustment": block.data.producer_source,
