@@ -178,14 +178,6 @@ def test_rpb_with_19_coefficients_names_the_key(tmp_path: Path):
     assert err.value.problems[0].line is not None
 
 
-def test_dimap_without_inverse_model_is_refused(tmp_path: Path):
-    text = (FORMATS / "rpc_PLEIADES.xml").read_text()
-    bad = tmp_path / "dimap.xml"
-    bad.write_text(text.replace("Inverse_Model", "Inverse_Modl"))
-    with pytest.raises(InputError, match="Inverse_Model"):
-        read_rpc(bad)
-
-
 @pytest.mark.parametrize("first", [0, 1])
 def test_dimap_v3_of_pleiades_neo_is_read_with_its_own_first_pixel(tmp_path: Path, first: int):
     """DIMAP v3 (Pléiades Neo) names the ground→image RPCs GroundtoImage_Values and gives the
