@@ -683,6 +683,7 @@ def largest_per_point(point: IntArray, kept: BoolArray, v: FloatArray, bound: fl
     return out
 
 
+@threadpool_limits.wrap(limits=1, user_api="blas")
 def adjust(
     stack: RPCStack,
     obs: Observations,
