@@ -181,8 +181,7 @@ def derive_overlaps(
     (a code per scene): only scenes of one band are paired, a PAN–MS pair being a registration
     (§RO-1), not two adjacent images (§RO-3).
     """
-    kept = np.isfinite(h)
-    a, b = _pairs(_point_codes(obs["point_id"]), scene, kept)
+    a, b = _pairs(_point_codes(obs["point_id"]), scene, np.isfinite(h))
     if band is not None:
         same = band[scene[a]] == band[scene[b]]
         a, b = a[same], b[same]
