@@ -20,6 +20,7 @@ from blockqc.adjust.inputs import AdjustInput, load_adjust_input
 from blockqc.adjust.solver import Observations, Priors, Settings, Solution, adjust
 from blockqc.errors import InputError, Problem
 from blockqc.grouped import Groups
+from blockqc.metrics.checkpoints import AccuracyParams
 from blockqc.outputs import check_out_dir
 from blockqc.report.messages import translator
 from blockqc.rfm.model import lon_extent, wrap_lon
@@ -448,10 +449,11 @@ def height_warnings(
     return [EN("ad_warn_narrow_rays", n=n, used=used, min=f"{MIN_BASE_TO_HEIGHT:g}", **values)]
 
 
-#: §CP-N's plane norm m (m) and §CP-4's bound of the recalculation method's checkpoints, 2√2·m:
-#: recalculated points whose own plane σ is beyond it check no producer's position
-PLANE_NORM_M = 10.0
-DATUM_MAX_SIGMA_M = 2.0 * np.sqrt(2.0) * PLANE_NORM_M
+#: §CP-N's plane norm m and §CP-4's bound of the recalculation method's checkpoints, 2√2·m, as
+#: the checkpoint rules take them: recalculated points whose own plane σ is beyond the bound
+#: check no producer's position
+PLANE_NORM_M = AccuracyParams().plane_norm_m
+DATUM_MAX_SIGMA_M = AccuracyParams().tolerance_factor["recalculation"] * PLANE_NORM_M
 
 
 def datum_warnings(sol: Solution) -> list[str]:
@@ -464,8 +466,8 @@ def datum_warnings(sol: Solution) -> list[str]:
     plane = float(np.median(np.hypot(sigma[:, 0], sigma[:, 1])))
     if not plane > DATUM_MAX_SIGMA_M:
         return []
-    height, most = float(np.median(sigma[:, 2])), f"{DATUM_MAX_SIGMA_M:.1f}"
-    values = {"plane": f"{plane:.3g}", "height": f"{height:.3g}", "max": most}
+    height = float(np.median(sigma[:, 2]))
+    values = {"plane": f"{plane:.3g}", "height": f"{height:.3g}", "max": f"{DATUM_MAX_SIGMA_M:.1f}"}
     return [EN("ad_warn_datum", norm=f"{PLANE_NORM_M:g}", **values)]
 
 

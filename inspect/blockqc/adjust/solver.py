@@ -28,11 +28,13 @@ from numpy.typing import NDArray
 from threadpoolctl import threadpool_limits
 
 from blockqc.adjust.geometry import (
+    Intersection,
     RPCStack,
     accumulate_points,
     affine_from_normalized,
     apply_2x2,
     ground_jacobian_m,
+    intersect,
     inv3,
     m_inverse,
     metres_to_degrees,
@@ -644,11 +646,11 @@ def fixed_weights(kept: BoolArray, sig: float) -> Callable[[FloatArray], FloatAr
     return lambda f: w
 
 
-def _original(stack: RPCStack, obs: Observations, priors: Priors, weights: FloatArray | None):
+def _original(
+    stack: RPCStack, obs: Observations, priors: Priors, weights: FloatArray | None
+) -> Intersection:
     """The points intersected with the original RPCs (zero affines) and their height priors,
     from the observations of nonzero `weights` (None: all)."""
-    from blockqc.adjust.geometry import intersect
-
     zero = np.zeros((obs.n_scenes, 6))
     prior = (priors.height, priors.height_sigma)
     return intersect(

@@ -608,7 +608,7 @@ def match_cps(
     return matches, cell, how
 
 
-MATCH_WINDOW = 50
+MATCH_WINDOW = 2 * MatchSettings().margin
 """Side (px) of the window a match needs free of voids: the matcher's BRIEF patch and NCC
 template (`blockqc.matching.MatchSettings.margin`, 25 px, on each side of a corner)."""
 CORNER_WINDOW = 2 * MatchSettings().margin + 1

@@ -809,8 +809,8 @@ def read_rpc(path: str | Path) -> RPCModel:
     if not path.is_file():
         raise _error(path, "no such file")
     kind = sniff_format(path)
-    if kind == "unknown" and path.stat().st_size < 4096 and not path.read_bytes().strip():
-        size = path.stat().st_size
+    size = path.stat().st_size
+    if kind == "unknown" and size < 4096 and not path.read_bytes().strip():
         raise _error(path, f"empty ({size} bytes{' of white space' if size else ''}): expected "
                      "an RPC file (its copy cut short?)")  # fmt: skip
     if kind == "unknown":
