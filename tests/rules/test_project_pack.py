@@ -154,7 +154,7 @@ def test_the_readme_example_lints_and_its_cases_pass(tmp_path: Path) -> None:
     (tmp_path / "project.cases" / "PR-1.yaml").write_text(cases, "utf-8")
     lint = run_blockqc("rules", "lint", tmp_path / "project.yaml")
     assert lint.returncode == 0, lint.stdout + lint.stderr
-    test = run_blockqc("rules", "test", tmp_path / "project.yaml")
+    test = run_blockqc("rules", "test", tmp_path / "project.yaml", "--own")
     assert test.returncode == 0, test.stdout + test.stderr
     assert "pass  PR-1     13 of S1's 121 observations at 1.2 px (10.74 %)" in test.stdout
 
