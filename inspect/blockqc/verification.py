@@ -326,12 +326,70 @@ def prepare(d: Delivery) -> dict[str, Any]:
         _with_computed_residuals(d, pdata.observations, notes)
     else:
         notes["tie_point_residuals"] = VERIFIED_RESIDUALS
+        convention = residual_convention(d.tie_points, pdata.observations)
+        if convention:
+            notes["residual_convention"] = convention
     if pdata.overlaps is not None:
         d.overlaps = pdata.overlaps
         notes["overlaps"] = DERIVED_OVERLAPS
         notes["n_overlap_discrepancies"] = int(len(pdata.overlaps))
     d.process_data["data"] = pdata
     return notes
+
+
+#: other ways of writing the residuals than the contract's (computed − measured, line then
+#: sample), each as the sign of the computed residuals and whether line and sample are swapped;
+#: their words, and RC_CONVENTION's, are those of the report's catalogue (rc_sign … rc_convention)
+CONVENTIONS = {
+    "the opposite sign (measured − computed)": (-1.0, False),
+    "line and sample swapped": (1.0, True),
+    "the opposite sign, line and sample swapped": (-1.0, True),
+}
+RC_CONVENTION = (
+    "the delivered residuals reproduce with {convention}: RMS difference {rms} px, against "
+    "{as_read} px read as the contract writes them (computed − measured, line then sample)"
+)
+#: a convention is named when it reproduces the delivered residuals this many times closer
+#: (RMS difference) than the contract's reading does, which differs by more than CONVENTION_FLOOR_PX
+CONVENTION_GAIN = 10.0
+CONVENTION_FLOOR_PX = 0.01
+
+
+def residual_convention(tp: pd.DataFrame, obs: pd.DataFrame) -> str | None:
+    """The convention other than the contract's in which the delivered residuals reproduce
+    (RC_CONVENTION), or None: residuals written measured − computed, or line and sample
+    swapped, fail RC-1 as they stand, and the inspector is told why. Over the observations of
+    points on two or more scenes that have both residuals."""
+    given = [tp[c].to_numpy(dtype=float) for c in ("v_line", "v_sample")]
+    computed = [obs[c].to_numpy(dtype=float) for c in ("v_line_computed", "v_sample_computed")]
+    multi = obs["n_rays"].to_numpy() >= 2
+    readings = {"as read": (1.0, False), **CONVENTIONS}
+
+    def sums(a: int) -> np.ndarray:  # observations used, squared differences of each reading
+        piece = slice(a, a + pieces.CHUNK)
+        vl, vs, cl, cs = (v[piece] for v in (*given, *computed))
+        use = multi[piece] & np.isfinite(vl) & np.isfinite(vs) & np.isfinite(cl) & np.isfinite(cs)
+        vl, vs, cl, cs = vl[use], vs[use], cl[use], cs[use]
+        squares = [
+            np.sum((vl - k * (cs if swap else cl)) ** 2 + (vs - k * (cl if swap else cs)) ** 2)
+            for k, swap in readings.values()
+        ]
+        return np.array([np.count_nonzero(use), *squares])
+
+    n, *squares = pieces.total(sums, len(multi), np.zeros(len(readings) + 1))
+    if not n:
+        return None
+    as_read, *others = np.sqrt(np.array(squares) / n)
+    if not as_read > CONVENTION_FLOOR_PX:
+        return None
+    closest = int(np.argmin(others))
+    if others[closest] * CONVENTION_GAIN >= as_read:
+        return None
+    return RC_CONVENTION.format(
+        convention=list(CONVENTIONS)[closest],
+        rms=f"{others[closest]:.3g}",
+        as_read=f"{as_read:.3g}",
+    )
 
 
 #: said of RC-1 (after the count of points) when some points' rays do not intersect
@@ -343,7 +401,7 @@ NOT_REPRODUCED = (
 
 def annotated_keys(metric: str) -> tuple[str, ...]:
     """The keys `annotate` may add to the detail of a result of that metric."""
-    note = ("note",) if metric == "residual_reproduction" else ()
+    note = ("note", "hint") if metric == "residual_reproduction" else ()
     source = SOURCES.get(metric)
     computed = ("computed_by_blockqc",) if source else ()
     rays = ("observations_without_residual", "observations_single_ray")
@@ -351,13 +409,18 @@ def annotated_keys(metric: str) -> tuple[str, ...]:
 
 
 def annotate(results: list[Any], metric_of: dict[str, str], notes: dict) -> None:
-    """Say in each result judged on inputs blockqc computed itself where they came from, and
-    in RC-1's why its value is infinite (no number in JSON) when rays do not intersect."""
+    """Say in each result judged on inputs blockqc computed itself where they came from; in
+    RC-1's why its value is infinite (no number in JSON) when rays do not intersect, and in
+    which other convention the delivered residuals reproduce (`residual_convention`)."""
     computed = {k: v for k, v in notes.items() if v in (COMPUTED_RESIDUALS, DERIVED_OVERLAPS)}
     lost = notes.get("n_points_not_intersected", 0)
+    convention = notes.get("residual_convention")
     for res in results:
-        if lost and metric_of.get(res.rule) == "residual_reproduction":
-            res.detail["note"] = f"{lost} {NOT_REPRODUCED}"
+        if metric_of.get(res.rule) == "residual_reproduction":
+            if lost:
+                res.detail["note"] = f"{lost} {NOT_REPRODUCED}"
+            if convention:
+                res.detail["hint"] = convention
         source = SOURCES.get(metric_of.get(res.rule, ""))
         if source in computed:
             res.detail["computed_by_blockqc"] = computed[source]

@@ -111,6 +111,80 @@ def test_doctored_residuals_fail_naming_the_worst(tmp_path, observations) -> Non
     assert set(zip(big["point_id"], big["scene_id"], strict=True)) <= named
 
 
+def _rms(v: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(np.sum(np.square(v), axis=1))))
+
+
+@pytest.mark.parametrize(
+    "convention, sign, swap",
+    [
+        ("the opposite sign (measured − computed)", -1.0, False),
+        ("line and sample swapped", 1.0, True),
+        ("the opposite sign, line and sample swapped", -1.0, True),
+    ],
+)
+def test_residuals_in_another_convention_fail_rc1_and_it_is_named(
+    tmp_path, observations, convention, sign, swap
+) -> None:
+    """The independent solver's residuals written measured − computed, or line and sample
+    swapped: RC-1 fails as the contract reads them (computed − measured, line then sample), and
+    says in which convention they reproduce, with both RMS differences (by hand from the
+    solver's residuals: about 0 and √(Σ(v ∓ v')²/n))."""
+    _, ref = observations
+    v = ref[["v_line", "v_sample"]].to_numpy()
+    written = sign * (v[:, ::-1] if swap else v)
+    doc = _results(
+        write_v11(tmp_path / "d", ref.assign(v_line=written[:, 0], v_sample=written[:, 1]))
+    )
+    rc1 = _rule(doc, "RC-1")[0]
+    assert rc1["status"] == "fail"
+    hint = rc1["detail"]["hint"]
+    assert doc["process_data"]["residual_convention"] == hint
+    found = re.fullmatch(
+        rf"the delivered residuals reproduce with {re.escape(convention)}: RMS difference "
+        r"(\S+) px, against (\S+) px read as the contract writes them \(computed − measured, "
+        r"line then sample\)",
+        hint,
+    )
+    assert found, hint
+    assert float(found[1]) < 2e-3  # the solver's residuals agree with blockqc's to 2e-3 px
+    assert float(found[2]) == pytest.approx(_rms(written - v), rel=2e-3, abs=2e-3)
+
+
+def test_no_convention_is_named_for_residuals_right_or_made_up(tmp_path, observations) -> None:
+    """Residuals as the contract writes them, and residuals that no reading reproduces (each
+    observation's made up): no convention is named."""
+    _, ref = observations
+    doc = _results(write_v11(tmp_path / "right", ref))
+    assert "residual_convention" not in doc["process_data"]
+    assert "hint" not in _rule(doc, "RC-1")[0]["detail"]
+    made_up = np.random.default_rng(3).normal(0.0, 0.5, (len(ref), 2))
+    doc = _results(
+        write_v11(tmp_path / "made_up", ref.assign(v_line=made_up[:, 0], v_sample=made_up[:, 1]))
+    )
+    rc1 = _rule(doc, "RC-1")[0]
+    assert rc1["status"] == "fail" and "hint" not in rc1["detail"]
+    assert "residual_convention" not in doc["process_data"]
+
+
+def test_the_convention_is_said_in_the_pages_language() -> None:
+    """The sentence results.json keeps in English, on a Chinese page: the convention nested in
+    it translated too; its words are the catalogue's."""
+    from blockqc.report.format import Formatter
+    from blockqc.report.messages import MESSAGES
+
+    assert MESSAGES["rc_convention"][0] == verification.RC_CONVENTION
+    keys = ("rc_sign", "rc_swapped", "rc_sign_swapped")
+    assert [MESSAGES[k][0] for k in keys] == list(verification.CONVENTIONS)
+    hint = verification.RC_CONVENTION.format(
+        convention="line and sample swapped", rms="0.00012", as_read="0.734"
+    )
+    assert Formatter("zh").sentence(hint) == (
+        "所交残差按行列互换可以复现：差值均方根 0.00012 像素，"
+        "按合同约定（计算值 − 量测值，先行后列）解读则为 0.734 像素"
+    )
+
+
 def test_rays_the_geometry_cannot_intersect_fail_rc1(tmp_path) -> None:
     """A shift of a million pixels in one scene's adjustment (a four-scene synthetic block):
     rays that no longer meet under the delivered geometry. RC-1 does not pass over what is

@@ -58,6 +58,8 @@ def _conditional(res: RuleResult) -> bool:
 
 #: the notes of blockqc's own a result may carry that read in the page's language (MB-3's)
 PROJECTION_NOTES = tuple(k for k in SENTENCES if k.startswith("mb_"))
+#: RC-1's hint of the convention the delivered residuals reproduce in (`residual_convention`)
+CONVENTION_NOTES = ("rc_convention",)
 
 
 def _notes(res: RuleResult, f: Formatter) -> list[str]:
@@ -67,13 +69,12 @@ def _notes(res: RuleResult, f: Formatter) -> list[str]:
 
     def said(k: str) -> str:
         text = f.text(str(detail[k]))
-        return f.sentence(text, PROJECTION_NOTES) if measured and k == "note" else text
+        if measured and k in ("note", "hint"):
+            return f.sentence(text, PROJECTION_NOTES if k == "note" else CONVENTION_NOTES)
+        return text
 
-    notes = [
-        said(k)
-        for k in ("reason", "note", "computed_by_blockqc", "waiver_reason", "waiver_ignored")
-        if detail.get(k)
-    ]
+    keys = ("reason", "note", "hint", "computed_by_blockqc", "waiver_reason", "waiver_ignored")
+    notes = [said(k) for k in keys if detail.get(k)]
     if _conditional(res) and detail.get("note"):
         notes[notes.index(f.text(str(detail["note"])))] = f.t("condition") + colon + detail["note"]
     used_mean = detail.get("used_mean") or detail.get("statistic") == "mean"

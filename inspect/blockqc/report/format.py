@@ -175,6 +175,10 @@ SENTENCES = (
     "ra_warn_reference_gsd",
     "ra_warn_k_unsupported",
     "ra_warn_k_few_checks",
+    "rc_convention",
+    "rc_sign_swapped",
+    "rc_sign",
+    "rc_swapped",
     "mb_straddles",
     "mb_edge_both",  # before its shorter "a zone edge (…)", which would take it whole
     "mb_edge_zone",
@@ -229,6 +233,7 @@ LONG_WORD = 24
 #: fields of a sentence that hold one of other sentences (named here), so that the name before
 #: them (a file, a scene) may hold spaces and brackets: "scene S 01 has no tie-point observation"
 NESTED = {
+    ("rc_convention", "convention"): ("rc_sign_swapped", "rc_sign", "rc_swapped"),
     ("ra_warn_no_height", "parts"): ("ra_warn_outside_voids", "ra_warn_outside", "ra_warn_voids"),
     ("ad_warn_scene", "why"): ("ad_warn_scene_empty", "ad_warn_scene_few"),
     ("qe_not_scored", "why"): ("qe_norm_no_gsd", "qe_norm_problem"),

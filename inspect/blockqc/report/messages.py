@@ -100,6 +100,7 @@ MESSAGES: dict[str, tuple[str, str]] = {
     ),
     "pd_geometry": ("Geometry used", "所用几何模型"),
     "pd_residuals": ("Tie-point residuals", "连接点残差"),
+    "pd_residual_convention": ("Residuals' convention", "残差约定"),
     "pd_points": ("Tie points", "连接点数"),
     "pd_single_ray": ("seen on one scene only (not intersected)", "仅在一景影像上（未交会）"),
     "pd_not_intersected": ("whose rays do not intersect", "光线无法交会"),
@@ -723,6 +724,19 @@ MESSAGES.update(
         "ph_no_pan_ms": (
             "no PAN–MS registration table (pan_ms.csv) in the delivery",
             "成果中没有全色–多光谱配准表（pan_ms.csv）",
+        ),
+        "rc_convention": (
+            "the delivered residuals reproduce with {convention}: RMS difference {rms} px, "
+            "against {as_read} px read as the contract writes them (computed − measured, line "
+            "then sample)",
+            "所交残差按{convention}可以复现：差值均方根 {rms} 像素，"
+            "按合同约定（计算值 − 量测值，先行后列）解读则为 {as_read} 像素",
+        ),
+        "rc_sign": ("the opposite sign (measured − computed)", "相反符号（量测值 − 计算值）"),
+        "rc_swapped": ("line and sample swapped", "行列互换"),
+        "rc_sign_swapped": (
+            "the opposite sign, line and sample swapped",
+            "相反符号且行列互换",
         ),
         "ph_not_reproduced": (
             "tie points whose rays the delivered geometry cannot intersect: their observations "

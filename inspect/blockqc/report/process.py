@@ -13,6 +13,7 @@ from blockqc.report.format import Formatter
 LABELS = {
     "geometry": "pd_geometry",
     "tie_point_residuals": "pd_residuals",
+    "residual_convention": "pd_residual_convention",
     "n_points": "pd_points",
     "n_points_single_ray": "pd_single_ray",
     "n_points_not_intersected": "pd_not_intersected",
@@ -45,8 +46,9 @@ def process_rows(process_data: dict[str, Any], f: Formatter) -> list[dict[str, A
 
 
 def _value(v: Any, f: Formatter) -> str:
-    if isinstance(v, str):
-        return f.text(v)
+    if isinstance(v, str):  # a sentence of the catalogue, else a text with its fixed phrases
+        said = f.sentence(v)
+        return said if said != v else f.text(v)
     if isinstance(v, dict):  # the inspector's checkpoint files: rows taken from each
         return "; ".join(f"{name_only(str(k))}: {f.t('pd_rows', n=f.num(n))}" for k, n in v.items())
     return f.num(v)
