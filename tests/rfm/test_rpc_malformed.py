@@ -158,9 +158,35 @@ def test_longitudes_0_to_360_and_negative_scales_are_read(tmp_path: Path):
     assert read_rpc(FORMATS / "rpc_PLANET_L1B.txt").lat_scale == -0.0234
 
 
-def test_zero_scale_is_refused_naming_the_field(tmp_path: Path):
-    bad = edited(tmp_path, GF_TXT, "zero_rpc.txt", "HEIGHT_SCALE: +885", "HEIGHT_SCALE: 0")
-    assert "HEIGHT_SCALE" in refused(bad).message
+DIMAP_VALIDITY = "Rational_Function_Model/Global_RFM/RFM_Validity"
+
+
+@pytest.mark.parametrize(
+    "source, old, new, key, line",
+    [
+        (GF_TXT, "HEIGHT_SCALE: +885", "HEIGHT_SCALE: 0", "HEIGHT_SCALE", 10),
+        (GEOM, "height_scale:  885", "height_scale:  0", "height_scale", 39),
+        (FORMATS / "sample.RPB", "heightScale =  580.00;", "heightScale = 0;", "heightScale", 16),
+        (
+            FORMATS / "rpc_PLEIADES.xml",
+            "<HEIGHT_SCALE>80</HEIGHT_SCALE>",
+            "<HEIGHT_SCALE>0</HEIGHT_SCALE>",
+            f"{DIMAP_VALIDITY}/HEIGHT_SCALE",
+            None,
+        ),
+    ],
+    ids=lambda v: v.name if isinstance(v, Path) else None,
+)
+def test_zero_scale_is_refused_naming_the_key_as_written_and_its_line(
+    tmp_path: Path, source: Path, old: str, new: str, key: str, line: int | None
+):
+    """The model divides by its scales: a zero is refused with the key as the file writes it
+    (heightScale in an .RPB, not HEIGHT_SCALE) and its line (none in XML)."""
+    problem = refused(edited(tmp_path, source, source.name, old, new))
+    assert problem.message == (
+        f"{key}: expected a scale of magnitude at least 1e-09 (the model divides by it), got 0"
+    )
+    assert problem.line == line
 
 
 def test_a_coefficient_far_beyond_order_one_is_refused_naming_it(tmp_path: Path):
@@ -173,7 +199,10 @@ def test_a_coefficient_far_beyond_order_one_is_refused_naming_it(tmp_path: Path)
 
 def test_a_vanishing_scale_is_refused_naming_it(tmp_path: Path):
     bad = edited(tmp_path, GF_TXT, "tiny_rpc.txt", "HEIGHT_SCALE: +885", "HEIGHT_SCALE: 1e-300")
-    assert refused(bad).message.startswith("HEIGHT_SCALE must be a finite number of magnitude")
+    problem = refused(bad)
+    assert problem.line == 10
+    assert problem.message.startswith("HEIGHT_SCALE: expected a scale of magnitude at least 1e-09")
+    assert problem.message.endswith("got 1e-300")
 
 
 # -- line ends, encodings, folders -------------------------------------------------------------

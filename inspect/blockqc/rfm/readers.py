@@ -35,7 +35,7 @@ from xml.etree import ElementTree
 import numpy as np
 
 from blockqc.errors import InputError, Problem
-from blockqc.rfm.model import OFFSET_SCALE_KEYS, RPCModel
+from blockqc.rfm.model import MIN_SCALE, OFFSET_SCALE_KEYS, RPCModel
 
 if TYPE_CHECKING:
     from rasterio.io import DatasetReader
@@ -113,10 +113,18 @@ def _number(path: Path | str, key: str, text: str, line: int | None = None) -> f
     return value
 
 
-def _build(path: Path | str, values: Mapping[str, object], **extra: object) -> RPCModel:
+#: where a field was read: its key as the file writes it, and its line (None: not known)
+Named = Mapping[str, tuple[str, int | None]]
+
+
+def _build(
+    path: Path | str, values: Mapping[str, object], named: Named | None = None, **extra: object
+) -> RPCModel:
+    """The model of the fields read (`named`: where each was read, for the messages)."""
     missing = [k for k in (*OFFSET_SCALE_KEYS, *COEFF_KEYS) if k not in values]
     if missing:
         raise _error(path, f"missing RPC field(s): {', '.join(missing)}")
+    _check_scales(path, values, named or {})
     for key in COEFF_KEYS:
         arr = np.asarray(values[key], dtype=np.float64)
         if arr.shape != (20,):
@@ -124,6 +132,19 @@ def _build(path: Path | str, values: Mapping[str, object], **extra: object) -> R
     _check_ground_offsets(path, values)
     kwargs = {k: values[k] for k in (*OFFSET_SCALE_KEYS, *COEFF_KEYS)}
     return RPCModel(source=str(path), **kwargs, **extra)  # type: ignore[arg-type]
+
+
+def _check_scales(path: Path | str, values: Mapping[str, object], named: Named) -> None:
+    """Each scale of magnitude at least MIN_SCALE (the model divides by it), refused naming its
+    key as the file writes it, and its line."""
+    for name in OFFSET_SCALE_KEYS:
+        value = float(values[name])  # type: ignore[arg-type]
+        if name.endswith("_scale") and abs(value) < MIN_SCALE:
+            key, line = named.get(name, (name.upper(), None))
+            raise _error(
+                path, f"{key}: expected a scale of magnitude at least {MIN_SCALE:g} (the model "
+                f"divides by it), got {value:g}", line,
+            )  # fmt: skip
 
 
 def _check_ground_offsets(path: Path | str, values: Mapping[str, object]) -> None:
@@ -175,6 +196,11 @@ def _key_values(path: Path, text: str, upper: bool = False) -> dict[str, tuple[s
     return out
 
 
+def _named(kv: Mapping[str, tuple[str, int]], names: Mapping[str, str]) -> Named:
+    """Where each field of `names` (key → field) was read: its key and line."""
+    return {name: (key, kv[key][1]) for key, name in names.items() if key in kv}
+
+
 def _kv_number(path: Path, kv: Mapping[str, tuple[str, int]], key: str) -> float:
     if key not in kv:
         raise _error(path, f"missing key {key}")
@@ -223,7 +249,7 @@ def read_rpc_txt(path: Path, text: str | None = None) -> RPCModel:
     for key, name in (("ERR_BIAS", "err_bias"), ("ERR_RAND", "err_rand")):
         if key in kv:
             extra[name] = _kv_number(path, kv, key)
-    return _build(path, values, **extra)
+    return _build(path, values, _named(kv, _TXT_NAMES), **extra)
 
 
 # -- OSSIM keyword list (.geom) ---------------------------------------------------------------
@@ -259,7 +285,7 @@ def read_rpc_geom(path: Path, text: str | None = None) -> RPCModel:
     values.update(_kv_coeffs(path, kv, _geom_coeff_key, range(20), _GEOM_COEFF))
     _rpc00b_order(path, kv)
     _no_geom_adjustment(path, kv)
-    return _build(path, values)
+    return _build(path, values, _named(kv, _GEOM_NAMES))
 
 
 def _rpc00b_order(path: Path, kv: Mapping[str, tuple[str, int]]) -> None:
@@ -365,7 +391,7 @@ def read_rpc_rpb(path: Path, text: str | None = None) -> RPCModel:
     for key, name in (("errBias", "err_bias"), ("errRand", "err_rand")):
         if key in items:
             extra[name] = _number(path, key, items[key][0], items[key][1])
-    return _build(path, values, **extra)
+    return _build(path, values, _named(items, _RPB_NAMES), **extra)
 
 
 def _rpb_missing(path: Path, text: str, key: str) -> InputError:
@@ -443,7 +469,8 @@ def _read_dimap(path: Path, root: ElementTree.Element) -> RPCModel:
         first = _xml_number(path, domain, "FIRST_COL", DIMAP_V3_DOMAIN)
     values["line_off"] = float(values["line_off"]) - first  # type: ignore[arg-type]
     values["samp_off"] = float(values["samp_off"]) - first  # type: ignore[arg-type]
-    return _build(path, values, first_pixel=first)
+    named = {name: (f"{where}/{key}", None) for key, name in _TXT_NAMES.items()}
+    return _build(path, values, named, first_pixel=first)
 
 
 def _in_1_to_20(tag: str) -> bool:
@@ -487,7 +514,8 @@ def _read_dg_xml(path: Path, image: ElementTree.Element) -> RPCModel:
         el = image.find(key)
         if el is not None and el.text:
             extra[name] = _number(path, f"{where}/{key}", el.text)
-    return _build(path, values, **extra)
+    named = {name: (f"{where}/{key}", None) for key, name in _DG_NAMES.items()}
+    return _build(path, values, named, **extra)
 
 
 def read_rpc_xml(path: Path, text: str | None = None) -> RPCModel:
@@ -567,7 +595,7 @@ def read_rpc_json(path: Path, text: str | None = None) -> RPCModel:
             values[name] = [_number(path, f"rpc.{key}", str(x)) for x in v]
         else:
             values[name] = _number(path, f"rpc.{key}", str(v))
-    return _build(path, values)
+    return _build(path, values, {name: (f"rpc.{key}", None) for key, name in _JSON_NAMES.items()})
 
 
 # -- GDAL (GeoTIFF / NITF tags, GDAL sidecars) ------------------------------------------------
