@@ -28,6 +28,7 @@ from pyproj import Geod
 from blockqc import verification
 from blockqc.delivery import load_delivery
 from blockqc.engine import inspect_delivery
+from blockqc.metrics.geometry import GROUND_COLUMNS
 from blockqc.results import dump
 from blockqc.rules import load_pack
 from blockqc.verification import COMPUTED_RESIDUALS, DERIVED_OVERLAPS
@@ -183,6 +184,98 @@ def test_the_convention_is_said_in_the_pages_language() -> None:
         "所交残差按行列互换可以复现：差值均方根 0.00012 像素，"
         "按合同约定（计算值 − 量测值，先行后列）解读则为 0.734 像素"
     )
+
+
+GROUND_DELIVERED = """pack: project
+version: "1.0"
+extends: global-project
+overrides:
+  RC-1: {params: {ground: delivered}}
+"""
+
+
+def _with_ground(tmp_path: Path, name: str, ties: pd.DataFrame) -> dict:
+    """RC-1 of the delivery, judged with the producer's ground points back-projected."""
+    from blockqc.rules.loader import load_pack as load_pack_file
+
+    pack = tmp_path / "project.yaml"
+    pack.write_text(GROUND_DELIVERED)
+    doc = dump(
+        inspect_delivery(load_delivery(write_v11(tmp_path / name, ties)), load_pack_file(pack))
+    )
+    return _rule(doc, "RC-1")[0]
+
+
+def _held_to_truth(ground: pd.DataFrame, obs: pd.DataFrame) -> pd.DataFrame:
+    """The observations as a producer delivers them that held every point to its true position:
+    the residuals of the true ground points (RefinedRFM, by hand), and those points."""
+    at = ground.set_index("point_id").loc[obs["point_id"]]
+    v = np.empty((len(obs), 2))
+    for sid, m in adjusted_models().items():
+        on = (obs["scene_id"] == sid).to_numpy()
+        line, sample = m.ground_to_image(at["lon"][on], at["lat"][on], at["h"][on])
+        v[on] = np.column_stack([line - obs["line"][on], sample - obs["sample"][on]])
+    points = {c: at[c].to_numpy() for c in GROUND_COLUMNS}
+    return obs.assign(v_line=v[:, 0], v_sample=v[:, 1], **points)
+
+
+def test_residuals_of_a_height_prior_reproduce_from_the_delivered_ground_points(tmp_path) -> None:
+    """A producer that held each point to its true height (a DEM prior) and its plane position
+    to the truth: its residuals are those of the true ground points (RefinedRFM, by hand), not
+    of an unweighted intersection (scipy's, point by point). Intersected, RC-1 fails by their
+    difference; back-projected from the delivered ground points (`ground: delivered`), every
+    observation reproduces, those of a point seen once too."""
+    ground = ground_points(N_POINTS, seed=11)
+    obs = observe(ground, noise_px=0.3, seed=11)
+    ties = _held_to_truth(ground, obs)
+    unweighted = reference_residuals(obs, ground).set_index(["point_id", "scene_id"])
+    by_hand = ties.set_index(["point_id", "scene_id"]).loc[unweighted.index]
+    gap = np.hypot(*(by_hand[c] - unweighted[c] for c in ("v_line", "v_sample")))
+    assert gap.max() > 0.1  # as RC-1's tolerance sees it
+    intersected = _rule(_results(write_v11(tmp_path / "i", ties)), "RC-1")[0]
+    assert intersected["status"] == "fail"
+    assert intersected["value"] == pytest.approx(gap.max(), abs=2e-3)
+    once = ties.iloc[:1].assign(point_id="ONCE", v_line=0.0, v_sample=0.0)
+    line, sample = adjusted_models()[once["scene_id"].iloc[0]].ground_to_image(
+        once["lon"], once["lat"], once["h"]
+    )
+    once = once.assign(line=line, sample=sample)  # on its ray: residual 0
+    rc1 = _with_ground(tmp_path, "d", pd.concat([ties, once], ignore_index=True))
+    assert rc1["status"] == "pass" and rc1["value"] < 1e-6
+    assert rc1["detail"]["n_units"] == len(ties) + 1
+
+
+def test_a_residual_made_up_fails_against_the_delivered_ground_points(tmp_path) -> None:
+    """The same, one residual off by 0.3 px: that observation is the evidence."""
+    ground = ground_points(20, seed=12)
+    obs = observe(ground, noise_px=0.3, seed=12).reset_index(drop=True)
+    ties = _held_to_truth(ground, obs)
+    ties.loc[7, "v_sample"] += 0.3
+    rc1 = _with_ground(tmp_path, "d", ties)
+    assert rc1["status"] == "fail" and rc1["value"] == pytest.approx(0.3, abs=1e-6)
+    worst = rc1["evidence"][0]
+    assert (worst["point_id"], worst["scene_id"]) == (obs["point_id"][7], obs["scene_id"][7])
+    assert rc1["detail"]["n_offending"] == 1
+
+
+@pytest.mark.parametrize("gone", ["h", "some"])
+def test_delivered_ground_points_absent_put_rc1_in_error(tmp_path, observations, gone) -> None:
+    """`ground: delivered` without the columns, or with a row without its point: RC-1 is in
+    error saying so (not judged on the others, not passed over)."""
+    ground, ref = observations
+    at = ground.set_index("point_id").loc[ref["point_id"]]
+    ties = ref.assign(**{c: at[c].to_numpy() for c in GROUND_COLUMNS})
+    if gone == "h":
+        ties = ties.drop(columns=["h"])
+        said = "tie_points gives no h (contract v1.1: lon, lat, h ellipsoidal)"
+    else:
+        ties.loc[ties.index[3], "lat"] = np.nan
+        row = ties.loc[ties.index[3]]
+        first = f"the first {row['point_id']} on {row['scene_id']}"
+        said = f"1 of {len(ties)} observations give no ground point (lon, lat, h), {first}"
+    rc1 = _with_ground(tmp_path, "d", ties)
+    assert rc1["status"] == "error"
+    assert said in rc1["detail"]["reason"]
 
 
 def test_rays_the_geometry_cannot_intersect_fail_rc1(tmp_path) -> None:
