@@ -399,22 +399,38 @@ NOT_REPRODUCED = (
 )
 
 
+#: said of the adjacent-image discrepancies derived from a geometry that RC-1 fails (§RC-2); its
+#: words are those of the report's catalogue (rc_on_failed_geometry)
+ON_FAILED_GEOMETRY = (
+    "RC-1 fails on the delivered geometry (the delivered residuals differ from those it gives "
+    "by up to {value} px): these discrepancies, derived from it (§RC-2), may rest on a geometry "
+    "in error"
+)
+
+
 def annotated_keys(metric: str) -> tuple[str, ...]:
     """The keys `annotate` may add to the detail of a result of that metric."""
     note = ("note", "hint") if metric == "residual_reproduction" else ()
     source = SOURCES.get(metric)
     computed = ("computed_by_blockqc",) if source else ()
     rays = ("observations_without_residual", "observations_single_ray")
-    return (*note, *computed, *(rays if source == "tie_point_residuals" else ()))
+    hint = ("hint",) if source == "overlaps" else ()
+    return (*note, *computed, *(rays if source == "tie_point_residuals" else ()), *hint)
 
 
 def annotate(results: list[Any], metric_of: dict[str, str], notes: dict) -> None:
-    """Say in each result judged on inputs blockqc computed itself where they came from; in
-    RC-1's why its value is infinite (no number in JSON) when rays do not intersect, and in
-    which other convention the delivered residuals reproduce (`residual_convention`)."""
+    """Say in each result judged on inputs blockqc computed itself where they came from (and, of
+    discrepancies derived from a geometry RC-1 fails, that they rest on it); in RC-1's why its
+    value is infinite (no number in JSON) when rays do not intersect, and in which other
+    convention the delivered residuals reproduce (`residual_convention`)."""
     computed = {k: v for k, v in notes.items() if v in (COMPUTED_RESIDUALS, DERIVED_OVERLAPS)}
     lost = notes.get("n_points_not_intersected", 0)
     convention = notes.get("residual_convention")
+    rc1 = [
+        r.value
+        for r in results
+        if metric_of.get(r.rule) == "residual_reproduction" and r.status == "fail"
+    ]
     for res in results:
         if metric_of.get(res.rule) == "residual_reproduction":
             if lost:
@@ -428,3 +444,7 @@ def annotate(results: list[Any], metric_of: dict[str, str], notes: dict) -> None
                 for key in ("observations_without_residual", "observations_single_ray"):
                     if key in notes:
                         res.detail[key] = notes[key]
+            if source == "overlaps" and rc1 and res.status not in ("not_applicable", "error"):
+                worst = rc1[0] if isinstance(rc1[0], float | int) else float("inf")
+                value = "∞" if worst == float("inf") else f"{worst:.3g}"
+                res.detail["hint"] = ON_FAILED_GEOMETRY.format(value=value)

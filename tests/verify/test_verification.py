@@ -168,6 +168,31 @@ def test_no_convention_is_named_for_residuals_right_or_made_up(tmp_path, observa
     assert "residual_convention" not in doc["process_data"]
 
 
+def test_discrepancies_derived_from_a_geometry_rc1_fails_say_so(tmp_path, observations) -> None:
+    """Scene R given L's RPC (one file wrong): RC-1 fails by kilometres' worth of pixels, and
+    RO-3/RO-4, judged on the discrepancies derived from that geometry (§RC-2), fail too; each of
+    their plane results says that it rests on a geometry RC-1 fails, with RC-1's worst
+    difference. With the right RPCs, RC-1 passes and none says it."""
+    _, ref = observations
+    right = _results(write_v11(tmp_path / "right", ref))
+    derived = [r for r in right["results"] if r["rule"] in ("RO-3", "RO-4")]
+    assert derived and all("hint" not in r["detail"] for r in derived)
+    folder = write_v11(tmp_path / "wrong", ref)
+    shutil.copy(FILES["L"], folder / "rpc" / "R.geom")
+    doc = _results(folder)
+    rc1 = _rule(doc, "RC-1")[0]
+    assert rc1["status"] == "fail" and rc1["value"] > 100
+    plane = [r for r in doc["results"] if r["rule"] in ("RO-3", "RO-4") and r["status"] == "fail"]
+    assert {r["rule"] for r in plane} == {"RO-3", "RO-4"}
+    for r in plane:
+        assert r["detail"]["hint"] == verification.ON_FAILED_GEOMETRY.format(
+            value=f"{rc1['value']:.3g}"
+        )
+    height = [r for r in doc["results"] if r["rule"] in ("RO-3", "RO-4") and r not in plane]
+    assert height and all(r["status"] == "not_applicable" for r in height)
+    assert all("hint" not in r["detail"] for r in height)  # not judged: nothing rests on it
+
+
 def test_the_convention_is_said_in_the_pages_language() -> None:
     """The sentence results.json keeps in English, on a Chinese page: the convention nested in
     it translated too; its words are the catalogue's."""
@@ -175,6 +200,11 @@ def test_the_convention_is_said_in_the_pages_language() -> None:
     from blockqc.report.messages import MESSAGES
 
     assert MESSAGES["rc_convention"][0] == verification.RC_CONVENTION
+    assert MESSAGES["rc_on_failed_geometry"][0] == verification.ON_FAILED_GEOMETRY
+    assert Formatter("zh").sentence(verification.ON_FAILED_GEOMETRY.format(value="∞")) == (
+        "所交几何模型未通过 RC-1（所交残差与其复算残差之差最大 ∞ 像素）："
+        "据其推算的这些接边差（§RC-2）可能基于有误的几何模型"
+    )
     keys = ("rc_sign", "rc_swapped", "rc_sign_swapped")
     assert [MESSAGES[k][0] for k in keys] == list(verification.CONVENTIONS)
     hint = verification.RC_CONVENTION.format(

@@ -58,8 +58,9 @@ def _conditional(res: RuleResult) -> bool:
 
 #: the notes of blockqc's own a result may carry that read in the page's language (MB-3's)
 PROJECTION_NOTES = tuple(k for k in SENTENCES if k.startswith("mb_"))
-#: RC-1's hint of the convention the delivered residuals reproduce in (`residual_convention`)
-CONVENTION_NOTES = ("rc_convention",)
+#: blockqc's hints: the convention RC-1's delivered residuals reproduce in, a geometry RC-1 fails
+#: under the discrepancies derived from it
+HINTS = ("rc_convention", "rc_on_failed_geometry")
 
 
 def _notes(res: RuleResult, f: Formatter) -> list[str]:
@@ -70,7 +71,7 @@ def _notes(res: RuleResult, f: Formatter) -> list[str]:
     def said(k: str) -> str:
         text = f.text(str(detail[k]))
         if measured and k in ("note", "hint"):
-            return f.sentence(text, PROJECTION_NOTES if k == "note" else CONVENTION_NOTES)
+            return f.sentence(text, PROJECTION_NOTES if k == "note" else HINTS)
         return text
 
     keys = ("reason", "note", "hint", "computed_by_blockqc", "waiver_reason", "waiver_ignored")

@@ -176,6 +176,7 @@ SENTENCES = (
     "ra_warn_k_unsupported",
     "ra_warn_k_few_checks",
     "rc_convention",
+    "rc_on_failed_geometry",
     "rc_sign_swapped",
     "rc_sign",
     "rc_swapped",

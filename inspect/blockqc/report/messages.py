@@ -732,6 +732,13 @@ MESSAGES.update(
             "所交残差按{convention}可以复现：差值均方根 {rms} 像素，"
             "按合同约定（计算值 − 量测值，先行后列）解读则为 {as_read} 像素",
         ),
+        "rc_on_failed_geometry": (
+            "RC-1 fails on the delivered geometry (the delivered residuals differ from those it "
+            "gives by up to {value} px): these discrepancies, derived from it (§RC-2), may rest on "
+            "a geometry in error",
+            "所交几何模型未通过 RC-1（所交残差与其复算残差之差最大 {value} 像素）："
+            "据其推算的这些接边差（§RC-2）可能基于有误的几何模型",
+        ),
         "rc_sign": ("the opposite sign (measured − computed)", "相反符号（量测值 − 计算值）"),
         "rc_swapped": ("line and sample swapped", "行列互换"),
         "rc_sign_swapped": (
