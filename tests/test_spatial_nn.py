@@ -7,6 +7,7 @@ random patterns of every awkward kind, and against one k-d tree per pattern on 2
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -242,7 +243,8 @@ def test_batches_on_two_threads_as_on_one(monkeypatch):
     g = np.repeat(np.arange(60), rng.integers(1, 40, 60))
     pts = rng.uniform(0, 1000.0, (len(g), 2))
     x, y, area, perimeter = pts[:, 0], pts[:, 1], np.full(60, 1e6), np.full(60, 4e3)
-    monkeypatch.setattr(spatial, "_BATCH", 64)
+    for sizes in ("ONE_THREAD", "THREADED"):
+        monkeypatch.setattr(spatial, sizes, replace(getattr(spatial, sizes), batch=64))
     monkeypatch.setattr(pieces, "THREADS", 2)
     got = nearest_neighbour_distances(x, y, g, 60)
     np.testing.assert_allclose(got, brute_nearest(x, y, g, 60), rtol=1e-12, atol=0)

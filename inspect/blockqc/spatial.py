@@ -6,8 +6,8 @@ cells is measured once; a nearest distance d so found is final when no cell fart
 a nearer point (d ≤ the distance to the cells not searched). The few points not settled are
 searched again ring by ring, and those still unsettled after a few rings, with the patterns too
 clustered for their grid, are measured with a k-d tree over those patterns only. Patterns are
-handled in batches of about `_BATCH` points, so that the work stays in cache and memory bounded;
-the batches are shared among the cores (`blockqc.pieces`).
+handled in batches of about `_Sizes.batch` points, so that the work stays in cache and memory
+bounded; the batches are shared among the cores (`blockqc.pieces`).
 """
 
 from __future__ import annotations
@@ -25,10 +25,29 @@ T = TypeVar("T")
 _OCCUPANCY = 1.0  # mean points per grid cell over a pattern's bounding box
 _MAX_RING = 3  # rings of cells searched before the k-d tree takes over
 _DENSE = 8.0  # a pattern whose points share their cell with more points on average → k-d tree
-_CHUNK = 1 << 13  # points whose blocks of cells are laid out at once
-_PAIR_BUDGET = 1 << 15  # candidate pairs measured at once (small enough to stay in cache)
-_BATCH = 1 << 15  # points of whole patterns searched at once
 _SLACK = 1e-12  # relative allowance for round-off in the cell assignment
+
+
+@dataclass(frozen=True)
+class _Sizes:
+    """How much of the work each numpy call takes on."""
+
+    batch: int  # points of whole patterns searched at once
+    chunk: int  # points whose blocks of cells are laid out at once
+    pairs: int  # candidate pairs measured at once
+
+
+#: on one thread, small enough to stay in a core's cache; on several (`blockqc.pieces`), four
+#: times larger, so that each call runs long enough for the threads not to queue for the
+#: interpreter between calls. 10.8 M points in 2,048 patterns, 2 cores, medians of 5: two
+#: threads 1.52 s with THREADED against 1.90 s with ONE_THREAD; one thread 1.85 s with
+#: ONE_THREAD against 2.5 s with THREADED. The distances are the same whichever.
+ONE_THREAD = _Sizes(batch=1 << 15, chunk=1 << 13, pairs=1 << 15)
+THREADED = _Sizes(batch=1 << 17, chunk=1 << 15, pairs=1 << 17)
+
+
+def _sizes() -> _Sizes:
+    return THREADED if pieces.THREADS > 1 else ONE_THREAD
 
 
 @dataclass(frozen=True)
@@ -94,7 +113,7 @@ def _nearest_by_batch(
     x: np.ndarray, y: np.ndarray, group: np.ndarray, k: int, keep: Callable[..., T]
 ) -> list[T]:
     """keep(positions, pattern codes, nearest distances) of the points of patterns of ≥ 2
-    points, for each batch of whole patterns of about `_BATCH` points (small enough to stay in
+    points, for each batch of whole patterns of about `_Sizes.batch` points (small enough to stay in
     cache); the batches are shared among the cores (`blockqc.pieces`), their results come back
     in order."""
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
@@ -124,11 +143,11 @@ def _nearest_by_batch(
 
 
 def _batches(ends: np.ndarray, k: int) -> list[tuple[int, int]]:
-    """The patterns [first, last) of each batch of about `_BATCH` points that holds some."""
-    out, first = [], 0
+    """The patterns [first, last) of each batch of about `_Sizes.batch` points that holds some."""
+    out, first, size = [], 0, _sizes().batch
     while first < k:
         done = ends[first - 1] if first else 0
-        last = max(first + 1, int(np.searchsorted(ends, done + _BATCH, side="right")))
+        last = max(first + 1, int(np.searchsorted(ends, done + size, side="right")))
         if ends[last - 1] > done:
             out.append((first, last))
         first = last
@@ -212,8 +231,9 @@ def _search_neighbours(pts: _Sorted, todo: np.ndarray, d2: np.ndarray) -> None:
     A point meets the rest of its own cell, the cell on its right and the three cells above;
     the other neighbouring cells meet it from their side.
     """
-    for lo in range(0, len(todo), _CHUNK):
-        p = todo[lo : lo + _CHUNK]
+    step = _sizes().chunk
+    for lo in range(0, len(todo), step):
+        p = todo[lo : lo + step]
         cell = pts.cell[p]
         above = cell + pts.grid.width[pts.gs[p]]
         a = np.column_stack([p + 1, pts.starts[above - 1]])
@@ -224,8 +244,9 @@ def _search_neighbours(pts: _Sorted, todo: np.ndarray, d2: np.ndarray) -> None:
 def _search_block(pts: _Sorted, todo: np.ndarray, ring: int, d2: np.ndarray) -> None:
     """Lower d2 of the points `todo` by the points in the (2·ring+1)² cells around each (one
     range of sorted points per row of cells)."""
-    for lo in range(0, len(todo), _CHUNK):
-        p = todo[lo : lo + _CHUNK]
+    step = _sizes().chunk
+    for lo in range(0, len(todo), step):
+        p = todo[lo : lo + step]
         rows = pts.cell[p][:, None] + np.arange(-ring, ring + 1) * pts.grid.width[pts.gs[p], None]
         a, b = pts.starts[rows - ring], pts.starts[rows + ring + 1]
         a = np.column_stack([a, p + 1])  # the own row in two ranges, around the point itself
@@ -245,8 +266,9 @@ def _settled(pts: _Sorted, todo: np.ndarray, ring: int, d2: np.ndarray) -> np.nd
     close = ((ring * grid.side - grid.margin) ** 2)[pts.gs[todo]]
     settled = d2[todo] <= close
     rest = np.flatnonzero(~settled)
-    for lo in range(0, len(rest), _CHUNK):
-        r = rest[lo : lo + _CHUNK]
+    step = _sizes().chunk
+    for lo in range(0, len(rest), step):
+        r = rest[lo : lo + step]
         p = todo[r]
         g = pts.gs[p]
         cx, cy, edge = grid.cells(pts.xs[p], pts.ys[p], g, edge=True)
@@ -259,14 +281,14 @@ def _settled(pts: _Sorted, todo: np.ndarray, ring: int, d2: np.ndarray) -> np.nd
 
 def _measure(pts: _Sorted, p: np.ndarray, a: np.ndarray, b: np.ndarray, d2, both: bool) -> None:
     """Lower d2 of each sorted point p (with `both`, also of the other) by its pairs with the
-    points in its ranges [a, b), in pieces of at most `_PAIR_BUDGET` pairs."""
+    points in its ranges [a, b), in pieces of at most `_Sizes.pairs` pairs."""
     count = b - a
     per_point = count.sum(axis=1)
     ends = np.cumsum(per_point)
-    lo = 0
+    lo, budget = 0, _sizes().pairs
     while lo < len(p):
         done = ends[lo - 1] if lo else 0
-        hi = max(lo + 1, int(np.searchsorted(ends, done + _PAIR_BUDGET, side="right")))
+        hi = max(lo + 1, int(np.searchsorted(ends, done + budget, side="right")))
         c = count[lo:hi].ravel()
         j = np.repeat(a[lo:hi].ravel() - (np.cumsum(c) - c), c)
         j += np.arange(len(j))
