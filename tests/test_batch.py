@@ -500,7 +500,7 @@ def test_a_scheduler_whose_workers_run_elsewhere_gets_the_paths_of_the_deliverie
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()
     with distributed.LocalCluster(
-        n_workers=0, processes=False, protocol="tcp", dashboard_address=None
+        n_workers=0, processes=False, protocol="tcp", dashboard_address=":0"
     ) as cluster:
         worker = subprocess.Popen(
             [sys.executable, "-m", "dask", "worker", cluster.scheduler_address,
@@ -567,7 +567,9 @@ def test_dask_runs_sharing_a_scheduler_get_their_own_outcomes(tmp_path: Path):
     marker = tmp_path / "second-run-done"
     first: list[str] = []
     second: list[str] = []
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=False) as cluster:
+    with LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=False, dashboard_address=":0"
+    ) as cluster:
         address = cluster.scheduler_address
         job = _waits_for(marker, "first")
         todo = [(tmp_path / "F1-B01", None)]

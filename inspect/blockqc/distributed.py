@@ -84,7 +84,10 @@ def client_for(scheduler: str):
     dd = _dask()
     Client, LocalCluster = dd.Client, dd.LocalCluster
     if scheduler == "local":
-        cluster = LocalCluster(processes=True, threads_per_worker=1)
+        # the scheduler's HTTP server (its dashboard) on a free port: blockqc shows its own
+        # progress, and on dask's fixed default two runs on one machine contend for one port
+        # (dask then warns on the console and takes another)
+        cluster = LocalCluster(processes=True, threads_per_worker=1, dashboard_address=":0")
         try:
             with Client(cluster) as c:
                 yield c
