@@ -21,12 +21,10 @@ from blockqc.adjust.geometry import (
     RPCStack,
     intersect,
     intersect_at_height,
+    radii_of_curvature,
     wrap_lon,
 )
 from blockqc.delivery import Delivery, scene_positions
-
-WGS84_A = 6378137.0
-WGS84_E2 = 6.69437999014e-3
 
 #: what the results say about inputs blockqc computed itself, by the metrics that use them
 COMPUTED_RESIDUALS = "tie-point residuals computed by blockqc from the delivered geometry (§RC-1)"
@@ -209,7 +207,8 @@ def _differences(
 
     def at_rows(start: int) -> None:
         rows = slice(start, start + pieces.CHUNK)
-        e_m[rows], n_m[rows] = radii(lat[rows])
+        m, n = radii_of_curvature(lat[rows])  # metres per radian: N·cos φ east, M north
+        e_m[rows], n_m[rows] = n * np.cos(np.radians(lat[rows])), m
 
     def of_pairs(start: int) -> None:
         p = slice(start, start + pieces.CHUNK)
@@ -272,13 +271,6 @@ def _two_of(rows: np.ndarray, first: np.ndarray, s: int) -> tuple[np.ndarray, np
     group = rows[first[:, None] + np.arange(s)]
     i, j = np.triu_indices(s, 1)
     return group[:, i].ravel(), group[:, j].ravel()
-
-
-def radii(lat_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Metres per radian of longitude and of latitude on the WGS-84 ellipsoid."""
-    phi = np.radians(lat_deg)
-    w = np.sqrt(1.0 - WGS84_E2 * np.sin(phi) ** 2)
-    return WGS84_A / w * np.cos(phi), WGS84_A * (1.0 - WGS84_E2) / w**3
 
 
 def _with_computed_residuals(d: Delivery, obs: pd.DataFrame, notes: dict[str, Any]) -> None:

@@ -36,13 +36,10 @@ from blockqc.rfm.model import RPC00B_EXPONENTS, RPCModel, wrap_lon
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
-EARTH_RADIUS_M = 6378137.0
-"""Radius used to turn local metre steps into degrees (a parametrization only)."""
 CHUNK = 131072
 """Observations evaluated per pass (bounds the memory of the gathered coefficients)."""
 BATCH = 262144
 """Observations intersected at once (bounds the memory of an intersection's iterations)."""
-M_PER_DEG = np.pi * EARTH_RADIUS_M / 180.0
 
 
 def _monomials(ln: FloatArray, pn: FloatArray, hn: FloatArray) -> FloatArray:
@@ -251,18 +248,24 @@ def project_adjusted(
     return from_rfm_space(a, idx, line_r, samp_r)
 
 
-WGS84_E2 = 6.69437999014e-3
-"""First eccentricity squared of the WGS84 ellipsoid."""
+WGS84_A = 6378137.0
+"""Semi-major axis of the WGS-84 ellipsoid (m)."""
+WGS84_F = 1.0 / 298.257223563
+WGS84_E2 = WGS84_F * (2.0 - WGS84_F)
+"""First eccentricity squared of the WGS-84 ellipsoid."""
+
+
+def radii_of_curvature(lat_deg: ArrayLike) -> tuple[FloatArray, FloatArray]:
+    """WGS-84 meridional (M) and prime-vertical (N) radii of curvature at latitude φ, metres."""
+    w = np.sqrt(1.0 - WGS84_E2 * np.sin(np.radians(lat_deg)) ** 2)
+    return WGS84_A * (1.0 - WGS84_E2) / w**3, WGS84_A / w
 
 
 def metres_to_degrees(lat: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Degrees per metre east and north at each latitude, on the WGS84 ellipsoid: the prime
     vertical radius N·cos φ east, the meridian radius M north (metres on the ground, so that
     the points' σ in metres are; a sphere of radius a is 0.7 % off at the equator)."""
-    lat = np.asarray(lat, np.float64)
-    w2 = 1.0 - WGS84_E2 * np.sin(np.radians(lat)) ** 2
-    n = EARTH_RADIUS_M / np.sqrt(w2)
-    m = EARTH_RADIUS_M * (1.0 - WGS84_E2) / (w2 * np.sqrt(w2))
+    m, n = radii_of_curvature(lat)
     return np.degrees(1.0 / (n * np.cos(np.radians(lat)))), np.degrees(1.0 / m)
 
 

@@ -19,24 +19,14 @@ from affine import Affine
 from pyproj import CRS, Transformer
 from rasterio.enums import Resampling
 
+from blockqc.adjust.geometry import radii_of_curvature
 from blockqc.errors import InputError, Problem
 from blockqc.rfm.dem import WGS84, check_heights, check_one_band, height_unit, wgs84_lonlat
-
-WGS84_A = 6378137.0
-WGS84_F = 1.0 / 298.257223563
-WGS84_E2 = WGS84_F * (2.0 - WGS84_F)
 
 DEM_SUFFIXES = (".tif", ".tiff", ".hgt", ".vrt", ".img", ".dem")
 
 #: Above this many pixels over a block's extent, the DEM is read at a coarser, averaged grid.
 DEFAULT_MAX_PIXELS = 16_000_000
-
-
-def radii_of_curvature(lat_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """WGS-84 meridional (M) and prime-vertical (N) radii of curvature at latitude φ, metres."""
-    s2 = np.sin(np.radians(lat_deg)) ** 2
-    w = np.sqrt(1.0 - WGS84_E2 * s2)
-    return WGS84_A * (1.0 - WGS84_E2) / w**3, WGS84_A / w
 
 
 def pixel_sizes_m(transform: Affine, crs: CRS, height: int) -> tuple[np.ndarray, np.ndarray]:
