@@ -29,10 +29,12 @@ text = st.one_of(st.none(), st.text(max_size=5))
 @settings(max_examples=200, deadline=None)
 def test_records_as_value_by_value(columns: tuple[list, list, list, list]) -> None:
     """Column by column gives what converting each value of `to_dict` gives: NaN and
-    infinities null, numpy numbers plain, missing text null, categories as their text."""
+    infinities null, numpy numbers plain, missing text null, categories as their text, text
+    as it is."""
     f, i, b, s = columns
     df = pd.DataFrame({"f": f, "i": i, "b": b, "s": pd.Series(s, dtype=object)})
     df["c"] = df["s"].astype("category")
+    df["t"] = pd.Series([str(v) for v in i], dtype=object)  # text only: converted at once
     df["d"] = pd.to_datetime(pd.Series(["2024-05-01"] * len(df)))
     expected = jsonable(df.to_dict("records"))
     got = records(df)

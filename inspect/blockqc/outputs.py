@@ -83,19 +83,22 @@ def records(df: pd.DataFrame) -> Rows:
     if df.shape[1] == 0:
         return Rows({} for _ in range(len(df)))
     names = [str(c) for c in df.columns]
-    columns = [_column_values(df.iloc[:, i]) for i in range(df.shape[1])]
+    columns = [_column_values(col) for _, col in df.items()]
     return Rows(dict(zip(names, row, strict=True)) for row in zip(*columns, strict=True))
 
 
 def _column_values(col: pd.Series) -> list[Any]:
-    """One column as plain values: numbers in one numpy pass (non-finite → None), anything
-    else value by value."""
+    """One column as plain values: numbers in one numpy pass (non-finite → None), text in one
+    pass when every value is text, anything else value by value."""
     kind = col.dtype.kind if isinstance(col.dtype, np.dtype) else ""
     if kind and kind in "biu":
         return col.to_numpy().tolist()
     if kind == "f":
         return _numbers(col.to_numpy())
-    return [jsonable(v) for v in col.to_numpy(dtype=object)]
+    values = col.to_numpy(dtype=object)
+    if pd.api.types.infer_dtype(values, skipna=False) == "string":  # str only: as they are
+        return values.tolist()
+    return [jsonable(v) for v in values]
 
 
 def write_bytes_atomic(path: Path, data: bytes) -> None:
