@@ -10,9 +10,13 @@ block id and the reported figures kept). The inspection runs as its own process;
 the peak resident memory of its largest process and the CPU time of all its processes are
 measured. The PDFs are made by Chromium when one is installed (`--pdf-engine auto`, about a
 quarter of WeasyPrint's CPU per PDF), else by WeasyPrint, blockqc's default. The CPU time is
-printed as `cpu C s (c s/block)`. With --incremental the inspection runs with `--incremental`,
-then again on the unchanged batch, then again after one block's block.yaml got a new modification
-time; each re-run prints
+printed as `cpu C s (c s/block)`: that of the processes the inspection waited for. Chromium's
+page processes are not among them (the browser forks them from a process of its own), so the
+busy CPU time of the whole machine over the run is printed beside it, from /proc/stat where
+there is one, `machine cpu C s (c s/block)`: it counts every process of the machine, so it is
+the inspection's own on a machine otherwise idle. With --incremental the inspection runs with
+`--incremental`, then again on the unchanged batch, then again after one block's block.yaml got
+a new modification time; each re-run prints
 
     rerun (unchanged|one block changed): T s, K of N blocks inspected again
 
@@ -66,26 +70,43 @@ def write_batch(batch: Path, blocks: int, sources: list[Path]) -> int:
     return total
 
 
-def inspect(root: Path, args: argparse.Namespace) -> tuple[float, float, list[str]]:
-    """One `blockqc inspect` of the batch as its own process: wall time, CPU time, its lines."""
+def machine_busy() -> float | None:
+    """Seconds of CPU time the whole machine has spent busy since it started (every core, idle
+    and waiting for I/O left out), from /proc/stat; None where there is none."""
+    try:
+        with open("/proc/stat", encoding="ascii") as fh:
+            ticks = [int(v) for v in fh.readline().split()[1:9]]
+    except (OSError, ValueError):
+        return None
+    busy = sum(ticks) - ticks[3] - ticks[4]  # the fourth and fifth: idle, waiting for I/O
+    return busy / os.sysconf("SC_CLK_TCK")
+
+
+def inspect(root: Path, args: argparse.Namespace) -> tuple[float, float, float | None, list[str]]:
+    """One `blockqc inspect` of the batch as its own process: wall time, the CPU time of the
+    processes it waited for, the machine's busy CPU time over the run (None where unknown),
+    its lines."""
     cmd = [sys.executable, "-m", "blockqc", "inspect", str(root / "batch"),
            "--out", str(root / "out"), "--pdf", args.pdf, "--pdf-engine", args.pdf_engine,
            "--jobs", str(args.jobs), "--no-progress"]  # fmt: skip
     cmd += ["--incremental"] if args.incremental else []
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    machine = machine_busy()
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, capture_output=True, text=True)
     wall = time.perf_counter() - t0
+    machine_after = machine_busy()
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if proc.returncode not in (0, 1):
         sys.exit(f"inspect failed ({proc.returncode}):\n{proc.stderr[-2000:]}")
     cpu = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
-    return wall, cpu, proc.stdout.strip().splitlines()
+    busy = None if machine is None or machine_after is None else machine_after - machine
+    return wall, cpu, busy, proc.stdout.strip().splitlines()
 
 
 def rerun(root: Path, args: argparse.Namespace, what: str) -> None:
     """Time a re-run; count the blocks inspected again (not reported as reused)."""
-    wall, _, lines = inspect(root, args)
+    wall, _, _, lines = inspect(root, args)
     blocks = [x for x in lines if x[:1] == "B"]
     again = sum("outputs reused" not in x for x in blocks)
     print(f"rerun ({what}): {wall:.1f} s, {again} of {len(blocks)} blocks inspected again")
@@ -131,10 +152,12 @@ def main() -> None:
         took = time.perf_counter() - t0
         print(f"generated {args.blocks} blocks, {n_obs} observations in {took:.1f} s; "
               f"PDFs by {args.pdf_engine}", flush=True)  # fmt: skip
-        wall, cpu, lines = inspect(root, args)
+        wall, cpu, busy, lines = inspect(root, args)
         peak_gb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024**2
         print(lines[-1])
         print(f"cpu {cpu:.0f} s ({cpu / args.blocks:.2f} s/block)", flush=True)
+        if busy is not None:
+            print(f"machine cpu {busy:.0f} s ({busy / args.blocks:.2f} s/block)", flush=True)
         if args.incremental:
             rerun(root, args, "unchanged")
             manifest = root / "batch" / f"B{args.blocks // 2:05d}" / "block.yaml"
