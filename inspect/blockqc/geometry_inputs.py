@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 
 from blockqc.errors import InputError, Problem
-from blockqc.rfm.model import RPCModel
+from blockqc.rfm.model import DOMAIN_REACH, RPCModel
 from blockqc.rfm.readers import read_rpc
 from blockqc.schema import visible_name
 
@@ -250,7 +250,7 @@ def _bounds(wkt: object) -> tuple[float, float, float, float] | None:
 
 #: an RPC is read up to this many of its scales from its offsets (normalised coordinates within
 #: ±REACH): a footprint beyond is not of the scene the RPC describes
-REACH = 2.0
+REACH = DOMAIN_REACH
 
 
 def domain_problem(model: RPCModel, sid: str, wkt: object, table: str) -> Problem | None:
@@ -263,9 +263,7 @@ def domain_problem(model: RPCModel, sid: str, wkt: object, table: str) -> Proble
         return None
     west, south, east, north = box
     shift = 360.0 * round((model.lon_off - (west + east) / 2) / 360.0)  # ±180° and 0..360°
-    lon_r, lat_r = REACH * abs(model.lon_scale), REACH * abs(model.lat_scale)
-    lon0, lon1 = model.lon_off - lon_r, model.lon_off + lon_r
-    lat0, lat1 = model.lat_off - lat_r, model.lat_off + lat_r
+    lon0, lat0, lon1, lat1 = model.ground_domain(REACH)
     if west + shift <= lon1 and east + shift >= lon0 and south <= lat1 and north >= lat0:
         return None
     return Problem(
@@ -308,8 +306,7 @@ def extent_problem(
     (the MS image's given for the PAN); None when it fits or the size is missing."""
     if pd.isna(lines) or pd.isna(samples):
         return None
-    last_line = model.line_off + REACH * abs(model.line_scale)
-    last_sample = model.samp_off + REACH * abs(model.samp_scale)
+    _, last_line, _, last_sample = model.image_domain(REACH)
     if lines <= last_line and samples <= last_sample:
         return None
     return Problem(

@@ -311,12 +311,15 @@ def test_a_crop_offset_not_two_finite_numbers_is_refused_naming_the_option(
 
 def test_an_image_outside_its_rpcs_says_where_it_falls(tmp_path: Path, capsys):
     """A crop offset of 1e7 px: the message blamed the RPC file alone ("the RPCs give no ground
-    position for the image"); it now says where the image falls and where the RPCs reach
-    (the .geom: line_off 21109.5 ± 21137.5, samp_off 19207.5 ± 19999.5)."""
+    position for the image"); it now says where the image falls and the RPC's image domain
+    (the .geom: line_off 21109.5 ± 2·21137.5, samp_off 19207.5 ± 2·19999.5), before the RPC
+    is read there."""
     err = refused([*ventoux_args(tmp_path / "out"), "--crop-offset", "1e7,1e7"], capsys)
-    assert "its rows 10000000..10000499, columns 10000000..10000499" in err
-    assert "the RPCs describe rows -28..42247, columns -792..39207" in err
-    assert "a wrong --crop-offset, or RPCs of another image?" in err
+    assert f"{VENTOUX / 'left_image.geom'}: the RPC's image domain (lines -21166..63384, " in err
+    assert "samples -20792..59206: LINE_OFF ± 2·LINE_SCALE, SAMP_OFF ± 2·SAMP_SCALE)" in err
+    assert "(rows 10000000..10000499, columns 10000000..10000499: 500 × 500 px at crop" in err
+    assert "given by --crop-offset): expected the RPC of this image" in err
+    assert "or another --crop-offset" in err
 
 
 def test_an_image_without_rpcs_is_told_to_give_them_with_rpc(tmp_path: Path, capsys):

@@ -200,6 +200,42 @@ def _check_transform(path: Path, t: Affine, what: str) -> None:
     raise InputError(Problem(file=str(path), message=message))
 
 
+class NotCovered(InputError):
+    """The lon/lat window asked of a grid lies outside it. `what` is the grid's role ('DEM',
+    'geoid grid') and `extent` what it covers (west, south, east, north in degrees; None when
+    its CRS cannot say), for a caller that knows why the window was asked to say so."""
+
+    def __init__(
+        self,
+        problem: Problem,
+        *,
+        what: str,
+        extent: tuple[float, float, float, float] | None,
+    ):
+        super().__init__(problem)
+        self.what = what
+        self.extent = extent
+
+
+def _lonlat_extent(
+    crs: CRS, t: Affine, width: int, height: int
+) -> tuple[float, float, float, float] | None:
+    """West, south, east, north (degrees) of a north-up grid; None when its CRS cannot be
+    taken to lon/lat (for messages only)."""
+    from pyproj.exceptions import ProjError
+
+    west, south, east, north = t.c, t.f + height * t.e, t.c + width * t.a, t.f
+    if not wgs84_lonlat(crs):
+        try:
+            west, south, east, north = Transformer.from_crs(
+                crs, WGS84, always_xy=True
+            ).transform_bounds(west, south, east, north, densify_pts=21)
+        except ProjError:
+            return None
+    box = (float(west), float(south), float(east), float(north))
+    return box if np.all(np.isfinite(box)) else None
+
+
 def _read_grid(path: Path, bounds: tuple[float, float, float, float] | None, what: str) -> Grid:
     """Read a raster (or the window of it covering lon/lat `bounds`) as float64 with NaN voids."""
     import rasterio
@@ -238,12 +274,14 @@ def _read_grid(path: Path, bounds: tuple[float, float, float, float] | None, wha
             if closing is not None and (col0 == 0 or col1 == ds.width):
                 col0, col1 = 0, ds.width  # at the seam: every column, to close the globe
             if col1 <= col0 or row1 <= row0:
-                raise InputError(
+                raise NotCovered(
                     Problem(
                         file=str(path),
                         message=f"the {what} does not cover lon {bounds[0]:.4f}..{bounds[2]:.4f}, "
                         f"lat {bounds[1]:.4f}..{bounds[3]:.4f}",
-                    )
+                    ),
+                    what=what,
+                    extent=_lonlat_extent(crs, t, ds.width, ds.height),
                 )
             window = Window(col0, row0, col1 - col0, row1 - row0)
         with reading_pixels(path, what):

@@ -126,6 +126,10 @@ MIN_SCALE = 1e-9
 #: a denominator's constant term (its value at the normalized domain's centre) is refused at or
 #: below this share of its largest coefficient: the model would divide by zero there
 CENTRE_DEN_MIN = 1e-9
+#: an RPC is read up to this many of its scales from its offsets (normalized coordinates within
+#: ±DOMAIN_REACH): its polynomials are fitted over ±1, and an image, a footprint or a height far
+#: beyond is not one the RPC describes (another image's RPC, offsets and scales swapped …)
+DOMAIN_REACH = 2.0
 
 
 def wrap_lon(lon: ArrayLike) -> FloatArray:
@@ -250,6 +254,25 @@ class RPCModel:
         return replace(
             self, line_off=self.line_off + shift, samp_off=self.samp_off + shift, first_pixel=0.0
         )
+
+    def image_domain(self, reach: float = DOMAIN_REACH) -> tuple[float, float, float, float]:
+        """First and last line, first and last sample of the image the model describes:
+        LINE_OFF ± reach·LINE_SCALE, SAMP_OFF ± reach·SAMP_SCALE."""
+        line, samp = reach * abs(self.line_scale), reach * abs(self.samp_scale)
+        first_line, first_sample = self.line_off - line, self.samp_off - samp
+        return first_line, self.line_off + line, first_sample, self.samp_off + samp
+
+    def ground_domain(self, reach: float = DOMAIN_REACH) -> tuple[float, float, float, float]:
+        """West, south, east, north (degrees) of the ground the model describes: LONG_OFF ±
+        reach·LONG_SCALE, LAT_OFF ± reach·LAT_SCALE."""
+        lon, lat = reach * abs(self.lon_scale), reach * abs(self.lat_scale)
+        return self.lon_off - lon, self.lat_off - lat, self.lon_off + lon, self.lat_off + lat
+
+    def height_domain(self, reach: float = DOMAIN_REACH) -> tuple[float, float]:
+        """Lowest and highest ellipsoidal height (m) the model describes: HEIGHT_OFF ±
+        reach·HEIGHT_SCALE."""
+        h = reach * abs(self.height_scale)
+        return self.height_off - h, self.height_off + h
 
     # -- helpers -------------------------------------------------------------------------------
     @property

@@ -25,7 +25,13 @@ from blockqc.matching.settings import MatchSettings
 from blockqc.outputs import write_bytes_atomic, write_json_atomic, write_text_atomic
 from blockqc.report.messages import translator
 from blockqc.rfm import accuracy
-from blockqc.rfm.dem import DEM, load_dem
+from blockqc.rfm.dem import DEM, NotCovered, load_dem
+from blockqc.rfm.footprint import (
+    crop_problem,
+    footprint_at,
+    implausible_problem,
+    off_dem_problem,
+)
 from blockqc.rfm.model import RefinedRFM, RPCModel, fit_affine
 from blockqc.rfm.ortho import (
     OrthoGrid,
@@ -815,21 +821,85 @@ class _Run:
     """What one pixel of the reference covers at the grid's centre (m)."""
 
 
+def described_footprint(
+    rpc: RPCModel,
+    image: Path,
+    shape: tuple[int, int],
+    offset: tuple[float, float],
+    option: str,
+    given: bool,
+) -> tuple[float, float, float, float]:
+    """The image's footprint over the RPC's height range (west, south, east, north), once the
+    RPC is seen to describe the image: its pixels within the RPC's image domain, the footprint
+    on the Earth and within the RPC's ground domain; else refused naming the RPC, before the
+    DEM is read around a footprint that is not the image's. `option`/`given`: the crop offset's
+    option and whether the user gave it."""
+    found = crop_problem(rpc, image, shape, offset, option, given)
+    if found is not None:
+        raise InputError(found)
+    box = _footprint_bounds(rpc, shape, offset, pad_deg=0.0)
+    found = implausible_problem(rpc, image, box)
+    if found is not None:
+        raise InputError(found)
+    return box
+
+
+def dem_under(
+    cfg: RfmAccuracyConfig,
+    rpc: RPCModel,
+    shape: tuple[int, int],
+    offset: tuple[float, float],
+    pad_deg: float = 0.01,
+) -> DEM:
+    """The DEM over the image's footprint (heights ellipsoidal). A DEM that does not reach the
+    footprint, or heights that send it off the RPC's ground domain (a mistyped HEIGHT_SCALE),
+    are refused naming the RPC and the likely cause, not the DEM alone."""
+    box = described_footprint(
+        rpc, cfg.image, shape, offset, "--crop-offset", cfg.crop_offset is not None
+    )
+    west, south, east, north = box
+    try:
+        dem = load_dem(
+            cfg.dem,
+            geoid=cfg.geoid,
+            geoid_offset=cfg.geoid_offset,
+            vertical=cfg.dem_vertical,
+            bounds=(west - pad_deg, south - pad_deg, east + pad_deg, north + pad_deg),
+            fill=cfg.dem_fill,
+            plane_per_m=plane_per_height(rpc, shape, offset),
+        )
+    except NotCovered as exc:
+        if exc.what != "DEM":
+            raise
+        raise InputError(off_dem_problem(rpc, cfg.image, box, cfg.dem, exc.extent)) from None
+    if np.isfinite(dem.mean_height):
+        at = footprint_at(rpc, shape, offset, dem.mean_height)
+        found = None if at is None else implausible_problem(rpc, cfg.image, at, dem.mean_height)
+        if found is not None:
+            raise InputError(found)
+    return dem
+
+
+def check_reference_rpc(cfg: RfmAccuracyConfig, rpc: RPCModel) -> None:
+    """The same checks of a sensor-geometry reference's RPC as of the image's (its pixels in the
+    RPC's image domain, its footprint on the Earth and in the RPC's ground domain), before
+    the image is orthorectified."""
+    shape, _ = _raster_shape(cfg.reference)
+    offset = cfg.reference_crop_offset
+    given = offset is not None
+    offset = crop_offset_from_file(cfg.reference) if offset is None else offset
+    described_footprint(rpc, cfg.reference, shape, offset, "--reference-crop-offset", given)
+
+
 def _prepare(cfg: RfmAccuracyConfig) -> _Run:
     """Read the RPC and the image size, and the DEM over the footprint (heights ellipsoidal)."""
     rpc = rpcs_of(cfg.image, cfg.rpc, f"{NO_RPCS}: give the image's RPC file with --rpc")
     shape, _ = _raster_shape(cfg.image)
     offset = cfg.crop_offset if cfg.crop_offset is not None else crop_offset_from_file(cfg.image)
-    dem = load_dem(
-        cfg.dem,
-        geoid=cfg.geoid,
-        geoid_offset=cfg.geoid_offset,
-        vertical=cfg.dem_vertical,
-        bounds=_footprint_bounds(rpc, shape, offset, pad_deg=0.01),
-        fill=cfg.dem_fill,
-        plane_per_m=plane_per_height(rpc, shape, offset),
-    )
+    dem = dem_under(cfg, rpc, shape, offset)
     reference = reference_model(cfg)  # refused now, not after the image is orthorectified
+    if reference is not None:
+        check_reference_rpc(cfg, reference)
     run = _Run(cfg, rpc, offset, dem, reference=reference)
     run.grid = ortho_grid(
         rpc, shape, dem, crop_offset=offset, crs=cfg.crs, gsd=cfg.gsd, margin=cfg.margin
