@@ -125,20 +125,59 @@ def case_folder(pack_file: Path) -> Path:
 
 #: the suffixes a case file may have
 CASE_SUFFIXES = (".yaml", ".yml")
+#: what a cases folder may hold beside its case files, left unread: a README saying what the
+#: cases are for (README, README.md, README.txt, in any case)
+NOTE_SUFFIXES = ("", ".md", ".txt")
+
+
+def _is_readme(entry: Path) -> bool:
+    return entry.is_file() and entry.stem.upper() == "README" and entry.suffix in NOTE_SUFFIXES
+
+
+def _stray(entry: Path) -> Problem:
+    """The problem of an entry of a cases folder that is not a case file."""
+    kind = "a folder" if entry.is_dir() else "a file" if entry.is_file() else "not a file"
+    if entry.suffix in CASE_SUFFIXES:
+        return Problem(str(entry), f"{kind}: expected a case file (YAML) for rule {entry.stem}")
+    return Problem(
+        str(entry),
+        f"not a case file ({kind}): expected <RULE>.yaml or <RULE>.yml, one per rule of the "
+        "pack (beside them only a README is left unread)",
+    )
 
 
 def case_files(folder: Path) -> list[Path]:
-    """Every case file of a folder (`.yaml` or `.yml`), sorted; RuleError for a rule that has
-    both, since either could be the one meant."""
-    if not folder.is_dir():
+    """Every case file of a cases folder (`.yaml` or `.yml`), sorted; none when the folder does
+    not exist.
+
+    RuleError, listing every problem, for what would otherwise be passed over unsaid: a
+    `NAME.cases` that is a file, not a folder; an entry named like a case file that is not a
+    file (a folder `TP-1.yaml/`); any other entry (`notes.txt`, `TP-1.YAML`, a sub-folder),
+    refused as a case file of a rule the pack does not have is; a rule with both a `.yaml`
+    and a `.yml` file, since either could be the one meant. A README (README, README.md or
+    README.txt) is documentation, not an input: it is left unread, as are hidden entries
+    (`.gitkeep`, an editor's swap file), which a folder listing does not show either."""
+    if not folder.exists():
         return []
-    files = sorted(f for f in folder.iterdir() if f.suffix in CASE_SUFFIXES and f.is_file())
-    stems = [f.stem for f in files]
-    twice = [f for f in files if stems.count(f.stem) > 1 and f.suffix == ".yml"]
-    if twice:
+    if not folder.is_dir():
         raise RuleError(
-            [Problem(str(f), f"cases for {f.stem} also in {f.stem}.yaml: keep one") for f in twice]
+            Problem(
+                str(folder),
+                "a file: expected the folder of the pack's cases, holding <RULE>.yaml files (one "
+                "per rule)",
+            )
         )
+    entries = sorted(f for f in folder.iterdir() if not f.name.startswith("."))
+    files = [f for f in entries if f.suffix in CASE_SUFFIXES and f.is_file()]
+    problems = [_stray(f) for f in entries if f not in files and not _is_readme(f)]
+    stems = [f.stem for f in files]
+    problems += [
+        Problem(str(f), f"cases for {f.stem} also in {f.stem}.yaml: keep one")
+        for f in files
+        if stems.count(f.stem) > 1 and f.suffix == ".yml"
+    ]
+    if problems:
+        raise RuleError(problems)
     return files
 
 

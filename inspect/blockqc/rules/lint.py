@@ -885,5 +885,8 @@ def lint(ref: str | Path) -> tuple[Pack | None, list[Problem]]:
     except RuleError as exc:
         return None, list(exc.problems)
     if pack is not None:
-        problems += check_cases(pack)
+        try:
+            problems += check_cases(pack)
+        except RuleError as exc:  # a cases folder that cannot be read as one (cases.case_files)
+            problems += exc.problems
     return pack, problems
