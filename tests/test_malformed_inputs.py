@@ -774,6 +774,71 @@ def test_a_table_in_a_sub_folder_is_refused_where_the_table_is_not_given(blockqc
     _refused(p, "F1-B01/tables: holds a checkpoints table, not read there")
 
 
+@pytest.mark.parametrize(
+    ("table", "where"),
+    [
+        ("pan_ms", "a/b"),
+        ("pan_ms", "documents/annex"),
+        ("overlaps", "documents/annex/2024/final"),
+    ],
+)
+def test_a_table_folders_down_is_refused_where_the_table_is_not_given(
+    blockqc, block, tmp_path, table, where
+):
+    """A table two or more folders down was not looked for: without pan_ms.csv beside
+    block.yaml the block passed, RO-1 not applicable. It is refused at any depth, naming the
+    folder that holds it, as one folder down."""
+    (block / where).mkdir(parents=True)
+    (block / f"{table}.csv").rename(block / where / f"{table}.csv")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    article = "an" if table == "overlaps" else "a"
+    _refused(
+        p,
+        f"F1-B01/{where}: holds {article} {table} table, not read there: tables are read from "
+        f"the delivery's own folder ({table}.csv or {table}.parquet beside block.yaml)",
+    )
+    assert not (tmp_path / "out" / "F1-B01").exists()
+
+
+def test_files_in_sub_folders_of_documents_are_still_read_as_before(blockqc, block, tmp_path):
+    """A report's annex with figures and a table of its own, folders named pc/ and rc/ (close
+    to rpc by their letters only), a copy of a table the delivery gives beside block.yaml, a
+    link back up the tree: no input of the contract is placed there, and the block passes."""
+    annex = block / "documents" / "annex"
+    (annex / "figures").mkdir(parents=True)
+    shutil.copy(block / "documents" / "technical_design.pdf", annex / "figures" / "fig1.pdf")
+    (annex / "residuals_by_scene.csv").write_text("scene_id,rms_px\nS1,0.3\n", encoding="utf-8")
+    shutil.copy(block / "pan_ms.csv", annex / "pan_ms.csv")
+    for name in ("pc", "rc"):
+        (annex / name).mkdir()
+    (annex / "up").symlink_to("..", target_is_directory=True)
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    assert p.returncode == 0, p.stderr
+    assert "not read" not in p.stderr, p.stderr
+
+
+def test_a_tree_below_the_delivery_too_large_to_look_through_is_said(block, monkeypatch):
+    """The look below the delivery's folder stops after MAX_ENTRIES_BELOW entries, breadth
+    first, so that a documents tree of many files stays cheap; what was not looked through is
+    said in a warning rather than passed over unsaid."""
+    from blockqc import delivery
+
+    monkeypatch.setattr(delivery, "MAX_ENTRIES_BELOW", 6)
+    (block / "documents" / "annex").mkdir()  # documents/: 5 PDFs and annex, 6 entries
+    (block / "pan_ms.csv").rename(block / "documents" / "annex" / "pan_ms.csv")  # the 7th
+    assert delivery._misplaced_inputs(block) == []
+    assert delivery.unread_tables(block) == [
+        f"{block}: its sub-folders hold more than 6 files and folders: the first 6 (breadth "
+        "first) were looked through for tables or geometry placed there, the others not"
+    ]
+    monkeypatch.setattr(delivery, "MAX_ENTRIES_BELOW", 7)
+    assert [str(p) for p in delivery._misplaced_inputs(block)] == [
+        f"{block / 'documents' / 'annex'}: holds a pan_ms table, not read there: tables are "
+        "read from the delivery's own folder (pan_ms.csv or pan_ms.parquet beside block.yaml)"
+    ]
+    assert delivery.unread_tables(block) == []
+
+
 def test_a_sampled_block_without_checkpoints_is_refused(blockqc, block, tmp_path):
     """block.yaml says sampled: true and the checkpoints are gone: not judged as a block that
     was not sampled (CP rules not applicable, the block passing) but refused, naming the key."""

@@ -1056,6 +1056,7 @@ def load_delivery(
     tables, files, headers = read.tables, read.files, read.headers
     problems.extend(read.problems)
     problems.extend(_misnamed_tables(path))
+    problems.extend(_misplaced_inputs(path))
     problems.extend(_check_references(tables, files))
     problems.extend(_check_consistency({k: tables[k] for k in read.clean}, files))
     if manifest is not None and "edges" in read.clean:
@@ -1129,28 +1130,20 @@ def _read_tables(path: Path, tie_point_columns: Collection[str] | None) -> _Tabl
 def _misnamed_tables(path: Path) -> list[Problem]:
     """Files that look like a table of the contract but are not named <table>.csv|.parquet
     (checkpoints.CSV, checkpoints.csv.gz, checkpoint.csv; and, where the table is not given,
-    checkpoints (1).csv, F1-B01_checkpoints.csv or tables/checkpoints.csv): not read, so an
-    optional table would be left out unsaid (a sampled block judged without its checkpoints).
-    Likewise a folder named like rpc/ or rpc_adjusted/ (RPC/, rpcs/): its geometry would pass
-    for absent."""
+    checkpoints (1).csv or F1-B01_checkpoints.csv): not read, so an optional table would be
+    left out unsaid (a sampled block judged without its checkpoints). Likewise a folder named
+    like rpc/ or rpc_adjusted/ (RPC/, rpcs/): its geometry would pass for absent. Only the
+    delivery's own folder is looked at here; what lies below it, by `_misplaced_inputs`."""
     exact = {f"{n}.{ext}" for n in TABLES for ext in ("csv", "parquet")} | set(GEOMETRY_DIRS)
-    given = {f.name for f in path.iterdir()}
-    absent = [n for n in TABLES if not {f"{n}.csv", f"{n}.parquet"} & given]
+    absent = _absent_tables(path)
     problems = []
     for f in sorted(path.iterdir()):
         if f.name in exact or f.name.startswith("."):
             continue
-        stem = f.name.lower().split(".", 1)[0].replace("-", "_").replace(" ", "_")
+        stem = _stem(f.name)
         if f.is_dir():
-            close = difflib.get_close_matches(stem, GEOMETRY_DIRS, n=1, cutoff=0.8)
+            close = _geometry_meant(stem, GEOMETRY_DIRS)
             why = "not read: the geometry of contract v1.1 is read from {0}/ (lower case)"
-            inner = [n for n in absent for e in ("csv", "parquet") if (f / f"{n}.{e}").is_file()]
-            if not close and inner:
-                close = inner
-                why = (
-                    "holds a {0} table, not read there: tables are read from the delivery's own "
-                    "folder ({0}.csv or {0}.parquet beside block.yaml)"
-                )
         else:
             close = difflib.get_close_matches(stem, list(TABLES), n=1, cutoff=0.9)
             close = close or difflib.get_close_matches(stem, absent, n=1, cutoff=0.8)  # edge.csv
@@ -1163,6 +1156,125 @@ def _misnamed_tables(path: Path) -> list[Problem]:
     return problems
 
 
+def _absent_tables(path: Path) -> list[str]:
+    """The tables of the contract the delivery's own folder does not give (in either form)."""
+    given = {f.name for f in path.iterdir()}
+    return [n for n in TABLES if not {f"{n}.csv", f"{n}.parquet"} & given]
+
+
+def _stem(name: str) -> str:
+    """A file or folder name as compared with the contract's: lower case, without its
+    extensions, '-' and ' ' read as '_' (Checkpoints-Final.CSV: checkpoints_final)."""
+    return name.lower().split(".", 1)[0].replace("-", "_").replace(" ", "_")
+
+
+def _geometry_meant(stem: str, dirs: Collection[str]) -> list[str]:
+    """The geometry folder of `dirs` a folder's name (`_stem`) is close to: rpc for RPC or
+    rpcs, rpc_adjusted for RPC_Adjusted; [] for none."""
+    return difflib.get_close_matches(stem, list(dirs), n=1, cutoff=0.8)
+
+
+#: entries below a delivery's own folder looked through for its inputs placed there: a
+#: documents tree of many files stays cheap to look through (10,000 files: some 10 ms; 20,000,
+#: some 20 ms), and one beyond this is said not to be looked through all (`unread_tables`)
+MAX_ENTRIES_BELOW = 20_000
+
+
+@dataclass
+class _Below:
+    """The entries of a delivery's sub-folders at any depth (`_below`), and whether the look
+    stopped at MAX_ENTRIES_BELOW entries."""
+
+    entries: list[os.DirEntry] = field(default_factory=list)
+    cut: bool = False
+
+
+def _below(path: Path) -> _Below:
+    """What lies in the sub-folders of a delivery, at any depth, breadth first (each folder's
+    entries sorted): names starting with '.' are left out; rpc/ and rpc_adjusted/ are not
+    looked into (their files are read as the geometry, and anything else in them refused);
+    a folder linked to is followed from the delivery's own folder only, so that links cannot
+    lead the look round in a loop."""
+    below = _Below()
+    queue = [str(f) for f in _members(path) if f.name not in GEOMETRY_DIRS and f.is_dir()]
+    for folder in queue:  # grows as folders are found: breadth first
+        entries = _listed(folder)
+        room = MAX_ENTRIES_BELOW - len(below.entries)
+        below.cut = len(entries) > room
+        below.entries.extend(entries[:room])
+        if below.cut:
+            break
+        queue.extend(e.path for e in entries[:room] if _is_dir(e, follow=False))
+    return below
+
+
+def _listed(folder: str) -> list[os.DirEntry]:
+    """A folder's entries, sorted, those named with a leading '.' left out."""
+    with os.scandir(folder) as it:
+        return sorted((e for e in it if not e.name.startswith(".")), key=lambda e: e.name)
+
+
+def _misplaced_inputs(path: Path) -> list[Problem]:
+    """Inputs of the contract placed below the delivery's own folder, at any depth, where
+    nothing is read: a table the delivery does not give (tables/checkpoints.csv,
+    documents/annex/pan_ms.csv) and a geometry folder it does not give (geometry/rpc/): left
+    out, a sampled block would be judged without its checkpoints, a delivery of contract v1.1
+    as one of v1 without geometry."""
+    absent = {f"{n}.{ext}": n for n in _absent_tables(path) for ext in ("csv", "parquet")}
+    dirs = [d for d in GEOMETRY_DIRS if not (path / d).exists()]
+    below = _below(path)
+    problems = []
+    for e in below.entries:
+        if e.name in absent and _is_file(e):
+            held = _HELD.format(_with_article(absent[e.name]), absent[e.name])
+            problems.append(Problem(os.path.dirname(e.path), held))
+        elif meant := _geometry_below(e, dirs):
+            problems.append(Problem(e.path, _GEOMETRY_BELOW.format(meant)))
+    return list(dict.fromkeys(problems))  # a table given twice in one folder, said once
+
+
+_HELD = (
+    "holds {0} table, not read there: tables are read from the delivery's own folder "
+    "({1}.csv or {1}.parquet beside block.yaml)"
+)
+_GEOMETRY_BELOW = (
+    "not read there: the geometry of contract v1.1 is read from the delivery's own folder "
+    "({0}/ beside block.yaml)"
+)
+
+
+def _with_article(name: str) -> str:
+    """A table's name after its article: a pan_ms, an overlaps, an adjustment."""
+    return f"{'an' if name[0] in 'aeiou' else 'a'} {name}"
+
+
+def _geometry_below(entry: os.DirEntry, dirs: list[str]) -> str | None:
+    """The geometry folder of `dirs` a folder below the delivery's own is named like (rpc/,
+    RPC/, rpcs/, rpc_adjusted/), or None. Its name must hold 'rpc': a short one close to rpc
+    by its letters alone (pc/, rc/) is another folder of a documents tree."""
+    if "rpc" not in entry.name.lower() or not _is_dir(entry):
+        return None
+    meant = _geometry_meant(_stem(entry.name), dirs)
+    return meant[0] if meant else None
+
+
+def _is_file(entry: os.DirEntry) -> bool:
+    """Whether an entry is a file or a link to one (False when that cannot be looked at)."""
+    try:
+        return entry.is_file()
+    except OSError:
+        return False
+
+
+def _is_dir(entry: os.DirEntry, follow: bool = True) -> bool:
+    """Whether an entry is a folder, or (`follow`) a link to one; False when that cannot be
+    looked at."""
+    try:
+        return entry.is_dir(follow_symlinks=follow)
+    except OSError:
+        return False
+
+
 #: the endings of files read as tables elsewhere: such a file in a delivery's folder that is no
 #: table of the contract is said not to be read (`unread_tables`)
 TABLE_SUFFIXES = (".csv", ".tsv", ".parquet", ".xlsx", ".xls")
@@ -1171,10 +1283,12 @@ TABLE_SUFFIXES = (".csv", ".tsv", ".parquet", ".xlsx", ".xls")
 def unread_tables(path: Path) -> list[str]:
     """Warnings for the table files of a delivery's folder from which no table of the contract
     is read (checkpoints_extra.csv beside checkpoints.csv): their rows are judged by no rule,
-    and said so. Those taken for a misnamed table are refused (`_misnamed_tables`) instead."""
+    and said so. Those taken for a misnamed table are refused (`_misnamed_tables`) instead.
+    A tree of sub-folders too large to be looked through all for misplaced inputs is said."""
     try:
         files = sorted(f for f in path.iterdir() if f.name.lower().endswith(TABLE_SUFFIXES))
         refused = {p.file for p in _misnamed_tables(path)}
+        cut = _below(path).cut
     except OSError:  # the delivery's reader says what is wrong with the folder
         return []
     tables = {f"{n}.{ext}" for n in TABLES for ext in ("csv", "parquet")}
@@ -1182,7 +1296,14 @@ def unread_tables(path: Path) -> list[str]:
         "not read: no table of the contract is read from it (a delivery's tables are "
         f"{', '.join(TABLES)}, each .csv or .parquet)"
     )
-    return [f"{f}: {why}" for f in files if f.name not in tables and str(f) not in refused]
+    warnings = [f"{f}: {why}" for f in files if f.name not in tables and str(f) not in refused]
+    if cut:
+        warnings.append(
+            f"{path}: its sub-folders hold more than {MAX_ENTRIES_BELOW:,} files and folders: "
+            f"the first {MAX_ENTRIES_BELOW:,} (breadth first) were looked through for tables or "
+            "geometry placed there, the others not"
+        )
+    return warnings
 
 
 def _check_references(tables: dict[str, pd.DataFrame], files: dict[str, Path]) -> list[Problem]:

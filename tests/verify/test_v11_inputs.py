@@ -85,6 +85,62 @@ def test_rpc_for_unknown_scene_and_no_residuals_without_adjustment(tmp_path, tie
     assert any("missing column 'v_line'" in m and "rpc_adjusted" in m for m in msgs)
 
 
+GEOMETRY_BELOW = (
+    "not read there: the geometry of contract v1.1 is read from the delivery's own folder "
+    "({0}/ beside block.yaml)"
+)
+
+
+@pytest.mark.parametrize(
+    ("moved", "to", "meant"),
+    [
+        ("rpc", "geometry/rpc", "rpc"),
+        ("rpc", "documents/annex/RPC", "rpc"),
+        ("rpc_adjusted", "producer/rpc_adjusted", "rpc_adjusted"),
+    ],
+)
+def test_geometry_in_a_sub_folder_is_refused_not_taken_for_v1(
+    tmp_path, tie_points, moved, to, meant
+) -> None:
+    """The geometry a folder or more down (rpc/ moved to geometry/rpc/, adjustment.csv not
+    given) was not looked for: the delivery was judged as one of contract v1, without
+    geometry. It is refused naming the folder, as RPC/ beside block.yaml is."""
+    ties = tie_points.assign(v_line=0.0, v_sample=0.0)  # residuals delivered: v1 reads them
+    folder = write_v11(tmp_path / "d", ties, adjustment=False)
+    if moved == "rpc_adjusted":  # the original RPCs beside block.yaml, the refined ones not
+        shutil.copytree(folder / "rpc", folder / "rpc_adjusted")
+    (folder / to).parent.mkdir(parents=True, exist_ok=True)
+    (folder / moved).rename(folder / to)
+    assert _problems(folder) == [f"{folder / to}: {GEOMETRY_BELOW.format(meant)}"]
+
+
+@pytest.mark.parametrize("where", ["geometry", "geometry/2024/final"])
+def test_an_adjustment_table_in_a_sub_folder_is_refused(tmp_path, tie_points, where) -> None:
+    """Refused one folder down ('holds a adjustment table'), not looked for further down."""
+    folder = write_v11(tmp_path / "d", tie_points)
+    (folder / where).mkdir(parents=True)
+    (folder / "adjustment.csv").rename(folder / where / "adjustment.csv")
+    msgs = _problems(folder)
+    assert (
+        f"{folder / where}: holds an adjustment table, not read there: tables are read from "
+        "the delivery's own folder (adjustment.csv or adjustment.parquet beside block.yaml)"
+    ) in msgs
+
+
+def test_a_copy_of_the_geometry_below_the_geometry_read_is_left_as_a_document(
+    tmp_path, tie_points
+) -> None:
+    """rpc/ and adjustment.csv beside block.yaml, and a copy of both in documents/annex/: the
+    geometry is read from the delivery's own folder, the copy is a document."""
+    folder = write_v11(tmp_path / "d", tie_points)
+    annex = folder / "documents" / "annex"
+    shutil.copytree(folder / "rpc", annex / "rpc")
+    shutil.copy(folder / "adjustment.csv", annex / "adjustment.csv")
+    d = load_delivery(folder)
+    assert d.geometry is not None and d.geometry.complete
+    assert sorted(d.geometry.original) == ["L", "R"]
+
+
 def test_an_rpc_file_named_with_an_invisible_character_shows_it(tmp_path, tie_points) -> None:
     """rpc/L\u200b.geom (a zero-width space pasted after the scene id) was said to be of "no
     scene 'L'", the scene that has no RPC, as if they were one: the character is shown."""
