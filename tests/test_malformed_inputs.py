@@ -7,6 +7,8 @@ import json
 import os
 import re
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import pandas as pd
@@ -837,6 +839,53 @@ def test_a_tree_below_the_delivery_too_large_to_look_through_is_said(block, monk
         "read from the delivery's own folder (pan_ms.csv or pan_ms.parquet beside block.yaml)"
     ]
     assert delivery.unread_tables(block) == []
+
+
+def test_a_folder_that_cannot_be_listed_is_named(block, monkeypatch):
+    """documents/ that cannot be read: the look for misplaced tables probed names in it and
+    the delivery was 'could not be inspected: PermissionError' naming documents/edges.csv, a
+    file that is not there. The folder is named, as a table that cannot be read is."""
+    from blockqc import delivery
+
+    listed = os.scandir
+    refused = str(block / "documents")
+
+    def scandir(path="."):
+        if os.fspath(path) == refused:
+            raise PermissionError(13, "Permission denied", os.fspath(path))
+        return listed(path)
+
+    monkeypatch.setattr(os, "scandir", scandir)
+    with pytest.raises(delivery.InputError) as exc:
+        delivery.load_delivery(block)
+    assert [str(p) for p in exc.value.problems] == [
+        f"{refused}: cannot be read: Permission denied: expected a readable folder"
+    ]
+
+
+def _without_root(args: list[object]) -> list[str]:
+    """A command run so that file permissions hold for it: root's capability to read past
+    them dropped (setpriv), or the test skipped where that cannot be done."""
+    command = [sys.executable, "-m", "blockqc", *map(str, args)]
+    if os.geteuid() != 0:
+        return command
+    drop = ["setpriv", "--bounding-set", "-dac_override,-dac_read_search"]
+    if not shutil.which("setpriv") or subprocess.run([*drop, "true"]).returncode != 0:
+        pytest.skip("running as root, and its capabilities cannot be dropped (setpriv)")
+    return [*drop, *command]
+
+
+@pytest.mark.parametrize("mode", [0o000, 0o444])  # 0o444: names listed, files not reached
+def test_an_unreadable_documents_folder_is_refused_by_name(block, tmp_path, mode):
+    command = _without_root(["inspect", block, "--out", tmp_path / "out", "--pdf", "none"])
+    (block / "documents").chmod(mode)
+    try:
+        p = subprocess.run(command, capture_output=True, text=True, timeout=600)
+    finally:
+        (block / "documents").chmod(0o755)
+    said = "cannot be read: Permission denied: expected a readable folder"
+    _refused(p, f"F1-B01/documents: {said}")
+    assert "PermissionError" not in p.stderr and "edges.csv" not in p.stderr, p.stderr
 
 
 def test_a_sampled_block_without_checkpoints_is_refused(blockqc, block, tmp_path):

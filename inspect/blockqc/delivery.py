@@ -1182,10 +1182,11 @@ MAX_ENTRIES_BELOW = 20_000
 
 @dataclass
 class _Below:
-    """The entries of a delivery's sub-folders at any depth (`_below`), and whether the look
-    stopped at MAX_ENTRIES_BELOW entries."""
+    """The entries of a delivery's sub-folders at any depth (`_below`), the folders among them
+    that cannot be read, and whether the look stopped at MAX_ENTRIES_BELOW entries."""
 
     entries: list[os.DirEntry] = field(default_factory=list)
+    unreadable: list[Problem] = field(default_factory=list)
     cut: bool = False
 
 
@@ -1194,11 +1195,16 @@ def _below(path: Path) -> _Below:
     entries sorted): names starting with '.' are left out; rpc/ and rpc_adjusted/ are not
     looked into (their files are read as the geometry, and anything else in them refused);
     a folder linked to is followed from the delivery's own folder only, so that links cannot
-    lead the look round in a loop."""
+    lead the look round in a loop. A folder that cannot be listed, or whose entries cannot be
+    reached (`_listed`), is a problem named by the folder."""
     below = _Below()
     queue = [str(f) for f in _members(path) if f.name not in GEOMETRY_DIRS and f.is_dir()]
     for folder in queue:  # grows as folders are found: breadth first
-        entries = _listed(folder)
+        try:
+            entries = _listed(folder)
+        except OSError as exc:
+            below.unreadable.append(_unreadable_folder(Path(folder), exc))
+            continue
         room = MAX_ENTRIES_BELOW - len(below.entries)
         below.cut = len(entries) > room
         below.entries.extend(entries[:room])
@@ -1209,9 +1215,22 @@ def _below(path: Path) -> _Below:
 
 
 def _listed(folder: str) -> list[os.DirEntry]:
-    """A folder's entries, sorted, those named with a leading '.' left out."""
+    """A folder's entries, sorted, those named with a leading '.' left out. OSError when it
+    cannot be listed, or when its entries cannot be reached (its names readable, but without
+    search permission: each file in it would fail when looked at)."""
     with os.scandir(folder) as it:
-        return sorted((e for e in it if not e.name.startswith(".")), key=lambda e: e.name)
+        entries = sorted((e for e in it if not e.name.startswith(".")), key=lambda e: e.name)
+    if entries:
+        entries[0].stat(follow_symlinks=False)
+    return entries
+
+
+def _unreadable_folder(folder: Path, exc: OSError) -> Problem:
+    """A folder of the delivery that cannot be read, in the words said of a table that
+    cannot be read (`read_bytes`)."""
+    return Problem(
+        str(folder), f"cannot be read: {exc.strerror or exc}: expected a readable folder"
+    )
 
 
 def _misplaced_inputs(path: Path) -> list[Problem]:
@@ -1219,11 +1238,12 @@ def _misplaced_inputs(path: Path) -> list[Problem]:
     nothing is read: a table the delivery does not give (tables/checkpoints.csv,
     documents/annex/pan_ms.csv) and a geometry folder it does not give (geometry/rpc/): left
     out, a sampled block would be judged without its checkpoints, a delivery of contract v1.1
-    as one of v1 without geometry."""
+    as one of v1 without geometry. A folder there that cannot be read is said, by name (it
+    cannot be looked through)."""
     absent = {f"{n}.{ext}": n for n in _absent_tables(path) for ext in ("csv", "parquet")}
     dirs = [d for d in GEOMETRY_DIRS if not (path / d).exists()]
     below = _below(path)
-    problems = []
+    problems = list(below.unreadable)
     for e in below.entries:
         if e.name in absent and _is_file(e):
             held = _HELD.format(_with_article(absent[e.name]), absent[e.name])
@@ -1460,8 +1480,17 @@ def _missing_documents(path: Path, manifest: Manifest) -> list[Problem]:
             f"documents.{kind}: {rel} is missing from the delivery{other_case(path, rel)}",
         )
         for kind, rel in manifest.documents.items()
-        if not document_path(path, rel).is_file()
+        if _not_a_file(document_path(path, rel))
     ]
+
+
+def _not_a_file(path: Path) -> bool:
+    """Whether a document is missing; one that cannot be looked at (in a folder that cannot
+    be read, said of the folder by `_misplaced_inputs`) is not said missing as well."""
+    try:
+        return not path.is_file()
+    except OSError:
+        return False
 
 
 def other_case(root: Path, rel: str) -> str:
