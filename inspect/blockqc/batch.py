@@ -382,12 +382,11 @@ def graded(r: BlockResults) -> BlockGrade | None:
 def delivery_warnings(path: Path, r: BlockResults) -> list[str]:
     """What the delivery gives that its rules judge as given, but an inspector should know."""
     n = r.summary.get("tie_points_on_one_scene")
-    if not n:
-        return []
-    return [
+    one_scene = [
         f"{path}: {n} of {r.summary['tie_points']} tie points are observed on one scene only: "
         "they tie no scenes, and are counted as delivered (TP-1..TP-4)"
     ]
+    return (one_scene if n else []) + r.input_warnings
 
 
 def rule_counts(r: BlockResults) -> dict[str, dict[str, int]]:

@@ -34,6 +34,7 @@ from blockqc.errors import InputError, Problem
 from blockqc.geometry_inputs import (
     GEOMETRY_DIRS,
     BlockGeometry,
+    ground_column_problems,
     has_geometry,
     load_geometry,
     residual_column_problems,
@@ -1063,9 +1064,11 @@ def load_delivery(
         problems.extend(_edges_to_itself(tables["edges"], files["edges"], manifest.block_id))
     geometry, found = load_geometry(path, tables, files)  # contract v1.1
     problems.extend(found)
-    if residuals and "tie_points" in tables:
+    if "tie_points" in tables:
         tp_columns = headers["tie_points"]
-        problems.extend(residual_column_problems(tp_columns, files["tie_points"], geometry))
+        problems.extend(ground_column_problems(tp_columns, files["tie_points"]))
+        if residuals:
+            problems.extend(residual_column_problems(tp_columns, files["tie_points"], geometry))
     if problems and manifest is not None:  # reported now too, not only once the tables are fixed
         problems.extend(_missing_documents(path, manifest))
     if problems:

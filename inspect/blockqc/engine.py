@@ -13,6 +13,7 @@ import pandas as pd
 
 from blockqc import __version__
 from blockqc.delivery import Delivery, summary
+from blockqc.geometry_inputs import ONE_GROUND_POINT, ground_disagreements
 from blockqc.inspector import BlockInput, Waiver
 from blockqc.metrics import REGISTRY, Measurement, Table
 from blockqc.outputs import jsonable, records
@@ -20,6 +21,7 @@ from blockqc.results import BlockResults, MeasurementRecord, RuleResult, tally
 from blockqc.rules.expr import ExpressionError, evaluate, resolve_params
 from blockqc.rules.model import Pack, Rule, Threshold, selected, within
 from blockqc.schema import key_labels
+from blockqc.textio import located
 from blockqc.verification import annotate, annotated_keys, prepare
 
 #: tables up to this many rows are kept in results.json for the report
@@ -554,12 +556,29 @@ def inspect_delivery(
         counts=counts,
         summary=summary(delivery),
         not_read=delivery.not_read,
+        input_warnings=input_warnings(delivery),
         process_data=jsonable(process_data),
         elements=pack.elements,
         scenes=_scenes(delivery),
         results=results,
         measurements=_measurements(ctx, pack, results),
     )
+
+
+#: why a tie point given two ground points is said, not refused, by the inspection
+GROUND_POINTS_DIFFER = (
+    f"{ONE_GROUND_POINT}; judged as given (RC-1 with ground: delivered back-projects each row's "
+    "own ground point)"
+)
+
+
+def input_warnings(d: Delivery) -> list[str]:
+    """What the delivery gives that is judged as given but said: the tie points whose rows give
+    their point different ground points (`blockqc adjust` refuses them, by the same check)."""
+    file = d.files.get("tie_points")
+    if file is None:
+        return []
+    return [str(p) for p in located(ground_disagreements(file, d.tie_points, GROUND_POINTS_DIFFER))]
 
 
 SCENE_COLUMNS = ("scene_id", "band", "acquired", "lines", "samples", "footprint_wkt")

@@ -17,10 +17,11 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from blockqc import grouped
 from blockqc.errors import InputError, Problem
-from blockqc.rfm.model import DOMAIN_REACH, RPCModel
+from blockqc.rfm.model import DOMAIN_REACH, RPCModel, wrap_lon
 from blockqc.rfm.readers import read_rpc
-from blockqc.schema import visible_name
+from blockqc.schema import MAX_ROWS_LISTED, visible_name
 
 RPC_DIR = "rpc"
 ADJUSTED_DIR = "rpc_adjusted"
@@ -342,3 +343,132 @@ def residual_column_problems(
         )
         for c in missing
     ]
+
+
+#: how far the rows of one point may put its delivered ground point apart (°, °, m): the same
+#: point written on each of its rows, to round-off
+GROUND_AGREEMENT = {"lon": 1e-7, "lat": 1e-7, "h": 0.01}
+#: the tie_points columns of the producer's ground point (contract v1.1), given together
+GROUND_COLUMNS = tuple(GROUND_AGREEMENT)
+#: what the rows of a point that give two ground points were expected to give
+ONE_GROUND_POINT = (
+    "expected one ground point per point (the producer's), the same on each of its rows"
+)
+
+
+def ground_column_problems(columns: Collection[str] | None, file: Path | None) -> list[Problem]:
+    """lon and lat together, h only with them: one of lon and lat, or h without both, is no
+    ground point; inspect would keep the columns unread and adjust take its positions elsewhere,
+    both without a word (as ref_x_m without ref_y_m in checkpoints). lon and lat without h are
+    a tie point's ground position (contract v1, read by `blockqc factors`; adjust then
+    intersects the producer's). `columns`: the tie_points table's columns (read or not), None
+    without the table."""
+    if columns is None:
+        return []
+    given = [c for c in GROUND_COLUMNS if c in columns]
+    missing = [c for c in ("lon", "lat") if c not in columns]
+    if not given or not missing:
+        return []
+    name = str(file or "tie_points.csv")
+    return [
+        Problem(
+            name,
+            f"missing column{'s' if len(missing) > 1 else ''} {_and(missing)}: the table gives "
+            f"{_and(given)}, but a ground point is lon and lat together, and h its height (the "
+            "producer's ground point: lon, lat, h ellipsoidal, contract v1.1); give lon and lat, "
+            "with or without h, or none of the three",
+            line=1 if name.lower().endswith(".csv") else None,
+        )
+    ]
+
+
+def _and(names: list[str]) -> str:
+    """'a', or 'a' and 'b': one or two of the ground columns, as a message lists them."""
+    return " and ".join(f"'{n}'" for n in names)
+
+
+def ground_disagreements(file: Path, tie_points: pd.DataFrame, why: str) -> list[Problem]:
+    """Rows whose producer's ground point (lon, lat, h) differs from that of the first row of
+    their point giving one, beyond GROUND_AGREEMENT (longitudes modulo 360°): "point 'P' is
+    given lon x here and y on row r: `why`", the first few per column and a count of the rest.
+
+    Vectorised for tables of millions of rows: each point's smallest and largest value (one
+    grouped pass per column) find the points whose rows may differ, and only their rows are
+    compared with their first."""
+    given = [c for c in GROUND_COLUMNS if c in tie_points.columns]
+    if not given or "point_id" not in tie_points.columns or tie_points.empty:
+        return []
+    ids = tie_points["point_id"]
+    if isinstance(ids.dtype, pd.CategoricalDtype):  # as the readers give it
+        point, k = ids.array.codes.astype(np.int64), len(ids.cat.categories)
+    else:
+        point, uniques = pd.factorize(ids)
+        k = len(uniques)
+    groups = grouped.Groups(point, k)
+    problems: list[Problem] = []
+    for c in given:
+        v = tie_points[c].to_numpy(np.float64, na_value=np.nan)
+        rows = _disagreeing(v, point, groups, GROUND_AGREEMENT[c], c == "lon")
+        if rows is None:
+            continue
+        problems += _ground_problems(file, ids, c, v, point, k, rows, why)
+    return problems
+
+
+def _disagreeing(
+    v: np.ndarray, point: np.ndarray, groups: grouped.Groups, tol: float, lon: bool
+) -> np.ndarray | None:
+    """The rows (given, of a point) of the points whose values spread beyond `tol` (longitudes
+    both as given and modulo 360°: 179.9° and -180.1° are one), None when there are none."""
+    with np.errstate(invalid="ignore"):  # a point without a value: -inf - inf
+        low, high = groups.extremes(v)
+        wide = high - low > tol
+        if lon and wide.any():
+            low, high = groups.extremes(np.mod(v, 360.0))
+            wide &= high - low > tol
+    if not wide.any():
+        return None
+    return np.flatnonzero((point >= 0) & wide[point] & np.isfinite(v))
+
+
+def _ground_problems(
+    file: Path,
+    ids: pd.Series,
+    column: str,
+    v: np.ndarray,
+    point: np.ndarray,
+    k: int,
+    rows: np.ndarray,
+    why: str,
+) -> list[Problem]:
+    """The rows among `rows` whose value differs from their point's first beyond the
+    tolerance, each against that first row."""
+    first, first_row = np.full(k, np.nan), np.zeros(k, np.int64)
+    points, at = np.unique(point[rows], return_index=True)
+    first[points], first_row[points] = v[rows[at]], rows[at]
+    diff = v[rows] - first[point[rows]]
+    if column == "lon":
+        diff = wrap_lon(diff)
+    bad = rows[np.abs(diff) > GROUND_AGREEMENT[column]]
+    csv = file.suffix.lower() == ".csv"
+    out = [
+        Problem(
+            str(file),
+            f"point '{ids.iloc[i]}' is given {column} {v[i]:.10g} here and "
+            f"{first[point[i]]:.10g} on row {first_row[point[i]] + 1}: {why}",
+            row=int(i) + 1,
+            line=int(i) + 2 if csv else None,
+            column=column,
+        )
+        for i in bad[:MAX_ROWS_LISTED]
+    ]
+    if bad.size > MAX_ROWS_LISTED:
+        out.append(
+            Problem(
+                str(file),
+                f"{bad.size - MAX_ROWS_LISTED} more rows give their point another {column} than "
+                f"its first row: {why}",
+                column=column,
+            )
+        )
+    return out

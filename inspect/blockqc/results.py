@@ -136,6 +136,10 @@ class BlockResults(_Model):
     # columns of the delivery's tables not read (a pack with `columns: used`): their checks,
     # and those of keys over them, were not made
     not_read: dict[str, list[str]] = Field(default_factory=dict)
+    # what the delivery gives that the rules read as given but an inspector should know, each
+    # "file, row (line), column: why" (e.g. a tie point given two ground points); said on the
+    # console as warnings
+    input_warnings: list[str] = Field(default_factory=list)
     # contract v1.1: what blockqc computed itself from the delivery's geometry (§RC-1, §RC-2)
     process_data: dict[str, Any] = Field(default_factory=dict)
     elements: list[ElementDef] = Field(default_factory=list)

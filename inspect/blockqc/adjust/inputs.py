@@ -16,9 +16,14 @@ import pandas as pd
 
 from blockqc.delivery import MANIFEST, Manifest, load_delivery
 from blockqc.errors import InputError, Problem
-from blockqc.geometry_inputs import AFFINE_KEYS, RPC_DIR, BlockGeometry
-from blockqc.rfm.model import RPCModel, wrap_lon
-from blockqc.schema import MAX_ROWS_LISTED as MAX_LISTED
+from blockqc.geometry_inputs import (
+    AFFINE_KEYS,
+    ONE_GROUND_POINT,
+    RPC_DIR,
+    BlockGeometry,
+    ground_disagreements,
+)
+from blockqc.rfm.model import RPCModel
 from blockqc.textio import located
 
 
@@ -68,44 +73,10 @@ def _check_multi_ray(path: Path, tie_points: pd.DataFrame) -> None:
     )
 
 
-#: how far the rows of one point may put its delivered ground point apart (°, °, m): the same
-#: point written on each of its rows, to round-off
-GROUND_AGREEMENT = {"lon": 1e-7, "lat": 1e-7, "h": 0.01}
-
-
 def _check_ground(file: Path, tie_points: pd.DataFrame) -> None:
     """Refuse a point whose rows give different producer's ground points (lon, lat, h): one of
     them is wrong, and a checkpoint of their mean would be neither (longitudes modulo 360°)."""
-    given = [c for c in GROUND_AGREEMENT if c in tie_points.columns]
-    if not given:
-        return
-    point = pd.factorize(tie_points["point_id"])[0]
-    if not point.size:
-        return
-    csv = file.suffix.lower() == ".csv"
-    problems = []
-    for c in given:
-        v = tie_points[c].to_numpy(np.float64)
-        ok = np.isfinite(v)
-        first, first_row = np.full(point.max() + 1, np.nan), np.zeros(point.max() + 1, int)
-        rows = np.flatnonzero(ok)
-        points, at = np.unique(point[rows], return_index=True)
-        first[points], first_row[points] = v[rows[at]], rows[at]
-        diff = v - first[point]
-        if c == "lon":
-            diff = wrap_lon(diff)
-        for i in np.flatnonzero(ok & (np.abs(diff) > GROUND_AGREEMENT[c]))[:MAX_LISTED]:
-            problems.append(
-                Problem(
-                    str(file),
-                    f"point '{tie_points['point_id'].iloc[i]}' is given {c} {v[i]:.10g} here and "
-                    f"{first[point[i]]:.10g} on row {first_row[point[i]] + 1}: expected one "
-                    "ground point per point (the producer's), the same on each of its rows",
-                    row=int(i) + 1,
-                    line=int(i) + 2 if csv else None,
-                    column=c,
-                )
-            )
+    problems = ground_disagreements(file, tie_points, ONE_GROUND_POINT)
     if problems:
         raise InputError(located(problems))
 
