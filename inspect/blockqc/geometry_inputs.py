@@ -110,7 +110,12 @@ def _read_models(
 
 
 def _with_affine(
-    geometry: BlockGeometry, table: pd.DataFrame, file: Path, needed: list[str]
+    geometry: BlockGeometry,
+    table: pd.DataFrame,
+    file: Path,
+    needed: list[str],
+    scenes: pd.DataFrame,
+    scenes_file: str,
 ) -> list[Problem]:
     """The adjusted models from rpc/ and adjustment.csv; every observed scene needs its row."""
     rows = table.set_index("scene_id")
@@ -131,6 +136,7 @@ def _with_affine(
         if re.fullmatch(r"[ab]\d+", str(c).strip(), re.I) and c not in AFFINE_KEYS
     ]
     problems += _distorting(table, file)
+    problems += _far_offsets(table, file, scenes, scenes_file)
     if problems or any(sid not in geometry.original for sid in needed):
         return problems  # the missing RPCs are reported by _read_models
     geometry.scene_ids = list(needed)
@@ -166,6 +172,48 @@ def _distorting(table: pd.DataFrame, file: Path) -> list[Problem]:
         )
         for i in bad
     ]
+
+
+#: how many times its image's size (lines for a0, samples for b0) an affine's offset may be: an
+#: adjustment moves the image by pixels, at most hundreds of them, and a0, b0 also take up what
+#: the terms per pixel add across the image (at most AFFINE_LIMIT of its size each); an offset
+#: of several image sizes puts every tie point off its scene (a value in other units than
+#: pixels, or a no-data marker), and the rays of the adjusted model meet nowhere. The bound is
+#: generous: any real adjustment stays well within one image size
+OFFSET_LIMIT_IMAGES = 3.0
+
+
+def _far_offsets(
+    table: pd.DataFrame, file: Path, scenes: pd.DataFrame, scenes_file: str
+) -> list[Problem]:
+    """Rows whose offset a0 or b0 is beyond OFFSET_LIMIT_IMAGES times the scene's lines or
+    samples (scenes.csv), each named with its row, column, value and bound. Scenes without a
+    size, and non-finite values, are their tables' own problems."""
+    if not {"lines", "samples"} <= set(scenes.columns):
+        return []
+    size = scenes.drop_duplicates("scene_id").set_index("scene_id")
+    csv = file.suffix.lower() == ".csv"
+    problems = []
+    for key, extent in (("a0", "lines"), ("b0", "samples")):
+        image = table["scene_id"].map(size[extent]).to_numpy(dtype=float, na_value=np.nan)
+        value = table[key].to_numpy(dtype=float)
+        with np.errstate(invalid="ignore"):  # NaN: no size, or no value (said elsewhere)
+            far = np.flatnonzero(np.abs(value) > OFFSET_LIMIT_IMAGES * image)
+        problems += [
+            Problem(
+                str(file),
+                f"scene '{table['scene_id'].iloc[i]}': {key} is {value[i]:g} px; expected "
+                f"within ±{OFFSET_LIMIT_IMAGES * image[i]:g} px, {OFFSET_LIMIT_IMAGES:g} times "
+                f"the scene's {image[i]:g} {extent} in {scenes_file} (an adjustment moves the "
+                "image by pixels, at most hundreds of them: this offset puts every tie point "
+                "off its scene; a value in other units, or a no-data marker?)",
+                row=int(i) + 1,
+                line=int(i) + 2 if csv else None,
+                column=key,
+            )
+            for i in far
+        ]
+    return problems
 
 
 def _refined(geometry: BlockGeometry, models: dict[str, RPCModel], needed: list[str]) -> None:
@@ -230,7 +278,11 @@ def load_geometry(
         geometry.source = files["adjustment"].name
         if not {"scene_id", *AFFINE_KEYS} <= set(adjustment.columns):
             return geometry, problems  # the missing columns are reported with the table
-        problems.extend(_with_affine(geometry, adjustment, files["adjustment"], needed))
+        problems.extend(
+            _with_affine(
+                geometry, adjustment, files["adjustment"], needed, scenes, files["scenes"].name
+            )
+        )
     return geometry, problems
 
 

@@ -309,10 +309,11 @@ def test_delivered_ground_points_absent_put_rc1_in_error(tmp_path, observations,
 
 
 def test_rays_the_geometry_cannot_intersect_fail_rc1(tmp_path) -> None:
-    """A shift of a million pixels in one scene's adjustment (a four-scene synthetic block):
-    rays that no longer meet under the delivered geometry. RC-1 does not pass over what is
-    left: their observations are judged (not reproduced, an infinite difference: null in JSON),
-    the worst of its evidence."""
+    """A shift of 80 000 pixels in one scene's adjustment (a four-scene synthetic block; about
+    twice the image's 40 836 lines, within what adjustment.csv is read with): rays that no
+    longer meet under the delivered geometry. RC-1 does not pass over what is left: their
+    observations are judged (not reproduced, an infinite difference: null in JSON), the worst
+    of its evidence."""
     from geokit import FILES
 
     from blockqc.adjust.synthetic import SyntheticConfig, synthetic_block
@@ -322,7 +323,7 @@ def test_rays_the_geometry_cannot_intersect_fail_rc1(tmp_path) -> None:
     cfg = SyntheticConfig(scenes=4, observations_per_scene=300, checkpoints=25, seed=21)
     _, folder = synthetic_block(models, cfg, tmp_path / "d")
     adjustment = pd.read_csv(folder / "adjustment.csv")
-    adjustment.loc[1, "a0"] = 1e6
+    adjustment.loc[1, "a0"] = 8e4
     adjustment.to_csv(folder / "adjustment.csv", index=False)
     doc = _results(folder)
     rc1 = _rule(doc, "RC-1")[0]
@@ -365,7 +366,7 @@ def test_without_residuals_rays_that_do_not_intersect_put_the_residual_rules_in_
     tie_points = pd.read_csv(folder / "tie_points.csv").drop(columns=["v_line", "v_sample"])
     tie_points.to_csv(folder / "tie_points.csv", index=False)
     adjustment = pd.read_csv(folder / "adjustment.csv")
-    adjustment.loc[1, "a0"] = 1e6
+    adjustment.loc[1, "a0"] = 8e4
     adjustment.to_csv(folder / "adjustment.csv", index=False)
     doc = _results(folder)
     lost = doc["process_data"]["n_points_not_intersected"]

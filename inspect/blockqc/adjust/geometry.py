@@ -367,7 +367,10 @@ def _on_ground(
     max_iter: int,
     tol_px: float,
 ) -> tuple[FloatArray, FloatArray, NDArray[np.bool_]]:
-    """`intersect_at_height` of observations in RFM space (tl, ts), idx sorted."""
+    """`intersect_at_height` of observations in RFM space (tl, ts), idx sorted. An observation
+    the model cannot put on the ground (a position far off its image, a model that degenerates
+    there) may step to a singular or infinite position: it leaves the iterations unconverged,
+    its position NaN, without numpy's warnings on the console."""
     lon = stack.offsets[idx, 3].copy()
     lat = stack.offsets[idx, 2].copy()
     ok = np.zeros(idx.size, bool)
@@ -375,13 +378,14 @@ def _on_ground(
     for _ in range(max_iter):
         if act.size == 0:
             break
-        pl, ps, jac = stack.project(idx[act], lon[act], lat[act], h[act], partials=True)
-        el, es = tl[act] - pl, ts[act] - ps
-        j00, j01, j10, j11 = jac[:, 0, 0], jac[:, 0, 1], jac[:, 1, 0], jac[:, 1, 1]
-        det = j00 * j11 - j01 * j10
-        lon[act] += (j11 * el - j01 * es) / det
-        lat[act] += (j00 * es - j10 * el) / det
-        done = (np.abs(el) < tol_px) & (np.abs(es) < tol_px)
+        with np.errstate(all="ignore"):  # diverging: non-finite, dropped below
+            pl, ps, jac = stack.project(idx[act], lon[act], lat[act], h[act], partials=True)
+            el, es = tl[act] - pl, ts[act] - ps
+            j00, j01, j10, j11 = jac[:, 0, 0], jac[:, 0, 1], jac[:, 1, 0], jac[:, 1, 1]
+            det = j00 * j11 - j01 * j10
+            lon[act] += (j11 * el - j01 * es) / det
+            lat[act] += (j00 * es - j10 * el) / det
+            done = (np.abs(el) < tol_px) & (np.abs(es) < tol_px)
         ok[act[done]] = True
         act = act[~done & np.isfinite(lon[act]) & np.isfinite(lat[act])]
     lon = wrap_lon(lon)

@@ -109,7 +109,9 @@ def weak_height_prior(stack: RPCStack, n_points: int) -> tuple[np.ndarray, np.nd
 def height_priors(block: Block, cfg: AdjustConfig) -> tuple[np.ndarray, np.ndarray, str]:
     """Per point height prior: the DEM under the point (two passes of intersection on the
     DEM), or the weak prior from the RPC height range where there is no DEM value. A DEM that
-    gives no height at any point is refused, as `rfm-accuracy` refuses one under no pixel."""
+    gives no height at any point is refused, as `rfm-accuracy` refuses one under no pixel; when
+    no point's rays intersect at all, the weak prior is kept and the adjustment refuses the
+    block for its RPCs (`solver.refuse_without_intersection`), not the DEM."""
     h, sig, text = weak_height_prior(block.stack, block.obs.n_points)
     if cfg.dem is None:
         return h, sig, text
@@ -126,6 +128,8 @@ def height_priors(block: Block, cfg: AdjustConfig) -> tuple[np.ndarray, np.ndarr
             obs.sample,
             height_prior=(h, sig),
         )
+        if box is None and not res.converged.any():  # no rays meet: the RPCs are refused
+            return h, sig, text
         ok = np.isfinite(res.lon) & np.isfinite(res.lat)
         if not ok.any():
             break

@@ -20,6 +20,7 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sp
@@ -35,6 +36,7 @@ from blockqc.adjust.geometry import (
     apply_2x2,
     ground_jacobian_m,
     intersect,
+    intersect_at_height,
     inv3,
     m_inverse,
     metres_to_degrees,
@@ -668,6 +670,49 @@ def initial_state(stack: RPCStack, obs: Observations, priors: Priors) -> tuple[S
     return state, ok
 
 
+def refuse_without_intersection(
+    stack: RPCStack, obs: Observations, priors: Priors, used: BoolArray
+) -> None:
+    """Refuse a block whose points seen on two or more scenes all have rays that the original
+    RPCs do not intersect (as `blockqc inspect` says it of the delivered geometry): nothing is
+    left to adjust. The RPC files to blame are named when they can be told: those that put
+    none of their scene's observations on the ground alone, at the points' prior heights (a
+    scale or an offset wrong); else the folder of the RPCs."""
+    multi = int(np.count_nonzero(np.bincount(obs.point, minlength=obs.n_points) >= 2))
+    if used.any() or not multi:
+        return  # some point to adjust; or none on two scenes, which the inputs refuse
+    why = (
+        f"the rays of the {multi} tie points seen on two or more scenes do not intersect with "
+        "the delivered geometry"
+    )
+    zero = np.zeros((obs.n_scenes, 6))
+    _, _, ok = intersect_at_height(
+        stack, zero, obs.scene, obs.line, obs.sample, priors.height[obs.point]
+    )
+    seen = np.bincount(obs.scene, minlength=obs.n_scenes)
+    grounded = np.bincount(obs.scene, ok, minlength=obs.n_scenes)
+    blamed = [k for k in np.flatnonzero((seen > 0) & (grounded == 0)) if k < len(stack.sources)]
+    if blamed:
+        raise InputError(
+            [
+                Problem(
+                    stack.sources[k],
+                    f"{why}: this RPC puts none of the {seen[k]} tie-point observations of its "
+                    "scene on the ground at their points' prior heights (expected the RPC of "
+                    "the scene: a scale, an offset or a coefficient wrong?)",
+                )
+                for k in blamed
+            ]
+        )
+    folder = str(Path(stack.sources[0]).parent) if stack.sources else "<block>"
+    raise InputError(
+        Problem(
+            folder,
+            f"{why} (the RPCs of this folder): expected RPCs whose rays of each tie point meet",
+        )
+    )
+
+
 MAX_ROUNDS = 12
 """Rounds of σ re-estimation and rejection (one observation per point and round)."""
 
@@ -713,6 +758,7 @@ def adjust(
         used=ok.copy(),
     )
     ctx.drop_weak_points()
+    refuse_without_intersection(stack, obs, priors, ctx.used)
     state.lon = np.where(ctx.used, state.lon, stack.offsets[0, 3])
     state.lat = np.where(ctx.used, state.lat, stack.offsets[0, 2])
     state.h = np.where(ctx.used, state.h, priors.height)
