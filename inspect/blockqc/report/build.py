@@ -7,6 +7,7 @@ measurements the results name.
 
 from __future__ import annotations
 
+import os
 from typing import Any
 
 from blockqc.report.acceptance import (
@@ -389,6 +390,7 @@ def _header(results: BlockResults, f: Formatter) -> dict[str, Any]:
         )
         + (t("contents_one_scene", n=s["tie_points_on_one_scene"]) if _one_scene(s) else ""),
         "not_read_text": _not_read(results, f),
+        "input_warnings": _input_warnings(results, f),
     }
 
 
@@ -403,6 +405,20 @@ def _not_read(results: BlockResults, f: Formatter) -> str:
         return ""
     columns = ", ".join(f"{table}.{c}" for table, cols in results.not_read.items() for c in cols)
     return f.t("not_read_text", columns=columns)
+
+
+#: the sentences of results.json's input_warnings, in the page's language
+INPUT_WARNINGS = ("iw_ground_differs", "iw_ground_more")
+
+
+def _input_warnings(results: BlockResults, f: Formatter) -> list[str]:
+    """What the delivery gives that its rules judged as given, each in the page's language,
+    its file named within the delivery (the delivery is named on the page)."""
+    folder = os.path.join(results.delivery, "") if results.delivery else ""
+    return [
+        f.sentence(w.removeprefix(folder) if folder else w, INPUT_WARNINGS)
+        for w in results.input_warnings
+    ]
 
 
 def block_context(

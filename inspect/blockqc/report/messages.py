@@ -44,6 +44,23 @@ MESSAGES: dict[str, tuple[str, str]] = {
         "检查点 {checkpoints} 个",
     ),
     "not_read": ("Not read", "未读取"),
+    "input_warnings": ("Input warnings", "输入警告"),
+    # results.json's input_warnings (engine.input_warnings): a point given two ground points
+    "iw_ground_differs": (
+        "{where}: point '{point}' is given {column} {value} here and {first} on row {row}: "
+        "expected one ground point per point (the producer's), the same on each of its rows; "
+        "judged as given (RC-1 with ground: delivered back-projects each row's own ground point)",
+        "{where}：点 '{point}' 在此给出 {column} {value}，在第 {row} 行给出 {first}：每个点应只有"
+        "一个地面点（生产方的），在其各行上相同；按所给评判（RC-1 取 ground: delivered 时按各行"
+        "自己的地面点反投影）",
+    ),
+    "iw_ground_more": (
+        "{where}: {n} more rows give their point another {column} than its first row: expected "
+        "one ground point per point (the producer's), the same on each of its rows; judged as "
+        "given (RC-1 with ground: delivered back-projects each row's own ground point)",
+        "{where}：另有 {n} 行给出的 {column} 与其点的第一行不同：每个点应只有一个地面点（生产方"
+        "的），在其各行上相同；按所给评判（RC-1 取 ground: delivered 时按各行自己的地面点反投影）",
+    ),
     "not_read_text": (
         "{columns}: no rule of the pack reads these columns (the pack reads only the columns "
         "its rules use); their checks, and those of keys over them, were not made",
