@@ -158,20 +158,25 @@ def _distorting(table: pd.DataFrame, file: Path) -> list[Problem]:
     a = table[list(linear)].to_numpy(dtype=float)
     with np.errstate(invalid="ignore"):  # NaN cells: the table's own problem
         bad = np.flatnonzero((np.abs(a) > AFFINE_LIMIT).any(axis=1))
-    csv = file.suffix.lower() == ".csv"
     return [
-        Problem(
-            str(file),
+        _at_row(
+            file,
+            i,
+            "a1, a2, b1, b2",
             f"scene '{table['scene_id'].iloc[i]}': the affine's terms per pixel (a1, a2, b1, b2) "
             f"are ({', '.join(f'{v:g}' for v in a[i])}); expected each within ±{AFFINE_LIMIT:g} "
             "(an adjustment corrects the image by parts per thousand; larger terms rotate, "
             "scale, collapse or mirror it, or are not per pixel)",
-            row=int(i) + 1,
-            line=int(i) + 2 if csv else None,
-            column="a1, a2, b1, b2",
         )
         for i in bad
     ]
+
+
+def _at_row(file: Path, i: int, column: str, message: str) -> Problem:
+    """A problem of the table's row at position i, with its line in a CSV file (the header
+    on line 1)."""
+    line = int(i) + 2 if file.suffix.lower() == ".csv" else None
+    return Problem(str(file), message, row=int(i) + 1, line=line, column=column)
 
 
 #: how many times its image's size (lines for a0, samples for b0) an affine's offset may be: an
@@ -192,7 +197,6 @@ def _far_offsets(
     if not {"lines", "samples"} <= set(scenes.columns):
         return []
     size = scenes.drop_duplicates("scene_id").set_index("scene_id")
-    csv = file.suffix.lower() == ".csv"
     problems = []
     for key, extent in (("a0", "lines"), ("b0", "samples")):
         image = table["scene_id"].map(size[extent]).to_numpy(dtype=float, na_value=np.nan)
@@ -200,16 +204,15 @@ def _far_offsets(
         with np.errstate(invalid="ignore"):  # NaN: no size, or no value (said elsewhere)
             far = np.flatnonzero(np.abs(value) > OFFSET_LIMIT_IMAGES * image)
         problems += [
-            Problem(
-                str(file),
+            _at_row(
+                file,
+                i,
+                key,
                 f"scene '{table['scene_id'].iloc[i]}': {key} is {value[i]:g} px; expected "
                 f"within ±{OFFSET_LIMIT_IMAGES * image[i]:g} px, {OFFSET_LIMIT_IMAGES:g} times "
                 f"the scene's {image[i]:g} {extent} in {scenes_file} (an adjustment moves the "
                 "image by pixels, at most hundreds of them: this offset puts every tie point "
                 "off its scene; a value in other units, or a no-data marker?)",
-                row=int(i) + 1,
-                line=int(i) + 2 if csv else None,
-                column=key,
             )
             for i in far
         ]
@@ -502,15 +505,13 @@ def _ground_problems(
     if column == "lon":
         diff = wrap_lon(diff)
     bad = rows[np.abs(diff) > GROUND_AGREEMENT[column]]
-    csv = file.suffix.lower() == ".csv"
     out = [
-        Problem(
-            str(file),
+        _at_row(
+            file,
+            i,
+            column,
             f"point '{ids.iloc[i]}' is given {column} {v[i]:.10g} here and "
             f"{first[point[i]]:.10g} on row {first_row[point[i]] + 1}: {why}",
-            row=int(i) + 1,
-            line=int(i) + 2 if csv else None,
-            column=column,
         )
         for i in bad[:MAX_ROWS_LISTED]
     ]
