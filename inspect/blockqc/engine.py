@@ -15,6 +15,7 @@ from blockqc import __version__
 from blockqc.delivery import Delivery, summary
 from blockqc.geometry_inputs import ONE_GROUND_POINT, ground_disagreements
 from blockqc.inspector import BlockInput, Waiver
+from blockqc.layout import apart_scenes
 from blockqc.metrics import REGISTRY, Measurement, Table
 from blockqc.outputs import jsonable, records
 from blockqc.results import BlockResults, MeasurementRecord, RuleResult, tally
@@ -565,6 +566,7 @@ def inspect_delivery(
     )
 
 
+SCENES_FILE = "scenes.csv"  # named in a warning when the delivery's scenes came from no file
 #: why a tie point given two ground points is said, not refused, by the inspection
 GROUND_POINTS_DIFFER = (
     f"{ONE_GROUND_POINT}; judged as given (RC-1 with ground: delivered back-projects each row's "
@@ -573,12 +575,14 @@ GROUND_POINTS_DIFFER = (
 
 
 def input_warnings(d: Delivery) -> list[str]:
-    """What the delivery gives that is judged as given but said: the tie points whose rows give
-    their point different ground points (`blockqc adjust` refuses them, by the same check)."""
+    """What the delivery gives that is judged as given but said: scenes whose footprints lie
+    apart from the block's (`layout.apart_scenes`), the tie points whose rows give their point
+    different ground points (`blockqc adjust` refuses them, by the same check)."""
+    found = apart_scenes(d.scenes, d.files.get("scenes", SCENES_FILE))
     file = d.files.get("tie_points")
-    if file is None:
-        return []
-    return [str(p) for p in located(ground_disagreements(file, d.tie_points, GROUND_POINTS_DIFFER))]
+    if file is not None:
+        found += ground_disagreements(file, d.tie_points, GROUND_POINTS_DIFFER)
+    return [str(p) for p in located(found)]
 
 
 SCENE_COLUMNS = ("scene_id", "band", "acquired", "lines", "samples", "footprint_wkt")

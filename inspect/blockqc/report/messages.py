@@ -45,7 +45,23 @@ MESSAGES: dict[str, tuple[str, str]] = {
     ),
     "not_read": ("Not read", "未读取"),
     "input_warnings": ("Input warnings", "输入警告"),
-    # results.json's input_warnings (engine.input_warnings): a point given two ground points
+    # results.json's input_warnings (engine.input_warnings): a scene apart from the block
+    "iw_scene_apart": (
+        "{where}: scene '{scene}' lies apart from the block: its footprint is {gap} km from the "
+        "nearest of the block's other scenes ('{nearest}'), more than {k} times its own size "
+        "({size} km): expected the footprints of one block side by side (its coordinates in "
+        "error?)",
+        "{where}：影像 '{scene}' 远离区块：其范围距区块内最近的其他影像（'{nearest}'）{gap} 千米，"
+        "超过其自身尺寸（{size} 千米）的 {k} 倍：同一区块的影像范围应彼此相邻（其坐标有误？）",
+    ),
+    "iw_scenes_apart": (
+        "{where}: the scenes' footprints fall into {groups} groups apart from each other (the "
+        "largest {largest} of {n} scenes), each more than {k} scene sizes from the others: "
+        "expected the footprints of one block side by side (coordinates in error?)",
+        "{where}：影像范围分成 {groups} 组，彼此相距超过影像尺寸的 {k} 倍（最大一组为 {n} 景中的 "
+        "{largest} 景）：同一区块的影像范围应彼此相邻（坐标有误？）",
+    ),
+    # … and a point given two ground points
     "iw_ground_differs": (
         "{where}: point '{point}' is given {column} {value} here and {first} on row {row}: "
         "expected one ground point per point (the producer's), the same on each of its rows; "
