@@ -6,8 +6,10 @@ tables written beside it.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -17,7 +19,7 @@ import pandas as pd
 
 from blockqc.adjust.geometry import RPCStack, intersect, ray_tilts
 from blockqc.adjust.inputs import AdjustInput, load_adjust_input
-from blockqc.adjust.solver import Observations, Priors, Settings, Solution, adjust
+from blockqc.adjust.solver import BLOCK, Observations, Priors, Settings, Solution, adjust
 from blockqc.errors import InputError, Problem
 from blockqc.grouped import Groups
 from blockqc.metrics.checkpoints import AccuracyParams
@@ -380,6 +382,20 @@ def checkpoint_warning(n: int) -> str | None:
     return EN("ad_cps_few", n=n) if n < 20 else None
 
 
+@contextlib.contextmanager
+def named_block(delivery: Path) -> Iterator[None]:
+    """The adjustment's own problems (a singular system, a point its rays do not fix) named by
+    the delivery they are of, where the solver, which sees no files, names the block."""
+    try:
+        yield
+    except InputError as exc:
+        problems = [
+            dataclasses.replace(p, file=str(delivery)) if p.file == BLOCK else p
+            for p in exc.problems
+        ]
+        raise InputError(problems) from None
+
+
 def run_adjust(cfg: AdjustConfig) -> dict:
     """Read, adjust, compare and write every output; returns adjust.json's content."""
     from blockqc.adjust.outputs import write_outputs
@@ -391,7 +407,10 @@ def run_adjust(cfg: AdjustConfig) -> dict:
     priors, datum_desc = datum(block, cfg)
     out = check_out_dir(cfg.out, cfg.inputs())  # created once the inputs (DEM too) are read
     clock.lap("datum")
-    sol, v0l, v0s = adjust(block.stack, block.obs, block.lines, block.samples, priors, cfg.settings)
+    with named_block(cfg.delivery):
+        sol, v0l, v0s = adjust(
+            block.stack, block.obs, block.lines, block.samples, priors, cfg.settings
+        )
     clock.lap("adjust")
     _refuse_without_redundancy(block, sol, cfg.settings)
     cps, cp_info = checkpoints(block, sol, priors, cfg.checkpoints)

@@ -331,6 +331,9 @@ def _reduced_rhs(
     return (-ga + _scene_sum(obs, w, lin.g, q)).ravel()
 
 
+#: the file a problem of the adjustment itself names: the block (`run.named_block` names its
+#: delivery instead)
+BLOCK = "<block>"
 SINGULAR = (
     "the block adjustment is singular: the datum is not fixed (give finite a-priori "
     "affine σ, --fix a scene or --dem) or some scene has too few tie observations"
@@ -343,7 +346,7 @@ def check_datum(priors: Priors) -> None:
     as the image noise would hide the defect from the factorization)."""
     free = not np.isfinite(priors.sigma_shift_px) or not np.isfinite(priors.sigma_linear_px)
     if free and not priors.fixed.any():
-        raise InputError(Problem("<block>", SINGULAR))
+        raise InputError(Problem(BLOCK, SINGULAR))
 
 
 def solve_reduced(s: sp.csc_matrix, b: FloatArray) -> tuple[FloatArray, spla.SuperLU]:
@@ -351,15 +354,15 @@ def solve_reduced(s: sp.csc_matrix, b: FloatArray) -> tuple[FloatArray, spla.Sup
     message = SINGULAR
     diag = s.diagonal()
     if not np.all(np.isfinite(diag)) or diag.min() <= 0:
-        raise InputError(Problem("<block>", message))
+        raise InputError(Problem(BLOCK, message))
     scale = sp.diags(1.0 / np.sqrt(diag))
     try:
         lu = spla.splu((scale @ s @ scale).tocsc())  # unit diagonal: pivots comparable
     except RuntimeError:
-        raise InputError(Problem("<block>", message)) from None
+        raise InputError(Problem(BLOCK, message)) from None
     d = np.abs(lu.U.diagonal())
     if not np.all(np.isfinite(d)) or d.min() <= 1e-13:
-        raise InputError(Problem("<block>", message))
+        raise InputError(Problem(BLOCK, message))
     return scale @ lu.solve(scale @ b), lu
 
 
@@ -416,9 +419,7 @@ def gauss_newton_step(
     u_inv, ok = inv3(u)
     if not np.all(ok):
         bad = int(np.flatnonzero(~ok)[0])
-        raise InputError(
-            Problem("<block>", f"tie point #{bad + 1}: its rays do not fix its position")
-        )
+        raise InputError(Problem(BLOCK, f"tie point #{bad + 1}: its rays do not fix its position"))
     u_inv[~used] = 0.0
     prior_w = prior_weights(priors, obs.n_scenes)
     s_mat, b = reduced_system(obs, lin, w, u_inv, gx, pairs, prior_w, state.p)
@@ -540,7 +541,7 @@ def _dense_covariance(s: sp.csc_matrix, fixed: BoolArray) -> tuple[FloatArray, F
     factor, info = sla.lapack.dpotrf(s.toarray(), lower=True, overwrite_a=True)
     full, info2 = sla.lapack.dpotri(factor, lower=True, overwrite_c=True)
     if info or info2:
-        raise InputError(Problem("<block>", "the reduced normal matrix is not positive definite"))
+        raise InputError(Problem(BLOCK, "the reduced normal matrix is not positive definite"))
     for i0 in range(0, n, 512):  # mirror the lower triangle, a band at a time (no n² copies)
         i1 = min(n, i0 + 512)
         band = full[i0:i1, i0:i1]
@@ -704,7 +705,7 @@ def refuse_without_intersection(
                 for k in blamed
             ]
         )
-    folder = str(Path(stack.sources[0]).parent) if stack.sources else "<block>"
+    folder = str(Path(stack.sources[0]).parent) if stack.sources else BLOCK
     raise InputError(
         Problem(
             folder,
