@@ -32,6 +32,13 @@ class Problem:
     line: int | None = None  # 1-based line in a text file (YAML, CSV)
     column: str | None = None
 
+    @classmethod
+    def at_row(cls, file: Path | str, i: int, message: str, column: str | None = None) -> Problem:
+        """The problem of a table's row at position i (0-based), with its line in a CSV file
+        (the header on line 1)."""
+        line = int(i) + 2 if str(file).lower().endswith(".csv") else None
+        return cls(str(file), message, row=int(i) + 1, line=line, column=column)
+
     def __str__(self) -> str:
         where = [self.file] if self.file else []
         if self.row is not None and self.line is not None:

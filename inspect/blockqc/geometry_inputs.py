@@ -19,7 +19,7 @@ import pandas as pd
 
 from blockqc import grouped
 from blockqc.errors import InputError, Problem
-from blockqc.rfm.model import DOMAIN_REACH, RPCModel, wrap_lon
+from blockqc.rfm.model import DOMAIN_REACH, RPCModel, boxes_meet, wrap_lon
 from blockqc.rfm.readers import read_rpc
 from blockqc.schema import MAX_ROWS_LISTED, visible_name
 
@@ -159,24 +159,17 @@ def _distorting(table: pd.DataFrame, file: Path) -> list[Problem]:
     with np.errstate(invalid="ignore"):  # NaN cells: the table's own problem
         bad = np.flatnonzero((np.abs(a) > AFFINE_LIMIT).any(axis=1))
     return [
-        _at_row(
+        Problem.at_row(
             file,
             i,
-            "a1, a2, b1, b2",
             f"scene '{table['scene_id'].iloc[i]}': the affine's terms per pixel (a1, a2, b1, b2) "
             f"are ({', '.join(f'{v:g}' for v in a[i])}); expected each within ±{AFFINE_LIMIT:g} "
             "(an adjustment corrects the image by parts per thousand; larger terms rotate, "
             "scale, collapse or mirror it, or are not per pixel)",
+            column="a1, a2, b1, b2",
         )
         for i in bad
     ]
-
-
-def _at_row(file: Path, i: int, column: str, message: str) -> Problem:
-    """A problem of the table's row at position i, with its line in a CSV file (the header
-    on line 1)."""
-    line = int(i) + 2 if file.suffix.lower() == ".csv" else None
-    return Problem(str(file), message, row=int(i) + 1, line=line, column=column)
 
 
 #: how many times its image's size (lines for a0, samples for b0) an affine's offset may be: an
@@ -204,15 +197,15 @@ def _far_offsets(
         with np.errstate(invalid="ignore"):  # NaN: no size, or no value (said elsewhere)
             far = np.flatnonzero(np.abs(value) > OFFSET_LIMIT_IMAGES * image)
         problems += [
-            _at_row(
+            Problem.at_row(
                 file,
                 i,
-                key,
                 f"scene '{table['scene_id'].iloc[i]}': {key} is {value[i]:g} px; expected "
                 f"within ±{OFFSET_LIMIT_IMAGES * image[i]:g} px, {OFFSET_LIMIT_IMAGES:g} times "
                 f"the scene's {image[i]:g} {extent} in {scenes_file} (an adjustment moves the "
                 "image by pixels, at most hundreds of them: this offset puts every tie point "
                 "off its scene; a value in other units, or a no-data marker?)",
+                column=key,
             )
             for i in far
         ]
@@ -318,9 +311,8 @@ def domain_problem(model: RPCModel, sid: str, wkt: object, table: str) -> Proble
     if box is None:
         return None
     west, south, east, north = box
-    shift = 360.0 * round((model.lon_off - (west + east) / 2) / 360.0)  # ±180° and 0..360°
-    lon0, lat0, lon1, lat1 = model.ground_domain(REACH)
-    if west + shift <= lon1 and east + shift >= lon0 and south <= lat1 and north >= lat0:
+    lon0, lat0, lon1, lat1 = domain = model.ground_domain(REACH)
+    if boxes_meet(box, domain):  # longitudes ±180° and 0..360° alike
         return None
     return Problem(
         model.source,
@@ -506,12 +498,12 @@ def _ground_problems(
         diff = wrap_lon(diff)
     bad = rows[np.abs(diff) > GROUND_AGREEMENT[column]]
     out = [
-        _at_row(
+        Problem.at_row(
             file,
             i,
-            column,
             f"point '{ids.iloc[i]}' is given {column} {v[i]:.10g} here and "
             f"{first[point[i]]:.10g} on row {first_row[point[i]] + 1}: {why}",
+            column=column,
         )
         for i in bad[:MAX_ROWS_LISTED]
     ]

@@ -98,15 +98,13 @@ def apart_scenes(scenes: pd.DataFrame, file: Path | str) -> list[Problem]:
 def _apart(
     file: Path | str, row: int, ids: np.ndarray, nearest: int, gap_km: float, size_km: float
 ) -> Problem:
-    csv = str(file).lower().endswith(".csv")
-    return Problem(
-        str(file),
+    return Problem.at_row(
+        file,
+        row,
         f"scene '{ids[row]}' lies apart from the block: its footprint is {gap_km:,.0f} km from "
         f"the nearest of the block's other scenes ('{ids[nearest]}'), more than "
         f"{GAP_SIZES:g} times its own size ({size_km:,.1f} km): expected the footprints of one "
         "block side by side (its coordinates in error?)",
-        row=int(row) + 1,
-        line=int(row) + 2 if csv else None,
         column="footprint_wkt",
     )
 

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from blockqc.errors import Problem
-from blockqc.rfm.model import DOMAIN_REACH, RPCModel
+from blockqc.rfm.model import DOMAIN_REACH, RPCModel, boxes_meet, lon_turn
 from blockqc.rfm.ortho import image_border
 
 Box = tuple[float, float, float, float]
@@ -99,25 +99,11 @@ def _on_earth(box: Box) -> bool:
     return -90.0 <= south and north <= 90.0 and -180.0 <= west and east <= 360.0
 
 
-def _turn(box: Box, other: Box) -> float:
-    """The multiple of 360° that brings the first box's longitudes nearest the second's
-    (longitudes −180…180 or 0…360)."""
-    return 360.0 * round(((other[0] + other[2]) - (box[0] + box[2])) / 720.0)
-
-
-def _meets(box: Box, other: Box) -> bool:
-    """Whether two lon/lat boxes overlap (the first turned by `_turn`)."""
-    west, south, east, north = box
-    o_west, o_south, o_east, o_north = other
-    turn = _turn(box, other)
-    return west + turn <= o_east and east + turn >= o_west and south <= o_north and north >= o_south
-
-
 def _within(box: Box, other: Box) -> bool:
-    """Whether the first lon/lat box lies inside the second (the first turned by `_turn`)."""
+    """Whether the first lon/lat box lies inside the second (the first turned by `lon_turn`)."""
     west, south, east, north = box
     o_west, o_south, o_east, o_north = other
-    turn = _turn(box, other)
+    turn = lon_turn(box, other)
     return o_west <= west + turn and east + turn <= o_east and o_south <= south and north <= o_north
 
 
@@ -161,7 +147,7 @@ def _swapped_on(rpc: RPCModel, extent: Box) -> bool:
     DOMAIN_REACH·LAT_SCALE taken as longitudes, LONG_OFF ± … as latitudes) meets the DEM."""
     west, south, east, north = rpc.ground_domain()
     swapped = (south, west, north, east)
-    return _on_earth(swapped) and _meets(swapped, extent)
+    return _on_earth(swapped) and boxes_meet(swapped, extent)
 
 
 def off_dem_problem(

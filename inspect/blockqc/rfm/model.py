@@ -15,7 +15,7 @@ Conventions, used everywhere in `blockqc.rfm`:
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -153,6 +153,21 @@ def lon_extent(lon: np.ndarray) -> tuple[float, float]:
     if widest == len(lon) - 1:
         return float(lon[0]), float(lon[-1])
     return float(lon[widest + 1]), float(lon[widest] + 360.0)
+
+
+def lon_turn(box: Sequence[float], other: Sequence[float]) -> float:
+    """The multiple of 360° that brings the first lon/lat box's longitudes (west, south, east,
+    north) nearest the second's (longitudes −180…180 or 0…360)."""
+    return 360.0 * round(((other[0] + other[2]) - (box[0] + box[2])) / 720.0)
+
+
+def boxes_meet(box: Sequence[float], other: Sequence[float]) -> bool:
+    """Whether two lon/lat boxes (west, south, east, north) overlap, the first turned by
+    `lon_turn`."""
+    west, south, east, north = box
+    o_west, o_south, o_east, o_north = other
+    turn = lon_turn(box, other)
+    return west + turn <= o_east and east + turn >= o_west and south <= o_north and north >= o_south
 
 
 @dataclass(frozen=True, eq=False)
