@@ -240,11 +240,28 @@ def gather(paths: list[Path]) -> Gathered:
     files named more than once (read once), and those left out: a folder with a summary gives
     the summary's blocks, another block's results there (a delivery since withdrawn) is not
     rendered."""
-    results: list[tuple[Path, BlockResults, bytes]] = []
-    summary: tuple[Path, Summary, bytes] | None = None
+    named, beside = _named_files(paths)
+    named, repeated = _once(named)
+    files, loaded, summary, problems = _read_documents(named)
+    results, refused = _checked_results(loaded)
+    problems += refused
+    unchecked: list[str] = []
+    if summary is not None:
+        by_file = {f.resolve(): d for f, d, _ in results}
+        problems += _summary_contradictions(summary[0], summary[1], by_file, unchecked)
+    if problems:
+        raise InputError(problems)
+    read = {f.resolve() for f in files}
+    left_out = [f for f in beside if f.resolve() not in read]
+    return Gathered(results, summary, repeated, left_out, unchecked)
+
+
+def _named_files(paths: list[Path]) -> tuple[list[Path], list[Path]]:
+    """The files the paths name (a folder: its results.json, else its summary.json or its
+    */results.json), and the results beside a summary, read only when it lists them."""
     problems: list[Problem] = []
     files: list[Path] = []
-    beside: list[Path] = []  # results beside a summary, read only when it lists them
+    beside: list[Path] = []
     for p in paths:
         if p.is_dir():
             if (p / "results.json").is_file():
@@ -268,8 +285,20 @@ def gather(paths: list[Path]) -> Gathered:
             problems.append(Problem(str(p), "does not exist"))
     if problems:
         raise InputError(problems)
+    return files, beside
+
+
+def _read_documents(
+    named: list[Path],
+) -> tuple[
+    list[Path], list[tuple[Path, Any, bytes]], tuple[Path, Summary, bytes] | None, list[Problem]
+]:
+    """The files read (those named, then the summary's blocks not named), the results documents
+    as read (not yet checked), the summary checked, and the problems met."""
+    files = list(named)
     loaded: list[tuple[Path, Any, bytes]] = []
-    files, repeated = _once(files)
+    summary: tuple[Path, Summary, bytes] | None = None
+    problems: list[Problem] = []
     queue = list(files)
     while queue:
         f = queue.pop(0)
@@ -293,6 +322,15 @@ def gather(paths: list[Path]) -> Gathered:
             problems += missing
             continue
         loaded.append((f, doc, raw))
+    return files, loaded, summary, problems
+
+
+def _checked_results(
+    loaded: list[tuple[Path, Any, bytes]],
+) -> tuple[list[tuple[Path, BlockResults, bytes]], list[Problem]]:
+    """The results documents checked, each block once, and the problems met."""
+    results: list[tuple[Path, BlockResults, bytes]] = []
+    problems: list[Problem] = []
     seen: dict[str, Path] = {}
     for f, doc, raw in loaded:
         try:
@@ -307,15 +345,7 @@ def gather(paths: list[Path]) -> Gathered:
             continue
         seen[bid] = f
         results.append((f, doc, raw))
-    unchecked: list[str] = []
-    if summary is not None:
-        by_file = {f.resolve(): d for f, d, _ in results}
-        problems += _summary_contradictions(summary[0], summary[1], by_file, unchecked)
-    if problems:
-        raise InputError(problems)
-    read = {f.resolve() for f in files}
-    left_out = [f for f in beside if f.resolve() not in read]
-    return Gathered(results, summary, repeated, left_out, unchecked)
+    return results, problems
 
 
 def _summary_contradictions(
@@ -324,6 +354,23 @@ def _summary_contradictions(
     """The summary's counts must be those of its blocks, each block's id, verdict and counts
     those of the results file it names (as `inspect` writes them), and its batch decision the
     one they make; `results`: by real path; `unchecked`: what could not be checked, said."""
+    blocks = summary.blocks
+    out = _count_contradictions(path, summary)
+    for b in blocks:
+        r = results.get((path.parent / b.results).resolve())
+        if r is not None:
+            out += _block_contradictions(path, summary, b, r)
+    out += _rule_count_contradictions(path, summary, list(results.values()))
+    if out:  # the decision over blocks the summary does not describe would say so again
+        return out
+    made = [results.get((path.parent / b.results).resolve()) for b in blocks]
+    if None in made:  # a block's results missing (refused) or unread: no decision to make
+        return out
+    return _acceptance_contradictions(path, summary, made, unchecked)
+
+
+def _count_contradictions(path: Path, summary: Summary) -> list[Problem]:
+    """The summary's counts, verdict and completeness against those its blocks make."""
     blocks = summary.blocks
     c = summary.counts
     expected = {
@@ -358,50 +405,44 @@ def _summary_contradictions(
                 "incomplete or awaiting the inspector)",
             )
         )
-    for b in blocks:
-        r = results.get((path.parent / b.results).resolve())
-        if r is None:
-            continue
-        if r.block_id != b.block_id:
-            out.append(
-                Problem(
-                    str(path),
-                    f"lists block {b.block_id} with the results file {b.results}, which is block "
-                    f"{r.block_id}'s: the summary is not that of these results",
-                )
+    return out
+
+
+def _block_contradictions(
+    path: Path, summary: Summary, b: BlockEntry, r: BlockResults
+) -> list[Problem]:
+    """A block the summary lists against the results file it names: its id, the rule pack that
+    judged it, its verdict and counts, then the rest of its line."""
+    if r.block_id != b.block_id:
+        return [
+            Problem(
+                str(path),
+                f"lists block {b.block_id} with the results file {b.results}, which is block "
+                f"{r.block_id}'s: the summary is not that of these results",
             )
-            continue
-        if (r.rule_pack, r.rule_pack_version) != (summary.rule_pack, summary.rule_pack_version):
-            out.append(
-                Problem(
-                    str(path),
-                    f"is of rule pack {summary.rule_pack} {summary.rule_pack_version}, but block "
-                    f"{b.block_id}'s results file {b.results} was judged by "
-                    f"{r.rule_pack} {r.rule_pack_version}: the summary is not that of these "
-                    "results",
-                )
+        ]
+    if (r.rule_pack, r.rule_pack_version) != (summary.rule_pack, summary.rule_pack_version):
+        return [
+            Problem(
+                str(path),
+                f"is of rule pack {summary.rule_pack} {summary.rule_pack_version}, but block "
+                f"{b.block_id}'s results file {b.results} was judged by "
+                f"{r.rule_pack} {r.rule_pack_version}: the summary is not that of these "
+                "results",
             )
-            continue
-        counted = b.counts and any(b.counts.get(s, 0) != n for s, n in r.counts.items())
-        if b.verdict != r.verdict or counted:
-            out.append(
-                Problem(
-                    str(path),
-                    f"lists block {b.block_id} as {b.verdict}, with counts {dict(b.counts)}, but "
-                    f"its results file says {r.verdict}, with {dict(r.counts)}: the summary is not "
-                    "that of these results (inspect again, or name the results files without "
-                    "the summary)",
-                )
+        ]
+    counted = b.counts and any(b.counts.get(s, 0) != n for s, n in r.counts.items())
+    if b.verdict != r.verdict or counted:
+        return [
+            Problem(
+                str(path),
+                f"lists block {b.block_id} as {b.verdict}, with counts {dict(b.counts)}, but "
+                f"its results file says {r.verdict}, with {dict(r.counts)}: the summary is not "
+                "that of these results (inspect again, or name the results files without "
+                "the summary)",
             )
-        else:
-            out += _entry_contradictions(path, b, r)
-    out += _rule_count_contradictions(path, summary, list(results.values()))
-    if out:  # the decision over blocks the summary does not describe would say so again
-        return out
-    made = [results.get((path.parent / b.results).resolve()) for b in blocks]
-    if None in made:  # a block's results missing (refused) or unread: no decision to make
-        return out
-    return _acceptance_contradictions(path, summary, made, unchecked)
+        ]
+    return _entry_contradictions(path, b, r)
 
 
 #: what the summary pages show of a block beside its verdict, as `inspect` makes it from the
@@ -527,25 +568,8 @@ def _acceptance_contradictions(
 
     given = summary.acceptance
     evaluated = [r.block_id for r in made if r.evaluation is not None]
-    if given is None:
-        if not evaluated:
-            return []  # a pack without `acceptance:` (asprs-2023): no decision to make
-        return [
-            Problem(
-                str(path),
-                "$.acceptance is null, but its blocks' results files are evaluated (block "
-                f"{evaluated[0]}): the batch decision is left out (inspect again)",
-            )
-        ]
-    if made and not evaluated:
-        return [
-            Problem(
-                str(path),
-                "$.acceptance gives a batch decision, but none of its blocks' results files is "
-                "evaluated (their pack has no acceptance section): the summary is not that of "
-                "these results",
-            )
-        ]
+    if given is None or (made and not evaluated):
+        return _decision_left_out(path, given, evaluated)
     out: list[Problem] = []
     if len(given.unreadable) != len(summary.unreadable):
         out.append(
@@ -574,10 +598,42 @@ def _acceptance_contradictions(
             f"{summary.rule_pack} {summary.rule_pack_version} is not found as it judged them "
             "(at the file its blocks' results name, nor among the stock packs)"
         )
+    return out + _decision_field_contradictions(path, given, d, skip)
+
+
+def _decision_left_out(path: Path, given: Any, evaluated: list[str]) -> list[Problem]:
+    """A summary without a batch decision whose blocks are evaluated (`evaluated`: their ids),
+    or with one whose blocks are not (neither: a pack without `acceptance:`, no decision)."""
+    if given is None:
+        if not evaluated:
+            return []  # a pack without `acceptance:` (asprs-2023): no decision to make
+        return [
+            Problem(
+                str(path),
+                "$.acceptance is null, but its blocks' results files are evaluated (block "
+                f"{evaluated[0]}): the batch decision is left out (inspect again)",
+            )
+        ]
+    return [
+        Problem(
+            str(path),
+            "$.acceptance gives a batch decision, but none of its blocks' results files is "
+            "evaluated (their pack has no acceptance section): the summary is not that of "
+            "these results",
+        )
+    ]
+
+
+def _decision_field_contradictions(
+    path: Path, given: Any, made: Any, skip: tuple[str, ...]
+) -> list[Problem]:
+    """The fields of the summary's batch decision that differ from the decision its blocks
+    make (those in `skip` left unchecked)."""
+    out: list[Problem] = []
     for name in _DECISION_FIELDS:
         if name in skip:
             continue
-        diff = _decision_difference(name, getattr(given, name), getattr(d, name))
+        diff = _decision_difference(name, getattr(given, name), getattr(made, name))
         if diff:
             out.append(
                 Problem(
