@@ -16,7 +16,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Protocol
+from typing import NoReturn, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -239,24 +239,7 @@ def ortho_grid(
     if heights.size == 0:  # a DEM inside the border, a void at the centre: look inside
         heights = _inner_heights(model, shape, crop_offset, dem)
     if heights.size == 0:
-        # say where the image is: its footprint at the DEM's mean height
-        finite = dem.grid.values[np.isfinite(dem.grid.values)]
-        lon_f, lat_f, _ = model.image_to_ground(
-            br + r0, bc + c0, float(finite.mean()) if finite.size else 0.0
-        )
-        why = (
-            "does not cover the image footprint"
-            if finite.size
-            else "holds no height over the image footprint, only voids (no-data)"
-        )
-        raise InputError(
-            Problem(
-                file=dem.grid.source,
-                message=f"the DEM {why} "
-                f"(lon {np.nanmin(lon_f):.4f}..{np.nanmax(lon_f):.4f}, "
-                f"lat {np.nanmin(lat_f):.4f}..{np.nanmax(lat_f):.4f})",
-            )
-        )
+        _refuse_dem(model, br + r0, bc + c0, dem)
     mean_height = float(heights.mean())
     if missing.any():
         # the grid still spans the whole footprint (at the mean height where the DEM has no
@@ -264,20 +247,56 @@ def ortho_grid(
         lon[missing], lat[missing], _ = model.image_to_ground(
             br[missing] + r0, bc[missing] + c0, mean_height
         )
-    if crs is None:
-        crs = utm_ups_crs(float(np.mean(lon)), float(np.mean(lat)))
-    else:
-        why = scale_off(crs, float(np.mean(lon)), float(np.mean(lat)))
-        if why:
-            why = f"--crs {crs.name}: {why}; give a CRS whose scale there is within "
-            why += f"{CRS_SCALE_TOLERANCE:.0%} of 1 (leave --crs out for the UTM zone)"
-            raise InputError(Problem(file="<arguments>", message=why))
+    crs = _grid_crs(crs, lon, lat)
     gsd_given = gsd is not None
     if gsd is None:
         gsd = round(image_gsd(model, centre[0], centre[1], dem, crs, mean_height), 3)
     if not (np.isfinite(gsd) and gsd > 0):
         why = f"GSD must be a finite number > 0, got {gsd}"
         raise InputError(Problem(file="<arguments>", message=why))
+    grid = _grid_over(lon, lat, crs, gsd)
+    check_grid_size(grid, margin, gsd_given)
+    return grid
+
+
+def _refuse_dem(model: GroundToImage, rows: FloatArray, cols: FloatArray, dem: DEM) -> NoReturn:
+    """Refuse a DEM with no height over the image, saying where the image is: its border
+    (`rows`, `cols`: full-image positions) on the ground at the DEM's mean height."""
+    finite = dem.grid.values[np.isfinite(dem.grid.values)]
+    lon_f, lat_f, _ = model.image_to_ground(
+        rows, cols, float(finite.mean()) if finite.size else 0.0
+    )
+    why = (
+        "does not cover the image footprint"
+        if finite.size
+        else "holds no height over the image footprint, only voids (no-data)"
+    )
+    raise InputError(
+        Problem(
+            file=dem.grid.source,
+            message=f"the DEM {why} "
+            f"(lon {np.nanmin(lon_f):.4f}..{np.nanmax(lon_f):.4f}, "
+            f"lat {np.nanmin(lat_f):.4f}..{np.nanmax(lat_f):.4f})",
+        )
+    )
+
+
+def _grid_crs(crs: CRS | None, lon: FloatArray, lat: FloatArray) -> CRS:
+    """The grid's CRS: the UTM (UPS) zone of the footprint's mean position, else the CRS given,
+    refused where its scale there is off."""
+    if crs is None:
+        return utm_ups_crs(float(np.mean(lon)), float(np.mean(lat)))
+    why = scale_off(crs, float(np.mean(lon)), float(np.mean(lat)))
+    if why:
+        why = f"--crs {crs.name}: {why}; give a CRS whose scale there is within "
+        why += f"{CRS_SCALE_TOLERANCE:.0%} of 1 (leave --crs out for the UTM zone)"
+        raise InputError(Problem(file="<arguments>", message=why))
+    return crs
+
+
+def _grid_over(lon: FloatArray, lat: FloatArray, crs: CRS, gsd: float) -> OrthoGrid:
+    """The north-up grid of `gsd` in `crs` covering the footprint, its edges multiples of the
+    GSD."""
     x, y = Transformer.from_crs(CRS.from_epsg(4326), crs, always_xy=True).transform(lon, lat)
     x0 = np.floor(np.min(x) / gsd) * gsd
     x1 = np.ceil(np.max(x) / gsd) * gsd
@@ -285,9 +304,7 @@ def ortho_grid(
     y1 = np.ceil(np.max(y) / gsd) * gsd
     width = int(round((x1 - x0) / gsd))
     height = int(round((y1 - y0) / gsd))
-    grid = OrthoGrid(crs, Affine(gsd, 0.0, x0, 0.0, -gsd, y1), width, height)
-    check_grid_size(grid, margin, gsd_given)
-    return grid
+    return OrthoGrid(crs, Affine(gsd, 0.0, x0, 0.0, -gsd, y1), width, height)
 
 
 #: image positions per side of the lattice searched for heights when neither the image's
