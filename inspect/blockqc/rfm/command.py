@@ -347,9 +347,7 @@ def command(
     ks = _ks(k_text)
     refuse_self_reference(image, reference)
     geoid_path = _geoid(geoid, geoid_offset)
-    inputs = [p for p in (image, rpc, dem, reference, reference_rpc) if p is not None]
-    if isinstance(geoid_path, Path):
-        inputs.append(geoid_path)
+    inputs = _input_files((image, rpc, dem, reference, reference_rpc), geoid_path)
     refuse_replacing(out, OUTPUT_NAMES, inputs)
     refuse_foreign_results(out)
     with empty_removed(out):  # an input error leaves no empty folder the run made
@@ -383,10 +381,24 @@ def command(
             lang=lang,
         )
         results = run_rfm_accuracy(cfg)
+    _say_results(results, image.name, requirement, out_dir)
+
+
+def _input_files(paths: tuple[Path | None, ...], geoid: str | Path | None) -> list[Path]:
+    """The files the run reads: those given, and the geoid when a file (not a model's name)."""
+    inputs = [p for p in paths if p is not None]
+    if isinstance(geoid, Path):
+        inputs.append(geoid)
+    return inputs
+
+
+def _say_results(results: dict[str, object], name: str, requirement: float, out_dir: Path) -> None:
+    """The run's warnings, its console line, and exit status 1 when the RMSE fails the
+    requirement."""
     for warning in results.get("warnings") or []:  # type: ignore[union-attr]
         click.echo(f"warning: {warning}", err=True)
     acc = results["accuracy"]
-    click.echo(console_line(image.name, results, requirement, out_dir))
+    click.echo(console_line(name, results, requirement, out_dir))
     if acc["verdict"] != "pass":  # type: ignore[index]
         click.get_current_context().exit(1)
 
