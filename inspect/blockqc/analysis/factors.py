@@ -20,7 +20,7 @@ from blockqc.analysis.footprints import (
     select_images,
     tie_point_lonlat,
 )
-from blockqc.analysis.indicators import DEFAULT_METHOD_ORDER, block_indicators
+from blockqc.analysis.indicators import DEFAULT_METHOD_ORDER, Indicators, block_indicators
 from blockqc.analysis.table import TABLE_COLUMNS
 from blockqc.analysis.terrain import DemSet
 from blockqc.spatial import clark_evans
@@ -82,7 +82,6 @@ def _residual_observations(
 
 def block_row(delivery: Any, dems: DemSet | None, options: FactorOptions) -> dict[str, Any]:
     """The experiments-table row of one delivery (appendix columns, then extra columns)."""
-    m = delivery.manifest
     scenes_file = str(Path(delivery.path) / "scenes.csv")
     images = select_images(delivery.scenes, options.images_band, scenes_file)
     geoms = scene_polygons(images, scenes_file)
@@ -108,18 +107,36 @@ def block_row(delivery: Any, dems: DemSet | None, options: FactorOptions) -> dic
         delivery.tie_points, delivery.scenes, options.images_band
     )
     ind = block_indicators(residuals, delivery.checkpoints, options.method_order)
+    t = _terrain_columns(dems, union_lonlat)
+    return _row(delivery, options, fp, tp, ind, t, residual_band)
+
+
+def _terrain_columns(dems: DemSet | None, union_lonlat: shapely.Geometry) -> dict[str, Any]:
+    """The terrain factors over the block's footprint (none without DEMs)."""
     if dems is not None:
         terrain = dems.factors(union_lonlat)
-        t = terrain.as_dict()
-    else:
-        nan = float("nan")
-        t = {
-            "mean_elevation_m": nan,
-            "mean_slope_deg": nan,
-            "mean_roughness_m": nan,
-            "dem_coverage": 0.0,
-            "dem_files": [],
-        }
+        return terrain.as_dict()
+    nan = float("nan")
+    return {
+        "mean_elevation_m": nan,
+        "mean_slope_deg": nan,
+        "mean_roughness_m": nan,
+        "dem_coverage": 0.0,
+        "dem_files": [],
+    }
+
+
+def _row(
+    delivery: Any,
+    options: FactorOptions,
+    fp: FootprintFactors,
+    tp: TiePointFactors,
+    ind: Indicators,
+    t: dict[str, Any],
+    residual_band: str,
+) -> dict[str, Any]:
+    """The row of the factors and indicators measured: appendix columns, then extra columns."""
+    m = delivery.manifest
     block_id = str(m.block_id)
     overlap = fp.overlap_degree if options.overlap == "union" else fp.overlap_pairwise_sum
     row: dict[str, Any] = {
