@@ -9,7 +9,7 @@ import pandas as pd
 import shapely
 from pydantic import BaseModel, ConfigDict
 
-from blockqc.delivery import Delivery, canonical_epsg
+from blockqc.delivery import Delivery, SpatialReference, canonical_epsg
 from blockqc.metrics import Measure, Measurement, Scope, Table, metric
 from blockqc.rfm.model import lon_extent
 
@@ -194,44 +194,72 @@ def _projection_problem(projection: str | None, code: int | None) -> str | None:
 def spatial_reference(d: Delivery, p: SpatialParams, measure: Measure) -> Measurement:
     """The block's stated datum, height datum and projection against its extent (§MB-1..3)."""
     sr = d.manifest.spatial_reference
-    geoms = shapely.from_wkt(d.scenes["footprint_wkt"].to_numpy(dtype=object))
-    _, lat_min, _, lat_max = shapely.total_bounds(geoms)
-    lon_min, lon_max = lon_extent(shapely.get_coordinates(geoms)[:, 0])
-    lat_c = (lat_min + lat_max) / 2
-    allowed = expected_epsg(lon_min, lon_max, lat_min, lat_max, p)
+    extent = _block_extent(d)
+    allowed = expected_epsg(*extent, p)
     code = delivered_epsg(sr)
     named = _projection_problem(sr.projection if sr else None, code)
     ok = canonical_epsg(code) in allowed and named is None
     plain_grid = p.model_copy(update={"grid_exceptions": False})
-    plain = expected_epsg(lon_min, lon_max, lat_min, lat_max, plain_grid)
+    plain = expected_epsg(*extent, plain_grid)
     straddles = len(plain) > 1
     in_zone = ok and not straddles and canonical_epsg(code) in plain  # nothing more to say
-    if named is not None:
-        note = named
-    elif code is None:
-        note = "block.yaml states no EPSG code (nor projection UTM with a zone such as 50N)"
-    elif ok and canonical_epsg(code) not in plain:
-        note = (
+    note = named if named is not None else _zone_note(code, ok, allowed, plain, extent)
+    block = _block_table(sr, code, allowed, ok, "" if in_zone else note)
+    return Measurement(
+        tables={"block": Table(block)},
+        detail=_detail(sr, extent, allowed, straddles, note),
+    )
+
+
+def _block_extent(d: Delivery) -> tuple[float, float, float, float]:
+    """The block's footprints' extent: lon_min, lon_max (west, east: across ±180° east is beyond
+    180°), lat_min, lat_max."""
+    geoms = shapely.from_wkt(d.scenes["footprint_wkt"].to_numpy(dtype=object))
+    _, lat_min, _, lat_max = shapely.total_bounds(geoms)
+    lon_min, lon_max = lon_extent(shapely.get_coordinates(geoms)[:, 0])
+    return lon_min, lon_max, lat_min, lat_max
+
+
+def _zone_note(
+    code: int | None,
+    ok: bool,
+    allowed: list[int],
+    plain: list[int],
+    extent: tuple[float, float, float, float],
+) -> str:
+    """MB-3's note on the zone delivered: none stated, one the grid's exceptions give, one of
+    the zones a block straddling an edge may take, the block's zone, or not the zone expected."""
+    lon_min, lon_max, lat_min, lat_max = extent
+    if code is None:
+        return "block.yaml states no EPSG code (nor projection UTM with a zone such as 50N)"
+    if ok and canonical_epsg(code) not in plain:
+        return (
             f"{describe_epsg(code)} is the zone the UTM grid's exceptions give here (Norway, "
             "Svalbard)"
         )
-    elif ok and straddles:
+    if ok and len(plain) > 1:
         edges = []
         if len({c % 100 for c in plain}) > 1:
             edges.append(f"a zone edge (lon {lon_min:.3f}…{wrap_lon(lon_max):.3f})")
         if len({c // 100 for c in plain}) > 1:
             edges.append(f"the equator (lat {lat_min:.3f}…{lat_max:.3f})")
-        note = (
+        return (
             f"the block straddles {' and '.join(edges)}; {describe_epsg(code)} is one of the "
             "neighbours allowed"
         )
-    elif ok:
-        note = f"{describe_epsg(code)} is the block's zone"
-    else:
-        note = f"{describe_epsg(code)} delivered, expected " + " or ".join(
-            describe_epsg(c) for c in allowed
-        )
-    block = pd.DataFrame(
+    if ok:
+        return f"{describe_epsg(code)} is the block's zone"
+    return f"{describe_epsg(code)} delivered, expected " + " or ".join(
+        describe_epsg(c) for c in allowed
+    )
+
+
+def _block_table(
+    sr: SpatialReference | None, code: int | None, allowed: list[int], ok: bool, note: str
+) -> pd.DataFrame:
+    """The block's row: what block.yaml states, the zones allowed, and whether the projection
+    is one of them (`note`: MB-3's note, blank when there is no more to say than the zone)."""
+    return pd.DataFrame(
         {
             "geodetic_datum": [normalize_datum(sr.geodetic_datum if sr else None)],
             "height_datum": [normalize_height_datum(sr.height_datum if sr else None)],
@@ -241,24 +269,34 @@ def spatial_reference(d: Delivery, p: SpatialParams, measure: Measure) -> Measur
             **{k: [v] for k, v in _zones(allowed).items()},
             "projection_ok": [ok],
             # MB-3's note when there is more to say than the zone (§MB-3 'report it')
-            "projection_note": ["" if in_zone else note],
+            "projection_note": [note],
         }
     )
-    return Measurement(
-        tables={"block": Table(block)},
-        detail={
-            "centre_lon": round(wrap_lon((lon_min + lon_max) / 2), 6),
-            "centre_lat": round(float(lat_c), 6),
-            # west > east for a block across ±180° (as a GeoJSON bbox gives it)
-            "extent_lonlat": [
-                round(float(v), 6) for v in (lon_min, lat_min, wrap_lon(lon_max), lat_max)
-            ],
-            "expected_epsg": allowed,
-            "straddles_zone_edge": straddles,
-            "note": note,
-            "stated": {
-                "geodetic_datum": sr.geodetic_datum if sr else None,
-                "height_datum": sr.height_datum if sr else None,
-            },
+
+
+def _detail(
+    sr: SpatialReference | None,
+    extent: tuple[float, float, float, float],
+    allowed: list[int],
+    straddles: bool,
+    note: str,
+) -> dict[str, object]:
+    """The measurement's detail: the block's centre and extent, the zones expected, MB-3's
+    note and the datums as stated."""
+    lon_min, lon_max, lat_min, lat_max = extent
+    lat_c = (lat_min + lat_max) / 2
+    return {
+        "centre_lon": round(wrap_lon((lon_min + lon_max) / 2), 6),
+        "centre_lat": round(float(lat_c), 6),
+        # west > east for a block across ±180° (as a GeoJSON bbox gives it)
+        "extent_lonlat": [
+            round(float(v), 6) for v in (lon_min, lat_min, wrap_lon(lon_max), lat_max)
+        ],
+        "expected_epsg": allowed,
+        "straddles_zone_edge": straddles,
+        "note": note,
+        "stated": {
+            "geodetic_datum": sr.geodetic_datum if sr else None,
+            "height_datum": sr.height_datum if sr else None,
         },
-    )
+    }
