@@ -314,18 +314,8 @@ def inspect_cmd(
     if len(paths) == 1 and scheduler is None and not incremental:
         _read_ahead(paths[0])
     from blockqc import batch
-    from blockqc.delivery import block_ids, unread_tables
-    from blockqc.engine import reported_figure_names
-    from blockqc.inspector import check_inspector_input, load_inspector_input
-    from blockqc.outputs import (
-        check_out_dir,
-        empty_removed,
-        out_lock,
-        refuse_block_folders,
-        refuse_delivered,
-        refuse_holding,
-        refuse_inside,
-    )
+    from blockqc.inspector import load_inspector_input
+    from blockqc.outputs import refuse_delivered, refuse_inside
     from blockqc.rules import load_pack
 
     _refuse_conflicts(no_pdf, pdf, scheduler)
@@ -342,6 +332,30 @@ def inspect_cmd(
     )
     pack = load_pack(rules_ref)
     inspector = load_inspector_input(verdicts) if verdicts else None
+    got = _collected(paths, out, pack, inspector)
+    checkpoints = _inspector_checkpoints(checkpoint_files, got)
+    plan, meta, notes = _acceptance_inputs(plan_file, meta_file, got, paths, pack)
+    if plan is None:
+        for w in _sampled_false_with_checkpoints(got, checkpoints):
+            _warn(w)
+    writing = {"templates": templates, "lang": lang, "pdf": pdf, "pdf_engine": pdf_engine}
+    outcomes = _inspect_all(
+        out, paths, writing, progress, got, pack, inspector, runner=runner,
+        incremental=incremental, checkpoints=checkpoints, plan=plan, meta=meta, plan_notes=notes,
+    )  # fmt: skip
+    return batch.exit_status(outcomes)
+
+
+def _collected(paths: tuple[Path, ...], out: Path, pack, inspector):
+    """The deliveries the paths name, refused where the output folder would be written into or
+    beside one; files beside them, deliveries named twice, keys, figures and tables not read,
+    said; the inspector's verdicts checked against the pack's rules and the blocks."""
+    from blockqc import batch
+    from blockqc.delivery import block_ids, unread_tables
+    from blockqc.engine import reported_figure_names
+    from blockqc.inspector import check_inspector_input
+    from blockqc.outputs import refuse_block_folders, refuse_holding
+
     got = batch.collect(paths)
     refuse_block_folders(out, [m.block_id for m in got.manifests.values()])
     refuse_holding(out, got.deliveries)
@@ -356,19 +370,32 @@ def inspect_cmd(
     if inspector is not None:
         ids, unread = block_ids(got.deliveries, got.manifests)
         check_inspector_input(inspector, {r.id: r for r in pack.rules}, ids, unread)
-    checkpoints = None
-    if checkpoint_files:
-        from blockqc.checkpoint_inputs import check_blocks, load_checkpoint_files
+    return got
 
-        checkpoints = load_checkpoint_files(list(checkpoint_files))
-        check_blocks(checkpoints, got.deliveries)
-    plan, meta, notes = _acceptance_inputs(plan_file, meta_file, got, paths, pack)
-    if plan is None:
-        for w in _sampled_false_with_checkpoints(got, checkpoints):
-            _warn(w)
+
+def _inspector_checkpoints(checkpoint_files: tuple[Path, ...], got):
+    """--checkpoints: the inspector's checkpoints, their blocks checked against the deliveries
+    (None when not given)."""
+    if not checkpoint_files:
+        return None
+    from blockqc.checkpoint_inputs import check_blocks, load_checkpoint_files
+
+    checkpoints = load_checkpoint_files(list(checkpoint_files))
+    check_blocks(checkpoints, got.deliveries)
+    return checkpoints
+
+
+def _inspect_all(
+    out: Path, paths, writing: dict, progress: bool | None, got, pack, inspector, **run_options
+):
+    """Inspect the deliveries collected into the output folder (made now that every input is
+    read; removed again if left empty), then say the outcomes; returns them."""
+    from blockqc import batch
+    from blockqc.outputs import check_out_dir, empty_removed, out_lock
+
     with empty_removed(out):
         out = check_out_dir(out, paths)  # created once every input is read
-        writer = batch.Writer(out, templates, lang, pdf, pdf_engine)
+        writer = batch.Writer(out, **writing)
         show = _is_terminal(sys.stderr) if progress is None else progress
         with out_lock(out), _progress(len(got.deliveries) if show else 0) as tick:
             outdated = batch.drop_outdated_summary(writer, got)
@@ -376,12 +403,10 @@ def inspect_cmd(
                 _warn(outdated)
             with _said_if_stopped(out):
                 outcomes, summary = batch.run(
-                    got, pack, writer, inspector, runner=runner, incremental=incremental,
-                    progress=tick, checkpoints=checkpoints, plan=plan, meta=meta,
-                    plan_notes=notes,
-                )  # fmt: skip
+                    got, pack, writer, inspector, progress=tick, **run_options
+                )
     _closing_lines(outcomes, summary, out)
-    return batch.exit_status(outcomes)
+    return outcomes
 
 
 @contextlib.contextmanager
