@@ -335,9 +335,8 @@ def inspect_cmd(
     got = _collected(paths, out, pack, inspector)
     checkpoints = _inspector_checkpoints(checkpoint_files, got)
     plan, meta, notes = _acceptance_inputs(plan_file, meta_file, got, paths, pack)
-    if plan is None:
-        for w in _sampled_false_with_checkpoints(got, checkpoints):
-            _warn(w)
+    for w in _checkpoint_warnings(got, checkpoints, plan, plan_file, pack):
+        _warn(w)
     writing = {"templates": templates, "lang": lang, "pdf": pdf, "pdf_engine": pdf_engine}
     outcomes = _inspect_all(
         out, paths, writing, progress, got, pack, inspector, runner=runner,
@@ -492,6 +491,39 @@ def _sampled_false_with_checkpoints(got, checkpoints) -> list[str]:
                 "the sample"
             )
     return out
+
+
+def _checkpoint_warnings(got, checkpoints, plan, plan_file: Path | None, pack) -> list[str]:
+    """What the checkpoints given say against the sample, as warnings: without a plan, blocks
+    marked `sampled: false` that carry checkpoints; under one, the inspector's rows of blocks
+    it does not sample."""
+    if plan is None:
+        return _sampled_false_with_checkpoints(got, checkpoints)
+    return _checkpoints_not_sampled(got, checkpoints, plan, plan_file, pack)
+
+
+def _checkpoints_not_sampled(got, checkpoints, plan, plan_file: Path, pack) -> list[str]:
+    """The inspector's checkpoint rows of a block the plan does not sample: under a plan only
+    the sampled blocks are inspected in detail, so no rule judges them (unless a rule over the
+    checkpoints is of the general inspection) — said, never dropped unsaid."""
+    from blockqc.checkpoint_inputs import BLOCK
+    from blockqc.metrics import REGISTRY
+
+    readers = [r for r in pack.rules if r.metric in REGISTRY and REGISTRY[r.metric].detailed]
+    if checkpoints is None or any(r.inspection == "general" for r in readers):
+        return []
+    rows = checkpoints.rows
+    if not checkpoints.by_block:  # one delivery: the rows are its own
+        ids = [m.block_id for m in got.manifests.values()]
+        if not ids:
+            return []  # its block.yaml could not be read: refused when it is
+        rows = rows.assign(**{BLOCK: ids[0]})
+    rows = rows[~rows[BLOCK].isin(plan.sampled)]
+    return [
+        f"{file}: {n} checkpoint(s) of block {block}, which the plan {plan_file} does not "
+        "sample: not judged (under --plan only the sampled blocks are inspected in detail)"
+        for (file, block), n in rows.groupby(["_file", BLOCK], sort=False).size().items()
+    ]
 
 
 def _acceptance_inputs(plan_file: Path | None, meta_file: Path | None, got, paths, pack):

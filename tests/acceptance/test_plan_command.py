@@ -5,10 +5,11 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import pandas as pd
 import pytest
 import yaml
 
-from casekit import run_blockqc, write_delivery
+from casekit import base_tables, run_blockqc, write_delivery
 
 
 def _batch(root: Path, n: int, with_cps: set[int] = frozenset()) -> Path:
@@ -149,6 +150,36 @@ def test_inspect_with_plan(tmp_path: Path) -> None:
     # the batch is not complete either: B02 is not fully evaluated (the summary said complete)
     assert summary["complete"] is False
     assert {b["block_id"]: b["complete"] for b in summary["blocks"]}["B02"] is False
+
+
+def test_the_inspectors_checkpoints_of_a_block_not_sampled_are_said_not_judged(
+    tmp_path: Path,
+) -> None:
+    """The inspector's own checkpoints of a block the plan does not sample: its checkpoint
+    rules are not applicable, so the rows judged nothing, and nothing said so."""
+    batch = _batch(tmp_path / "batch", 4, with_cps={0, 1})
+    plan = tmp_path / "plan.yaml"
+    _write_plan_b00_b02(plan)
+    cps = base_tables()["checkpoints"].head(3).assign(method="recalculation")
+    mine = tmp_path / "mine.csv"
+    pd.concat([cps.assign(block_id="B00"), cps.assign(block_id="B01")]).to_csv(mine, index=False)
+    out = tmp_path / "out"
+    args = ("inspect", batch, "--plan", plan, "--checkpoints", mine, "--out", out, "--no-pdf")
+    r = run_blockqc(*args)
+    assert r.returncode == 0, r.stderr
+    said = [line for line in r.stderr.splitlines() if "checkpoint(s) of block" in line]
+    assert said == [
+        f"warning: {mine}: 3 checkpoint(s) of block B01, which the plan {plan} does not sample: "
+        "not judged (under --plan only the sampled blocks are inspected in detail)"
+    ]
+    results = json.loads((out / "B01" / "results.json").read_text())["results"]
+    assert next(x for x in results if x["rule"] == "CP-2")["status"] == "not_applicable"
+
+    # rows of the sampled block alone: every one judged, nothing to say
+    cps.assign(block_id="B00").to_csv(mine, index=False)
+    r = run_blockqc(*args)
+    assert r.returncode == 0, r.stderr
+    assert "checkpoint(s) of block" not in r.stderr
 
 
 def test_inspect_plan_refuses_a_block_outside_it(tmp_path: Path) -> None:
