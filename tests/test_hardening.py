@@ -589,7 +589,19 @@ VERDICT_CASES = [
         "blocks:\n  CAS:\n    verdicts: {DOC-3: {status: pass}}\n",
         "line 3: block 'CAS' is not one of the blocks inspected (CASE); did you mean 'CASE'?",
     ),
-    ("date: 2026-11-21\n", "line 2: date: unknown key"),
+    ("date: 2026-11-21\n", "line 2: date: unknown key\n"),
+    (
+        "verdict:\n  DOC-3: {status: pass}\n",
+        "line 2: verdict: unknown key; did you mean 'verdicts'?",
+    ),
+    (
+        "waivers:\n  TP-4: {reason: sea, scene: [S1]}\n",
+        "line 3: waivers.TP-4.scene: unknown key; did you mean 'scenes'?",
+    ),
+    (
+        "blocks:\n  CASE:\n    verdict: {DOC-3: {status: pass}}\n",
+        "line 4: blocks.CASE.verdict: unknown key; did you mean 'verdicts'?",
+    ),
     ("waivers:\n  RO-3: {reason: sea}\n", "line 3: rule RO-3 is not waivable"),
     ("waivers:\n  CP-4: {reason: x}\n", "line 3: rule CP-4 is not waivable"),
     ("waivers:\n  CP-5: {reason: x}\n", "line 3: rule CP-5 is not waivable"),

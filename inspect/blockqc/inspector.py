@@ -424,7 +424,7 @@ def load_inspector_input(path: Path) -> InspectorInput:
     try:
         out = InspectorInput.model_validate(data)
     except ValidationError as exc:
-        raise InputError(pydantic_problems(exc, path, data)) from None
+        raise InputError(pydantic_problems(exc, path, data, model=InspectorInput)) from None
     out._file, out._data = str(path), data
     return out
 

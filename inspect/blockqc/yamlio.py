@@ -4,10 +4,11 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Annotated, Any
+from types import UnionType
+from typing import Annotated, Any, Union, get_args, get_origin
 
 import yaml
-from pydantic import AfterValidator
+from pydantic import AfterValidator, BaseModel
 
 from blockqc.errors import BlockqcError, InputError, Problem
 from blockqc.textio import read_text
@@ -201,9 +202,11 @@ def pydantic_problems(
     data: Any,
     prefix: Sequence[Any] = (),
     say: Callable[[dict[str, Any]], str | None] | None = None,
+    model: Any = None,
 ) -> list[Problem]:
     """Turn a pydantic ValidationError into problems naming the file, the line and the key path;
-    `say` words an error its own way (None: pydantic's message)."""
+    `say` words an error its own way (None: pydantic's message); with the `model` validated, an
+    unknown key close to one it takes there gets a "did you mean"."""
     problems = []
     for err in _union_errors_joined(exc.errors()):
         loc = tuple(prefix) + tuple(err["loc"])
@@ -216,12 +219,40 @@ def pydantic_problems(
             msg = f"a key YAML reads as {yaml_kind(key)}, not text: write it in quotes"
             loc = (*loc, key)
         elif err["type"] == "extra_forbidden":
-            msg = "unknown key"
+            msg = "unknown key" + _known_key_hint(model, err["loc"])
         elif err["type"] in ("model_type", "model_attributes_type", "dataclass_type"):
             msg = f"expected a mapping of keys, got {yaml_kind(err.get('input'))}"
         msg = (say(err) if say else None) or msg
         problems.append(Problem(str(file), f"{path}: {msg}", line=line_of(data, loc)))
     return problems
+
+
+def _known_key_hint(model: Any, loc: tuple[Any, ...]) -> str:
+    """The hint "; did you mean 'x'?" for the unknown key at the end of `loc` when the model
+    takes a key close to it there (through its mappings, lists and optional members); else ''."""
+    from blockqc.schema import did_you_mean
+
+    kind = model
+    for part in loc[:-1]:
+        kind = _model_in(kind)
+        if isinstance(kind, type) and issubclass(kind, BaseModel):
+            field = kind.model_fields.get(part)
+            kind = field.annotation if field is not None else None
+        else:  # a mapping's value or a list's item
+            args = get_args(kind)
+            kind = args[-1] if get_origin(kind) is dict else args[0] if args else None
+    kind = _model_in(kind)
+    if not (isinstance(kind, type) and issubclass(kind, BaseModel)):
+        return ""
+    return did_you_mean(kind.model_fields)(loc[-1])
+
+
+def _model_in(kind: Any) -> Any:
+    """The model of an optional or annotated type (`Verdict | None`), else the type itself."""
+    if get_origin(kind) not in (Union, UnionType, Annotated):
+        return kind
+    models = [a for a in get_args(kind) if isinstance(a, type) and issubclass(a, BaseModel)]
+    return models[0] if models else kind
 
 
 #: the member of a union pydantic names as the last part of an error's location, in the

@@ -467,6 +467,20 @@ def test_meta_particulars_yaml_reads_otherwise_are_refused_saying_what_the_file_
     ]
 
 
+def test_a_misspelt_meta_key_is_refused_with_the_key_it_resembles(tmp_path: Path) -> None:
+    from blockqc.acceptance.plan import load_meta
+    from blockqc.errors import InputError
+
+    meta = tmp_path / "meta.yaml"
+    meta.write_text("report_numbr: QC-1\nproject: P\ncolour: red\n")
+    with pytest.raises(InputError) as exc:
+        load_meta(meta)
+    assert [str(p).removeprefix(f"{meta}, ") for p in exc.value.problems] == [
+        "line 1: report_numbr: unknown key; did you mean 'report_number'?",
+        "line 3: colour: unknown key",
+    ]
+
+
 def test_strata_numerically_equal_in_block_yaml_are_one_stratum(tmp_path: Path) -> None:
     """work_unit 1 (B00) and 1.0 (B01) are the one work unit, YAML reads both as the number 1;
     they were strata '1' and '1.0'. Strata 1 (2 units) and 2 (2 units) share a sample of 3:

@@ -245,3 +245,14 @@ def test_strata_without_a_strata_key_are_refused(tmp_path: Path) -> None:
 def test_types_blockqc_sample_would_not_write_are_refused(tmp_path: Path, old, new, expected):
     """Each read as `blockqc sample` writes it: never converted (true is not seed 1)."""
     assert _refusal(tmp_path, old, new) == [expected]
+
+
+def test_a_misspelt_key_is_refused_with_the_key_it_resembles(tmp_path: Path) -> None:
+    """A key of the plan misspelt was refused as unknown, without the key it stands for."""
+    assert _refusal(tmp_path, "census: false", "censuss: false") == [
+        "line 11: lots.0.census: Field required",
+        "line 13: lots.0.censuss: unknown key; did you mean 'census'?",
+    ]
+    assert _refusal(tmp_path, "census: false", "census: false\n  colour: red") == [
+        "line 14: lots.0.colour: unknown key"  # like no key of a lot: no hint
+    ]

@@ -123,7 +123,7 @@ def load_plan(path: Path) -> Plan:
     try:
         plan = Plan.model_validate(data)
     except ValidationError as exc:
-        raise InputError(pydantic_problems(exc, path, data, say=_expected)) from None
+        raise InputError(pydantic_problems(exc, path, data, say=_expected, model=Plan)) from None
     found = plan_problems(plan)
     if found:
         raise InputError(
@@ -283,7 +283,9 @@ def load_meta(path: Path) -> ReportMeta:
     try:
         return ReportMeta.model_validate(data)
     except ValidationError as exc:
-        raise InputError(pydantic_problems(exc, path, data, say=_expected_text)) from None
+        raise InputError(
+            pydantic_problems(exc, path, data, say=_expected_text, model=ReportMeta)
+        ) from None
 
 
 def _expected_text(err: dict[str, Any]) -> str | None:
