@@ -222,7 +222,13 @@ def test_empty_out_is_refused(tmp_path, capsys, results_file, monkeypatch):
         ),
         (
             {"block.html.j2": '{% include "_mine.html.j2" %}\n'},
-            "{d}/block.html.j2: _mine.html.j2: no such template, in the folder or the stock ones",
+            "{d}/block.html.j2, line 1: _mine.html.j2: no such template, in the folder or the "
+            "stock ones",
+        ),
+        (
+            {"block.html.j2": '<p>\n{% include ["_a.html.j2", "_b.html.j2"] %}\n'},
+            "{d}/block.html.j2, line 2: _a.html.j2 or _b.html.j2: no such template, in the folder "
+            "or the stock ones",
         ),
         (
             {"block.html.j2": '{% include "_mine.html.j2" %}\n', "_mine.html.j2": "{% if x %}\n"},
@@ -243,6 +249,22 @@ def test_a_template_that_cannot_be_read_is_named_before_anything_runs(
     assert run("report", str(results_file), "--out", str(out), "--templates", str(mine)) == 2
     assert capsys.readouterr().err.startswith("error: " + expected.format(d=mine))
     assert not out.exists()
+
+
+def test_a_template_jinja_may_leave_out_or_choose_is_not_refused(tmp_path, results_file):
+    """`ignore missing` and a list of choices (the first there taken) render as Jinja renders
+    them: they were refused as no such template, when one named could not be found."""
+    mine = tmp_path / "templates"
+    mine.mkdir()
+    (mine / "block.html.j2").write_text(
+        '{% include "_none.html.j2" ignore missing %}'
+        '{% include ["_none.html.j2", "_mine.html.j2"] %}\n',
+        encoding="utf-8",
+    )
+    (mine / "_mine.html.j2").write_text("<p>{{ r.block_id }}</p>\n", encoding="utf-8")
+    out = tmp_path / "out"
+    assert run("report", str(results_file), "--out", str(out), "--no-pdf", "--templates", mine) == 0
+    assert (out / "T-B01" / "report.html").read_text(encoding="utf-8") == "<p>T-B01</p>"
 
 
 def test_a_template_that_fails_on_the_results_is_an_error_not_an_internal_one(

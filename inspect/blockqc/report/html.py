@@ -7,10 +7,10 @@ from collections.abc import Sequence
 from contextlib import suppress
 from functools import cache
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import jinja2
-from jinja2 import meta
+from jinja2 import nodes
 from markupsafe import Markup
 
 from blockqc.errors import InputError, Problem
@@ -137,27 +137,67 @@ def check_templates(
     anything is inspected or written (not taken, block after block, for a delivery that could
     not be inspected). Templates of other pages in the folder are left alone. The names of the
     templates the pages use."""
-    todo, seen = [(name, None) for name in pages], set()
+    todo: list[_Reference] = [_Reference([name]) for name in pages]
+    seen: set[str] = set()
     while todo:
-        name, by = todo.pop()
+        ref = todo.pop()
+        for name in ref.names:  # the first there is taken
+            try:
+                source, file, _ = env.loader.get_source(env, name)  # type: ignore[union-attr]
+            except jinja2.TemplateNotFound:
+                continue
+            except UnicodeDecodeError:
+                where = folder / name if (folder / name).is_file() else name
+                problem = Problem(str(where), "not a template: expected UTF-8 text")
+                raise InputError(problem) from None
+            break
+        else:
+            if ref.optional:  # `ignore missing`: Jinja renders nothing in its place
+                continue
+            names = " or ".join(ref.names)
+            what = f"{names}: no such template, in the folder or the stock ones"
+            raise InputError(Problem(ref.by or names, what, line=ref.line))
         if name in seen:
             continue
         seen.add(name)
         try:
-            source, file, _ = env.loader.get_source(env, name)  # type: ignore[union-attr]
             env.compile(source, name, file)
-            todo += [(t, file) for t in meta.find_referenced_templates(env.parse(source)) if t]
-        except jinja2.TemplateNotFound:
-            raise InputError(
-                Problem(by or name, f"{name}: no such template, in the folder or the stock ones")
-            ) from None
+            todo += [r._replace(by=file) for r in _references(env.parse(source))]
         except jinja2.TemplateSyntaxError as exc:  # also a filter or test that does not exist
             problem = f"not a readable template: {exc.message}"
             raise InputError(Problem(exc.filename or name, problem, line=exc.lineno)) from None
-        except UnicodeDecodeError:
-            where = folder / name if (folder / name).is_file() else name
-            raise InputError(Problem(str(where), "not a template: expected UTF-8 text")) from None
     return seen
+
+
+class _Reference(NamedTuple):
+    """A template a template includes, imports or extends: its names (a list names choices,
+    the first there taken), whether it may be missing (`ignore missing`), and where it stands."""
+
+    names: list[str]
+    optional: bool = False
+    by: str | None = None
+    line: int | None = None
+
+
+def _references(tree: nodes.Template) -> list[_Reference]:
+    """The templates a parsed template names (as `meta.find_referenced_templates`), each with
+    its line; a name computed at render time is left to the render."""
+    kinds = (nodes.Extends, nodes.Include, nodes.Import, nodes.FromImport)
+    out = []
+    for node in tree.find_all(kinds):
+        given = node.template
+        if isinstance(given, nodes.Const):
+            items = given.value if isinstance(given.value, list | tuple) else [given.value]
+        elif isinstance(given, nodes.List | nodes.Tuple):  # choices, unless one is computed
+            consts = all(isinstance(i, nodes.Const) for i in given.items)
+            items = [i.value for i in given.items] if consts else []  # type: ignore[attr-defined]
+        else:
+            items = []
+        names = [n for n in items if isinstance(n, str) and n]
+        if names:
+            optional = bool(getattr(node, "ignore_missing", False))
+            out.append(_Reference(names, optional, line=node.lineno))
+    return out
 
 
 def render_page(
