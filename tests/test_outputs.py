@@ -2,15 +2,20 @@
 
 from __future__ import annotations
 
+import errno
 import json
 import math
+import os
 
 import numpy as np
 import pandas as pd
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from blockqc.cli import main
 from blockqc.outputs import jsonable, records, write_json_atomic
+from casekit import write_delivery
 
 floats = st.floats(allow_nan=True, allow_infinity=True, width=64)
 text = st.one_of(st.none(), st.text(max_size=5))
@@ -107,3 +112,25 @@ def test_jsonable_as_the_plain_chain(value) -> None:
     got, expected = jsonable(value), _plain(value)
     assert json.dumps(got, allow_nan=False) == json.dumps(expected, allow_nan=False)
     assert type(got) is type(expected)
+
+
+def test_a_plan_the_disk_has_no_room_for_is_named(tmp_path, monkeypatch, capsys) -> None:
+    """A write the system refuses (a full disk) said only "No space left on device", naming no
+    file; a refused temporary file was named instead of the plan asked for."""
+    batch = tmp_path / "batch"
+    write_delivery(batch / "B00", {"manifest": {"block_id": "B00"}})
+    plan = tmp_path / "plans" / "plan.yaml"
+
+    def full(fd: int) -> None:
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(os, "fsync", full)
+    with pytest.raises(SystemExit) as exc:
+        main(["sample", str(batch), "--seed", "1", "--out", str(plan)])
+    assert exc.value.code == 2
+    assert capsys.readouterr().err == f"error: {plan}: No space left on device\n"
+    assert list(plan.parent.iterdir()) == []  # no temporary file left behind
+    monkeypatch.undo()
+    with pytest.raises(SystemExit) as exc:
+        main(["sample", str(batch), "--seed", "1", "--out", str(plan)])
+    assert exc.value.code == 0 and plan.is_file()

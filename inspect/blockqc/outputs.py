@@ -104,7 +104,10 @@ def _column_values(col: pd.Series) -> list[Any]:
 def write_bytes_atomic(path: Path, data: bytes) -> None:
     """Write `data` to `path` via a temporary file in the same folder and an atomic rename."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    except OSError as exc:
+        raise _named(exc, path) from None
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
@@ -112,15 +115,20 @@ def write_bytes_atomic(path: Path, data: bytes) -> None:
             os.fsync(fh.fileno())
         os.chmod(tmp, 0o644)
         os.replace(tmp, path)
-    except IsADirectoryError:
+    except OSError as exc:
         Path(tmp).unlink(missing_ok=True)
-        # named by the path asked for, not by the temporary file the system names
-        raise IsADirectoryError(
-            errno.EISDIR, "a folder is there: expected a file", str(path)
-        ) from None
+        raise _named(exc, path) from None
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+def _named(exc: OSError, path: Path) -> OSError:
+    """The system's refusal to write a file, named by the path asked for: not by the temporary
+    file the system names, nor by none (a full disk)."""
+    if isinstance(exc, IsADirectoryError):
+        return IsADirectoryError(errno.EISDIR, "a folder is there: expected a file", str(path))
+    return OSError(exc.errno, exc.strerror or str(exc), str(path))
 
 
 def write_text_atomic(path: Path, text: str) -> None:
