@@ -6,6 +6,7 @@ import errno
 import json
 import math
 import os
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -14,7 +15,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from blockqc.cli import main
-from blockqc.outputs import jsonable, records, write_json_atomic
+from blockqc.errors import UsageError
+from blockqc.outputs import jsonable, out_lock, records, write_json_atomic
 from casekit import write_delivery
 
 floats = st.floats(allow_nan=True, allow_infinity=True, width=64)
@@ -134,3 +136,23 @@ def test_a_plan_the_disk_has_no_room_for_is_named(tmp_path, monkeypatch, capsys)
     with pytest.raises(SystemExit) as exc:
         main(["sample", str(batch), "--seed", "1", "--out", str(plan)])
     assert exc.value.code == 0 and plan.is_file()
+
+
+def test_an_output_folder_the_lock_cannot_be_written_in_is_refused(tmp_path, monkeypatch) -> None:
+    """The lock written into a full disk's folder stopped the run with "No space left on
+    device" (no file named) and left its half-written temporary file there."""
+    written = Path.write_text
+
+    def full(self: Path, *args, **kwargs):
+        if not self.name.startswith(".blockqc-lock"):
+            return written(self, *args, **kwargs)
+        self.touch()  # opened, then nothing fits
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(Path, "write_text", full)
+    with pytest.raises(UsageError) as exc, out_lock(tmp_path):
+        pass
+    assert str(exc.value) == (
+        f"--out {tmp_path}: this folder cannot be written in: No space left on device"
+    )
+    assert list(tmp_path.iterdir()) == []

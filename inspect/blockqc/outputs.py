@@ -296,8 +296,12 @@ def out_lock(out: Path) -> Iterator[None]:
     lock = out / LOCK_FILE
     me = f"{socket.gethostname()} {os.getpid()}"
     tmp = out / f"{LOCK_FILE}.{os.getpid()}"
-    tmp.write_text(me, encoding="utf-8")
     try:
+        try:
+            tmp.write_text(me, encoding="utf-8")
+        except OSError as exc:  # a full disk, a folder the system refuses writes in
+            why = exc.strerror or exc
+            raise UsageError(f"--out {out}: this folder cannot be written in: {why}") from None
         try:
             os.link(tmp, lock)  # fails when a lock is there
         except FileExistsError:
