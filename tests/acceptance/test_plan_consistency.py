@@ -131,6 +131,8 @@ def test_strata_by_text_or_number_or_a_key_of_a_mapping(tmp_path: Path) -> None:
         (["a", "b"], "a list"),
         (True, "true/false"),
         (None, "empty"),
+        ("", "blank text"),
+        ("  ", "blank text"),
     ],
 )
 def test_a_stratum_that_is_not_text_or_a_number_is_refused(tmp_path: Path, value, why) -> None:

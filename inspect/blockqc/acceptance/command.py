@@ -27,6 +27,8 @@ def lookup(data: dict[str, Any], key: str) -> Any:
 def stratum_of(data: dict[str, Any], key: str) -> str:
     """A block's stratum: the key's value, text or a number; ValueError for anything else."""
     value = lookup(data, key)
+    if isinstance(value, str) and not value.strip():
+        raise ValueError(f"key '{key}' is blank text: a stratum is text or a number")
     if isinstance(value, (str, int, float)) and not isinstance(value, bool):
         return number_text(value) if isinstance(value, float) else str(value)
     if isinstance(value, dict):
