@@ -942,9 +942,25 @@ def test_an_output_folder_that_cannot_be_made_stops_the_run_naming_it(blockqc, b
     out.mkdir()
     (out / "F1-B01").write_text("mine", encoding="utf-8")
     p = blockqc("inspect", block, "--out", out, "--pdf", "none")
-    _refused(p, f"{out / 'F1-B01'}: the outputs of block F1-B01 could not be written:")
+    why = "the outputs of block F1-B01 could not be written: a file is there: expected a folder"
+    _refused(p, f"{out / 'F1-B01'}: {why}")
     assert "UNREADABLE" not in p.stdout + p.stderr
     assert (out / "F1-B01").read_text(encoding="utf-8") == "mine"
+
+
+@pytest.mark.parametrize(
+    "where", ["F1-B01/results.json", "F1-B01/.blockqc-cache.json", ".blockqc-summary-cache.json"]
+)
+def test_a_folder_where_an_output_file_goes_is_named_in_words(blockqc, block, tmp_path, where):
+    """A folder where results.json or a cache file of --incremental goes: the run stops naming
+    that path, in words (not the system's 'IsADirectoryError: [Errno 21]'); the folder left."""
+    out = tmp_path / "out"
+    (out / where).mkdir(parents=True)
+    p = blockqc("inspect", block, "--out", out, "--pdf", "none", "--incremental")
+    why = "the outputs of block F1-B01 could not be written: a folder is there: expected a file"
+    _refused(p, f"{out / where}: {why}")
+    assert "Errno" not in p.stderr
+    assert (out / where).is_dir()
 
 
 def test_a_table_given_twice_is_listed_with_the_other_problems(blockqc, block, tmp_path):

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import ctypes
 import datetime as dt
+import errno
 import json
 import os
 import shutil
@@ -496,8 +497,23 @@ def output_error(block_id: str, out: Path, exc: Exception) -> OutputError:
     found = template_problem(exc, f" on block {block_id}")
     if found is not None:
         return OutputError(found)
-    message = f"the outputs of block {block_id} could not be written: {type(exc).__name__}: {exc}"
-    return OutputError(Problem(str(out / block_id), message))
+    message = f"the outputs of block {block_id} could not be written"
+    if isinstance(exc, OSError) and exc.filename:
+        where, why = _refused_path(exc)
+        return OutputError(Problem(where, f"{message}: {why}"))
+    return OutputError(Problem(str(out / block_id), f"{message}: {type(exc).__name__}: {exc}"))
+
+
+def _refused_path(exc: OSError) -> tuple[str, str]:
+    """The path the system refused to write, and why, in words: a file where a folder goes
+    is named itself, not the path below it."""
+    path = Path(exc.filename)
+    if exc.errno == errno.ENOTDIR:
+        there = next((p for p in path.parents if p.exists() and not p.is_dir()), path)
+        return str(there), "a file is there: expected a folder"
+    if exc.errno == errno.EISDIR:
+        return str(path), "a folder is there: expected a file"
+    return str(path), exc.strerror or str(exc)
 
 
 def decision(outcomes: list[Outcome], pack: Pack, extra: Extra) -> BatchDecision | None:
