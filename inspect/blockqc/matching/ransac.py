@@ -78,38 +78,72 @@ def ransac_inliers(
     # Hypotheses are scored on at most _SCORED correspondences; the winner is then checked on all.
     scored = np.sort(rng.choice(n, _SCORED, replace=False)) if n > _SCORED else np.arange(n)
     if model == "translation":
-        picks = rng.integers(0, n, size=iterations) if n > iterations else np.arange(n)
-        shifts = d[picks] - s[picks]  # (h, 2)
-        ss, ds = s[scored], d[scored]
-        resid = np.hypot(*np.moveaxis(ss[None] + shifts[:, None] - ds[None], 2, 0))
-        coefs = np.zeros((len(picks), 3, 2))
-        coefs[:, :2] = np.eye(2)
-        coefs[:, 2] = shifts
+        coefs, resid = _translation_hypotheses(s, d, scored, iterations, rng)
     else:
-        samples = rng.integers(0, n, size=(iterations, 3))  # repeated picks are degenerate
-        a = np.concatenate([s[samples], np.ones((iterations, 3, 1))], axis=2)  # (h, 3, 3)
-        b = d[samples]  # (h, 3, 2)
-        ok = np.abs(np.linalg.det(a)) > 1e-6
-        if not ok.any():
+        hypotheses = _affine_hypotheses(s, d, scored, iterations, rng)
+        if hypotheses is None:
             return np.zeros(n, dtype=bool)
-        coefs = np.linalg.solve(a[ok], b[ok])  # (h', 3, 2)
-        pred = np.einsum("nk,hkj->hnj", _design(s[scored]), coefs)
-        resid = np.hypot(*np.moveaxis(pred - d[scored][None], 2, 0))
+        coefs, resid = hypotheses
     counts = (resid <= threshold).sum(axis=1)
-    winner = coefs[np.argmax(counts)]
+    best = _refitted_inliers(s, d, coefs[np.argmax(counts)], model, threshold)
+    if best is None or best.sum() < need + 1:
+        return np.zeros(n, dtype=bool)
+    if window is not None:
+        chance = math.pi * threshold**2 / window**2
+        if false_alarms(n, int(best.sum()), need, chance) >= 1:
+            return np.zeros(n, dtype=bool)
+    return best
+
+
+def _translation_hypotheses(
+    s: np.ndarray, d: np.ndarray, scored: np.ndarray, iterations: int, rng: np.random.Generator
+) -> tuple[np.ndarray, np.ndarray]:
+    """The shifts of `iterations` correspondences drawn at random (of every one when there are
+    no more): their (h, 3, 2) matrices and their residuals on the `scored` ones, (h, m)."""
+    n = len(s)
+    picks = rng.integers(0, n, size=iterations) if n > iterations else np.arange(n)
+    shifts = d[picks] - s[picks]  # (h, 2)
+    ss, ds = s[scored], d[scored]
+    resid = np.hypot(*np.moveaxis(ss[None] + shifts[:, None] - ds[None], 2, 0))
+    coefs = np.zeros((len(picks), 3, 2))
+    coefs[:, :2] = np.eye(2)
+    coefs[:, 2] = shifts
+    return coefs, resid
+
+
+def _affine_hypotheses(
+    s: np.ndarray, d: np.ndarray, scored: np.ndarray, iterations: int, rng: np.random.Generator
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """The affine maps through `iterations` triples drawn at random, the degenerate ones left
+    out: their (h, 3, 2) matrices and their residuals on the `scored` correspondences, (h, m);
+    None when every triple is degenerate."""
+    n = len(s)
+    samples = rng.integers(0, n, size=(iterations, 3))  # repeated picks are degenerate
+    a = np.concatenate([s[samples], np.ones((iterations, 3, 1))], axis=2)  # (h, 3, 3)
+    b = d[samples]  # (h, 3, 2)
+    ok = np.abs(np.linalg.det(a)) > 1e-6
+    if not ok.any():
+        return None
+    coefs = np.linalg.solve(a[ok], b[ok])  # (h', 3, 2)
+    pred = np.einsum("nk,hkj->hnj", _design(s[scored]), coefs)
+    resid = np.hypot(*np.moveaxis(pred - d[scored][None], 2, 0))
+    return coefs, resid
+
+
+def _refitted_inliers(
+    s: np.ndarray, d: np.ndarray, winner: np.ndarray, model: str, threshold: float
+) -> np.ndarray | None:
+    """The inliers of the winning hypothesis among all correspondences, refitted by least
+    squares on them and recounted (twice, while enough are left); None when too few agree
+    with the winner for a fit."""
+    need = _MIN_SAMPLES[model]
     best = np.hypot(*(_design(s) @ winner - d).T) <= threshold
     if best.sum() < need:
-        return np.zeros(n, dtype=bool)
+        return None
     for _ in range(2):  # refit on the inliers, recount
         coef = fit_model(s[best], d[best], model)
         refined = np.hypot(*(_design(s) @ coef - d).T) <= threshold
         if refined.sum() < need:
             break
         best = refined
-    if best.sum() < need + 1:
-        return np.zeros(n, dtype=bool)
-    if window is not None:
-        chance = math.pi * threshold**2 / window**2
-        if false_alarms(n, int(best.sum()), need, chance) >= 1:
-            return np.zeros(n, dtype=bool)
     return best
