@@ -160,7 +160,15 @@ def _match_chunk(
     dst = np.concatenate([b_ref, n_ref]) + r0
     kind = np.array(["brief"] * len(bi) + ["ncc"] * len(ni), dtype=object)
     score = np.concatenate([bd.astype(np.float64), n_peak])
-    # RANSAC per chunk drops the matches that disagree with the chunk's common geometry
+    return _consistent(src, dst, kind, score, s)
+
+
+def _consistent(
+    src: np.ndarray, dst: np.ndarray, kind: np.ndarray, score: np.ndarray, s: MatchSettings
+) -> pd.DataFrame:
+    """The chunk's matches (image position `src`, reference position `dst`, their kind and
+    score) as CANDIDATE_COLUMNS, less those that RANSAC finds disagree with the chunk's common
+    geometry."""
     keep = ransac_inliers(
         src,
         dst,
