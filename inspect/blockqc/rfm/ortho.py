@@ -468,29 +468,11 @@ def orthorectify(
     if crop_offset is None:
         crop_offset = crop_offset_from_file(image)
     with open_raster(image) as src:
-        if band is not None and not 1 <= band <= src.count:
-            raise InputError(
-                Problem(file=str(image), message=f"band {band} asked, the image has {src.count}")
-            )
-        bands = grey_bands(src) if band is None else (band,)
+        bands = _bands_asked(src, band, image)
         if grid is None:
             grid = ortho_grid(model, (src.height, src.width), dem, crop_offset=crop_offset)
         step = grid.gsd / centre_gsd(model, (src.height, src.width), crop_offset, dem, grid)
-        profile = {
-            "driver": "GTiff",
-            "dtype": "float32",
-            "count": 1,
-            "width": grid.width,
-            "height": grid.height,
-            "crs": rasterio.crs.CRS.from_wkt(grid.crs.to_wkt()),
-            "transform": grid.transform,
-            "nodata": float("nan"),
-            "tiled": True,
-            "blockxsize": 256,
-            "blockysize": 256,
-            "compress": "deflate",
-            "BIGTIFF": "IF_SAFER",
-        }
+        profile = _ortho_profile(grid)
         out_path = Path(out_path)
         tmp = out_path.with_name(f".{out_path.name}.partial.tif")
         out_path.parent.mkdir(parents=True, exist_ok=True)
@@ -507,6 +489,39 @@ def orthorectify(
         finally:
             tmp.unlink(missing_ok=True)
     return grid
+
+
+def _bands_asked(src: object, band: int | None, image: Path) -> tuple[int, ...]:
+    """The bands of the open image `src` that are orthorectified: `band`, refused where the
+    image has no such band, else `grey_bands`."""
+    count = src.count  # type: ignore[attr-defined]
+    if band is not None and not 1 <= band <= count:
+        raise InputError(
+            Problem(file=str(image), message=f"band {band} asked, the image has {count}")
+        )
+    return grey_bands(src) if band is None else (band,)
+
+
+def _ortho_profile(grid: OrthoGrid) -> dict[str, object]:
+    """The creation profile of an orthoimage on `grid`: one float32 band, NaN for no data,
+    tiled 256×256, deflate-compressed, BigTIFF where it might not fit in 4 GB."""
+    import rasterio
+
+    return {
+        "driver": "GTiff",
+        "dtype": "float32",
+        "count": 1,
+        "width": grid.width,
+        "height": grid.height,
+        "crs": rasterio.crs.CRS.from_wkt(grid.crs.to_wkt()),
+        "transform": grid.transform,
+        "nodata": float("nan"),
+        "tiled": True,
+        "blockxsize": 256,
+        "blockysize": 256,
+        "compress": "deflate",
+        "BIGTIFF": "IF_SAFER",
+    }
 
 
 def read_ortho(path: str | Path) -> tuple[NDArray[np.float32], OrthoGrid]:
