@@ -265,38 +265,9 @@ def plot_error_vectors(
     g = np.hypot(ex, ey)
     fig, ax, cax, inch_per_px = _vector_layout(shape)
     if background is not None and np.isfinite(background).any():
-        lo, hi = np.nanpercentile(background, [2, 98])
-        extent = (-0.5, shape[1] - 0.5, shape[0] - 0.5, -0.5)
-        ax.imshow(
-            background,
-            cmap="gray",
-            vmin=lo,
-            vmax=hi,
-            alpha=0.6,
-            extent=extent,
-            interpolation="nearest",
-        )
-    biggest = float(g.max()) if g.size else 1.0
-    # arrows scaled so the largest is 0.4 inch long on the page; the key gives the scale
-    scale = biggest / (0.4 / inch_per_px) if biggest > 0 else 1.0
+        _draw_background(ax, background, shape)
     if g.size:
-        # map y points north, image rows point south: an error dy > 0 is drawn upward
-        q = ax.quiver(
-            *(np.asarray(v, np.float64) for v in (col, row)),
-            ex,
-            -ey,
-            g,
-            angles="xy",
-            scale_units="xy",
-            scale=scale,
-            cmap="viridis",
-            units="inches",
-            width=0.012,
-        )
-        if biggest > 0:  # one significant digit: 5.1 → 5, 0.37 → 0.4, 2e-9 → 2e-9
-            key = float(f"{biggest:.1g}")
-            _scale_key(fig, key, key / scale * inch_per_px, t)
-        fig.colorbar(q, cax=cax, label=t("ra_ax_gev"))
+        _draw_vectors(fig, ax, cax, (col, row), (ex, ey, g), inch_per_px, t)
     else:
         cax.set_axis_off()
     ax.set_xlim(0, shape[1])
@@ -305,6 +276,56 @@ def plot_error_vectors(
     ax.set_ylabel(t("ra_ax_row"))
     ax.set_title(_wrapped(title, fig, ax), loc="left", parse_math=False)  # names: "$" as typed
     return _figure_png(fig)
+
+
+def _draw_background(ax: object, background: NDArray[np.floating], shape: tuple[int, int]) -> None:
+    """The image in grey on the axes, over the extent of an image of `shape`, its contrast
+    stretched between the 2nd and the 98th percentile."""
+    lo, hi = np.nanpercentile(background, [2, 98])
+    extent = (-0.5, shape[1] - 0.5, shape[0] - 0.5, -0.5)
+    ax.imshow(  # type: ignore[attr-defined]
+        background,
+        cmap="gray",
+        vmin=lo,
+        vmax=hi,
+        alpha=0.6,
+        extent=extent,
+        interpolation="nearest",
+    )
+
+
+def _draw_vectors(
+    fig: object,
+    ax: object,
+    cax: object,
+    at: tuple[ArrayLike, ArrayLike],
+    errors: tuple[FloatArray, FloatArray, FloatArray],
+    inch_per_px: float,
+    t: Callable[..., str],
+) -> None:
+    """The error vectors (ex, ey) in pixels, of lengths g, drawn at `at` (col, row), the
+    largest 0.4 inch long on the page, with the scale key and the colour bar of the GEV."""
+    ex, ey, g = errors
+    biggest = float(g.max())
+    # arrows scaled so the largest is 0.4 inch long on the page; the key gives the scale
+    scale = biggest / (0.4 / inch_per_px) if biggest > 0 else 1.0
+    # map y points north, image rows point south: an error dy > 0 is drawn upward
+    q = ax.quiver(  # type: ignore[attr-defined]
+        *(np.asarray(v, np.float64) for v in at),
+        ex,
+        -ey,
+        g,
+        angles="xy",
+        scale_units="xy",
+        scale=scale,
+        cmap="viridis",
+        units="inches",
+        width=0.012,
+    )
+    if biggest > 0:  # one significant digit: 5.1 → 5, 0.37 → 0.4, 2e-9 → 2e-9
+        key = float(f"{biggest:.1g}")
+        _scale_key(fig, key, key / scale * inch_per_px, t)
+    fig.colorbar(q, cax=cax, label=t("ra_ax_gev"))  # type: ignore[attr-defined]
 
 
 def _wrapped(title: str, fig: object, ax: object) -> str:
