@@ -352,7 +352,6 @@ def reference_on_grid(
     Returns (how, rpc source).
     """
     import rasterio
-    from rasterio.warp import Resampling, reproject
 
     ref_grid = grid.expanded(cfg.margin)
     if rpc is not None:
@@ -366,20 +365,7 @@ def reference_on_grid(
             chunk=cfg.ortho_chunk,
         )
         return "orthorectified with its RPCs and the same DEM", rpc.source
-    with rasterio.open(cfg.reference) as src, reading_pixels(cfg.reference, "reference"):
-        bands = grey_bands(src)
-        dst = np.full((len(bands), ref_grid.height, ref_grid.width), np.nan, dtype=np.float32)
-        reproject(
-            source=rasterio.band(src, list(bands)),
-            destination=dst,
-            src_nodata=src.nodata,
-            src_alpha=alpha_band(src),
-            dst_transform=ref_grid.transform,
-            dst_crs=rasterio.crs.CRS.from_wkt(ref_grid.crs.to_wkt()),
-            dst_nodata=np.nan,
-            resampling=Resampling.bilinear,
-        )
-    dst = band_mean(np.ma.masked_invalid(dst))
+    dst = _reprojected(cfg.reference, ref_grid)
     profile = {
         "driver": "GTiff",
         "dtype": "float32",
@@ -402,6 +388,28 @@ def reference_on_grid(
     finally:
         tmp.unlink(missing_ok=True)
     return "reprojected (bilinear) onto the image grid", ""
+
+
+def _reprojected(reference: Path, ref_grid: OrthoGrid) -> np.ndarray:
+    """The mean of the reference's `grey_bands`, each reprojected (bilinear) onto `ref_grid`,
+    NaN where it has no value (its no-data value, its alpha band, outside it)."""
+    import rasterio
+    from rasterio.warp import Resampling, reproject
+
+    with rasterio.open(reference) as src, reading_pixels(reference, "reference"):
+        bands = grey_bands(src)
+        dst = np.full((len(bands), ref_grid.height, ref_grid.width), np.nan, dtype=np.float32)
+        reproject(
+            source=rasterio.band(src, list(bands)),
+            destination=dst,
+            src_nodata=src.nodata,
+            src_alpha=alpha_band(src),
+            dst_transform=ref_grid.transform,
+            dst_crs=rasterio.crs.CRS.from_wkt(ref_grid.crs.to_wkt()),
+            dst_nodata=np.nan,
+            resampling=Resampling.bilinear,
+        )
+    return band_mean(np.ma.masked_invalid(dst))
 
 
 def build_cp_table(
