@@ -221,39 +221,11 @@ def _to_metres(srcs: list[rasterio.DatasetReader]) -> tuple[float, float]:
 def _terrain_over(
     polygon_lonlat: shapely.Geometry, paths: list[Path], crs: CRS, max_pixels: int
 ) -> TerrainFactors:
-    if wgs84_lonlat(crs):
-        poly = polygon_lonlat
-    else:
-        tr = Transformer.from_crs(WGS84, crs, always_xy=True)
-        poly = shapely.transform(
-            shapely.segmentize(polygon_lonlat, 0.01),
-            lambda xy: np.column_stack(tr.transform(xy[:, 0], xy[:, 1])),
-        )
-    with ExitStack() as stack:
-        srcs = [stack.enter_context(rasterio.open(p)) for p in paths]
-        t0 = srcs[0].transform
-        res_x, res_y = abs(t0.a), abs(t0.e)
-        minx, miny, maxx, maxy = poly.bounds
-        # snap to the first tile's grid, two cells of margin for the 3×3 windows at the edge
-        left = t0.c + (math.floor((minx - t0.c) / res_x) - 2) * res_x
-        right = t0.c + (math.ceil((maxx - t0.c) / res_x) + 2) * res_x
-        top = t0.f - (math.floor((t0.f - maxy) / res_y) - 2) * res_y
-        bottom = t0.f - (math.ceil((t0.f - miny) / res_y) + 2) * res_y
-        npix = (right - left) / res_x * (top - bottom) / res_y
-        k = max(1, math.ceil(math.sqrt(npix / max_pixels)))
-        gain, offset = _to_metres(srcs)
-        if k > 1:
-            _check_full_resolution(srcs, (left, bottom, right, top), max_pixels, gain, offset)
-        z, transform = rasterio.merge.merge(
-            srcs,
-            bounds=(left, bottom, right, top),
-            res=(res_x * k, res_y * k),
-            nodata=np.nan,
-            dtype="float64",
-            resampling=Resampling.average if k > 1 else Resampling.nearest,
-            masked=True,
-        )
-    zf = np.ma.filled(z[0].astype(float), np.nan) * gain + offset
+    """§AF-1..3 over a lon/lat polygon from the DEM tiles `paths`, all in `crs`: the means of
+    the heights, slopes and roughness inside it, weighted by each cell's area, and the share of
+    its area that has a height."""
+    poly = _in_dem_crs(polygon_lonlat, crs)
+    zf, transform, k = _heights_over(poly, paths, max_pixels)
     check_heights(", ".join(str(p) for p in paths), zf, transform)
     inside = rasterio.features.geometry_mask(
         [poly], out_shape=zf.shape, transform=transform, invert=True
@@ -282,3 +254,49 @@ def _terrain_over(
         resolution_factor=k,
         dem_files=names,
     )
+
+
+def _in_dem_crs(polygon_lonlat: shapely.Geometry, crs: CRS) -> shapely.Geometry:
+    """The block's lon/lat polygon in the DEM's CRS (its edges segmentized first, so that they
+    follow the projection)."""
+    if wgs84_lonlat(crs):
+        return polygon_lonlat
+    tr = Transformer.from_crs(WGS84, crs, always_xy=True)
+    return shapely.transform(
+        shapely.segmentize(polygon_lonlat, 0.01),
+        lambda xy: np.column_stack(tr.transform(xy[:, 0], xy[:, 1])),
+    )
+
+
+def _heights_over(
+    poly: shapely.Geometry, paths: list[Path], max_pixels: int
+) -> tuple[np.ndarray, Affine, int]:
+    """The heights (m, NaN for no data) of the tiles over the polygon's bounds, on the first
+    tile's grid with two cells of margin, their transform and the resolution factor k: read
+    averaged over k×k cells where the extent holds more than `max_pixels` cells, after every
+    cell is checked at the tiles' own grid."""
+    with ExitStack() as stack:
+        srcs = [stack.enter_context(rasterio.open(p)) for p in paths]
+        t0 = srcs[0].transform
+        res_x, res_y = abs(t0.a), abs(t0.e)
+        minx, miny, maxx, maxy = poly.bounds
+        # snap to the first tile's grid, two cells of margin for the 3×3 windows at the edge
+        left = t0.c + (math.floor((minx - t0.c) / res_x) - 2) * res_x
+        right = t0.c + (math.ceil((maxx - t0.c) / res_x) + 2) * res_x
+        top = t0.f - (math.floor((t0.f - maxy) / res_y) - 2) * res_y
+        bottom = t0.f - (math.ceil((t0.f - miny) / res_y) + 2) * res_y
+        npix = (right - left) / res_x * (top - bottom) / res_y
+        k = max(1, math.ceil(math.sqrt(npix / max_pixels)))
+        gain, offset = _to_metres(srcs)
+        if k > 1:
+            _check_full_resolution(srcs, (left, bottom, right, top), max_pixels, gain, offset)
+        z, transform = rasterio.merge.merge(
+            srcs,
+            bounds=(left, bottom, right, top),
+            res=(res_x * k, res_y * k),
+            nodata=np.nan,
+            dtype="float64",
+            resampling=Resampling.average if k > 1 else Resampling.nearest,
+            masked=True,
+        )
+    return np.ma.filled(z[0].astype(float), np.nan) * gain + offset, transform, k
