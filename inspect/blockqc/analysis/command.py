@@ -303,18 +303,7 @@ def command(
         stereo_iou=stereo_iou,
         edge_correction=edge_correction,
     )
-    if batch is not None:
-        if not dems:
-            raise UsageError("BATCH needs --dem: a DEM file or folder of tiles covering the blocks")
-        refuse_inside(out, [batch])
-        table = build_table(batch, list(dems), options)
-        _dem_coverage(table, list(dems))
-        source = str(batch)
-    else:
-        assert table_path is not None
-        refuse_replacing(out, OUTPUT_NAMES, [table_path])
-        table = read_table(table_path)
-        source = str(table_path)
+    table, source = _experiments(batch, dems, table_path, out, options)
     with empty_removed(out):  # a failure leaves no empty folder the run made
         out = check_out_dir(out, [batch] if batch is not None else [])  # once the inputs are read
         results = analyse(table, source)
@@ -323,6 +312,35 @@ def command(
         with out_lock(out):  # one run at a time writes into a folder, as inspect's
             written = write_outputs(out, table, results, user_templates, lang)
             _remove_stale(out, written)
+    _say_results(results, written, out)
+    return 0
+
+
+def _experiments(
+    batch: Path | None,
+    dems: tuple[Path, ...],
+    table_path: Path | None,
+    out: Path,
+    options: FactorOptions,
+) -> tuple[pd.DataFrame, str]:
+    """The experiments table and where it comes from: built from BATCH's deliveries and the
+    DEM (an --out inside BATCH refused, the blocks the DEM covers in part named), or read from
+    --table (an --out where an output would replace it refused)."""
+    if batch is not None:
+        if not dems:
+            raise UsageError("BATCH needs --dem: a DEM file or folder of tiles covering the blocks")
+        refuse_inside(out, [batch])
+        table = build_table(batch, list(dems), options)
+        _dem_coverage(table, list(dems))
+        return table, str(batch)
+    assert table_path is not None
+    refuse_replacing(out, OUTPUT_NAMES, [table_path])
+    return read_table(table_path), str(table_path)
+
+
+def _say_results(results: dict[str, Any], written: list[Path], out: Path) -> None:
+    """Say how many experiments were analysed, the first canonical correlation and its test
+    (or why the CCA was not computed), and the files written."""
     n_f, n_i = len(FACTOR_COLUMNS), len(INDICATOR_COLUMNS)
     if results["cca"]:
         r1 = results["cca"]["tests"][0]
@@ -337,4 +355,3 @@ def command(
         f"({n_f} factors x {n_i} indicators); {cca_line}"
     )
     click.echo(f"wrote {len(written)} files to {out} (page: {out / 'factors.html'})")
-    return 0
