@@ -746,7 +746,29 @@ def adjust(
     contend); the dense covariance may use every core.
     """
     check_datum(priors)
-    norm = normalization(lines, samples)
+    ctx, state = _start(stack, obs, normalization(lines, samples), priors, settings)
+    sig = settings.sigma_image_px
+
+    def huber(f: FloatArray) -> FloatArray:
+        return huber_weights(f, ctx.kept, settings.huber_k)[0] / sig**2
+
+    _, step = iterate(ctx, state, huber, "huber", settings.huber_iterations)
+    converged, step, weights_sig, rejected = _reject_rounds(ctx, state, step, sig)
+    sol = _solution(ctx, state, step, weights_sig, converged, rejected)
+    before = _original(stack, obs, priors, (~sol.outlier).astype(float))  # the same rays as after
+    return sol, before.v_line, before.v_sample
+
+
+def _start(
+    stack: RPCStack,
+    obs: Observations,
+    norm: tuple[FloatArray, ...],
+    priors: Priors,
+    settings: Settings,
+) -> tuple[Context, State]:
+    """The context and the initial state: every observation kept, the points the original RPCs
+    intersect used (those left with fewer than two observations dropped; a block with none
+    refused), the others placed at the RPCs' offsets and their height priors."""
     state, ok = initial_state(stack, obs, priors)
     ctx = Context(
         stack,
@@ -763,12 +785,18 @@ def adjust(
     state.lon = np.where(ctx.used, state.lon, stack.offsets[0, 3])
     state.lat = np.where(ctx.used, state.lat, stack.offsets[0, 2])
     state.h = np.where(ctx.used, state.h, priors.height)
-    sig = settings.sigma_image_px
+    return ctx, state
 
-    def huber(f: FloatArray) -> FloatArray:
-        return huber_weights(f, ctx.kept, settings.huber_k)[0] / sig**2
 
-    converged, step = iterate(ctx, state, huber, "huber", settings.huber_iterations)
+def _reject_rounds(
+    ctx: Context, state: State, step: Step, sig: float
+) -> tuple[bool, Step, float, BoolArray]:
+    """After the Huber phase, rounds of σ re-estimation and rejection (the largest |v| > k·σ0 of
+    each point), each followed by least-squares steps with weights 1/σ², until neither the σ
+    nor the rejections change at a converged solution, or the iterations or rounds run out.
+    Returns whether it settled converged, the last step, the σ of its weights and the
+    observations rejected."""
+    obs, priors, settings = ctx.obs, ctx.priors, ctx.settings
     converged = False
     settled = False  # the σ and the rejections no longer change at a converged solution
     rejected = np.zeros(obs.point.size, bool)
@@ -791,10 +819,7 @@ def adjust(
         sig = s0
         converged, step = iterate(ctx, state, fixed_weights(ctx.kept, sig), "ls", budget)
         weights_sig = sig
-    converged = converged and settled
-    sol = _solution(ctx, state, step, weights_sig, converged, rejected)
-    before = _original(stack, obs, priors, (~sol.outlier).astype(float))  # the same rays as after
-    return sol, before.v_line, before.v_sample
+    return converged and settled, step, weights_sig, rejected
 
 
 def _solution(
