@@ -83,6 +83,24 @@ def checkpoint_errors(cp: pd.DataFrame) -> pd.DataFrame:
     ]
 
 
+#: the columns of `accuracy_by_group`'s table, in order
+_GROUP_COLUMNS = [
+    "component",
+    "method",
+    "n_total",
+    "n",
+    "n_gross",
+    "gross_rate",
+    "medium_error",
+    "statistic",
+    "used_mean",
+    "min_points_for_medium_error",
+    "max_error",
+    "norm_m",
+    "bound_m",
+]
+
+
 def accuracy_by_group(points: pd.DataFrame, p: AccuracyParams) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Gross errors (§CP-4), medium or mean error (§CP-5, §CP-7), max error, gross rate (§CP-6)."""
     norm = np.where(points["component"] == "plane", p.plane_norm_m, p.height_norm_m)
@@ -91,7 +109,21 @@ def accuracy_by_group(points: pd.DataFrame, p: AccuracyParams) -> tuple[pd.DataF
     bound = factor * norm
     gross = points["abs_error_m"].to_numpy() > bound + p.bound_tolerance_m
     points = points.assign(bound_m=bound, gross=gross)
+    out = _group_sums(points, gross, divisor, norm)
+    _medium_errors(out, p)
+    order = {m: i for i, m in enumerate(METHODS)}
+    out = out.sort_values(
+        ["component", "method"], key=lambda s: s.map({"plane": 0, "height": 1} | order)
+    ).reset_index(drop=True)
+    return out[_GROUP_COLUMNS], points
 
+
+def _group_sums(
+    points: pd.DataFrame, gross: np.ndarray, divisor: np.ndarray, norm: np.ndarray
+) -> pd.DataFrame:
+    """Per component and method: the checkpoints, those kept (not gross errors), the sums of
+    their squared and absolute errors, their max error, the divisor, norm and bound, and the
+    count and rate (%) of gross errors."""
     kept = points.assign(
         sq=np.where(gross, 0.0, points["abs_error_m"] ** 2),
         ab=np.where(gross, 0.0, points["abs_error_m"]),
@@ -115,6 +147,13 @@ def accuracy_by_group(points: pd.DataFrame, p: AccuracyParams) -> tuple[pd.DataF
     ).reset_index()
     out["n_gross"] = out["n_total"] - out["n"]
     out["gross_rate"] = 100.0 * out["n_gross"] / out["n_total"]
+    return out
+
+
+def _medium_errors(out: pd.DataFrame, p: AccuracyParams) -> None:
+    """Add each group's medium error (§CP-5: M1, M2 by the method's divisor) to `out`, or its
+    mean error where fewer checkpoints than `min_points_for_medium_error` count (§CP-7), and
+    which of the two it is."""
     counted = out["n_total"] if p.count_for_mean == "all" else out["n"]
     out["used_mean"] = counted < p.min_points_for_medium_error
     out["min_points_for_medium_error"] = p.min_points_for_medium_error
@@ -124,26 +163,6 @@ def accuracy_by_group(points: pd.DataFrame, p: AccuracyParams) -> tuple[pd.DataF
     out["medium_error"] = np.where(out["used_mean"], mean, medium)
     label = np.where(out["divisor"] == 1.0, "M1", np.where(out["divisor"] == 2.0, "M2", "M"))
     out["statistic"] = np.where(out["used_mean"], "mean", label)
-    order = {m: i for i, m in enumerate(METHODS)}
-    out = out.sort_values(
-        ["component", "method"], key=lambda s: s.map({"plane": 0, "height": 1} | order)
-    ).reset_index(drop=True)
-    cols = [
-        "component",
-        "method",
-        "n_total",
-        "n",
-        "n_gross",
-        "gross_rate",
-        "medium_error",
-        "statistic",
-        "used_mean",
-        "min_points_for_medium_error",
-        "max_error",
-        "norm_m",
-        "bound_m",
-    ]
-    return out[cols], points
 
 
 def method_agreement(groups: pd.DataFrame) -> list[dict]:
