@@ -204,3 +204,23 @@ def test_exchanged_rpc_files_leave_a_residual_far_above_the_noise(tmp_path, bloc
     res, adj = run(blockqc, folder, tmp_path / "out", "--fix", "A")
     assert res["sigma0_px"] > 10 * NOISE_PX
     assert abs(adj.loc["B", "b0"]) > 100
+
+
+def test_exchanged_rpc_files_are_warned_of_by_the_correction_beyond_its_prior(tmp_path, blockqc):
+    """The same exchange: B's shift at the image centre, worked out from its affine in
+    adjustment.csv (Δl = a0 + a1·s + a2·l at the centre), is far beyond the 10 px a-priori σ,
+    and the warning names B with it; A, held, is not named."""
+    folder = tmp_path / "swapped"
+    write_delivery(folder, swap=True)
+    res, adj = run(blockqc, folder, tmp_path / "out", "--fix", "A")
+    b = adj.loc["B"]
+    lc, sc = (LINES - 1) / 2, (SAMPLES - 1) / 2
+    shift = np.hypot(b.a0 + b.a1 * sc + b.a2 * lc, b.b0 + b.b1 * sc + b.b2 * lc)
+    assert shift > 5 * 10
+    assert res["warnings"] == [
+        "1 scene(s) corrected far beyond the a-priori σ of their RPCs (the shift at the image "
+        "centre against --sigma-shift, or a linear term at the image edge against "
+        f"--sigma-linear, more than 5 times): B ({shift / 10:.0f} σ); no RPC bias "
+        "is believed that large: check that each scene's RPC (rpc/) is its own and its tie "
+        "points' image coordinates are in its pixels, or give the RPCs' real a-priori accuracy"
+    ]

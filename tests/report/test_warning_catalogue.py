@@ -29,6 +29,7 @@ KNOWN = {
     "blockqc.adjust.run.scene_warnings",
     "blockqc.adjust.run.fit_warnings",
     "blockqc.adjust.run.checkpoint_warning",
+    "blockqc.adjust.run.prior_warnings",
 }
 
 

@@ -420,6 +420,7 @@ def run_adjust(cfg: AdjustConfig) -> dict:
     summary["base_to_height"] = _spread(bh[sol.point_used])
     summary["warnings"] += height_warnings(bh, sol, priors, cfg.dem_sigma_m, cps, block.point_ids)
     summary["warnings"] += datum_warnings(sol)
+    summary["warnings"] += prior_warnings(sol, priors, summary["scenes"])
     summary["settings"] = dataclasses.asdict(cfg.settings)
     summary["settings"]["sigma_image_px_estimated"] = sol.sigma_image_px
     summary["seconds"] = round(time.perf_counter() - t0, 2)
@@ -492,6 +493,31 @@ def datum_warnings(sol: Solution) -> list[str]:
     height = float(np.median(sigma[:, 2]))
     values = {"plane": f"{plane:.3g}", "height": f"{height:.3g}", "max": f"{DATUM_MAX_SIGMA_M:.1f}"}
     return [EN("ad_warn_datum", norm=f"{PLANE_NORM_M:g}", **values)]
+
+
+#: an estimated affine parameter beyond this many times its a-priori σ is no RPC bias the
+#: priors believe in: a scene given another's RPC, or image coordinates not in its pixels (a
+#: SkySat pair with its RPC files swapped: a shift of 320 px against a σ of 10 px)
+PRIOR_EXCESS = 5.0
+PRIOR_NAMED = 5  # scenes the warning names, the farthest beyond first
+
+
+def prior_warnings(sol: Solution, priors: Priors, scenes: list[dict]) -> list[str]:
+    """Scenes whose estimated affine lies far beyond its a-priori σ (`PRIOR_EXCESS` times): the
+    shift at the image centre against --sigma-shift, a linear term (px at the image edge)
+    against --sigma-linear; one warning naming the farthest, each with its multiple of σ."""
+    p = sol.normalized
+    size = np.stack([np.hypot(p[:, 0], p[:, 3]), np.abs(p[:, [1, 2, 4, 5]]).max(axis=1)], 1)
+    sigma = np.array([priors.sigma_shift_px, priors.sigma_linear_px])
+    ratio = np.where(priors.fixed, 0.0, (size / sigma).max(axis=1))
+    beyond = np.flatnonzero(ratio > PRIOR_EXCESS)
+    if beyond.size == 0:
+        return []
+    beyond = beyond[np.argsort(-ratio[beyond], kind="stable")]
+    named = "; ".join(f"{scenes[k]['scene_id']} ({ratio[k]:.0f} σ)" for k in beyond[:PRIOR_NAMED])
+    more = beyond.size - min(beyond.size, PRIOR_NAMED)
+    key = "ad_warn_prior_more" if more else "ad_warn_prior"
+    return [EN(key, n=beyond.size, excess=f"{PRIOR_EXCESS:g}", named=named, more=more)]
 
 
 def _refuse_without_redundancy(block: Block, sol: Solution, settings: Settings) -> None:

@@ -1322,6 +1322,29 @@ MESSAGES.update(
             "（--sigma-shift、--sigma-linear、--fix）使区域网可以整体移动，其检查点不能检查任何"
             "内容；请给出 RPC 的先验精度",
         ),
+        "ad_warn_prior": (
+            "{n} scene(s) corrected far beyond the a-priori σ of their RPCs (the shift at the "
+            "image centre against --sigma-shift, or a linear term at the image edge against "
+            "--sigma-linear, more than {excess} times): {named}; no RPC bias is believed that "
+            "large: check that each scene's RPC (rpc/) is its own and its tie points' image "
+            "coordinates are in its pixels, or give the RPCs' real a-priori accuracy",
+            "{n} 景影像的改正量远超其 RPC 的先验 σ（影像中心平移相对 --sigma-shift，或影像边缘"
+            "线性项相对 --sigma-linear，超过 {excess} 倍）：{named}；RPC 的偏差不应如此之大："
+            "请检查每景影像的 RPC（rpc/）是否确为其本身的 RPC、其连接点的像方坐标是否为该影像的"
+            "像素坐标，或给出 RPC 的实际先验精度",
+        ),
+        "ad_warn_prior_more": (
+            "{n} scene(s) corrected far beyond the a-priori σ of their RPCs (the shift at the "
+            "image centre against --sigma-shift, or a linear term at the image edge against "
+            "--sigma-linear, more than {excess} times): {named}, and {more} more "
+            "(adjustment.csv); no RPC bias is believed that large: check that each scene's RPC "
+            "(rpc/) is its own and its tie points' image coordinates are in its pixels, or give "
+            "the RPCs' real a-priori accuracy",
+            "{n} 景影像的改正量远超其 RPC 的先验 σ（影像中心平移相对 --sigma-shift，或影像边缘"
+            "线性项相对 --sigma-linear，超过 {excess} 倍）：{named}，另有 {more} 景"
+            "（adjustment.csv）；RPC 的偏差不应如此之大：请检查每景影像的 RPC（rpc/）是否确为"
+            "其本身的 RPC、其连接点的像方坐标是否为该影像的像素坐标，或给出 RPC 的实际先验精度",
+        ),
         "ad_warn_rms_grew": (
             "the residual RMS grew in the adjustment ({before} → {after} px): the corrections "
             "the data ask for are beyond the priors, or the data do not fit",
