@@ -170,6 +170,36 @@ def boxes_meet(box: Sequence[float], other: Sequence[float]) -> bool:
     return west + turn <= o_east and east + turn >= o_west and south <= o_north and north >= o_south
 
 
+def _coefficient_problem(name: str, arr: FloatArray) -> str | None:
+    """What makes one of the four coefficient arrays (`name`: line_num, line_den, samp_num,
+    samp_den) unusable, or None: not 20 finite numbers, a coefficient far from order 1, or a
+    denominator that is zero everywhere or at the centre of the normalized domain."""
+    if arr.shape != (20,):
+        return f"{name} must hold 20 finite numbers, got shape {arr.shape}"
+    if not np.all(np.isfinite(arr)):
+        i = int(np.flatnonzero(~np.isfinite(arr))[0])
+        return (
+            f"{name.upper()} holds {arr[i]} (coefficient {i + 1} of 20): expected 20 finite numbers"
+        )
+    if np.abs(arr).max() > MAX_COEFFICIENT:
+        return (
+            f"{name.upper()} holds {arr[np.abs(arr).argmax()]:g}: the coefficients of a normalized "
+            f"RPC are of order 1 (at most {MAX_COEFFICIENT:g} is accepted)"
+        )
+    if name.endswith("_den") and not np.any(arr):
+        return (
+            f"{name.upper()} holds 20 zeros: a denominator that is zero everywhere divides by "
+            "zero (its constant term is normally 1)"
+        )
+    if name.endswith("_den") and abs(arr[0]) <= CENTRE_DEN_MIN * np.abs(arr).max():
+        return (
+            f"{name.upper()}'s constant term is {arr[0]:g}: the denominator is zero at the centre "
+            "of the normalized domain (the image centre), where the model divides by zero (the "
+            "term is normally 1)"
+        )
+    return None
+
+
 @dataclass(frozen=True, eq=False)
 class RPCModel:
     """One scene's RPC00B model: ten offsets/scales and the 4×20 coefficients (§3).
@@ -203,48 +233,9 @@ class RPCModel:
     def __post_init__(self) -> None:
         for name in ("line_num", "line_den", "samp_num", "samp_den"):
             arr = np.asarray(getattr(self, name), dtype=np.float64)
-            if arr.shape != (20,):
-                raise InputError(
-                    Problem(
-                        file=self.source or "<rpc>",
-                        message=f"{name} must hold 20 finite numbers, got shape {arr.shape}",
-                    )
-                )
-            if not np.all(np.isfinite(arr)):
-                i = int(np.flatnonzero(~np.isfinite(arr))[0])
-                raise InputError(
-                    Problem(
-                        file=self.source or "<rpc>",
-                        message=f"{name.upper()} holds {arr[i]} (coefficient {i + 1} of 20): "
-                        "expected 20 finite numbers",
-                    )
-                )
-            if np.abs(arr).max() > MAX_COEFFICIENT:
-                raise InputError(
-                    Problem(
-                        file=self.source or "<rpc>",
-                        message=f"{name.upper()} holds {arr[np.abs(arr).argmax()]:g}: the "
-                        "coefficients of a normalized RPC are of order 1 (at most "
-                        f"{MAX_COEFFICIENT:g} is accepted)",
-                    )
-                )
-            if name.endswith("_den") and not np.any(arr):
-                raise InputError(
-                    Problem(
-                        file=self.source or "<rpc>",
-                        message=f"{name.upper()} holds 20 zeros: a denominator that is zero "
-                        "everywhere divides by zero (its constant term is normally 1)",
-                    )
-                )
-            if name.endswith("_den") and abs(arr[0]) <= CENTRE_DEN_MIN * np.abs(arr).max():
-                raise InputError(
-                    Problem(
-                        file=self.source or "<rpc>",
-                        message=f"{name.upper()}'s constant term is {arr[0]:g}: the "
-                        "denominator is zero at the centre of the normalized domain (the image "
-                        "centre), where the model divides by zero (the term is normally 1)",
-                    )
-                )
+            message = _coefficient_problem(name, arr)
+            if message is not None:
+                raise InputError(Problem(file=self.source or "<rpc>", message=message))
             object.__setattr__(self, name, arr)
         for name in OFFSET_SCALE_KEYS:
             value = float(getattr(self, name))
