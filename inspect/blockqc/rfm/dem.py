@@ -15,6 +15,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -24,6 +25,10 @@ from rasterio.transform import Affine
 from blockqc.errors import InputError, Problem
 from blockqc.rfm import geoid as geoid_mod
 from blockqc.rfm.readers import check_whole, reading_pixels
+
+if TYPE_CHECKING:
+    from rasterio.io import DatasetReader
+    from rasterio.windows import Window
 
 FloatArray = NDArray[np.float64]
 
@@ -240,7 +245,7 @@ def _read_grid(path: Path, bounds: tuple[float, float, float, float] | None, wha
     """Read a raster (or the window of it covering lon/lat `bounds`) as float64 with NaN voids."""
     import rasterio
     from rasterio.errors import RasterioIOError
-    from rasterio.windows import Window, from_bounds
+    from rasterio.windows import Window
 
     try:
         ds = rasterio.open(path)
@@ -259,31 +264,7 @@ def _read_grid(path: Path, bounds: tuple[float, float, float, float] | None, wha
         window = Window(0, 0, ds.width, ds.height)
         closing = _round_the_globe(crs, t, ds.width)
         if bounds is not None:
-            west, south, east, north = bounds
-            if not wgs84_lonlat(crs):
-                tr = Transformer.from_crs(WGS84, crs, always_xy=True)
-                west, south, east, north = tr.transform_bounds(west, south, east, north)
-            if crs.is_geographic:  # the RPCs' and the grid's longitudes: −180…180 or 0…360
-                shift = _lon_shift(west, east, t.c, t.c + ds.width * t.a)
-                west, east = west + shift, east + shift
-            w = from_bounds(west, south, east, north, transform=t)
-            col0 = max(int(np.floor(w.col_off)) - 2, 0)
-            row0 = max(int(np.floor(w.row_off)) - 2, 0)
-            col1 = min(int(np.ceil(w.col_off + w.width)) + 2, ds.width)
-            row1 = min(int(np.ceil(w.row_off + w.height)) + 2, ds.height)
-            if closing is not None and (col0 == 0 or col1 == ds.width):
-                col0, col1 = 0, ds.width  # at the seam: every column, to close the globe
-            if col1 <= col0 or row1 <= row0:
-                raise NotCovered(
-                    Problem(
-                        file=str(path),
-                        message=f"the {what} does not cover lon {bounds[0]:.4f}..{bounds[2]:.4f}, "
-                        f"lat {bounds[1]:.4f}..{bounds[3]:.4f}",
-                    ),
-                    what=what,
-                    extent=_lonlat_extent(crs, t, ds.width, ds.height),
-                )
-            window = Window(col0, row0, col1 - col0, row1 - row0)
+            window = _covering_window(ds, crs, bounds, closing, path, what)
         with reading_pixels(path, what):
             values = ds.read(1, window=window, masked=True).astype(np.float64).filled(np.nan)
         values = values * ds.scales[0] + ds.offsets[0]  # a band stored scaled (dm, cm)
@@ -295,6 +276,47 @@ def _read_grid(path: Path, bounds: tuple[float, float, float, float] | None, wha
         if wraps and closing:
             values = np.concatenate([values, values[:, :1]], axis=1)
         return Grid(values, transform, crs, str(path), wraps=wraps, unit=unit)
+
+
+def _covering_window(
+    ds: DatasetReader,
+    crs: CRS,
+    bounds: tuple[float, float, float, float],
+    closing: int | None,
+    path: Path,
+    what: str,
+) -> Window:
+    """The window of the open raster `ds` (horizontal CRS `crs`) that covers lon/lat `bounds`
+    with two pixels to spare, every column of a grid that closes round the globe (`closing` not
+    None) when it reaches the seam; NotCovered when the raster does not reach the bounds."""
+    from rasterio.windows import Window, from_bounds
+
+    t = ds.transform
+    west, south, east, north = bounds
+    if not wgs84_lonlat(crs):
+        tr = Transformer.from_crs(WGS84, crs, always_xy=True)
+        west, south, east, north = tr.transform_bounds(west, south, east, north)
+    if crs.is_geographic:  # the RPCs' and the grid's longitudes: −180…180 or 0…360
+        shift = _lon_shift(west, east, t.c, t.c + ds.width * t.a)
+        west, east = west + shift, east + shift
+    w = from_bounds(west, south, east, north, transform=t)
+    col0 = max(int(np.floor(w.col_off)) - 2, 0)
+    row0 = max(int(np.floor(w.row_off)) - 2, 0)
+    col1 = min(int(np.ceil(w.col_off + w.width)) + 2, ds.width)
+    row1 = min(int(np.ceil(w.row_off + w.height)) + 2, ds.height)
+    if closing is not None and (col0 == 0 or col1 == ds.width):
+        col0, col1 = 0, ds.width  # at the seam: every column, to close the globe
+    if col1 <= col0 or row1 <= row0:
+        raise NotCovered(
+            Problem(
+                file=str(path),
+                message=f"the {what} does not cover lon {bounds[0]:.4f}..{bounds[2]:.4f}, "
+                f"lat {bounds[1]:.4f}..{bounds[3]:.4f}",
+            ),
+            what=what,
+            extent=_lonlat_extent(crs, t, ds.width, ds.height),
+        )
+    return Window(col0, row0, col1 - col0, row1 - row0)
 
 
 _US_FOOT = 1200.0 / 3937.0
