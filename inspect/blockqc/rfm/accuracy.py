@@ -163,11 +163,7 @@ def distortion_summary(
     if n == 0:
         return {"n": 0, "significant": False, "reading": reading}
     g = np.hypot(ex, ey)
-    mx, my = float(ex.mean()), float(ey.mean())
-    nz = g > 0
-    resultant = (
-        float(np.hypot(np.mean(ex[nz] / g[nz]), np.mean(ey[nz] / g[nz]))) if nz.any() else 1.0
-    )
+    shift_and_scatter = _shift_and_scatter(ex, ey, g, gsd)
     field = NO_FIELD
     if n >= MIN_FIELD_CPS:
         field = systematic_field(col, row, np.column_stack([ex, ey]), alpha)
@@ -177,6 +173,30 @@ def distortion_summary(
     )
     return {
         "n": int(n),
+        **shift_and_scatter,
+        **field,
+        "gev_median_px": float(p50),
+        "gev_p90_px": float(p90),
+        "gev_max_px": float(p_max),
+        "threshold_px": float(threshold_px),
+        "alpha": float(alpha),
+        "significant": bool(significant),
+        "reading": reading,
+    }
+
+
+def _shift_and_scatter(
+    ex: FloatArray, ey: FloatArray, g: FloatArray, gsd: float
+) -> dict[str, float]:
+    """The mean error vector (px and m), the RMS about it, the standard deviations and the mean
+    resultant length of the error directions, of CP errors (`ex`, `ey`) of length `g` (px)."""
+    n = ex.size
+    mx, my = float(ex.mean()), float(ey.mean())
+    nz = g > 0
+    resultant = (
+        float(np.hypot(np.mean(ex[nz] / g[nz]), np.mean(ey[nz] / g[nz]))) if nz.any() else 1.0
+    )
+    return {
         "mean_dx_px": mx,
         "mean_dy_px": my,
         "mean_dx_m": mx * gsd,
@@ -186,14 +206,6 @@ def distortion_summary(
         "std_dx_px": float(ex.std(ddof=1)) if n > 1 else 0.0,
         "std_dy_px": float(ey.std(ddof=1)) if n > 1 else 0.0,
         "direction_consistency": resultant,
-        **field,
-        "gev_median_px": float(p50),
-        "gev_p90_px": float(p90),
-        "gev_max_px": float(p_max),
-        "threshold_px": float(threshold_px),
-        "alpha": float(alpha),
-        "significant": bool(significant),
-        "reading": reading,
     }
 
 
