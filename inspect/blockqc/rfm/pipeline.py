@@ -744,14 +744,8 @@ def no_cp_cause(
     )
     if no_height[0] > 0:
         figures = f"image outside the DEM {no_height[0]:.0%}; " + figures
-    ref_touched, ref_spread = 0.0, spread
-    if reference is not None:
-        ref_touched = voided_windows(np.where(overlap, reference, np.nan))
-        ref_spread = _spread(reference[overlap])
-        figures += (
-            f" (reference {ref_spread:.4g}); {ref_touched:.0%} of the matching windows over "
-            "the overlap touch an empty pixel of the image or the reference"
-        )
+    ref_touched, ref_spread, ref_figures = _reference_figures(reference, overlap, spread)
+    figures += ref_figures
     found = {
         "dem_under_matches": n_matches > 0,
         "empty_image": valid == 0,
@@ -772,6 +766,23 @@ def no_cp_cause(
         n=int(overlap.sum()), outside=no_height[0], dem=Path(dem.grid.source).name
     )
     return cause in REFERENCE_CAUSES, f"no control point found: {why}. {figures}"
+
+
+def _reference_figures(
+    reference: np.ndarray | None, overlap: np.ndarray, spread: float
+) -> tuple[float, float, str]:
+    """For `no_cp_cause`, the reference on the image's grid weighed: the share of the matching
+    windows over the overlap that touch an empty pixel, its grey-level spread there, and the
+    figures to add to the message (none and the image's `spread` without a reference)."""
+    if reference is None:
+        return 0.0, spread, ""
+    ref_touched = voided_windows(np.where(overlap, reference, np.nan))
+    ref_spread = _spread(reference[overlap])
+    figures = (
+        f" (reference {ref_spread:.4g}); {ref_touched:.0%} of the matching windows over "
+        "the overlap touch an empty pixel of the image or the reference"
+    )
+    return ref_touched, ref_spread, figures
 
 
 def height_warning(dem_file: Path, no_height: tuple[float, float]) -> list[str]:
