@@ -1054,37 +1054,23 @@ def load_delivery(
     if tie_point_columns is not None and has_geometry(path):
         tie_point_columns = None
     read = _read_tables(path, tie_point_columns)
-    tables, files, headers = read.tables, read.files, read.headers
     problems.extend(read.problems)
-    problems.extend(_misnamed_tables(path))
-    problems.extend(_misplaced_inputs(path))
-    problems.extend(_check_references(tables, files))
-    problems.extend(_check_consistency({k: tables[k] for k in read.clean}, files))
-    if manifest is not None and "edges" in read.clean:
-        problems.extend(_edges_to_itself(tables["edges"], files["edges"], manifest.block_id))
-    geometry, found = load_geometry(path, tables, files)  # contract v1.1
+    problems.extend(_across_tables(path, read, manifest))
+    geometry, found = load_geometry(path, read.tables, read.files)  # contract v1.1
     problems.extend(found)
-    if "tie_points" in tables:
-        tp_columns = headers["tie_points"]
-        problems.extend(ground_column_problems(tp_columns, files["tie_points"]))
-        if residuals:
-            problems.extend(residual_column_problems(tp_columns, files["tie_points"], geometry))
+    problems.extend(_tie_point_column_problems(read, geometry, residuals))
     if problems and manifest is not None:  # reported now too, not only once the tables are fixed
         problems.extend(_missing_documents(path, manifest))
     if problems:
         raise InputError(located(problems))
     assert manifest is not None
-    not_read = {
-        name: [c for c in dict.fromkeys(headers[name]) if c and c not in tables[name].columns]
-        for name in tables
-    }
     return Delivery(
         path=path,
         manifest=manifest,
-        files=files,
+        files=read.files,
         geometry=geometry,
-        not_read={k: v for k, v in not_read.items() if v},
-        **tables,
+        not_read=_not_read(read),
+        **read.tables,
     )
 
 
@@ -1128,6 +1114,45 @@ def _read_tables(path: Path, tie_point_columns: Collection[str] | None) -> _Tabl
         if not found:
             out.clean.add(name)
     return out
+
+
+def _across_tables(path: Path, read: _Tables, manifest: Manifest | None) -> list[Problem]:
+    """The problems of the delivery's tables taken together: files misnamed or misplaced, keys
+    no table gives, rows inconsistent with each other (of the tables read without a problem),
+    edges from the block to itself."""
+    tables, files = read.tables, read.files
+    problems: list[Problem] = []
+    problems.extend(_misnamed_tables(path))
+    problems.extend(_misplaced_inputs(path))
+    problems.extend(_check_references(tables, files))
+    problems.extend(_check_consistency({k: tables[k] for k in read.clean}, files))
+    if manifest is not None and "edges" in read.clean:
+        problems.extend(_edges_to_itself(tables["edges"], files["edges"], manifest.block_id))
+    return problems
+
+
+def _tie_point_column_problems(
+    read: _Tables, geometry: BlockGeometry | None, residuals: bool
+) -> list[Problem]:
+    """The problems of the tie points' ground columns and, when `residuals` are needed, of their
+    residual columns (which the producer's adjusted `geometry` may stand in for)."""
+    if "tie_points" not in read.tables:
+        return []
+    tp_columns, tp_file = read.headers["tie_points"], read.files["tie_points"]
+    problems = ground_column_problems(tp_columns, tp_file)
+    if residuals:
+        problems.extend(residual_column_problems(tp_columns, tp_file, geometry))
+    return problems
+
+
+def _not_read(read: _Tables) -> dict[str, list[str]]:
+    """The columns each table's header names that were not read, by table (a table read whole
+    is left out)."""
+    not_read = {
+        name: [c for c in dict.fromkeys(read.headers[name]) if c and c not in df.columns]
+        for name, df in read.tables.items()
+    }
+    return {k: v for k, v in not_read.items() if v}
 
 
 def _misnamed_tables(path: Path) -> list[Problem]:
