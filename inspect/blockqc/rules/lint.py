@@ -304,36 +304,50 @@ def check_rule(
     _check_score(rule, names, bad)
     if rule.manual:
         return out
+    found = _metric_and_scope(rule, bad)
+    if found is None:
+        return out
+    spec, scope = found
+    what = f"{spec.name} at scope {rule.scope}"
+    _check_statistic(rule, scope, what, bad)
+    _check_threshold_kinds(rule, scope, bad)
+    _check_never_negative(rule, scope, names, what, bad)
+    _check_unit(rule, scope, bad)
+    _check_where(rule.where, scope, what, "where", bad)
+    _check_content_groups(rule, scope, what, bad)
+    _check_apart(rule, scope, what, bad)
+    _check_groups(rule, spec, scope, bad)
+    _check_evidence(rule, spec, scope, bad)
+    _check_params(rule, spec, names, bad)
+    return out
+
+
+def _metric_and_scope(rule: Rule, bad: Callable[..., None]) -> tuple[MetricSpec, Scope] | None:
+    """The metric the rule names and its scope; None, said, when the registry has no such
+    metric or the metric no such scope."""
     spec = REGISTRY.get(rule.metric or "")
     if spec is None:
         known = sorted(REGISTRY)
         hint = did_you_mean(rule.metric or "", known)
         bad(f"unknown metric '{rule.metric}'{hint} (known: {', '.join(known)})", "metric")
-        return out
+        return None
     scope = spec.scopes.get(rule.scope)
     if scope is None:
         hint = did_you_mean(rule.scope, spec.scopes)
         offers = ", ".join(spec.scopes)
         bad(f"metric {spec.name} offers no scope '{rule.scope}'{hint} (offers: {offers})", "scope")
-        return out
+        return None
+    return spec, scope
+
+
+def _check_statistic(rule: Rule, scope: Scope, what: str, bad: Callable[..., None]) -> None:
     if rule.statistic not in scope.statistics:
         hint = did_you_mean(rule.statistic or "", scope.statistics)
         offers = ", ".join(scope.statistics)
         bad(
-            f"metric {spec.name} at scope {rule.scope} offers no statistic "
-            f"'{rule.statistic}'{hint} (offers: {offers})",
+            f"metric {what} offers no statistic '{rule.statistic}'{hint} (offers: {offers})",
             "statistic",
         )
-    _check_threshold_kinds(rule, scope, bad)
-    _check_never_negative(rule, scope, names, f"{spec.name} at scope {rule.scope}", bad)
-    _check_unit(rule, scope, bad)
-    _check_where(rule.where, scope, f"{spec.name} at scope {rule.scope}", "where", bad)
-    _check_content_groups(rule, scope, f"{spec.name} at scope {rule.scope}", bad)
-    _check_apart(rule, scope, f"{spec.name} at scope {rule.scope}", bad)
-    _check_groups(rule, spec, scope, bad)
-    _check_evidence(rule, spec, scope, bad)
-    _check_params(rule, spec, names, bad)
-    return out
 
 
 def _check_thresholds(rule: Rule, names: Mapping[str, Any], bad: Callable[..., None]) -> None:
