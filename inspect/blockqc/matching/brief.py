@@ -81,29 +81,44 @@ def match_brief(
     i = pairs["i"].astype(np.int64)
     j = pairs["j"].astype(np.int64)
     d = hamming(desc_img[i], desc_ref[j])
-
-    # Best and second-best candidate per image corner.
-    order = np.lexsort((d, i))
+    order = np.lexsort((d, i))  # by image corner, then distance
     i, j, d = i[order], j[order], d[order]
-    first = np.ones(i.size, dtype=bool)
-    first[1:] = i[1:] != i[:-1]
-    has_second = np.zeros(i.size, dtype=bool)
-    has_second[:-1] = first[:-1] & ~first[1:]
-    second_d = np.full(i.size, np.iinfo(np.int64).max)
-    second_d[:-1] = np.where(has_second[:-1], d[1:], second_d[:-1])
-    best_i, best_j, best_d, best_second = i[first], j[first], d[first], second_d[first]
-
+    best_i, best_j, best_d, best_second = _best_two_per_image_corner(i, j, d)
     # Mutual check: the image corner must also be the best candidate of its reference corner.
-    order_j = np.lexsort((d, j))
-    jj = j[order_j]
-    first_j = np.ones(jj.size, dtype=bool)
-    first_j[1:] = jj[1:] != jj[:-1]
-    best_of_ref = np.full(len(pos_ref), -1, dtype=np.int64)
-    best_of_ref[jj[first_j]] = i[order_j][first_j]
-
+    best_of_ref = _best_per_reference_corner(i, j, d, len(pos_ref))
     keep = (
         (best_of_ref[best_j] == best_i)
         & (best_d <= max_distance)
         & ((best_second == np.iinfo(np.int64).max) | (best_d < ratio * best_second))
     )
     return best_i[keep], best_j[keep], best_d[keep]
+
+
+def _best_two_per_image_corner(
+    i: np.ndarray, j: np.ndarray, d: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Best and second-best candidate per image corner, of candidate pairs (image corner `i`,
+    reference corner `j`, distance `d`) sorted by image corner then distance: the image corner,
+    its best reference corner, their distance, and the second-best distance (the int64 maximum
+    when the corner has a single candidate)."""
+    first = np.ones(i.size, dtype=bool)
+    first[1:] = i[1:] != i[:-1]
+    has_second = np.zeros(i.size, dtype=bool)
+    has_second[:-1] = first[:-1] & ~first[1:]
+    second_d = np.full(i.size, np.iinfo(np.int64).max)
+    second_d[:-1] = np.where(has_second[:-1], d[1:], second_d[:-1])
+    return i[first], j[first], d[first], second_d[first]
+
+
+def _best_per_reference_corner(
+    i: np.ndarray, j: np.ndarray, d: np.ndarray, n_ref: int
+) -> np.ndarray:
+    """For each of the `n_ref` reference corners, the image corner of its best candidate pair
+    (-1 for none), ties going to the pair first in the order given."""
+    order_j = np.lexsort((d, j))
+    jj = j[order_j]
+    first_j = np.ones(jj.size, dtype=bool)
+    first_j[1:] = jj[1:] != jj[:-1]
+    best_of_ref = np.full(n_ref, -1, dtype=np.int64)
+    best_of_ref[jj[first_j]] = i[order_j][first_j]
+    return best_of_ref
