@@ -178,13 +178,8 @@ def cca(table: pd.DataFrame, factors: list[str], indicators: list[str]) -> CCARe
     a, b, su, sv = a * sign, b * sign, su * sign, sv * sign
     struct_x = np.column_stack([_corr(x, su)[:, 0], _corr(x, sv)[:, 0]])
     struct_y = np.column_stack([_corr(y, sv)[:, 0], _corr(y, su)[:, 0]])
-    with np.errstate(divide="ignore"):
-        log_terms = np.log1p(-(r**2))
-    wilks_log = np.cumsum(log_terms[::-1])[::-1]
     k = np.arange(1, m + 1)
-    chi2 = -(n - 1 - (p + q + 1) / 2.0) * wilks_log
-    df = (p - k + 1) * (q - k + 1)
-    pv = stats.chi2.sf(chi2, df)
+    wilks_log, chi2, df, pv = _bartlett(r, k, n, p, q)
     names = [f"{i}" for i in k]
     return CCAResult(
         n=n,
@@ -202,6 +197,21 @@ def cca(table: pd.DataFrame, factors: list[str], indicators: list[str]) -> CCARe
         scores_u=su,
         scores_v=sv,
     )
+
+
+def _bartlett(
+    r: np.ndarray, k: np.ndarray, n: int, p: int, q: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Bartlett's test that the canonical correlations from the k-th on are all zero, for each
+    k of `k`, of the canonical correlations `r` of p factors and q indicators over n rows: log
+    Wilks' Λ, χ², its degrees of freedom and p value."""
+    with np.errstate(divide="ignore"):
+        log_terms = np.log1p(-(r**2))
+    wilks_log = np.cumsum(log_terms[::-1])[::-1]
+    chi2 = -(n - 1 - (p + q + 1) / 2.0) * wilks_log
+    df = (p - k + 1) * (q - k + 1)
+    pv = stats.chi2.sf(chi2, df)
+    return wilks_log, chi2, df, pv
 
 
 def _std(a: np.ndarray) -> np.ndarray:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any
@@ -137,34 +138,41 @@ def write_outputs(
     text("experiments.csv", write_table_csv(table))
     write_json_atomic(out / "factors.json", results)
     written.append(out / "factors.json")
-    corr = results["correlation"]
-    if corr:
-        for key, name in (("r", "correlation.csv"), ("p_value", "correlation_p_values.csv")):
-            frame = pd.DataFrame(corr[key]).T.loc[results["factors"], results["indicators"]]
-            text(name, frame.rename_axis("factor").to_csv(lineterminator="\n"))
-    res = results["cca"]
-    if res:
-        text("cca_tests.csv", pd.DataFrame(res["tests"]).to_csv(index=False, lineterminator="\n"))
-        coef = pd.concat(
-            [
-                _coef_frame(res["coefficients_factors"], "factor", "U"),
-                _coef_frame(res["coefficients_indicators"], "indicator", "V"),
-            ]
-        )
-        text("cca_coefficients.csv", coef.to_csv(index=False, lineterminator="\n"))
-        struct = pd.concat(
-            [
-                _struct_frame(res["structure_factors"], "factor", "U1", "V1"),
-                _struct_frame(res["structure_indicators"], "indicator", "V1", "U1"),
-            ]
-        )
-        text("cca_structure.csv", struct.to_csv(index=False, lineterminator="\n"))
+    for name, content in _analysis_csvs(results):
+        text(name, content)
     for name, (svg, png) in figures.items():
         for suffix, data in ((".svg", svg), (".png", png)):
             write_bytes_atomic(out / f"{name}{suffix}", data)
             written.append(out / f"{name}{suffix}")
     text("factors.html", page)
     return written
+
+
+def _analysis_csvs(results: dict[str, Any]) -> Iterator[tuple[str, str]]:
+    """The analysis as CSV files (name, text), one at a time: the correlations and their p
+    values, then the CCA's tests, coefficients and structure, of those computed."""
+    corr = results["correlation"]
+    if corr:
+        for key, name in (("r", "correlation.csv"), ("p_value", "correlation_p_values.csv")):
+            frame = pd.DataFrame(corr[key]).T.loc[results["factors"], results["indicators"]]
+            yield name, frame.rename_axis("factor").to_csv(lineterminator="\n")
+    res = results["cca"]
+    if res:
+        yield "cca_tests.csv", pd.DataFrame(res["tests"]).to_csv(index=False, lineterminator="\n")
+        coef = pd.concat(
+            [
+                _coef_frame(res["coefficients_factors"], "factor", "U"),
+                _coef_frame(res["coefficients_indicators"], "indicator", "V"),
+            ]
+        )
+        yield "cca_coefficients.csv", coef.to_csv(index=False, lineterminator="\n")
+        struct = pd.concat(
+            [
+                _struct_frame(res["structure_factors"], "factor", "U1", "V1"),
+                _struct_frame(res["structure_indicators"], "indicator", "V1", "U1"),
+            ]
+        )
+        yield "cca_structure.csv", struct.to_csv(index=False, lineterminator="\n")
 
 
 def _coef_frame(coef: dict[str, dict[str, float]], group: str, prefix: str) -> pd.DataFrame:

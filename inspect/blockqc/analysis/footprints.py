@@ -217,35 +217,44 @@ def tie_point_lonlat(tie_points: pd.DataFrame, scenes: pd.DataFrame) -> pd.DataF
         lon = tp["lon"].to_numpy(dtype=float)
         lat = tp["lat"].to_numpy(dtype=float)
     else:
-        sc = scenes.drop_duplicates("scene_id").reset_index(drop=True)
-        corners = footprint_corners(sc)
-        idx = pd.Index(sc["scene_id"].astype(str)).get_indexer(tp["scene_id"].astype(str))
-        if (idx < 0).any():
-            rows = np.flatnonzero(idx < 0)[:20]
-            raise InputError(
-                [
-                    Problem(
-                        file="tie_points.csv",
-                        row=int(r) + 1,
-                        column="scene_id",
-                        message="scene not listed in scenes.csv",
-                    )
-                    for r in rows
-                ]
-            )
-        c = corners[idx]
-        u = (tp["sample"].to_numpy(dtype=float) / sc["samples"].to_numpy(dtype=float)[idx])[:, None]
-        v = (tp["line"].to_numpy(dtype=float) / sc["lines"].to_numpy(dtype=float)[idx])[:, None]
-        xy = (
-            ((1 - u) * (1 - v)) * c[:, 0]
-            + (u * (1 - v)) * c[:, 1]
-            + (u * v) * c[:, 2]
-            + ((1 - u) * v) * c[:, 3]
+        lon, lat = _observation_lonlat(tp, scenes)
+    return _mean_per_point(tp["point_id"].astype(str).to_numpy(), lon, lat)
+
+
+def _observation_lonlat(tp: pd.DataFrame, scenes: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
+    """Each observation's (line, sample) mapped bilinearly between its scene's four footprint
+    corners; InputError naming the first rows whose scene scenes.csv does not list."""
+    sc = scenes.drop_duplicates("scene_id").reset_index(drop=True)
+    corners = footprint_corners(sc)
+    idx = pd.Index(sc["scene_id"].astype(str)).get_indexer(tp["scene_id"].astype(str))
+    if (idx < 0).any():
+        rows = np.flatnonzero(idx < 0)[:20]
+        raise InputError(
+            [
+                Problem(
+                    file="tie_points.csv",
+                    row=int(r) + 1,
+                    column="scene_id",
+                    message="scene not listed in scenes.csv",
+                )
+                for r in rows
+            ]
         )
-        lon, lat = xy[:, 0], xy[:, 1]
-    frame = pd.DataFrame(
-        {"point_id": tp["point_id"].astype(str).to_numpy(), "lon": lon, "lat": lat}
+    c = corners[idx]
+    u = (tp["sample"].to_numpy(dtype=float) / sc["samples"].to_numpy(dtype=float)[idx])[:, None]
+    v = (tp["line"].to_numpy(dtype=float) / sc["lines"].to_numpy(dtype=float)[idx])[:, None]
+    xy = (
+        ((1 - u) * (1 - v)) * c[:, 0]
+        + (u * (1 - v)) * c[:, 1]
+        + (u * v) * c[:, 2]
+        + ((1 - u) * v) * c[:, 3]
     )
+    return xy[:, 0], xy[:, 1]
+
+
+def _mean_per_point(point_id: np.ndarray, lon: np.ndarray, lat: np.ndarray) -> pd.DataFrame:
+    """The mean lon/lat of the observations of each point, sorted by point id."""
+    frame = pd.DataFrame({"point_id": point_id, "lon": lon, "lat": lat})
     # average longitudes relative to each point's first one, so ±180° does not split a point
     ref = frame.groupby("point_id", sort=False)["lon"].transform("first")
     frame["dlon"] = (frame["lon"] - ref + 180.0) % 360.0 - 180.0

@@ -141,20 +141,8 @@ MAX_MAGNITUDE = 1e12
 def validate_table(raw: pd.DataFrame, file: str, lines: list[int] | None = None) -> pd.DataFrame:
     """Check the columns and ids and parse the factors and indicators as finite numbers;
     `lines`: the line each row starts on, named beside the row in the problems."""
-    problems: list[Problem] = []
     extra = [str(c) for c in raw.columns if c not in TABLE_COLUMNS]
-    missing = [c for c in FACTOR_COLUMNS + INDICATOR_COLUMNS if c not in raw.columns]
-    for col in missing:
-        near = near_column(col, extra)
-        problems.append(
-            Problem(
-                file=file,
-                column=col,
-                message="required column missing (the header must name the ten factors and "
-                "five indicators as in samples/factors/gf7_adjustment_experiments.csv)"
-                + (f"; is '{near}' meant to be it?" if near else ""),
-            )
-        )
+    problems = _missing_columns(raw, file, extra)
     problems += _misnamed_ids(raw, file, extra)
     if problems:
         raise InputError(problems)
@@ -170,27 +158,56 @@ def validate_table(raw: pd.DataFrame, file: str, lines: list[int] | None = None)
     if "experiment" not in table.columns:
         table.insert(0, "experiment", [str(i + 1) for i in range(len(table))])
     for col in FACTOR_COLUMNS + INDICATOR_COLUMNS:
-        text = raw[col].astype(str).str.strip()
-        values = pd.to_numeric(text, errors="coerce").to_numpy(dtype=float)
-        with np.errstate(invalid="ignore"):
-            bad = ~np.isfinite(values) | (np.abs(values) > MAX_MAGNITUDE)
-        for i in np.flatnonzero(bad):
-            shown = text.iloc[i]
-            what = (
-                "empty"
-                if shown == ""
-                else f"'{shown}' is not a finite number of magnitude at most {MAX_MAGNITUDE:g}"
-            )
-            problems.append(_cell_problem(file, int(i), lines, col, what))
-        low, high = RANGES.get(col, (-np.inf, np.inf))
-        for i in np.flatnonzero(~bad & ((values < low) | (values > high))):
-            most = f" and at most {high:g}" if np.isfinite(high) else ""
-            what = f"'{text.iloc[i]}': a {LABELS[col]} is at least {low:g}{most}"
-            problems.append(_cell_problem(file, int(i), lines, col, what))
-        table[col] = values
+        table[col], found = _parsed_column(raw, col, file, lines)
+        problems += found
     if problems:
         raise InputError(problems)
     return table
+
+
+def _missing_columns(raw: pd.DataFrame, file: str, extra: list[str]) -> list[Problem]:
+    """The factors and indicators the header does not name, each with the `extra` column that
+    may be meant for it."""
+    problems: list[Problem] = []
+    missing = [c for c in FACTOR_COLUMNS + INDICATOR_COLUMNS if c not in raw.columns]
+    for col in missing:
+        near = near_column(col, extra)
+        problems.append(
+            Problem(
+                file=file,
+                column=col,
+                message="required column missing (the header must name the ten factors and "
+                "five indicators as in samples/factors/gf7_adjustment_experiments.csv)"
+                + (f"; is '{near}' meant to be it?" if near else ""),
+            )
+        )
+    return problems
+
+
+def _parsed_column(
+    raw: pd.DataFrame, col: str, file: str, lines: list[int] | None
+) -> tuple[np.ndarray, list[Problem]]:
+    """A factor or indicator column as numbers, and a problem for each cell that is empty, not
+    a finite number or outside the column's range."""
+    problems: list[Problem] = []
+    text = raw[col].astype(str).str.strip()
+    values = pd.to_numeric(text, errors="coerce").to_numpy(dtype=float)
+    with np.errstate(invalid="ignore"):
+        bad = ~np.isfinite(values) | (np.abs(values) > MAX_MAGNITUDE)
+    for i in np.flatnonzero(bad):
+        shown = text.iloc[i]
+        what = (
+            "empty"
+            if shown == ""
+            else f"'{shown}' is not a finite number of magnitude at most {MAX_MAGNITUDE:g}"
+        )
+        problems.append(_cell_problem(file, int(i), lines, col, what))
+    low, high = RANGES.get(col, (-np.inf, np.inf))
+    for i in np.flatnonzero(~bad & ((values < low) | (values > high))):
+        most = f" and at most {high:g}" if np.isfinite(high) else ""
+        what = f"'{text.iloc[i]}': a {LABELS[col]} is at least {low:g}{most}"
+        problems.append(_cell_problem(file, int(i), lines, col, what))
+    return values, problems
 
 
 def _misnamed_ids(raw: pd.DataFrame, file: str, extra: list[str]) -> list[Problem]:
