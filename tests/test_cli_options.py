@@ -311,14 +311,17 @@ def test_an_empty_plan_path_is_refused_as_such(tmp_path):
     [
         (("factors", SAMPLES / "batch", "--out", "o", "--period-gap-days", "nan"),
          "'--period-gap-days': nan is not a finite number"),
+        (("factors", SAMPLES / "batch", "--out", "o", "--stereo-iou", "nan"),
+         "'--stereo-iou': nan is not a finite number"),
         (("simulate", "o", "--obs-per-scene", "1000000000"),
          "1000000000 is not in the range 10<=x<=100000"),
         (("simulate",), "Missing argument 'OUT'"),
     ],
 )  # fmt: skip
 def test_values_no_run_can_take_are_refused(tmp_path, args, words):
-    """NaN days made every date one period, recorded as null; a billion observations per scene
-    ran out of memory (an internal error)."""
+    """NaN days made every date one period, recorded as null; a NaN IoU made no two scenes of
+    a day one stereo unit (every overlap degree changed, unsaid); a billion observations per
+    scene ran out of memory (an internal error)."""
     _refused(run_blockqc(*args, cwd=tmp_path), words)
     assert list(tmp_path.iterdir()) == []
 

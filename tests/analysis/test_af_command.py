@@ -164,6 +164,16 @@ def test_sample_batch_page(tmp_path):
         assert "CCA not computed" in page and "at least 17 rows" in page
 
 
+def test_a_stereo_iou_given_is_recorded_with_the_options(batch, data_dir, tmp_path):
+    """A finite --stereo-iou in (0, 1] is taken (NaN is refused: tests/test_cli_options.py)."""
+    out = tmp_path / "out"
+    args = [str(batch), "--dem", str(data_dir), "--stereo-iou", "1", "--out", str(out)]
+    res = CliRunner().invoke(command, args)
+    assert res.exit_code == 0, res.output
+    results = json.loads((out / "factors.json").read_text(encoding="utf-8"))
+    assert results["options"]["stereo_iou"] == 1.0
+
+
 def test_a_dem_that_covers_no_block_is_refused(batch, dem_writer, tmp_path):
     far = dem_writer(tmp_path / "far.tif", np.full((50, 50), 100.0), 10.0, 60.0, 0.01, "EPSG:4326")
     out = tmp_path / "out"

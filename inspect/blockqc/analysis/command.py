@@ -34,7 +34,7 @@ from blockqc.verification import prepare
 
 def _finite(value: float, param: click.Parameter) -> float:
     """A number option refused when not finite (a range lets NaN through: inf would count every
-    date as one period, unsaid)."""
+    date as one period, and a NaN IoU make no two scenes one stereo unit, unsaid)."""
     if not math.isfinite(value):
         raise click.BadParameter(f"{value!r} is not a finite number", param=param)
     return value
@@ -264,6 +264,7 @@ _BATCH_ONLY = ("dems", "images_band", "period_gap_days", "overlap", "stereo_iou"
 @click.option(
     "--stereo-iou",
     type=click.FloatRange(min=0.0, max=1.0, min_open=True),
+    callback=lambda ctx, param, v: _finite(v, param),
     default=0.8,
     show_default=True,
     help="Same-day scenes whose footprints overlap this much (intersection over union) are one "
