@@ -130,6 +130,20 @@ def test_rows_are_named_with_their_line(tmp_path, appendix_path):
     assert [(p.row, p.line, p.column) for p in err.problems] == [(4, 7, "mean_slope_deg")]
 
 
+def test_a_row_with_fewer_fields_than_the_header_is_named(tmp_path, appendix_path):
+    """A row short of its last field: with an extra column last, it was read with that cell
+    empty and nothing said; short of an indicator, its cell was said to be "empty"."""
+    lines = _rows(appendix_path, 3)
+    lines = [lines[0] + ",note"] + [line + ",checked" for line in lines[1:]]
+    lines[2] = lines[2].removesuffix(",checked")  # data row 2: 19 fields, the header 20
+    bad, err = _refused(tmp_path / "short.csv", lines)
+    assert str(err) == f"{bad}, row 2 (line 3): 19 fields where the header names 20"
+    lines = _rows(appendix_path, 3)
+    lines[3] = lines[3].rsplit(",", 1)[0]  # data row 3 without its h_rmse_m
+    bad, err = _refused(tmp_path / "short2.csv", lines)
+    assert str(err) == f"{bad}, row 3 (line 4): 18 fields where the header names 19"
+
+
 def test_a_table_not_in_utf8_names_the_line(tmp_path, appendix_path):
     lines = _rows(appendix_path, 3)
     lines[3] = lines[3].replace("08HZ", "Zürich")

@@ -96,9 +96,10 @@ def _is_blank(row: list[str]) -> bool:
 
 
 def _check_shape(path: Path, text: str) -> list[int]:
-    """What pandas would silently repair: a column named twice (renamed `x.1`) and a row with
-    more fields than the header (which shifts every column of the table by one). Returns the
-    line each data row starts on (blank lines skipped, as pandas skips them)."""
+    """What pandas would silently repair: a column named twice (renamed `x.1`), a row with
+    more fields than the header (which shifts every column of the table by one) and one with
+    fewer (its last cells read as empty, an extra column's unsaid). Returns the line each data
+    row starts on (blank lines skipped, as pandas skips them)."""
     rows = csv.reader(io.StringIO(text, newline=""))
     try:
         header = [h.strip() for h in next(rows, [])]
@@ -116,7 +117,7 @@ def _check_shape(path: Path, text: str) -> list[int]:
             if _is_blank(row):
                 continue
             starts.append(start)
-            if len(row) > len(header):
+            if len(row) != len(header):
                 problems.append(
                     Problem(
                         file=str(path),
