@@ -255,6 +255,51 @@ def test_a_gsd_too_fine_is_refused_naming_it(tmp_path: Path, capsys):
     assert ".partial" not in err and not (tmp_path / "out").exists()
 
 
+def test_a_gsd_too_coarse_for_a_matching_window_is_refused_naming_it(tmp_path: Path, capsys):
+    """5 m over the 500 px crop at 0.505 m: the image covers 50.5 px of the grid, and no CP
+    was found "the image is too small"; at 1e6 m the run said the image had no data on the
+    grid, after a RuntimeWarning of numpy."""
+    err = refused(ventoux_args(tmp_path / "out") + ["--gsd", "5"], capsys)
+    assert err == (
+        "error: <arguments>: --gsd 5 m puts the image (500 × 500 px at 0.505 m) on 50.5 × 50.5 "
+        "px of the output grid: at least 51 px each way is expected (a matching window); give "
+        "a smaller --gsd\n"
+    )
+    assert not (tmp_path / "out").exists()
+    err = refused(ventoux_args(tmp_path / "out") + ["--gsd", "1e6"], capsys)
+    assert "error: <arguments>: --gsd 1e+06 m puts the image" in err and "Warning" not in err
+
+
+def test_a_gsd_coarser_than_the_image_s_is_taken(tmp_path: Path):
+    """1 m, about twice the image's 0.505 m: the grid is at 1 m, the errors in the image's
+    pixels."""
+    out = tmp_path / "out"
+    result = CliRunner().invoke(command, ventoux_args(out) + ["--gsd", "1"])
+    assert result.exit_code in (0, 1), result.output  # 1: the RMSE misses the requirement
+    results = json.loads((out / "results.json").read_text(encoding="utf-8"))
+    assert results["grid"]["gsd_m"] == 1.0 and results["accuracy"]["image_gsd_m"] == 0.505
+
+
+def test_an_image_smaller_than_a_matching_window_is_refused_naming_it(tmp_path: Path, capsys):
+    """A 1 × 1 px crop of the left image: it was said not to overlap the reference."""
+    import rasterio
+
+    image = tmp_path / "one_pixel.tif"
+    with rasterio.open(VENTOUX / "left_image.tif") as src:
+        profile = src.profile | {"width": 1, "height": 1}
+        pixel = src.read(window=((0, 1), (0, 1)))
+    with rasterio.open(image, "w", **profile) as dst:
+        dst.write(pixel)
+    args = ventoux_args(tmp_path / "out")
+    args[0] = str(image)
+    err = refused(args, capsys)
+    assert err == (
+        f"error: {image}: the image is 1 × 1 px, too small to match: at least 51 px each way "
+        "is expected (a matching window)\n"
+    )
+    assert not (tmp_path / "out").exists()
+
+
 def test_a_huge_margin_is_refused_naming_it(tmp_path: Path, capsys):
     err = refused(ventoux_args(tmp_path / "out") + ["--margin", "100000000"], capsys)
     assert "--margin 100000000 px" in err and "a smaller --margin" in err

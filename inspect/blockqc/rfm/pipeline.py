@@ -910,6 +910,29 @@ def check_reference_rpc(cfg: RfmAccuracyConfig, rpc: RPCModel) -> None:
     described_footprint(rpc, cfg.reference, shape, offset, "--reference-crop-offset", given)
 
 
+def check_image_holds_window(
+    cfg: RfmAccuracyConfig, shape: tuple[int, int], image_gsd: float
+) -> None:
+    """An image narrower on the output grid than a matching window can give no CP: refused
+    before it is orthorectified, naming --gsd when the image itself is wide enough, else the
+    image (a 1 × 1 px image was said not to overlap the reference, a --gsd of 1000 m to leave
+    no data on the grid)."""
+    rows, cols = shape
+    scale = image_gsd / cfg.gsd if cfg.gsd is not None else 1.0
+    if not math.isfinite(scale) or min(rows, cols) * scale >= CORNER_WINDOW:
+        return
+    need = f"at least {CORNER_WINDOW} px each way is expected (a matching window)"
+    if min(rows, cols) >= CORNER_WINDOW:
+        why = (
+            f"--gsd {cfg.gsd:g} m puts the image ({cols} × {rows} px at {image_gsd:g} m) on "
+            f"{cols * scale:.3g} × {rows * scale:.3g} px of the output grid: {need}; give a "
+            "smaller --gsd"
+        )
+        raise InputError(Problem(file="<arguments>", message=why))
+    why = f"the image is {cols} × {rows} px, too small to match: {need}"
+    raise InputError(Problem(file=str(cfg.image), message=why))
+
+
 def _prepare(cfg: RfmAccuracyConfig) -> _Run:
     """Read the RPC and the image size, and the DEM over the footprint (heights ellipsoidal)."""
     rpc = rpcs_of(cfg.image, cfg.rpc, f"{NO_RPCS}: give the image's RPC file with --rpc")
@@ -928,6 +951,7 @@ def _prepare(cfg: RfmAccuracyConfig) -> _Run:
     run.image_gsd = (
         run.grid.gsd if cfg.gsd is None else round(centre_gsd(rpc, shape, offset, dem, run.grid), 3)
     )
+    check_image_holds_window(cfg, shape, run.image_gsd)
     run.no_height = image_without_height(rpc, shape, offset, dem)
     return run
 
