@@ -48,6 +48,16 @@ def test_geoid_without_dem_is_a_usage_error(block, tmp_path, blockqc):
     assert r.returncode == 2 and "--dem-sigma given without --dem" in r.stderr
 
 
+def test_a_scene_fixed_twice_is_refused(block, tmp_path, blockqc):
+    """`--fix S0001 --fix S0001` (S0002 meant, perhaps) was taken as one, and adjust.json
+    listed S0001 twice among the fixed scenes."""
+    out = tmp_path / "out"
+    r = blockqc("adjust", block, "--out", out, "--fix", "S0001", "--fix", "S0001")
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert r.stderr == "error: --fix S0001 given more than once: give each scene once\n"
+    assert not out.exists()
+
+
 def test_dem_with_no_height_under_the_block_is_refused(block, tmp_path, blockqc):
     dem = _dem(tmp_path / "voids.tif", -9999.0)
     r = blockqc("adjust", block, "--out", tmp_path / "out", "--dem", dem, "--geoid", GEOID)
