@@ -210,6 +210,34 @@ def test_a_fault_the_blocks_cannot_hold_is_refused(
     assert not out.exists()
 
 
+def test_a_grid_or_fields_that_do_not_parse_are_named_alone(tmp_path: Path) -> None:
+    """One message served both: "--grid is ROWSxCOLS (e.g. 4x4) and --fields a list like
+    1,2,3,4", whichever of the two was wrong, and without the value given."""
+    out = tmp_path / "out"
+    refusals = {
+        ("--grid", "4x"): "--grid is ROWSxCOLS (e.g. 4x4), got '4x'",
+        ("--grid", "4x4x4"): "--grid is ROWSxCOLS (e.g. 4x4), got '4x4x4'",
+        ("--fields", "1,,2"): "--fields is a list like 1,2,3,4, got '1,,2'",
+        ("--fields", ""): "--fields is a list like 1,2,3,4, got ''",
+    }
+    for args, message in refusals.items():
+        r = run_blockqc("simulate", out, *args)
+        assert (r.returncode, r.stderr) == (2, f"error: {message}\n")
+        assert not out.exists()
+
+
+def test_a_grid_and_fields_given_are_taken(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    r = run_blockqc(
+        "simulate", out, "--grid", "1X2", "--fields", "4", "--blocks-per-field", "1",
+        "--obs-per-scene", "10",
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    assert r.stdout == f"wrote 1 deliveries to {out}: F4-B01\n"
+    scenes = pd.read_csv(out / "F4-B01" / "scenes.csv")
+    assert len(scenes) == 6  # 1 × 2 footprints, 3 scenes each
+
+
 def test_a_block_of_one_footprint_has_no_overlaps_table(tmp_path: Path) -> None:
     """One footprint has no adjacent images: overlaps.csv is left out, as edges.csv is for a
     block without neighbours (a header-only table made the delivery unreadable, and field 3's

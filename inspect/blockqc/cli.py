@@ -773,11 +773,12 @@ def simulate_cmd(
         raise UsageError("Missing argument 'OUT': the folder to write the deliveries into")
     try:
         rows, cols = (int(v) for v in grid.lower().split("x"))
+    except ValueError:
+        raise UsageError(f"--grid is ROWSxCOLS (e.g. 4x4), got {grid!r}") from None
+    try:
         chosen = tuple(int(f) for f in fields.split(","))
     except ValueError:
-        raise UsageError(
-            "--grid is ROWSxCOLS (e.g. 4x4) and --fields a list like 1,2,3,4"
-        ) from None
+        raise UsageError(f"--fields is a list like 1,2,3,4, got {fields!r}") from None
     if not (1 <= rows <= MAX_GRID and 1 <= cols <= MAX_GRID):
         raise UsageError(f"--grid {grid}: ROWS and COLS are 1 to {MAX_GRID} (e.g. 4x4)")
     per_block = 2 * rows * cols * obs_per_scene
