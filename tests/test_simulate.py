@@ -226,6 +226,15 @@ def test_a_grid_or_fields_that_do_not_parse_are_named_alone(tmp_path: Path) -> N
         assert not out.exists()
 
 
+def test_a_fault_given_twice_is_refused(tmp_path: Path) -> None:
+    """`--fault tp-noise --fault tp-noise` (another fault meant, perhaps) wrote the blocks with
+    the one fault, without a word, as `--fields 1,1` is refused."""
+    out = tmp_path / "out"
+    r = run_blockqc("simulate", out, "--fault", "tp-noise", "--fault", "tp-noise")
+    assert (r.returncode, r.stderr) == (2, "error: --fault tp-noise: a fault is named twice\n")
+    assert not out.exists()
+
+
 def test_a_grid_and_fields_given_are_taken(tmp_path: Path) -> None:
     out = tmp_path / "out"
     r = run_blockqc(

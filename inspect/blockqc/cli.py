@@ -791,6 +791,9 @@ def simulate_cmd(
         )
     if len(set(chosen)) != len(chosen):
         raise UsageError(f"--fields {fields}: a field is named twice")
+    twice = sorted({f for f in faults if faults.count(f) > 1})
+    if twice:
+        raise UsageError(f"--fault {', '.join(twice)}: a fault is named twice")
     opts = Options(
         seed=seed,
         fields=chosen,
