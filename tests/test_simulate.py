@@ -173,14 +173,22 @@ def test_a_failure_leaves_no_empty_out_it_made(tmp_path: Path) -> None:
     assert r.returncode == 2 and out.is_dir()
 
 
-def test_a_dem_tile_that_is_no_raster_is_named(tmp_path: Path) -> None:
-    """The raster library's error names the file itself: no empty name before it."""
+def test_a_dem_tile_that_is_no_raster_is_named_before_any_delivery_is_written(
+    tmp_path: Path,
+) -> None:
+    """Field 1's tile a raster, field 2's not: field 1's two deliveries were written, then the
+    run stopped (exit 2) leaving them as if the batch were whole; the tile is now opened
+    before anything is written, and named first."""
     dems = tmp_path / "dems"
     dems.mkdir()
-    (dems / "srtm_N44E005.tif").write_text("not a raster\n")
-    r = run_blockqc("simulate", tmp_path / "out", "--fields", "2", "--dem-dir", dems)
+    (dems / "srtm_40E39N_demcompare.tif").write_bytes(
+        (DEM / "srtm_40E39N_demcompare.tif").read_bytes()
+    )
+    tile = dems / "srtm_N44E005.tif"
+    tile.write_text("not a raster\n")
+    r = run_blockqc("simulate", tmp_path / "out", "--fields", "1,2", "--dem-dir", dems)
     assert r.returncode == 2 and not (tmp_path / "out").exists()
-    assert r.stderr.startswith(f"error: '{dems / 'srtm_N44E005.tif'}' not recognized as ")
+    assert r.stderr.startswith(f"error: {tile}: cannot open as a raster: '{tile}' not recognized ")
 
 
 @pytest.mark.parametrize(

@@ -733,6 +733,10 @@ def simulate(out: Path | str, opts: Options, dem_dir: Path | None = None) -> lis
             f"{absent[0]} (its checkpoint heights are sampled from it; the tiles are in "
             "samples/dem of the checkout)"
         )
+    from blockqc.rfm.readers import open_raster
+
+    for f in opts.fields:  # each tile opens before any delivery is written, not between fields
+        open_raster(dem_dir / FIELDS[f].dem).close()
     ids = [block_id(f, i) for f in opts.fields for i in range(opts.blocks_per_field)]
     with empty_removed(Path(out)):  # a failure leaves no empty folder the run made
         out = prepare_out(out, ids)
