@@ -48,6 +48,25 @@ def test_geoid_without_dem_is_a_usage_error(block, tmp_path, blockqc):
     assert r.returncode == 2 and "--dem-sigma given without --dem" in r.stderr
 
 
+ALL_HELD = (
+    "all 2 scenes are held (--fix): nothing is adjusted; the points are the intersections of "
+    "the RPCs as delivered, and the checkpoints compare the producer's positions with those, "
+    "not with a recalculation"
+)
+
+
+def test_every_scene_held_is_warned_of_and_one_held_is_not(block, tmp_path, blockqc):
+    """With both scenes held nothing is adjusted: said, in adjust.json and on the console; with
+    one held the other is adjusted and nothing is said of it."""
+    r = blockqc("adjust", block, "--out", tmp_path / "all", "--fix", "S0001", "--fix", "S0002")
+    assert r.returncode == 0, r.stderr
+    assert f"warning: {ALL_HELD}\n" in r.stderr
+    assert ALL_HELD in json.loads((tmp_path / "all" / "adjust.json").read_text())["warnings"]
+    r = blockqc("adjust", block, "--out", tmp_path / "one", "--fix", "S0001")
+    assert r.returncode == 0, r.stderr
+    assert "are held" not in r.stderr
+
+
 def test_a_scene_fixed_twice_is_refused(block, tmp_path, blockqc):
     """`--fix S0001 --fix S0001` (S0002 meant, perhaps) was taken as one, and adjust.json
     listed S0001 twice among the fixed scenes."""

@@ -30,6 +30,7 @@ KNOWN = {
     "blockqc.adjust.run.fit_warnings",
     "blockqc.adjust.run.checkpoint_warning",
     "blockqc.adjust.run.prior_warnings",
+    "blockqc.adjust.run.held_warnings",
 }
 
 

@@ -421,6 +421,7 @@ def run_adjust(cfg: AdjustConfig) -> dict:
     summary["warnings"] += height_warnings(bh, sol, priors, cfg.dem_sigma_m, cps, block.point_ids)
     summary["warnings"] += datum_warnings(sol)
     summary["warnings"] += prior_warnings(sol, priors, summary["scenes"])
+    summary["warnings"] += held_warnings(priors)
     summary["settings"] = dataclasses.asdict(cfg.settings)
     summary["settings"]["sigma_image_px_estimated"] = sol.sigma_image_px
     summary["seconds"] = round(time.perf_counter() - t0, 2)
@@ -518,6 +519,14 @@ def prior_warnings(sol: Solution, priors: Priors, scenes: list[dict]) -> list[st
     more = beyond.size - min(beyond.size, PRIOR_NAMED)
     key = "ad_warn_prior_more" if more else "ad_warn_prior"
     return [EN(key, n=beyond.size, excess=f"{PRIOR_EXCESS:g}", named=named, more=more)]
+
+
+def held_warnings(priors: Priors) -> list[str]:
+    """Every scene held (--fix): nothing is adjusted, the points are the original RPCs'
+    intersections and the checkpoints compare the producer with the RPCs as delivered."""
+    if priors.fixed.size == 0 or not priors.fixed.all():
+        return []
+    return [EN("ad_warn_all_held", n=int(priors.fixed.size))]
 
 
 def _refuse_without_redundancy(block: Block, sol: Solution, settings: Settings) -> None:

@@ -209,6 +209,7 @@ SENTENCES = (
     "ad_warn_datum",
     "ad_warn_prior_more",  # before the sentence that would read its ", and N more" as a name
     "ad_warn_prior",
+    "ad_warn_all_held",
     "ad_warn_rms_grew",
     "af_factor",
     "af_indicator",

@@ -1345,6 +1345,13 @@ MESSAGES.update(
             "（adjustment.csv）；RPC 的偏差不应如此之大：请检查每景影像的 RPC（rpc/）是否确为"
             "其本身的 RPC、其连接点的像方坐标是否为该影像的像素坐标，或给出 RPC 的实际先验精度",
         ),
+        "ad_warn_all_held": (
+            "all {n} scenes are held (--fix): nothing is adjusted; the points are the "
+            "intersections of the RPCs as delivered, and the checkpoints compare the producer's "
+            "positions with those, not with a recalculation",
+            "全部 {n} 景影像均被固定（--fix）：未作任何平差；各点为按交付 RPC 前方交会所得，"
+            "检查点比较的是生产方的位置与这些交会点，而非重算结果",
+        ),
         "ad_warn_rms_grew": (
             "the residual RMS grew in the adjustment ({before} → {after} px): the corrections "
             "the data ask for are beyond the priors, or the data do not fit",
