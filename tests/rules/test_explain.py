@@ -46,6 +46,15 @@ def test_explain_is_case_insensitive(blockqc) -> None:
     )
 
 
+def test_explain_reads_an_id_without_the_spaces_around_it(blockqc) -> None:
+    """'TP-1 ' (pasted from a table) was 'no rule TP-1  in pack … (did you mean TP-1?)'."""
+    p = blockqc("rules", "explain", " TP-1 ")
+    assert p.returncode == 0 and p.stdout.startswith("TP-1 — "), p.stderr
+    p = blockqc("rules", "explain", " ")
+    assert p.returncode == 2 and "Traceback" not in p.stderr
+    assert "no rule id given (rules: MB-1, MB-2, MB-3, TP-1, " in p.stderr
+
+
 def test_list_shows_units_and_waivable(blockqc) -> None:
     p = blockqc("rules", "list")
     lines = {ln.split()[0]: ln for ln in p.stdout.splitlines()[1:] if ln.strip()}

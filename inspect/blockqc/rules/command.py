@@ -97,10 +97,13 @@ def rules_list(rules_ref: str, markdown: bool) -> None:
 def _find(pack: Pack, rule_id: str, rules_ref: str) -> Rule:
     from blockqc.rules.lint import did_you_mean
 
+    rule_id = rule_id.strip()  # ' TP-1' as pasted from a table is TP-1, as tp-1 is
     try:
         return pack.rule(rule_id)
     except KeyError:
         ids = [x.id for x in pack.rules]
+        if not rule_id:
+            raise RuleError(f"no rule id given (rules: {', '.join(ids)})", file=rules_ref) from None
         off = [d for d in pack.disabled if d.upper() == rule_id.upper()]
         why = f": {off[0]} is disabled by the pack" if off else did_you_mean(rule_id, ids)
         raise RuleError(
