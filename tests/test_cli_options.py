@@ -347,6 +347,24 @@ def test_an_option_of_one_value_given_twice_is_refused(tmp_path, args, words):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (("factors", SAMPLES / "batch", "--dem", SAMPLES / "dem", "--dem", SAMPLES / "dem"),
+         f"--dem {SAMPLES / 'dem'} given twice: give each --dem once"),
+        (("inspect", SAMPLE, "--checkpoints=a.csv", "--checkpoints", "a.csv"),
+         "--checkpoints a.csv given twice: give each --checkpoints once"),
+        (("simulate", "s", "--fault", "tp-noise", "--fault=tp-noise"),
+         "--fault tp-noise given twice: give each --fault once"),
+    ],
+)  # fmt: skip
+def test_one_value_of_a_repeatable_option_given_twice_is_refused(tmp_path, args, words):
+    """`factors --dem D --dem D` read the tiles twice without a word; `--fix S --fix S` and
+    `--fault F --fault F` (another value meant, perhaps) were taken once, unsaid."""
+    _refused(run_blockqc(*args, "--out", "o", cwd=tmp_path), words)
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_a_pdf_engine_for_no_pdf_is_said_unused(tmp_path):
     p = run_blockqc("inspect", SAMPLE, "--out", "o", "--no-pdf", "--pdf-engine", "chromium",
                     cwd=tmp_path)  # fmt: skip

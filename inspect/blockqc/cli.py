@@ -113,21 +113,24 @@ class LazyGroup(OnceGroup):
 
 def refuse_repeated(command: click.Command, args: list[str]) -> None:
     """An option taking one value given twice (`--rules a.yaml --rules b.yaml`): click keeps the
-    last and drops the first unsaid, so it is refused, naming the option."""
-    once = {
-        name: p.name
-        for p in command.params
-        if isinstance(p, click.Option) and not (p.multiple or p.count or p.is_flag)
-        for name in p.opts
-    }
+    last and drops the first unsaid, so it is refused, naming the option. So is one value of a
+    repeatable option given twice (`--fix S1 --fix S1`: another value meant, most likely)."""
+    once, many = _single_and_repeatable(command)
     seen: dict[str, str] = {}
-    for arg in map(str, args):  # a caller of main() may pass paths
+    values: set[tuple[str, str]] = set()
+    args = [str(a) for a in args]  # a caller of main() may pass paths
+    for i, arg in enumerate(args):
         if arg == "--":
             break
         if arg.startswith("--"):
             given = arg.split("=", 1)[0]
         else:  # -j, and -j2 (a short option with its value)
             given = arg[:2] if arg.startswith("-") else arg
+        if given in many:
+            value = _value_of(arg, args[i + 1 : i + 2])
+            if (many[given], value) in values:
+                raise click.UsageError(f"{given} {value} given twice: give each {given} once")
+            values.add((many[given], value))
         if given not in once:
             continue
         if once[given] in seen:
@@ -139,6 +142,26 @@ def refuse_repeated(command: click.Command, args: list[str]) -> None:
             )
         seen[once[given]] = given
     refuse_both_ways(command, args)
+
+
+def _value_of(arg: str, rest: list[str]) -> str:
+    """The value an option string carries (`--fix=S`, `-dS`) or the argument after it."""
+    if arg.startswith("--") and "=" in arg:
+        return arg.split("=", 1)[1]
+    if not arg.startswith("--") and len(arg) > 2:
+        return arg[2:]
+    return rest[0] if rest else ""
+
+
+def _single_and_repeatable(command: click.Command) -> tuple[dict[str, str], dict[str, str]]:
+    """The command's options taking one value, and those that may be repeated (`multiple`),
+    each option string to its parameter's name."""
+    options = [p for p in command.params if isinstance(p, click.Option)]
+    once = {
+        name: p.name for p in options if not (p.multiple or p.count or p.is_flag) for name in p.opts
+    }
+    many = {name: p.name for p in options if p.multiple for name in p.opts}
+    return once, many  # type: ignore[return-value]
 
 
 def refuse_both_ways(command: click.Command, args: list[str]) -> None:
@@ -791,9 +814,6 @@ def simulate_cmd(
         )
     if len(set(chosen)) != len(chosen):
         raise UsageError(f"--fields {fields}: a field is named twice")
-    twice = sorted({f for f in faults if faults.count(f) > 1})
-    if twice:
-        raise UsageError(f"--fault {', '.join(twice)}: a fault is named twice")
     opts = Options(
         seed=seed,
         fields=chosen,

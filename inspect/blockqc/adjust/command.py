@@ -58,14 +58,6 @@ def check_dem_options(dem: Path | None, geoid: Path | None) -> None:
         )
 
 
-def check_fix(fix: tuple[str, ...]) -> None:
-    """Refuse a scene given twice with --fix (a second scene meant, most likely: it would be
-    left free unsaid)."""
-    twice = sorted({s for s in fix if fix.count(s) > 1})
-    if twice:
-        raise UsageError(f"--fix {', '.join(twice)} given more than once: give each scene once")
-
-
 @click.command("adjust")
 @click.argument("delivery", type=GivenPath("a delivery folder"))
 @click.option("--out", required=True, type=GivenPath(), help="Output folder.")
@@ -151,7 +143,6 @@ def command(
     converged, 1 when it did not (the outputs say converged: false), 2 on unreadable input.
     """
     check_dem_options(dem, geoid)
-    check_fix(fix)
     settings = Settings(max_iterations=max_iterations, reject_k=reject, sigma_image_px=sigma_image)
     cfg = AdjustConfig(
         delivery=delivery,
