@@ -446,11 +446,7 @@ def ground_disagreements(file: Path, tie_points: pd.DataFrame, why: str) -> list
     if not given or "point_id" not in tie_points.columns or tie_points.empty:
         return []
     ids = tie_points["point_id"]
-    if isinstance(ids.dtype, pd.CategoricalDtype):  # as the readers give it
-        point, k = ids.array.codes.astype(np.int64), len(ids.cat.categories)
-    else:
-        point, uniques = pd.factorize(ids)
-        k = len(uniques)
+    point, k = grouped.key_codes(ids)
     groups = grouped.Groups(point, k)
     problems: list[Problem] = []
     for c in given:

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from functools import partial
 
 import numpy as np
+import pandas as pd
 
 from blockqc import pieces
 
@@ -183,6 +184,15 @@ def _bins(values: np.ndarray) -> np.ndarray:
     bits = np.asarray(values, dtype=np.float64).view(np.int64)
     ordered = bits ^ ((bits >> 63) & np.int64(0x7FFF_FFFF_FFFF_FFFF))
     return ordered >> (52 - BIN_BITS)
+
+
+def key_codes(key: pd.Series) -> tuple[np.ndarray, int]:
+    """A code per row of a key column (a point's id), the same for equal keys, and the number
+    of codes k: a Categorical's own codes (no copy) over its categories, other keys factorized."""
+    if isinstance(key.dtype, pd.CategoricalDtype):
+        return key.array.codes, len(key.cat.categories)
+    codes, uniques = pd.factorize(key)
+    return codes, len(uniques)
 
 
 def counts(codes: np.ndarray, k: int) -> np.ndarray:

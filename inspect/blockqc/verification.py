@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from blockqc import memory, pieces
+from blockqc import grouped, memory, pieces
 from blockqc.adjust.geometry import (
     Intersection,
     RPCStack,
@@ -179,7 +179,7 @@ def derive_overlaps(
     (a code per scene): only scenes of one band are paired, a PAN–MS pair being a registration
     (§RO-1), not two adjacent images (§RO-3).
     """
-    a, b = _pairs(_point_codes(obs["point_id"]), scene, np.isfinite(h))
+    a, b = _pairs(grouped.key_codes(obs["point_id"])[0], scene, np.isfinite(h))
     if band is not None:
         same = band[scene[a]] == band[scene[b]]
         a, b = a[same], b[same]
@@ -219,14 +219,6 @@ def _differences(
     pieces.each(at_rows, lat.size)
     pieces.each(of_pairs, a.size)
     return dx_m, dy_m
-
-
-def _point_codes(point_id: pd.Series) -> np.ndarray:
-    """A code per observation, the same for the observations of one point: a Categorical's
-    own codes (no copy), other ids factorized."""
-    if isinstance(point_id.dtype, pd.CategoricalDtype):
-        return point_id.cat.codes.to_numpy()
-    return pd.factorize(point_id)[0]
 
 
 def _ids(column: pd.Series, rows: np.ndarray) -> Any:
