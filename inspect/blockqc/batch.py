@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import ctypes
 import datetime as dt
-import errno
 import json
 import os
 import shutil
@@ -61,6 +60,7 @@ from blockqc.outputs import (
     clear_staging,
     drop_set_aside,
     publish,
+    refusal,
     restore_summary,
     safe_child,
     set_aside_summary,
@@ -499,21 +499,9 @@ def output_error(block_id: str, out: Path, exc: Exception) -> OutputError:
         return OutputError(found)
     message = f"the outputs of block {block_id} could not be written"
     if isinstance(exc, OSError) and exc.filename:
-        where, why = _refused_path(exc)
+        where, why = refusal(exc)
         return OutputError(Problem(where, f"{message}: {why}"))
     return OutputError(Problem(str(out / block_id), f"{message}: {type(exc).__name__}: {exc}"))
-
-
-def _refused_path(exc: OSError) -> tuple[str, str]:
-    """The path the system refused to write, and why, in words: a file where a folder goes
-    is named itself, not the path below it."""
-    path = Path(exc.filename)
-    if exc.errno == errno.ENOTDIR:
-        there = next((p for p in path.parents if p.exists() and not p.is_dir()), path)
-        return str(there), "a file is there: expected a folder"
-    if exc.errno == errno.EISDIR:
-        return str(path), "a folder is there: expected a file"
-    return str(path), exc.strerror or str(exc)
 
 
 def decision(outcomes: list[Outcome], pack: Pack, extra: Extra) -> BatchDecision | None:

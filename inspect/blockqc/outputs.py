@@ -126,9 +126,23 @@ def write_bytes_atomic(path: Path, data: bytes) -> None:
 def _named(exc: OSError, path: Path) -> OSError:
     """The system's refusal to write a file, named by the path asked for: not by the temporary
     file the system names, nor by none (a full disk)."""
+    _, why = refusal(exc)
     if isinstance(exc, IsADirectoryError):
-        return IsADirectoryError(errno.EISDIR, "a folder is there: expected a file", str(path))
-    return OSError(exc.errno, exc.strerror or str(exc), str(path))
+        return IsADirectoryError(errno.EISDIR, why, str(path))
+    return OSError(exc.errno, why, str(path))
+
+
+def refusal(exc: OSError) -> tuple[str, str]:
+    """The path the system refused to write (its `filename`), and why, in words: a folder where
+    a file goes, or a file where a folder goes, that file named itself (not the path below
+    it); else the system's words."""
+    path = Path(exc.filename or "")
+    if exc.errno == errno.ENOTDIR:
+        there = next((p for p in path.parents if p.exists() and not p.is_dir()), path)
+        return str(there), "a file is there: expected a folder"
+    if exc.errno == errno.EISDIR:
+        return str(path), "a folder is there: expected a file"
+    return str(path), exc.strerror or str(exc)
 
 
 def write_text_atomic(path: Path, text: str) -> None:
