@@ -34,6 +34,7 @@ from blockqc.errors import InputError, Problem
 from blockqc.geometry_inputs import (
     GEOMETRY_DIRS,
     BlockGeometry,
+    gives_adjustment,
     ground_column_problems,
     has_geometry,
     load_geometry,
@@ -1058,7 +1059,7 @@ def load_delivery(
     problems.extend(_across_tables(path, read, manifest))
     geometry, found = load_geometry(path, read.tables, read.files)  # contract v1.1
     problems.extend(found)
-    problems.extend(_tie_point_column_problems(read, geometry, residuals))
+    problems.extend(_tie_point_column_problems(path, read, residuals))
     if problems and manifest is not None:  # reported now too, not only once the tables are fixed
         problems.extend(_missing_documents(path, manifest))
     if problems:
@@ -1131,17 +1132,16 @@ def _across_tables(path: Path, read: _Tables, manifest: Manifest | None) -> list
     return problems
 
 
-def _tie_point_column_problems(
-    read: _Tables, geometry: BlockGeometry | None, residuals: bool
-) -> list[Problem]:
+def _tie_point_column_problems(path: Path, read: _Tables, residuals: bool) -> list[Problem]:
     """The problems of the tie points' ground columns and, when `residuals` are needed, of their
-    residual columns (which the producer's adjusted `geometry` may stand in for)."""
+    residual columns (which the producer's adjustment, when the delivery gives one, may stand
+    in for)."""
     if "tie_points" not in read.tables:
         return []
     tp_columns, tp_file = read.headers["tie_points"], read.files["tie_points"]
     problems = ground_column_problems(tp_columns, tp_file)
     if residuals:
-        problems.extend(residual_column_problems(tp_columns, tp_file, geometry))
+        problems.extend(residual_column_problems(tp_columns, tp_file, gives_adjustment(path)))
     return problems
 
 

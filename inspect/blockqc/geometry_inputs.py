@@ -223,10 +223,15 @@ def _refined(geometry: BlockGeometry, models: dict[str, RPCModel], needed: list[
 def has_geometry(path: Path) -> bool:
     """Whether a delivery gives its geometry (contract v1.1): rpc/, rpc_adjusted/ or an
     adjustment table."""
-    return (
-        (path / RPC_DIR).exists()
-        or (path / ADJUSTED_DIR).exists()
-        or any((path / f"adjustment.{ext}").exists() for ext in ("csv", "parquet"))
+    return (path / RPC_DIR).exists() or gives_adjustment(path)
+
+
+def gives_adjustment(path: Path) -> bool:
+    """Whether a delivery gives the producer's adjustment (rpc_adjusted/ or an adjustment
+    table), read or not: the residuals blockqc computes from it may stand in for v_line and
+    v_sample."""
+    return (path / ADJUSTED_DIR).exists() or any(
+        (path / f"adjustment.{ext}").exists() for ext in ("csv", "parquet")
     )
 
 
@@ -367,15 +372,17 @@ def extent_problem(
 
 
 def residual_column_problems(
-    columns: Collection[str] | None, file: Path | None, geometry: BlockGeometry | None
+    columns: Collection[str] | None, file: Path | None, adjustment: bool
 ) -> list[Problem]:
-    """v_line/v_sample: both given, or both absent with the producer's adjusted geometry.
-    `columns`: the tie_points table's columns (read or not), None without the table."""
+    """v_line/v_sample: both given, or both absent with the producer's adjustment (`adjustment`:
+    the delivery gives it, `gives_adjustment`). `columns`: the tie_points table's columns (read
+    or not), None without the table."""
     if columns is None:
         return []
     have = [c for c in ("v_line", "v_sample") if c in columns]
-    # with an adjustment given, its own problems (if any) are what the user needs to read
-    if len(have) == 2 or (not have and geometry is not None and geometry.source is not None):
+    # with an adjustment given, its own problems (if any, or those of the tables it is read
+    # against) are what the user needs to read, even when it could not be read
+    if len(have) == 2 or (not have and adjustment):
         return []
     missing = [c for c in ("v_line", "v_sample") if c not in have]
     why = (

@@ -480,6 +480,42 @@ def test_adjustment_missing_column_is_named_not_a_crash(tmp_path, tie_points) ->
     assert not any("v_line" in m or "v_sample" in m for m in msgs), msgs
 
 
+@pytest.mark.parametrize(
+    "damage",
+    [
+        "adjustment.csv: scene_id;a0;a1;a2;b0;b1;b2",  # semicolons: the table cannot be read
+        "adjustment.csv: ",  # empty
+        "scenes.csv: ",  # the adjustment is read, but the scenes it refers to cannot be
+    ],
+)
+def test_an_unreadable_table_does_not_say_the_residuals_must_be_given(
+    tmp_path, tie_points, damage
+) -> None:
+    """The tie points give no residuals, and the delivery gives rpc/ and adjustment.csv. When
+    the adjustment table (or the scenes table the geometry is read against) could not be
+    read, two more problems said 'missing column v_line … they may be absent only when the
+    delivery gives its geometry: rpc/ with adjustment.csv', which it does: only the table's
+    own problem is said."""
+    folder = write_v11(tmp_path / "d", tie_points)
+    name, text = damage.split(": ")
+    (folder / name).write_text(text + "\n" if text else "")
+    msgs = _problems(folder)
+    assert msgs and all(m.startswith(str(folder / name)) for m in msgs), msgs
+
+
+def test_residuals_absent_without_any_adjustment_are_still_refused(tmp_path, tie_points) -> None:
+    folder = write_v11(tmp_path / "d", tie_points, adjustment=False)
+    tp = str(folder / "tie_points.csv")
+    why = (
+        "they may be absent only when the delivery gives its geometry: rpc/ with "
+        "adjustment.csv, or rpc_adjusted/"
+    )
+    assert _problems(folder) == [
+        f"{tp}: missing column 'v_line' (expected a float column; {why})",
+        f"{tp}: missing column 'v_sample' (expected a float column; {why})",
+    ]
+
+
 def test_rpc_denominator_of_zeros_is_refused() -> None:
     import dataclasses
 
