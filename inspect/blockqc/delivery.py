@@ -50,7 +50,16 @@ from blockqc.schema import (
     validate_table,
     visible_name,
 )
-from blockqc.textio import BOM, check_no_nul, check_utf8, header_problem, located, read_bytes
+from blockqc.textio import (
+    BOM,
+    check_no_nul,
+    check_utf8,
+    header_problem,
+    listed,
+    located,
+    read_bytes,
+    unreadable_folder,
+)
 from blockqc.yamlio import line_of, load_yaml, pydantic_problems
 
 MANIFEST = "block.yaml"
@@ -1224,14 +1233,14 @@ def _below(path: Path) -> _Below:
     looked into (their files are read as the geometry, and anything else in them refused);
     a folder linked to is followed from the delivery's own folder only, so that links cannot
     lead the look round in a loop. A folder that cannot be listed, or whose entries cannot be
-    reached (`_listed`), is a problem named by the folder."""
+    reached (`listed`), is a problem named by the folder."""
     below = _Below()
     queue = [str(f) for f in _members(path) if f.name not in GEOMETRY_DIRS and f.is_dir()]
     for folder in queue:  # grows as folders are found: breadth first
         try:
-            entries = _listed(folder)
+            entries = listed(folder)
         except OSError as exc:
-            below.unreadable.append(_unreadable_folder(Path(folder), exc))
+            below.unreadable.append(unreadable_folder(Path(folder), exc))
             continue
         room = MAX_ENTRIES_BELOW - len(below.entries)
         below.cut = len(entries) > room
@@ -1240,25 +1249,6 @@ def _below(path: Path) -> _Below:
             break
         queue.extend(e.path for e in entries[:room] if _is_dir(e, follow=False))
     return below
-
-
-def _listed(folder: str) -> list[os.DirEntry]:
-    """A folder's entries, sorted, those named with a leading '.' left out. OSError when it
-    cannot be listed, or when its entries cannot be reached (its names readable, but without
-    search permission: each file in it would fail when looked at)."""
-    with os.scandir(folder) as it:
-        entries = sorted((e for e in it if not e.name.startswith(".")), key=lambda e: e.name)
-    if entries:
-        entries[0].stat(follow_symlinks=False)
-    return entries
-
-
-def _unreadable_folder(folder: Path, exc: OSError) -> Problem:
-    """A folder of the delivery that cannot be read, in the words said of a table that
-    cannot be read (`read_bytes`)."""
-    return Problem(
-        str(folder), f"cannot be read: {exc.strerror or exc}: expected a readable folder"
-    )
 
 
 def _misplaced_inputs(path: Path) -> list[Problem]:

@@ -22,6 +22,7 @@ from blockqc.errors import InputError, Problem
 from blockqc.rfm.model import DOMAIN_REACH, RPCModel, boxes_meet, wrap_lon
 from blockqc.rfm.readers import read_rpc
 from blockqc.schema import MAX_ROWS_LISTED, visible_name
+from blockqc.textio import listed, unreadable_folder
 
 RPC_DIR = "rpc"
 ADJUSTED_DIR = "rpc_adjusted"
@@ -51,13 +52,21 @@ class BlockGeometry:
         return self.adjusted is not None
 
 
-def _scan(folder: Path, scene_ids: set[str], problems: list[Problem]) -> dict[str, Path]:
-    """The RPC files of a folder by scene id; unknown names and doubles are problems."""
+def _scan(folder: Path, scene_ids: set[str], problems: list[Problem]) -> dict[str, Path] | None:
+    """The RPC files of a folder by scene id; other names and doubles are problems. An entry
+    named as a scene's is taken whatever it is (`read_rpc` says what, when it is no file).
+    None when the folder cannot be read (said)."""
+    try:
+        entries = listed(folder)
+    except OSError as exc:
+        problems.append(unreadable_folder(folder, exc))
+        return None
     found: dict[str, Path] = {}
-    for f in sorted(p for p in folder.iterdir() if not p.name.startswith(".")):
+    for entry in entries:
+        f = Path(entry.path)
         # the file's whole name when it is a scene's (ZY3.L, no extension), else its stem
         sid = f.name if f.name in scene_ids or "." not in f.name else f.name.rsplit(".", 1)[0]
-        if not f.is_file():
+        if sid not in scene_ids and not entry.is_file():
             problems.append(Problem(str(f), "expected an RPC file named <scene_id>.<ext>"))
         elif sid not in scene_ids:
             problems.append(
@@ -87,6 +96,8 @@ def _read_models(
         return {}
     files = _scan(folder, scene_ids, problems)
     models: dict[str, RPCModel] = {}
+    if files is None:
+        return models
     for sid in needed:
         if sid not in files:
             problems.append(

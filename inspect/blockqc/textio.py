@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import io
+import os
 import re
 from dataclasses import replace
 from pathlib import Path
@@ -39,6 +40,25 @@ def utf8_problem(path: Path, data: bytes, exc: UnicodeDecodeError) -> Problem:
         f"byte 0x{data[exc.start]:02x} at character {column} is not UTF-8: the file must be "
         f"UTF-8 text (it looks like {_likely_encoding(data)}; save it as UTF-8)",
         line=line,
+    )
+
+
+def listed(folder: str | Path) -> list[os.DirEntry]:
+    """A folder's entries, sorted, those named with a leading '.' left out. OSError when it
+    cannot be listed, or when its entries cannot be reached (its names readable, but without
+    search permission: each file in it would fail when looked at)."""
+    with os.scandir(folder) as it:
+        entries = sorted((e for e in it if not e.name.startswith(".")), key=lambda e: e.name)
+    if entries:
+        entries[0].stat(follow_symlinks=False)
+    return entries
+
+
+def unreadable_folder(folder: Path, exc: OSError) -> Problem:
+    """A folder of the input that cannot be read (`listed`), in the words said of a file that
+    cannot be read (`read_bytes`)."""
+    return Problem(
+        str(folder), f"cannot be read: {exc.strerror or exc}: expected a readable folder"
     )
 
 

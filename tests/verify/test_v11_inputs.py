@@ -151,6 +151,31 @@ def test_an_rpc_file_named_with_an_invisible_character_shows_it(tmp_path, tie_po
     assert "no RPC for scene 'L'" in msgs[1]
 
 
+def test_an_rpc_entry_that_is_no_file_is_said_to_be_what_it_is(tmp_path, tie_points) -> None:
+    """rpc/L.geom a link to a file that does not exist, rpc/R a folder: each was said to be
+    'expected an RPC file named <scene_id>.<ext>', which it is, and its scene to have 'no
+    RPC' beside it. Each is now said to be what it is, once."""
+    folder = write_v11(tmp_path / "d", tie_points)
+    rpc = folder / "rpc"
+    (rpc / "L.geom").unlink()
+    (rpc / "L.geom").symlink_to(tmp_path / "moved" / "L.geom")
+    (rpc / "R.geom").unlink()
+    (rpc / "R").mkdir()
+    assert _problems(folder) == [
+        f"{rpc / 'L.geom'}: a symbolic link to {tmp_path / 'moved' / 'L.geom'}, which does not "
+        "exist: expected an RPC file",
+        f"{rpc / 'R'}: is a folder, not a file: expected an RPC file",
+    ]
+
+
+def test_an_rpc_folder_holding_a_folder_of_no_scene_names_it(tmp_path, tie_points) -> None:
+    folder = write_v11(tmp_path / "d", tie_points)
+    (folder / "rpc" / "old").mkdir()
+    assert _problems(folder) == [
+        f"{folder / 'rpc' / 'old'}: expected an RPC file named <scene_id>.<ext>"
+    ]
+
+
 def test_refined_rpc_of_another_place_is_refused(tmp_path, tie_points) -> None:
     """rpc_adjusted/R with its latitude and longitude offsets swapped (lon ~44°, lat ~5°): its
     ground domain was checked for rpc/ only, so every point was left not intersected and,
