@@ -8,6 +8,7 @@ RPCs in `rpc_adjusted/<scene_id>.<ext>`. Nothing here writes to the delivery.
 
 from __future__ import annotations
 
+import os
 import re
 from collections.abc import Collection
 from dataclasses import dataclass, field
@@ -92,7 +93,11 @@ def _read_models(
     Each model counts image positions as its file does (a DIMAP file's first pixel is (1, 1)):
     the tie points on its scene are measured in that convention (contract v1.1)."""
     if not folder.is_dir():
-        problems.append(Problem(str(folder), "expected a folder of RPC files <scene_id>.<ext>"))
+        link = folder.is_symlink() and not folder.exists()
+        what = f"a symbolic link to {os.readlink(folder)}, which does not exist: " if link else ""
+        problems.append(
+            Problem(str(folder), f"{what}expected a folder of RPC files <scene_id>.<ext>")
+        )
         return {}
     files = _scan(folder, scene_ids, problems)
     models: dict[str, RPCModel] = {}
@@ -231,18 +236,24 @@ def _refined(geometry: BlockGeometry, models: dict[str, RPCModel], needed: list[
         geometry.affine = np.zeros((len(needed), len(AFFINE_KEYS)))
 
 
+def given(path: Path) -> bool:
+    """Whether the delivery gives this file or folder: there, or a link of its name (to
+    nothing, said when read, rather than taken for an input not given)."""
+    return path.exists() or path.is_symlink()
+
+
 def has_geometry(path: Path) -> bool:
     """Whether a delivery gives its geometry (contract v1.1): rpc/, rpc_adjusted/ or an
     adjustment table."""
-    return (path / RPC_DIR).exists() or gives_adjustment(path)
+    return given(path / RPC_DIR) or gives_adjustment(path)
 
 
 def gives_adjustment(path: Path) -> bool:
     """Whether a delivery gives the producer's adjustment (rpc_adjusted/ or an adjustment
     table), read or not: the residuals blockqc computes from it may stand in for v_line and
     v_sample."""
-    return (path / ADJUSTED_DIR).exists() or any(
-        (path / f"adjustment.{ext}").exists() for ext in ("csv", "parquet")
+    return given(path / ADJUSTED_DIR) or any(
+        given(path / f"adjustment.{ext}") for ext in ("csv", "parquet")
     )
 
 
@@ -252,7 +263,7 @@ def load_geometry(
     """Read rpc/, adjustment.csv and rpc_adjusted/ of a delivery (contract v1.1), if present."""
     rpc_dir, adj_dir = path / RPC_DIR, path / ADJUSTED_DIR
     adjustment = tables.get("adjustment")
-    if not rpc_dir.exists() and not adj_dir.exists() and adjustment is None:
+    if not given(rpc_dir) and not given(adj_dir) and adjustment is None:
         return None, []
     scenes = tables.get("scenes")
     tie_points = tables.get("tie_points")
@@ -262,7 +273,7 @@ def load_geometry(
     scene_ids = set(scenes["scene_id"].dropna())
     needed = [s for s in pd.unique(tie_points["scene_id"].dropna()) if s in scene_ids]
     geometry = BlockGeometry()
-    if adjustment is not None and adj_dir.exists():
+    if adjustment is not None and given(adj_dir):
         problems.append(
             Problem(
                 str(path),
@@ -270,7 +281,7 @@ def load_geometry(
                 "adjustment: give one",
             )
         )
-    if rpc_dir.exists():
+    if given(rpc_dir):
         geometry.original = _read_models(rpc_dir, needed, scene_ids, problems)
         problems.extend(domain_problems(scenes, geometry.original, files["scenes"].name))
     elif adjustment is not None:
@@ -281,12 +292,12 @@ def load_geometry(
                 f"(expected {RPC_DIR}/<scene_id>.<ext> for every scene)",
             )
         )
-    if adj_dir.exists():
+    if given(adj_dir):
         refined = _read_models(adj_dir, needed, scene_ids, problems)
         problems.extend(domain_problems(scenes, refined, files["scenes"].name))
         _refined(geometry, refined, needed)
         geometry.source = f"{ADJUSTED_DIR}/"
-    elif adjustment is not None and rpc_dir.exists():
+    elif adjustment is not None and given(rpc_dir):
         geometry.source = files["adjustment"].name
         if not {"scene_id", *AFFINE_KEYS} <= set(adjustment.columns):
             return geometry, problems  # the missing columns are reported with the table

@@ -168,6 +168,22 @@ def test_an_rpc_entry_that_is_no_file_is_said_to_be_what_it_is(tmp_path, tie_poi
     ]
 
 
+@pytest.mark.parametrize("name", ["rpc", "rpc_adjusted"])
+def test_a_geometry_folder_linked_to_nothing_is_refused(tmp_path, tie_points, name) -> None:
+    """rpc/ or rpc_adjusted/ a link to a folder moved away, the tie points giving residuals: a
+    delivery without adjustment.csv was inspected as one of contract v1, or without the
+    producer's adjustment, without a word (rpc/ with adjustment.csv was said to be missing)."""
+    residuals = tie_points.assign(v_line=0.0, v_sample=0.0)
+    folder = write_v11(tmp_path / "d", residuals, adjustment=False)
+    if name == "rpc":
+        shutil.rmtree(folder / "rpc")
+    (folder / name).symlink_to(tmp_path / "moved")
+    assert _problems(folder) == [
+        f"{folder / name}: a symbolic link to {tmp_path / 'moved'}, which does not exist: "
+        "expected a folder of RPC files <scene_id>.<ext>"
+    ]
+
+
 def test_an_rpc_folder_holding_a_folder_of_no_scene_names_it(tmp_path, tie_points) -> None:
     folder = write_v11(tmp_path / "d", tie_points)
     (folder / "rpc" / "old").mkdir()
