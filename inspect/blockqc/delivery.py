@@ -1404,6 +1404,7 @@ def _consistency_masks(
              "the row compares nothing: give ref_x_m and ref_y_m, or ref_z_m"),
         ]  # fmt: skip
     tp, sc = tables.get("tie_points"), tables.get("scenes")
+    out += _partial_ground_points(tp)
     if tp is not None and sc is not None:
         size = sc.drop_duplicates("scene_id").set_index("scene_id")
         codes, lookup = scene_lookup(tp["scene_id"], size.index)  # grouped by the codes
@@ -1434,6 +1435,43 @@ def _consistency_masks(
                 "give each point of a pair once"
             )
             out.append(("overlaps", None, _given_swapped(ov) & ~same, msg))
+    return out
+
+
+#: why a row's lon, lat and h go together (contract v1.1; `ground_column_problems` for columns)
+WHOLE_GROUND_POINT = (
+    "a ground point is lon and lat together, and h its height: give lon and lat, with or "
+    "without h, or none of the three"
+)
+
+
+def _partial_ground_points(
+    tp: pd.DataFrame | None,
+) -> list[tuple[str, str | None, np.ndarray, str]]:
+    """Tie-point rows giving part of the producer's ground point: lon without lat, lat without
+    lon, or h without both (a row giving none has no ground point). Rows are only checked
+    when the table has lon and lat columns (else the columns are refused)."""
+    if tp is None or not {"lon", "lat"} <= set(tp.columns):
+        return []
+    lon, lat = tp["lon"].isna().to_numpy(), tp["lat"].isna().to_numpy()
+    out = [
+        (
+            "tie_points",
+            "lon",
+            lon & ~lat,
+            f"lon is empty where lat is given ({WHOLE_GROUND_POINT})",
+        ),
+        (
+            "tie_points",
+            "lat",
+            lat & ~lon,
+            f"lat is empty where lon is given ({WHOLE_GROUND_POINT})",
+        ),
+    ]
+    if "h" in tp.columns:
+        h = tp["h"].notna().to_numpy()
+        message = f"h is given where lon and lat are empty ({WHOLE_GROUND_POINT})"
+        out.append(("tie_points", "h", h & lon & lat, message))
     return out
 
 

@@ -55,6 +55,44 @@ def test_lon_and_lat_with_or_without_h_are_read(tmp_path, dropped) -> None:
     assert {"lon", "lat", "h"} - set(dropped) <= set(tp.columns)
 
 
+@pytest.mark.parametrize(
+    "emptied, said",
+    [
+        (["lon"], "column 'lon': lon is empty where lat is given"),
+        (["lat", "h"], "column 'lat': lat is empty where lon is given"),
+        (["lon", "lat"], "column 'h': h is given where lon and lat are empty"),
+    ],
+)
+def test_a_row_giving_part_of_a_ground_point_is_refused(tmp_path, blockqc, emptied, said) -> None:
+    """The columns are all there, but a row gives lat and h without lon: inspect read it, and
+    adjust took the point's ground position from its other rows, or, when its rows all gave it
+    so, compared the point with no checkpoint and said only that fewer could be compared.
+    Refused as the columns are, naming the row."""
+    ties = _ties()
+    ties.loc[[0, 1], emptied] = np.nan  # both rows of G0000
+    folder = write_v11(tmp_path / "d", ties)
+    tp = folder / "tie_points.csv"
+    whole = "a ground point is lon and lat together, and h its height: give lon and lat, with or"
+    expected = [
+        f"{tp}, row {row} (line {row + 1}), {said} ({whole} without h, or none of the three)"
+        for row in (1, 2)
+    ]
+    with pytest.raises(InputError) as exc:
+        load_delivery(folder)
+    assert [str(p) for p in exc.value.problems] == expected
+    r = blockqc("adjust", folder, "--out", tmp_path / "out")
+    assert r.returncode == 2 and f"error: {expected[0]}" in r.stderr, r.stdout + r.stderr
+
+
+def test_rows_without_a_ground_point_beside_rows_with_one_are_read(tmp_path) -> None:
+    """A row giving none of lon, lat and h is a row without the producer's ground point."""
+    ties = _ties()
+    ties.loc[[0, 1], ["lon", "lat", "h"]] = np.nan
+    ties.loc[[2], ["h"]] = np.nan
+    tp = load_delivery(write_v11(tmp_path / "d", ties)).tie_points
+    assert tp[["lon", "lat", "h"]].isna().sum().tolist() == [2, 2, 3]
+
+
 def test_inspect_and_adjust_both_refuse_a_partial_ground_point(tmp_path, blockqc) -> None:
     folder = write_v11(tmp_path / "d", _ties().drop(columns=["lat"]))
     said = f"{folder / 'tie_points.csv'}, line 1: missing column 'lat': the table gives 'lon' and"
