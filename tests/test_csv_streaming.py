@@ -78,9 +78,9 @@ def test_the_files_bytes_are_released_before_it_is_parsed(tmp_path: Path, monkey
     monkeypatch.setattr(memory, "release", lambda: events.append("released"))
     parse = delivery._arrow_csv
 
-    def arrow_csv(p, data, convert):
+    def arrow_csv(p, data, *options):
         events.append("parsed from the file" if data is None else "parsed from bytes")
-        return parse(p, data, convert)
+        return parse(p, data, *options)
 
     monkeypatch.setattr(delivery, "_arrow_csv", arrow_csv)
     frame, _ = _read_csv(path, TIE_POINTS)

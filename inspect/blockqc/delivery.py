@@ -396,11 +396,12 @@ def _read_csv(
     header = None if columns is None else first
     include = None if header is None else [h for h in header if h.strip() in columns]
     convert = _convert_options(schema, first, include)
+    parse = _parse_options(data)
     if len(data) >= RELEASE_BYTES and path.is_file():  # parsed from the file again: its
         data = None  # bytes are not held beside the table, and go back to the system first
         memory.release()
     try:
-        table = _arrow_csv(path, data, convert)
+        table = _arrow_csv(path, data, convert, parse)
     except (pa.ArrowInvalid, pa.ArrowKeyError) as exc:
         raw = _read_csv_slow(path, data or _csv_bytes(path), str(exc))
         keep = [i for i, h in enumerate(raw.columns) if columns is None or h.strip() in columns]
@@ -437,20 +438,30 @@ def _convert_options(
     )
 
 
-def _arrow_csv(path: Path, data: bytes | None, convert: pacsv.ConvertOptions) -> pa.Table:
+def _parse_options(data: bytes) -> pacsv.ParseOptions:
+    """How Arrow finds a CSV's rows: a file holding a quote is cut into the blocks parsed in
+    parallel where no quoted field is open, not at any line end. Cut at any, a quote left open
+    lost the rest of its block unsaid (a 3 MB tie_points.csv: a third of its rows); now it is
+    refused, naming its line (`_read_csv_slow`). A file without quotes is cut the fast way."""
+    return pacsv.ParseOptions(newlines_in_values=data.find(b'"') >= 0)
+
+
+def _arrow_csv(
+    path: Path, data: bytes | None, convert: pacsv.ConvertOptions, parse: pacsv.ParseOptions
+) -> pa.Table:
     """The CSV parsed from its `data` by the reader of whole tables, or, when None (a large
     file), from the file by Arrow's streaming reader, `STREAM_BYTES` at a time, each column's
     type taken from the first block; a file a later block does not fit (whole numbers turning
     to decimals further down, a line longer than a block, a malformed row) is then parsed
     whole. Arrow leaves a byte order mark out, as `_csv_bytes` does."""
     if data is not None:  # a small file, or not a regular one: its bytes, whole
-        return _whole_csv(data, convert)
+        return _whole_csv(data, convert, parse)
     options = pacsv.ReadOptions(use_threads=True, block_size=STREAM_BYTES)
     try:
         with pa.OSFile(str(path)) as source:
-            return pacsv.open_csv(source, options, convert_options=convert).read_all()
+            return pacsv.open_csv(source, options, parse, convert).read_all()
     except pa.ArrowInvalid:
-        return _whole_csv(_csv_bytes(path), convert)
+        return _whole_csv(_csv_bytes(path), convert, parse)
 
 
 #: a CSV file of this size or more is streamed from the file, its bytes (read for their checks)
@@ -463,14 +474,13 @@ RELEASE_BYTES = 1 << 26
 STREAM_BYTES = 1 << 24
 
 
-def _whole_csv(data: bytes, convert: pacsv.ConvertOptions) -> pa.Table:
+def _whole_csv(data: bytes, convert: pacsv.ConvertOptions, parse: pacsv.ParseOptions) -> pa.Table:
     """The CSV parsed by Arrow in blocks of its default size, or, when a line is longer than
     that (Arrow refuses a row straddling two blocks), in blocks that hold the longest line: such
     a file went to the slow reader whole (a 500 MB line in 2.2 M rows: 23 s and 5.4 GB)."""
     try:
-        return pacsv.read_csv(
-            pa.BufferReader(data), pacsv.ReadOptions(use_threads=True), convert_options=convert
-        )
+        options = pacsv.ReadOptions(use_threads=True)
+        return pacsv.read_csv(pa.BufferReader(data), options, parse, convert)
     except pa.ArrowInvalid as exc:
         if "straddling" not in str(exc):
             raise
@@ -478,7 +488,7 @@ def _whole_csv(data: bytes, convert: pacsv.ConvertOptions) -> pa.Table:
         if not BLOCK_BYTES < longest < 2**31 - 2:
             raise
     options = pacsv.ReadOptions(use_threads=True, block_size=longest + 2)
-    return pacsv.read_csv(pa.BufferReader(data), options, convert_options=convert)
+    return pacsv.read_csv(pa.BufferReader(data), options, parse, convert)
 
 
 #: Arrow's default block of CSV bytes parsed at once
