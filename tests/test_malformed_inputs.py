@@ -702,6 +702,34 @@ def test_a_quote_never_closed_names_the_line_it_opens_on(blockqc, block, tmp_pat
     assert "C error" not in p.stderr and "line 4" not in p.stderr
 
 
+def test_two_stray_quotes_joining_rows_into_one_field_are_refused(blockqc, block, tmp_path):
+    """A quote opening the reference_id of line 6 and another opening that of line 10: CSV
+    reads the lines between as one quoted field, so rows 5 to 9 became one checkpoint, whose
+    reference_id held the others; four checkpoints were lost unsaid and the block passed."""
+    lines = (block / "checkpoints.csv").read_text("utf-8").splitlines()
+    for at in (5, 9):  # lines 6 and 10
+        cells = lines[at].split(",")
+        cells[2] = '"' + cells[2]
+        lines[at] = ",".join(cells)
+    (block / "checkpoints.csv").write_text("\n".join(lines) + "\n", "utf-8")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    _refused(
+        p,
+        "checkpoints.csv, row 5 (line 6), column 'reference_id': a line break inside the "
+        "value: expected one line (a quote opening the field and another on a later line "
+        "join the rows between into it), got 'WV-1-02,",
+    )
+
+
+def test_a_footprint_over_two_lines_is_read(blockqc, block, tmp_path):
+    """A WKT may be written over lines (a line break is white space to it): read as on one."""
+    lines = (block / "scenes.csv").read_text("utf-8").splitlines()
+    lines[1] = lines[1].replace('"POLYGON((', '"POLYGON((\n', 1)
+    (block / "scenes.csv").write_text("\n".join(lines) + "\n", "utf-8")
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    assert p.returncode == 0, p.stderr
+
+
 def _tie_points_over(block: Path, size: int) -> list[str]:
     """The tie points written again as copies of their rows (each copy's point ids suffixed)
     until the file holds more than `size` bytes; its lines, the header first."""
