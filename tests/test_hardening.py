@@ -1244,3 +1244,50 @@ def test_a_corrupt_row_group_of_a_parquet_table_is_located(blockqc, delivery, tm
     rows = f"rows {size + 1}–{2 * size}"
     assert f"tie_points.parquet: not a readable Parquet table (row group 1, {rows})" in p.stderr
     assert all(c.isprintable() for c in p.stderr.replace("\n", ""))  # Arrow quotes the bytes
+
+
+def test_parquet_ids_stored_as_decimal_numbers_are_read_as_their_whole_numbers(
+    blockqc, delivery: Path, tmp_path: Path
+) -> None:
+    """Scene ids 1001… in scenes.csv, and tie points written from a numeric array (ids as
+    doubles, 1001.0): the ids were read as '1001.0', unknown, with "did you mean '1010'?"; a
+    point id as '3.0' where the same file read column by column (`columns: used`) gave '3'.
+    A double holding a whole number is read as that number's text, as an integer id is."""
+    numbers = {f"S{i}": str(1000 + i) for i in range(1, 5)} | {"M1": "1005"}
+    for name in ("scenes", "tie_points", "overlaps", "pan_ms"):
+        table = pd.read_csv(delivery / f"{name}.csv", dtype=str, keep_default_na=False)
+        table = table.replace(numbers)
+        table.to_csv(delivery / f"{name}.csv", index=False)
+    first = blockqc("inspect", delivery, "--out", tmp_path / "csv", "--no-pdf")
+
+    def as_doubles(tp: pd.DataFrame) -> None:
+        tp["scene_id"] = tp["scene_id"].astype(float)
+        tp["point_id"] = pd.factorize(tp["point_id"])[0] + 1.0
+
+    _tie_points_as_parquet(delivery, as_doubles)
+    second = blockqc("inspect", delivery, "--out", tmp_path / "pq", "--no-pdf")
+    assert first.returncode == second.returncode, second.stderr
+    a, b = (json.loads((tmp_path / d / "CASE" / "results.json").read_text()) for d in ("csv", "pq"))
+    assert [(r["rule"], r["status"], r["value"]) for r in a["results"]] == [
+        (r["rule"], r["status"], r["value"]) for r in b["results"]
+    ]
+    from blockqc.delivery import read_table
+    from blockqc.schema import TIE_POINTS
+
+    tp, problems = read_table(delivery / "tie_points.parquet", TIE_POINTS)
+    assert problems == [] and tp["point_id"].iloc[0] == "1" and tp["scene_id"].iloc[0] == "1001"
+
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(delivery / "tie_points.parquet")
+    ids = table.column("scene_id").to_numpy().copy()
+    ids[2] = float("nan")  # stored as a value, not as a null: no id
+    table = table.set_column(1, "scene_id", pa.array(ids, from_pandas=False))
+    pq.write_table(table, delivery / "tie_points.parquet")
+    _refused(
+        blockqc,
+        delivery,
+        tmp_path / "nan",
+        "tie_points.parquet, row 3, column 'scene_id': empty value where one is required",
+    )

@@ -42,6 +42,7 @@ from blockqc.geometry_inputs import (
 )
 from blockqc.outputs import block_id_problem
 from blockqc.schema import (
+    MAX_INT,
     TABLES,
     TIE_POINTS,
     TableSchema,
@@ -784,14 +785,35 @@ def _read_parquet(
     if problems:
         raise InputError(problems)
     try:
-        for i, f in enumerate(table.schema):  # text stored as bytes: read as UTF-8 text
-            if f.name in names and (pa.types.is_binary(f.type) or pa.types.is_large_binary(f.type)):
-                table = table.set_column(i, f.name, table.column(i).cast(pa.string()))
+        for i, f in enumerate(table.schema):  # text stored as bytes or numbers: read as text
+            text = _text_stored_otherwise(schema, f, table.column(i))
+            if text is not None:
+                table = table.set_column(i, f.name, text)
         handed, table = [table], None
         return _to_pandas(handed, schema, early), given
     except (pa.ArrowException, ValueError, OverflowError) as exc:
         message = f"not a readable Parquet table: {_plain(exc)}"
         raise InputError(Problem(str(path), message)) from None
+
+
+def _text_stored_otherwise(
+    schema: TableSchema, f: pa.Field, col: pa.ChunkedArray
+) -> pa.ChunkedArray | None:
+    """A column of the contract stored as bytes, as UTF-8 text; an id column stored as decimal
+    numbers that are all whole (a table written from a numeric array: 1001.0), as the text of
+    those whole numbers, as an integer id reads, so that it meets the same id in the other
+    tables and in a column read again (`read_rows`). None: the column is read as it is."""
+    if f.name not in {c.name for c in schema.columns}:
+        return None
+    if pa.types.is_binary(f.type) or pa.types.is_large_binary(f.type):
+        return col.cast(pa.string())
+    if schema.column(f.name).kind != "str" or not pa.types.is_floating(f.type):
+        return None
+    values = pc.if_else(pc.is_nan(col), None, col)  # NaN: no id, as an empty cell
+    size = pc.max(pc.abs(values)).as_py() or 0
+    if size > MAX_INT or not pc.all(pc.equal(pc.round(values), values)).as_py():
+        return None
+    return values.cast(pa.int64()).cast(pa.string())
 
 
 def _plain(exc: Exception) -> str:
