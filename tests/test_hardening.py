@@ -312,7 +312,8 @@ def test_bom_crlf_and_trailing_commas_give_the_same_results(blockqc, tmp_path: P
 def test_dangling_symlink_for_a_table(blockqc, delivery: Path, tmp_path: Path) -> None:
     (delivery / "checkpoints.csv").unlink()
     os.symlink(tmp_path / "nowhere.csv", delivery / "checkpoints.csv")
-    _refused(blockqc, delivery, tmp_path / "out", "checkpoints.csv: a symbolic link to a file that")
+    why = f"checkpoints.csv: a symbolic link to {tmp_path / 'nowhere.csv'}, which does not exist"
+    _refused(blockqc, delivery, tmp_path / "out", f"{why}: expected the checkpoints table")
 
 
 @pytest.mark.parametrize("name", ["edges.csv", "checkpoints.parquet", "scenes.csv"])
@@ -320,7 +321,16 @@ def test_folder_named_like_a_table(blockqc, delivery: Path, tmp_path: Path, name
     for f in delivery.glob(name.split(".")[0] + ".*"):
         f.unlink()
     (delivery / name).mkdir()
-    _refused(blockqc, delivery, tmp_path / "out", f"{name}: is not a regular file")
+    table = name.split(".")[0]
+    why = f"{name}: is a folder, not a file: expected the {table} table"
+    _refused(blockqc, delivery, tmp_path / "out", why)
+
+
+def test_pipe_named_like_a_table(blockqc, delivery: Path, tmp_path: Path) -> None:
+    (delivery / "edges.csv").unlink()
+    os.mkfifo(delivery / "edges.csv")
+    why = "edges.csv: is not a regular file (a pipe, socket or device): expected the edges table"
+    _refused(blockqc, delivery, tmp_path / "out", why)
 
 
 @pytest.mark.parametrize("table", ["checkpoints", "overlaps", "tie_points"])

@@ -58,6 +58,7 @@ from blockqc.textio import (
     header_problem,
     listed,
     located,
+    not_a_file,
     read_bytes,
     unreadable_folder,
 )
@@ -270,12 +271,8 @@ def not_a_manifest(path: Path) -> str | None:
     a pipe; or, not there, the file beside it named otherwise (block.yml, Block.yaml); None
     when it is a file, or neither it nor such a file is there."""
     f = path / MANIFEST
-    if f.is_symlink() and not f.exists():
-        return f"a symbolic link to {os.readlink(f)}, which does not exist: expected the manifest"
-    if f.is_dir():
-        return "is a folder, not a file: expected the delivery's manifest"
-    if f.exists() and not f.is_file():
-        return "is not a regular file (a pipe, socket or device): expected the delivery's manifest"
+    if what := not_a_file(f):
+        return f"{what}: expected the delivery's manifest"
     if not f.exists() and (other := _manifest_named_otherwise(path)):
         return f"missing; {other} is there: the manifest is read from {MANIFEST} (lower case)"
     return None
@@ -375,10 +372,8 @@ def _table_file(folder: Path, name: str) -> Path | None:
     if not given:
         return None
     f = given[0]
-    if f.is_symlink() and not f.exists():
-        raise InputError(Problem(str(f), "a symbolic link to a file that does not exist"))
-    if not f.is_file():
-        raise InputError(Problem(str(f), f"is not a regular file: expected the {name} table"))
+    if what := not_a_file(f):
+        raise InputError(Problem(str(f), f"{what}: expected the {name} table"))
     return f
 
 

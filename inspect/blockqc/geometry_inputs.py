@@ -8,7 +8,6 @@ RPCs in `rpc_adjusted/<scene_id>.<ext>`. Nothing here writes to the delivery.
 
 from __future__ import annotations
 
-import os
 import re
 from collections.abc import Collection
 from dataclasses import dataclass, field
@@ -23,7 +22,7 @@ from blockqc.errors import InputError, Problem
 from blockqc.rfm.model import DOMAIN_REACH, RPCModel, boxes_meet, wrap_lon
 from blockqc.rfm.readers import read_rpc
 from blockqc.schema import MAX_ROWS_LISTED, visible_name
-from blockqc.textio import listed, unreadable_folder
+from blockqc.textio import dangling_link, listed, unreadable_folder
 
 RPC_DIR = "rpc"
 ADJUSTED_DIR = "rpc_adjusted"
@@ -93,8 +92,8 @@ def _read_models(
     Each model counts image positions as its file does (a DIMAP file's first pixel is (1, 1)):
     the tie points on its scene are measured in that convention (contract v1.1)."""
     if not folder.is_dir():
-        link = folder.is_symlink() and not folder.exists()
-        what = f"a symbolic link to {os.readlink(folder)}, which does not exist: " if link else ""
+        link = dangling_link(folder)
+        what = f"{link}: " if link else ""
         problems.append(
             Problem(str(folder), f"{what}expected a folder of RPC files <scene_id>.<ext>")
         )

@@ -62,10 +62,30 @@ def unreadable_folder(folder: Path, exc: OSError) -> Problem:
     )
 
 
+def dangling_link(path: Path) -> str | None:
+    """A link to nothing, said with what it names; None when the path is no such link."""
+    if path.is_symlink() and not path.exists():
+        return f"a symbolic link to {os.readlink(path)}, which does not exist"
+    return None
+
+
+def not_a_file(path: Path) -> str | None:
+    """What an input named as a file is when it is none (a link to nothing, a folder, a pipe,
+    a socket or a device), to be followed by what was expected; None when it is a file or not
+    there."""
+    if link := dangling_link(path):
+        return link
+    if path.is_dir():
+        return "is a folder, not a file"
+    if path.exists() and not path.is_file():
+        return "is not a regular file (a pipe, socket or device)"
+    return None
+
+
 def read_bytes(path: Path, max_bytes: int | None, error: type[BlockqcError] = InputError) -> bytes:
     """Read a regular file whole, refusing folders, dangling links and absurd sizes."""
-    if path.is_symlink() and not path.exists():
-        raise error(Problem(str(path), "a symbolic link to a file that does not exist"))
+    if link := dangling_link(path):
+        raise error(Problem(str(path), f"{link}: expected a file"))
     if path.is_dir():
         raise error(Problem(str(path), "is a folder: expected a file"))
     try:

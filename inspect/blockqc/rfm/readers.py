@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import codecs
 import json
-import os
 import re
 import warnings
 from collections.abc import Callable, Iterator, Mapping
@@ -37,6 +36,7 @@ import numpy as np
 
 from blockqc.errors import InputError, Problem
 from blockqc.rfm.model import MIN_SCALE, OFFSET_SCALE_KEYS, RPCModel
+from blockqc.textio import not_a_file
 
 if TYPE_CHECKING:
     from rasterio.io import DatasetReader
@@ -833,20 +833,10 @@ _READERS: dict[str, Callable[[Path], RPCModel]] = {
 def read_rpc(path: str | Path) -> RPCModel:
     """Read an RPC00B model from any supported file, choosing the reader from the content."""
     path = Path(path)
-    if path.is_symlink() and not path.exists():
-        raise _error(
-            path, f"a symbolic link to {os.readlink(path)}, which does not exist: expected an "
-            "RPC file",
-        )  # fmt: skip
-    if path.is_dir():
-        raise _error(path, "is a folder, not a file: expected an RPC file")
+    if what := not_a_file(path):
+        raise _error(path, f"{what}: expected an RPC file")
     if not path.is_file():
-        raise _error(
-            path,
-            "is not a regular file (a pipe, socket or device): expected an RPC file"
-            if path.exists()
-            else "no such file",
-        )
+        raise _error(path, "no such file")
     kind = sniff_format(path)
     size = path.stat().st_size
     if kind == "unknown" and size < 4096 and not path.read_bytes().strip():
