@@ -1411,57 +1411,85 @@ def _unknown(values: pd.Series, keys: pd.Series) -> np.ndarray:
 PIXEL_SLACK = 0.5
 
 
-def _consistency_masks(
-    tables: dict[str, pd.DataFrame], scenes_file: str = "scenes.csv"
-) -> list[tuple[str, str | None, np.ndarray, str]]:
+Masks = list[tuple[str, str | None, np.ndarray, str]]
+
+
+def _consistency_masks(tables: dict[str, pd.DataFrame], scenes_file: str = "scenes.csv") -> Masks:
     """Rows whose cells contradict each other, per table: (table, column, mask, message)."""
-    out = []
-    cp = tables.get("checkpoints")
-    if cp is not None and {"x_m", "ref_x_m", "ref_y_m", "z_m", "ref_z_m"} <= set(cp.columns):
-        rx, ry = cp["ref_x_m"].isna().to_numpy(), cp["ref_y_m"].isna().to_numpy()
-        z, rz = cp["z_m"].isna().to_numpy(), cp["ref_z_m"].isna().to_numpy()
-        out += [
-            ("checkpoints", "ref_x_m", rx & ~ry,
-             "ref_x_m is empty where ref_y_m is given: give both, or neither"),
-            ("checkpoints", "ref_y_m", ry & ~rx,
-             "ref_y_m is empty where ref_x_m is given: give both, or neither"),
-            ("checkpoints", "z_m", z & ~rz,
-             "z_m is empty where ref_z_m is given: the height cannot be compared"),
-            ("checkpoints", None, rx & ry & rz,
-             "the row compares nothing: give ref_x_m and ref_y_m, or ref_z_m"),
-        ]  # fmt: skip
     tp, sc = tables.get("tie_points"), tables.get("scenes")
-    out += _partial_ground_points(tp)
-    if tp is not None and sc is not None:
-        size = sc.drop_duplicates("scene_id").set_index("scene_id")
-        codes, lookup = scene_lookup(tp["scene_id"], size.index)  # grouped by the codes
-        for col, extent in (("line", "lines"), ("sample", "samples")):
-            if col not in tp.columns:  # not read
-                continue
-            v = tp[col].to_numpy(dtype=float)
-            limit = size[extent].to_numpy(dtype=float, na_value=np.nan)
-            top = np.append(limit, np.nan)[lookup]  # position −1, no scene: reported apart
-            outside = _outside(v, codes, -PIXEL_SLACK, top + PIXEL_SLACK)
-            msg = f"{col} lies outside its scene (0 to the scene's {extent} in {scenes_file})"
-            out.append(("tie_points", col, outside, msg))
-    pm = tables.get("pan_ms")
-    if pm is not None and sc is not None:
-        band = sc.drop_duplicates("scene_id").set_index("scene_id")["band"]
-        for col, want in (("pan_scene_id", "pan"), ("ms_scene_id", "ms")):
-            got = pm[col].astype(object).map(band)
-            wrong = (got.notna() & (got != want)).to_numpy(dtype=bool)
-            msg = f"{col} names a scene whose band in {scenes_file} is not {want}"
-            out.append(("pan_ms", col, wrong, msg))
-    ov = tables.get("overlaps")
-    if ov is not None and {"scene_a", "scene_b"} <= set(ov.columns):
-        same = (ov["scene_a"] == ov["scene_b"]).to_numpy(dtype=bool)
-        out.append(("overlaps", "scene_b", same, "scene_b is scene_a: expected two scenes"))
-        if "point_id" in ov.columns:
-            msg = (
-                "the same point of this pair is also given with scene_a and scene_b swapped: "
-                "give each point of a pair once"
-            )
-            out.append(("overlaps", None, _given_swapped(ov) & ~same, msg))
+    return [
+        *_checkpoint_masks(tables.get("checkpoints")),
+        *_partial_ground_points(tp),
+        *_outside_scene_masks(tp, sc, scenes_file),
+        *_pan_ms_band_masks(tables.get("pan_ms"), sc, scenes_file),
+        *_overlap_masks(tables.get("overlaps")),
+    ]
+
+
+def _checkpoint_masks(cp: pd.DataFrame | None) -> Masks:
+    """Checkpoint rows giving half a reference position, a height without its reference, or
+    nothing to compare."""
+    if cp is None or not {"x_m", "ref_x_m", "ref_y_m", "z_m", "ref_z_m"} <= set(cp.columns):
+        return []
+    rx, ry = cp["ref_x_m"].isna().to_numpy(), cp["ref_y_m"].isna().to_numpy()
+    z, rz = cp["z_m"].isna().to_numpy(), cp["ref_z_m"].isna().to_numpy()
+    return [
+        ("checkpoints", "ref_x_m", rx & ~ry,
+         "ref_x_m is empty where ref_y_m is given: give both, or neither"),
+        ("checkpoints", "ref_y_m", ry & ~rx,
+         "ref_y_m is empty where ref_x_m is given: give both, or neither"),
+        ("checkpoints", "z_m", z & ~rz,
+         "z_m is empty where ref_z_m is given: the height cannot be compared"),
+        ("checkpoints", None, rx & ry & rz,
+         "the row compares nothing: give ref_x_m and ref_y_m, or ref_z_m"),
+    ]  # fmt: skip
+
+
+def _outside_scene_masks(tp: pd.DataFrame | None, sc: pd.DataFrame | None, file: str) -> Masks:
+    """Tie-point observations whose line or sample lies outside their scene's extent."""
+    if tp is None or sc is None:
+        return []
+    out = []
+    size = sc.drop_duplicates("scene_id").set_index("scene_id")
+    codes, lookup = scene_lookup(tp["scene_id"], size.index)  # grouped by the codes
+    for col, extent in (("line", "lines"), ("sample", "samples")):
+        if col not in tp.columns:  # not read
+            continue
+        v = tp[col].to_numpy(dtype=float)
+        limit = size[extent].to_numpy(dtype=float, na_value=np.nan)
+        top = np.append(limit, np.nan)[lookup]  # position −1, no scene: reported apart
+        outside = _outside(v, codes, -PIXEL_SLACK, top + PIXEL_SLACK)
+        msg = f"{col} lies outside its scene (0 to the scene's {extent} in {file})"
+        out.append(("tie_points", col, outside, msg))
+    return out
+
+
+def _pan_ms_band_masks(pm: pd.DataFrame | None, sc: pd.DataFrame | None, file: str) -> Masks:
+    """PAN/MS registration rows naming a scene of the other band."""
+    if pm is None or sc is None:
+        return []
+    out = []
+    band = sc.drop_duplicates("scene_id").set_index("scene_id")["band"]
+    for col, want in (("pan_scene_id", "pan"), ("ms_scene_id", "ms")):
+        got = pm[col].astype(object).map(band)
+        wrong = (got.notna() & (got != want)).to_numpy(dtype=bool)
+        msg = f"{col} names a scene whose band in {file} is not {want}"
+        out.append(("pan_ms", col, wrong, msg))
+    return out
+
+
+def _overlap_masks(ov: pd.DataFrame | None) -> Masks:
+    """Overlap rows pairing a scene with itself, or giving a point of a pair twice (swapped)."""
+    if ov is None or not {"scene_a", "scene_b"} <= set(ov.columns):
+        return []
+    same = (ov["scene_a"] == ov["scene_b"]).to_numpy(dtype=bool)
+    out = [("overlaps", "scene_b", same, "scene_b is scene_a: expected two scenes")]
+    if "point_id" in ov.columns:
+        msg = (
+            "the same point of this pair is also given with scene_a and scene_b swapped: "
+            "give each point of a pair once"
+        )
+        out.append(("overlaps", None, _given_swapped(ov) & ~same, msg))
     return out
 
 
@@ -1472,9 +1500,7 @@ WHOLE_GROUND_POINT = (
 )
 
 
-def _partial_ground_points(
-    tp: pd.DataFrame | None,
-) -> list[tuple[str, str | None, np.ndarray, str]]:
+def _partial_ground_points(tp: pd.DataFrame | None) -> Masks:
     """Tie-point rows giving part of the producer's ground point: lon without lat, lat without
     lon, or h without both (a row giving none has no ground point). Rows are only checked
     when the table has lon and lat columns (else the columns are refused)."""
