@@ -571,10 +571,21 @@ def fit_affine(
                 message="the control points are collinear: the affine refinement is undetermined",
             )
         )
+    affine = _unscaled(sol, (r0, c0), (sr, sc))
+    residuals = rhs - design @ sol
+    return RefinedRFM(rpc, affine), residuals
+
+
+def _unscaled(
+    sol: FloatArray, centre: tuple[float, float], scale: tuple[float, float]
+) -> ImageAffine:
+    """The affine parameters of a solution over image positions centred on `centre` (row,
+    col) and divided by `scale` (row, col), in plain pixels."""
+    (r0, c0), (sr, sc) = centre, scale
     k_a, k_b = sol[:, 0], sol[:, 1]
     a1, a2 = k_a[1] / sc, k_a[2] / sr
     b1, b2 = k_b[1] / sc, k_b[2] / sr
-    affine = ImageAffine(
+    return ImageAffine(
         a0=float(k_a[0] - a1 * c0 - a2 * r0),
         a1=float(a1),
         a2=float(a2),
@@ -582,5 +593,3 @@ def fit_affine(
         b1=float(b1),
         b2=float(b2),
     )
-    residuals = rhs - design @ sol
-    return RefinedRFM(rpc, affine), residuals
