@@ -144,43 +144,53 @@ def collect(paths: Iterable[Path]) -> Collected:
         files=[f for p in paths for f in batch_files(p)],
         repeated=list(dict.fromkeys(repeated)),
     )
-    seen: dict[str, tuple[Path, str]] = {}
+    seen: dict[str, tuple[Path, str]] = {}  # block ids (case folded) met so far
     for path in found:
-        if dangling(path):
-            target = os.readlink(path)
-            got.refused[path] = Problem(
-                str(path),
-                f"a link to {target}, which does not exist: a delivery of the batch moved or "
-                "removed? (give it again, or remove the link)",
-            )
-            continue
-        if not is_delivery(path):
-            got.refused[path] = Problem(
-                str(path / MANIFEST),
-                not_a_manifest(path)
-                or "missing: every sub-folder of a batch is a delivery and needs its block.yaml "
-                f"(folders named '.…' are left out){_nested(path)}",
-            )
+        if problem := _not_a_delivery(path):
+            got.refused[path] = problem
             continue
         try:
             manifest = got.manifests[path] = load_manifest(path / MANIFEST)
         except InputError:
             continue  # reported in full when the delivery is read
-        key = manifest.block_id.casefold()  # one output folder on Windows and macOS
-        if key in seen:
-            other, first = seen[key]
-            same = (
-                f"differs only in case from {first}," if first != manifest.block_id else "is also"
-            )
-            got.refused[path] = Problem(
-                str(path / MANIFEST),
-                f"block_id {manifest.block_id} {same} the id of {other}: block ids must be "
-                "unique in a batch, whatever their case (their outputs share a folder on "
-                "Windows and macOS)",
-            )
-        else:
-            seen[key] = (path, manifest.block_id)
+        if problem := _block_id_taken(path, manifest.block_id, seen):
+            got.refused[path] = problem
     return got
+
+
+def _not_a_delivery(path: Path) -> Problem | None:
+    """Why a folder of the batch is no delivery: a link to nothing, no block.yaml (or one that
+    is no file); None when it is one."""
+    if dangling(path):
+        return Problem(
+            str(path),
+            f"a link to {os.readlink(path)}, which does not exist: a delivery of the batch moved "
+            "or removed? (give it again, or remove the link)",
+        )
+    if is_delivery(path):
+        return None
+    return Problem(
+        str(path / MANIFEST),
+        not_a_manifest(path)
+        or "missing: every sub-folder of a batch is a delivery and needs its block.yaml "
+        f"(folders named '.…' are left out){_nested(path)}",
+    )
+
+
+def _block_id_taken(path: Path, block_id: str, seen: dict[str, tuple[Path, str]]) -> Problem | None:
+    """A block id that a delivery met before has, whatever the case (their outputs would share
+    a folder on Windows and macOS); else None, the id now met."""
+    key = block_id.casefold()
+    if key not in seen:
+        seen[key] = (path, block_id)
+        return None
+    other, first = seen[key]
+    same = f"differs only in case from {first}," if first != block_id else "is also"
+    return Problem(
+        str(path / MANIFEST),
+        f"block_id {block_id} {same} the id of {other}: block ids must be unique in a batch, "
+        "whatever their case (their outputs share a folder on Windows and macOS)",
+    )
 
 
 @dataclass(frozen=True)
