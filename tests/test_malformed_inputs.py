@@ -315,6 +315,17 @@ def test_block_yaml_unknown_key_is_a_stated_warning(blockqc, block, tmp_path):
         ),
         ("block_id: F1-B01", "Block_ID: F1-B01", ("Block_ID: unknown key; did you mean",)),
         ("sampled: true", "sampled: maybe", ("block.yaml", "sampled")),
+        # a key of a nested mapping in other case, or misspelt: refused without a hint
+        (
+            "pan: 0.8",
+            "PAN: 0.8",
+            ("block.yaml, line 4: gsd_m.PAN: unknown key; did you mean 'pan'?",),
+        ),
+        (
+            "ms: 2.6",
+            "ms_: 2.6",
+            ("block.yaml, line 5: gsd_m.ms_: unknown key; did you mean 'ms'?",),
+        ),
         ("pan: 0.8", "pan: true", ("block.yaml", "expected a number of metres, got true")),
         ("pan: 0.8", "pan: 1.0e+30", ("block.yaml", "gsd_m.pan")),
         (

@@ -1012,7 +1012,7 @@ def load_manifest(path: Path) -> Manifest:
     try:
         manifest = Manifest.model_validate(data)
     except ValidationError as exc:
-        problems = pydantic_problems(exc, path, data) + problems
+        problems = pydantic_problems(exc, path, data, model=Manifest) + problems
     if problems:
         raise InputError(problems)
     manifest.unknown_keys = _unknown_keys(path, data, manifest)
