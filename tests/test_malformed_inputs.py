@@ -549,11 +549,25 @@ def test_a_misspelt_optional_column_is_refused(blockqc, block, tmp_path, misspel
     _refused(p, f"overlaps.csv: column '{misspelt}': did you mean 'dz_m'?")
 
 
-def test_a_misspelt_required_column_is_named_with_the_one_meant(blockqc, block, tmp_path):
+@pytest.mark.parametrize(
+    ("column", "kind"),
+    [("lines", "an int"), ("band", "an enum"), ("acquired", "a date"), ("scene_id", "a str")],
+)
+def test_a_misspelt_required_column_is_named_with_the_one_meant(
+    blockqc, block, tmp_path, column, kind
+):
+    """The kind expected was said as 'a int column', 'a enum column'."""
     text = (block / "scenes.csv").read_text(encoding="utf-8")
-    (block / "scenes.csv").write_text(text.replace(",lines,", ",Lines,", 1))
+    header = "scene_id,band,acquired,lines,samples,footprint_wkt,water_fraction"
+    assert text.startswith(header + "\n")
+    given = header.replace(column, column.capitalize(), 1)
+    (block / "scenes.csv").write_text(text.replace(header, given, 1))
     p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
-    _refused(p, "scenes.csv: missing column 'lines'", "is 'Lines' meant to be it?")
+    _refused(
+        p,
+        f"scenes.csv: missing column '{column}' (expected {kind} column; columns found: "
+        f"{given.replace(',', ', ')}; is '{column.capitalize()}' meant to be it?)",
+    )
 
 
 def test_a_header_in_capitals_names_each_column_meant(blockqc, block, tmp_path):

@@ -50,6 +50,7 @@ from blockqc.schema import (
     report_rows,
     validate_table,
     visible_name,
+    with_article,
 )
 from blockqc.textio import (
     BOM,
@@ -1291,7 +1292,7 @@ def _misplaced_inputs(path: Path) -> list[Problem]:
     problems = list(below.unreadable)
     for e in below.entries:
         if e.name in absent and _is_file(e):
-            held = _HELD.format(_with_article(absent[e.name]), absent[e.name])
+            held = _HELD.format(with_article(absent[e.name]), absent[e.name])
             problems.append(Problem(os.path.dirname(e.path), held))
         elif meant := _geometry_below(e, dirs):
             problems.append(Problem(e.path, _GEOMETRY_BELOW.format(meant)))
@@ -1306,11 +1307,6 @@ _GEOMETRY_BELOW = (
     "not read there: the geometry of contract v1.1 is read from the delivery's own folder "
     "({0}/ beside block.yaml)"
 )
-
-
-def _with_article(name: str) -> str:
-    """A table's name after its article: a pan_ms, an overlaps, an adjustment."""
-    return f"{'an' if name[0] in 'aeiou' else 'a'} {name}"
 
 
 def _geometry_below(entry: os.DirEntry, dirs: list[str]) -> str | None:

@@ -477,12 +477,17 @@ def _missing(col: Column, near: str | None, file: str, found: list) -> list[Prob
     if col.required:
         hint = f"; is '{visible_name(near)}' meant to be it?" if near else ""
         names = ", ".join(visible_name(str(c)) for c in found)
-        why = f"expected a {col.kind} column; columns found: {names}{hint}"
+        why = f"expected {with_article(col.kind)} column; columns found: {names}{hint}"
         return [Problem(file, f"missing column '{col.name}' ({why})")]
     if near:
         why = "rename it: misspelt, the checks of that optional column would not be made"
         return [Problem(file, f"column '{visible_name(near)}': did you mean '{col.name}'? ({why})")]
     return []
+
+
+def with_article(word: str) -> str:
+    """A word after its article: a float, an int, an enum (a pan_ms, an overlaps)."""
+    return f"{'an' if word[:1].lower() in {'a', 'e', 'i', 'o', 'u'} else 'a'} {word}"
 
 
 def visible_name(name: str) -> str:
