@@ -280,6 +280,33 @@ def test_gbk_scene_ids(blockqc, delivery: Path, tmp_path: Path) -> None:
     )
 
 
+@pytest.mark.parametrize(("encoding", "order"), [("utf-16-le", "LE"), ("utf-16-be", "BE")])
+@pytest.mark.parametrize("scene", ["S3", "场景3"])
+def test_utf16_without_a_byte_order_mark(blockqc, delivery, tmp_path, encoding, order, scene):
+    """A table of UTF-16 text without its byte order mark was said to hold a NUL byte (the
+    file may be damaged), or, holding Chinese, to look like Latin-1."""
+    for name in ("scenes.csv", "tie_points.csv", "block.yaml"):
+        text = (delivery / name).read_text().replace("S3,", f"{scene},")
+        (delivery / name).write_bytes(text.encode(encoding))
+    said = (
+        ", line 1: every other byte is NUL (0x00): the file must be UTF-8 text (it looks like "
+        f"UTF-16{order} without a byte order mark; save it as UTF-8)"
+    )
+    stderr = _refused(blockqc, delivery, tmp_path / "out", *(n + said for n in ("scenes.csv",)))
+    assert "tie_points.csv" + said in stderr and "block.yaml" + said in stderr
+
+
+def test_utf16_with_a_byte_order_mark(blockqc, delivery, tmp_path) -> None:
+    (delivery / "scenes.csv").write_text((delivery / "scenes.csv").read_text(), "utf-16")
+    _refused(
+        blockqc,
+        delivery,
+        tmp_path / "out",
+        "scenes.csv, line 1: byte 0xff at character 1 is not UTF-8: the file must be UTF-8 "
+        "text (it looks like UTF-16; save it as UTF-8)",
+    )
+
+
 def test_latin1_manifest_names_line(blockqc, delivery: Path, tmp_path: Path) -> None:
     data = (delivery / "block.yaml").read_bytes().replace(b"GF-7", "GF-7 Müller".encode("latin-1"))
     (delivery / "block.yaml").write_bytes(data)

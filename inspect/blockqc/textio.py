@@ -14,11 +14,12 @@ import numpy as np
 from blockqc.errors import BlockqcError, InputError, Problem
 
 BOM = b"\xef\xbb\xbf"
+UTF16_BOMS = (b"\xff\xfe", b"\xfe\xff")
 
 
 def _likely_encoding(data: bytes) -> str:
     """A cheap guess at the encoding of bytes that are not UTF-8 (only for the message)."""
-    if data.startswith((b"\xff\xfe", b"\xfe\xff")):
+    if data.startswith(UTF16_BOMS):
         return "UTF-16"
     high = np.frombuffer(data, dtype=np.uint8) >= 0x80
     paired = high[:-1] & high[1:]  # GBK writes each Chinese character as two high bytes
@@ -31,14 +32,43 @@ def _likely_encoding(data: bytes) -> str:
     return "Latin-1 / Windows-1252"
 
 
+def _utf16_order(data: bytes) -> str | None:
+    """'LE' or 'BE' when the file starts as UTF-16 text without its byte order mark: of its
+    first pairs of bytes, nine in ten or more hold a NUL in the same place (an ASCII character)
+    and none is NUL twice; else None. A file damaged or padded with zeros is not such."""
+    head = np.frombuffer(data, dtype=np.uint8, count=min(len(data), 1024) // 2 * 2)
+    if head.size < 8 or data.startswith(UTF16_BOMS):
+        return None
+    first, second = head[0::2] == 0, head[1::2] == 0
+    for order, zeros, other in (("LE", second, first), ("BE", first, second)):
+        if zeros.mean() >= 0.9 and not (zeros & other).any():
+            return order
+    return None
+
+
+def _not_utf8(encoding: str) -> str:
+    """What is said of a file in another encoding than UTF-8."""
+    return f"the file must be UTF-8 text (it looks like {encoding}; save it as UTF-8)"
+
+
+def utf16_problem(path: Path, data: bytes) -> Problem | None:
+    """The problem of a file of UTF-16 text without its byte order mark (its NUL bytes are no
+    damage, and its bytes no other 8-bit encoding), or None."""
+    order = _utf16_order(data)
+    if order is None:
+        return None
+    encoding = f"UTF-16{order} without a byte order mark"
+    return Problem(str(path), f"every other byte is NUL (0x00): {_not_utf8(encoding)}", line=1)
+
+
 def utf8_problem(path: Path, data: bytes, exc: UnicodeDecodeError) -> Problem:
     """The line and column of the first byte that is not UTF-8, and the likely encoding."""
     line = data.count(b"\n", 0, exc.start) + 1
     column = exc.start - (data.rfind(b"\n", 0, exc.start) + 1) + 1
-    return Problem(
+    return utf16_problem(path, data) or Problem(
         str(path),
-        f"byte 0x{data[exc.start]:02x} at character {column} is not UTF-8: the file must be "
-        f"UTF-8 text (it looks like {_likely_encoding(data)}; save it as UTF-8)",
+        f"byte 0x{data[exc.start]:02x} at character {column} is not UTF-8: "
+        + _not_utf8(_likely_encoding(data)),
         line=line,
     )
 
@@ -127,6 +157,9 @@ def check_no_nul(path: Path, data: bytes, error: type[BlockqcError] = InputError
     at = data.find(b"\0")
     if at < 0:
         return
+    wide = utf16_problem(path, data)
+    if wide is not None:
+        raise error(wide)
     line = data.count(b"\n", 0, at) + 1
     column = at - (data.rfind(b"\n", 0, at) + 1) + 1
     more = data.count(b"\0", at + 1)
@@ -143,6 +176,9 @@ def check_no_nul(path: Path, data: bytes, error: type[BlockqcError] = InputError
 
 def decode_utf8(path: Path, data: bytes, error: type[BlockqcError] = InputError) -> str:
     """UTF-8 text without its byte-order mark; other encodings are refused with the line."""
+    wide = utf16_problem(path, data)
+    if wide is not None:  # ASCII characters in UTF-16 decode as UTF-8, each beside a NUL
+        raise error(wide)
     try:
         return data.removeprefix(BOM).decode("utf-8")
     except UnicodeDecodeError as exc:
