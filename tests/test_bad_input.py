@@ -155,12 +155,22 @@ def test_not_a_delivery(blockqc, tmp_path: Path) -> None:
     assert "neither a delivery" in p.stderr
 
 
-@pytest.mark.parametrize(("sep", "name"), [(";", "semicolons"), ("\t", "tabs")])
+@pytest.mark.parametrize(
+    ("sep", "name", "count"),
+    [
+        (";", "semicolons", -1),
+        ("\t", "tabs", -1),
+        # as Chinese input methods type them: each column was said to be missing
+        ("，", "full-width commas ('，')", -1),
+        ("；", "full-width semicolons ('；')", -1),
+        ("，", "full-width commas ('，')", 3),  # some of the header's commas only
+    ],
+)
 def test_csv_of_another_separator(
-    blockqc, delivery: Path, tmp_path: Path, sep: str, name: str
+    blockqc, delivery: Path, tmp_path: Path, sep: str, name: str, count: int
 ) -> None:
     tp = delivery / "tie_points.csv"
-    tp.write_text(tp.read_text().replace(",", sep))
+    tp.write_text(tp.read_text().replace(",", sep, count))
     p = blockqc("inspect", delivery, "--out", tmp_path / "out")
     assert p.returncode == 2
     _no_traceback(p)

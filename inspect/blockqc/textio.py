@@ -191,9 +191,19 @@ def read_text(path: Path, max_bytes: int | None, error: type[BlockqcError] = Inp
     return decode_utf8(path, read_bytes(path, max_bytes, error), error)
 
 
+#: separators typed by Chinese input methods: no column name holds one, so that a header
+#: holding one in any name (some of its commas typed so) is refused
+WIDE_SEPARATORS = {"，": "full-width commas ('，')", "；": "full-width semicolons ('；')"}
+
 #: separators of other CSV dialects (spreadsheets set to some locales export with ';'), spaces
 #: last: a header separated by semicolons may hold spaces too
-OTHER_SEPARATORS = {";": "semicolons", "\t": "tabs", "|": "vertical bars", " ": "spaces"}
+OTHER_SEPARATORS = {
+    **WIDE_SEPARATORS,
+    ";": "semicolons",
+    "\t": "tabs",
+    "|": "vertical bars",
+    " ": "spaces",
+}
 
 
 def header_problem(path: Path, header: list[str], columns: int = 2) -> Problem | None:
@@ -228,12 +238,14 @@ def header_problem(path: Path, header: list[str], columns: int = 2) -> Problem |
 
 
 def separator_problem(path: Path, header: list[str]) -> Problem | None:
-    """A CSV header read as one name that holds another dialect's separator: the problem to
-    report once, rather than every column missing (None when the header is not such)."""
+    """A CSV header read as one name that holds another dialect's separator, or holding a
+    full-width one in any name: the problem to report once, rather than every column missing
+    (None when the header is not such)."""
+    one = header if len(header) == 1 else []
     found = [
         name
         for sep, name in OTHER_SEPARATORS.items()
-        if len(header) == 1 and sep in header[0].strip()
+        if any(sep in h.strip() for h in (header if sep in WIDE_SEPARATORS else one))
     ]
     if not found:
         return None
