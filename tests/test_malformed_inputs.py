@@ -366,6 +366,54 @@ def test_block_yaml_values_that_would_be_misread(blockqc, block, tmp_path, old, 
 
 
 @pytest.mark.parametrize(
+    ("old", "new", "meant"),
+    [
+        ("  technical_design:", "  Technical_Design:", "technical_design"),
+        ("  inspection_report:", "  inspection_reprot:", "inspection_report"),
+    ],
+)
+def test_a_document_kind_misspelt_is_a_stated_warning(blockqc, block, tmp_path, old, new, meant):
+    """DOC-1 failed on the kind meant, 'not declared in block.yaml documents', with no word
+    of the kind given in its place (other kinds are allowed, and checked as given)."""
+    text = (block / "block.yaml").read_text()
+    assert old in text
+    (block / "block.yaml").write_text(text.replace(old, new, 1))
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    assert p.returncode == 1, p.stderr  # DOC-1 fails: judged as given
+    kind = new.strip().rstrip(":")
+    said = (
+        f"{block / 'block.yaml'}, line {text[: text.index(old)].count(chr(10)) + 1}: "
+        f"documents.{kind}: not a document kind of the contract; did you mean '{meant}'?"
+    )
+    assert f"warning: {said}\n" in p.stderr
+    results = json.loads((tmp_path / "out" / "F1-B01" / "results.json").read_text("utf-8"))
+    assert results["input_warnings"] == [said]
+    (doc1,) = [r for r in results["results"] if r["rule"] == "DOC-1"]
+    assert doc1["status"] == "fail"
+    from blockqc.report.build import INPUT_WARNINGS
+    from blockqc.report.format import Formatter
+
+    shown = Formatter("zh").sentence(said, INPUT_WARNINGS)
+    where = said.removesuffix(f": not a document kind of the contract; did you mean '{meant}'?")
+    assert shown == f"{where}：不是合同规定的文档类型；是否应为 '{meant}'？"
+
+
+def test_a_document_kind_of_its_own_is_no_warning(blockqc, block, tmp_path):
+    """A kind the contract has not (an annex), or close to one the delivery gives too, is a
+    document of its own: checked as given, without a word."""
+    text = (block / "block.yaml").read_text()
+    extra = "".join(
+        f"  {kind}: documents/technical_design.pdf\n" for kind in ("annex", "technical_report")
+    )
+    (block / "block.yaml").write_text(text.replace("documents:\n", "documents:\n" + extra, 1))
+    p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
+    assert p.returncode == 0, p.stderr
+    assert "document kind" not in p.stderr
+    results = json.loads((tmp_path / "out" / "F1-B01" / "results.json").read_text("utf-8"))
+    assert results["input_warnings"] == []
+
+
+@pytest.mark.parametrize(
     ("model", "values"),
     [
         ("AccuracyScore", {"floor": float("nan")}),

@@ -183,6 +183,8 @@ class Manifest(BaseModel):
     unknown_keys: list[Problem] = Field(default_factory=list, exclude=True)
     #: each reported figure's place in block.yaml (file, line), for what the pack does not read
     reported_at: dict[str, Problem] = Field(default_factory=dict, exclude=True)
+    #: each document kind's place in block.yaml (file, line), for a kind said in warnings
+    documents_at: dict[str, Problem] = Field(default_factory=dict, exclude=True)
 
     @field_validator("block_id", mode="before")
     @classmethod
@@ -1017,11 +1019,14 @@ def load_manifest(path: Path) -> Manifest:
     if problems:
         raise InputError(problems)
     manifest.unknown_keys = _unknown_keys(path, data, manifest)
-    manifest.reported_at = {
-        k: Problem(str(path), f"reported.{k}", line=line_of(data, ("reported", k)))
-        for k in manifest.reported
-    }
+    manifest.reported_at = _places(path, data, "reported", manifest.reported)
+    manifest.documents_at = _places(path, data, "documents", manifest.documents)
     return manifest
+
+
+def _places(path: Path, data: dict, key: str, given: dict[str, Any]) -> dict[str, Problem]:
+    """The place in block.yaml (file, line) of each key of one of its mappings."""
+    return {k: Problem(str(path), f"{key}.{k}", line=line_of(data, (key, k))) for k in given}
 
 
 def _unknown_keys(path: Path, data: dict, manifest: Manifest) -> list[Problem]:

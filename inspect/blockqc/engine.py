@@ -13,15 +13,17 @@ import pandas as pd
 
 from blockqc import __version__
 from blockqc.delivery import Delivery, summary
+from blockqc.errors import Problem
 from blockqc.geometry_inputs import ONE_GROUND_POINT, ground_disagreements
 from blockqc.inspector import BlockInput, Waiver
 from blockqc.layout import apart_scenes
 from blockqc.metrics import REGISTRY, Measurement, Table
+from blockqc.metrics.documents import REQUIRED as REQUIRED_DOCUMENTS
 from blockqc.outputs import jsonable, records
 from blockqc.results import BlockResults, MeasurementRecord, RuleResult, tally
 from blockqc.rules.expr import ExpressionError, evaluate, resolve_params
 from blockqc.rules.model import Pack, Rule, Threshold, selected, within
-from blockqc.schema import key_labels
+from blockqc.schema import did_you_mean, key_labels
 from blockqc.textio import located
 from blockqc.verification import annotate, annotated_keys, prepare
 
@@ -577,12 +579,28 @@ GROUND_POINTS_DIFFER = (
 def input_warnings(d: Delivery) -> list[str]:
     """What the delivery gives that is judged as given but said: scenes whose footprints lie
     apart from the block's (`layout.apart_scenes`), the tie points whose rows give their point
-    different ground points (`blockqc adjust` refuses them, by the same check)."""
+    different ground points (`blockqc adjust` refuses them, by the same check), the document
+    kinds that look like a kind of the contract misspelt (`misspelt_document_kinds`)."""
     found = apart_scenes(d.scenes, d.files.get("scenes", SCENES_FILE))
     file = d.files.get("tie_points")
     if file is not None:
         found += ground_disagreements(file, d.tie_points, GROUND_POINTS_DIFFER)
-    return [str(p) for p in located(found)]
+    return [str(p) for p in located(found)] + [str(p) for p in misspelt_document_kinds(d)]
+
+
+def misspelt_document_kinds(d: Delivery) -> list[Problem]:
+    """Document kinds of block.yaml that are none of the contract's, but one it does not
+    give in other case or misspelt (Technical_Design for technical_design). Other kinds are
+    allowed, each checked as given: DOC-1 then fails on the kind meant, as not declared."""
+    declared = d.manifest.documents
+    hint = did_you_mean(k for k in REQUIRED_DOCUMENTS if k not in declared)
+    return [
+        Problem(
+            at.file, f"{at.message}: not a document kind of the contract{hint(k)}", line=at.line
+        )
+        for k, at in d.manifest.documents_at.items()
+        if k not in REQUIRED_DOCUMENTS and hint(k)
+    ]
 
 
 SCENE_COLUMNS = ("scene_id", "band", "acquired", "lines", "samples", "footprint_wkt")

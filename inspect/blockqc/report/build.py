@@ -408,7 +408,13 @@ def _not_read(results: BlockResults, f: Formatter) -> str:
 
 
 #: the sentences of results.json's input_warnings, in the page's language
-INPUT_WARNINGS = ("iw_scene_apart", "iw_scenes_apart", "iw_ground_differs", "iw_ground_more")
+INPUT_WARNINGS = (
+    "iw_scene_apart",
+    "iw_scenes_apart",
+    "iw_ground_differs",
+    "iw_ground_more",
+    "iw_document_kind",
+)
 
 
 def _input_warnings(results: BlockResults, f: Formatter) -> list[str]:

@@ -77,6 +77,11 @@ MESSAGES: dict[str, tuple[str, str]] = {
         "{where}：另有 {n} 行给出的 {column} 与其点的第一行不同：每个点应只有一个地面点（生产方"
         "的），在其各行上相同；按所给评判（RC-1 取 ground: delivered 时按各行自己的地面点反投影）",
     ),
+    # … and a document kind of block.yaml close to one of the contract's it does not give
+    "iw_document_kind": (
+        "{where}: not a document kind of the contract; did you mean '{kind}'?",
+        "{where}：不是合同规定的文档类型；是否应为 '{kind}'？",
+    ),
     "not_read_text": (
         "{columns}: no rule of the pack reads these columns (the pack reads only the columns "
         "its rules use); their checks, and those of keys over them, were not made",
