@@ -701,3 +701,41 @@ def test_an_interval_of_other_than_two_numbers_is_refused_saying_so(
         f"{pack}, line 4: rule TP-3: params.interval_px: expected two numbers [lower, upper], "
         f"got {n}: {given}"
     ]
+
+
+def test_misspelt_keys_of_a_pack_are_said_with_the_key_meant(tmp_path: Path) -> None:
+    pack = _pack(
+        tmp_path,
+        "constans:\n  norm: {plane_m: 5}\n",  # line 3
+    )
+    assert _messages(pack) == [f"{pack}, line 3: constans: unknown key; did you mean 'constants'?"]
+    pack = _pack(
+        tmp_path,
+        "overrides:\n  TP-1: {statistc: rms}\n"  # line 4
+        "rules:\n  - id: PR-1\n    title: t\n    clause: §TP-1\n    manual: true\n"
+        "    waivabel: true\n",  # line 10
+    )
+    assert _messages(pack) == [
+        f"{pack}, line 4: rule TP-1: statistc: unknown key; did you mean 'statistic'?",
+        f"{pack}, line 10: rule PR-1: waivabel: unknown key; did you mean 'waivable'?",
+    ]
+
+
+def test_misspelt_keys_of_a_case_file_are_said_with_the_key_meant(tmp_path: Path) -> None:
+    pack, cases = _manual_rule_with_cases(
+        tmp_path, "rule: PR-1\ncases:\n  - name: a\n    expct: pass\n"
+    )
+    assert _messages(pack) == [
+        f"{cases / 'PR-1.yaml'}, line 3: cases.0.expect: Field required",
+        f"{cases / 'PR-1.yaml'}, line 4: cases.0.expct: unknown key; did you mean 'expect'?",
+    ]
+    (cases / "PR-1.yaml").write_text(
+        "rule: PR-1\ncases:\n  - name: a\n    verdicts: {verdicts: {PR-1: {status: pass}}}\n"
+        "    expect: pass\n"
+        "  - name: b\n    verdicts: {verdict: {PR-1: {status: fail}}}\n    expect: fail\n",
+        "utf-8",
+    )
+    assert _messages(pack) == [
+        f"{cases / 'PR-1.yaml'}, line 7: cases.1.verdicts.verdict: unknown key; "
+        "did you mean 'verdicts'?"
+    ]

@@ -196,7 +196,7 @@ def read_case_file(path: Path) -> CaseFile:
     try:
         doc = CaseFile.model_validate(data)
     except ValidationError as exc:
-        raise RuleError(pydantic_problems(exc, path, data)) from None
+        raise RuleError(pydantic_problems(exc, path, data, model=CaseFile)) from None
     if doc.rule != path.stem:
         line = line_of(data, ("rule",))
         raise RuleError(
@@ -271,7 +271,7 @@ def _verdict_problems(path: Path, doc: CaseFile, i: int, pack: Pack) -> list[Pro
     try:
         inp = InspectorInput.model_validate(doc.cases[i].verdicts)
     except ValidationError as exc:
-        return pydantic_problems(exc, path, doc._data, at)
+        return pydantic_problems(exc, path, doc._data, at, model=InspectorInput)
     inp._file, inp._data = str(path), doc._data["cases"][i].get("verdicts")
     try:
         check_inspector_input(inp, {r.id: r for r in pack.rules}, {"CASE": None})

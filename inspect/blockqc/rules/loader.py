@@ -150,7 +150,7 @@ def _read_file(path: Path) -> tuple[PackFile, Any]:
     try:
         return PackFile.model_validate(data), data
     except ValidationError as exc:
-        raise RuleError(pydantic_problems(exc, path, data)) from None
+        raise RuleError(pydantic_problems(exc, path, data, model=PackFile)) from None
 
 
 def _load_raw(path: Path, seen: tuple[Path, ...]) -> _Loaded:
@@ -322,7 +322,7 @@ def read_pack(ref: str | Path) -> tuple[Pack | None, list[Problem]]:
         try:
             rule = Rule.model_validate(_with_inspection(raw.data))
         except ValidationError as exc:
-            for p in pydantic_problems(exc, Path(raw.file), raw.src):
+            for p in pydantic_problems(exc, Path(raw.file), raw.src, model=Rule):
                 problems.append(
                     Problem(p.file, f"rule {rid}: {p.message}", line=p.line or raw.line)
                 )
