@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import shutil
 from pathlib import Path
 
@@ -243,3 +244,51 @@ def test_rpb_error_figures_after_begin_group_are_read():
     m = read_rpc(FORMATS / "sample.RPB")
     assert (m.err_bias, m.err_rand) == (0.02, 0.03)
     assert (m.line_off, m.samp_off, m.lat_off, m.lon_off) == (531.0, 1278.0, 37.6198, -122.3733)
+
+
+def _numbers(m) -> np.ndarray:
+    """The 90 numbers of an RPC00B model: 10 offsets and scales, 4 × 20 coefficients."""
+    return np.concatenate(
+        [[getattr(m, k) for k in OFFSET_SCALE_KEYS], *(getattr(m, k) for k in COEFF_KEYS)]
+    )
+
+
+@pytest.mark.parametrize("spell", [str.upper, str.lower], ids=["LINEOFFSET", "lineoffset"])
+def test_rpb_keys_in_another_case_are_read_as_the_usual(tmp_path: Path, spell):
+    """GDAL reads an .RPB whose keys are written LINEOFFSET or lineoffset (for lineOffset): it
+    was 'missing key lineOffset' or 'not a known RPC format'. Its 90 numbers are the usual
+    file's, its error figures too."""
+    usual = FORMATS / "sample.RPB"
+    text = re.sub(r"^(\s*)(\w+)(\s*=)", lambda m: m[1] + spell(m[2]) + m[3], usual.read_text(),
+                  flags=re.M)  # fmt: skip
+    assert "lineOffset" not in text and "lineNumCoef" not in text
+    other = tmp_path / "case.RPB"
+    other.write_text(text)
+    assert sniff_format(other) == "rpb"
+    got, expected = read_rpc(other), read_rpc(usual)
+    assert _numbers(got).size == 90
+    np.testing.assert_array_equal(_numbers(got), _numbers(expected))
+    assert (got.err_bias, got.err_rand) == (0.02, 0.03)
+
+
+def test_rpb_key_given_twice_in_two_cases_is_refused(tmp_path: Path):
+    text = (FORMATS / "sample.RPB").read_text()
+    bad = tmp_path / "twice.RPB"
+    bad.write_text(text.replace("END_GROUP", "\tLINEOFFSET = 600.0;\nEND_GROUP", 1))
+    with pytest.raises(InputError) as err:
+        read_rpc(bad)
+    (problem,) = err.value.problems
+    assert problem.message == "LINEOFFSET given twice, on lines 7 and 101: expected once"
+    assert problem.line == 101
+
+
+def test_rpb_key_in_another_case_is_named_as_written(tmp_path: Path):
+    text = (FORMATS / "sample.RPB").read_text()
+    text = text.replace("heightScale =  580.00;", "HEIGHTSCALE = x;")
+    bad = tmp_path / "bad.RPB"
+    bad.write_text(text)
+    with pytest.raises(InputError) as err:
+        read_rpc(bad)
+    (problem,) = err.value.problems
+    assert problem.message == "HEIGHTSCALE: expected a number, got 'x'"
+    assert problem.line == 16

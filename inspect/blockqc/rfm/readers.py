@@ -356,49 +356,72 @@ _RPB_COEFF = {
 _RPB_ITEM = re.compile(r"(\w+)\s*=\s*(\([^)]*\)|[^;\n]*);", re.S)  # a plain value ends on its line
 
 
-def read_rpc_rpb(path: Path, text: str | None = None) -> RPCModel:
-    """DigitalGlobe `.RPB`: `key = value;` with the coefficients as `( v, v, … );` lists."""
-    path = Path(path)
-    text = _read_text(path) if text is None else text
-    items: dict[str, tuple[str, int]] = {}
+#: an .RPB's items by key in lower case (GDAL reads its keys in any case: LINEOFFSET,
+#: lineoffset): value, line, and the key as the file writes it (for the messages)
+_RpbItems = dict[str, tuple[str, int, str]]
+
+
+def _rpb_items(path: Path, text: str) -> _RpbItems:
+    """The `key = value;` items of an .RPB; a key given twice, in any case, is refused."""
+    items: _RpbItems = {}
     for m in _RPB_ITEM.finditer(text):
         key, line = m.group(1), text.count("\n", 0, m.start(2)) + 1
-        if key in items:
-            raise _duplicate(path, key, items[key][1], line)
-        items[key] = (m.group(2), line)
+        if key.lower() in items:
+            raise _duplicate(path, key, items[key.lower()][1], line)
+        items[key.lower()] = (m.group(2), line, key)
+    return items
+
+
+def _rpb_item(path: Path, text: str, items: _RpbItems, key: str) -> tuple[str, int, str]:
+    """The item of `key` (its usual spelling), whatever the case the file writes it in."""
+    if key.lower() not in items:
+        raise _rpb_missing(path, text, key)
+    return items[key.lower()]
+
+
+def _rpb_coeffs(path: Path, raw: str, key: str, line: int) -> list[float]:
+    """The 20 numbers of a `( v, v, … )` list (`key` as the file writes it)."""
+    parts = [p.strip() for p in raw.strip().strip("()").split(",")]
+    if len(parts) > 1 and not parts[-1]:
+        parts.pop()  # a trailing comma before ')'
+    if "" in parts and parts != [""]:
+        at = parts.index("") + 1
+        raise _error(
+            path, f"{key}: coefficient {at} is empty (two commas with no number between): "
+            "expected 20 numbers separated by commas", line,
+        )  # fmt: skip
+    parts = [p for p in parts if p]
+    if len(parts) != 20:
+        raise _error(path, f"{key}: expected 20 coefficients, got {len(parts)}", line)
+    return [_number(path, key, p, line) for p in parts]
+
+
+def read_rpc_rpb(path: Path, text: str | None = None) -> RPCModel:
+    """DigitalGlobe `.RPB`: `key = value;` with the coefficients as `( v, v, … );` lists; keys
+    in any case (`lineOffset`, `LINEOFFSET`), as GDAL reads them."""
+    path = Path(path)
+    text = _read_text(path) if text is None else text
+    items = _rpb_items(path, text)
     values: dict[str, object] = {}
     for key, name in _RPB_NAMES.items():
-        if key not in items:
-            raise _rpb_missing(path, text, key)
-        values[name] = _number(path, key, items[key][0], items[key][1])
+        raw, line, written = _rpb_item(path, text, items, key)
+        values[name] = _number(path, written, raw, line)
     for key, name in _RPB_COEFF.items():
-        if key not in items:
-            raise _rpb_missing(path, text, key)
-        raw, line = items[key]
-        parts = [p.strip() for p in raw.strip().strip("()").split(",")]
-        if len(parts) > 1 and not parts[-1]:
-            parts.pop()  # a trailing comma before ')'
-        if "" in parts and parts != [""]:
-            at = parts.index("") + 1
-            raise _error(
-                path, f"{key}: coefficient {at} is empty (two commas with no number between): "
-                "expected 20 numbers separated by commas", line,
-            )  # fmt: skip
-        parts = [p for p in parts if p]
-        if len(parts) != 20:
-            raise _error(path, f"{key}: expected 20 coefficients, got {len(parts)}", line)
-        values[name] = [_number(path, key, p, line) for p in parts]
+        raw, line, written = _rpb_item(path, text, items, key)
+        values[name] = _rpb_coeffs(path, raw, written, line)
     extra = {}
     for key, name in (("errBias", "err_bias"), ("errRand", "err_rand")):
-        if key in items:
-            extra[name] = _number(path, key, items[key][0], items[key][1])
-    return _build(path, values, _named(items, _RPB_NAMES), **extra)
+        if key.lower() in items:
+            raw, line, written = items[key.lower()]
+            extra[name] = _number(path, written, raw, line)
+    named = {name: (items[k.lower()][2], items[k.lower()][1]) for k, name in _RPB_NAMES.items()}
+    return _build(path, values, named, **extra)
 
 
 def _rpb_missing(path: Path, text: str, key: str) -> InputError:
     """A key the .RPB does not give: missing, or written without the ';' that ends its value
     (the value of a list, `( … )`, may run over several lines)."""
-    found = re.search(rf"^\s*{key}\s*=", text, re.M)
+    found = re.search(rf"^\s*{key}\s*=", text, re.M | re.I)
     if found is None:
         return _error(path, f"missing key {key}")
     line = text.count("\n", 0, found.start()) + 1
@@ -791,7 +814,7 @@ def sniff_format(path: Path) -> str:
         return "xml"
     if stripped.startswith("{"):
         return "json"
-    if re.search(r"\blineNumCoef\s*=", text):
+    if re.search(r"\blineNumCoef\s*=", text, re.I):
         return "rpb"
     if re.search(r"^\s*line_num_coeff_00\s*:", text, re.M):
         return "geom"
@@ -802,7 +825,7 @@ def sniff_format(path: Path) -> str:
         return "geom"
     if re.search(r"^\s*LINE_OFF\s*:", text, re.M | re.I):
         return "txt"
-    if re.search(r"^\s*(lineOffset\s*=|SpecId\s*=\s*\"?RPC00B)", text, re.M):
+    if re.search(r"^\s*(lineOffset\s*=|SpecId\s*=\s*\"?RPC00B)", text, re.M | re.I):
         return "rpb"
     return "unknown"
 
