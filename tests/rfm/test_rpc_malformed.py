@@ -233,6 +233,54 @@ def test_utf16_with_byte_order_mark_is_read(tmp_path: Path, source: Path):
     assert_identical(read_rpc(wide), read_rpc(source))
 
 
+TEXT_FORMATS = [GF_TXT, GEOM, FORMATS / "sample.RPB", FORMATS / "JAX_068_001_RGB.json"] + [
+    FORMATS / "rpc_PLEIADES.xml",
+    FORMATS / "rpc_WV3_RPB_only.xml",
+]
+
+
+@pytest.mark.parametrize("pad", [100, 6000], ids=["100 NULs", "6000 NULs"])
+@pytest.mark.parametrize("source", TEXT_FORMATS, ids=lambda p: p.name)
+def test_trailing_nul_padding_is_ignored(tmp_path: Path, source: Path, pad: int):
+    """Text padded with NUL bytes to a fixed record size, which GDAL reads: a file of less
+    than 4 KB with its padding was 'cannot open as a raster', one of more (left_image.geom, 7.5
+    KB) read. Either is read, padded or not, as the file without the padding."""
+    padded = tmp_path / source.name
+    padded.write_bytes(source.read_bytes() + b"\0" * pad)
+    assert_identical(read_rpc(padded), read_rpc(source))
+
+
+@pytest.mark.parametrize(
+    ("source", "at", "line", "column"),
+    [(GF_TXT, "LINE_NUM_COEFF_7:", 17, 18), (GEOM, "line_num_coeff_06:", 69, 19)],
+    ids=["small _rpc.txt", "geom over 4 KB"],
+)
+def test_a_nul_byte_inside_the_text_is_refused_naming_its_line(
+    tmp_path: Path, source: Path, at: str, line: int, column: int
+):
+    """A NUL byte within the text, not at its end, is no padding: in a file of less than 4 KB
+    it was 'cannot open as a raster', in one of more read as if absent. Both are refused with
+    the line and the character, the padding after it not counted."""
+    text = source.read_bytes()
+    assert at.encode() in text
+    damaged = tmp_path / source.name
+    damaged.write_bytes(text.replace(at.encode(), at.encode() + b"\0", 1) + b"\0" * 50)
+    problem = refused(damaged)
+    assert problem.line == line
+    assert problem.message == (
+        f"a NUL byte (0x00) at character {column}: expected text, which holds none (the file "
+        "may be damaged or padded with zeros); remove it"
+    )
+
+
+def test_a_file_of_nul_bytes_only_is_said_to_be_empty(tmp_path: Path):
+    blank = tmp_path / "S1_rpc.txt"
+    blank.write_bytes(b"\0" * 512)
+    assert refused(blank).message == (
+        "empty (512 bytes of white space or NUL): expected an RPC file (its copy cut short?)"
+    )
+
+
 def test_big_endian_utf16_is_read(tmp_path: Path):
     wide = tmp_path / "be_rpc.txt"
     wide.write_bytes(codecs.BOM_UTF16_BE + GF_TXT.read_text().encode("utf-16-be"))

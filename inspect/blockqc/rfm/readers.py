@@ -36,7 +36,7 @@ import numpy as np
 
 from blockqc.errors import InputError, Problem
 from blockqc.rfm.model import MIN_SCALE, OFFSET_SCALE_KEYS, RPCModel
-from blockqc.textio import not_a_file
+from blockqc.textio import check_no_nul, not_a_file
 
 if TYPE_CHECKING:
     from rasterio.io import DatasetReader
@@ -782,12 +782,30 @@ def _decode(path: Path, data: bytes) -> str:
 
 
 def _read_text(path: Path) -> str:
-    """The file's text with its line ends (CR LF, or CR alone as on old Macs) made LF."""
+    """The file's text with its line ends (CR LF, or CR alone as on old Macs) made LF, and
+    without the NUL bytes that pad it to its end (fixed-size records, as GDAL reads them); a
+    NUL byte within the text is refused, naming its line."""
     try:
         data = path.read_bytes()
     except OSError as exc:
         raise _error(path, f"cannot read: {exc.strerror or exc}") from None
-    return _decode(path, data).replace("\r\n", "\n").replace("\r", "\n")
+    text = _decode(path, data).replace("\r\n", "\n").replace("\r", "\n").rstrip("\0")
+    if "\0" in text:
+        check_no_nul(path, text.encode("utf-8"))
+    return text
+
+
+def _nul_padded(path: Path, head: bytes) -> bool:
+    """Whether the NUL bytes of a file's first bytes (`head`) are the padding of a text: NUL
+    bytes alone from the first of them to the file's end."""
+    if b"\0" in head.rstrip(b"\0"):
+        return False
+    with open(path, "rb") as fh:
+        fh.seek(len(head))
+        while chunk := fh.read(1 << 20):
+            if chunk.count(0) != len(chunk):
+                return False
+    return True
 
 
 def sniff_format(path: Path) -> str:
@@ -800,15 +818,34 @@ def sniff_format(path: Path) -> str:
         raise _error(path, f"cannot read: {exc.strerror or exc}") from None
     if head[:4] in _TIFF_MAGIC or head[:4] in _NITF_MAGIC:
         return "gdal"
-    if b"\x00" in head and not head.startswith(_UTF16_BOMS):
-        if _utf16_without_bom(head):
-            raise _error(
-                path,
-                "UTF-16 text without a byte-order mark: save it as UTF-8 (or UTF-16 with its "
-                "byte-order mark)",
-            )
-        return "gdal"
-    text = _read_text(path)
+    if head.startswith(_UTF16_BOMS):
+        return _text_format(_read_text(path))
+    if b"\0" in head and _utf16_without_bom(head):
+        raise _error(
+            path,
+            "UTF-16 text without a byte-order mark: save it as UTF-8 (or UTF-16 with its "
+            "byte-order mark)",
+        )
+    return "gdal" if _binary(path, head) else _text_format(_read_text(path))
+
+
+def _binary(path: Path, head: bytes) -> bool:
+    """Whether a file (its first bytes `head`) is no text: it holds a NUL byte that is not the
+    padding of a text to its end, after bytes that are not the start of an RPC text (an RPC
+    text holding a NUL byte is read as text, and its line named by _read_text)."""
+    try:
+        data = head if b"\0" in head else path.read_bytes()
+    except OSError as exc:
+        raise _error(path, f"cannot read: {exc.strerror or exc}") from None
+    at = data.find(b"\0")
+    if at < 0:
+        return False
+    padded = _nul_padded(path, head) if data is head else data.count(0, at) == len(data) - at
+    return not padded and _text_format(_decode(path, data[:at])) == "unknown"
+
+
+def _text_format(text: str) -> str:
+    """The format a text's keys show: xml, json, rpb, geom, txt, or unknown."""
     stripped = text.lstrip()
     if stripped.startswith("<"):
         return "xml"
@@ -862,9 +899,11 @@ def read_rpc(path: str | Path) -> RPCModel:
         raise _error(path, "no such file")
     kind = sniff_format(path)
     size = path.stat().st_size
-    if kind == "unknown" and size < 4096 and not path.read_bytes().strip():
-        raise _error(path, f"empty ({size} bytes{' of white space' if size else ''}): expected "
-                     "an RPC file (its copy cut short?)")  # fmt: skip
+    if kind == "unknown" and not _read_text(path).strip():
+        blank = " of white space or NUL" if size else ""
+        raise _error(
+            path, f"empty ({size} bytes{blank}): expected an RPC file (its copy cut short?)"
+        )
     if kind == "unknown":
         raise _error(
             path,
