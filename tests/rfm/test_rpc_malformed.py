@@ -8,6 +8,7 @@ on line 83; sample.RPB has lineOffset on line 7 and END_GROUP on line 101).
 from __future__ import annotations
 
 import codecs
+import re
 from pathlib import Path
 
 import numpy as np
@@ -16,7 +17,7 @@ from rfm_helpers import DATA, VENTOUX
 
 from blockqc.errors import InputError
 from blockqc.rfm.model import OFFSET_SCALE_KEYS
-from blockqc.rfm.readers import COEFF_KEYS, read_rpc
+from blockqc.rfm.readers import COEFF_KEYS, read_rpc, sniff_format
 
 FORMATS = DATA / "rpc_formats"
 GF_TXT = DATA / "gf_rpc_txt" / "left_image_rpc.txt"
@@ -125,6 +126,53 @@ def test_unit_words_after_values_are_still_read(tmp_path: Path):
     old = "LINE_NUM_COEFF_7: -2.911986523175590E-05"
     good = edited(tmp_path, GF_TXT, "unit_rpc.txt", old, old + " pixels")
     assert read_rpc(good).line_num[6] == -2.91198652317559e-05
+
+
+# -- the separator of a KEY: value text ---------------------------------------------------------
+IKONOS = FORMATS / "rpc_IKONOS.txt"
+
+
+@pytest.mark.parametrize(
+    ("source", "name", "message"),
+    [
+        (
+            IKONOS,
+            "eq_rpc.txt",
+            "LINE_OFF = +005124.00 pixels: expected 'LINE_OFF: value', a colon after the key (the "
+            "separator of the KEY: value text of IKONOS, GF/ZY, Planet and SkySat, as GDAL reads "
+            "it; GDAL does not read '=')",
+        ),
+        (
+            GEOM,
+            "eq.geom",
+            "adjustment_0.adj_param_0.center =  0: expected 'adjustment_0.adj_param_0.center: "
+            "value', a colon after the key (the separator of an OSSIM keyword list)",
+        ),
+    ],
+    ids=["_rpc.txt", ".geom"],
+)
+def test_key_equals_value_is_refused_naming_the_colon(
+    tmp_path: Path, source: Path, name: str, message: str
+):
+    """'LINE_OFF = +005124.00 pixels' in an _rpc.txt, which GDAL does not read: its format was
+    told by a colon only ('not a known RPC format') while the reader took '=' too. Both now
+    take the file for the format its keys show and refuse the '=' on its first line."""
+    text = re.sub(r"^([\w.]+):", r"\1 =", source.read_text(), flags=re.M)
+    bad = tmp_path / name
+    bad.write_text(text)
+    assert sniff_format(bad) == ("geom" if source == GEOM else "txt")
+    problem = refused(bad)
+    assert (problem.line, problem.message) == (1, message)
+
+
+def test_one_key_equals_value_among_colons_is_refused(tmp_path: Path):
+    """One line written with '=' among the colons: it was read as if written with one."""
+    bad = edited(tmp_path, IKONOS, "one_rpc.txt", "LAT_SCALE:", "LAT_SCALE =")
+    problem = refused(bad)
+    assert problem.line == 8
+    assert problem.message.startswith(
+        "LAT_SCALE = +00.06610000 degrees: expected 'LAT_SCALE: value', a colon after the key"
+    )
 
 
 # -- latitude / longitude offsets ---------------------------------------------------------------

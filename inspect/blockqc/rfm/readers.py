@@ -179,21 +179,37 @@ _TXT_NAMES = {
     "LONG_SCALE": "lon_scale",
     "HEIGHT_SCALE": "height_scale",
 }
-_KV_LINE = re.compile(r"^\s*([A-Za-z0-9_.]+)\s*[:=]\s*(.*?)\s*;?\s*$")
+_KV_LINE = re.compile(r"^\s*([A-Za-z0-9_.]+)\s*([:=])\s*(.*?)\s*;?\s*$")
+#: the formats whose keys are followed by a colon, named when one is followed by "="
+_TXT_COLON = (
+    "the KEY: value text of IKONOS, GF/ZY, Planet and SkySat, as GDAL reads it; GDAL does not "
+    "read '='"
+)
+_GEOM_COLON = "an OSSIM keyword list"
 
 
-def _key_values(path: Path, text: str, upper: bool = False) -> dict[str, tuple[str, int]]:
+def _key_values(
+    path: Path, text: str, colon_of: str, upper: bool = False
+) -> dict[str, tuple[str, int]]:
     """`key: value` lines → {key: (value, line number)}; lines without a colon are skipped.
 
-    A key given twice is refused (with `upper`, keys are upper-cased before comparing)."""
+    A key written `key = value` is refused, naming `colon_of` (the format whose separator is
+    the colon); a key given twice is too (with `upper`, keys are upper-cased before
+    comparing)."""
     out: dict[str, tuple[str, int]] = {}
     for number, raw in enumerate(text.splitlines(), start=1):
         m = _KV_LINE.match(raw)
-        if m:
-            key = m.group(1).upper() if upper else m.group(1)
-            if key in out:
-                raise _duplicate(path, key, out[key][1], number)
-            out[key] = (m.group(2), number)
+        if m is None:
+            continue
+        key = m.group(1).upper() if upper else m.group(1)
+        if m.group(2) == "=":
+            raise _error(
+                path, f"{raw.strip()}: expected '{m.group(1)}: value', a colon after the key (the "
+                f"separator of {colon_of})", number,
+            )  # fmt: skip
+        if key in out:
+            raise _duplicate(path, key, out[key][1], number)
+        out[key] = (m.group(3), number)
     return out
 
 
@@ -241,7 +257,7 @@ def read_rpc_txt(path: Path, text: str | None = None) -> RPCModel:
     """The `KEY: value [unit]` format (IKONOS, GF/ZY `_rpc.txt`, Planet, SkySat)."""
     path = Path(path)
     text = _read_text(path) if text is None else text
-    kv = _key_values(path, text, upper=True)
+    kv = _key_values(path, text, _TXT_COLON, upper=True)
     values: dict[str, object] = {
         name: _kv_number(path, kv, key) for key, name in _TXT_NAMES.items()
     }
@@ -279,7 +295,7 @@ def read_rpc_geom(path: Path, text: str | None = None) -> RPCModel:
     """OSSIM keyword list (`.geom`); only `polynomial_format: B` (RPC00B order) is accepted."""
     path = Path(path)
     text = _read_text(path) if text is None else text
-    kv = _key_values(path, text)
+    kv = _key_values(path, text, _GEOM_COLON)
     values: dict[str, object] = {
         name: _kv_number(path, kv, key) for key, name in _GEOM_NAMES.items()
     }
@@ -853,14 +869,14 @@ def _text_format(text: str) -> str:
         return "json"
     if re.search(r"\blineNumCoef\s*=", text, re.I):
         return "rpb"
-    if re.search(r"^\s*line_num_coeff_00\s*:", text, re.M):
+    if re.search(r"^\s*line_num_coeff_00\s*[:=]", text, re.M):
         return "geom"
-    if re.search(r"^\s*LINE_NUM_COEFF_1\s*:", text, re.M | re.I):
+    if re.search(r"^\s*LINE_NUM_COEFF_1\s*[:=]", text, re.M | re.I):
         return "txt"
     # a file cut short: read by the reader its keys point to, which names what is missing
-    if re.search(r"^\s*(line_off|polynomial_format|adjustment_\d+\.[\w.]+)\s*:", text, re.M):
+    if re.search(r"^\s*(line_off|polynomial_format|adjustment_\d+\.[\w.]+)\s*[:=]", text, re.M):
         return "geom"
-    if re.search(r"^\s*LINE_OFF\s*:", text, re.M | re.I):
+    if re.search(r"^\s*LINE_OFF\s*[:=]", text, re.M | re.I):
         return "txt"
     if re.search(r"^\s*(lineOffset\s*=|SpecId\s*=\s*\"?RPC00B)", text, re.M | re.I):
         return "rpb"
