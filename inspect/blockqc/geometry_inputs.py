@@ -45,6 +45,10 @@ class BlockGeometry:
     adjusted: list[RPCModel] | None = None
     affine: np.ndarray | None = None
     source: str | None = None  # "adjustment.csv" or "rpc_adjusted/": where the adjustment is
+    #: the files of rpc/ by scene id (those named as no scene left out)
+    files: dict[str, Path] = field(default_factory=dict)
+    #: what the geometry lacks that the inspection does without, said (`scenes_without_rpc`)
+    warnings: list[Problem] = field(default_factory=list)
 
     @property
     def complete(self) -> bool:
@@ -87,21 +91,22 @@ def _scan(folder: Path, scene_ids: set[str], problems: list[Problem]) -> dict[st
 
 def _read_models(
     folder: Path, needed: list[str], scene_ids: set[str], problems: list[Problem]
-) -> dict[str, RPCModel]:
+) -> tuple[dict[str, RPCModel], dict[str, Path]]:
     """Read the RPC of every needed scene from a folder; list every missing or unreadable one.
     Each model counts image positions as its file does (a DIMAP file's first pixel is (1, 1)):
-    the tie points on its scene are measured in that convention (contract v1.1)."""
+    the tie points on its scene are measured in that convention (contract v1.1). The models
+    read, and the folder's files by scene id."""
     if not folder.is_dir():
         link = dangling_link(folder)
         what = f"{link}: " if link else ""
         problems.append(
             Problem(str(folder), f"{what}expected a folder of RPC files <scene_id>.<ext>")
         )
-        return {}
+        return {}, {}
     files = _scan(folder, scene_ids, problems)
     models: dict[str, RPCModel] = {}
     if files is None:
-        return models
+        return models, {}
     for sid in needed:
         if sid not in files:
             problems.append(
@@ -121,7 +126,7 @@ def _read_models(
             models[sid] = read_rpc(files[sid]).in_file_convention()
         except InputError as exc:
             problems.extend(exc.problems)
-    return models
+    return models, files
 
 
 def _with_affine(
@@ -150,6 +155,7 @@ def _with_affine(
         for c in table.columns
         if re.fullmatch(r"[ab]\d+", str(c).strip(), re.I) and c not in AFFINE_KEYS
     ]
+    problems += _rows_without_rpc(geometry, table, file, set(scenes["scene_id"]) - set(needed))
     problems += _distorting(table, file)
     problems += _far_offsets(table, file, scenes, scenes_file)
     if problems or any(sid not in geometry.original for sid in needed):
@@ -158,6 +164,44 @@ def _with_affine(
     geometry.adjusted = [geometry.original[sid] for sid in needed]
     geometry.affine = rows.loc[needed, list(AFFINE_KEYS)].to_numpy(dtype=float)
     return problems
+
+
+def _rows_without_rpc(
+    geometry: BlockGeometry, table: pd.DataFrame, file: Path, unobserved: set[str]
+) -> list[Problem]:
+    """Rows for a scene of scenes.csv without observations that has no RPC file in rpc/ (an
+    observed scene's is said by _read_models, an unknown scene's with the table): the affine
+    refines the scene's original RPC, which is not delivered; `blockqc adjust` needs it."""
+    ids = table["scene_id"]
+    bad = [i for i, sid in enumerate(ids) if sid in unobserved and sid not in geometry.files]
+    return [
+        Problem.at_row(
+            file,
+            i,
+            f"scene '{ids.iloc[i]}' has no RPC file in {RPC_DIR}/ (expected {RPC_DIR}/"
+            f"{ids.iloc[i]}.<ext>): the affine of this row refines the scene's original RPC",
+            column="scene_id",
+        )
+        for i in bad
+    ]
+
+
+def scenes_without_rpc(folder: Path, scene_ids: list[str], files: dict[str, Path]) -> list[Problem]:
+    """The scenes of scenes.csv without an RPC file in rpc/ and without tie-point observations
+    (those with observations are refused by _read_models): the inspection does without them,
+    and says so; `blockqc adjust` refuses them (it needs every scene's RPC)."""
+    missing = [s for s in scene_ids if s not in files]
+    if not missing:
+        return []
+    shown = ", ".join(f"'{s}'" for s in missing[:10]) + (" …" if len(missing) > 10 else "")
+    return [
+        Problem(
+            str(folder),
+            f"no RPC file for scene(s) {shown} of the scenes table, which have no tie-point "
+            f"observations (expected {RPC_DIR}/<scene_id>.<ext> for every scene): inspected "
+            "without them; blockqc adjust refuses the delivery until they are given",
+        )
+    ]
 
 
 #: the largest size of an affine's terms per pixel (a1, a2, b1, b2): an adjustment corrects the
@@ -281,8 +325,10 @@ def load_geometry(
             )
         )
     if given(rpc_dir):
-        geometry.original = _read_models(rpc_dir, needed, scene_ids, problems)
+        geometry.original, geometry.files = _read_models(rpc_dir, needed, scene_ids, problems)
         problems.extend(domain_problems(scenes, geometry.original, files["scenes"].name))
+        unobserved = [s for s in pd.unique(scenes["scene_id"].dropna()) if s not in needed]
+        geometry.warnings = scenes_without_rpc(rpc_dir, unobserved, geometry.files)
     elif adjustment is not None:
         problems.append(
             Problem(
@@ -292,7 +338,7 @@ def load_geometry(
             )
         )
     if given(adj_dir):
-        refined = _read_models(adj_dir, needed, scene_ids, problems)
+        refined, _ = _read_models(adj_dir, needed, scene_ids, problems)
         problems.extend(domain_problems(scenes, refined, files["scenes"].name))
         _refined(geometry, refined, needed)
         geometry.source = f"{ADJUSTED_DIR}/"

@@ -49,6 +49,50 @@ def test_adjustment_row_for_unknown_scene(tmp_path, tie_points) -> None:
     assert "adjustment.csv, row 3 (line 4), column 'scene_id'" in msg and "'X9'" in msg
 
 
+def _with_scene_m(folder: Path) -> Path:
+    """A scene M in scenes.csv (L's row under another id), without RPC file nor tie points."""
+    scenes = pd.read_csv(folder / "scenes.csv")
+    scenes = pd.concat([scenes, scenes.iloc[[0]].assign(scene_id="M")])
+    scenes.to_csv(folder / "scenes.csv", index=False)
+    return folder
+
+
+def test_adjustment_row_for_a_scene_without_rpc_is_refused_by_both_commands(
+    tmp_path, tie_points, blockqc
+) -> None:
+    """A row of adjustment.csv for scene M, in scenes.csv but without RPC file nor tie points:
+    inspect passed it over unsaid, adjust refused 'no RPC for scene(s) M'. Both refuse the
+    row, by the loading of the geometry they share."""
+    folder = _with_scene_m(write_v11(tmp_path / "d", tie_points))
+    with open(folder / "adjustment.csv", "a") as fh:
+        fh.write("M,0,0,0,0,0,0\n")
+    expected = (
+        f"{folder / 'adjustment.csv'}, row 3 (line 4), column 'scene_id': scene 'M' has no RPC "
+        "file in rpc/ (expected rpc/M.<ext>): the affine of this row refines the scene's "
+        "original RPC"
+    )
+    assert _problems(folder) == [expected]
+    for command, extra in (("inspect", ("--no-pdf",)), ("adjust", ())):
+        proc = blockqc(command, folder, "--out", tmp_path / command, *extra)
+        assert proc.returncode == 2, command
+        assert f"error: {expected}\n" in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_a_scene_without_rpc_nor_observations_is_said_by_inspect(tmp_path, tie_points) -> None:
+    """Scene M in scenes.csv, without RPC file, tie points or adjustment row: inspected without
+    it, as the contract allows, but no longer unsaid (adjust refuses it: it needs every RPC)."""
+    from blockqc.engine import input_warnings
+
+    folder = _with_scene_m(write_v11(tmp_path / "d", tie_points))
+    d = load_delivery(folder)
+    assert input_warnings(d) == [
+        f"{folder / 'rpc'}: no RPC file for scene(s) 'M' of the scenes table, which have no "
+        "tie-point observations (expected rpc/<scene_id>.<ext> for every scene): inspected "
+        "without them; blockqc adjust refuses the delivery until they are given"
+    ]
+    assert input_warnings(load_delivery(write_v11(tmp_path / "full", tie_points))) == []
+
+
 def test_adjustment_non_finite_and_missing_row(tmp_path, tie_points) -> None:
     folder = write_v11(tmp_path / "d", tie_points)
     (folder / "adjustment.csv").write_text("scene_id,a0,a1,a2,b0,b1,b2\nL,0,inf,0,0,0,0\n")
