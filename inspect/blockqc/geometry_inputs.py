@@ -21,7 +21,7 @@ from blockqc import grouped
 from blockqc.errors import InputError, Problem
 from blockqc.rfm.model import DOMAIN_REACH, RPCModel, boxes_meet, wrap_lon
 from blockqc.rfm.readers import read_rpc
-from blockqc.schema import MAX_ROWS_LISTED, visible_name
+from blockqc.schema import MAX_ROWS_LISTED, did_you_mean, visible_name
 from blockqc.textio import dangling_link, listed, unreadable_folder
 
 RPC_DIR = "rpc"
@@ -77,7 +77,7 @@ def _scan(folder: Path, scene_ids: set[str], problems: list[Problem]) -> dict[st
                 Problem(
                     str(f),
                     f"no scene '{visible_name(sid)}' in the scenes table: expected "
-                    "<scene_id>.<ext>",
+                    f"<scene_id>.<ext>{_likely_scene(sid, scene_ids)}",
                 )
             )
         elif sid in found:
@@ -87,6 +87,18 @@ def _scan(folder: Path, scene_ids: set[str], problems: list[Problem]) -> dict[st
         else:
             found[sid] = f
     return found
+
+
+#: what a vendor writes after the scene's name in its RPC file's (L_rpc.txt, L.RPC.xml)
+_VENDOR_SUFFIX = re.compile(r"[._-]?(rpc|rpb|rpc00b)$", re.I)
+
+
+def _likely_scene(name: str, scene_ids: set[str]) -> str:
+    """The 'did you mean' of an RPC file named as no scene: the scene its name is, without a
+    vendor's suffix (L_rpc), in another case (l) or close to it; '' when none is."""
+    hint = did_you_mean(sorted(scene_ids, key=str))
+    bare = _VENDOR_SUFFIX.sub("", name)
+    return (hint(bare) if bare else "") or hint(name)
 
 
 def _read_models(

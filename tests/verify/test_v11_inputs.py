@@ -195,6 +195,32 @@ def test_an_rpc_file_named_with_an_invisible_character_shows_it(tmp_path, tie_po
     assert "no RPC for scene 'L'" in msgs[1]
 
 
+@pytest.mark.parametrize(
+    ("name", "sid"),
+    [("L_rpc.txt", "L_rpc"), ("L_RPC.TXT", "L_RPC"), ("L.rpc.geom", "L.rpc"), ("l.geom", "l")],
+)
+def test_a_misnamed_rpc_file_names_the_likely_scene(tmp_path, tie_points, name, sid) -> None:
+    """rpc/L_rpc.txt (a vendor's suffix kept) and rpc/l.geom (another case) were of 'no scene'
+    without a word of scene L, which then had no RPC: the likely scene is named."""
+    folder = write_v11(tmp_path / "d", tie_points)
+    (folder / "rpc" / "L.geom").rename(folder / "rpc" / name)
+    msgs = _problems(folder)
+    assert msgs[0] == (
+        f"{folder / 'rpc' / name}: no scene '{sid}' in the scenes table: expected "
+        "<scene_id>.<ext>; did you mean 'L'?"
+    )
+    assert "no RPC for scene 'L'" in msgs[1]
+
+
+def test_an_rpc_file_of_no_scene_alike_is_named_without_a_guess(tmp_path, tie_points) -> None:
+    folder = write_v11(tmp_path / "d", tie_points)
+    shutil.copy(folder / "rpc" / "L.geom", folder / "rpc" / "notes_rpc.txt")
+    assert _problems(folder) == [
+        f"{folder / 'rpc' / 'notes_rpc.txt'}: no scene 'notes_rpc' in the scenes table: "
+        "expected <scene_id>.<ext>"
+    ]
+
+
 def test_an_rpc_entry_that_is_no_file_is_said_to_be_what_it_is(tmp_path, tie_points) -> None:
     """rpc/L.geom a link to a file that does not exist, rpc/R a folder: each was said to be
     'expected an RPC file named <scene_id>.<ext>', which it is, and its scene to have 'no
