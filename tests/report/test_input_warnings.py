@@ -10,7 +10,7 @@ from pathlib import Path
 import pandas as pd
 
 from blockqc.engine import GROUND_POINTS_DIFFER
-from blockqc.geometry_inputs import ground_disagreements
+from blockqc.geometry_inputs import ground_disagreements, scenes_without_rpc
 from blockqc.report.html import render_block
 
 DELIVERY = "/data/batch/B-01"
@@ -72,3 +72,14 @@ def test_rows_beyond_those_listed_in_chinese(results_doc):
 def test_no_row_without_warnings(results_doc):
     results_doc["input_warnings"] = []
     assert 'id="input-warnings"' not in render_block(results_doc, lang="en")
+
+
+def test_scenes_without_rpc_in_chinese(results_doc):
+    found = scenes_without_rpc(Path(DELIVERY) / "rpc", ["M1", "M2"], {})
+    results_doc["delivery"] = DELIVERY
+    results_doc["input_warnings"] = [str(p) for p in found]
+    (shown,) = _shown(render_block(results_doc, lang="zh"))
+    assert shown == (
+        "rpc：影像表中的影像 'M1', 'M2' 没有 RPC 文件，也没有连接点观测（每景影像应有 "
+        "rpc/<scene_id>.<ext>）：检查时不计这些影像；补齐之前 blockqc adjust 拒绝该成果"
+    )

@@ -413,6 +413,7 @@ INPUT_WARNINGS = (
     "iw_scenes_apart",
     "iw_ground_differs",
     "iw_ground_more",
+    "iw_scenes_without_rpc",
     "iw_document_kind",
 )
 

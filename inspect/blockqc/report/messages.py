@@ -78,6 +78,14 @@ MESSAGES: dict[str, tuple[str, str]] = {
         "的），在其各行上相同；按所给评判（RC-1 取 ground: delivered 时按各行自己的地面点反投影）",
     ),
     # … and a document kind of block.yaml close to one of the contract's it does not give
+    # … and the scenes inspected without their RPC (contract v1.1)
+    "iw_scenes_without_rpc": (
+        "{where}: no RPC file for scene(s) {scenes} of the scenes table, which have no tie-point "
+        "observations (expected rpc/<scene_id>.<ext> for every scene): inspected without them; "
+        "blockqc adjust refuses the delivery until they are given",
+        "{where}：影像表中的影像 {scenes} 没有 RPC 文件，也没有连接点观测（每景影像应有 "
+        "rpc/<scene_id>.<ext>）：检查时不计这些影像；补齐之前 blockqc adjust 拒绝该成果",
+    ),
     "iw_document_kind": (
         "{where}: not a document kind of the contract; did you mean '{kind}'?",
         "{where}：不是合同规定的文档类型；是否应为 '{kind}'？",
