@@ -348,11 +348,12 @@ def test_rows_of_one_point_giving_two_ground_points_are_refused(small_block, tmp
     assert f"point '{point}' is given lon {lon:.10g} here" in r.stderr
     assert f"and {ties.at[first, 'lon']:.10g} on row {first + 1}" in r.stderr
     assert "internal error" not in r.stderr and not out.exists()
-    # a point of three rows, its first without lon: the row named is the one whose lon is given
+    # a point of three rows, its first without a ground point: the row named is the one whose
+    # lon is given (a row without lat, lon and h gives none; part of them is refused apart)
     rows = ties.groupby("point_id").groups
     a, b, c = next(ix for ix in rows.values() if len(ix) >= 3)[:3]
     ties = pd.read_csv(small_block / "tie_points.csv", dtype={"point_id": str})
-    ties.loc[a, "lon"] = float("nan")
+    ties.loc[a, ["lon", "lat", "h"]] = float("nan")
     ties.loc[c, "lon"] += 0.01
     ties.to_csv(blk / "tie_points.csv", index=False)
     r = blockqc("adjust", blk, "--out", out)

@@ -299,7 +299,7 @@ def test_delivered_ground_points_absent_put_rc1_in_error(tmp_path, observations,
         ties = ties.drop(columns=["h"])
         said = "tie_points gives no h (contract v1.1: lon, lat, h ellipsoidal)"
     else:
-        ties.loc[ties.index[3], "lat"] = np.nan
+        ties.loc[ties.index[3], list(GROUND_COLUMNS)] = np.nan  # part of them is refused
         row = ties.loc[ties.index[3]]
         first = f"the first {row['point_id']} on {row['scene_id']}"
         said = f"1 of {len(ties)} observations give no ground point (lon, lat, h), {first}"
