@@ -599,12 +599,18 @@ def test_a_misspelt_optional_column_is_refused(blockqc, block, tmp_path, misspel
 
 @pytest.mark.parametrize(
     ("column", "kind"),
-    [("lines", "an int"), ("band", "an enum"), ("acquired", "a date"), ("scene_id", "a str")],
+    [
+        ("lines", "a column of whole numbers"),
+        ("band", "a column of pan or ms"),
+        ("acquired", "a column of dates"),
+        ("scene_id", "a column of text"),
+    ],
 )
 def test_a_misspelt_required_column_is_named_with_the_one_meant(
     blockqc, block, tmp_path, column, kind
 ):
-    """The kind expected was said as 'a int column', 'a enum column'."""
+    """The kind expected was said as 'a int column', 'a enum column', 'a str column': now
+    what its cells hold."""
     text = (block / "scenes.csv").read_text(encoding="utf-8")
     header = "scene_id,band,acquired,lines,samples,footprint_wkt,water_fraction"
     assert text.startswith(header + "\n")
@@ -613,7 +619,7 @@ def test_a_misspelt_required_column_is_named_with_the_one_meant(
     p = blockqc("inspect", block, "--out", tmp_path / "out", "--pdf", "none")
     _refused(
         p,
-        f"scenes.csv: missing column '{column}' (expected {kind} column; columns found: "
+        f"scenes.csv: missing column '{column}' (expected {kind}; columns found: "
         f"{given.replace(',', ', ')}; is '{column.capitalize()}' meant to be it?)",
     )
 

@@ -472,7 +472,8 @@ def residual_column_problems(
     )
     return [
         Problem(
-            str(file or "tie_points.csv"), f"missing column '{c}' (expected a float column; {why})"
+            str(file or "tie_points.csv"),
+            f"missing column '{c}' (expected a column of numbers; {why})",
         )
         for c in missing
     ]

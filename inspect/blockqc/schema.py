@@ -477,12 +477,28 @@ def _missing(col: Column, near: str | None, file: str, found: list) -> list[Prob
     if col.required:
         hint = f"; is '{visible_name(near)}' meant to be it?" if near else ""
         names = ", ".join(visible_name(str(c)) for c in found)
-        why = f"expected {with_article(col.kind)} column; columns found: {names}{hint}"
+        why = f"expected {column_of(col)}; columns found: {names}{hint}"
         return [Problem(file, f"missing column '{col.name}' ({why})")]
     if near:
         why = "rename it: misspelt, the checks of that optional column would not be made"
         return [Problem(file, f"column '{visible_name(near)}': did you mean '{col.name}'? ({why})")]
     return []
+
+
+def column_of(col: Column) -> str:
+    """What a column of the contract holds, in words: a column of numbers, of whole numbers,
+    of text, of dates, of pan or ms, of WKT polygons."""
+    if col.kind == "enum":
+        *first, last = col.choices
+        return f"a column of {', '.join(first)} or {last}" if first else f"a column of {last}"
+    cells = {
+        "str": "text",
+        "float": "numbers",
+        "int": "whole numbers",
+        "date": "dates",
+        "wkt": "WKT polygons",
+    }[col.kind]
+    return f"a column of {cells}"
 
 
 def with_article(word: str) -> str:

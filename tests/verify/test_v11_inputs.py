@@ -622,8 +622,8 @@ def test_residuals_absent_without_any_adjustment_are_still_refused(tmp_path, tie
         "adjustment.csv, or rpc_adjusted/"
     )
     assert _problems(folder) == [
-        f"{tp}: missing column 'v_line' (expected a float column; {why})",
-        f"{tp}: missing column 'v_sample' (expected a float column; {why})",
+        f"{tp}: missing column 'v_line' (expected a column of numbers; {why})",
+        f"{tp}: missing column 'v_sample' (expected a column of numbers; {why})",
     ]
 
 
