@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import json
 import os
+from functools import partial
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -1137,22 +1138,27 @@ def _tie_points_as_parquet(delivery: Path, edit=None) -> None:
     tp.to_parquet(delivery / "tie_points.parquet", index=False)
 
 
-def test_parquet_tie_points_with_padded_ids_judge_as_csv(
-    blockqc, delivery: Path, tmp_path: Path
-) -> None:
+def _judged_as_csv(blockqc, delivery: Path, tmp_path: Path, as_parquet) -> None:
+    """The delivery inspected as given (CSV), then once `as_parquet()` has written its tie
+    points as Parquet in their place: every rule judged alike, with the same value."""
     first = blockqc("inspect", delivery, "--out", tmp_path / "csv", "--no-pdf")
-
-    def pad(tp: pd.DataFrame) -> None:  # ids padded with spaces: the same ids once stripped
-        tp["point_id"] = " " + tp["point_id"]
-        tp["scene_id"] = tp["scene_id"] + "  "
-
-    _tie_points_as_parquet(delivery, pad)
+    as_parquet()
     second = blockqc("inspect", delivery, "--out", tmp_path / "pq", "--no-pdf")
     assert first.returncode == second.returncode, second.stderr
     a, b = (json.loads((tmp_path / d / "CASE" / "results.json").read_text()) for d in ("csv", "pq"))
     assert [(r["rule"], r["status"], r["value"]) for r in a["results"]] == [
         (r["rule"], r["status"], r["value"]) for r in b["results"]
     ]
+
+
+def test_parquet_tie_points_with_padded_ids_judge_as_csv(
+    blockqc, delivery: Path, tmp_path: Path
+) -> None:
+    def pad(tp: pd.DataFrame) -> None:  # ids padded with spaces: the same ids once stripped
+        tp["point_id"] = " " + tp["point_id"]
+        tp["scene_id"] = tp["scene_id"] + "  "
+
+    _judged_as_csv(blockqc, delivery, tmp_path, partial(_tie_points_as_parquet, delivery, pad))
 
 
 def test_parquet_tie_points_duplicated_key(blockqc, delivery: Path, tmp_path: Path) -> None:
@@ -1206,16 +1212,13 @@ def test_parquet_tie_points_with_a_pandas_index_judge_as_csv(
 ) -> None:
     """Tie points written by pandas with their own index (rows renumbered from 1000): the index
     is one more column, kept untouched, and the rows judge as the CSV's."""
-    first = blockqc("inspect", delivery, "--out", tmp_path / "csv", "--no-pdf")
-    tp = _read_tie_points(delivery)
-    (delivery / "tie_points.csv").unlink()
-    tp.set_axis(tp.index + 1000).to_parquet(delivery / "tie_points.parquet", index=True)
-    second = blockqc("inspect", delivery, "--out", tmp_path / "pq", "--no-pdf")
-    assert first.returncode == second.returncode, second.stderr
-    a, b = (json.loads((tmp_path / d / "CASE" / "results.json").read_text()) for d in ("csv", "pq"))
-    assert [(r["rule"], r["status"], r["value"]) for r in a["results"]] == [
-        (r["rule"], r["status"], r["value"]) for r in b["results"]
-    ]
+
+    def with_index() -> None:
+        tp = _read_tie_points(delivery)
+        (delivery / "tie_points.csv").unlink()
+        tp.set_axis(tp.index + 1000).to_parquet(delivery / "tie_points.parquet", index=True)
+
+    _judged_as_csv(blockqc, delivery, tmp_path, with_index)
 
 
 @pytest.mark.parametrize("blank", [False, True])
@@ -1295,19 +1298,14 @@ def test_parquet_ids_stored_as_decimal_numbers_are_read_as_their_whole_numbers(
         table = pd.read_csv(delivery / f"{name}.csv", dtype=str, keep_default_na=False)
         table = table.replace(numbers)
         table.to_csv(delivery / f"{name}.csv", index=False)
-    first = blockqc("inspect", delivery, "--out", tmp_path / "csv", "--no-pdf")
 
     def as_doubles(tp: pd.DataFrame) -> None:
         tp["scene_id"] = tp["scene_id"].astype(float)
         tp["point_id"] = pd.factorize(tp["point_id"])[0] + 1.0
 
-    _tie_points_as_parquet(delivery, as_doubles)
-    second = blockqc("inspect", delivery, "--out", tmp_path / "pq", "--no-pdf")
-    assert first.returncode == second.returncode, second.stderr
-    a, b = (json.loads((tmp_path / d / "CASE" / "results.json").read_text()) for d in ("csv", "pq"))
-    assert [(r["rule"], r["status"], r["value"]) for r in a["results"]] == [
-        (r["rule"], r["status"], r["value"]) for r in b["results"]
-    ]
+    _judged_as_csv(
+        blockqc, delivery, tmp_path, partial(_tie_points_as_parquet, delivery, as_doubles)
+    )
     from blockqc.delivery import read_table
     from blockqc.schema import TIE_POINTS
 

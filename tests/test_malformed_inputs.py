@@ -1022,34 +1022,23 @@ def _without_root(args: list[object]) -> list[str]:
     return [*drop, *command]
 
 
+@pytest.mark.parametrize("folder", ["documents", "rpc"])
 @pytest.mark.parametrize("mode", [0o000, 0o444])  # 0o444: names listed, files not reached
-def test_an_unreadable_documents_folder_is_refused_by_name(block, tmp_path, mode):
+def test_an_unreadable_folder_is_refused_by_name(block, tmp_path, mode, folder):
+    """A folder of the delivery that cannot be read is named, in the words said of a file that
+    cannot be read (rpc/ was 'could not be inspected: PermissionError: …', in Python's words)."""
+    if folder == "rpc":
+        (block / "rpc").mkdir()
+        (block / "rpc" / "S1.RPB").write_text("lineOffset = 1;\n")
     command = _without_root(["inspect", block, "--out", tmp_path / "out", "--pdf", "none"])
-    (block / "documents").chmod(mode)
+    (block / folder).chmod(mode)
     try:
         p = subprocess.run(command, capture_output=True, text=True, timeout=600)
     finally:
-        (block / "documents").chmod(0o755)
+        (block / folder).chmod(0o755)
     said = "cannot be read: Permission denied: expected a readable folder"
-    _refused(p, f"F1-B01/documents: {said}")
+    _refused(p, f"F1-B01/{folder}: {said}")
     assert "PermissionError" not in p.stderr and "edges.csv" not in p.stderr, p.stderr
-
-
-@pytest.mark.parametrize("mode", [0o000, 0o444])  # 0o444: names listed, files not reached
-def test_an_unreadable_rpc_folder_is_refused_by_name(block, tmp_path, mode):
-    """rpc/ that cannot be read: the delivery 'could not be inspected: PermissionError: …',
-    in Python's words. It is named as a documents folder that cannot be read is."""
-    (block / "rpc").mkdir()
-    (block / "rpc" / "S1.RPB").write_text("lineOffset = 1;\n")
-    command = _without_root(["inspect", block, "--out", tmp_path / "out", "--pdf", "none"])
-    (block / "rpc").chmod(mode)
-    try:
-        p = subprocess.run(command, capture_output=True, text=True, timeout=600)
-    finally:
-        (block / "rpc").chmod(0o755)
-    said = "cannot be read: Permission denied: expected a readable folder"
-    _refused(p, f"F1-B01/rpc: {said}")
-    assert "PermissionError" not in p.stderr, p.stderr
 
 
 def test_a_sampled_block_without_checkpoints_is_refused(blockqc, block, tmp_path):
