@@ -337,10 +337,7 @@ def load_geometry(
             )
         )
     if given(rpc_dir):
-        geometry.original, geometry.files = _read_models(rpc_dir, needed, scene_ids, problems)
-        problems.extend(domain_problems(scenes, geometry.original, files["scenes"].name))
-        unobserved = [s for s in pd.unique(scenes["scene_id"].dropna()) if s not in needed]
-        geometry.warnings = scenes_without_rpc(rpc_dir, unobserved, geometry.files)
+        problems += _read_original(geometry, rpc_dir, scenes, needed, files["scenes"].name)
     elif adjustment is not None:
         problems.append(
             Problem(
@@ -364,6 +361,20 @@ def load_geometry(
             )
         )
     return geometry, problems
+
+
+def _read_original(
+    geometry: BlockGeometry, rpc_dir: Path, scenes: pd.DataFrame, needed: list, scenes_file: str
+) -> list[Problem]:
+    """The original RPCs of rpc/ into `geometry`, with the scenes that have none said (a
+    warning when they have no observations either); their problems."""
+    problems: list[Problem] = []
+    scene_ids = set(scenes["scene_id"].dropna())
+    geometry.original, geometry.files = _read_models(rpc_dir, needed, scene_ids, problems)
+    problems.extend(domain_problems(scenes, geometry.original, scenes_file))
+    unobserved = [s for s in pd.unique(scenes["scene_id"].dropna()) if s not in needed]
+    geometry.warnings = scenes_without_rpc(rpc_dir, unobserved, geometry.files)
+    return problems
 
 
 def _bounds(wkt: object) -> tuple[float, float, float, float] | None:
