@@ -181,6 +181,33 @@ def test_csv_of_another_separator(
     assert "missing column" not in p.stderr  # said once, not once per column
 
 
+@pytest.mark.parametrize(
+    ("row", "fields", "name"),
+    [
+        (3, "1", "full-width commas ('，')"),  # every comma of the row typed full-width
+        (2, "2", "full-width semicolons ('；')"),  # all but its first
+    ],
+)
+def test_a_row_of_full_width_separators_is_said_so(
+    blockqc, delivery: Path, tmp_path: Path, row: int, fields: str, name: str
+) -> None:
+    """A row typed with full-width separators under a header of commas was '1 fields where
+    the header has 6', without saying why."""
+    ov = delivery / "overlaps.csv"
+    lines = ov.read_text().splitlines(keepends=True)
+    head, _, rest = lines[row].partition(",")
+    sep = name[-3]  # the separator named between the quotes: ，or ；
+    lines[row] = head + ("," if fields == "2" else sep) + rest.replace(",", sep)
+    ov.write_text("".join(lines))
+    p = blockqc("inspect", delivery, "--out", tmp_path / "out")
+    assert p.returncode == 2
+    _no_traceback(p)
+    assert (
+        f"overlaps.csv, line {row + 1}: not a readable CSV table: {fields} fields where the "
+        f"header has 6 (its values are separated by {name}: expected ',')"
+    ) in p.stderr, p.stderr
+
+
 def test_empty_and_ragged_csv(blockqc, delivery: Path, tmp_path: Path) -> None:
     (delivery / "edges.csv").write_text("")
     (delivery / "pan_ms.csv").write_bytes(b" \r\n\t\n")  # white space only: empty too

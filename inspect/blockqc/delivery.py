@@ -62,6 +62,7 @@ from blockqc.textio import (
     not_a_file,
     read_bytes,
     unreadable_folder,
+    wide_separated,
 )
 from blockqc.yamlio import line_of, load_yaml, pydantic_problems
 
@@ -689,6 +690,7 @@ def _short_rows(data: bytes, limit: int = 5) -> list[tuple[int, str]]:
                     "is skipped)"
                     if spaces
                     else f"{len(row)} fields where the header has {len(header)}"
+                    + wide_separated(",".join(row))
                 )
                 out.append((start, why))
                 if len(out) >= limit:
@@ -704,10 +706,12 @@ def _parser_problem(path: Path, message: str, data: bytes) -> Problem:
     ragged = re.search(r"Expected (\d+) fields in line (\d+), saw (\d+)", message)
     if ragged:
         want, record, got = map(int, ragged.groups())
+        line = _record_line(data, record)
+        wide = wide_separated(_line_text(data, line)) if got < want else ""
         return Problem(
             str(path),
-            f"not a readable CSV table: {got} fields where the header has {want}",
-            line=_record_line(data, record),
+            f"not a readable CSV table: {got} fields where the header has {want}{wide}",
+            line=line,
         )
     unclosed = re.search(r"EOF inside string starting at row (\d+)", message)
     if unclosed:  # the parser counts its rows from 0, the header being row 0
@@ -723,6 +727,16 @@ def _parser_problem(path: Path, message: str, data: bytes) -> Problem:
         f"not a readable CSV table: {message.strip()}",
         line=int(line.group(1)) if line else None,
     )
+
+
+def _line_text(data: bytes, line: int) -> str:
+    """The text of one line (1-based) of a file's bytes."""
+    ends = np.flatnonzero(np.frombuffer(data, dtype=np.uint8) == 0x0A)
+    if not 1 <= line <= len(ends) + 1:
+        return ""
+    start = int(ends[line - 2]) + 1 if line > 1 else 0
+    end = int(ends[line - 1]) if line <= len(ends) else len(data)
+    return data[start:end].decode("utf-8", errors="replace")
 
 
 def _record_line(data: bytes, record: int) -> int:

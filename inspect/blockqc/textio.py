@@ -195,6 +195,15 @@ def read_text(path: Path, max_bytes: int | None, error: type[BlockqcError] = Inp
 #: holding one in any name (some of its commas typed so) is refused
 WIDE_SEPARATORS = {"，": "full-width commas ('，')", "；": "full-width semicolons ('；')"}
 
+
+def wide_separated(text: str) -> str:
+    """What a row of a CSV table whose fields came out too few is separated by, when its text
+    holds a full-width separator (typed by a Chinese input method): ' (its values are separated
+    by full-width commas ('，'): expected ',')'; else ''."""
+    found = [name for sep, name in WIDE_SEPARATORS.items() if sep in text]
+    return f" (its values are separated by {found[0]}: expected ',')" if found else ""
+
+
 #: separators of other CSV dialects (spreadsheets set to some locales export with ';'), spaces
 #: last: a header separated by semicolons may hold spaces too
 OTHER_SEPARATORS = {
