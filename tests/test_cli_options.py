@@ -264,7 +264,7 @@ def test_a_link_to_nothing_in_a_batch_is_an_unreadable_delivery(tmp_path):
     p = run_blockqc("inspect", batch, "--out", tmp_path / "o", "--pdf", "none")
     _refused(
         p,
-        f"error: {batch / 'F9-B09'}: a link to {tmp_path / 'moved'}, which does not exist",
+        f"error: {batch / 'F9-B09'}: a symbolic link to {tmp_path / 'moved'}, which does not exist",
     )
     assert "beside the deliveries" not in p.stderr
     summary = json.loads((tmp_path / "o" / "summary.json").read_text(encoding="utf-8"))

@@ -43,7 +43,6 @@ from blockqc.delivery import (
     MANIFEST,
     Manifest,
     batch_files,
-    dangling,
     find_deliveries,
     is_delivery,
     load_delivery,
@@ -79,6 +78,7 @@ from blockqc.results import (
     block_fails,
 )
 from blockqc.rules.model import Pack
+from blockqc.textio import dangling_link
 
 PDF_POLICIES = ("all", "failing", "sampled", "none")
 _PR_SET_PDEATHSIG = 1  # Linux prctl: the signal a process gets when its parent dies
@@ -161,11 +161,11 @@ def collect(paths: Iterable[Path]) -> Collected:
 def _not_a_delivery(path: Path) -> Problem | None:
     """Why a folder of the batch is no delivery: a link to nothing, no block.yaml (or one that
     is no file); None when it is one."""
-    if dangling(path):
+    if link := dangling_link(path):
         return Problem(
             str(path),
-            f"a link to {os.readlink(path)}, which does not exist: a delivery of the batch moved "
-            "or removed? (give it again, or remove the link)",
+            f"{link}: a delivery of the batch moved or removed? (give it again, or remove the "
+            "link)",
         )
     if is_delivery(path):
         return None

@@ -50,12 +50,12 @@ from blockqc.schema import (
     report_rows,
     validate_table,
     visible_name,
-    with_article,
 )
 from blockqc.textio import (
     BOM,
     check_no_nul,
     check_utf8,
+    dangling_link,
     header_problem,
     listed,
     located,
@@ -313,7 +313,7 @@ def find_deliveries(path: Path) -> list[Path]:
         return refuse_undecodable([path])
     if why := not_a_manifest(path):
         raise InputError(Problem(str(path / MANIFEST), why))
-    found = [p for p in _members(path) if p.is_dir() or dangling(p)]
+    found = [p for p in _members(path) if p.is_dir() or dangling_link(p)]
     if not any(is_delivery(p) for p in found):
         raise InputError(
             Problem(
@@ -346,12 +346,7 @@ def batch_files(path: Path) -> list[Path]:
     path = Path(path)
     if not path.is_dir() or is_delivery(path):
         return []
-    return [p for p in _members(path) if not p.is_dir() and not dangling(p)]
-
-
-def dangling(path: Path) -> bool:
-    """A link to nothing (in a batch: a delivery moved or removed since the link was made)."""
-    return path.is_symlink() and not path.exists()
+    return [p for p in _members(path) if not p.is_dir() and not dangling_link(p)]
 
 
 def _members(batch: Path) -> list[Path]:
@@ -798,7 +793,7 @@ def _read_parquet(
         raise InputError(problems)
     try:
         for i, f in enumerate(table.schema):  # text stored as bytes or numbers: read as text
-            text = _text_stored_otherwise(schema, f, table.column(i))
+            text = _text_stored_otherwise(schema, names, f, table.column(i))
             if text is not None:
                 table = table.set_column(i, f.name, text)
         handed, table = [table], None
@@ -809,13 +804,13 @@ def _read_parquet(
 
 
 def _text_stored_otherwise(
-    schema: TableSchema, f: pa.Field, col: pa.ChunkedArray
+    schema: TableSchema, names: set[str], f: pa.Field, col: pa.ChunkedArray
 ) -> pa.ChunkedArray | None:
     """A column of the contract stored as bytes, as UTF-8 text; an id column stored as decimal
     numbers that are all whole (a table written from a numeric array: 1001.0), as the text of
     those whole numbers, as an integer id reads, so that it meets the same id in the other
     tables and in a column read again (`read_rows`). None: the column is read as it is."""
-    if f.name not in {c.name for c in schema.columns}:
+    if f.name not in names:  # the schema's columns
         return None
     if pa.types.is_binary(f.type) or pa.types.is_large_binary(f.type):
         return col.cast(pa.string())
@@ -1311,7 +1306,7 @@ def _misplaced_inputs(path: Path) -> list[Problem]:
     problems = list(below.unreadable)
     for e in below.entries:
         if e.name in absent and _is_file(e):
-            held = _HELD.format(with_article(absent[e.name]), absent[e.name])
+            held = _HELD.format(_with_article(absent[e.name]), absent[e.name])
             problems.append(Problem(os.path.dirname(e.path), held))
         elif meant := _geometry_below(e, dirs):
             problems.append(Problem(e.path, _GEOMETRY_BELOW.format(meant)))
@@ -1326,6 +1321,11 @@ _GEOMETRY_BELOW = (
     "not read there: the geometry of contract v1.1 is read from the delivery's own folder "
     "({0}/ beside block.yaml)"
 )
+
+
+def _with_article(word: str) -> str:
+    """A table's name after its article: a pan_ms, an overlaps, an adjustment."""
+    return f"{'an' if word[:1].lower() in {'a', 'e', 'i', 'o', 'u'} else 'a'} {word}"
 
 
 def _geometry_below(entry: os.DirEntry, dirs: list[str]) -> str | None:
@@ -1604,11 +1604,11 @@ def _missing_documents(path: Path, manifest: Manifest) -> list[Problem]:
             f"documents.{kind}: {rel} is missing from the delivery{other_case(path, rel)}",
         )
         for kind, rel in manifest.documents.items()
-        if _not_a_file(document_path(path, rel))
+        if _document_missing(document_path(path, rel))
     ]
 
 
-def _not_a_file(path: Path) -> bool:
+def _document_missing(path: Path) -> bool:
     """Whether a document is missing; one that cannot be looked at (in a folder that cannot
     be read, said of the folder by `_misplaced_inputs`) is not said missing as well."""
     try:

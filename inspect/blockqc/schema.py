@@ -501,11 +501,6 @@ def column_of(col: Column) -> str:
     return f"a column of {cells}"
 
 
-def with_article(word: str) -> str:
-    """A word after its article: a float, an int, an enum (a pan_ms, an overlaps)."""
-    return f"{'an' if word[:1].lower() in {'a', 'e', 'i', 'o', 'u'} else 'a'} {word}"
-
-
 def visible_name(name: str) -> str:
     """A name (a column's, a key's) as shown in a message: a character that shows nothing (a
     zero-width space, a byte order mark, a soft hyphen pasted with the name) escaped, as Python
