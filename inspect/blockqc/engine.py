@@ -588,7 +588,8 @@ def input_warnings(d: Delivery) -> list[str]:
     file = d.files.get("tie_points")
     if file is not None:
         found += ground_disagreements(file, d.tie_points, GROUND_POINTS_DIFFER)
-    return [str(p) for p in located(found)] + [str(p) for p in misspelt_document_kinds(d)]
+    found += misspelt_document_kinds(d)  # located by their line already
+    return [str(p) for p in located(found)]
 
 
 def misspelt_document_kinds(d: Delivery) -> list[Problem]:
