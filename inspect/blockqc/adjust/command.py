@@ -161,6 +161,11 @@ def command(
     refuse_inside(out, cfg.inputs())  # before reading; the folder is made once they are read
     with empty_removed(out):  # an input error leaves no empty folder the run made
         r = run_adjust(cfg)
+    _say_results(r, out)
+
+
+def _say_results(r: dict, out: Path) -> None:
+    """The run's console line and warnings, and exit status 1 when it did not converge."""
     click.echo(
         f"{r['block_id']}: {r['n_scenes']} scenes, {r['n_observations']} observations, "
         f"{r['iterations']} iterations, converged {'yes' if r['converged'] else 'NO'}; "

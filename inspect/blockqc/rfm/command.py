@@ -6,6 +6,7 @@ import json
 import math
 import os
 from pathlib import Path
+from typing import Any
 
 import click
 from pyproj import CRS
@@ -308,34 +309,7 @@ def _finite(ctx: click.Context, param: click.Parameter, value: float | None) -> 
     help="Also orthorectify IMAGE with the RFM refined from every CP (ortho_refined.tif).",
 )
 @lang_option("report.html and its figures (results.json is the same in either)")
-def command(
-    image: Path,
-    rpc: Path | None,
-    dem: Path,
-    geoid: str | None,
-    geoid_offset: float | None,
-    dem_vertical: str,
-    reference: Path,
-    reference_rpc: Path | None,
-    out: Path,
-    crs_text: str | None,
-    gsd: float | None,
-    crop_offset: str,
-    reference_crop_offset: str,
-    match_grid: int | None,
-    match_chunk: int,
-    margin: int,
-    k_text: str,
-    repeats: int,
-    seed: int,
-    requirement: float,
-    reference_gsd_ratio: float,
-    method: str,
-    export_checkpoints: bool,
-    refined_ortho: bool,
-    dem_fill: int,
-    lang: str,
-) -> None:
+def command(image: Path, reference: Path, out: Path, requirement: float, **options: Any) -> None:
     """Measure the geometric accuracy of IMAGE's RFM against a reference orthoimage (§RA).
 
     Orthorectifies IMAGE with its RPCs and the DEM, brings the reference onto the same grid,
@@ -343,45 +317,37 @@ def command(
     plot, the GEV histogram, the refined-RFM table and report.html into --out.
     Exit status 0 when the RMSE meets the requirement, 1 when it does not.
     """
-    crs = _crs(crs_text)
-    ks = _ks(k_text)
-    refuse_self_reference(image, reference)
-    geoid_path = _geoid(geoid, geoid_offset)
-    inputs = _input_files((image, rpc, dem, reference, reference_rpc), geoid_path)
+    given = _given(image, reference, requirement, options)
+    inputs = _input_files(
+        (image, given["rpc"], given["dem"], reference, given["reference_rpc"]), given["geoid"]
+    )
     refuse_replacing(out, OUTPUT_NAMES, inputs)
     refuse_foreign_results(out)
     with empty_removed(out):  # an input error leaves no empty folder the run made
         out_dir = check_out_dir(out, inputs)
-        cfg = RfmAccuracyConfig(
-            image=image,
-            dem=dem,
-            reference=reference,
-            out=out_dir,
-            rpc=rpc,
-            geoid=geoid_path,
-            geoid_offset=geoid_offset,
-            dem_vertical=dem_vertical,
-            reference_rpc=reference_rpc,
-            crs=crs,
-            gsd=gsd,
-            crop_offset=_offset(crop_offset),
-            reference_crop_offset=_offset(reference_crop_offset, "--reference-crop-offset"),
-            margin=margin,
-            match_chunk=match_chunk,
-            match_grid=match_grid,
-            ks=ks,
-            repeats=repeats,
-            seed=seed,
-            requirement_px=requirement,
-            reference_gsd_ratio=reference_gsd_ratio,
-            method=method,
-            export_checkpoints=export_checkpoints,
-            refined_ortho=refined_ortho,
-            dem_fill=dem_fill,
-            lang=lang,
-        )
-        results = run_rfm_accuracy(cfg)
+        results = run_rfm_accuracy(RfmAccuracyConfig(out=out_dir, **given))
     _say_results(results, image.name, requirement, out_dir)
+
+
+def _given(image: Path, reference: Path, requirement: float, options: dict[str, Any]) -> dict:
+    """The fields of the run's RfmAccuracyConfig but its output folder, from the command's
+    options (named as the fields are, but for the texts read here: CRS, k values, geoid, crop
+    offsets)."""
+    given = dict(options)
+    crs = _crs(given.pop("crs_text"))
+    ks = _ks(given.pop("k_text"))
+    refuse_self_reference(image, reference)
+    return {
+        **given,
+        "image": image,
+        "reference": reference,
+        "requirement_px": requirement,
+        "crs": crs,
+        "ks": ks,
+        "geoid": _geoid(given["geoid"], given["geoid_offset"]),
+        "crop_offset": _offset(given["crop_offset"]),
+        "reference_crop_offset": _offset(given["reference_crop_offset"], "--reference-crop-offset"),
+    }
 
 
 def _input_files(paths: tuple[Path | None, ...], geoid: str | Path | None) -> list[Path]:
