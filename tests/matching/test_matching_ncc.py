@@ -86,3 +86,20 @@ def test_extract_patches_are_the_slices():
     got = extract_patches(image, np.array([[3, 4], [5, 5]]), 2)
     assert np.array_equal(got[0], image[1:6, 2:7])
     assert np.array_equal(got[1], image[3:8, 3:8])
+
+
+def test_flat_part_of_a_window_beside_texture_gives_zero_not_nan_or_one():
+    # A reference whose empty part holds 0 without a declared no-data value: the sub-windows
+    # over the zeros have no variance, but the integral images' rounding, from the bright
+    # half, left a residue there that was divided by ~0 (NCC ±1 after clipping, or NaN).
+    rng = np.random.default_rng(1)
+    window = np.zeros((1, 61, 61))
+    window[0, :, :30] = rng.uniform(800, 1200, (61, 30))
+    template = rng.uniform(800, 1200, (1, 21, 21))
+    with np.errstate(all="raise"):
+        got = ncc_surfaces(template, window)
+    assert np.isfinite(got).all()
+    assert (got[0, :, 30:] == 0.0).all()  # lags whose sub-window lies on the zeros only
+    sub = window[0, 5:26, 2:23].ravel()
+    expected = np.corrcoef(template[0].ravel(), sub)[0, 1]
+    assert got[0, 5, 2] == pytest.approx(expected, abs=1e-9)

@@ -37,6 +37,8 @@ def ncc_surfaces(templates: np.ndarray, windows: np.ndarray) -> np.ndarray:
     for start in range(0, n, _BATCH):
         tpl_raw = templates[start : start + _BATCH].astype(np.float64)
         win = windows[start : start + _BATCH].astype(np.float64)
+        # centred: the NCC does not change, and the integral images' rounding shrinks
+        win -= win.mean(axis=(1, 2), keepdims=True)
         tpl = tpl_raw - tpl_raw.mean(axis=(1, 2), keepdims=True)
         tpl_norm = np.sqrt(np.einsum("kij,kij->k", tpl, tpl))
         spec = fft.rfft2(win, s=(length, length), axes=(1, 2))
@@ -48,9 +50,15 @@ def ncc_surfaces(templates: np.ndarray, windows: np.ndarray) -> np.ndarray:
         var = np.maximum(sums_sq - sums * sums / area, 0.0)
         denom = np.sqrt(var) * tpl_norm[:, None, None]
         # Flat window or template: variance lost in the rounding of the sums, NCC undefined -> 0.
+        # The sums' rounding grows with the whole window's energy, not the sub-window's: a flat
+        # sub-window (zeros) beside bright texture can keep a rounding residue of either sign.
         flat_tpl = tpl_norm**2 <= 1e-9 * np.einsum("kij,kij->k", tpl_raw, tpl_raw)
-        tiny = (var <= 1e-9 * sums_sq) | flat_tpl[:, None, None]
-        out[start : start + _BATCH] = np.where(tiny, 0.0, corr / np.where(tiny, 1.0, denom))
+        energy = np.einsum("kij,kij->k", win, win)[:, None, None]
+        tiny = (var <= 1e-9 * np.abs(sums_sq)) | (var <= 1e-9 * energy) | flat_tpl[:, None, None]
+        tiny |= ~(denom > 0)
+        ncc = np.zeros_like(corr)
+        np.divide(corr, denom, out=ncc, where=~tiny)
+        out[start : start + _BATCH] = ncc
     return np.clip(out, -1.0, 1.0)
 
 
