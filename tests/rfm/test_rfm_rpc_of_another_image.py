@@ -191,3 +191,60 @@ def test_the_image_s_own_rpc_passes_every_check(tmp_path: Path):
     assert implausible_problem(LEFT, IMAGE, box) is None
     assert crop_problem(LEFT, IMAGE, SHAPE, CROP, "--crop-offset", False) is None
     assert np.all(np.isfinite(box))
+
+
+def renormalised_to_crop(model, crop, offsets, scale):
+    """`model` rewritten for the pixels of a crop at `crop` (row, col), its image side
+    normalised with LINE_OFF, SAMP_OFF = `offsets` and both scales `scale`, as s2p writes the
+    RPCs of its crops of a Pléiades scene (img_01.tif of its Réunion pair: LINE_OFF 19403.5,
+    SAMP_OFF 19999.5, scales 512 for a 1024 × 1024 px crop). row = P/Q·LINE_SCALE + LINE_OFF,
+    so P' = (P·LINE_SCALE + (LINE_OFF − crop row − LINE_OFF')·Q) / LINE_SCALE'."""
+    from dataclasses import replace
+
+    line_num = (
+        model.line_num * model.line_scale + (model.line_off - crop[0] - offsets[0]) * model.line_den
+    ) / scale
+    samp_num = (
+        model.samp_num * model.samp_scale + (model.samp_off - crop[1] - offsets[1]) * model.samp_den
+    ) / scale
+    return replace(
+        model, line_num=line_num, samp_num=samp_num, line_off=offsets[0], samp_off=offsets[1],
+        line_scale=scale, samp_scale=scale,
+    )  # fmt: skip
+
+
+def test_an_rpc_of_the_crop_s_pixels_with_offsets_beyond_them_is_held(tmp_path: Path):
+    """An RPC fitted to a crop's own pixels whose LINE/SAMP offsets and scales do not span them
+    (s2p's Réunion pair: rows 0..1023 against LINE_OFF 19403.5 ± 2·512) describes its image:
+    its ground domain maps onto the crop. It was refused ("the RPC's image domain (lines
+    18380..20428, …) does not hold the image"), where the docs' 95 CPs came from."""
+    crop_rpc = renormalised_to_crop(LEFT, CROP, (19403.5, 19999.5), 512.0)
+    lon, lat, h = np.array([5.195, 5.196]), np.array([44.206, 44.207]), np.array([560.0, 600.0])
+    row, col = crop_rpc.ground_to_image(lon, lat, h)
+    full_row, full_col = LEFT.ground_to_image(lon, lat, h)
+    np.testing.assert_allclose(row, full_row - 5000.0, atol=1e-6)
+    np.testing.assert_allclose(col, full_col - 5000.0, atol=1e-6)
+    assert crop_problem(crop_rpc, IMAGE, SHAPE, (0.0, 0.0), "--crop-offset", True) is None
+    dem = dem_under(
+        ventoux_config(tmp_path / "out", crop_offset=(0.0, 0.0)), crop_rpc, SHAPE, (0, 0)
+    )
+    assert 500.0 < dem.mean_height < 700.0
+    # the image positions of the ground domain (LONG_OFF, LAT_OFF ± one scale) end near
+    # row 43322 − 5000 of the full image: a crop beyond them is still refused
+    beyond = crop_problem(crop_rpc, IMAGE, SHAPE, (60000.0, 0.0), "--crop-offset", True)
+    assert beyond is not None
+    assert "the RPC's image domain (lines 18380..20428, samples 18976..21024" in beyond.message
+
+
+def test_an_rpc_whose_offsets_are_its_image_s_still_holds_the_crop_to_them():
+    """SkySat's RPCs give a ground domain of ±1° (LAT_SCALE, LONG_SCALE 1), whose image
+    positions span a million lines: their LINE/SAMP offsets are the image's (the ground
+    domain's centre maps inside LINE_OFF 658.76 ± 2·675.12), so a crop beyond them is still
+    refused, not held by the image positions of the ground domain."""
+    skysat = read_rpc(
+        DATA / "rpc_formats" / "20200413_151408_ssc4d2_0011_basic_panchromatic_dn.rpc"
+    )
+    assert crop_problem(skysat, IMAGE, (500, 500), (1000.0, 1000.0), "--crop-offset", True) is None
+    beyond = crop_problem(skysat, IMAGE, (500, 500), (5000.0, 0.0), "--crop-offset", True)
+    assert beyond is not None
+    assert "the RPC's image domain (lines -691..2009, samples -1623..4778" in beyond.message

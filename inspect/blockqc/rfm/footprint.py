@@ -58,11 +58,20 @@ def crop_problem(
     beyond the RPC's image domain: the RPC of another, smaller image (the MS image's given for
     the PAN, another scene's) or a wrong crop offset; the RPC would be read far outside the
     part it was fitted to. `option` is the crop offset's option, `given` whether the user gave
-    it (else it was read from the image's geotransform)."""
+    it (else it was read from the image's geotransform). An image within `_fitted_image` is
+    held too."""
     line0, line1, samp0, samp1 = rpc.image_domain()
     rows, cols = shape
     last_row, last_col = offset[0] + rows - 1, offset[1] + cols - 1
-    if line0 <= offset[0] and last_row <= line1 and samp0 <= offset[1] and last_col <= samp1:
+
+    def holds(domain: tuple[float, float, float, float] | None) -> bool:
+        if domain is None:
+            return False
+        first_line, last_line, first_sample, last_sample = domain
+        within_lines = first_line <= offset[0] and last_row <= last_line
+        return within_lines and first_sample <= offset[1] and last_col <= last_sample
+
+    if holds((line0, line1, samp0, samp1)) or holds(_fitted_image(rpc)):
         return None
     source = f"given by {option}" if given else f"read from its geotransform ({option} auto)"
     return Problem(
@@ -73,6 +82,19 @@ def crop_problem(
         f"at crop offset {offset[0]:.10g}, {offset[1]:.10g} {source}): expected the RPC of this "
         f"image (another image's file, e.g. the MS image's given for the PAN?) or another {option}",
     )
+
+
+def _fitted_image(rpc: RPCModel) -> Box | None:
+    """The image positions of the RPC's ground domain (first and last line and sample) when its
+    LINE/SAMP offsets and scales are not those of the image its ground domain maps to: the
+    ground domain's centre falls outside the image domain (s2p's crops: LINE_OFF 19403.5 ± 2·512,
+    the centre at line 313). None when it falls inside, as for the RPCs of every vendor tried:
+    their image domain is the image's (SkySat's ground domain of ±1° maps to a million lines)."""
+    line0, line1, samp0, samp1 = rpc.image_domain()
+    row, col = rpc.ground_to_image(rpc.lon_off, rpc.lat_off, rpc.height_off)
+    if line0 <= row <= line1 and samp0 <= col <= samp1:
+        return None
+    return rpc.ground_domain_in_image()
 
 
 def footprint_at(

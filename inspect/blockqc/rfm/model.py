@@ -268,6 +268,25 @@ class RPCModel:
         first_line, first_sample = self.line_off - line, self.samp_off - samp
         return first_line, self.line_off + line, first_sample, self.samp_off + samp
 
+    def ground_domain_in_image(self) -> tuple[float, float, float, float] | None:
+        """First and last line, first and last sample of the image positions of the RPC's
+        ground domain (offsets ± one scale, 5 × 5 × 3 nodes): the image the RPC was fitted
+        to, also when its LINE/SAMP offsets and scales do not span it (s2p's crops of a
+        Pléiades scene: LINE_OFF 19403.5, LINE_SCALE 512 for rows 0..1023); None when no node
+        has a finite position."""
+        u = np.linspace(-1.0, 1.0, 5)
+        lon, lat, h = np.meshgrid(u, u, np.array([-1.0, 0.0, 1.0]), indexing="ij")
+        row, col = self.ground_to_image(
+            self.lon_off + lon * self.lon_scale,
+            self.lat_off + lat * self.lat_scale,
+            self.height_off + h * self.height_scale,
+        )
+        ok = np.isfinite(row) & np.isfinite(col)
+        if not ok.any():
+            return None
+        row, col = row[ok], col[ok]
+        return float(row.min()), float(row.max()), float(col.min()), float(col.max())
+
     def ground_domain(self, reach: float = DOMAIN_REACH) -> tuple[float, float, float, float]:
         """West, south, east, north (degrees) of the ground the model describes: LONG_OFF ±
         reach·LONG_SCALE, LAT_OFF ± reach·LAT_SCALE."""
