@@ -157,6 +157,28 @@ def test_a_table_not_in_utf8_names_the_line(tmp_path, appendix_path):
     assert "must be UTF-8" in problem.message
 
 
+def test_a_nul_byte_in_a_cell_is_named_not_kept_as_text(tmp_path, appendix_path):
+    """A NUL in the region of data row 2 was read into the region's text and written on to
+    experiments.csv; the delivery's tables refuse it, naming the line."""
+    lines = _rows(appendix_path, 3)
+    lines[2] = lines[2].replace("08HZ", "08\0HZ")  # '2,08\0HZ,…': the NUL is character 5
+    bad, err = _refused(tmp_path / "nul.csv", lines)
+    (problem,) = err.problems
+    assert (problem.file, problem.line) == (str(bad), 3)
+    assert problem.message.startswith("a NUL byte (0x00) at character 5: expected text")
+
+
+@pytest.mark.parametrize("content", [b"", b"\xef\xbb\xbf", b"\n \n\t\n"])
+def test_an_empty_table_says_so(tmp_path, content):
+    """An empty file (or one of a byte-order mark or blank lines only) was 'not a readable CSV
+    table: No columns to parse from file', pandas' words."""
+    bad = tmp_path / "empty.csv"
+    bad.write_bytes(content)
+    with pytest.raises(InputError) as err:
+        read_table(bad)
+    assert str(err.value) == f"{bad}: the file is empty: expected a header row"
+
+
 def test_written_table_keeps_formulas_as_text(tmp_path, appendix_path):
     lines = _rows(appendix_path, 2)
     lines[0] += ",=note"

@@ -12,7 +12,7 @@ import pandas as pd
 from blockqc.errors import InputError, Problem
 from blockqc.report.exports import neutralise
 from blockqc.schema import near_column
-from blockqc.textio import header_problem, read_text
+from blockqc.textio import check_no_nul, decode_utf8, header_problem, read_bytes
 
 #: Columns that identify an experiment (text, kept but not analysed).
 ID_COLUMNS: tuple[str, ...] = ("experiment", "region", "periods", "image_pairs")
@@ -74,7 +74,11 @@ def read_table(path: Path) -> pd.DataFrame:
     line and column."""
     path = Path(path)
     name = str(path)
-    text = read_text(path, None)  # not found, a folder, not UTF-8: named with the line
+    data = read_bytes(path, None)  # not found, a folder: named
+    text = decode_utf8(path, data)  # not UTF-8: named with the line
+    check_no_nul(path, data)  # a cell would keep it as text: named with the line
+    if not text.strip():
+        raise InputError(Problem(name, "the file is empty: expected a header row"))
     lines = _check_shape(path, text)
     try:
         raw = pd.read_csv(
