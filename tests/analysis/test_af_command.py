@@ -323,6 +323,12 @@ def test_one_row_gives_the_rows_the_cca_needs(appendix_path, tmp_path, lang):
     out = tmp_path / "out"
     res = CliRunner().invoke(command, ["--table", str(table), "--out", str(out), "--lang", lang])
     assert res.exit_code == 0, res.output
+    # the console said "1 of 1 experiments analysed", silent on the correlations, none computed
+    assert res.output.startswith(
+        "1 of 1 experiments analysed (10 factors x 5 indicators); no correlation computed "
+        "(fewer than 3 values, no correlation: mean_elevation_m, mean_slope_deg, "
+    )
+    assert "h_rmse_m); CCA not computed: the table has n = 1 complete rows" in res.output
     results = json.loads((out / "factors.json").read_text(encoding="utf-8"))
     assert results["cca_not_computed"] == [
         "the table has n = 1 complete rows but CCA of p = 10 factors and q = 5 indicators needs "

@@ -348,8 +348,9 @@ def _experiments(
 
 
 def _say_results(results: dict[str, Any], written: list[Path], out: Path) -> None:
-    """Say how many experiments were analysed, the first canonical correlation and its test
-    (or why the CCA was not computed), and the files written."""
+    """Say how many experiments were analysed, that no correlation was computed when none was,
+    the first canonical correlation and its test (or why the CCA was not computed), and the
+    files written."""
     n_f, n_i = len(FACTOR_COLUMNS), len(INDICATOR_COLUMNS)
     if results["cca"]:
         r1 = results["cca"]["tests"][0]
@@ -359,6 +360,8 @@ def _say_results(results: dict[str, Any], written: list[Path], out: Path) -> Non
         )
     else:
         cca_line = "CCA not computed: " + "; ".join(results["cca_not_computed"])
+    if results["correlation"] is None:
+        cca_line = f"no correlation computed ({results['correlation_note']}); {cca_line}"
     click.echo(
         f"{results['n_used']} of {results['n_rows']} experiments analysed "
         f"({n_f} factors x {n_i} indicators); {cca_line}"
