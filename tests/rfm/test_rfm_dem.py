@@ -116,6 +116,32 @@ def test_small_voids_are_filled_from_their_neighbours():
     assert np.isnan(out[0, 4])
 
 
+@pytest.mark.parametrize(
+    ("rows", "cols", "steps"), [(3, 3, 2), (4, 4, 2), (5, 5, 3), (6, 6, 3), (5, 30, 3), (2, 40, 1)]
+)
+def test_holes_up_to_two_steps_across_are_closed_whatever_their_shape(rows, cols, steps):
+    """A hole is closed by N steps when every cell of it is within N cells of a height: 2·N
+    cells across. A cell was filled only with 5 of its 8 neighbours known, so a 4 × 4 hole
+    (and any hole 4 or more cells across) was never closed whatever N, and a 3 × 3 one needed
+    N = 3: the DSM of the s2p Réunion pair kept voids under --dem-fill-voids 5."""
+    values = np.full((40, 60), 500.0)
+    values[10 : 10 + rows, 10 : 10 + cols] = np.nan
+    assert np.isnan(fill_voids(values, steps - 1)[10 : 10 + rows, 10 : 10 + cols]).all()
+    assert np.all(fill_voids(values, steps) == 500.0)
+
+
+def test_a_void_wider_than_the_steps_or_at_the_edge_stays_empty_whole():
+    """A 12 × 12 void is 6 steps deep: with 3 it is left empty, not given a rim of heights
+    grown 3 cells into it; a void reaching the grid's edge (the outside) is left too."""
+    values = np.full((40, 40), 500.0)
+    values[10:22, 10:22] = np.nan
+    values[30:33, 37:40] = np.nan  # 3 × 3 at the right edge
+    out = fill_voids(values, 3)
+    assert np.isnan(out[10:22, 10:22]).all() and np.isnan(out[30:33, 37:40]).all()
+    assert np.isfinite(out).sum() == 40 * 40 - 144 - 9
+    assert np.isfinite(fill_voids(values, 6)[10:22, 10:22]).all()
+
+
 def test_constant_height():
     assert np.all(
         constant_height(321.5).height(np.array([-179.0, 0.0, 179.9]), np.array([-80.0, 0.0, 80.0]))

@@ -412,26 +412,43 @@ def _round_the_globe(crs: CRS, t: Affine, width: int) -> int | None:
 
 
 def fill_voids(values: FloatArray, max_steps: int) -> FloatArray:
-    """Fill NaN cells from their valid 8-neighbours (mean), growing inwards `max_steps` times:
-    holes up to ~2·max_steps cells across are closed, larger voids and the outside stay NaN."""
+    """Close the holes of a DEM: the voids (NaN) within `max_steps` cells of data everywhere
+    (holes up to ~2·max_steps cells across, however long), each cell from the mean of its
+    known 8-neighbours, growing inwards; larger voids and those reaching the grid's edge (the
+    outside) stay NaN, whole."""
     from scipy.ndimage import convolve
 
     out = values.copy()
+    hole = _holes(np.isnan(out), max_steps)
     kernel = np.ones((3, 3))
     kernel[1, 1] = 0.0
     for _ in range(max_steps):
         void = np.isnan(out)
-        if not void.any():
+        fill_here = hole & void
+        if not fill_here.any():
             break
-        valid = (~void).astype(np.float64)
         total = convolve(np.where(void, 0.0, out), kernel, mode="constant")
-        count = convolve(valid, kernel, mode="constant")
-        # a void cell is filled only when most of its neighbours are known (holes, not edges)
-        fill = void & (count >= 5)
-        if not fill.any():
-            break
+        count = convolve((~void).astype(np.float64), kernel, mode="constant")
+        fill = fill_here & (count > 0)
         out[fill] = total[fill] / count[fill]
     return out
+
+
+def _holes(void: np.ndarray, max_steps: int) -> np.ndarray:
+    """The void cells of the voids (8-connected) that do not touch the grid's edge and whose
+    every cell lies within `max_steps` cells (8-neighbour steps) of a known one."""
+    from scipy import ndimage
+
+    if max_steps <= 0 or not void.any() or void.all():
+        return np.zeros(void.shape, bool)
+    depth = ndimage.distance_transform_cdt(void, metric="chessboard")
+    labels, n = ndimage.label(void, structure=np.ones((3, 3)))
+    index = np.arange(1, n + 1)
+    deepest = np.asarray(ndimage.maximum(depth, labels, index))
+    edge = np.zeros(n + 1, bool)
+    edge[np.unique(np.concatenate([labels[[0, -1], :].ravel(), labels[:, [0, -1]].ravel()]))] = True
+    closed = index[(deepest <= max_steps) & ~edge[1:]]
+    return np.isin(labels, closed)
 
 
 def _node_lonlat(grid: Grid) -> tuple[FloatArray, FloatArray]:
