@@ -179,6 +179,37 @@ def test_an_empty_table_says_so(tmp_path, content):
     assert str(err.value) == f"{bad}: the file is empty: expected a header row"
 
 
+@pytest.mark.parametrize("new_id", ["21", ""])
+def test_a_row_given_twice_under_another_id_or_none_is_named(tmp_path, appendix_path, new_id):
+    """Data row 3 copied to the end with another id, or none: it was analysed as a 5th
+    experiment (on the whole appendix the CCA's p fell from 0.00016 to 5.6e-06)."""
+    lines = _rows(appendix_path, 4)
+    copy = lines[3].split(",", 1)[1]
+    lines.append(f"{new_id},{copy}")
+    bad, err = _refused(tmp_path / "twice.csv", lines)
+    assert str(err) == (
+        f"{bad}, row 5 (line 6): the same values as row 3 (line 4) in every column but the "
+        "experiment id: one experiment given twice would count twice in the correlations and "
+        "the CCA; remove the copy"
+    )
+    # the same numbers written otherwise ('99.080' for 99.08) are the same values
+    lines[-1] = lines[-1].replace(",99.08,", ",99.080,")
+    assert ",99.080," in lines[-1]
+    _refused(tmp_path / "twice2.csv", lines)
+
+
+def test_rows_alike_in_the_factors_but_not_the_indicators_are_kept(tmp_path, appendix_path):
+    """Rows 17 and 18 of the appendix share their terrain and tie-point factors; a row that
+    differs from another in one value is its own experiment."""
+    lines = _rows(appendix_path, 3)
+    cells = lines[3].split(",")
+    cells[0], cells[-1] = "4", "9.999"  # h_rmse_m differs
+    lines.append(",".join(cells))
+    src = tmp_path / "alike.csv"
+    src.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    assert len(read_table(src)) == 4
+
+
 def test_written_table_keeps_formulas_as_text(tmp_path, appendix_path):
     lines = _rows(appendix_path, 2)
     lines[0] += ",=note"

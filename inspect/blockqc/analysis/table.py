@@ -167,6 +167,9 @@ def validate_table(raw: pd.DataFrame, file: str, lines: list[int] | None = None)
         problems += found
     if problems:
         raise InputError(problems)
+    problems = _repeated_rows(table, file, lines)
+    if problems:
+        raise InputError(problems)
     return table
 
 
@@ -252,6 +255,30 @@ def _duplicate_ids(raw: pd.DataFrame, file: str, lines: list[int] | None) -> lis
             )
             problems.append(_cell_problem(file, i, lines, "experiment", message))
         first.setdefault(value, i)
+    return problems
+
+
+def _repeated_rows(table: pd.DataFrame, file: str, lines: list[int] | None) -> list[Problem]:
+    """Rows equal to an earlier row in every column but the experiment id (the factors and
+    indicators as numbers, other cells as text): one experiment given twice, which would count
+    twice in the correlations and the CCA."""
+    others = [c for c in table.columns if c != "experiment"]
+    keys = table[others].astype(str).apply(lambda col: col.str.strip())
+    numbers = [c for c in FACTOR_COLUMNS + INDICATOR_COLUMNS if c in others]
+    keys[numbers] = table[numbers].map(repr)
+    first: dict[tuple[str, ...], int] = {}
+    problems = []
+    for i, key in enumerate(keys.itertuples(index=False, name=None)):
+        if key in first:
+            message = (
+                f"the same values as {_where(first[key], lines)} in every column but the "
+                "experiment id: one experiment given twice would count twice in the "
+                "correlations and the CCA; remove the copy"
+            )
+            problems.append(
+                Problem(file=file, row=i + 1, line=lines[i] if lines else None, message=message)
+            )
+        first.setdefault(key, i)
     return problems
 
 
