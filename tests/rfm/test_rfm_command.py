@@ -370,6 +370,46 @@ def test_inputs_of_several_bands_are_matched_on_their_grey(tmp_path: Path, sever
     assert four["matched_on"] in page
 
 
+@pytest.mark.filterwarnings("ignore::rasterio.errors.NotGeoreferencedWarning")
+@pytest.mark.parametrize("paletted", ["image", "reference"])
+def test_a_paletted_input_is_refused_before_anything_is_made(tmp_path: Path, capsys, paletted):
+    """A colour-mapped (paletted) 8-bit raster holds indices into its colour table: matched
+    as grey levels, a reference whose table lists its greys out of order gave 'no control
+    point found: no texture ... check its georeferencing' after the whole ortho was made."""
+    from blockqc.cli import main
+
+    rpc = read_rpc(VENTOUX / "left_image.geom")
+    dem = load_dem(VENTOUX / "srtm_N44E005_crop.tif", geoid=VENTOUX / "egm96_15_crop.gtx")
+    orthorectify(VENTOUX / "left_image.tif", rpc, dem, tmp_path / "own.tif")
+    source = tmp_path / "own.tif" if paletted == "reference" else VENTOUX / "left_image.tif"
+    with rasterio.open(source) as src:
+        profile, grey = src.profile, src.read(1)
+    index = np.nan_to_num(grey / np.nanmax(grey) * 254.0).astype(np.uint8)
+    profile.update(dtype="uint8", nodata=None, photometric="palette", count=1)
+    path = tmp_path / "paletted.tif"
+    with rasterio.open(path, "w", **profile) as dst:
+        dst.write(index, 1)
+        dst.write_colormap(1, {i: ((37 * i) % 256,) * 3 + (255,) for i in range(256)})
+    image = path if paletted == "image" else VENTOUX / "left_image.tif"
+    reference = path if paletted == "reference" else tmp_path / "own.tif"
+    args = [
+        str(image), "--rpc", str(VENTOUX / "left_image.geom"),
+        "--dem", str(VENTOUX / "srtm_N44E005_crop.tif"),
+        "--geoid", str(VENTOUX / "egm96_15_crop.gtx"),
+        "--reference", str(reference), "--out", str(tmp_path / "out"),
+    ]  # fmt: skip
+    with pytest.raises(SystemExit) as exc:
+        main(["rfm-accuracy", *args])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith(
+        f"error: {path}: band 1 holds indices into a colour table (a paletted image), not grey "
+        "levels: matched as they are, neighbouring colours would be far apart; expand it first "
+        "(gdal_translate -expand rgb IN OUT) and give the expanded file"
+    )
+    assert "Traceback" not in err and not (tmp_path / "out").exists()
+
+
 def test_geoid_dem_without_geoid_is_an_input_error(tmp_path: Path, capsys):
     from blockqc.cli import main
 

@@ -347,13 +347,24 @@ def sensor_positions(
 def grey_bands(ds: object) -> tuple[int, ...]:
     """The bands an image is matched on: those it declares red, green and blue (a colour
     orthophoto; an alpha band or others left out), else band 1 (one band, or multispectral
-    bands whose colours are not declared: a near-infrared band would blur the mean)."""
+    bands whose colours are not declared: a near-infrared band would blur the mean). A band of
+    colour-table indices (a paletted image) is refused, naming the file."""
     from rasterio.enums import ColorInterp
 
     colours = (ColorInterp.red, ColorInterp.green, ColorInterp.blue)
-    pairs = zip(ds.indexes, ds.colorinterp, strict=True)  # type: ignore[attr-defined]
+    interp = ds.colorinterp  # type: ignore[attr-defined]
+    pairs = zip(ds.indexes, interp, strict=True)  # type: ignore[attr-defined]
     rgb = tuple(i for i, c in pairs if c in colours)
-    return rgb if len(rgb) == 3 else (1,)
+    chosen = rgb if len(rgb) == 3 else (1,)
+    paletted = [i for i in chosen if interp[i - 1] == ColorInterp.palette]
+    if paletted:
+        message = (
+            f"band {paletted[0]} holds indices into a colour table (a paletted image), not grey "
+            "levels: matched as they are, neighbouring colours would be far apart; expand it "
+            "first (gdal_translate -expand rgb IN OUT) and give the expanded file"
+        )
+        raise InputError(Problem(file=str(ds.name), message=message))  # type: ignore[attr-defined]
+    return chosen
 
 
 def bands_used(path: str | Path) -> dict[str, object]:

@@ -940,6 +940,8 @@ def _prepare(cfg: RfmAccuracyConfig) -> _Run:
     offset = cfg.crop_offset if cfg.crop_offset is not None else crop_offset_from_file(cfg.image)
     dem = dem_under(cfg, rpc, shape, offset)
     reference = reference_model(cfg)  # refused now, not after the image is orthorectified
+    for raster in (cfg.image, cfg.reference):
+        bands_used(raster)  # a paletted one refused now too
     if reference is not None:
         check_reference_rpc(cfg, reference)
     run = _Run(cfg, rpc, offset, dem, reference=reference)
