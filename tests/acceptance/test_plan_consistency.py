@@ -258,3 +258,35 @@ def test_a_misspelt_key_is_refused_with_the_key_it_resembles(tmp_path: Path) -> 
     assert _refusal(tmp_path, "census: false", "census: false\n  colour: red") == [
         "line 14: lots.0.colour: unknown key"  # like no key of a lot: no hint
     ]
+
+
+def test_two_strata_of_one_value_in_a_lot_are_refused(tmp_path: Path) -> None:
+    """Stratum '1' split in two by hand, every count kept: `blockqc sample` draws one stratum
+    per value, so the plan was accepted as a stratification no seed draws."""
+    edits = [
+        (
+            "  - value: '1'\n    size: 2\n    sample: 2\n    units: [F1-B01, F1-B02]\n"
+            "    sampled: [F1-B01, F1-B02]\n",
+            "  - value: '1'\n    size: 1\n    sample: 1\n    units: [F1-B01]\n"
+            "    sampled: [F1-B01]\n"
+            "  - value: '1'\n    size: 1\n    sample: 1\n    units: [F1-B02]\n"
+            "    sampled: [F1-B02]\n",
+        ),
+    ]
+    assert _refused(tmp_path, edits) == [
+        "line 20: lots.0.strata.1.value: '1' is the value of an earlier stratum of the lot: "
+        "one value, one stratum"
+    ]
+
+
+def test_a_lot_or_a_stratum_without_units_is_refused(tmp_path: Path) -> None:
+    """Counts of 0 agree with empty lists: a lot or stratum of no units was read unsaid."""
+    lot = "- size: 0\n  sample_size: 0\n  census: true\n  strata: []\n  sampled: []\n"
+    assert _refused(tmp_path, [("\nsampled: [F1", f"\n{lot}sampled: [F1")]) == [
+        "line 29: lots.1.strata: a lot is at least one stratum of units; it lists none"
+    ]
+    stratum = "  - value: '3'\n    size: 0\n    sample: 0\n    units: []\n    sampled: []\n"
+    at = "  sampled: [F1-B01, F1-B02, F2"
+    assert _refused(tmp_path, [(at, f"{stratum}{at}")]) == [
+        "line 28: lots.0.strata.2.units: a stratum lists its units, at least one"
+    ]

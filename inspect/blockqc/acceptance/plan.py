@@ -197,6 +197,8 @@ def _once(loc: tuple[str | int, ...], units: list[str]) -> list[Mismatch]:
 
 def _stratum_problems(s: StratumPlan, at: tuple[str | int, ...]) -> list[Mismatch]:
     out = _once((*at, "units"), s.units) + _once((*at, "sampled"), s.sampled)
+    if not s.units:  # `blockqc sample` makes a stratum of the units that give its value
+        out.append(((*at, "units"), "a stratum lists its units, at least one"))
     out += _count((*at, "size"), s.size, s.units, "the stratum lists")
     out += _count((*at, "sample"), s.sample, s.sampled, "the stratum samples")
     out += [
@@ -207,11 +209,29 @@ def _stratum_problems(s: StratumPlan, at: tuple[str | int, ...]) -> list[Mismatc
     return out
 
 
+def _values_once(lot: LotPlan, at: tuple[str | int, ...]) -> list[Mismatch]:
+    """A lot is at least one stratum, each value once: two strata of one value would be
+    allocated and drawn apart, where `blockqc sample` draws one stratum per value."""
+    if not lot.strata:
+        return [((*at, "strata"), "a lot is at least one stratum of units; it lists none")]
+    seen: set[str] = set()
+    out = []
+    for j, s in enumerate(lot.strata):
+        if s.value in seen:
+            why = (
+                f"'{s.value}' is the value of an earlier stratum of the lot: one value, one stratum"
+            )
+            out.append(((*at, "strata", j, "value"), why))
+        seen.add(s.value)
+    return out
+
+
 def _lot_problems(lot: LotPlan, at: tuple[str | int, ...]) -> list[Mismatch]:
     out = [p for j, s in enumerate(lot.strata) for p in _stratum_problems(s, (*at, "strata", j))]
     units = [u for s in lot.strata for u in s.units]
     drawn = [u for s in lot.strata for u in s.sampled]
     out += _count((*at, "size"), lot.size, units, "its strata list")
+    out += _values_once(lot, at)
     out += _once((*at, "sampled"), lot.sampled)
     out += _same((*at, "sampled"), lot.sampled, drawn, "the sampled blocks of its strata")
     out += _count((*at, "sample_size"), lot.sample_size, lot.sampled, "the lot samples")
