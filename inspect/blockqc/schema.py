@@ -225,11 +225,23 @@ def did_you_mean(choices: Iterable[object]) -> Callable[[object], str]:
         padded = zeros.get(text.lstrip("0")) if text.isdigit() else None
         if padded is not None and padded != text:  # ids stored as numbers: 0012 read as 12
             return f"; did you mean '{padded}'? (its leading zeros lost: give the ids as text)"
-        same = folded.get(text.casefold())
-        close = [same] if same else difflib.get_close_matches(text, pool, n=1, cutoff=0.6)
-        return f"; did you mean '{close[0]}'?" if close else ""
+        close = _closest(text, pool, folded)
+        return f"; did you mean '{close}'?" if close else ""
 
     return hint
+
+
+def closest(choices: Iterable[object], value: object) -> str | None:
+    """The choice a misspelt value stands for, as `did_you_mean` finds it; None when none is."""
+    pool = [str(c) for c in choices]
+    return _closest(str(value).strip(), pool, {c.casefold(): c for c in reversed(pool)})
+
+
+def _closest(text: str, pool: list[str], folded: dict[str, str]) -> str | None:
+    """The same but for case, else the closest (difflib, ratio ≥ 0.6), else None."""
+    same = folded.get(text.casefold())
+    close = [same] if same else difflib.get_close_matches(text, pool, n=1, cutoff=0.6)
+    return close[0] if close else None
 
 
 def _show(value: object) -> str:

@@ -154,11 +154,18 @@ def _key_line(path: Path, start: str) -> int:
 def test_a_missing_strata_key_is_named_as_a_key_of_block_yaml(tmp_path: Path) -> None:
     batch = _batch(tmp_path / "batch", [{"class": "flat"}])
     manifest = batch / "B00" / "block.yaml"
-    for key, where in (("producer", ""), ("zone.klass", f", line {_key_line(manifest, 'zone:')}")):
+    line = f", line {_key_line(manifest, 'zone:')}"
+    for key, where, hint in (
+        ("producer", "", ""),
+        ("zone.klass", line, "; did you mean 'zone.class'?"),
+        ("Zone.class", "", "; did you mean 'zone.class'?"),
+        ("zome", "", "; did you mean 'zone'?"),
+        ("zone.size", line, ""),
+    ):
         with pytest.raises(InputError) as exc:
             read_units(batch, key)
         assert [str(p) for p in exc.value.problems] == [
-            f"{manifest}{where}: no key '{key}' in block.yaml to stratify by"
+            f"{manifest}{where}: no key '{key}' in block.yaml to stratify by{hint}"
         ]
 
 

@@ -71,7 +71,7 @@ def read_units(batch: Path, key: str | None) -> tuple[list[str], dict[str, str] 
                 strata[m.block_id] = stratum_of(given, key)
                 values[path / MANIFEST] = lookup(given, key)
             except KeyError:
-                why = f"no key '{key}' in block.yaml to stratify by"
+                why = f"no key '{key}' in block.yaml to stratify by{_key_hint(given, key)}"
                 problems.append(_key_problem(path / MANIFEST, key.split(".")[:-1], why))
             except ValueError as exc:
                 problems.append(_key_problem(path / MANIFEST, key.split("."), str(exc)))
@@ -80,6 +80,25 @@ def read_units(batch: Path, key: str | None) -> tuple[list[str], dict[str, str] 
         raise InputError(problems)
     ids = [got.manifests[p].block_id for p in got.deliveries]
     return ids, strata if key else None
+
+
+def _key_hint(data: dict[str, Any], key: str) -> str:
+    """ "; did you mean 'x'?" for a strata key misspelt (test_feild, gsd_m.PAN): the key of
+    block.yaml, at the level where the key is not found, that is close to the part given."""
+    from blockqc.schema import closest
+
+    parts = key.split(".")
+    value: Any = data
+    for i, part in enumerate(parts):
+        if not isinstance(value, dict):
+            return ""
+        if part not in value:
+            close = closest([k for k in value if isinstance(k, str)], part)
+            if close is None:
+                return ""
+            return f"; did you mean '{'.'.join([*parts[:i], close, *parts[i + 1 :]])}'?"
+        value = value[part]
+    return ""
 
 
 def _number_as_text(key: str, values: dict[Path, Any]) -> list[Problem]:
