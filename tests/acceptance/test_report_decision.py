@@ -149,3 +149,57 @@ def test_a_decision_left_out_over_evaluated_blocks_is_refused(failing, tmp_path,
         f"error: {copy / 'summary.json'}: $.acceptance is null, but its blocks' results files "
         "are evaluated (block F1-B01): the batch decision is left out (inspect again)"
     ]
+
+
+def _block_edited(tmp_path: Path, out: Path, block: str, edit: Any) -> Path:
+    """A copy of one block's results file with its evaluation changed by `edit`."""
+    copy = tmp_path / "in" / block
+    shutil.copytree(out / block, copy)
+    doc = json.loads((copy / "results.json").read_text(encoding="utf-8"))
+    edit(doc["evaluation"])
+    (copy / "results.json").write_text(json.dumps(doc), encoding="utf-8")
+    return copy / "results.json"
+
+
+def _block_refused(tmp_path: Path, capsys, out: Path, edit: Any) -> list[str]:
+    path = _block_edited(tmp_path, out, "F3-B01", edit)
+    capsys.readouterr()
+    assert run("report", path, "--out", tmp_path / "re", "--no-pdf") == 2
+    assert not (tmp_path / "re").exists()
+    return [line.removeprefix(f"error: {path}: ") for line in capsys.readouterr().err.splitlines()]
+
+
+def test_an_evaluation_score_its_elements_do_not_make_is_refused(failing, tmp_path, capsys):
+    """F3-B01: data 20 (basis 100 × .2; plane, height and edge 0 with their A-class errors),
+    layout 100, attachment 100: .6·20 + .2·100 + .2·100 = 52. A score edited to 95 was
+    re-rendered as the block's."""
+    err = _block_refused(tmp_path, capsys, failing, lambda ev: ev.update(score=95.0))
+    assert err == ["$.evaluation.score is 95.0, but its elements make it 52.0 (inspect again)"]
+
+
+def test_an_item_score_its_record_does_not_make_is_refused(failing, tmp_path, capsys):
+    """The edge item holds RO-3's A-class error: 0, whatever its accuracy scores. Edited to 94.7,
+    its element's 20 is no longer the weighted mean of its items either:
+    (.2·100 + .3·0 + .3·0 + .2·94.7) / 1 = 38.94."""
+
+    def edit(ev: dict[str, Any]) -> None:
+        ev["elements"][0]["items"][3]["score"] = 94.7
+
+    assert _block_refused(tmp_path, capsys, failing, edit) == [
+        "$.evaluation.elements[0].items[3] (edge_accuracy).score is 94.7, but its record makes "
+        "it 0.0 (inspect again)",
+        "$.evaluation.elements[0] (data).score is 20.0, but its items make 38.94 (inspect again)",
+    ]
+
+
+def test_a_block_with_a_class_errors_said_not_to_fail_is_refused(failing, tmp_path, capsys):
+    err = _block_refused(tmp_path, capsys, failing, lambda ev: ev.update(fails=False))
+    assert err == [
+        "$.evaluation.fails is false, but the block has element data below 60: it fails "
+        "(§QE-2) (inspect again)"
+    ]
+
+
+def test_the_evaluations_inspect_writes_are_re_rendered_alone(failing, tmp_path) -> None:
+    for block in ("F1-B01", "F3-B01", "F3-B02"):
+        assert run("report", failing / block, "--out", tmp_path / block, "--no-pdf") == 0

@@ -240,3 +240,59 @@ def _group_text(group: dict[str, Any]) -> str:
 
 def _num(v: Any) -> str:
     return f"{v:.2f}" if isinstance(v, float) else str(v)
+
+
+#: where an evaluation's figure disagrees with those it is made of, and how
+Disagreement = tuple[str, str]
+
+
+def _differs(given: float | None, made: float | None) -> bool:
+    if given is None or made is None:
+        return given is not made
+    return not math.isclose(given, made, rel_tol=1e-9, abs_tol=1e-9)
+
+
+def _item_score(item: ItemScore) -> float | None:
+    """An item's score from its own record: 0 with an A-class error, else its lowest accuracy
+    score (100 without one) less its deduction, at least 0; None when it was not inspected."""
+    if not item.inspected:
+        return None
+    if item.counts.get("A", 0):
+        return 0.0
+    scored = [r.score for r in item.accuracy if r.score is not None]
+    return max(0.0, settled((min(scored) if scored else 100.0) - item.deduction))
+
+
+def _counted(errors: list[ErrorRecord]) -> dict[str, int]:
+    return {c: sum(x.error_class == c for x in errors) for c in CLASSES}
+
+
+def recheck(ev: Evaluation) -> list[Disagreement]:
+    """The figures of a stored evaluation that its parts do not make (a results.json edited):
+    each item's errors by class and score, each element's score over its items, the block's
+    over its elements (the weights as stored), its errors by class, and `fails` with an A-class
+    error or an element below `element_fail_below`. Each as (JSON path, why)."""
+    out: list[Disagreement] = []
+    for i, el in enumerate(ev.elements):
+        for j, it in enumerate(el.items):
+            at = f"elements[{i}].items[{j}] ({it.id})"
+            if {c: it.counts.get(c, 0) for c in CLASSES} != _counted(it.errors):
+                out.append(
+                    (f"{at}.counts", f"{it.counts}, but its errors make {_counted(it.errors)}")
+                )
+            if _differs(it.score, made := _item_score(it)):
+                out.append((f"{at}.score", f"{it.score}, but its record makes it {made}"))
+        made = weighted((it.weight, it.score) for it in el.items)
+        if _differs(el.score, made):
+            out.append((f"elements[{i}] ({el.id}).score", f"{el.score}, but its items make {made}"))
+    made = weighted((el.weight, el.score) for el in ev.elements)
+    if _differs(ev.score, made):
+        out.append(("score", f"{ev.score}, but its elements make it {made}"))
+    errors = _unique([x for e in ev.elements for i in e.items for x in i.errors] + ev.other_errors)
+    if {c: ev.counts.get(c, 0) for c in CLASSES} != _counted(errors):
+        out.append(("counts", f"{ev.counts}, but its errors make {_counted(errors)}"))
+    low = [e.id for e in ev.elements if e.score is not None and e.score < ev.element_fail_below]
+    if not ev.fails and (low or _counted(errors)["A"]):
+        why = f"element {low[0]} below {ev.element_fail_below:g}" if low else "an A-class error"
+        out.append(("fails", f"false, but the block has {why}: it fails (§QE-2)"))
+    return out

@@ -185,9 +185,23 @@ def _check_results(path: Path, doc: Any) -> BlockResults:
     _strict(path, doc, "results")
     results = parse(doc, str(path), "results")
     problems = _contradictions(path, results) + drawn_problems(path, results)
+    problems += _evaluation_contradictions(path, results)
     if problems:
         raise InputError(problems)
     return results
+
+
+def _evaluation_contradictions(path: Path, doc: BlockResults) -> list[Problem]:
+    """The evaluation's figures must be those its items and elements make (§QE-2..5): a score
+    edited would be shown as the block's, its grade and the batch decision drawn from it."""
+    from blockqc.acceptance.scoring import recheck
+
+    if doc.evaluation is None:
+        return []
+    return [
+        Problem(str(path), f"$.evaluation.{at} is {why} (inspect again)")
+        for at, why in recheck(doc.evaluation)
+    ]
 
 
 def _check_summary(path: Path, doc: Any) -> Summary:
