@@ -203,3 +203,14 @@ def test_a_block_with_a_class_errors_said_not_to_fail_is_refused(failing, tmp_pa
 def test_the_evaluations_inspect_writes_are_re_rendered_alone(failing, tmp_path) -> None:
     for block in ("F1-B01", "F3-B01", "F3-B02"):
         assert run("report", failing / block, "--out", tmp_path / block, "--no-pdf") == 0
+
+
+def test_the_decision_pages_show_what_each_a_class_error_misses(failing, tmp_path) -> None:
+    """F3-B02 is returned for RO-3: its plane discrepancy 36.42 m against the tolerance 2√2·m
+    = 2·1.4142·10 = 28.28 m. The pages said '36.42 (fails its threshold)' alone."""
+    summary = (failing / "summary.html").read_text(encoding="utf-8")
+    assert "RO-3 Plane 36.42 m (fails its threshold: &lt; 28.28 m)" in summary
+    assert run("report", failing, "--out", tmp_path / "zh", "--lang", "zh", "--no-pdf") == 0
+    for page in ("summary.html", "acceptance.html"):
+        text = (tmp_path / "zh" / page).read_text(encoding="utf-8")
+        assert "RO-3 平面 36.42 m（超出限值：&lt; 28.28 m）" in text

@@ -329,3 +329,64 @@ def test_the_reasons_of_a_block_are_punctuated_in_chinese() -> None:
         "A-class error: RO-3 Plane 36.42 (fails its threshold)",
         f"CP-1: {NO_CHECKPOINTS}",
     ]
+
+
+def test_the_a_class_errors_of_the_batch_pages_show_what_they_miss() -> None:
+    """summary.html and acceptance.html listed 'CP-4 Plane · High-precision data 37.50 (fails
+    its threshold)': neither the unit (a share or metres?) nor the threshold failed. They now
+    read as the block report's table: the value with its unit, and the threshold it fails or,
+    beyond the norm (§QE-3), the norm m0 it exceeds."""
+    from blockqc.acceptance.model import BlockGrade, ErrorRecord
+    from blockqc.report.acceptance import _reasons
+
+    rate = ErrorRecord(
+        rule="CP-4",
+        error_class="A",
+        group={"component": "plane", "method": "high_precision"},
+        value=37.5,
+        threshold=5.0,
+        comparison="<",
+        unit="%",
+        reason="fails its threshold",
+    )
+    # a pack whose threshold (≤ 20 m) is wider than the norm: 15.7 m passes it, beyond m0 = 10
+    beyond = ErrorRecord(
+        rule="CP-2",
+        error_class="A",
+        group={"component": "plane"},
+        value=15.7,
+        threshold=20.0,
+        comparison="<=",
+        unit="m",
+        norm=10.0,
+        reason="beyond the norm",
+    )
+    line = BlockGrade(block_id="B1", sampled=True, fails=True, a_errors=[rate, beyond])
+    assert _reasons(line, Formatter("en")) == [
+        "A-class error: CP-4 Plane · High-precision data 37.50 % (fails its threshold: < 5 %)",
+        "A-class error: CP-2 Plane 15.70 m (beyond the norm: 10 m)",
+    ]
+    assert _reasons(line, Formatter("zh")) == [
+        "A 类错漏：CP-4 平面 · 高精度数据法 37.50 %（超出限值：< 5 %）",
+        "A 类错漏：CP-2 平面 15.70 m（超过规定中误差：10 m）",
+    ]
+
+
+def test_the_a_class_errors_of_a_block_record_what_they_miss() -> None:
+    """The error records of an evaluation keep the comparison and unit of their result, and an
+    error beyond the norm its norm, for the pages to show."""
+    from blockqc.acceptance.scoring import Finding, score_item
+
+    acc = load_pack("global-project").acceptance
+    item = score_item(
+        [
+            Finding("CP-2", "fail", (), "C", 15.7, 10.0, norm=10.0, comparison="<=", unit="m"),
+            Finding("RO-3", "fail", (), "A", 38.98, 28.28, comparison="<", unit="m"),
+        ],
+        acc,
+    )
+    got = [(x.rule, x.error_class, x.reason, x.comparison, x.unit, x.norm) for x in item.errors]
+    assert got == [
+        ("CP-2", "A", "beyond the norm", "<=", "m", 10.0),
+        ("RO-3", "A", "fails its threshold", "<", "m", None),
+    ]

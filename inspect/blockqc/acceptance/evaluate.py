@@ -85,6 +85,8 @@ def findings(
                 threshold=res.threshold,
                 norm=norm,
                 group=res.group,
+                comparison=res.comparison,
+                unit=res.unit,
             )
         )
     return out

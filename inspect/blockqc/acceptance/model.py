@@ -251,6 +251,10 @@ class ErrorRecord(_M):
     value: object = None
     threshold: object = None
     reason: str = ""  # e.g. "medium error beyond the norm"
+    # as the rule's result gives them, so that pages show the value and threshold as it does
+    comparison: str | None = None
+    unit: str = ""
+    norm: float | None = None  # of an error beyond the norm (§QE-3): the norm m0 it exceeds
 
 
 class AccuracyRecord(_M):

@@ -44,6 +44,8 @@ class Finding:
     threshold: Any = None
     norm: float | None = None  # set for results scored as mathematical accuracy
     group: dict[str, Any] = field(default_factory=dict)
+    comparison: str | None = None
+    unit: str = ""
 
 
 def settled(score: float) -> float:
@@ -72,7 +74,7 @@ def _deduction(counts: dict[str, int], acc: Acceptance) -> float:
     return (d.B * counts.get("B", 0) + d.C * counts.get("C", 0) + d.D * counts.get("D", 0)) / d.t
 
 
-def _error(f: Finding, cls: ErrorClass, reason: str) -> ErrorRecord:
+def _error(f: Finding, cls: ErrorClass, reason: str, norm: float | None = None) -> ErrorRecord:
     return ErrorRecord(
         rule=f.rule,
         error_class=cls,
@@ -80,6 +82,9 @@ def _error(f: Finding, cls: ErrorClass, reason: str) -> ErrorRecord:
         value=f.value,
         threshold=f.threshold,
         reason=reason,
+        comparison=f.comparison,
+        unit=f.unit,
+        norm=norm,
     )
 
 
@@ -91,7 +96,7 @@ def _judge_finding(f: Finding, acc: Acceptance) -> tuple[AccuracyRecord | None, 
             return None, None  # waived by the inspector: no error, nothing to score beyond
         rec = AccuracyRecord(rule=f.rule, group=f.group, value=f.value, norm=f.norm, score=s)
         if s is None:
-            return rec, _error(f, "A", "beyond the norm")
+            return rec, _error(f, "A", "beyond the norm", f.norm)
         if f.status == "fail":
             return rec, _error(f, f.error_class, "fails its threshold")
         return rec, None

@@ -37,15 +37,35 @@ def _why(x: ErrorRecord, f: Formatter) -> str:
     return f.t("err_beyond_norm") if x.reason == "beyond the norm" else f.t("err_fails")
 
 
-def _error_row(x: ErrorRecord, f: Formatter, results: Sequence[RuleResult] = ()) -> dict[str, Any]:
-    """An error with its value and threshold as the rule that found it shows them: with its
-    unit and comparison ("37.50 %", "< 5 %"), else as recorded."""
+def _shown(x: ErrorRecord, f: Formatter, results: Sequence[RuleResult] = ()) -> tuple[str, str]:
+    """An error's value and threshold as the rule that found it shows them, with its unit and
+    comparison ("37.50 %", "< 5 %"): from its result, else as the error records them (a record
+    written before it kept them: the bare figures)."""
     res = next((r for r in results if r.rule == x.rule and r.group == x.group), None)
+    if res is None and x.comparison is None and not x.unit:
+        return f.cell(x.value), f.cell(x.threshold)
     if res is None:
-        value, threshold = f.cell(x.value), f.cell(x.threshold)
-    else:
-        shown = res.model_copy(update={"value": x.value, "threshold": x.threshold})
-        value, threshold = f.value(shown), f.threshold(shown)
+        res = RuleResult.model_construct(comparison=x.comparison, unit=x.unit, threshold_text="")
+    shown = res.model_copy(update={"value": x.value, "threshold": x.threshold})
+    return f.value(shown), f.threshold(shown)
+
+
+def _evidence(x: ErrorRecord, f: Formatter, colon: str, lp: str, rp: str) -> str:
+    """An A-class error's value and what it misses: the norm it exceeds (§QE-3), else the
+    threshold it fails ("15.70 m (beyond the norm: 10 m)", "37.50 % (fails its threshold:
+    < 5 %)"); a record without them (written before they were kept) with its value alone."""
+    value, threshold = _shown(x, f)
+    if x.reason == "beyond the norm" and x.norm is not None:
+        norm = RuleResult.model_construct(value=x.norm, threshold=None, unit=x.unit)
+        threshold = f.value(norm)
+    elif x.comparison is None and not x.unit:
+        return f"{value}{lp}{_why(x, f)}{rp}"
+    return f"{value}{lp}{_why(x, f)}{colon}{threshold}{rp}"
+
+
+def _error_row(x: ErrorRecord, f: Formatter, results: Sequence[RuleResult] = ()) -> dict[str, Any]:
+    """An error with its value and threshold as the rule that found it shows them."""
+    value, threshold = _shown(x, f, results)
     return {
         "rule": x.rule,
         "group": f.group(x.group),
@@ -281,7 +301,7 @@ def _reasons(b: Any, f: Formatter) -> list[str]:
     colon, lp, rp = ("：", "（", "）") if f.lang == "zh" else (": ", " (", ")")
     out = [
         f"{f.t('a_class_error')}{colon}{x.rule}{(' ' + f.group(x.group)) if x.group else ''} "
-        f"{f.num(x.value)}{lp}{_why(x, f)}{rp}"
+        f"{_evidence(x, f, colon, lp, rp)}"
         for x in b.a_errors
     ]
     out += [
