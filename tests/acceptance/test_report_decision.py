@@ -214,3 +214,26 @@ def test_the_decision_pages_show_what_each_a_class_error_misses(failing, tmp_pat
     for page in ("summary.html", "acceptance.html"):
         text = (tmp_path / "zh" / page).read_text(encoding="utf-8")
         assert "RO-3 平面 36.42 m（超出限值：&lt; 28.28 m）" in text
+
+
+def test_a_grade_its_score_does_not_make_is_refused(failing, tmp_path, capsys):
+    """A block that fails (§QE-2) is graded fail whatever its score; one that does not takes the
+    first grade its score reaches (§QE-5: excellent ≥ 90). An edited grade was shown on the
+    block report beside the score ('52.0 — Excellent')."""
+
+    def excellent(ev: dict[str, Any]) -> None:
+        ev.update(grade="excellent", grade_title="Excellent", grade_title_zh="优")
+
+    assert _block_refused(tmp_path, capsys, failing, excellent) == [
+        '$.evaluation.grade is "excellent", but the block fails (§QE-2), so fail by '
+        "global-project's grades (inspect again)"
+    ]
+    path = _block_edited(tmp_path / "2", failing, "F1-B01", lambda ev: ev.update(grade="good"))
+    score = json.loads(path.read_text(encoding="utf-8"))["evaluation"]["score"]
+    assert score >= 90
+    capsys.readouterr()
+    assert run("report", path, "--out", tmp_path / "re2", "--no-pdf") == 2
+    assert capsys.readouterr().err.splitlines() == [
+        f'error: {path}: $.evaluation.grade is "good", but the block scores {score}: excellent '
+        "by global-project's grades (inspect again)"
+    ]

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -198,10 +199,26 @@ def _evaluation_contradictions(path: Path, doc: BlockResults) -> list[Problem]:
 
     if doc.evaluation is None:
         return []
-    return [
-        Problem(str(path), f"$.evaluation.{at} is {why} (inspect again)")
-        for at, why in recheck(doc.evaluation)
-    ]
+    found = recheck(doc.evaluation)
+    if not found:
+        found = _grade_contradiction(doc)
+    return [Problem(str(path), f"$.evaluation.{at} is {why} (inspect again)") for at, why in found]
+
+
+def _grade_contradiction(doc: BlockResults) -> list[tuple[str, str]]:
+    """The grade an evaluation gives against the one its score and `fails` make by the grades
+    of the pack that judged it (§QE-5), when that pack is found as it was."""
+    ev = doc.evaluation
+    assert ev is not None
+    files = doc.rule_pack_files[:1]
+    acc = next(_acceptances(doc.rule_pack, doc.rule_pack_version, files), None)
+    if acc is None:
+        return []
+    made = acc.fail_grade if ev.fails else acc.grade(ev.score) if ev.score is not None else None
+    if ev.grade == (made.id if made else None):
+        return []
+    why = f"fails (§QE-2), so {made.id}" if ev.fails else f"scores {ev.score}: {made and made.id}"
+    return [("grade", f"{_json(ev.grade)}, but the block {why} by {doc.rule_pack}'s grades")]
 
 
 def _check_summary(path: Path, doc: Any) -> Summary:
@@ -690,15 +707,25 @@ def _pack_acceptance(summary: Summary, made: list[BlockResults]) -> Any:
     """The acceptance section of the pack that judged the blocks: its top file as the results
     files record it, else the stock pack of its name; None when neither is found, or either is
     not that pack as it was (another name or version, other grades or standard)."""
+    given = summary.acceptance
+    assert given is not None
+    files = [r.rule_pack_files[0] for r in made if r.rule_pack_files]
+    for acc in _acceptances(summary.rule_pack, summary.rule_pack_version, files):
+        if [*acc.grades, acc.fail_grade] == given.grades and acc.standard == given.standard:
+            return acc
+    return None
+
+
+def _acceptances(name: str, version: str, files: list[str]) -> Iterator[Any]:
+    """The acceptance sections of the packs `name` `version` found: at the top files a run
+    recorded (`files`), then the stock pack of that name (a pack since changed is none)."""
     from blockqc.errors import BlockqcError
     from blockqc.resources import rules_dir
     from blockqc.rules.loader import available_packs, read_pack
 
-    given = summary.acceptance
-    assert given is not None
-    refs = [Path(r.rule_pack_files[0]) for r in made if r.rule_pack_files]
-    if summary.rule_pack in available_packs():
-        refs.append(rules_dir() / f"{summary.rule_pack}.yaml")
+    refs = [Path(f) for f in files]
+    if name in available_packs():
+        refs.append(rules_dir() / f"{name}.yaml")
     for ref in dict.fromkeys(refs):
         if not ref.is_file():  # a file since moved, or a pipe the run read (--rules <(...))
             continue
@@ -706,15 +733,9 @@ def _pack_acceptance(summary: Summary, made: list[BlockResults]) -> Any:
             pack, problems = read_pack(ref)
         except (BlockqcError, OSError, ValueError):
             continue
-        acc = pack.acceptance if pack is not None and not problems else None
-        if acc is None or (pack.name, pack.version) != (
-            summary.rule_pack,
-            summary.rule_pack_version,
-        ):
-            continue
-        if [*acc.grades, acc.fail_grade] == given.grades and acc.standard == given.standard:
-            return acc
-    return None
+        if pack is not None and not problems and pack.acceptance is not None:
+            if (pack.name, pack.version) == (name, version):
+                yield pack.acceptance
 
 
 def _decision_difference(name: str, given: Any, made: Any) -> str | None:
