@@ -237,3 +237,16 @@ def test_a_grade_its_score_does_not_make_is_refused(failing, tmp_path, capsys):
         f'error: {path}: $.evaluation.grade is "good", but the block scores {score}: excellent '
         "by global-project's grades (inspect again)"
     ]
+
+
+def test_the_signature_lines_of_the_chinese_acceptance_page_take_a_full_width_colon(
+    failing, tmp_path
+) -> None:
+    """acceptance.html in Chinese read '编写: Li Wei' (an ASCII colon and a space), where the
+    block report and every other label of the page read '编写：'."""
+    assert run("report", failing, "--out", tmp_path / "zh", "--lang", "zh", "--no-pdf") == 0
+    text = (tmp_path / "zh" / "acceptance.html").read_text(encoding="utf-8")
+    for label in ("编写", "审核", "批准"):
+        assert f"{label}：" in text and f"{label}: " not in text
+    assert run("report", failing, "--out", tmp_path / "en", "--no-pdf") == 0
+    assert "Prepared by: " in (tmp_path / "en" / "acceptance.html").read_text(encoding="utf-8")
