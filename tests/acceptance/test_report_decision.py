@@ -250,3 +250,20 @@ def test_the_signature_lines_of_the_chinese_acceptance_page_take_a_full_width_co
         assert f"{label}：" in text and f"{label}: " not in text
     assert run("report", failing, "--out", tmp_path / "en", "--no-pdf") == 0
     assert "Prepared by: " in (tmp_path / "en" / "acceptance.html").read_text(encoding="utf-8")
+
+
+def test_the_source_of_the_sample_is_bracketed_in_the_pages_language(failing, tmp_path) -> None:
+    """The Chinese pages read 'F1-B01, F2-B01, F3-B01, F4-B01 (带检查点的区域网（未给出抽样方案）)':
+    ASCII brackets around Chinese text holding full-width ones."""
+    assert run("report", failing, "--out", tmp_path / "zh", "--lang", "zh", "--no-pdf") == 0
+    for page in ("summary.html", "acceptance.html"):
+        text = (tmp_path / "zh" / page).read_text(encoding="utf-8")
+        assert (
+            'F1-B01, F2-B01, F3-B01, F4-B01<span class="note">'
+            "（带检查点的区域网（未给出抽样方案））</span>" in text
+        )
+    text = (failing / "summary.html").read_text(encoding="utf-8")
+    assert (
+        'F1-B01, F2-B01, F3-B01, F4-B01<span class="note"> (the blocks that carry checkpoints '
+        "(no sampling plan given))</span>" in text
+    )

@@ -205,10 +205,13 @@ def decision_context(s: Summary, f: Formatter) -> dict[str, Any] | None:
     if d is None:
         return None
     grade = {b.block_id: b for b in s.blocks}
+    source = f.t("sample_by_plan") if d.sample_source == "plan" else f.t("sample_by_cps")
     return {
         "decision": d.decision,
         "decision_text": f._key("decision", d.decision, d.decision),
-        "source": f.t("sample_by_plan") if d.sample_source == "plan" else f.t("sample_by_cps"),
+        "source": source,
+        # beside the sample, in the page's brackets: a full-width one takes no space before it
+        "source_note": f"（{source}）" if f.lang == "zh" else f" ({source})",
         "sample": id_list(d.sample),
         "mean": f.score(d.mean_score),
         "sample_grade": grade_text(f, d.sample_grade),
