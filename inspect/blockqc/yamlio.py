@@ -219,7 +219,7 @@ def pydantic_problems(
             msg = f"a key YAML reads as {yaml_kind(key)}, not text: write it in quotes"
             loc = (*loc, key)
         elif err["type"] == "extra_forbidden":
-            msg = "unknown key" + _known_key_hint(model, err["loc"])
+            msg = "unknown key" + known_key_hint(model, err["loc"])
         elif err["type"] in ("model_type", "model_attributes_type", "dataclass_type"):
             msg = f"expected a mapping of keys, got {yaml_kind(err.get('input'))}"
         msg = (say(err) if say else None) or msg
@@ -227,7 +227,7 @@ def pydantic_problems(
     return problems
 
 
-def _known_key_hint(model: Any, loc: tuple[Any, ...]) -> str:
+def known_key_hint(model: Any, loc: tuple[Any, ...]) -> str:
     """The hint "; did you mean 'x'?" for the unknown key at the end of `loc` when the model
     takes a key close to it there (through its mappings, lists and optional members); else ''."""
     from blockqc.schema import did_you_mean

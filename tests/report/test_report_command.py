@@ -566,3 +566,25 @@ def test_a_reader_that_stops_reading_stops_no_rendering(batch_out, tmp_path):
     assert proc.returncode == 0 and "Traceback" not in proc.stderr, proc.stderr
     assert sorted(p.parent.name for p in out.glob("*/report.html")) == ["F1-B01", "F1-B02"]
     assert (out / "summary.html").is_file()
+
+
+def test_an_unknown_key_of_a_results_file_is_named_with_the_key_it_resembles(tmp_path, capsys):
+    """A key misspelt in a results.json edited by hand was refused as pydantic words it ('Extra
+    inputs are not permitted'), where every other file of blockqc says 'unknown key' and the
+    key meant."""
+    doc = {
+        "block_id": "X",
+        "rule_pack": "p",
+        "verdcit": "pass",
+        "results": [{"rule": "A", "title": "a", "clause": "§A", "status": "pass", "zzz": 1}],
+    }
+    bad = tmp_path / "results.json"
+    bad.write_text(json.dumps(doc), encoding="utf-8")
+    assert run("report", str(bad), "--out", str(tmp_path / "out"), "--no-pdf") == 2
+    said = f"error: {bad}: not a valid results.json: at "
+    assert capsys.readouterr().err.splitlines() == [
+        f"{said}$.verdict: Field required",
+        f"{said}$.results[0].zzz: unknown key (not in the schema of results.json: blockqc "
+        "schema results)",
+        f"{said}$.verdcit: unknown key; did you mean 'verdict'?",
+    ]

@@ -91,10 +91,22 @@ def _strict(path: Path, doc: Any, kind: str) -> None:
     except ValidationError as exc:
         raise InputError(
             [
-                Problem(str(path), f"not a valid {kind}.json: at {json_path(e['loc'])}: {e['msg']}")
+                Problem(str(path), f"not a valid {kind}.json: at {json_path(e['loc'])}: {msg}")
                 for e in exc.errors()[:20]
+                for msg in [_schema_says(e, model, kind)]
             ]
         ) from None
+
+
+def _schema_says(err: Any, model: Any, kind: str) -> str:
+    """A schema error in the project's words: a key the document's schema does not hold is an
+    unknown key, with the key it resembles (a key misspelt, or one of another version)."""
+    from blockqc.yamlio import known_key_hint
+
+    if err["type"] != "extra_forbidden":
+        return err["msg"]
+    hint = known_key_hint(model, err["loc"])
+    return f"unknown key{hint or f' (not in the schema of {kind}.json: blockqc schema {kind})'}"
 
 
 def _contradictions(path: Path, doc: BlockResults) -> list[Problem]:
