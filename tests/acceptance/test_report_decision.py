@@ -267,3 +267,31 @@ def test_the_source_of_the_sample_is_bracketed_in_the_pages_language(failing, tm
         'F1-B01, F2-B01, F3-B01, F4-B01<span class="note"> (the blocks that carry checkpoints '
         "(no sampling plan given))</span>" in text
     )
+
+
+def test_a_sampled_block_with_rules_failed_is_listed_in_the_decision_section(tmp_path) -> None:
+    """One simulated block on a 2×2 grid of 20 observations per scene fails TP-4 (class C) and
+    TP-5 (class D): its evaluation passes (no A-class error, no element below 60), so the sample
+    passes. summary.html's decision section said 'Accepted (pass)' without naming the block or
+    its rules failed, as acceptance.html and the blocks returned for correction do; its grade
+    is shown as a pass, not in the colour of a failure."""
+    batch, out = tmp_path / "batch", tmp_path / "out"
+    args = ("--fields", "1", "--blocks-per-field", "1", "--grid", "2x2", "--obs-per-scene", "20")
+    assert run_blockqc("simulate", batch, *args, "--seed", "1").returncode == 0
+    (tmp_path / "v.yaml").write_text(VERDICTS, encoding="utf-8")
+    p = run_blockqc("inspect", batch, "--verdicts", tmp_path / "v.yaml", "--out", out, "--no-pdf")
+    assert p.returncode == 1, p.stderr
+    decision = json.loads((out / "summary.json").read_text(encoding="utf-8"))["acceptance"]
+    assert decision["decision"] == "pass" and decision["blocks"][0]["failed_rules"] == [
+        "TP-4",
+        "TP-5",
+    ]
+    for lang, title, rules in (
+        ("en", "Sampled blocks with rules failed that do not fail the sample (1)", "TP-4, TP-5"),
+        ("zh", "有规则未通过但不致样本不合格的样本单位 (1)", "TP-4、TP-5"),
+    ):
+        assert run("report", out, "--out", tmp_path / lang, "--lang", lang, "--no-pdf") == 0
+        page = (tmp_path / lang / "summary.html").read_text(encoding="utf-8")
+        section = page.split('<section id="decision-section">', 1)[1].split("</section>", 1)[0]
+        assert title in section and '<td class="id">F1-B01</td>' in section and rules in section
+        assert 'class="status fail"' not in section

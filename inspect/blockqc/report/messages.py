@@ -508,6 +508,10 @@ MESSAGES.update(
             "良级及以上 {better}%，优级 {top}%",
         ),
         "failing_sampled": ("Sampled blocks that fail", "不合格的样本单位"),
+        "corrected_sampled": (
+            "Sampled blocks with rules failed that do not fail the sample",
+            "有规则未通过但不致样本不合格的样本单位",
+        ),
         "returned": (
             "Blocks failing the general inspection, returned for correction",
             "概查不合格、退回修改的区域网",
