@@ -181,6 +181,21 @@ def line_of(data: Any, loc: Sequence[Any]) -> int | None:
     return line
 
 
+def number_written(path: Path, loc: Sequence[str]) -> str | None:
+    """The text of the number YAML reads at the keys `loc` of a file, as written (`010` where
+    the value read is the octal number 8); None when there is none, or no number is read."""
+    try:
+        node = yaml.compose(read_text(path, MAX_YAML_BYTES), Loader=_BaseLoader)
+    except (yaml.YAMLError, BlockqcError):
+        return None
+    for part in loc:
+        if not isinstance(node, yaml.MappingNode):
+            return None
+        node = next((v for k, v in node.value if getattr(k, "value", None) == part), None)
+    numbers = ("tag:yaml.org,2002:int", "tag:yaml.org,2002:float")
+    return node.value if isinstance(node, yaml.ScalarNode) and node.tag in numbers else None
+
+
 def yaml_kind(value: Any) -> str:
     """What a YAML value is, in the words of a YAML file (not of Python's classes)."""
     if value is None:

@@ -297,3 +297,30 @@ def test_a_lot_or_a_stratum_without_units_is_refused(tmp_path: Path) -> None:
     assert _refused(tmp_path, [(at, f"{stratum}{at}")]) == [
         "line 28: lots.0.strata.2.units: a stratum lists its units, at least one"
     ]
+
+
+@pytest.mark.parametrize(
+    ("text", "read"),
+    [("010", 8), ("0x10", 16), ("1_000", 1000), ("1:30", 90), ("1_0.5", 10.5)],
+)
+def test_a_stratum_yaml_reads_as_another_number_than_written_is_refused(
+    tmp_path: Path, text: str, read: float
+) -> None:
+    """YAML 1.1 reads `zone: 010` as the octal number 8 (0x10 as 16, 1_000 as 1000, 1:30 as
+    90): the plan said stratum 8 of a block whose block.yaml says 010, unsaid."""
+    batch = _batch(tmp_path / "batch", ["north", 7])
+    manifest = batch / "B01" / "block.yaml"
+    lines = manifest.read_text(encoding="utf-8").replace("zone: 7", f"zone: {text}")
+    manifest.write_text(lines, encoding="utf-8")
+    with pytest.raises(InputError) as exc:
+        read_units(batch, "zone")
+    assert [str(p) for p in exc.value.problems] == [
+        f"{manifest}, line {_key_line(manifest, 'zone:')}: key 'zone' is written {text}, which "
+        f"YAML reads as the number {read}: write the number in decimal digits, or in quotes "
+        f"('{text}') to keep it as text"
+    ]
+
+
+def test_numbers_written_in_decimal_digits_or_quoted_are_strata_as_written(tmp_path) -> None:
+    batch = _batch(tmp_path / "batch", [10, 0.8, -3, "007"])
+    assert read_units(batch, "zone")[1] == {"B00": "10", "B01": "0.8", "B02": "-3", "B03": "007"}
