@@ -588,3 +588,29 @@ def test_an_unknown_key_of_a_results_file_is_named_with_the_key_it_resembles(tmp
         "schema results)",
         f"{said}$.verdcit: unknown key; did you mean 'verdict'?",
     ]
+
+
+@pytest.mark.parametrize(
+    ("data", "expected"),
+    [
+        (  # saved from an editor in the Chinese locale's encoding
+            '{\n  "block_id": "X",\n  "inspector": "李伟"\n}'.encode("gbk"),
+            "line 3: byte 0xc0 at character 17 is not UTF-8: the file must be UTF-8 text (it "
+            "looks like GBK / GB18030; save it as UTF-8)",
+        ),
+        (  # UTF-16 without its byte order mark was said to be no valid JSON
+            '{"block_id": "X"}'.encode("utf-16-le"),
+            "line 1: every other byte is NUL (0x00): the file must be UTF-8 text (it looks like "
+            "UTF-16LE without a byte order mark; save it as UTF-8)",
+        ),
+    ],
+)
+def test_a_results_file_not_in_utf8_is_said_as_every_other_file_is(
+    tmp_path, capsys, data, expected
+):
+    """A results.json in another encoding was refused as 'is not UTF-8 text (byte 28)': no line,
+    no character, no guess at the encoding, which blockqc's other files are told with."""
+    bad = tmp_path / "results.json"
+    bad.write_bytes(data)
+    assert run("report", str(bad), "--out", str(tmp_path / "out"), "--no-pdf") == 2
+    assert capsys.readouterr().err.splitlines() == [f"error: {bad}, {expected}"]

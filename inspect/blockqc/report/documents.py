@@ -37,12 +37,14 @@ def _no_constant(name: str) -> Any:
 
 
 def _read_json(path: Path) -> tuple[Any, bytes]:
+    from blockqc.textio import decode_utf8
+
     try:
         raw = path.read_bytes()
     except OSError as exc:
         raise InputError(Problem(str(path), f"cannot be read: {exc.strerror or exc}")) from None
+    text = decode_utf8(path, raw)  # a byte-order mark, as some editors save, is read
     try:
-        text = raw.decode("utf-8-sig")  # a byte-order mark, as some editors save, is read
         return json.loads(text, object_pairs_hook=_no_duplicates, parse_constant=_no_constant), raw
     except _DuplicateKey as exc:
         raise InputError(Problem(str(path), f"is not accepted: key '{exc}' given twice")) from None
@@ -54,8 +56,6 @@ def _read_json(path: Path) -> tuple[Any, bytes]:
                 "as null)",
             )
         ) from None
-    except UnicodeDecodeError as exc:
-        raise InputError(Problem(str(path), f"is not UTF-8 text (byte {exc.start})")) from None
     except RecursionError:
         raise InputError(
             Problem(str(path), "is not accepted: JSON nested too deeply for a results document")
