@@ -252,6 +252,38 @@ def test_yaml_alias_bomb_is_refused_unexpanded(delivery: Path, tmp_path: Path) -
     _refused(run_blockqc, delivery, tmp_path / "out", msg, extra=extra)
 
 
+def test_numbers_yaml_reads_otherwise_than_written_are_refused_each_at_its_line(
+    blockqc, delivery: Path, tmp_path: Path
+) -> None:
+    """YAML 1.1 reads `epsg: 032650` as the octal number 13736 (MB-3 then failed the block on
+    'EPSG:13736 delivered'), 1_0 as 10 and 1:30 as 90: each is refused at its line, saying how
+    it is written and what YAML reads."""
+    manifest = delivery / "block.yaml"
+    _replace(manifest, "epsg: 32650", "epsg: 032650")
+    _replace(manifest, "pan: 1.0", "pan: 1_0")
+    _replace(manifest, "ms: 4.0", "ms: 1:30")
+    _refused(
+        blockqc,
+        delivery,
+        tmp_path / "out",
+        f"{manifest}, line 4: key 'pan' is written 1_0, which YAML reads as the number 10: write "
+        "the number in decimal digits, or in quotes ('1_0') to keep it as text",
+        f"{manifest}, line 5: key 'ms' is written 1:30, which YAML reads as the number 90",
+        f"{manifest}, line 10: key 'epsg' is written 032650, which YAML reads as the number 13736",
+    )
+
+
+def test_numbers_in_decimal_digits_are_read_as_written(blockqc, delivery, tmp_path) -> None:
+    """Leading zeros of a decimal fraction, a sign, an exponent and quoted digits are as meant."""
+    _replace(delivery / "block.yaml", "pan: 1.0", "pan: +01.0e0")
+    _replace(delivery / "block.yaml", "block_id: CASE", "block_id: '0012'")
+    p = blockqc("inspect", delivery, "--out", tmp_path / "out", "--no-pdf")
+    _no_traceback(p)
+    results = json.loads((tmp_path / "out" / "0012" / "results.json").read_text())
+    assert results["block_id"] == "0012"
+    assert next(r for r in results["results"] if r["rule"] == "MB-3")["status"] == "pass"
+
+
 def test_absurdly_large_manifest_is_refused(blockqc, delivery: Path, tmp_path: Path) -> None:
     with (delivery / "block.yaml").open("a") as fh:
         fh.write("notes:\n" + "  - filler text of a manifest far too large\n" * 200_000)

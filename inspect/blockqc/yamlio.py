@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from types import UnionType
@@ -49,7 +50,30 @@ MAX_YAML_VALUES = 1_000_000
 
 
 class _Loader(_BaseLoader):  # type: ignore[misc, valid-type]
-    """A safe loader (no Python tags) that builds LineDict/LineList and refuses duplicate keys."""
+    """A safe loader (no Python tags) that builds LineDict/LineList and refuses duplicate keys;
+    `unlike_written` gathers the numbers it reads otherwise than their digits say."""
+
+    unlike_written: list[tuple[int, str]]
+
+
+#: a number YAML 1.1 reads otherwise than its digits say in decimal: octal (010 is 8),
+#: hexadecimal, binary, with underscores (1_0 is 10) or sexagesimal (1:30 is 90)
+OTHER_NUMBER = re.compile(r"[-+]?(0[0-9]+|0[xob].*|.*_.*|.*:.*)")
+_NUMBER_TAGS = ("tag:yaml.org,2002:int", "tag:yaml.org,2002:float")
+
+
+def _unlike_written(loader: _Loader, node: yaml.Node, value: Any, where: str) -> None:
+    """Note a scalar YAML reads as a number other than its digits say (`epsg: 032637` is the
+    octal 13727), with its line: refused once the file is read, every one named."""
+    if node.tag not in _NUMBER_TAGS or not OTHER_NUMBER.fullmatch(node.value):
+        return
+    loader.unlike_written.append(
+        (
+            node.start_mark.line + 1,
+            f"{where} is written {node.value}, which YAML reads as the number {value}: write the "
+            f"number in decimal digits, or in quotes ('{node.value}') to keep it as text",
+        )
+    )
 
 
 def _mapping(loader: _Loader, node: yaml.MappingNode) -> LineDict:
@@ -80,12 +104,15 @@ def _mapping(loader: _Loader, node: yaml.MappingNode) -> LineDict:
             )
         own |= {key} if i >= merged else set()
         out[key] = loader.construct_object(value_node, deep=True)
+        _unlike_written(loader, value_node, out[key], f"key '{key}'")
         out.key_lines[key] = key_node.start_mark.line + 1
     return out
 
 
 def _sequence(loader: _Loader, node: yaml.SequenceNode) -> LineList:
     out = LineList(loader.construct_object(child, deep=True) for child in node.value)
+    for i, (child, value) in enumerate(zip(node.value, out, strict=True)):
+        _unlike_written(loader, child, value, f"item {i + 1} of a list")
     out.line = node.start_mark.line + 1
     out.item_lines = [child.start_mark.line + 1 for child in node.value]
     return out
@@ -132,10 +159,14 @@ def load_yaml(path: Path, error: type[BlockqcError] = InputError) -> Any:
         if bad is not None:
             raise error(Problem(str(path), f"not accepted: {bad[1]}", line=bad[0]))
         loader = _Loader(text)  # a safe loader: no tag can build a Python object
+        loader.unlike_written = []
         try:
-            return loader.get_single_data()
+            data = loader.get_single_data()
         finally:
             loader.dispose()
+        if loader.unlike_written:
+            raise error([Problem(str(path), why, line=at) for at, why in loader.unlike_written])
+        return data
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         line = mark.line + 1 if mark else None
@@ -179,21 +210,6 @@ def line_of(data: Any, loc: Sequence[Any]) -> int | None:
         else:
             break
     return line
-
-
-def number_written(path: Path, loc: Sequence[str]) -> str | None:
-    """The text of the number YAML reads at the keys `loc` of a file, as written (`010` where
-    the value read is the octal number 8); None when there is none, or no number is read."""
-    try:
-        node = yaml.compose(read_text(path, MAX_YAML_BYTES), Loader=_BaseLoader)
-    except (yaml.YAMLError, BlockqcError):
-        return None
-    for part in loc:
-        if not isinstance(node, yaml.MappingNode):
-            return None
-        node = next((v for k, v in node.value if getattr(k, "value", None) == part), None)
-    numbers = ("tag:yaml.org,2002:int", "tag:yaml.org,2002:float")
-    return node.value if isinstance(node, yaml.ScalarNode) and node.tag in numbers else None
 
 
 def yaml_kind(value: Any) -> str:

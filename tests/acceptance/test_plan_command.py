@@ -448,18 +448,17 @@ def test_a_sampled_block_swapped_by_hand_is_said(tmp_path: Path) -> None:
 def test_meta_particulars_yaml_reads_otherwise_are_refused_saying_what_the_file_gives(
     tmp_path: Path,
 ) -> None:
-    """report_number: 0012 reads as the number 10 (YAML 1.1 octal), prepared: yes as true: each
-    is refused at its line, saying what it was read as and to quote it; a list given as text
-    says so."""
+    """report_number: 2024 reads as a number, prepared: yes as true: each is refused at its
+    line, saying what it was read as and to quote it; a list given as text says so."""
     from blockqc.acceptance.plan import load_meta
     from blockqc.errors import InputError
 
     meta = tmp_path / "meta.yaml"
-    meta.write_text("report_number: 0012\nproject: P\nprepared: yes\nannexes: notes\n")
+    meta.write_text("report_number: 2024\nproject: P\nprepared: yes\nannexes: notes\n")
     with pytest.raises(InputError) as exc:
         load_meta(meta)
     assert [str(p).removeprefix(f"{meta}, ") for p in exc.value.problems] == [
-        "line 1: report_number: expected text, got a number (10): put it in quotes to keep it "
+        "line 1: report_number: expected text, got a number (2024): put it in quotes to keep it "
         "as written",
         "line 3: prepared: expected text, got true/false (true): put it in quotes to keep it as "
         "written",

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 from typing import Any
 
@@ -71,7 +70,6 @@ def read_units(batch: Path, key: str | None) -> tuple[list[str], dict[str, str] 
                 given = m.model_dump(mode="json", exclude_unset=True)  # a key left out: absent
                 strata[m.block_id] = stratum_of(given, key)
                 values[path / MANIFEST] = lookup(given, key)
-                problems += _number_as_written(path / MANIFEST, key, values[path / MANIFEST])
             except KeyError:
                 why = f"no key '{key}' in block.yaml to stratify by{_key_hint(given, key)}"
                 problems.append(_key_problem(path / MANIFEST, key.split(".")[:-1], why))
@@ -101,28 +99,6 @@ def _key_hint(data: dict[str, Any], key: str) -> str:
             return f"; did you mean '{'.'.join([*parts[:i], close, *parts[i + 1 :]])}'?"
         value = value[part]
     return ""
-
-
-#: how YAML 1.1 writes a number otherwise than in decimal digits: octal (010 is 8),
-#: hexadecimal, binary, with underscores (1_0) or sexagesimal (1:30 is 90)
-OTHER_NUMBER = re.compile(r"[-+]?(0[0-9]+|0[xob].*|.*_.*|.*:.*)")
-
-
-def _number_as_written(path: Path, key: str, value: Any) -> list[Problem]:
-    """A stratum YAML reads as another number than written (`zone: 010` is the number 8): the
-    plan would say stratum 8 of blocks whose block.yaml says 010; refused at the key's line."""
-    from blockqc.yamlio import number_written
-
-    if not isinstance(value, (int, float)) or isinstance(value, bool):
-        return []
-    text = number_written(path, key.split("."))
-    if text is None or not OTHER_NUMBER.fullmatch(text):
-        return []
-    why = (
-        f"key '{key}' is written {text}, which YAML reads as the number {value}: write the "
-        f"number in decimal digits, or in quotes ('{text}') to keep it as text"
-    )
-    return [_key_problem(path, key.split("."), why)]
 
 
 def _number_as_text(key: str, values: dict[Path, Any]) -> list[Problem]:
