@@ -571,3 +571,41 @@ def test_the_mb3_note_reads_in_chinese_on_zh_pages(note, zh):
     mb3["detail"]["note"] = "stated"
     rows = {x["rule"]: x for x in block_context(doc, lang="zh", figures=False)["general"]}
     assert "stated" in rows["MB-3"]["notes"]
+
+
+def _pages(pdf) -> list[list[tuple[float, float, float, float, str]]]:
+    """The words of each page of a PDF with their boxes (x0, y0, x1, y1, word)."""
+    out = subprocess.run(
+        ["pdftotext", "-bbox", str(pdf), "-"], capture_output=True, text=True, check=True
+    ).stdout
+    box = r'<word xMin="([\d.]+)" yMin="([\d.]+)" xMax="([\d.]+)" yMax="([\d.]+)">([^<]*)</word>'
+    return [
+        [(*map(float, m.groups()[:4]), m.group(5)) for m in re.finditer(box, page)]
+        for page in out.split("<page ")[1:]
+    ]
+
+
+def _overlaps(words: list[tuple[float, float, float, float, str]]) -> list[str]:
+    """The words of one line that run over the next one on it."""
+    found = []
+    for a in words:
+        for b in words:
+            same_line = abs(a[1] - b[1]) < 1 and a[0] < b[0]
+            if same_line and a[2] > b[0] + 0.5:
+                found.append(f"{a[4]} over {b[4]}")
+    return found
+
+
+@pytest.mark.parametrize("engine", ["weasyprint", "chromium"])
+def test_contents_value_and_threshold_with_a_long_unit_do_not_overlap(tmp_path, engine):
+    """TP-5's '0.222 share of cells' ran over its threshold '≥ 1 share of cells' in the narrow
+    columns of the inspection contents ('0.222 share of cells≥ 1 share of cells'): it now wraps
+    inside its column."""
+    require_tool("pdftotext")
+    if engine == "chromium":
+        require_chromium()
+    write_block_report(tmp_path, make_results(), pdf_engine=engine)
+    pages = _pages(tmp_path / "report.pdf")
+    words = [w for page in pages if any(w[4] == "Layout" for w in page) for w in page]
+    assert any(w[4] == "0.222" for w in words)
+    assert _overlaps(words) == []
