@@ -196,7 +196,7 @@ def test_checkpoint_tables_put_methods_side_by_side(results_doc):
     rows = dict(plane["rows"])
     assert rows["Medium error (m)"] == ["* 10.40", "* 2.10"]  # the mean replaced it (§CP-7)
     assert rows["Gross errors"] == ["3", "0"]
-    assert rows["Gross-error rate"] == ["37.5 %", "0.0 %"]
+    assert rows["Gross-error rate"] == ["37.50 %", "0 %"]  # as the CP-4 results read them
     assert rows["Mean used"] == ["yes", "yes"]
     assert [s for s, _ in plane["statuses"]] == ["fail", "pass"]
     assert plane["agreement"][0]["agree"] is False
@@ -489,3 +489,20 @@ def test_an_accuracy_beside_its_norm_reads_in_the_order_it_has():
 
     assert line(14.1425, 2**0.5 * 10, None) == "RO-4: 14.143/14.142 → A"
     assert line(11.59, 2**0.5 * 10, 70.31) == "RO-4: 11.59/14.14 → 70.3"
+
+
+def test_gross_error_rate_reads_alike_in_the_tables_and_its_rule(results_doc):
+    """The statistical table and the summary's sampled blocks showed a gross-error rate of
+    '37.5 %' where the CP-4 result beside it read '37.50 %' (and '0.0 %' beside '0 %'): they
+    now show it as the result does."""
+    from report_helpers import results_entry
+
+    from blockqc.report.build import summary_context
+
+    ctx = block_context(results_doc, "en", figures=False)
+    plane = next(t for t in ctx["cp_tables"] if t["key"] == "plane")
+    assert dict(plane["rows"])["Gross-error rate"][0] == "37.50 %"
+    cp4 = next(r for r in ctx["detailed"] if r["rule"] == "CP-4")
+    assert cp4["value"] == "37.50 %"
+    sampled = summary_context(make_summary([results_entry(results_doc)]), "en")["sampled"]
+    assert [r["gross_rate"] for r in sampled][:2] == ["37.50 %", "0 %"]
