@@ -259,7 +259,7 @@ def test_the_source_of_the_sample_is_bracketed_in_the_pages_language(failing, tm
     for page in ("summary.html", "acceptance.html"):
         text = (tmp_path / "zh" / page).read_text(encoding="utf-8")
         assert (
-            'F1-B01, F2-B01, F3-B01, F4-B01<span class="note">'
+            'F1-B01、F2-B01、F3-B01、F4-B01<span class="note">'
             "（带检查点的区域网（未给出抽样方案））</span>" in text
         )
     text = (failing / "summary.html").read_text(encoding="utf-8")

@@ -609,3 +609,25 @@ def test_contents_value_and_threshold_with_a_long_unit_do_not_overlap(tmp_path, 
     words = [w for page in pages if any(w[4] == "Layout" for w in page) for w in page]
     assert any(w[4] == "0.222" for w in words)
     assert _overlaps(words) == []
+
+
+def test_zh_pages_join_lists_with_the_enumeration_comma():
+    """Chinese pages listed rules, blocks and checkpoint criteria with the English comma
+    ('CP-2, CP-4, RO-3' in summary.html, '（F1-B01, F2-B01）' in the sample's sentence,
+    '中误差（m）, 粗差率'): they now use the enumeration comma, as the acceptance report's
+    reasons do."""
+    from blockqc.report.acceptance import id_list
+
+    line = summary_entry("T-B01", "fail", failed_rules=["CP-2", "CP-4"], warned_rules=["CP-5"])
+    line["pending_manual"] = ["DOC-3", "DOC-4"]
+    zh = summary_context(make_summary([line]), "zh", figures=False)["blocks"][0]
+    assert (zh["failed"], zh["warned"], zh["pending"]) == ("CP-2、CP-4", "CP-5", "DOC-3、DOC-4")
+    en = summary_context(make_summary([line]), "en", figures=False)["blocks"][0]
+    assert en["failed"] == "CP-2, CP-4"
+    assert id_list(["F1-B01", "F2-B01"], sep=Formatter("zh").list_sep) == "F1-B01、F2-B01"
+    doc = make_results()
+    doc["pending_manual"] = ["DOC-3", "DOC-4"]
+    ctx = block_context(doc, "zh", figures=False)
+    assert ctx["pending"] == "DOC-3、DOC-4"
+    plane = next(t for t in ctx["cp_tables"] if t["key"] == "plane")
+    assert plane["agreement"][0]["errors"] == "10.40、2.10"

@@ -181,9 +181,10 @@ def name_only(path: str) -> str:
 _NUMBERED = re.compile(r"^(.*?)(\d+)$")
 
 
-def id_list(ids: Sequence[str], empty: str = "–") -> str:
-    """Ids joined by commas, each run of three or more consecutive numbers with the same prefix
-    and width written first–last (B00001–B00250): a sample of a thousand blocks stays a line."""
+def id_list(ids: Sequence[str], empty: str = "–", sep: str = ", ") -> str:
+    """Ids joined by `sep` (commas; "、" on a Chinese page), each run of three or more
+    consecutive numbers with the same prefix and width written first–last (B00001–B00250):
+    a sample of a thousand blocks stays a line."""
     out: list[str] = []
     run: list[str] = []
     last: tuple[str, int, int] | None = None
@@ -196,7 +197,7 @@ def id_list(ids: Sequence[str], empty: str = "–") -> str:
         run.append(block_id)
         last = key
     out += [f"{run[0]}–{run[-1]}"] if len(run) >= 3 else run
-    return ", ".join(out) or empty
+    return sep.join(out) or empty
 
 
 def decision_context(s: Summary, f: Formatter) -> dict[str, Any] | None:
@@ -212,7 +213,7 @@ def decision_context(s: Summary, f: Formatter) -> dict[str, Any] | None:
         "source": source,
         # beside the sample, in the page's brackets: a full-width one takes no space before it
         "source_note": f"（{source}）" if f.lang == "zh" else f" ({source})",
-        "sample": id_list(d.sample),
+        "sample": id_list(d.sample, sep=f.list_sep),
         "mean": f.score(d.mean_score),
         "sample_grade": grade_text(f, d.sample_grade),
         "batch_grade": grade_text(f, d.batch_grade),
@@ -225,7 +226,7 @@ def decision_context(s: Summary, f: Formatter) -> dict[str, Any] | None:
             _block_line(b, f) for b in d.blocks if b.sampled and not b.fails and b.failed_rules
         ],
         "returned": [_block_line(b, f) for b in d.returned],
-        "incomplete": id_list(d.incomplete, empty=""),
+        "incomplete": id_list(d.incomplete, empty="", sep=f.list_sep),
         "unread": _unread(d, f),
         "plan_notes": [_plan_note(n, f) for n in d.plan_notes],
         "short_sample": _short_sample(s, d, f),
@@ -254,8 +255,12 @@ def _unread(d: BatchDecision, f: Formatter) -> list[dict[str, str]]:
         ("unread_not_sampled", other, f.num(False)),
     ]
     return [
-        {"label": f.t(k, blocks=id_list(missing)), "blocks": id_list(ids), "ids": ids,
-         "sampled": sampled}
+        {
+            "label": f.t(k, blocks=id_list(missing, sep=f.list_sep)),
+            "blocks": id_list(ids, sep=f.list_sep),
+            "ids": ids,
+            "sampled": sampled,
+        }
         for k, ids, sampled in lines
         if ids
     ]  # fmt: skip
@@ -280,7 +285,9 @@ def _short_sample(s: Summary, d: BatchDecision, f: Formatter) -> str:
 def _plan_note(n: PlanNote, f: Formatter) -> str:
     """Where the plan differs from the batch inspected, in the page's language."""
     extra = (
-        {"n": len(n.blocks), "blocks": id_list(n.blocks)} if n.about in ("units", "seed") else {}
+        {"n": len(n.blocks), "blocks": id_list(n.blocks, sep=f.list_sep)}
+        if n.about in ("units", "seed")
+        else {}
     )
     return f.t(f"plan_note_{n.about}", plan=n.plan, inspected=n.inspected, **extra)
 
@@ -318,9 +325,7 @@ def _reasons(b: Any, f: Formatter) -> list[str]:
     ]
     out += [reason_text(r, f) for r in b.reasons if not r.startswith(("A-class error", "element "))]
     if b.failed_rules:
-        out.append(
-            f.t("rules_failed", rules=("、" if f.lang == "zh" else ", ").join(b.failed_rules))
-        )
+        out.append(f.t("rules_failed", rules=f.join(b.failed_rules)))
     return out
 
 
@@ -359,7 +364,7 @@ def _sampling_rows(s: Summary, f: Formatter) -> list[dict[str, Any]]:
                     "stratum": st["value"] or "–",
                     "size": st["size"],
                     "sample": st["sample"],
-                    "sampled": id_list(st["sampled"]),
+                    "sampled": id_list(st["sampled"], sep=f.list_sep),
                 }
             )
     return rows

@@ -205,14 +205,14 @@ def _axis_rows(
             label = f"{f.t('axis_' + stat)} {names[axis]} (m)"
             out.append((label, [f.num(g[stat], 2) if g else "–" for g in got]))
     crit = [failed.get((s["component"], s["method"]), []) for s in cols]
-    out.append((f.t("failed_criterion"), [", ".join(f.column(c) for c in x) or "–" for x in crit]))
+    out.append((f.t("failed_criterion"), [f.join(f.column(c) for c in x) or "–" for x in crit]))
     return out
 
 
 def _agreement(f: Formatter, a: dict[str, Any]) -> dict[str, Any]:
     return {
         "methods": " / ".join(f.method(m) for m in a.get("methods", [])),
-        "errors": f.num(a.get("medium_error"), 2),
+        "errors": f.join(f.num(e, 2) for e in a.get("medium_error") or []),
         "spread": f.num(a.get("spread_m"), 2),
         "agree": a.get("agree"),
         "text": f.t("agree") if a.get("agree") else f.t("disagree"),
@@ -455,7 +455,7 @@ def block_context(
         "exemptions": _exemptions(results, f),
         "failures": _failures(results, f),
         "figures": block_figures(results, f, scene_statuses(results)) if figures else NO_FIGURES,
-        "pending": results.pending_manual,
+        "pending": f.join(results.pending_manual),
         "evaluation": evaluation_context(results.evaluation, f, results.results),
         "colon": "：" if lang == "zh" else ": ",
         "sep": "；" if lang == "zh" else "; ",
@@ -473,9 +473,9 @@ def _summary_block(b: Any, f: Formatter, pdf: bool) -> dict[str, Any]:
         "sampled_text": f.num(b.sampled),
         "score_text": f.score(b.score),
         "grade_text": grade_text(f, b.grade),
-        "failed": ", ".join(b.failed_rules),
-        "warned": ", ".join(b.warned_rules),
-        "pending": ", ".join(b.pending_manual),
+        "failed": f.join(b.failed_rules),
+        "warned": f.join(b.warned_rules),
+        "pending": f.join(b.pending_manual),
     }
 
 

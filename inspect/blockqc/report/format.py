@@ -411,6 +411,16 @@ class Formatter:
         unit = self.unit(res.unit)
         return f"{text} {unit}".strip() if numeric and unit else text
 
+    @property
+    def list_sep(self) -> str:
+        """What separates the items of a list in the page's language: ", " in English, the
+        enumeration comma "、" in Chinese."""
+        return "、" if self.lang == "zh" else ", "
+
+    def join(self, items: Iterable[Any]) -> str:
+        """The items of a list as the page's language writes one: 'TP-2, TP-4', 'TP-2、TP-4'."""
+        return self.list_sep.join(str(x) for x in items)
+
     def group(self, group: dict[str, Any] | None) -> str:
         return " · ".join(self._key(k, v, str(v)) for k, v in (group or {}).items())
 
