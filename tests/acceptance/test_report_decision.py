@@ -288,7 +288,7 @@ def test_a_sampled_block_with_rules_failed_is_listed_in_the_decision_section(tmp
     ]
     for lang, title, rules in (
         ("en", "Sampled blocks with rules failed that do not fail the sample (1)", "TP-4, TP-5"),
-        ("zh", "有规则未通过但不致样本不合格的样本单位 (1)", "TP-4、TP-5"),
+        ("zh", "有规则未通过但不致样本不合格的样本单位（1）", "TP-4、TP-5"),
     ):
         assert run("report", out, "--out", tmp_path / lang, "--lang", lang, "--no-pdf") == 0
         page = (tmp_path / lang / "summary.html").read_text(encoding="utf-8")

@@ -631,3 +631,39 @@ def test_zh_pages_join_lists_with_the_enumeration_comma():
     assert ctx["pending"] == "DOC-3、DOC-4"
     plane = next(t for t in ctx["cp_tables"] if t["key"] == "plane")
     assert plane["agreement"][0]["errors"] == "10.40、2.10"
+
+
+def test_zh_pages_punctuate_labels_and_notes_full_width():
+    """Chinese pages wrote English colons, semicolons and brackets in their sentences: 'CP-2
+    平面 · 高精度数据法: 3.33/10.00 → 98.1; …', 'A: 1 · B: 2', '均方根 dx (m)', '差值（m） 8.30:',
+    '(评价不完整)', '不合格的样本单位 (1)', '表格文件:'. They now use the full-width ones."""
+    from blockqc.acceptance.model import Evaluation
+    from blockqc.report.acceptance import evaluation_context
+    from blockqc.report.html import render_page
+
+    ev = Evaluation(score=82.0, grade="good", fails=False, complete=False, counts={"A": 0, "B": 1})
+    ev = ev.model_dump()
+    ev["elements"] = [
+        {"id": "data", "title": "Data quality", "weight": 1.0, "inspected": True, "score": 82.0,
+         "items": [{"id": "plane_accuracy", "title": "Plane accuracy", "weight": 1.0,
+                    "inspected": True, "score": 82.0, "accuracy": [
+                        {"rule": "CP-2", "group": {"component": "plane"}, "value": 3.33,
+                         "norm": 10.0, "score": 98.1},
+                        {"rule": "CP-3", "group": {"component": "height"}, "value": 2.69,
+                         "norm": 6.0, "score": 91.5}]}]}
+    ]  # fmt: skip
+    zh = evaluation_context(Evaluation.model_validate(ev), Formatter("zh"))
+    assert zh["counts"] == "A：0 · B：1 · C：0 · D：0"
+    assert zh["rows"][1]["accuracy"] == "CP-2 平面：3.33/10.00 → 98.1；CP-3 高程：2.69/6.00 → 91.5"
+    en = evaluation_context(Evaluation.model_validate(ev), Formatter("en"))
+    assert (
+        en["rows"][1]["accuracy"] == "CP-2 Plane: 3.33/10.00 → 98.1; CP-3 Height: 2.69/6.00 → 91.5"
+    )
+    doc = make_results()
+    doc["evaluation"] = ev
+    text = _text(render_block(doc, lang="zh"))
+    assert "均方根 dx（m）" in text and "（评价尚不完整）" in text
+    assert "— 10.40、2.10 m；差值（m） 8.30：" in text
+    line = summary_entry("T-B01", "fail", failed_rules=["CP-2"])
+    page = _text(render_page("summary.html.j2", summary_context(make_summary([line]), "zh")))
+    assert "表格文件：" in page

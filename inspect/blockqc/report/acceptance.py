@@ -94,8 +94,8 @@ def _part(p: Any, f: Formatter, level: str) -> dict[str, Any]:
         "score": f.score(p.score, f.t("only_weight_0" if p.inspected else "not_inspected")),
         "errors": " ".join(f"{c}{counts[c]}" for c in CLASSES if counts.get(c)) or "–",
         "deduction": f.num(getattr(p, "deduction", 0.0), 1) if level == "item" else "",
-        "accuracy": "; ".join(
-            f"{a.rule}{(' ' + f.group(a.group)) if a.group else ''}: "
+        "accuracy": f.clause_sep.join(
+            f"{a.rule}{(' ' + f.group(a.group)) if a.group else ''}{f.colon}"
             f"{'/'.join(apart(a.value, a.norm))} → "
             f"{f.score(a.score, 'A')}"
             for a in acc
@@ -123,7 +123,7 @@ def evaluation_context(
         "grade_text": grade_text(f, ev.grade, ev.grade_title, ev.grade_title_zh),
         "fails": ev.fails,
         "complete": ev.complete,
-        "counts": " · ".join(f"{c}: {ev.counts.get(c, 0)}" for c in CLASSES),
+        "counts": " · ".join(f"{c}{f.colon}{ev.counts.get(c, 0)}" for c in CLASSES),
         "errors": [_error_row(x, f, results) for x in unique],
         "rows": _items(ev, f),
         "low_elements": [

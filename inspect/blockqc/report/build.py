@@ -202,7 +202,7 @@ def _axis_rows(
         if not any(got):
             continue
         for stat in ("mean", "std", "rms"):
-            label = f"{f.t('axis_' + stat)} {names[axis]} (m)"
+            label = f"{f.t('axis_' + stat)} {names[axis]}{f.paren('m')}"
             out.append((label, [f.num(g[stat], 2) if g else "–" for g in got]))
     crit = [failed.get((s["component"], s["method"]), []) for s in cols]
     out.append((f.t("failed_criterion"), [f.join(f.column(c) for c in x) or "–" for x in crit]))

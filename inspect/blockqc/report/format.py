@@ -417,6 +417,20 @@ class Formatter:
         enumeration comma "、" in Chinese."""
         return "、" if self.lang == "zh" else ", "
 
+    @property
+    def colon(self) -> str:
+        """Before what a label introduces: "：" in Chinese, ": " in English."""
+        return "：" if self.lang == "zh" else ": "
+
+    @property
+    def clause_sep(self) -> str:
+        """Between the clauses of one line: "；" in Chinese, "; " in English."""
+        return "；" if self.lang == "zh" else "; "
+
+    def paren(self, text: Any) -> str:
+        """A bracketed note after a text: "（m）" in Chinese, " (m)" in English."""
+        return f"（{text}）" if self.lang == "zh" else f" ({text})"
+
     def join(self, items: Iterable[Any]) -> str:
         """The items of a list as the page's language writes one: 'TP-2, TP-4', 'TP-2、TP-4'."""
         return self.list_sep.join(str(x) for x in items)

@@ -11,7 +11,7 @@ from typing import Any, NamedTuple
 
 import jinja2
 from jinja2 import nodes
-from markupsafe import Markup
+from markupsafe import Markup, escape
 
 from blockqc.errors import InputError, Problem
 from blockqc.report.build import block_context
@@ -58,7 +58,7 @@ def language_context(lang: str) -> dict[str, Any]:
         return Markup(text).format(**values) if values else Markup(text)  # quotes as written
 
     def paren(text: Any) -> Markup:
-        return Markup("（{}）" if lang == "zh" else " ({})").format(text)
+        return Markup(f.paren(escape(text)))  # the text escaped, its brackets as they are
 
     return {
         "lang": lang,
@@ -74,6 +74,7 @@ def language_context(lang: str) -> dict[str, Any]:
         # break in English, none between Chinese sentences
         "sep": "" if lang == "zh" else "\n",
         "comma": "，" if lang == "zh" else ", ",
+        "colon": f.colon,
         "semicolon": "；" if lang == "zh" else ";",
         "stop": "。" if lang == "zh" else ".",
     }
@@ -212,8 +213,9 @@ def render_page(
     figure an SVG image (in Chromium an SVG image cannot use the page's fonts, so there the
     figures stay inline, as on screen)."""
     env = env or environment()
+    speech = language_context(ctx.get("lang", "en"))  # its punctuation, unless ctx has its own
     return env.get_template(template).render(
-        **ctx,
+        **{**speech, **ctx},
         printing=bool(for_pdf),
         font_url=FONT_FILE.as_uri() if for_pdf else "",
         figure=_figure_as_image if for_pdf == "weasyprint" else _figure_inline,
