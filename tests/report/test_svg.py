@@ -354,3 +354,24 @@ def test_scene_counts_name_every_colour_they_draw() -> None:
     legend = re.findall(r">([^<>]+)</text>", svg_text)
     assert "status_warn" in legend and "lg_exempt" in legend
     assert plots.STATUS_COLOURS["warn"] in svg_text
+
+
+def test_checkpoint_error_legend_names_the_norm_lines_drawn():
+    """The plane errors' figure draws the norm at +m only (a plane error is a length), yet its
+    legend read 'norm ±m' as the heights' does, where ±m is drawn."""
+    from blockqc.report.messages import translator
+    from blockqc.report.plots import checkpoint_errors
+
+    points = [
+        {"component": c, "method": "high_precision", "point_id": f"C{i}", "error_m": e}
+        for i, (c, e) in enumerate([("plane", 3.0), ("plane", 5.0), ("height", -2.0)])
+    ]
+    stats = [
+        {"component": c, "method": "high_precision", "norm_m": m, "bound_m": 2 * m}
+        for c, m in (("plane", 10.0), ("height", 6.0))
+    ]
+    legends = (("en", "norm m", "norm ±m"), ("zh", "规定中误差 m", "规定中误差 ±m"))
+    for lang, plane, height in legends:
+        t = translator(lang)
+        assert f">{plane}<" in checkpoint_errors(points, stats, "plane", t, "p")
+        assert f">{height}<" in checkpoint_errors(points, stats, "height", t, "h")

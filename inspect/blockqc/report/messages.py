@@ -381,6 +381,7 @@ MESSAGES: dict[str, tuple[str, str]] = {
     "ax_sample": ("sample (px)", "列（像素）"),
     "ax_line": ("line (px)", "行（像素）"),
     "lg_norm": ("norm ±m", "规定中误差 ±m"),
+    "lg_norm_plane": ("norm m", "规定中误差 m"),
     "lg_tolerance": ("tolerance", "限差"),
     "lg_gross": ("gross error", "粗差"),
     "lg_minimum": ("minimum {n}", "最少 {n} 个"),

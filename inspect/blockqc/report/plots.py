@@ -126,7 +126,10 @@ def checkpoint_errors(
         x0 += len(mine) + 1
     plot.add(hline(0.0, "#333", 0.6))
     plot.legend += [
-        LegendEntry(t("lg_norm"), "#555", "line", DASHED),
+        # a plane error is a length: its norm is drawn at +m only, a height's at ±m
+        LegendEntry(
+            t("lg_norm" if component == "height" else "lg_norm_plane"), "#555", "line", DASHED
+        ),
         LegendEntry(t("lg_tolerance"), STATUS_COLOURS["fail"], "line", DOTTED),
     ]
     if any(p.get("gross") for p in rows):
