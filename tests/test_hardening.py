@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import json
 import os
+import re
 from functools import partial
 from pathlib import Path
 from types import SimpleNamespace
@@ -790,6 +791,23 @@ def test_waived_scene_gives_no_figure_of_a_failure(
     assert [x["scene_id"] for x in tp4["detail"]["exempt"]] == ["S3"]  # water: not judged
     html = (tmp_path / "out" / "CASE" / "report.html").read_text()
     assert f">{value} points<" in html
+
+
+def test_a_waived_result_is_shown_with_its_evidence_among_the_failures(
+    blockqc, tmp_path: Path
+) -> None:
+    """What a waiver covers is seen with its values: TP-4 waived for S1 (50 points) and S2 (80),
+    both below 100, is listed in the section of failures with both scenes as evidence."""
+    d = _short_scenes(tmp_path)
+    v = _verdicts(tmp_path, "waivers:\n  TP-4: {scenes: [S2, S1], reason: cloud}\n")
+    p = blockqc("inspect", d, "--verdicts", v, "--out", tmp_path / "out", "--no-pdf")
+    _no_traceback(p)
+    html = (tmp_path / "out" / "CASE" / "report.html").read_text()
+    failures = html.split('<section id="failures">')[1].split("</section>")[0]
+    tp4 = failures.split("<h3>TP-4")[1].split('<div class="failure">')[0]
+    assert '<span class="status waived">waived</span>' in tp4
+    rows = re.findall(r"<tr><td>(S\d)</td><td>PAN</td><td[^>]*>0</td><td[^>]*>(\d+)</td>", tp4)
+    assert rows == [("S1", "50"), ("S2", "80")]
 
 
 #: RO-1 (per pair of PAN and MS scenes) and RO-3 (per point of a pair of scenes) made waivable

@@ -354,7 +354,9 @@ def _evidence_table(res: RuleResult, f: Formatter, units: dict[str, str]) -> dic
 
 
 def _failures(results: BlockResults, f: Formatter) -> list[dict[str, Any]]:
-    bad = [r for r in results.results if r.status in ("fail", "error", "warn")]
+    """The results not passed, each with its evidence, the worst first: waived ones too, so
+    that what a waiver covers is seen with its values."""
+    bad = [r for r in results.results if r.status in ("fail", "error", "warn", "waived")]
     bad.sort(key=lambda r: status_rank(r.status))
     return [{**_row(r, f), "evidence": _evidence_table(r, f, _units(results, r))} for r in bad]
 

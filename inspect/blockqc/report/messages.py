@@ -190,9 +190,9 @@ MESSAGES: dict[str, tuple[str, str]] = {
     ),
     "sec_failures": ("Failures and their evidence", "不合格项及其依据"),
     "sec_failures_intro": (
-        "Every result that is not a pass, with the offending scenes, pairs, "
-        "points and values, the worst first.",
-        "所有未合格的结果，列出问题影像、像对、点位及其数值，最差者在前。",
+        "Every result that fails, is in error, warns or was waived, with the offending scenes, "
+        "pairs, points and values, the worst first.",
+        "所有不合格、出错、警告或经豁免的结果，列出问题影像、像对、点位及其数值，最差者在前。",
     ),
     "no_failures": ("No failures.", "无不合格项。"),
     "sec_summary_blocks": ("Blocks", "区域网"),
