@@ -150,7 +150,7 @@ def test_epsg_given_as_text(blockqc, delivery: Path, tmp_path: Path, given: str)
     "old, new, expected",
     [
         ("epsg: 32650", "epsg: UTM 50N", "line 10: spatial_reference.epsg: expected an EPSG code"),
-        ("block_id: CASE", "block_id: 0101", "line 1: block_id: expected text: write the id in"),
+        ("block_id: CASE", "block_id: 101", "line 1: block_id: expected text: write the id in"),
         (
             "  pan: 1.0",
             "\tpan: 1.0",
