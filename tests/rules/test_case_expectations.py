@@ -173,3 +173,25 @@ def test_the_cases_of_a_rule_the_pack_disables_are_listed_not_run(blockqc, tmp_p
         in (p.stdout)
     )
     assert p.stdout.rstrip().endswith("0 cases, 0 failed, 1 not run (their rule disabled)")
+
+
+@pytest.mark.parametrize(("written", "read"), [(".nan", "nan"), (".inf", "inf"), ("-.inf", "-inf")])
+def test_a_value_that_is_not_finite_is_refused(tmp_path: Path, written: str, read: str) -> None:
+    # no result's value is NaN or infinite: the case could never pass, so it is a broken case
+    # file (exit 2), not a failing case (exit 1)
+    pack, cases = _with_cases(tmp_path, "TP-1", _TP1.format(value=written))
+    expected = [
+        f"{cases}, line 5: cases.0.value: rule TP-1 judges median (px): expected a finite "
+        f"number, got {read} (which no result gives)"
+    ]
+    assert _refused(pack) == expected
+    assert _messages(pack) == expected
+
+
+def test_a_finite_value_that_holds_passes(tmp_path: Path) -> None:
+    pack, _ = _with_cases(tmp_path, "TP-1", _TP1.format(value="0.3"))
+    outcomes = run_pack_cases(load_pack(pack), own_only=True)
+    assert [(o.name, o.ok) for o in outcomes] == [
+        ("every error 0.3 px", True),
+        ("errors of 0.707 px", True),
+    ]

@@ -302,9 +302,12 @@ def _check_value(value: Any, rule: Rule, bad: Callable[..., None]) -> None:
         want = "a number"
     else:
         return
+    judged = f"rule {rule.id} judges {rule.statistic} ({unit})"
     if not ok:
-        judged = f"rule {rule.id} judges {rule.statistic} ({unit})"
         bad(f"{judged}: expected {want}, got {_kind(value)}", "value")
+    elif isinstance(value, float) and not math.isfinite(value):
+        # a result's value is a finite number or none: such a case could never pass
+        bad(f"{judged}: expected a finite number, got {value} (which no result gives)", "value")
 
 
 def _kind(value: Any) -> str:
