@@ -195,3 +195,20 @@ def test_a_finite_value_that_holds_passes(tmp_path: Path) -> None:
         ("every error 0.3 px", True),
         ("errors of 0.707 px", True),
     ]
+
+
+def test_a_case_name_given_twice_is_refused_at_the_second_one(tmp_path: Path) -> None:
+    # it was refused at line 1, "(top level): case names repeat: ...", naming neither case
+    text = (
+        "rule: TP-1\ncases:\n  - name: every error 0.3 px\n    expect: pass\n"
+        "  - name: errors of 0.707 px\n    set: {tie_points: [{values: {v_line: 0.5, "
+        "v_sample: 0.5}}]}\n    expect: fail\n"
+        "  - name: every error 0.3 px\n    expect: pass\n    value: 0.3\n"
+    )
+    pack, cases = _with_cases(tmp_path, "TP-1", text)
+    expected = [
+        f"{cases}, line 8: cases.2.name: 'every error 0.3 px' is also the name of cases.0 "
+        "(line 3): give each case a name of its own"
+    ]
+    assert _refused(pack) == expected
+    assert _messages(pack) == expected

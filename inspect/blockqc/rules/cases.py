@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError
 
 from blockqc.errors import BlockqcError, Problem, RuleError
 from blockqc.metrics import REGISTRY
@@ -96,13 +96,25 @@ class CaseFile(BaseModel):
         """The line where case `i` starts, or where its key `loc` stands."""
         return line_of(self._data, ("cases", i, *loc))
 
-    @model_validator(mode="after")
-    def _unique(self) -> CaseFile:
-        names = [c.name for c in self.cases]
-        dup = sorted({n for n in names if names.count(n) > 1})
-        if dup:
-            raise ValueError(f"case names repeat: {', '.join(dup)}")
-        return self
+    def repeated_names(self, path: Path) -> list[Problem]:
+        """A case named like an earlier one, at its name's line: the outcomes could not be told
+        apart."""
+        first: dict[str, int] = {}
+        out = []
+        for i, case in enumerate(self.cases):
+            if case.name not in first:
+                first[case.name] = i
+                continue
+            j = first[case.name]
+            out.append(
+                Problem(
+                    str(path),
+                    f"cases.{i}.name: '{case.name}' is also the name of cases.{j} (line "
+                    f"{self.line(j, 'name')}): give each case a name of its own",
+                    line=self.line(i, "name"),
+                )
+            )
+        return out
 
 
 @dataclass
@@ -203,6 +215,9 @@ def read_case_file(path: Path) -> CaseFile:
             Problem(str(path), f"rule: {doc.rule}, but the file is {path.name}", line=line)
         )
     doc._data = data
+    repeated = doc.repeated_names(path)
+    if repeated:
+        raise RuleError(repeated)
     return doc
 
 
