@@ -225,6 +225,9 @@ def _add_rules(out: _Loaded, pf: PackFile, data: Any, path: Path) -> None:
             )
             continue
         out.rules[rid] = _Raw(dict(raw), str(path), line, data["rules"][i])
+        if rid in out.disabled_at:  # a parent disabled it: defined again, it is judged again
+            out.disabled.remove(rid)
+            del out.disabled_at[rid]
 
 
 def _apply_overrides(out: _Loaded, pf: PackFile, data: Any, path: Path) -> None:
