@@ -64,3 +64,41 @@ def test_a_number_with_its_unit_is_told_to_drop_the_unit() -> None:
     with pytest.raises(ExpressionError) as exc:
         evaluate("norm.plane_m m", NAMES)  # not a number with a unit: no such hint
     assert "unit" not in str(exc.value)
+
+
+def test_round_to_decimal_places() -> None:
+    # round(x, 1) was refused whatever x: "'float' object cannot be interpreted as an integer"
+    assert evaluate("round(2 * sqrt(2) * norm.plane_m, 1)", NAMES) == 28.3
+    assert evaluate("round(1234.5, -2)", NAMES) == 1200.0
+    assert evaluate("round(norm.plane_m / 3)", NAMES) == 3.0
+
+
+def test_a_function_given_the_wrong_arguments_is_refused_in_words() -> None:
+    import pytest
+
+    cases = {
+        "max(norm.plane_m)": "max() takes two or more numbers, got 1",
+        "min()": "min() takes two or more numbers, got 0",
+        "sqrt(norm.plane_m, 2)": "sqrt() takes one number, got 2",
+        "abs()": "abs() takes one number, got 0",
+        "round(1, 2, 3)": "round() takes a number and optionally its decimal places, got 3",
+        "round(norm.plane_m, 1.5)": "round()'s decimal places must be a whole number, got 1.5",
+    }
+    for text, why in cases.items():
+        with pytest.raises(ExpressionError) as exc:
+            evaluate(text, NAMES)
+        assert str(exc.value) == f"cannot evaluate '{text}': {why}"
+
+
+def test_a_negative_number_to_a_fractional_power_is_refused_in_words() -> None:
+    import pytest
+
+    from blockqc.rules.expr import EvaluationError
+
+    with pytest.raises(EvaluationError) as exc:
+        evaluate("(norm.plane_m - 20) ** 0.5", NAMES)
+    assert str(exc.value) == (
+        "cannot evaluate '(norm.plane_m - 20) ** 0.5': (-10) ** 0.5, a negative number to a "
+        "fractional power, is not a real number"
+    )
+    assert evaluate("(norm.plane_m - 20) ** 2", NAMES) == 100.0

@@ -546,7 +546,7 @@ def test_an_expression_only_the_stand_in_gsd_divides_by_zero_is_not_refused(
         ("1 / (gsd.mss - 1)", "unknown constant 'gsd.mss' (did you mean gsd.ms?)"),
         ("1 / (gsd.ms - ", "malformed expression '1 / (gsd.ms -'"),
         ("1 / (norm.plane_m - 10)", "cannot evaluate '1 / (norm.plane_m - 10)': float division"),
-        ("sqrt(gsd.ms, 2)", "cannot evaluate 'sqrt(gsd.ms, 2)': math.sqrt() takes exactly one"),
+        ("sqrt(gsd.ms, 2)", "cannot evaluate 'sqrt(gsd.ms, 2)': sqrt() takes one number, got 2"),
     ],
 )
 def test_an_expression_wrong_whatever_the_delivery_is_still_refused(

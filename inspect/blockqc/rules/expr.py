@@ -188,6 +188,11 @@ def _eval(node: ast.AST, constants: Mapping[str, Any], text: str) -> Any:
             raise EvaluationError(
                 f"cannot evaluate {_short(text)}: exponent {right:g} beyond ±{MAX_EXPONENT:g}"
             )
+        if isinstance(node.op, ast.Pow) and left < 0 and not float(right).is_integer():
+            raise EvaluationError(
+                f"cannot evaluate {_short(text)}: ({left:g}) ** {right:g}, a negative number to a "
+                "fractional power, is not a real number"
+            )
         try:
             return _bounded(float(_BINARY[type(node.op)](left, right)), text)
         except (ZeroDivisionError, OverflowError, TypeError) as exc:
@@ -203,14 +208,15 @@ def _eval(node: ast.AST, constants: Mapping[str, Any], text: str) -> Any:
                 f"(allowed: {allowed})"
             )
         args = [_eval(a, constants, text) for a in node.args]
+        _check_arguments(name, args, text)
+        if name == "round" and len(args) == 2:  # decimal places: a whole number to Python
+            args[1] = int(args[1])
         try:
             return _bounded(float(FUNCTIONS[name](*args)), text)
         except EvaluationError:
             raise
         except (ValueError, OverflowError) as exc:  # sqrt(-1): the values, not the writing
             raise EvaluationError(f"cannot evaluate {text!r}: {exc}") from None
-        except TypeError as exc:  # min(), round(1, 2, 3): the writing
-            raise ExpressionError(f"cannot evaluate {text!r}: {exc}") from None
     name = _dotted(node)
     if name is not None:
         value = lookup(name, constants)
@@ -221,6 +227,36 @@ def _eval(node: ast.AST, constants: Mapping[str, Any], text: str) -> Any:
         f"'{ast.unparse(node)}' is not allowed in {text!r}: use numbers, constants, + - * / ** "
         f"and {', '.join(sorted(FUNCTIONS))}()"
     )
+
+
+#: how many arguments each function takes (least, most; None: no limit)
+ARITY: dict[str, tuple[int, int | None]] = {
+    "sqrt": (1, 1),
+    "abs": (1, 1),
+    "min": (2, None),
+    "max": (2, None),
+    "round": (1, 2),
+}
+
+
+def _check_arguments(name: str, args: list[Any], text: str) -> None:
+    """The number of a function's arguments, and round's digits a whole number: the writing,
+    refused in words rather than Python's ('float' object is not iterable)."""
+    least, most = ARITY[name]
+    if len(args) < least or (most is not None and len(args) > most):
+        want = {
+            (1, 1): "one number",
+            (2, None): "two or more numbers",
+            (1, 2): "a number and optionally its decimal places",
+        }[(least, most)]
+        raise ExpressionError(
+            f"cannot evaluate {_short(text)}: {name}() takes {want}, got {len(args)}"
+        )
+    if name == "round" and len(args) == 2 and not float(args[1]).is_integer():
+        raise ExpressionError(
+            f"cannot evaluate {_short(text)}: round()'s decimal places must be a whole number, "
+            f"got {args[1]:g}"
+        )
 
 
 def _wants_number(annotation: Any) -> bool:
