@@ -250,12 +250,26 @@ def pydantic_problems(
             msg = f"a key YAML reads as {yaml_kind(key)}, not text: write it in quotes"
             loc = (*loc, key)
         elif err["type"] == "extra_forbidden":
-            msg = "unknown key" + known_key_hint(model, err["loc"])
+            msg = "unknown key" + (_cut_at_comma(err) or known_key_hint(model, err["loc"]))
         elif err["type"] in ("model_type", "model_attributes_type", "dataclass_type"):
             msg = f"expected a mapping of keys, got {yaml_kind(err.get('input'))}"
         msg = (say(err) if say else None) or msg
         problems.append(Problem(str(file), f"{path}: {msg}", line=line_of(data, loc)))
     return problems
+
+
+def _cut_at_comma(err: Any) -> str:
+    """The hint for a key without a value that closes a parenthesis it does not open (`1)` of
+    `{max: round(x, 1)}`): YAML ended the value before it at the comma of a function call."""
+    key = err["loc"][-1] if err["loc"] else None
+    if err.get("input") is not None or not isinstance(key, str):
+        return ""
+    if key.count(")") <= key.count("("):
+        return ""
+    return (
+        f"; '{key}' looks like the end of an expression cut at its comma: inside {{ }} a comma "
+        'ends a value, so write the expression in quotes (max: "round(x, 1)")'
+    )
 
 
 def known_key_hint(model: Any, loc: tuple[Any, ...]) -> str:
