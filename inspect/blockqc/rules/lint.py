@@ -303,6 +303,8 @@ def check_rule(
     _check_thresholds(rule, names, bad)
     _check_score(rule, names, bad)
     if rule.manual:
+        if rule.figures:
+            bad("figures: a manual rule has no values to draw: leave figures out", "figures")
         return out
     found = _metric_and_scope(rule, bad)
     if found is None:
@@ -310,6 +312,7 @@ def check_rule(
     spec, scope = found
     what = f"{spec.name} at scope {rule.scope}"
     _check_statistic(rule, scope, what, bad)
+    _check_figures(rule, scope, what, bad)
     _check_threshold_kinds(rule, scope, bad)
     _check_never_negative(rule, scope, names, what, bad)
     _check_unit(rule, scope, bad)
@@ -537,6 +540,43 @@ def _constant_bound(bound: Any, names: Mapping[str, Any]) -> float | None:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or value != value:
         return None
     return float(value)
+
+
+#: what each figure hint draws from its rule (DOMAIN §2 report figures): the metric whose
+#: measurement it plots, and what of the rule it marks on it
+FIGURE_NEEDS: dict[str, tuple[str, str]] = {
+    "residual_histogram": ("tie_point_errors", "its bound (px) on the tie-point residuals"),
+    "scene_counts": ("tie_point_distribution", "its bound of n_points on the per-scene counts"),
+    "scene_points": ("tie_point_distribution", "the tie-point layout of each scene it fails"),
+}
+
+
+def _check_figures(rule: Rule, scope: Scope, what: str, bad: Callable[..., None]) -> None:
+    """A figure hint draws the rule's bound on a figure of the tie points: a rule of another
+    metric or statistic would mark its bound there in the wrong unit (a checkpoint's 30 m drawn
+    as 30 px on the residual histogram, a share of cells as a count of tie points)."""
+    if rule.statistic not in scope.statistics:  # said by _check_statistic
+        return
+    unit = scope.statistics[rule.statistic]
+    for i, hint in enumerate(rule.figures):
+        metric, draws = FIGURE_NEEDS[hint]
+        fits = rule.metric == metric
+        if hint == "residual_histogram":
+            fits = fits and unit == "px"
+        elif hint == "scene_counts":
+            fits = fits and rule.statistic == "n_points"
+        if not fits:
+            need = {
+                "residual_histogram": f"{metric} with a statistic in px",
+                "scene_counts": f"{metric}, statistic n_points",
+                "scene_points": f"{metric}",
+            }[hint]
+            bad(
+                f"figures: {hint} draws {draws}: it needs a rule of {need}, not {what}, "
+                f"statistic {rule.statistic}: leave it out",
+                "figures",
+                i,
+            )
 
 
 def _check_unit(rule: Rule, scope: Scope, bad: Callable[..., None]) -> None:
