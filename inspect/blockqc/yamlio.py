@@ -258,11 +258,42 @@ def pydantic_problems(
             loc = (*loc, key)
         elif err["type"] == "extra_forbidden":
             msg = "unknown key" + (_cut_at_comma(err) or known_key_hint(model, err["loc"]))
-        elif err["type"] in ("model_type", "model_attributes_type", "dataclass_type"):
-            msg = f"expected a mapping of keys, got {yaml_kind(err.get('input'))}"
+        else:
+            msg = _worded(err) or msg
         msg = (say(err) if say else None) or msg
         problems.append(Problem(str(file), f"{path}: {msg}", line=line_of(data, loc)))
     return problems
+
+
+#: what a text of a pattern is, in words, by the pattern (`worded_pattern`)
+PATTERN_WORDS: dict[str, str] = {}
+
+
+def worded_pattern(pattern: str, words: str) -> str:
+    """A pattern of a model's field, with what it asks in words for the messages (a user is
+    not shown the regular expression)."""
+    PATTERN_WORDS[pattern] = words
+    return pattern
+
+
+def _worded(err: Any) -> str | None:
+    """A value of the wrong kind, in the words of a YAML file rather than pydantic's ('Input
+    should be a valid dictionary', 'String should match pattern ...'); None to keep its own."""
+    kind, got = err["type"], yaml_kind(err.get("input"))
+    if kind in ("model_type", "model_attributes_type", "dataclass_type", "dict_type"):
+        return f"expected a mapping of keys, got {got}"
+    if kind == "list_type":
+        one = err.get("input")
+        hint = f" (a list of one is written [{one}])" if isinstance(one, str | int | float) else ""
+        return f"expected a list, got {got}{hint}"
+    if kind == "string_type":
+        return f"expected a text, got {got}"
+    if kind == "string_too_short":
+        return "expected a text, got an empty one"
+    if kind == "string_pattern_mismatch":
+        words = PATTERN_WORDS.get((err.get("ctx") or {}).get("pattern", ""))
+        return f"expected {words}, got {got}" if words else None
+    return None
 
 
 def _cut_at_comma(err: Any) -> str:

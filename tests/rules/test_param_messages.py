@@ -30,3 +30,42 @@ def test_an_unquoted_version_is_refused_with_the_quoted_form(tmp_path: Path) -> 
     assert '(version: "1.0")' in found
     path.write_text('pack: project\nversion: "1.10"\nextends: global-project\n', "utf-8")
     assert lint_messages(path) == []
+
+
+def test_values_of_the_wrong_kind_are_refused_in_the_words_of_yaml(tmp_path: Path) -> None:
+    """Before: pydantic's 'Input should be a valid list' / 'valid dictionary', and an id or
+    pack name refused with the regular expression it did not match."""
+    body = (
+        "disable: CP-5\n"
+        "overrides:\n  TP-1:\n"
+        "rules:\n"
+        "  - id: pr_1\n    title: A project rule\n    clause: §TP-1\n    manual: true\n"
+    )
+    path = tmp_path / "project.yaml"
+    path.write_text(f"pack: my project\nextends: global-project\n{body}", "utf-8")
+    assert lint_messages(path) == [
+        f"{path}, line 1: pack: expected a pack name of letters, digits, _, . and -, starting "
+        "with a letter or digit, got text 'my project'",
+        f"{path}, line 5: overrides.TP-1: expected a mapping of keys, got an empty value",
+        f"{path}, line 3: disable: expected a list, got text 'CP-5' (a list of one is written "
+        "[CP-5])",
+    ]
+    rule = body[body.index("rules:") :]
+    path.write_text(f"pack: project\nextends: global-project\n{rule}", "utf-8")
+    assert lint_messages(path) == [
+        f"{path}, line 4: rule pr_1: id: expected a rule id such as PR-1 or TP-10: capital "
+        "letters and digits starting with a capital, then one or more parts of letters and "
+        "digits each after a '-', got text 'pr_1'"
+    ]
+
+
+def test_the_same_values_of_the_right_kind_are_read(tmp_path: Path) -> None:
+    body = (
+        "disable: [CP-5]\n"
+        "overrides:\n  TP-1: {statistic: rms}\n"
+        "rules:\n"
+        "  - id: PR-1\n    title: A project rule\n    clause: §TP-1\n    manual: true\n"
+    )
+    path = tmp_path / "project.yaml"
+    path.write_text(f"pack: my-project.v2\nextends: global-project\n{body}", "utf-8")
+    assert [m for m in lint_messages(path) if "has no cases" not in m] == []

@@ -10,7 +10,7 @@ from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, field_valida
 
 from blockqc.acceptance.model import Acceptance, ErrorClass, ScoreDef
 from blockqc.errors import Problem
-from blockqc.yamlio import Text
+from blockqc.yamlio import Text, worded_pattern
 
 
 def _not_bool(v: Any) -> Any:
@@ -40,7 +40,11 @@ class Titled(BaseModel):
     """Something the report names in both languages."""
 
     model_config = ConfigDict(extra="forbid")
-    id: str = Field(pattern=r"^[A-Za-z][A-Za-z0-9_]*$")
+    id: str = Field(
+        pattern=worded_pattern(
+            r"^[A-Za-z][A-Za-z0-9_]*$", "an id of letters, digits and _, starting with a letter"
+        )
+    )
     title: Text
     title_zh: str = ""
 
@@ -168,7 +172,13 @@ class Rule(BaseModel):
     """One rule: a registered metric measured at a scope, a statistic, a threshold, a severity."""
 
     model_config = ConfigDict(extra="forbid")
-    id: str = Field(pattern=r"^[A-Z][A-Z0-9]*(-[A-Za-z0-9]+)+$")
+    id: str = Field(
+        pattern=worded_pattern(
+            r"^[A-Z][A-Z0-9]*(-[A-Za-z0-9]+)+$",
+            "a rule id such as PR-1 or TP-10: capital letters and digits starting with a "
+            "capital, then one or more parts of letters and digits each after a '-'",
+        )
+    )
     title: str = Field(min_length=1)
     clause: str = Field(min_length=1)
     title_zh: str = ""
@@ -184,7 +194,12 @@ class Rule(BaseModel):
     metric: str | None = None
     params: dict[str, Any] = Field(default_factory=dict)
     # a scope the metric declares (blockqc.metrics registry), checked when the pack is loaded
-    scope: str = Field(default="block", pattern=r"^[a-z][a-z0-9_]*$")
+    scope: str = Field(
+        default="block",
+        pattern=worded_pattern(
+            r"^[a-z][a-z0-9_]*$", "a scope name of lower-case letters, digits and _ (scene …)"
+        ),
+    )
     where: dict[str, str | float | bool] = Field(default_factory=dict)
     statistic: str | None = None
     threshold: Threshold | None = None
@@ -242,7 +257,13 @@ class PackFile(BaseModel):
     """The top level of a rule pack file."""
 
     model_config = ConfigDict(extra="forbid")
-    pack: str = Field(min_length=1, pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
+    pack: str = Field(
+        min_length=1,
+        pattern=worded_pattern(
+            r"^[A-Za-z0-9][A-Za-z0-9_.-]*$",
+            "a pack name of letters, digits, _, . and -, starting with a letter or digit",
+        ),
+    )
     version: str = "1"
     title: str = ""
     description: str = ""
