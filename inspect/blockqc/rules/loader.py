@@ -47,19 +47,22 @@ def available_packs() -> list[str]:
 
 
 def resolve_pack_path(
-    ref: str | Path, base: Path | None = None, site: tuple[str, int | None] | None = None
+    ref: str | Path | None, base: Path | None = None, site: tuple[str, int | None] | None = None
 ) -> Path:
     """A pack reference is a file path (relative to `base` in `extends`) or a stock pack name.
 
     `site` is the file and line that names the reference (an `extends:`), for the message.
     """
-    ref_s = str(ref)
+    ref_s = "" if ref is None else str(ref)
     if not ref_s.strip():
+        file, line = site or ("<rules>", None)
         raise RuleError(
             Problem(
-                "<rules>",
-                "an empty rule pack name: give a stock pack name "
-                f"({', '.join(available_packs())}) or a file path",
+                file,
+                f"{'extends: ' if site else ''}an empty rule pack name: give a stock pack name "
+                f"({', '.join(available_packs())}) or a file path"
+                + (", or leave extends out" if site else ""),
+                line=line,
             )
         )
     candidates = []
@@ -157,7 +160,7 @@ def _load_raw(path: Path, seen: tuple[Path, ...]) -> _Loaded:
     """Read one pack file and what it extends, collecting (not raising) the problems found."""
     pf, data = _read_file(path)
     out = _Loaded(pf)
-    if pf.extends:
+    if "extends" in data:  # `extends:` or `extends: ''` names no pack: said, not passed over
         site = (str(path), line_of(data, ("extends",)))
         parent = resolve_pack_path(pf.extends, path.parent, site)
         seen = seen + (path.resolve(),)
