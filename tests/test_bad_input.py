@@ -79,7 +79,9 @@ def test_bad_manifest_names_its_line(blockqc, delivery: Path, tmp_path: Path) ->
     _replace(delivery / "block.yaml", "  pan: 1.0", "  pan: -1.0")
     p = blockqc("inspect", delivery, "--out", tmp_path / "out")
     assert p.returncode == 2
-    assert "block.yaml, line 4: gsd_m.pan: Input should be greater than 0" in p.stderr
+    assert "block.yaml, line 4: gsd_m.pan: expected a number above 0, got a number (-1.0)" in (
+        p.stderr
+    )
 
 
 def _pack(tmp_path: Path, body: str) -> Path:

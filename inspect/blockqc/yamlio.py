@@ -259,7 +259,7 @@ def pydantic_problems(
         elif err["type"] == "extra_forbidden":
             msg = "unknown key" + (_cut_at_comma(err) or known_key_hint(model, err["loc"]))
         else:
-            msg = _worded(err) or msg
+            msg = worded(err) or msg
         msg = (say(err) if say else None) or msg
         problems.append(Problem(str(file), f"{path}: {msg}", line=line_of(data, loc)))
     return problems
@@ -276,7 +276,26 @@ def worded_pattern(pattern: str, words: str) -> str:
     return pattern
 
 
-def _worded(err: Any) -> str | None:
+#: a number's bound in words, by pydantic's error type
+_BOUND_WORDS = {
+    "greater_than_equal": "at least",
+    "greater_than": "above",
+    "less_than_equal": "at most",
+    "less_than": "below",
+}
+#: what a value should have been, by pydantic's error type
+_KIND_WORDS = {
+    "int_type": "a whole number",
+    "int_parsing": "a whole number",
+    "int_from_float": "a whole number",
+    "float_type": "a number",
+    "float_parsing": "a number",
+    "bool_type": "true or false",
+    "bool_parsing": "true or false",
+}
+
+
+def worded(err: Any) -> str | None:
     """A value of the wrong kind, in the words of a YAML file rather than pydantic's ('Input
     should be a valid dictionary', 'String should match pattern ...'); None to keep its own."""
     kind, got = err["type"], yaml_kind(err.get("input"))
@@ -290,6 +309,14 @@ def _worded(err: Any) -> str | None:
         return f"expected a text, got {got}"
     if kind == "string_too_short":
         return "expected a text, got an empty one"
+    bound = _BOUND_WORDS.get(kind)
+    if bound is not None:
+        limit = next(iter((err.get("ctx") or {}).values()), None)
+        if not isinstance(limit, int | float):
+            return None
+        return f"expected a number {bound} {limit:g}, got {got}"
+    if kind in _KIND_WORDS:
+        return f"expected {_KIND_WORDS[kind]}, got {got}"
     if kind == "string_pattern_mismatch":
         words = PATTERN_WORDS.get((err.get("ctx") or {}).get("pattern", ""))
         return f"expected {words}, got {got}" if words else None

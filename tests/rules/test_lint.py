@@ -664,7 +664,10 @@ def test_a_stock_rule_failing_on_a_constant_the_project_sets_names_where_it_is_s
     where = f"(constants set elsewhere: norm.plane_m = -5, set in {pack}, line 4)"
     stock = str(rules_dir() / "global-project.yaml")
     assert msgs and all(m.startswith(stock) and m.endswith(where) for m in msgs), msgs
-    assert any("rule CP-1: params.plane_norm_m: Input should be greater than 0" in m for m in msgs)
+    assert any(
+        "rule CP-1: params.plane_norm_m: expected a number above 0, got a number (-5.0)" in m
+        for m in msgs
+    )
 
 
 def test_a_unit_other_than_the_statistics_is_refused(tmp_path: Path) -> None:

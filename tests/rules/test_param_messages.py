@@ -69,3 +69,24 @@ def test_the_same_values_of_the_right_kind_are_read(tmp_path: Path) -> None:
     path = tmp_path / "project.yaml"
     path.write_text(f"pack: my-project.v2\nextends: global-project\n{body}", "utf-8")
     assert [m for m in lint_messages(path) if "has no cases" not in m] == []
+
+
+def test_a_number_beyond_its_bound_is_refused_in_words(tmp_path: Path) -> None:
+    """Before: 'Input should be greater than or equal to 0' / 'Input should be greater than 0'."""
+    from casekit import project_with_cases
+
+    case = (
+        "rule: TP-1\ncases:\n  - name: every error 0.3 px\n    expect: pass\n"
+        "  - name: S1 cut\n    drop: {tie_points: [{where: {scene_id: S1}, keep_first: -1}]}\n"
+        "    expect: fail\n"
+    )
+    path = project_with_cases(
+        tmp_path, "overrides:\n  CP-2: {params: {plane_norm_m: -5}}\n", {"TP-1": case}
+    )
+    cases = tmp_path / "project.cases" / "TP-1.yaml"
+    assert lint_messages(path) == [
+        f"{path}, line 4: rule CP-2: params.plane_norm_m: expected a number above 0, got a "
+        "number (-5)",
+        f"{cases}, line 6: cases.1.drop.tie_points.0.keep_first: expected a number at least 0, "
+        "got a number (-1)",
+    ]

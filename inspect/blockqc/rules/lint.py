@@ -30,7 +30,7 @@ from blockqc.rules.expr import (
 )
 from blockqc.rules.model import Pack, Rule, selected
 from blockqc.rules.text import TEXT_FIELDS, placeholders
-from blockqc.yamlio import line_of
+from blockqc.yamlio import line_of, worded
 
 LineFn = Callable[..., int | None]
 _NAME = r"^[A-Za-z_][A-Za-z0-9_]*$"
@@ -810,7 +810,7 @@ def _resolve(
                 hint = did_you_mean(str(err["loc"][-1]), spec.params.model_fields)
                 msg = f"unknown parameter{hint} (known: {', '.join(spec.params.model_fields)})"
             else:
-                msg = err["msg"].removeprefix("Value error, ")
+                msg = worded(err) or err["msg"].removeprefix("Value error, ")
             bad(f"{'.'.join(filter(None, (label, loc)))}: {msg}", *at, *err["loc"])
     return None
 
