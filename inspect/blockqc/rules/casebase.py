@@ -214,6 +214,18 @@ def _writable(df: pd.DataFrame, col: str, edit: str, table: str) -> None:
         raise EditError(f"{table} has no column '{col}'{mean} (columns: {', '.join(known)})")
 
 
+def _numbers(df: pd.DataFrame, col: str, table: str, target: str) -> np.ndarray:
+    """The numbers of the column a `derive` reads; EditError for a column of texts."""
+    src = _column(df, col, table)
+    try:
+        return src.to_numpy(dtype=float)
+    except (TypeError, ValueError):
+        raise EditError(
+            f"derive {table}.{target}: from: {col} holds texts ({src.iloc[0]!r} …), not "
+            "numbers: derive from a number column"
+        ) from None
+
+
 def _edit_rows(tables: dict[str, pd.DataFrame], case: dict[str, Any]) -> None:
     for name, ops in (case.get("set") or {}).items():
         df = _table(tables, name)
@@ -230,7 +242,7 @@ def _edit_rows(tables: dict[str, pd.DataFrame], case: dict[str, Any]) -> None:
         for op in ops:
             m = _selected(df, op, "derive", name)
             _writable(df, op["column"], "derive", name)
-            src = _column(df, op["from"], name).to_numpy(dtype=float)
+            src = _numbers(df, op["from"], name, op["column"])
             value = src * float(op.get("times", 1.0)) + float(op.get("add", 0.0))
             df.loc[m, op["column"]] = value[m]
     for name, ops in (case.get("drop") or {}).items():
