@@ -59,3 +59,28 @@ def test_a_derive_from_a_number_column_is_made(tmp_path: Path) -> None:
         ("S1 at 1.5 px", True, ""),
         ("S1's residuals tripled", True, ""),
     ]
+
+
+def test_numbers_derived_into_a_column_of_texts_are_refused(tmp_path: Path, blockqc) -> None:
+    # it stopped with "internal error: TypeError: Invalid value for dtype 'str'. ..."
+    text = _CASES.format(src="line", expect="fail").replace("column: v_line", "column: scene_id")
+    pack = project_with_cases(tmp_path, _RULE, {"PR-1": text})
+    cases = tmp_path / "project.cases" / "PR-1.yaml"
+    message = (
+        f"{cases}, line 8: cases.2: cannot be made on the base delivery: derive "
+        "tie_points.scene_id: cannot write numbers: column scene_id holds texts (to give a "
+        "table a value of another kind, write its file under files:)"
+    )
+    assert lint_messages(pack) == [message]
+    p = blockqc("rules", "test", pack, "--own")
+    assert p.returncode == 2 and p.stderr == f"error: {message}\n", p.stderr
+
+
+def test_a_text_set_into_a_column_of_numbers_is_refused_in_words(tmp_path: Path) -> None:
+    text = _CASES.format(src="v_line", expect="pass").replace("v_line: 1.5", "v_line: abc")
+    pack = project_with_cases(tmp_path, _RULE, {"PR-1": text})
+    assert lint_messages(pack) == [
+        f"{tmp_path / 'project.cases' / 'PR-1.yaml'}, line 5: cases.1: cannot be made on the "
+        "base delivery: set tie_points.v_line: cannot write 'abc': column v_line holds numbers "
+        "(to give a table a value of another kind, write its file under files:)"
+    ]

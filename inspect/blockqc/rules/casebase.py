@@ -214,6 +214,21 @@ def _writable(df: pd.DataFrame, col: str, edit: str, table: str) -> None:
         raise EditError(f"{table} has no column '{col}'{mean} (columns: {', '.join(known)})")
 
 
+def _write(df: pd.DataFrame, m: np.ndarray, col: str, value: Any, what: str) -> None:
+    """Values written on the rows selected; EditError when the column cannot hold them (a
+    number in a column of texts, a text in one of numbers)."""
+    try:
+        df.loc[m, col] = value
+    except (TypeError, ValueError):
+        kind = "numbers" if pd.api.types.is_numeric_dtype(df[col]) else "texts"
+        if not pd.api.types.is_numeric_dtype(df[col]) and not pd.api.types.is_string_dtype(df[col]):
+            kind = f"values of type {df[col].dtype.name}"
+        raise EditError(
+            f"{what}: column {col} holds {kind} (to give a table a value of another kind, "
+            "write its file under files:)"
+        ) from None
+
+
 def _numbers(df: pd.DataFrame, col: str, table: str, target: str) -> np.ndarray:
     """The numbers of the column a `derive` reads; EditError for a column of texts."""
     src = _column(df, col, table)
@@ -233,10 +248,7 @@ def _edit_rows(tables: dict[str, pd.DataFrame], case: dict[str, Any]) -> None:
             m = _selected(df, op, "set", name)
             for col, val in op["values"].items():
                 _writable(df, col, "set", name)
-                try:
-                    df.loc[m, col] = val
-                except (TypeError, ValueError) as exc:
-                    raise EditError(f"set {name}.{col}: cannot write {val!r}: {exc}") from None
+                _write(df, m, col, val, f"set {name}.{col}: cannot write {val!r}")
     for name, ops in (case.get("derive") or {}).items():
         df = _table(tables, name)
         for op in ops:
@@ -244,7 +256,8 @@ def _edit_rows(tables: dict[str, pd.DataFrame], case: dict[str, Any]) -> None:
             _writable(df, op["column"], "derive", name)
             src = _numbers(df, op["from"], name, op["column"])
             value = src * float(op.get("times", 1.0)) + float(op.get("add", 0.0))
-            df.loc[m, op["column"]] = value[m]
+            col = op["column"]
+            _write(df, m, col, value[m], f"derive {name}.{col}: cannot write numbers")
     for name, ops in (case.get("drop") or {}).items():
         df = _table(tables, name)
         for op in ops:
