@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 import tempfile
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Literal
 
@@ -524,16 +524,25 @@ def run_file_cases(pack_file: Path) -> list[Outcome]:
                 message = run_case(pack, pack_file, doc.rule, case, Path(tmp))
             except (EditError, ValidationError, BlockqcError) as exc:
                 raise RuleError(
-                    Problem(str(f), f"case '{case.name}': {_text(exc)}", line=line)
+                    Problem(str(f), f"case '{case.name}': {_text(exc, Path(tmp))}", line=line)
                 ) from None
         out.append(Outcome(f, line, doc.rule, case.name, not message, message))
     return out
 
 
-def _text(exc: Exception) -> str:
-    if isinstance(exc, BlockqcError):
-        return "; ".join(str(p) for p in exc.problems)
-    return str(exc).replace("\n", " ")
+def _text(exc: Exception, work: Path) -> str:
+    """What stopped a case, a file of the delivery it made named by its name in the delivery
+    (`block.yaml`), not by the temporary folder that is gone once the case has run, nor by a
+    line of a file the user did not write."""
+    if not isinstance(exc, BlockqcError):
+        return str(exc).replace("\n", " ")
+    made = str(work / "delivery") + "/"
+    return "; ".join(
+        str(replace(p, file=f"the case's {p.file.removeprefix(made)}", line=None))
+        if p.file.startswith(made)
+        else str(p)
+        for p in exc.problems
+    )
 
 
 def run_pack_cases(pack: Pack, own_only: bool = False) -> list[Outcome]:
