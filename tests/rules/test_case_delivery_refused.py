@@ -62,3 +62,34 @@ def test_a_row_appended_without_its_values_is_named_by_its_row(tmp_path: Path, b
         + "; ".join(missing)
         + "\n"
     )
+
+
+_TP4 = (
+    "rule: TP-4\ncases:\n  - name: 121 points on every scene\n    expect: pass\n"
+    "  - name: 40 points on S1, waived\n"
+    "    drop: {tie_points: [{where: {scene_id: S1}, keep_first: 40}]}\n"
+    "    verdicts: {waivers: {TP-4: {scenes: [SCENE], reason: open sea}}}\n"
+    "    expect: waived\n"
+    "  - name: 40 points on S1\n"
+    "    drop: {tie_points: [{where: {scene_id: S1}, keep_first: 40}]}\n"
+    "    expect: fail\n"
+)
+
+
+def test_a_waiver_of_a_scene_the_case_lacks_is_refused(tmp_path: Path, blockqc) -> None:
+    # it was passed over: the case failed (exit 1, "expected waived, got fail"), where
+    # inspect refuses such a waiver (exit 2)
+    pack = project_with_cases(tmp_path, "", {"TP-4": _TP4.replace("SCENE", "S9")})
+    p = blockqc("rules", "test", pack, "--own")
+    assert p.returncode == 2, p.stdout + p.stderr
+    assert p.stderr == (
+        f"error: {tmp_path / 'project.cases' / 'TP-4.yaml'}, line 5: case '40 points on S1, "
+        "waived': a waiver for scene 'S9', which is not a scene of any block inspected\n"
+    )
+
+
+def test_a_waiver_of_a_scene_the_case_has_is_judged(tmp_path: Path, blockqc) -> None:
+    pack = project_with_cases(tmp_path, "", {"TP-4": _TP4.replace("SCENE", "S1")})
+    p = blockqc("rules", "test", pack, "--own")
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert p.stdout.splitlines()[-1] == "3 cases, 0 failed"

@@ -478,16 +478,20 @@ def _case_pack(pack: Pack, pack_file: Path, case: Case, folder: Path) -> Pack:
 
 def run_case(pack: Pack, pack_file: Path, rule_id: str, case: Case, work: Path) -> str:
     """Apply one case to the base delivery, inspect it with the pack, say what differs ('')."""
-    from blockqc.delivery import load_delivery
+    from blockqc.delivery import block_ids, load_delivery
     from blockqc.engine import inspect_delivery
-    from blockqc.inspector import InspectorInput
+    from blockqc.inspector import InspectorInput, check_inspector_input
     from blockqc.results import dump
 
     edits = _plain(case.model_dump(by_alias=True, exclude_none=True))
     folder = write_delivery(work / "delivery", edits)
     pack = _case_pack(pack, pack_file, case, work)
     inspector = InspectorInput.model_validate(case.verdicts)
-    doc = dump(inspect_delivery(load_delivery(folder), pack, inspector.for_block("CASE")))
+    delivery = load_delivery(folder)
+    # as inspect does: a waiver of a scene or unit the case's delivery lacks is refused, not
+    # passed over (the case would fail, or pass, with the waiver read by nothing)
+    check_inspector_input(inspector, {r.id: r for r in pack.rules}, *block_ids([folder]))
+    doc = dump(inspect_delivery(delivery, pack, inspector.for_block("CASE")))
     results = [r for r in doc["results"] if r["rule"] == rule_id]
     if not results:
         return f"rule {rule_id} gave no result"
