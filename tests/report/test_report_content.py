@@ -506,3 +506,30 @@ def test_gross_error_rate_reads_alike_in_the_tables_and_its_rule(results_doc):
     assert cp4["value"] == "37.50 %"
     sampled = summary_context(make_summary([results_entry(results_doc)]), "en")["sampled"]
     assert [r["gross_rate"] for r in sampled][:2] == ["37.50 %", "0 %"]
+
+
+def _counts_legend(doc: dict) -> list[str]:
+    import re
+
+    figures = block_context(doc, "en")["figures"]
+    (svg,) = [x for x in figures["general"] if "tp-counts" in x]
+    return re.findall(r"minimum [^<]*", svg)
+
+
+@pytest.mark.parametrize(
+    ("threshold", "comparison", "drawn"),
+    [
+        (100.0, ">=", ["minimum 100"]),
+        ([80.0, 5000.0], "between", ["minimum 80"]),  # a range: its lower bound
+        (5000.0, "<=", []),  # a maximum alone is no minimum
+        (121.0, "equals", []),
+    ],
+)
+def test_the_scene_counts_draw_the_rules_lower_bound_only(
+    results_doc, threshold, comparison, drawn
+) -> None:
+    """A TP-4 judged by a range (min 80, max 5000) lost its minimum line on the per-scene
+    counts, and one judged by a maximum alone had that maximum drawn as 'minimum 5000'."""
+    tp4 = next(r for r in results_doc["results"] if r["rule"] == "TP-4")
+    tp4.update(threshold=threshold, comparison=comparison)
+    assert _counts_legend(results_doc) == drawn

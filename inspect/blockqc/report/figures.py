@@ -79,6 +79,17 @@ def _numeric_thresholds(rules: list[RuleResult]) -> list[float]:
     ]
 
 
+def _minimum(res: RuleResult) -> float | None:
+    """A rule's lower bound, drawn as the scenes' minimum: of `min` or a range; none of a
+    `max` alone (not a minimum) or of `equals`/`in`."""
+    th = res.threshold
+    if res.comparison in (">=", ">") and isinstance(th, int | float):
+        return float(th)
+    if res.comparison in ("between", "strictly_between") and isinstance(th, list) and th:
+        return float(th[0])
+    return None
+
+
 def _checkpoint_figures(results: BlockResults, f: Formatter, figs: dict[str, Any]) -> None:
     m = checkpoint_measurement(results)
     if m is None:
@@ -115,7 +126,7 @@ def _scene_counts(results: BlockResults, f: Formatter, figs: dict[str, Any]) -> 
     per_scene = m.tables.get("scene") if m else None
     if not per_scene:
         return
-    minimum = next(iter(_numeric_thresholds(rules)), None)
+    minimum = next((m for r in rules if (m := _minimum(r)) is not None), None)
     statuses = scene_statuses(results, rules)
     figs["general"].append(plots.scene_counts(per_scene, minimum, statuses, f.t, "tp-counts"))
 
