@@ -96,7 +96,19 @@ def test_missing_extends_target_names_the_pack_file_and_line(tmp_path: Path) -> 
 
 @pytest.mark.parametrize(
     ("value", "got"),
-    [(".nan", "a non-finite number"), (".inf", "a non-finite number"), ("ten", "'ten'")],
+    [
+        (".nan", "a non-finite number"),
+        (".inf", "a non-finite number"),
+        ("ten", "'ten'"),
+        ("true", "true/false (true)"),
+        # beyond what expressions compute with: it was accepted here and refused at every
+        # stock line reading it (CP-2, CP-3, RO-2 …, their texts too)
+        ("1.0e+20", "1e+20, beyond ±1e+12 (the most an expression computes with)"),
+        (
+            "[1, 100000000000000000000]",
+            "a list holding 1e+20, beyond ±1e+12 (the most an expression computes with)",
+        ),
+    ],
 )
 def test_invalid_constant_is_reported_once_at_the_users_line(tmp_path, value, got) -> None:
     pack = _pack(tmp_path, f"constants:\n  norm:\n    height_m: {value}\n")

@@ -21,6 +21,7 @@ from pydantic import BaseModel, ValidationError
 from blockqc.errors import Problem, RuleError
 from blockqc.metrics import REGISTRY, MetricSpec, Scope
 from blockqc.rules.expr import (
+    MAX_MAGNITUDE,
     EvaluationError,
     ExpressionError,
     evaluate,
@@ -58,7 +59,27 @@ class ConstantSite:
 
 
 def _is_number(v: Any) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+    """A finite number of the magnitude expressions compute with (MAX_MAGNITUDE)."""
+    return (
+        isinstance(v, (int, float))
+        and not isinstance(v, bool)
+        and math.isfinite(v)
+        and abs(v) <= MAX_MAGNITUDE
+    )
+
+
+def _not_a_constant(value: Any) -> str:
+    """What a constant's value is that no constant may be."""
+    if isinstance(value, list):
+        bad = next((v for v in value if not _is_number(v)), None)
+        return "an empty list" if not value else f"a list holding {_not_a_constant(bad)}"
+    if isinstance(value, bool):
+        return f"true/false ({str(value).lower()})"
+    if isinstance(value, float) and not math.isfinite(value):
+        return "a non-finite number"
+    if isinstance(value, (int, float)):
+        return f"{value:g}, beyond ±{MAX_MAGNITUDE:g} (the most an expression computes with)"
+    return repr(value)
 
 
 def check_constants(
@@ -83,7 +104,7 @@ def check_constants(
             elif isinstance(value, list) and value and all(_is_number(v) for v in value):
                 continue
             elif not _is_number(value):
-                got = "a non-finite number" if isinstance(value, float) else repr(value)
+                got = _not_a_constant(value)
                 out.append(
                     Problem(
                         str(path),
