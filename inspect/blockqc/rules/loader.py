@@ -167,6 +167,7 @@ def _load_raw(path: Path, seen: tuple[Path, ...]) -> _Loaded:
         if parent.resolve() in seen:
             _circle(pf.extends, (*seen, parent.resolve()), site)
         out = _load_raw(parent, seen)
+        out.problems += _name_taken(pf, data, path, out.sources)
         out.pf = pf
     out.problems += check_constants(pf.constants, data, path, DELIVERY_NAMES)
     # a constant under a name the delivery provides is reported once, at its own line, and set
@@ -189,6 +190,25 @@ def _load_raw(path: Path, seen: tuple[Path, ...]) -> _Loaded:
     _apply_disable(out, pf, data, path)
     out.problems += unused_constants(sites, [r.data for r in out.rules.values()])
     return out
+
+
+def _name_taken(
+    pf: PackFile, data: Any, path: Path, parents: list[tuple[str, Any, PackFile]]
+) -> list[Problem]:
+    """A pack named as a pack it extends: its results and reports would name that pack (the
+    stock global-project 1.0) for rules it changes."""
+    taken = next((f for f, _, p in parents if p.pack == pf.pack), None)
+    if taken is None:
+        return []
+    return [
+        Problem(
+            str(path),
+            f"pack: {pf.pack} is the name of the pack it extends ({taken}): results and reports "
+            "would name that pack for the rules this one changes; give this pack a name of "
+            "its own",
+            line=line_of(data, ("pack",)),
+        )
+    ]
 
 
 def _circle(ref: str, chain: tuple[Path, ...], site: tuple[str, int | None]) -> None:
