@@ -124,9 +124,28 @@ def test_a_sampling_table_whose_sample_falls_is_refused(tmp_path: Path) -> None:
         "      - {batch: 282, sample: 2}\n",
     )
     assert _messages(pack) == [
-        f"{pack}, line 4: acceptance.sampling: sampling.table: batches of up to 282 give a "
-        "sample of 2, below the 17 of batches of up to 232: the sample grows with the batch "
-        "(a digit missing?)"
+        f"{pack}, line 5: acceptance.sampling.table: row 2: batches of up to 282 give a "
+        "sample of 2, below the 17 of batches of up to 232 (row 1): the sample grows with the "
+        "batch (a digit missing?)"
+    ]
+
+
+def test_rows_out_of_order_and_grades_out_of_order_are_said_at_once(tmp_path: Path) -> None:
+    """Each was said alone, at the line of `acceptance:` or `sampling:`, the other only once
+    the first was put right."""
+    pack = _pack(
+        tmp_path,
+        "acceptance:\n  grades:\n    - {id: excellent, min: 90, title: Excellent}\n"
+        "    - {id: good, min: 95, title: Good}\n    - {id: pass, min: 60, title: Pass}\n"
+        "  sampling:\n    table:\n      - {batch: 20, sample: 3}\n"
+        "      - {batch: 10, sample: 3}\n",
+    )
+    assert _messages(pack) == [
+        f"{pack}, line 9: acceptance.sampling.table: row 2 (batch 10) follows row 1 (batch "
+        "20): batch sizes must be strictly ascending",
+        f"{pack}, line 4: acceptance.grades: list them best first, each lowest score below the "
+        "one before (of two grades from the same score the second would never be given): got "
+        "excellent 90, good 95, pass 60",
     ]
 
 

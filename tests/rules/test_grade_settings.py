@@ -75,7 +75,7 @@ def test_grades_with_the_same_id_are_refused(tmp_path: Path) -> None:
         "  batch_default: good\n",
     )
     assert _messages(pack) == [
-        f"{pack}, line 3: acceptance: grades: each grade has an id of its own: good twice"
+        f"{pack}, line 4: acceptance.grades: each grade has an id of its own: good twice"
     ]
 
 

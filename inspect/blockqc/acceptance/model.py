@@ -83,19 +83,23 @@ class Sampling(_Pack):
 
     table: list[SampleRow] = Field(min_length=1)
 
-    @model_validator(mode="after")
-    def _ascending(self) -> Sampling:
-        sizes = [r.batch for r in self.table]
-        if sizes != sorted(set(sizes)):
-            raise ValueError("sampling.table: batch sizes must be strictly ascending")
-        for a, b in zip(self.table, self.table[1:], strict=False):
+    @field_validator("table")
+    @classmethod
+    def _ascending(cls, table: list[SampleRow]) -> list[SampleRow]:
+        """Said at the table's line, naming the rows (not at `sampling:`)."""
+        for i, (a, b) in enumerate(zip(table, table[1:], strict=False), start=2):
+            if b.batch <= a.batch:
+                raise ValueError(
+                    f"row {i} (batch {b.batch}) follows row {i - 1} (batch {a.batch}): batch "
+                    "sizes must be strictly ascending"
+                )
             if b.sample < a.sample:  # §QE-1: a larger batch never gets a smaller sample
                 raise ValueError(
-                    f"sampling.table: batches of up to {b.batch} give a sample of {b.sample}, "
-                    f"below the {a.sample} of batches of up to {a.batch}: the sample grows with "
-                    "the batch (a digit missing?)"
+                    f"row {i}: batches of up to {b.batch} give a sample of {b.sample}, below "
+                    f"the {a.sample} of batches of up to {a.batch} (row {i - 1}): the sample "
+                    "grows with the batch (a digit missing?)"
                 )
-        return self
+        return table
 
     @property
     def max_batch(self) -> int:
@@ -126,6 +130,11 @@ class Grade(_Pack):
     min: Score
     title: Text
     title_zh: str = ""
+
+
+def _mins(grades: list[Grade]) -> str:
+    """The grades as listed, with their lowest scores: 'excellent 90, good 95, pass 60'."""
+    return ", ".join(f"{g.id} {g.min:g}" for g in grades)
 
 
 def _known_grade(gid: str, info: ValidationInfo) -> str:
@@ -219,19 +228,21 @@ class Acceptance(_Pack):
             )
         return v
 
-    @model_validator(mode="after")
-    def _grades(self) -> Acceptance:
-        mins = [g.min for g in self.grades]
+    @field_validator("grades")
+    @classmethod
+    def _grades(cls, grades: list[Grade]) -> list[Grade]:
+        """Said at the line of `grades:`, with the other problems of the section."""
+        mins = [g.min for g in grades]
         if any(a <= b for a, b in zip(mins, mins[1:], strict=False)):
             raise ValueError(
-                "grades: list them best first, each lowest score below the one before (of two "
-                "grades from the same score the second would never be given)"
+                "list them best first, each lowest score below the one before (of two grades "
+                f"from the same score the second would never be given): got {_mins(grades)}"
             )
-        listed = [g.id for g in self.grades]
+        listed = [g.id for g in grades]
         twice = sorted({i for i in listed if listed.count(i) > 1})
         if twice:
-            raise ValueError(f"grades: each grade has an id of its own: {', '.join(twice)} twice")
-        return self
+            raise ValueError(f"each grade has an id of its own: {', '.join(twice)} twice")
+        return grades
 
     def grade(self, score: float) -> Grade:
         """The grade of a score that has not failed otherwise (§QE-5)."""
