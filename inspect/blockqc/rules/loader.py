@@ -263,6 +263,10 @@ def _apply_overrides(out: _Loaded, pf: PackFile, data: Any, path: Path) -> None:
                 why = f"{rid} is disabled by {', line '.join(map(str, out.disabled_at[rid]))}"
             out.problems.append(Problem(str(path), f"overrides.{rid}: {why}", line=line))
             continue
+        if _defined_here(out, rid, path):
+            why = _here(out, rid, f"overrides.{rid}", "change it there")
+            out.problems.append(Problem(str(path), why, line=line))
+            continue
         if "id" in override and override["id"] != rid:
             out.problems.append(
                 Problem(str(path), f"overrides.{rid}: the id cannot change", line=line)
@@ -309,6 +313,11 @@ def _apply_disable(out: _Loaded, pf: PackFile, data: Any, path: Path) -> None:
         if rid not in out.rules:
             out.problems.append(Problem(str(path), _not_disabled(out, rid), line=line))
             continue
+        if _defined_here(out, rid, path):
+            out.problems.append(
+                Problem(str(path), _here(out, rid, "disable", "remove it there"), line=line)
+            )
+            continue
         if rid in pf.overrides:  # the override would be read by nothing
             out.problems.append(
                 Problem(
@@ -321,6 +330,19 @@ def _apply_disable(out: _Loaded, pf: PackFile, data: Any, path: Path) -> None:
         del out.rules[rid]
         out.disabled.append(rid)
         out.disabled_at[rid] = (str(path), line)
+
+
+def _defined_here(out: _Loaded, rid: str, path: Path) -> bool:
+    """Whether the rule is defined under `rules:` of this very file (not inherited)."""
+    return out.rules[rid].history[0][0] == str(path) if rid in out.rules else False
+
+
+def _here(out: _Loaded, rid: str, key: str, what: str) -> str:
+    """A rule of this file named under its `overrides:` or `disable:`: its definition would be
+    changed, or dropped, by a key read after it, unsaid."""
+    return (
+        f"{key}: {rid} is defined in this file (rules, line {out.rules[rid].history[0][1]}): {what}"
+    )
 
 
 def _not_disabled(out: _Loaded, rid: str) -> str:
