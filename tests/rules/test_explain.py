@@ -75,3 +75,25 @@ def test_explain_of_a_disabled_rule_says_so_without_another_rule_offered(blockqc
         assert p.returncode == 2, p.stdout
         assert f"no rule {asked} in pack strict-project: CP-5 is disabled by the pack" in p.stderr
         assert "did you mean" not in p.stderr
+
+
+def test_a_bar_in_a_title_stays_inside_its_markdown_cell(tmp_path, blockqc) -> None:
+    """A title writing |Δ| split its row of `rules list --markdown` into two more columns."""
+    pack = tmp_path / "project.yaml"
+    pack.write_text(
+        "pack: project\nextends: global-project\noverrides:\n"
+        '  CP-2: {title: "Checkpoint plane medium error of |Δ| within the norm"}\n',
+        "utf-8",
+    )
+    p = blockqc("rules", "list", "--rules", pack, "--markdown")
+    assert p.returncode == 0, p.stderr
+    (row,) = [line for line in p.stdout.splitlines() if line.startswith("| CP-2 ")]
+    assert row == (
+        "| CP-2 | §CP-5 | Checkpoint plane medium error of \\|Δ\\| within the norm | "
+        "`checkpoint_accuracy.component_method.medium_error` | ≤ 10 m | m | fail | no |"
+    )
+    (tp1,) = [line for line in p.stdout.splitlines() if line.startswith("| TP-1 ")]
+    assert tp1 == (
+        "| TP-1 | §TP-1 | Tie-point error statistic | `tie_point_errors.block.median` | ≤ 0.5 px "
+        "| px | fail | no |"
+    )

@@ -79,10 +79,8 @@ def rules_list(rules_ref: str, markdown: bool) -> None:
         th = threshold_text(r, pack.constants)
         waiv = "yes" if r.waivable else "no"
         if markdown:
-            click.echo(
-                f"| {r.id} | {r.clause} | {r.title} | `{what}` | {th} | {r.unit or '-'} "
-                f"| {r.severity} | {waiv} |"
-            )
+            cells = [r.id, r.clause, r.title, f"`{what}`", th, r.unit or "-", r.severity, waiv]
+            click.echo("| " + " | ".join(map(_cell, cells)) + " |")
         else:
             click.echo(f"{r.id:7} {r.clause:8} {r.severity:5} {waiv:5} {th:34} {r.title}")
     if pack.disabled and not markdown:
@@ -92,6 +90,11 @@ def rules_list(rules_ref: str, markdown: bool) -> None:
 
         read = ", ".join(sorted(tie_point_columns(pack) or ["every column"]))
         click.echo(f"tie-point columns read (columns: used): {read}")
+
+
+def _cell(text: str) -> str:
+    """A Markdown table cell: a `|` of the text (a title's |Δ|) escaped, not a column's end."""
+    return text.replace("|", "\\|")
 
 
 def _find(pack: Pack, rule_id: str, rules_ref: str) -> Rule:
