@@ -150,10 +150,33 @@ def _read_file(path: Path) -> tuple[PackFile, Any]:
         raise RuleError(
             Problem(str(path), "a rule pack is a mapping with pack, rules, ...", line=1)
         )
+    other = _other_document(data)
+    if other is not None:
+        raise RuleError(Problem(str(path), other, line=1))
     try:
         return PackFile.model_validate(data), data
     except ValidationError as exc:
         raise RuleError(pydantic_problems(exc, path, data, model=PackFile)) from None
+
+
+def _other_document(data: dict[str, Any]) -> str | None:
+    """What another YAML file of blockqc given where a rule pack is expected is (a pack's case
+    file, a delivery's block.yaml, an inspector's verdicts), rather than each of its keys
+    refused as unknown ('rule: unknown key; did you mean rules?')."""
+    if "pack" in data:
+        return None
+    if {"rule", "cases"} <= data.keys():
+        what, hint = (
+            "a case file of a rule (rule, cases)",
+            "the pack file beside its cases folder (project.yaml beside project.cases/)",
+        )
+    elif "block_id" in data:
+        what, hint = "a delivery's block.yaml (block_id, ...)", "a rule pack file"
+    elif data.keys() & {"verdicts", "waivers", "inspector"}:
+        what, hint = "an inspector's verdicts file (verdicts, waivers)", "it with --verdicts"
+    else:
+        return None
+    return f"is {what}, not a rule pack (pack, rules, ...): give {hint}"
 
 
 def _load_raw(path: Path, seen: tuple[Path, ...]) -> _Loaded:
