@@ -384,6 +384,7 @@ def read_pack(ref: str | Path) -> tuple[Pack | None, list[Problem]]:
     loaded = _load_raw(path, ())
     problems = list(loaded.problems)
     elements = _elements(loaded.sources)
+    problems += _contents_twice(loaded.sources)
     acceptance, found = _acceptance(loaded.sources, elements)
     problems.extend(found)
     rules: list[Rule] = []
@@ -516,6 +517,34 @@ def _elements(sources: list[tuple[str, Any, PackFile]]) -> list[ElementDef]:
     out: list[ElementDef] = []
     for _, _, pf in sources:
         out = merge_elements(out, pf.elements)
+    return out
+
+
+def _contents_twice(sources: list[tuple[str, Any, PackFile]]) -> list[Problem]:
+    """A content id given in two places of the `elements:` tree (two items, or twice in one
+    item of a file): a rule naming it would be filed under one of them, unsaid. A content
+    given again under its item by a pack further down retitles it."""
+    first: dict[str, tuple[str, str, str, int | None]] = {}  # id -> element, item, file, line
+    out = []
+    for file, data, pf in sources:
+        for i, e in enumerate(pf.elements):
+            for j, item in enumerate(e.items):
+                for k, c in enumerate(item.contents):
+                    line = line_of(data, ("elements", i, "items", j, "contents", k))
+                    seen = first.setdefault(c.id, (e.id, item.id, file, line))
+                    if seen[2:] == (file, line) or (
+                        seen[:2] == (e.id, item.id) and seen[2] != file
+                    ):
+                        continue
+                    out.append(
+                        Problem(
+                            file,
+                            f"elements: content {c.id} is also a content of item {seen[1]} "
+                            f"({seen[2]}, line {seen[3]}): a content id names one content of "
+                            "the tree; give this one another id",
+                            line=line,
+                        )
+                    )
     return out
 
 

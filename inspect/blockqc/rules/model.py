@@ -68,7 +68,8 @@ class ElementDef(Titled):
 
 
 def merge_elements(base: list[ElementDef], extra: list[ElementDef]) -> list[ElementDef]:
-    """A project's elements merged into its parent's by id: titles replaced, new parts appended."""
+    """A project's elements merged into its parent's by id: the titles (and an item's method)
+    of elements, items and contents it gives again replaced, new parts appended."""
     out = [e.model_copy(deep=True) for e in base]
     for e in extra:
         mine = next((x for x in out if x.id == e.id), None)
@@ -81,8 +82,14 @@ def merge_elements(base: list[ElementDef], extra: list[ElementDef]) -> list[Elem
             if old is None:
                 mine.items.append(item.model_copy(deep=True))
                 continue
-            known = {c.id for c in old.contents}
-            old.contents += [c for c in item.contents if c.id not in known]
+            old.title, old.title_zh = item.title, item.title_zh or old.title_zh
+            old.method, old.method_zh = item.method or old.method, item.method_zh or old.method_zh
+            for c in item.contents:
+                known = next((x for x in old.contents if x.id == c.id), None)
+                if known is None:
+                    old.contents.append(c.model_copy(deep=True))
+                else:  # retitled, as elements and items are
+                    known.title, known.title_zh = c.title, c.title_zh or known.title_zh
     return out
 
 
