@@ -129,6 +129,22 @@ def test_a_crashing_block_is_recorded_and_the_others_go_on(small_batch, tmp_path
     assert (tmp_path / "out" / "F4-B02" / "report.html").is_file()
 
 
+def test_a_delivery_removed_while_the_batch_runs_is_named_in_words(small_batch, tmp_path):
+    """A delivery moved away after the batch was read: it was 'could not be inspected:
+    FileNotFoundError: [Errno 2] No such file or directory: …', in Python's words. It is
+    named, with what became of it, and the other blocks go on."""
+    got = batch.collect([small_batch])
+    shutil.rmtree(small_batch / "F3-B02")
+    writer = batch.Writer(tmp_path / "out", pdf="none")
+    outcomes, summary = batch.run(got, load_pack("global-project"), writer)
+    assert [o.entry is not None for o in outcomes] == [True, False, True]
+    assert [str(p) for p in outcomes[1].problems] == [
+        f"{small_batch / 'F3-B02'}: cannot be read: No such file or directory: moved or removed "
+        "while it was being inspected? (inspect it again)"
+    ]
+    assert summary.counts.unreadable == 1 and batch.exit_status(outcomes) == 2
+
+
 def test_the_console_says_how_many_of_the_failing_blocks_are_in_error(small_batch, tmp_path):
     """A block in error (RO-1 cannot be judged: block.yaml gives no MS GSD) is counted among
     those that fail; the last line read '3 blocks: 1 pass, 2 fail, 0 unreadable' beside one

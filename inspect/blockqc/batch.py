@@ -78,7 +78,7 @@ from blockqc.results import (
     block_fails,
 )
 from blockqc.rules.model import Pack
-from blockqc.textio import dangling_link
+from blockqc.textio import dangling_link, unreadable_path
 
 PDF_POLICIES = ("all", "failing", "sampled", "none")
 _PR_SET_PDEATHSIG = 1  # Linux prctl: the signal a process gets when its parent dies
@@ -436,6 +436,8 @@ class Job:
             raise  # no fault of the delivery: the run stops
         except InputError as exc:
             return self._not_inspected(path, manifest, exc.problems)
+        except OSError as exc:  # a file or folder gone (or refused) since the batch was read
+            return self._not_inspected(path, manifest, [unreadable_path(path, exc)])
         except Exception as exc:  # one block's failure must not stop the batch
             reason = f"could not be inspected: {type(exc).__name__}: {exc}"
             return self._not_inspected(path, manifest, [Problem(str(path), reason)])

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import errno
 import io
 import os
 import re
@@ -90,6 +91,17 @@ def unreadable_folder(folder: Path, exc: OSError) -> Problem:
     return Problem(
         str(folder), f"cannot be read: {exc.strerror or exc}: expected a readable folder"
     )
+
+
+def unreadable_path(where: Path, exc: OSError) -> Problem:
+    """A file or folder of an input that could not be read, in words rather than Python's: the
+    path the system named (else `where`) and why; one no longer there is said to have gone
+    since the run began (a delivery moved or removed while a batch ran)."""
+    path = exc.filename if exc.filename else where
+    why = exc.strerror or str(exc)
+    if exc.errno == errno.ENOENT:
+        why += ": moved or removed while it was being inspected? (inspect it again)"
+    return Problem(str(path), f"cannot be read: {why}")
 
 
 def dangling_link(path: Path) -> str | None:
