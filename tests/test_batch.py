@@ -226,6 +226,31 @@ def test_batch_folder_without_block_yaml_is_refused_by_name(small_batch: Path, t
     assert [b["block_id"] for b in summary["blocks"]] == ["F1-B02", "F3-B02", "F4-B02"]
 
 
+def test_links_of_a_batch_that_loop_are_refused_by_name(small_batch: Path, tmp_path: Path):
+    """Two links of the batch leading to each other stopped the whole batch with 'error:
+    Symlink loop from …' and no block inspected, where a link to nothing is refused alone.
+    Each is now refused by name, as a link to nothing is, and the deliveries are inspected."""
+    (small_batch / "A-link").symlink_to("B-link")
+    (small_batch / "B-link").symlink_to("A-link")
+    out = tmp_path / "out"
+    proc = run_blockqc("inspect", small_batch, "--out", out, "--no-pdf", "--incremental")
+    assert proc.returncode == 2, proc.stderr
+    for name, other in (("A-link", "B-link"), ("B-link", "A-link")):
+        assert (
+            f"error: {small_batch / name}: a symbolic link to {other}, which leads back to "
+            "itself (a loop): a delivery of the batch moved or removed?"
+        ) in proc.stderr
+    assert "Symlink loop" not in proc.stderr
+    summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+    assert [b["block_id"] for b in summary["blocks"]] == ["F1-B02", "F3-B02", "F4-B02"]
+    assert [u["path"] for u in summary["unreadable"]] == [
+        str(small_batch / "A-link"),
+        str(small_batch / "B-link"),
+    ]
+    again = run_blockqc("inspect", small_batch, "--out", out, "--no-pdf", "--incremental")
+    assert again.returncode == 2 and again.stdout.count("outputs reused") == 3, again.stderr
+
+
 def test_a_batch_inside_the_batch_is_said_to_be_one(small_batch: Path, tmp_path: Path):
     """A sub-folder without block.yaml whose own sub-folders are deliveries: refused as before,
     and said to be a batch whose deliveries are not inspected."""

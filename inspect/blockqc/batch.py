@@ -78,7 +78,7 @@ from blockqc.results import (
     block_fails,
 )
 from blockqc.rules.model import Pack
-from blockqc.textio import dangling_link, unreadable_path
+from blockqc.textio import dangling_link, real_path, unreadable_path
 
 PDF_POLICIES = ("all", "failing", "sampled", "none")
 _PR_SET_PDEATHSIG = 1  # Linux prctl: the signal a process gets when its parent dies
@@ -136,7 +136,7 @@ def collect(paths: Iterable[Path]) -> Collected:
         batch |= len(ds) > 1 or ds[0] != Path(p)
         found.extend(ds)
     once: dict[Path, Path] = {}  # each folder once, where it is first named
-    repeated = [d for d in found if once.setdefault(d.resolve(), d) is not d]
+    repeated = [d for d in found if once.setdefault(real_path(d), d) is not d]
     found = list(once.values())
     got = Collected(
         found,
@@ -733,11 +733,11 @@ def _discard_refused(writer: Writer, refused: list[Path]) -> None:
     for folder in (writer.out / PREVIOUS_SUMMARY_DIR, writer.out):  # the later one wins
         try:
             doc = json.loads((folder / "summary.json").read_text(encoding="utf-8"))
-            ids.update({Path(b["path"]).resolve(): str(b["block_id"]) for b in doc["blocks"]})
+            ids.update({real_path(Path(b["path"])): str(b["block_id"]) for b in doc["blocks"]})
         except (OSError, ValueError, KeyError, TypeError):
             continue  # no summary (or not one of ours): nothing to find them by
     for p in refused:
-        if (block_id := ids.get(Path(p).resolve())) is not None:
+        if (block_id := ids.get(real_path(p))) is not None:
             writer.discard(block_id)
 
 
@@ -752,8 +752,8 @@ def drop_outdated_summary(writer: Writer, got: Collected) -> str | None:
         listed = [(str(b["block_id"]), b["path"]) for b in doc["blocks"]]
         listed += [(str(u["path"]), u["path"]) for u in doc["unreadable"]]
         ids = {m.block_id for m in got.manifests.values()}
-        paths = {p.resolve() for p in got.deliveries}
-        hit = [name for name, path in listed if name in ids or Path(path).resolve() in paths]
+        paths = {real_path(p) for p in got.deliveries}
+        hit = [name for name, path in listed if name in ids or real_path(Path(path)) in paths]
     except (OSError, ValueError, KeyError, TypeError):
         return None  # no summary (or not one of ours)
     if not hit:

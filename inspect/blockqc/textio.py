@@ -105,10 +105,24 @@ def unreadable_path(where: Path, exc: OSError) -> Problem:
 
 
 def dangling_link(path: Path) -> str | None:
-    """A link to nothing, said with what it names; None when the path is no such link."""
-    if path.is_symlink() and not path.exists():
-        return f"a symbolic link to {os.readlink(path)}, which does not exist"
+    """A link to nothing, said with what it names: to no file or folder, or back to itself
+    through other links (a loop); None when the path is no such link."""
+    if not path.is_symlink():
+        return None
+    try:
+        os.stat(path)
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            return f"a symbolic link to {os.readlink(path)}, which leads back to itself (a loop)"
+        if exc.errno in (errno.ENOENT, errno.ENOTDIR):
+            return f"a symbolic link to {os.readlink(path)}, which does not exist"
     return None
+
+
+def real_path(path: Path) -> Path:
+    """Where a path leads, its links followed; a loop of links left where it loops, not raised
+    as Path.resolve raises it (RuntimeError), so that it is refused by name (`dangling_link`)."""
+    return Path(os.path.realpath(path))
 
 
 def not_a_file(path: Path) -> str | None:
