@@ -8,6 +8,7 @@ import shutil
 import socket
 import subprocess
 import sys
+from contextlib import suppress
 from pathlib import Path
 
 import pytest
@@ -306,6 +307,70 @@ def test_a_scheduler_that_does_not_answer_leaves_the_earlier_summary_in_place(
     assert p.returncode == 2 and "no scheduler answers there" in p.stderr, p.stderr
     assert "earlier run's batch summary is kept" not in p.stderr
     assert {q: q.read_bytes() for q in out.rglob("*") if q.is_file()} == before
+
+
+class _Service:
+    """A TCP service on a free port of this machine that is no Dask scheduler: it writes
+    `greeting` to each client that connects (nothing: it waits, as a web server does)."""
+
+    def __init__(self, greeting: bytes):
+        import threading
+
+        self.server = socket.create_server(("127.0.0.1", 0))
+        self.address = f"tcp://127.0.0.1:{self.server.getsockname()[1]}"
+        self.greeting, self.clients = greeting, []
+        threading.Thread(target=self._serve, daemon=True).start()
+
+    def _serve(self) -> None:
+        with suppress(OSError):
+            while True:
+                client, _ = self.server.accept()
+                self.clients.append(client)
+                client.sendall(self.greeting)
+
+    def close(self) -> None:
+        for client in self.clients:
+            client.close()
+        self.server.close()
+
+
+def test_a_service_that_is_no_scheduler_is_refused_at_once(small_batch, tmp_path):
+    """--scheduler naming a port where another service answers: the client read the service's
+    text as the length of a message and stopped with 'internal error: MemoryError: Unable to
+    allocate 3.07 EiB'; a web server (the dashboard's port) kept it waiting for ever. Both are
+    refused before anything runs (exit 2), naming the address."""
+    pytest.importorskip("dask.distributed")
+    service = _Service(b"HTTP/1.1 400 Bad Request\r\n\r\n")
+    try:
+        out = tmp_path / "out"
+        args = ("inspect", small_batch, "--out", out, "--no-pdf", "--scheduler", service.address)
+        proc = run_blockqc(*args)
+    finally:
+        service.close()
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr == (
+        f"error: --scheduler {service.address}: something answers there, but no Dask "
+        "scheduler (it began b'HTTP/1.1')\n"
+    )
+    assert not out.exists()
+
+
+def test_a_silent_service_is_no_scheduler(monkeypatch):
+    from blockqc import distributed
+    from blockqc.errors import UsageError
+
+    monkeypatch.setattr(distributed, "GREETING_S", 0.5)
+    service = _Service(b"")
+    try:
+        with pytest.raises(UsageError) as exc:
+            distributed.check_reachable(service.address)
+    finally:
+        service.close()
+    assert str(exc.value) == (
+        f"--scheduler {service.address}: something answers there, but no Dask scheduler: it "
+        "said nothing within 0.5 s, where a scheduler greets a client at once (the dashboard's "
+        "port, 8787, for the scheduler's, 8786?)"
+    )
 
 
 def test_scheduler_addresses_accepted():

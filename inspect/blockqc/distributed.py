@@ -10,6 +10,7 @@ run stops). `blockqc[dask]` installs what it needs.
 from __future__ import annotations
 
 import socket
+import struct
 import uuid
 from collections.abc import Callable
 from contextlib import contextmanager, suppress
@@ -50,7 +51,7 @@ def _probe(address: str) -> None:
         return
     host, _, port = rest.rpartition(":")
     try:
-        socket.create_connection((host.strip("[]"), int(port)), timeout=5).close()
+        sock = socket.create_connection((host.strip("[]"), int(port)), timeout=5)
     except socket.gaierror as exc:
         raise UsageError(f"--scheduler {address}: unknown host {host} ({exc.strerror})") from None
     except TimeoutError:
@@ -58,6 +59,38 @@ def _probe(address: str) -> None:
     except OSError as exc:  # refused, unreachable
         why = exc.strerror or type(exc).__name__
         raise UsageError(f"--scheduler {address}: no scheduler answers there ({why})") from None
+    with sock:
+        if (why := _not_a_scheduler(sock)) is not None:
+            raise UsageError(f"--scheduler {address}: {why}")
+
+
+#: how long a scheduler may take to greet a client that connected
+GREETING_S = 10.0
+
+
+def _not_a_scheduler(sock: socket.socket) -> str | None:
+    """Why what answers on `sock` is no Dask scheduler; None when it greets as one. A scheduler
+    writes its handshake as soon as a client connects: its length first (8 bytes, a count of a
+    few hundred), where a web server (the dashboard's port, 8787) waits for a request, and
+    another service writes text, which dask read as a length of exabytes (MemoryError)."""
+    sock.settimeout(GREETING_S)
+    head = b""
+    try:
+        while len(head) < 8 and (part := sock.recv(8 - len(head))):
+            head += part
+    except TimeoutError:
+        return (
+            f"something answers there, but no Dask scheduler: it said nothing within "
+            f"{GREETING_S:g} s, where a scheduler greets a client at once (the dashboard's "
+            "port, 8787, for the scheduler's, 8786?)"
+        )
+    except OSError as exc:
+        return f"no scheduler answers there ({exc.strerror or type(exc).__name__})"
+    if len(head) < 8:
+        return "no scheduler answers there (the connection was closed without a greeting)"
+    if not 0 < struct.unpack("Q", head)[0] < 2**20:
+        return f"something answers there, but no Dask scheduler (it began {head!r})"
+    return None
 
 
 def check_reachable(scheduler: str) -> None:
