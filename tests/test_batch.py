@@ -1221,6 +1221,33 @@ def test_an_interrupt_while_waiting_drops_the_jobs_not_begun(tmp_path):
     assert len(list(marks.iterdir())) < len(todo)
 
 
+class _CtrlC:
+    """A job whose worker gets the Ctrl-C a terminal sends to every process of the run, then
+    finishes its block (picklable, for a pool)."""
+
+    def __call__(self, path, manifest):
+        import signal
+        import time
+
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.2)
+        return path.name
+
+
+def test_ctrl_c_reaching_a_worker_leaves_its_block_to_finish(tmp_path):
+    """Ctrl-C in a terminal reaches the workers of a `--jobs` run too: each printed Python's
+    traceback ('Process ForkProcess-2: Traceback … KeyboardInterrupt') over the console and
+    dropped the block it was writing. The main process alone now stops the run; a worker
+    finishes its block."""
+    got: list[str] = []
+    todo = [(tmp_path / "A", None), (tmp_path / "B", None)]
+    try:
+        lost = batch._pooled(_CtrlC(), todo, got.append, 2)
+    except KeyboardInterrupt:
+        pytest.fail("a worker's Ctrl-C interrupted the block it was writing")
+    assert lost == [] and sorted(got) == ["A", "B"]
+
+
 class _Pid:
     """A job that writes its worker's process id, then waits a minute (picklable)."""
 

@@ -641,9 +641,13 @@ def _worker_start(parent: int) -> None:
     """A worker process: one thread (the processes share the cores), and SIGTERM left to end
     it, not raised as the main process raises it (`blockqc.cli`); on Linux, also sent to it
     when the main process dies without stopping its workers (SIGKILL, out of memory), so that
-    no orphan goes on writing into the output folder (they used to, then wait for ever)."""
+    no orphan goes on writing into the output folder (they used to, then wait for ever).
+    Ctrl-C, which a terminal sends to every process of the run, is left to the main process,
+    which stops the run (the blocks being written finished): a worker it interrupted printed
+    Python's traceback of where it was."""
     pieces.single_thread()
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     if sys.platform == "linux":
         with suppress(OSError, AttributeError):
             ctypes.CDLL(None).prctl(_PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0)
