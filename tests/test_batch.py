@@ -647,6 +647,24 @@ def test_dask_block_that_raises_once_is_retried(tmp_path: Path):
     assert got == ["A"]
 
 
+def _ctrl_c_here(path: Path, manifest: object) -> str:
+    """What a Ctrl-C sent to the worker process running this task would do there."""
+    import signal
+
+    return "ignored" if signal.getsignal(signal.SIGINT) == signal.SIG_IGN else "raised"
+
+
+def test_ctrl_c_reaching_a_local_dask_worker_is_left_to_the_main_process(tmp_path: Path):
+    """Ctrl-C in a terminal during a `--scheduler local` run reaches the cluster's worker
+    processes too: each printed 'Process Dask Worker process (from Nanny): Traceback …
+    KeyboardInterrupt' over the console. They now leave it to blockqc's process."""
+    from blockqc.distributed import run_on_dask
+
+    got: list[str] = []
+    run_on_dask("local", _ctrl_c_here, [(tmp_path / "A", None)], got.append)
+    assert got == ["ignored"]
+
+
 def _waits_for(marker: Path, name: str):
     def job(path: Path, manifest: object) -> str:
         import time

@@ -9,8 +9,10 @@ run stops). `blockqc[dask]` installs what it needs.
 
 from __future__ import annotations
 
+import signal
 import socket
 import struct
+import threading
 import uuid
 from collections.abc import Callable
 from contextlib import contextmanager, suppress
@@ -120,7 +122,13 @@ def client_for(scheduler: str):
         # the scheduler's HTTP server (its dashboard) on a free port: blockqc shows its own
         # progress, and on dask's fixed default two runs on one machine contend for one port
         # (dask then warns on the console and takes another)
-        cluster = LocalCluster(processes=True, threads_per_worker=1, dashboard_address=":0")
+        # each worker process leaves Ctrl-C to this one (`dask_setup`)
+        cluster = LocalCluster(
+            processes=True,
+            threads_per_worker=1,
+            dashboard_address=":0",
+            preload=[__name__],
+        )
         try:
             with Client(cluster) as c:
                 yield c
@@ -138,6 +146,15 @@ def client_for(scheduler: str):
         raise UsageError(f"--scheduler {scheduler}: no scheduler answers there ({exc})") from None
     with client:
         yield client
+
+
+def dask_setup(worker: Any) -> None:
+    """Run in each worker process of the local cluster as it starts (dask's `preload`): Ctrl-C,
+    which a terminal sends to every process of the run, is left to blockqc's process, which
+    stops the run; a worker it reached printed Python's tracebacks ('Process Dask Worker
+    process (from Nanny): Traceback … KeyboardInterrupt') over the console."""
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def run_on_dask(
