@@ -183,40 +183,11 @@ def _eval(node: ast.AST, constants: Mapping[str, Any], text: str) -> Any:
             )
         return _bounded(float(node.value), text)
     if isinstance(node, ast.BinOp) and type(node.op) in _BINARY:
-        left, right = _eval(node.left, constants, text), _eval(node.right, constants, text)
-        if isinstance(node.op, ast.Pow) and abs(right) > MAX_EXPONENT:
-            raise EvaluationError(
-                f"cannot evaluate {_short(text)}: exponent {right:g} beyond ±{MAX_EXPONENT:g}"
-            )
-        if isinstance(node.op, ast.Pow) and left < 0 and not float(right).is_integer():
-            raise EvaluationError(
-                f"cannot evaluate {_short(text)}: ({left:g}) ** {right:g}, a negative number to a "
-                "fractional power, is not a real number"
-            )
-        try:
-            return _bounded(float(_BINARY[type(node.op)](left, right)), text)
-        except (ZeroDivisionError, OverflowError, TypeError) as exc:
-            raise EvaluationError(f"cannot evaluate {_short(text)}: {exc}") from None
+        return _binary(node, constants, text)
     if isinstance(node, ast.UnaryOp) and type(node.op) in _UNARY:
         return _UNARY[type(node.op)](_eval(node.operand, constants, text))
     if isinstance(node, ast.Call):
-        name = _dotted(node.func)
-        if name not in FUNCTIONS or node.keywords:
-            allowed = ", ".join(sorted(FUNCTIONS))
-            raise ExpressionError(
-                f"function '{name or ast.unparse(node.func)}' is not allowed in {text!r} "
-                f"(allowed: {allowed})"
-            )
-        args = [_eval(a, constants, text) for a in node.args]
-        _check_arguments(name, args, text)
-        if name == "round" and len(args) == 2:  # decimal places: a whole number to Python
-            args[1] = int(args[1])
-        try:
-            return _bounded(float(FUNCTIONS[name](*args)), text)
-        except EvaluationError:
-            raise
-        except (ValueError, OverflowError) as exc:  # sqrt(-1): the values, not the writing
-            raise EvaluationError(f"cannot evaluate {text!r}: {exc}") from None
+        return _call(node, constants, text)
     name = _dotted(node)
     if name is not None:
         value = lookup(name, constants)
@@ -227,6 +198,46 @@ def _eval(node: ast.AST, constants: Mapping[str, Any], text: str) -> Any:
         f"'{ast.unparse(node)}' is not allowed in {text!r}: use numbers, constants, + - * / ** "
         f"and {', '.join(sorted(FUNCTIONS))}()"
     )
+
+
+def _binary(node: ast.BinOp, constants: Mapping[str, Any], text: str) -> float:
+    """An arithmetic operation of two values: a power beyond MAX_EXPONENT, or one that is no
+    real number, refused."""
+    left, right = _eval(node.left, constants, text), _eval(node.right, constants, text)
+    if isinstance(node.op, ast.Pow) and abs(right) > MAX_EXPONENT:
+        raise EvaluationError(
+            f"cannot evaluate {_short(text)}: exponent {right:g} beyond ±{MAX_EXPONENT:g}"
+        )
+    if isinstance(node.op, ast.Pow) and left < 0 and not float(right).is_integer():
+        raise EvaluationError(
+            f"cannot evaluate {_short(text)}: ({left:g}) ** {right:g}, a negative number to a "
+            "fractional power, is not a real number"
+        )
+    try:
+        return _bounded(float(_BINARY[type(node.op)](left, right)), text)
+    except (ZeroDivisionError, OverflowError, TypeError) as exc:
+        raise EvaluationError(f"cannot evaluate {_short(text)}: {exc}") from None
+
+
+def _call(node: ast.Call, constants: Mapping[str, Any], text: str) -> float:
+    """A call of one of FUNCTIONS, its arguments counted (no other function, no keywords)."""
+    name = _dotted(node.func)
+    if name not in FUNCTIONS or node.keywords:
+        allowed = ", ".join(sorted(FUNCTIONS))
+        raise ExpressionError(
+            f"function '{name or ast.unparse(node.func)}' is not allowed in {text!r} "
+            f"(allowed: {allowed})"
+        )
+    args = [_eval(a, constants, text) for a in node.args]
+    _check_arguments(name, args, text)
+    if name == "round" and len(args) == 2:  # decimal places: a whole number to Python
+        args[1] = int(args[1])
+    try:
+        return _bounded(float(FUNCTIONS[name](*args)), text)
+    except EvaluationError:
+        raise
+    except (ValueError, OverflowError) as exc:  # sqrt(-1): the values, not the writing
+        raise EvaluationError(f"cannot evaluate {text!r}: {exc}") from None
 
 
 #: how many arguments each function takes (least, most; None: no limit)
