@@ -46,6 +46,12 @@ PA1_RULE = """\
     threshold: {min: 100}
     unit: points
 """
+#: a project's rules: one rule of its own, PR-1, judging the tie points' RMS error by 0.5 px
+PR1_RULES = (
+    "rules:\n  - id: PR-1\n    title: Tie-point RMS\n    clause: §TP-1\n"
+    "    content: ro_report\n    metric: tie_point_errors\n    statistic: rms\n"
+    "    threshold: {max: 0.5}\n    unit: px\n"
+)
 PA2_RULE = """\
   - id: PA-2
     title: Tie-point RMS error within 0.5 px

@@ -7,13 +7,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from casekit import project_with_cases
+from casekit import PR1_RULES, project_with_cases
 
-_RULE = (
-    "rules:\n  - id: PR-1\n    title: Tie-point RMS\n    clause: §TP-1\n"
-    "    content: ro_report\n    metric: tie_point_errors\n    statistic: rms\n"
-    "    threshold: {max: 0.5}\n    unit: px\n"
-)
 _CASES = (
     "rule: PR-1\ncases:\n  - name: every error 0.3 px\n    expect: pass\n"
     "  - name: S1 at 1.5 px\n"
@@ -27,7 +22,7 @@ def test_a_manifest_key_inspect_refuses_is_named_in_the_cases_words(
     tmp_path: Path, blockqc
 ) -> None:
     text = _CASES.replace("MANIFEST", "{sensr: GF-7}")
-    pack = project_with_cases(tmp_path, _RULE, {"PR-1": text})
+    pack = project_with_cases(tmp_path, PR1_RULES, {"PR-1": text})
     p = blockqc("rules", "test", pack, "--own")
     assert p.returncode == 2, p.stdout + p.stderr
     assert p.stderr == (
@@ -38,7 +33,7 @@ def test_a_manifest_key_inspect_refuses_is_named_in_the_cases_words(
 
 def test_the_same_case_with_the_key_spelt_right_runs(tmp_path: Path, blockqc) -> None:
     text = _CASES.replace("MANIFEST", "{sensor: GF-7}")
-    pack = project_with_cases(tmp_path, _RULE, {"PR-1": text})
+    pack = project_with_cases(tmp_path, PR1_RULES, {"PR-1": text})
     p = blockqc("rules", "test", pack, "--own")
     assert p.returncode == 0, p.stdout + p.stderr
     assert p.stdout.splitlines()[-1] == "3 cases, 0 failed"
@@ -49,7 +44,7 @@ def test_a_row_appended_without_its_values_is_named_by_its_row(tmp_path: Path, b
     text = _CASES.replace(
         "    manifest: MANIFEST\n", "    append: {tie_points: [{point_id: Z1, scene_id: S1}]}\n"
     )
-    pack = project_with_cases(tmp_path, _RULE, {"PR-1": text})
+    pack = project_with_cases(tmp_path, PR1_RULES, {"PR-1": text})
     p = blockqc("rules", "test", pack, "--own")
     assert p.returncode == 2, p.stdout + p.stderr
     missing = [

@@ -10,13 +10,8 @@ from pathlib import Path
 
 from blockqc.rules import load_pack
 from blockqc.rules.cases import run_pack_cases
-from casekit import lint_messages, project_with_cases
+from casekit import PR1_RULES, lint_messages, project_with_cases
 
-_RULE = (
-    "rules:\n  - id: PR-1\n    title: Tie-point RMS\n    clause: §TP-1\n"
-    "    content: ro_report\n    metric: tie_point_errors\n    statistic: rms\n"
-    "    threshold: {max: 0.5}\n    unit: px\n"
-)
 _CASES = (
     "rule: PR-1\ncases:\n  - name: every error 0.3 px\n    expect: pass\n"
     "  - name: S1 at 1.5 px\n"
@@ -31,7 +26,7 @@ _CASES = (
 
 def test_a_derive_from_a_text_column_is_refused_at_its_case(tmp_path: Path, blockqc) -> None:
     pack = project_with_cases(
-        tmp_path, _RULE, {"PR-1": _CASES.format(src="scene_id", expect="fail")}
+        tmp_path, PR1_RULES, {"PR-1": _CASES.format(src="scene_id", expect="fail")}
     )
     cases = tmp_path / "project.cases" / "PR-1.yaml"
     message = (
@@ -49,7 +44,9 @@ def test_a_derive_from_a_number_column_is_made(tmp_path: Path) -> None:
     # its squared errors 0.09·(9cos²θ + sin²θ) = 0.09·(1 + 8cos²θ); the other 363 are 0.09
     s1 = sum(0.09 * (1 + 8 * math.cos(0.7 * k) ** 2) for k in range(121))
     rms = math.sqrt((s1 + 363 * 0.09) / 484)  # ≈ 0.424: passes the 0.5 px bound
-    pack = project_with_cases(tmp_path, _RULE, {"PR-1": _CASES.format(src="v_line", expect="pass")})
+    pack = project_with_cases(
+        tmp_path, PR1_RULES, {"PR-1": _CASES.format(src="v_line", expect="pass")}
+    )
     cases = tmp_path / "project.cases" / "PR-1.yaml"
     cases.write_text(cases.read_text("utf-8") + f"    value: {rms!r}\n", "utf-8")
     assert lint_messages(pack) == []
@@ -64,7 +61,7 @@ def test_a_derive_from_a_number_column_is_made(tmp_path: Path) -> None:
 def test_numbers_derived_into_a_column_of_texts_are_refused(tmp_path: Path, blockqc) -> None:
     # it stopped with "internal error: TypeError: Invalid value for dtype 'str'. ..."
     text = _CASES.format(src="line", expect="fail").replace("column: v_line", "column: scene_id")
-    pack = project_with_cases(tmp_path, _RULE, {"PR-1": text})
+    pack = project_with_cases(tmp_path, PR1_RULES, {"PR-1": text})
     cases = tmp_path / "project.cases" / "PR-1.yaml"
     message = (
         f"{cases}, line 8: cases.2: cannot be made on the base delivery: derive "
@@ -78,7 +75,7 @@ def test_numbers_derived_into_a_column_of_texts_are_refused(tmp_path: Path, bloc
 
 def test_a_text_set_into_a_column_of_numbers_is_refused_in_words(tmp_path: Path) -> None:
     text = _CASES.format(src="v_line", expect="pass").replace("v_line: 1.5", "v_line: abc")
-    pack = project_with_cases(tmp_path, _RULE, {"PR-1": text})
+    pack = project_with_cases(tmp_path, PR1_RULES, {"PR-1": text})
     assert lint_messages(pack) == [
         f"{tmp_path / 'project.cases' / 'PR-1.yaml'}, line 5: cases.1: cannot be made on the "
         "base delivery: set tie_points.v_line: cannot write 'abc': column v_line holds numbers "

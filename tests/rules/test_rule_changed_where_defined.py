@@ -8,14 +8,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from blockqc.rules import load_pack
-from casekit import extension_pack
+from casekit import PR1_RULES, extension_pack
 from casekit import lint_messages as _messages
-
-_PR1 = (
-    "rules:\n  - id: PR-1\n    title: Tie-point RMS\n    clause: §TP-1\n"
-    "    content: ro_report\n    metric: tie_point_errors\n    statistic: rms\n"
-    "    threshold: {max: 0.5}\n    unit: px\n"
-)
 
 
 def _lint(pack: Path) -> list[str]:
@@ -23,7 +17,7 @@ def _lint(pack: Path) -> list[str]:
 
 
 def test_an_override_of_a_rule_of_the_same_file_is_refused(tmp_path: Path) -> None:
-    pack = extension_pack(tmp_path, _PR1 + "overrides:\n  PR-1: {threshold: {max: 0.4}}\n")
+    pack = extension_pack(tmp_path, PR1_RULES + "overrides:\n  PR-1: {threshold: {max: 0.4}}\n")
     assert _lint(pack) == [
         f"{pack}, line 13: overrides.PR-1: PR-1 is defined in this file (rules, line 4): "
         "change it there"
@@ -31,14 +25,14 @@ def test_an_override_of_a_rule_of_the_same_file_is_refused(tmp_path: Path) -> No
 
 
 def test_a_disable_of_a_rule_of_the_same_file_is_refused(tmp_path: Path) -> None:
-    pack = extension_pack(tmp_path, _PR1 + "disable: [PR-1]\n")
+    pack = extension_pack(tmp_path, PR1_RULES + "disable: [PR-1]\n")
     assert _lint(pack) == [
         f"{pack}, line 12: disable: PR-1 is defined in this file (rules, line 4): remove it there"
     ]
 
 
 def test_a_rule_defined_in_a_parent_is_overridden_and_disabled_below(tmp_path: Path) -> None:
-    extension_pack(tmp_path, _PR1, name="parent")
+    extension_pack(tmp_path, PR1_RULES, name="parent")
     child = extension_pack(
         tmp_path, "overrides:\n  PR-1: {threshold: {max: 0.4}}\n", name="child",
         extends="parent.yaml",
