@@ -212,7 +212,7 @@ def decision_context(s: Summary, f: Formatter) -> dict[str, Any] | None:
         "decision_text": f._key("decision", d.decision, d.decision),
         "source": source,
         # beside the sample, in the page's brackets: a full-width one takes no space before it
-        "source_note": f"（{source}）" if f.lang == "zh" else f" ({source})",
+        "source_note": f.paren(source),
         "sample": id_list(d.sample, sep=f.list_sep),
         "mean": f.score(d.mean_score),
         "sample_grade": grade_text(f, d.sample_grade),
@@ -301,7 +301,7 @@ def _block_line(b: Any, f: Formatter) -> dict[str, Any]:
         "grade_text": grade_text(f, b.grade),
         "fails": b.fails,
         "complete": b.complete,
-        "reasons": ("；" if f.lang == "zh" else "; ").join(_reasons(b, f)),
+        "reasons": f.clause_sep.join(_reasons(b, f)),
     }
 
 
@@ -416,7 +416,7 @@ def filed_context(s: Summary, lang: str) -> dict[str, Any]:
         or f.t("handling_default"),
         "date": local_time(s.generated_at),
         "inspector": s.inspector or f.t("not_given"),
-        "colon": "：" if lang == "zh" else ": ",
+        "colon": f.colon,
         "method": f._key("sampling_method", (s.sampling or {}).get("method", "").replace(" ", "_")),
         "d": d,
         "sampling_rows": _sampling_rows(s, f),

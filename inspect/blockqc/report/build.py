@@ -66,7 +66,7 @@ HINTS = ("rc_convention", "rc_on_failed_geometry")
 
 def _notes(res: RuleResult, f: Formatter) -> list[str]:
     """The result's reason, note (the condition of a conditional pass), waiver and §CP-7 notes."""
-    detail, colon = res.detail, "：" if f.lang == "zh" else ": "
+    detail, colon = res.detail, f.colon
     measured = detail.get("decided_by") != "inspector"  # a note of blockqc's, not a person's
 
     def said(k: str) -> str:
@@ -459,8 +459,8 @@ def block_context(
         "figures": block_figures(results, f, scene_statuses(results)) if figures else NO_FIGURES,
         "pending": f.join(results.pending_manual),
         "evaluation": evaluation_context(results.evaluation, f, results.results),
-        "colon": "：" if lang == "zh" else ": ",
-        "sep": "；" if lang == "zh" else "; ",
+        "colon": f.colon,
+        "sep": f.clause_sep,
         "failed_items": failed_items(results, f),
         "delivery_name": name_only(results.delivery),
         "pack_files": ", ".join(name_only(p) for p in results.rule_pack_files) or "–",

@@ -463,7 +463,7 @@ class Formatter:
         if unit not in SHOWN_UNITS or label == key or label.endswith((")", "）")):
             return label
         shown = self.unit(unit)
-        return f"{label}（{shown}）" if self.lang == "zh" else f"{label} ({shown})"
+        return label + self.paren(shown)
 
     def ident(self, values: Any) -> str:
         """'ident' (the class of cells that wrap anywhere) when a value holds a word longer than
