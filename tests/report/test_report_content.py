@@ -533,3 +533,32 @@ def test_the_scene_counts_draw_the_rules_lower_bound_only(
     tp4 = next(r for r in results_doc["results"] if r["rule"] == "TP-4")
     tp4.update(threshold=threshold, comparison=comparison)
     assert _counts_legend(results_doc) == drawn
+
+
+def _histogram_marks(doc: dict) -> list[str]:
+    import re
+
+    figures = block_context(doc, "en")["figures"]
+    (svg,) = [x for x in figures["general"] if "tp-hist" in x]
+    return re.findall(r">([0-9.]+) px<", svg)
+
+
+@pytest.mark.parametrize(
+    ("threshold", "comparison", "drawn"),
+    [
+        ([0.2, 0.8], "between", ["0.2", "0.8"]),  # {min: 0.2, max: 0.8}: both bounds
+        ([0.25, 0.75], "strictly_between", ["0.25", "0.75"]),
+        (0.8, "<=", ["0.8"]),
+        (0.2, ">", ["0.2"]),
+    ],
+)
+def test_the_residual_histogram_marks_every_bound_of_a_hinted_rule(
+    results_doc, threshold, comparison, drawn
+) -> None:
+    """A TP-1 judged by a range (min 0.2, max 0.8 px) drew no mark on the residual histogram,
+    its two bounds read as no number; each is marked as a single bound is. The measurement's
+    own interval marks (1 and 1.5 px) are drawn beside them."""
+    tp1 = next(r for r in results_doc["results"] if r["rule"] == "TP-1")
+    assert "residual_histogram" in tp1["figures"]
+    tp1.update(threshold=threshold, comparison=comparison)
+    assert _histogram_marks(results_doc) == [*drawn, "1", "1.5"]

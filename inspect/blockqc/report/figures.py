@@ -71,23 +71,35 @@ def _beyond_evidence(results: BlockResults, res: RuleResult) -> list[dict[str, A
     ]
 
 
-def _numeric_thresholds(rules: list[RuleResult]) -> list[float]:
-    return [
-        float(r.threshold)
-        for r in rules
-        if isinstance(r.threshold, int | float) and not isinstance(r.threshold, bool)
-    ]
+def _number(v: Any) -> float | None:
+    return float(v) if isinstance(v, int | float) and not isinstance(v, bool) else None
+
+
+def _bounds(res: RuleResult) -> tuple[float | None, float | None]:
+    """A rule's lower and upper bound as its comparison reads its threshold: both of a range
+    (`between`, `{min: a, max: b}`), one of `>=`/`>` or `<=`/`<`, none of `equals`/`in`."""
+    th = res.threshold
+    if res.comparison in ("between", "strictly_between"):
+        pair = th if isinstance(th, list) and len(th) == 2 else [None, None]
+        return _number(pair[0]), _number(pair[1])
+    if res.comparison in (">=", ">"):
+        return _number(th), None
+    if res.comparison in ("<=", "<"):
+        return None, _number(th)
+    return None, None
+
+
+def _marks(rules: list[RuleResult]) -> list[float]:
+    """Every bound of the rules, to be marked on a figure: both ends of a range, and the value
+    a rule's statistic must equal."""
+    both = [(_number(r.threshold), None) if r.comparison == "equals" else _bounds(r) for r in rules]
+    return [b for pair in both for b in pair if b is not None]
 
 
 def _minimum(res: RuleResult) -> float | None:
     """A rule's lower bound, drawn as the scenes' minimum: of `min` or a range; none of a
     `max` alone (not a minimum) or of `equals`/`in`."""
-    th = res.threshold
-    if res.comparison in (">=", ">") and isinstance(th, int | float):
-        return float(th)
-    if res.comparison in ("between", "strictly_between") and isinstance(th, list) and th:
-        return float(th[0])
-    return None
+    return _bounds(res)[0]
 
 
 def _checkpoint_figures(results: BlockResults, f: Formatter, figs: dict[str, Any]) -> None:
@@ -112,7 +124,7 @@ def _histogram(results: BlockResults, f: Formatter, figs: dict[str, Any]) -> Non
     hist = m.detail.get("histogram") if m else None
     if not isinstance(hist, dict) or not hist.get("counts"):
         return
-    marks = set(_numeric_thresholds(rules))
+    marks = set(_marks(rules))
     interval = m.detail.get("interval_px")
     if isinstance(interval, list):
         marks.update(float(v) for v in interval if isinstance(v, int | float))
