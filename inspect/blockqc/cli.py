@@ -340,6 +340,7 @@ def inspect_cmd(
     from blockqc.inspector import load_inspector_input
     from blockqc.outputs import refuse_delivered, refuse_inside
     from blockqc.rules import load_pack
+    from blockqc.rules.lint import untranslated_titles
 
     _refuse_conflicts(no_pdf, pdf, scheduler)
     runner = batch.Runner(jobs or os.cpu_count() or 1, scheduler)  # its scheduler checked first
@@ -354,6 +355,9 @@ def inspect_cmd(
         + [("--checkpoints", f) for f in checkpoint_files]
     )
     pack = load_pack(rules_ref)
+    if lang == "zh":
+        for w in untranslated_titles(pack):
+            _warn(w)
     inspector = load_inspector_input(verdicts) if verdicts else None
     got = _collected(paths, out, pack, inspector)
     checkpoints = _inspector_checkpoints(checkpoint_files, got)

@@ -181,13 +181,13 @@ def rules_lint(packs: tuple[str, ...]) -> int:
     """Check rule packs and their cases (default: every stock pack); exit 2 listing every
     problem with its file and line."""
     from blockqc.rules import available_packs
-    from blockqc.rules.lint import lint
+    from blockqc.rules.lint import lint, untranslated_titles
 
     problems = []
     for ref in packs or available_packs():
         pack, found = lint(ref)
         problems.extend(found)
-        for note in pack.notes if pack is not None else []:
+        for note in [*pack.notes, *untranslated_titles(pack)] if pack is not None else []:
             click.echo(f"warning: {note}", err=True)
         if pack is not None and not found:
             click.echo(f"{ref}: {len(pack.rules)} rules, ok")

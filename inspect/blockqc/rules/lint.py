@@ -878,6 +878,32 @@ def _check_reference(
     _resolve(spec, ref.params, names, bad, (*at, "params"))
 
 
+def untranslated_titles(pack: Pack) -> list[Problem]:
+    """The rules of the pack without a Chinese title, one warning per pack file naming them and
+    their lines: a Chinese page shows their English titles (none is made up for them)."""
+    files: dict[str, list[tuple[str, int | None]]] = {}
+    for rule in pack.rules:
+        if not rule.title_zh.strip():
+            file, line = pack.origin.get(rule.id, (pack.name, None))
+            files.setdefault(str(file), []).append((rule.id, line))
+    return [_untranslated(file, rules) for file, rules in files.items()]
+
+
+def _untranslated(file: str, rules: list[tuple[str, int | None]]) -> Problem:
+    """The warning of one pack file's rules without a Chinese title (at the rule's line when
+    there is one, else each named with its line)."""
+    if len(rules) == 1:
+        ((rid, line),) = rules
+        what = f"rule {rid} has no title_zh: a Chinese page (--lang zh) shows its English title"
+        return Problem(file, f"{what}; give it a title_zh", line=line)
+    named = ", ".join(rid if line is None else f"{rid} (line {line})" for rid, line in rules)
+    return Problem(
+        file,
+        f"rules {named} have no title_zh: a Chinese page (--lang zh) shows their English "
+        "titles; give each a title_zh",
+    )
+
+
 # ---------------------------------------------------------------------------------- lint
 def check_cases(pack: Pack) -> list[Problem]:
     """Every rule has a case file (nearest along the pack's chain) with a pass and a fail case,

@@ -1,0 +1,68 @@
+"""A project rule without `title_zh` showed its English title on the Chinese page, unsaid. The
+pack check and a run writing Chinese pages now warn of such rules, once per pack file, naming
+them and their lines; no Chinese title is made up."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from blockqc.rules import load_pack
+from blockqc.rules.lint import untranslated_titles
+from casekit import SAMPLES, extension_pack
+
+_RULE = """\
+  - id: {rid}
+    title: Tie-point RMS within {bound} px
+{zh}    clause: §TP-1
+    content: ro_report
+    metric: tie_point_errors
+    params: {{bands: [pan]}}
+    statistic: rms
+    threshold: {{max: {bound}}}
+    unit: px
+"""
+
+
+def _pack(tmp_path: Path, *rules: tuple[str, str]) -> Path:
+    """A project pack of rules (id, Chinese title or ''): PR-1 at line 4, each rule 9 lines
+    long, a title_zh one line more."""
+    body = "".join(
+        _RULE.format(rid=rid, bound=0.5 + i / 10, zh=f"    title_zh: {zh}\n" if zh else "")
+        for i, (rid, zh) in enumerate(rules)
+    )
+    return extension_pack(tmp_path, "rules:\n" + body)
+
+
+def test_the_rules_without_a_chinese_title_are_named_once_with_their_lines(tmp_path) -> None:
+    # lines: pack 1, extends 2, rules 3; PR-1 4..12, PR-2 13..22 (with title_zh), PR-3 23..
+    pack = _pack(tmp_path, ("PR-1", ""), ("PR-2", "连接点中误差"), ("PR-3", ""))
+    assert [str(w) for w in untranslated_titles(load_pack(pack))] == [
+        f"{pack}: rules PR-1 (line 4), PR-3 (line 23) have no title_zh: a Chinese page "
+        "(--lang zh) shows their English titles; give each a title_zh"
+    ]
+    one = _pack(tmp_path, ("PR-1", "连接点中误差"), ("PR-2", ""))
+    assert [str(w) for w in untranslated_titles(load_pack(one))] == [
+        f"{one}, line 14: rule PR-2 has no title_zh: a Chinese page (--lang zh) shows its "
+        "English title; give it a title_zh"
+    ]
+
+
+def test_rules_with_chinese_titles_are_not_named(tmp_path) -> None:
+    assert untranslated_titles(load_pack("global-project")) == []
+    assert untranslated_titles(load_pack("asprs-2023")) == []
+    assert untranslated_titles(load_pack(_pack(tmp_path, ("PR-1", "连接点中误差")))) == []
+
+
+def test_the_pack_check_and_a_chinese_run_warn_an_english_run_does_not(blockqc, tmp_path) -> None:
+    pack = _pack(tmp_path, ("PR-1", ""), ("PR-2", ""))
+    warning = f"warning: {pack}: rules PR-1 (line 4), PR-2 (line 13) have no title_zh"
+    lint = blockqc("rules", "lint", pack)
+    assert lint.stderr.count(warning) == 1, lint.stderr
+    block = SAMPLES / "batch" / "F1-B01"
+    for lang, said in (("zh", 1), ("en", 0)):
+        out = tmp_path / f"out-{lang}"
+        run = blockqc("inspect", block, "--rules", pack, "--out", out, "--lang", lang, "--no-pdf")
+        assert run.returncode == 0, run.stderr
+        assert run.stderr.count(warning) == said, run.stderr
+    page = (tmp_path / "out-zh" / "F1-B01" / "report.html").read_text("utf-8")
+    assert "Tie-point RMS within 0.5 px" in page  # shown as written, not translated
