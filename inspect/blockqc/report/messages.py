@@ -361,6 +361,12 @@ MESSAGES: dict[str, tuple[str, str]] = {
     "fig_tp_counts": ("Tie points per scene", "每景影像连接点数量"),
     "fig_footprints": ("Scene footprints by status", "影像范围及检查状态"),
     "fig_overview": ("Blocks of the batch by verdict", "批次各区域网范围及检查结论"),
+    "fig_overview_where": ("Blocks of the batch by verdict: groups", "批次各区域网分组位置"),
+    "fig_overview_group": (
+        "Group {group} by verdict: {n} of the batch's blocks",
+        "{group} 组区域网范围及检查结论：共 {n} 个区域网",
+    ),
+    "lg_overview_group": ("group (own map)", "分组（单独成图）"),
     "summary_tables": ("For spreadsheets", "表格文件"),
     "sec_scene_maps": (
         "Tie-point distribution of the scenes failing a tie-point count or distribution rule",
