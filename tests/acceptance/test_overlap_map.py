@@ -172,3 +172,67 @@ def test_residual_cells_as_a_pandas_groupby(rows, categorical) -> None:
                 assert a[key] is None
             else:
                 assert a[key] == pytest.approx(b[key], abs=2e-6)
+
+
+def test_the_labels_of_a_large_map_are_the_failing_pairs_then_the_largest() -> None:
+    """30 pairs (more than MAX_PAIR_LABELS = 24): pairs 3 and 17 fail (17's RMS the larger),
+    then the 22 others of largest RMS, largest first. RMS of pair i: 1 + i/10, but pair 29's
+    is 0.5 and pair 5's missing (NaN, never taken before a number)."""
+    from blockqc.report.maps import _labelled
+
+    rms = 1 + np.arange(30) / 10
+    rms[29], rms[5] = 0.5, np.nan
+    bad = np.zeros(30, bool)
+    bad[[3, 17]] = True
+    others = [i for i in range(28, -1, -1) if i not in (3, 5, 17)][:22]  # 28, 27, …, 6, 4
+    assert _labelled(rms, bad).tolist() == [17, 3, *others]
+    assert _labelled(rms[:24], bad[:24]).tolist() == list(range(24))  # few pairs: every one
+
+
+def _grid_block(tmp_path):
+    """Field 3 (published as failing RO-3) as one block of 8 × 8 footprints, inspected."""
+    from blockqc.simulate import Layout, Options, simulate
+
+    layout = Layout(rows=8, cols=8, obs_per_scene=100)
+    (bid,) = simulate(tmp_path, Options(fields=(3,), blocks_per_field=1, layout=layout))
+    return inspect_delivery(load_delivery(tmp_path / bid), load_pack("global-project"))
+
+
+def _labels(svg: str) -> list[tuple[float, float, str, str]]:
+    import re
+
+    found = re.findall(
+        r'<text x="([\d.]+)" y="([\d.]+)" font-size="6"[^>]*fill="(#[0-9a-f]+)"[^>]*>([\d.]+)<',
+        svg,
+    )
+    return [(float(x), float(y), colour, s) for x, y, colour, s in found]
+
+
+def test_an_8x8_grid_labels_every_failing_pair_and_the_largest_others(tmp_path) -> None:
+    """An 8 × 8 grid has 112 overlapping pairs: their RMS labels (the first 60 pairs by
+    scene id) crowded one another and the arrows, the eastern half of the map unlabelled. Now
+    the failing pairs are labelled in red, then the others of largest RMS, 24 labels at most,
+    none over another (boxes of 0.6 em a character, 1 em high); the title says so."""
+    from blockqc.report.format import number
+
+    res = _grid_block(tmp_path)
+    rows, judge = _overlap_points(res)
+    worst: dict[tuple[str, str], list[float]] = {}
+    for r in rows:  # per pair: the plane discrepancies (by hand, not the map's groupby)
+        worst.setdefault((r["scene_a"], r["scene_b"]), []).append(math.hypot(r["dx_m"], r["dy_m"]))
+    rms = {p: math.sqrt(sum(v * v for v in d) / len(d)) for p, d in worst.items()}
+    failing = {p for p, d in worst.items() if max(d) >= judge.threshold}
+    assert judge.comparison == "<" and len(worst) > 100 and 0 < len(failing) < 24
+    labels = _labels(overlap_map(res, Formatter("en")))
+    red = sorted(s for _, _, c, s in labels if c == "#c62828")
+    assert red == sorted(number(rms[p]) for p in failing)
+    green = [float(s) for _, _, c, s in labels if c == "#2e7d32"]
+    passing = sorted((v for p, v in rms.items() if p not in failing), reverse=True)
+    assert len(red) + len(green) <= 24 and len(green) >= 12  # some left out where they crowd
+    assert min(green) >= passing[24 - len(red) - 1] - 0.005  # of the largest
+    boxes = [(x, x + 3.6 * len(s), y) for x, y, _, s in labels]
+    for i, (a0, a1, ay) in enumerate(boxes):
+        for b0, b1, by in boxes[i + 1 :]:
+            assert not (a0 < b1 and b0 < a1 and abs(ay - by) < 6.0), labels
+    title = f"RMS in m of the {len(failing)} failing pairs and of the"
+    assert title in overlap_map(res, Formatter("en"))

@@ -60,7 +60,10 @@ def _pairs(rows: list[dict[str, Any]]) -> pd.DataFrame:
     return out.reset_index()
 
 
-MAX_PAIR_LABELS = 60
+#: every pair is labelled on a map of at most this many pairs; on a larger one, the failing
+#: pairs (MAX_FAILING_LABELS at most) and the pairs of largest RMS, up to this many in all
+MAX_PAIR_LABELS = 24
+MAX_FAILING_LABELS = 60
 
 
 def overlap_map(results: BlockResults, f: Formatter) -> str | None:
@@ -82,10 +85,9 @@ def overlap_map(results: BlockResults, f: Formatter) -> str | None:
     rings = plots.rings_of(geoms)
     vec = pairs[["dx", "dy"]].to_numpy()
     longest = float(np.nanmax(np.hypot(vec[:, 0], vec[:, 1]), initial=0.0))
-    biggest = longest or 1.0
     x0, y0, x1, y1 = shapely.total_bounds(geoms[list(at.values())])
     span = max(x1 - x0, y1 - y0, 1e-3)  # the map's extent (one pair: its centres do not spread)
-    scale = 0.15 * span / biggest  # degrees per metre of mean discrepancy
+    scale = 0.15 * span / (longest or 1.0)  # degrees per metre of mean discrepancy
     bad = np.array(  # as the rule judges them: a bound inclusive or not, ON_BOUND
         [
             judge is not None and meets(v, judge.threshold, judge.comparison) is False
@@ -94,43 +96,82 @@ def overlap_map(results: BlockResults, f: Formatter) -> str | None:
         dtype=bool,
     )
     colours = np.where(bad, plots.STATUS_COLOURS["fail"], plots.STATUS_COLOURS["pass"])
-    plot = plots.lonlat_plot(rings, f.t, f.t("fig_overlap_map", m=f.num(longest)))
+    labelled = _labelled(pairs["rms"].to_numpy(), bad)
+    plot = plots.lonlat_plot(rings, f.t, _title(f, longest, len(pairs), bad, labelled))
     outline = np.full(len(rings.owner), "#9e9e9e", dtype=object)
     plot.add(svgplot.polygons(rings, outline, 0.0, 0.5))
     plot.add(svgplot.arrows(xy, vec * scale, colours.astype(object), 0.8), z=3)
-    plot.add(_rms_labels(xy, pairs["rms"].to_numpy(), colours), z=4)
+    rms = pairs["rms"].to_numpy()
+    moved = bad[labelled] | (len(labelled) == len(pairs))  # kept: every label of a small map
+    plot.add(_rms_labels(xy[labelled], rms[labelled], colours[labelled], moved), z=4)
     return plot.svg("overlap-map")
 
 
-def _rms_labels(xy: np.ndarray, rms: np.ndarray, colours: np.ndarray):
-    """The RMS beside the first MAX_PAIR_LABELS pairs, moved off one another (the two diagonal
-    pairs of four scenes in a grid share the centre of their overlap)."""
-    shown = min(len(rms), MAX_PAIR_LABELS)
-    texts = [number(v) for v in rms[:shown]]
+def _labelled(rms: np.ndarray, bad: np.ndarray) -> np.ndarray:
+    """The pairs whose RMS is written: all of a small map; else the failing pairs (worst first,
+    MAX_FAILING_LABELS at most), then the others of largest RMS, MAX_PAIR_LABELS in all."""
+    if len(rms) <= MAX_PAIR_LABELS:
+        return np.arange(len(rms))
+    worst = np.lexsort((-np.nan_to_num(rms, nan=-np.inf), ~bad))  # failing first, by RMS
+    failing = worst[: min(int(bad.sum()), MAX_FAILING_LABELS)]
+    others = worst[int(bad.sum()) :][: max(MAX_PAIR_LABELS - len(failing), 0)]
+    return np.concatenate([failing, others])
+
+
+def _title(f: Formatter, longest: float, n: int, bad: np.ndarray, labelled: np.ndarray) -> str:
+    """The map's title: what its labels are when not every pair has one."""
+    if len(labelled) == n:
+        return f.t("fig_overlap_map", m=f.num(longest))
+    others, shown, failing = int((~bad[labelled]).sum()), int(bad[labelled].sum()), int(bad.sum())
+    key = "none" if not failing else "failing" if shown == failing else "worst"
+    failing = f.t(f"overlap_labels_{key}", n=shown, of=failing)
+    return f.t("fig_overlap_map_some", m=f.num(longest), failing=failing, others=others)
+
+
+def _rms_labels(xy: np.ndarray, rms: np.ndarray, colours: np.ndarray, moved: np.ndarray):
+    """The RMS beside each pair on a white ground: a `moved` label (a failing pair's, or any of a
+    small map) is moved off the labels before it, another left out where it would cover one
+    (the two diagonal pairs of four scenes in a grid share the centre of their overlap)."""
+    texts = [number(v) for v in rms]
 
     def draw(fr: svg.Frame) -> str:
-        page = _unstacked(fr.xy(xy[:shown]) + [2.0, 0.0], texts, 6.0)
-        return "".join(
-            svg.text(x, y, s, 6, colour=c)
-            for (x, y), s, c in zip(page.tolist(), texts, colours[:shown], strict=True)
+        page, kept = _unstacked(fr.xy(xy) + [2.0, 0.0], texts, moved, 6.0)
+        grounds = [
+            [x - 0.5, y - 5.0, x + svg.text_width(texts[i], 6.0) + 0.5, y + 1.5]
+            for i, (x, y) in zip(kept, page[kept].tolist(), strict=True)
+        ]
+        ground = np.array(grounds, float).reshape(-1, 4)[:, [0, 1, 2, 1, 2, 3, 0, 3]]
+        d = svg.path_d(ground.reshape(-1, 2), np.arange(0, 4 * len(kept), 4), close=True)
+        back = f'<path d="{d}" fill="#fff" fill-opacity="0.8"/>' if kept else ""
+        return back + "".join(
+            svg.text(x, y, texts[i], 6, colour=colours[i])
+            for i, (x, y) in zip(kept, page[kept].tolist(), strict=True)
         )
 
     return draw
 
 
-def _unstacked(page: np.ndarray, texts: list[str], size: float) -> np.ndarray:
-    """Label baselines (points) each moved down a line at a time until it clears the labels
-    placed before it (at most MAX_PAIR_LABELS labels)."""
+def _unstacked(
+    page: np.ndarray, texts: list[str], moved: np.ndarray, size: float
+) -> tuple[np.ndarray, list[int]]:
+    """Label baselines (points) each clear of the labels placed before it: a `moved` one moved
+    down a line at a time until it is, another left out where it is not. The baselines and
+    the labels kept (at most MAX_FAILING_LABELS + MAX_PAIR_LABELS labels)."""
     out = np.array(page, float)
     placed: list[tuple[float, float, float]] = []  # x from, x to, baseline
+    kept: list[int] = []
     for i, s in enumerate(texts):
         x, y = out[i]
         right = x + svg.text_width(s, size)
         while any(x < b and a < right and abs(y - by) < size for a, b, by in placed):
+            if not moved[i]:
+                break
             y += 1.2 * size
-        out[i, 1] = y
-        placed.append((x, right, y))
-    return out
+        else:
+            out[i, 1] = y
+            placed.append((x, right, y))
+            kept.append(i)
+    return out, kept
 
 
 def _corners(results: BlockResults) -> tuple[np.ndarray, np.ndarray]:

@@ -423,6 +423,19 @@ MESSAGES.update(
             "mean vector (longest {m} m), RMS in m; red: a discrepancy fails",
             "相邻影像各像对接边差\n平均差值矢量（最长 {m} m），旁注均方根（m）；红色：存在超限",
         ),
+        "fig_overlap_map_some": (
+            "Adjacent-image discrepancies per scene pair\n"
+            "mean vector (longest {m} m); red: a discrepancy fails\n"
+            "RMS in m of {failing} and of the {others} largest others",
+            "相邻影像各像对接边差\n平均差值矢量（最长 {m} m）；红色：存在超限\n"
+            "旁注{failing}及其余均方根最大的 {others} 个像对的均方根（m）",
+        ),
+        "overlap_labels_none": ("no failing pair", "无超限像对"),
+        "overlap_labels_failing": ("the {n} failing pairs", "全部 {n} 个超限像对"),
+        "overlap_labels_worst": (
+            "the {n} worst of the {of} failing pairs",
+            "{of} 个超限像对中最大的 {n} 个",
+        ),
         "col_x_m": ("Easting x (m)", "东坐标 x（m）"),
         "col_y_m": ("Northing y (m)", "北坐标 y（m）"),
         "col_z_m": ("Height z (m)", "高程 z（m）"),
