@@ -66,3 +66,21 @@ def test_the_pack_check_and_a_chinese_run_warn_an_english_run_does_not(blockqc, 
         assert run.stderr.count(warning) == said, run.stderr
     page = (tmp_path / "out-zh" / "F1-B01" / "report.html").read_text("utf-8")
     assert "Tie-point RMS within 0.5 px" in page  # shown as written, not translated
+
+
+def test_re_rendering_in_chinese_names_them_from_results_json(blockqc, tmp_path) -> None:
+    """blockqc report --lang zh writes the Chinese page again from results.json, which keeps no
+    rule's line: the rules are named once with the pack and its file."""
+    pack = _pack(tmp_path, ("PR-1", ""), ("PR-2", "连接点中误差"))
+    block = SAMPLES / "batch" / "F1-B01"
+    run = blockqc("inspect", block, "--rules", pack, "--out", tmp_path / "o", "--no-pdf")
+    assert run.returncode == 0, run.stderr
+    results = tmp_path / "o" / "F1-B01" / "results.json"
+    warning = (
+        f"warning: {pack}: rule PR-1 has no title_zh (pack project 1): a Chinese page "
+        "(--lang zh) shows its English title; give it a title_zh in the pack"
+    )
+    for lang, said in (("zh", 1), ("en", 0)):
+        again = blockqc("report", results, "--out", tmp_path / lang, "--lang", lang, "--no-pdf")
+        assert again.returncode == 0, again.stderr
+        assert again.stderr.count(warning) == said, again.stderr

@@ -89,7 +89,7 @@ def command(
             "a delivery since withdrawn?): not rendered",
             err=True,
         )
-    for note in unchecked:
+    for note in unchecked + (_untranslated_titles(docs) if lang == "zh" else []):
         echo(f"warning: {note}", err=True)
     _check_out(out, results, docs, summary)
     with empty_removed(out):  # a folder made for pages none of which could be rendered
@@ -98,6 +98,29 @@ def command(
             written = _render(out, docs, summary, lang, templates, pdf, pdf_engine)
     echo(f"{len(written)} files written in {out}")
     return 0
+
+
+def _untranslated_titles(docs: list[tuple[Path, BlockResults, bytes]]) -> list[str]:
+    """Per pack the results were judged by, once: its rules without a Chinese title, which
+    the Chinese pages show in English (results.json names the pack's files, not their lines)."""
+    by_pack: dict[tuple[str, ...], dict[str, None]] = {}
+    for _, doc, _ in docs:
+        pack = (doc.rule_pack, doc.rule_pack_version, *doc.rule_pack_files)
+        ids = by_pack.setdefault(pack, {})
+        ids.update(dict.fromkeys(r.rule for r in doc.results if not r.title_zh.strip()))
+    return [_untranslated(pack, list(ids)) for pack, ids in by_pack.items() if ids]
+
+
+def _untranslated(pack: tuple[str, ...], ids: list[str]) -> str:
+    name, version, *files = pack
+    where = f"{files[0]}: " if files else ""
+    one = len(ids) == 1
+    return (
+        f"{where}{'rule' if one else 'rules'} {', '.join(ids)} {'has' if one else 'have'} no "
+        f"title_zh (pack {name} {version}): a Chinese page (--lang zh) shows "
+        f"{'its English title' if one else 'their English titles'}; give "
+        f"{'it' if one else 'each'} a title_zh in the pack"
+    )
 
 
 def _render(
