@@ -109,6 +109,15 @@ def make_settings(**overrides: object) -> MatchSettings:
     if errors:
         raise InputError([Problem(file="<arguments>", message=m) for m in errors])
     s = MatchSettings(**typed)  # type: ignore[arg-type]
+    errors = _incoherent(s)
+    if errors:
+        raise InputError([Problem(file="<arguments>", message=m) for m in errors])
+    return s
+
+
+def _incoherent(s: MatchSettings) -> list[str]:
+    """What is wrong with each value of `s` that its type alone does not rule out."""
+    errors: list[str] = []
     positive_ints = (
         "search_radius",
         "template",
@@ -148,6 +157,4 @@ def make_settings(**overrides: object) -> MatchSettings:
             errors.append(f"{name} must be zero or a positive integer, got {getattr(s, name)!r}")
     if s.ransac_threshold <= 0:
         errors.append(f"ransac_threshold must be positive, got {s.ransac_threshold!r}")
-    if errors:
-        raise InputError([Problem(file="<arguments>", message=m) for m in errors])
-    return s
+    return errors

@@ -422,17 +422,14 @@ def build_cp_table(
 ) -> pd.DataFrame:
     """Matches (ortho and reference pixels) → CPs with map, geographic and image coordinates;
     GEV in pixels of `image_gsd` (d_s, §RA-4)."""
-    row = matches["row"].to_numpy(np.float64)
-    col = matches["col"].to_numpy(np.float64)
-    x, y = grid.xy(row, col)
-    rx, ry = ref_grid.xy(
-        matches["ref_row"].to_numpy(np.float64), matches["ref_col"].to_numpy(np.float64)
+    row, col, ref_row, ref_col = (
+        matches[c].to_numpy(np.float64) for c in ("row", "col", "ref_row", "ref_col")
     )
+    x, y = grid.xy(row, col)
+    rx, ry = ref_grid.xy(ref_row, ref_col)
     to_geo = Transformer.from_crs(grid.crs, CRS.from_epsg(4326), always_xy=True)
-    lon, lat = (np.asarray(v) for v in to_geo.transform(x, y))
-    rlon, rlat = (np.asarray(v) for v in to_geo.transform(rx, ry))
-    h = dem.height(lon, lat)
-    rh = dem.height(rlon, rlat)
+    lon, lat, h = _on_ground(to_geo, x, y, dem)
+    rlon, rlat, rh = _on_ground(to_geo, rx, ry, dem)
     line, sample = rpc.ground_to_image(lon, lat, h)
     dx = x - rx
     dy = y - ry
@@ -442,8 +439,8 @@ def build_cp_table(
             "score": matches["score"].to_numpy() if "score" in matches else np.nan,
             "row": row,
             "col": col,
-            "ref_row": matches["ref_row"].to_numpy(np.float64),
-            "ref_col": matches["ref_col"].to_numpy(np.float64),
+            "ref_row": ref_row,
+            "ref_col": ref_col,
             "x_m": x,
             "y_m": y,
             "ref_x_m": rx,
@@ -464,6 +461,14 @@ def build_cp_table(
     table = table[np.isfinite(table["h_m"]) & np.isfinite(table["ref_h_m"])].reset_index(drop=True)
     table.insert(0, "cp_id", [f"CP{i + 1:04d}" for i in range(len(table))])
     return table[CP_COLUMNS]
+
+
+def _on_ground(
+    to_geo: Transformer, x: np.ndarray, y: np.ndarray, dem: DEM
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Longitude, latitude and DEM height of map coordinates (NaN height off the DEM)."""
+    lon, lat = (np.asarray(v) for v in to_geo.transform(x, y))
+    return lon, lat, dem.height(lon, lat)
 
 
 GEOGRAPHIC_COLUMNS = ("lon", "lat", "ref_lon", "ref_lat")
