@@ -189,7 +189,9 @@ class BlockEntry(_Model):
 
     # a sampled block's checkpoint statistics per component and method, with their status
     checkpoints: list[dict[str, Any]] = Field(default_factory=list)
-    extent_wkt: str | None = None  # the block's footprint (lon/lat), for the overview map
+    # the block's footprint (lon/lat), for the overview map; a block across ±180° is one piece,
+    # its longitudes beyond ±180° on one side (`lonlat.unwrapped`)
+    extent_wkt: str | None = None
     pdf: bool = False  # report.pdf written beside report.html
     score: float | None = None  # §QE evaluation of the block, when the pack has acceptance
     grade: str | None = None

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import math
 from collections.abc import Callable
@@ -11,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from blockqc.lonlat import centre_lon, unwrap_about, unwrapped
 from blockqc.outputs import write_bytes_atomic
 from blockqc.report.messages import translator
 
@@ -196,18 +198,25 @@ def plot_scene_precision(
     return _png(fig)
 
 
-def _footprints(block: Block) -> list:
-    from shapely import wkt
+def _footprints(block: Block, centre: float) -> list:
+    """The scenes' outlines (lon/lat), unwrapped nearest `centre` (`lonlat`: a block across
+    ±180° drawn as one piece, with its points)."""
+    import shapely
 
-    out = []
-    for text in block.data.scenes["footprint_wkt"].astype(str):
-        try:
-            geom = wkt.loads(text)
-        except Exception:  # footprints were validated on reading; skip a shape shapely rejects
-            continue
-        if hasattr(geom, "exterior"):
-            out.append(np.asarray(geom.exterior.coords)[:, :2])
-    return out
+    text = block.data.scenes["footprint_wkt"].astype(str).to_numpy(dtype=object)
+    geoms = unwrapped(shapely.from_wkt(text, on_invalid="ignore"), centre)
+    rings = shapely.get_exterior_ring(geoms[shapely.get_type_id(geoms) == 3])  # polygons
+    xy, owner = shapely.get_coordinates(rings, return_index=True)
+    return np.split(xy, np.flatnonzero(np.diff(owner)) + 1) if len(xy) else []
+
+
+def _drawn(sol: Solution) -> tuple[Solution, float]:
+    """The solution with its points' longitudes unwrapped about their centre, for the maps
+    (a block across ±180° drawn as one piece: `lonlat`), and that centre."""
+    centre = centre_lon(sol.lon[np.isfinite(sol.lon)])
+    if not np.isfinite(centre):
+        return sol, 0.0
+    return dataclasses.replace(sol, lon=unwrap_about(sol.lon, centre)), centre
 
 
 def write_figures(
@@ -221,18 +230,19 @@ def write_figures(
     v_after = np.hypot(sol.v_line, sol.v_sample)[kept]
     v_before = v_before[kept]
     t = translator(lang)
+    drawn, centre = _drawn(sol)
     with figure_language(lang):
         files = {
             "convergence": ("convergence.png", plot_convergence(summary["history"], t)),
             "residual_histogram": ("residual_histogram.png", plot_histograms(v_before, v_after, t)),
             "residual_vectors": (
                 "residual_vectors.png",
-                plot_vectors(block, sol, _footprints(block), t),
+                plot_vectors(block, drawn, _footprints(block, centre), t),
             ),
             "scene_vectors": ("scene_vectors.png", plot_scene_vectors(block, sol, summary, t)),
             "scene_precision": (
                 "scene_precision.png",
-                plot_scene_precision(block, sol, summary, t),
+                plot_scene_precision(block, drawn, summary, t),
             ),
         }
     for name, data in files.values():

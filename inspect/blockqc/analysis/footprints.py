@@ -12,6 +12,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from blockqc.errors import InputError, Problem
+from blockqc.lonlat import unwrapped
 
 #: Densify lon/lat edges to this step (degrees) before projecting, so long edges stay true.
 DENSIFY_DEG = 0.01
@@ -23,7 +24,8 @@ IOU_ROUNDING = 1e-9
 
 
 def scene_polygons(scenes: pd.DataFrame, file: str = "scenes.csv") -> np.ndarray:
-    """Footprints as shapely polygons (lon/lat); InputError naming every row that is not one."""
+    """Footprints as shapely polygons (lon/lat, a block across ±180° unwrapped as one piece:
+    `lonlat.unwrapped`); InputError naming every row that is not one."""
     wkt = scenes["footprint_wkt"].astype(str).to_numpy()
     geoms = shapely.from_wkt(wkt, on_invalid="ignore")
     kinds = shapely.get_type_id(geoms)
@@ -41,7 +43,7 @@ def scene_polygons(scenes: pd.DataFrame, file: str = "scenes.csv") -> np.ndarray
                 for i in np.flatnonzero(bad)
             ]
         )
-    return geoms
+    return unwrapped(geoms)
 
 
 def equal_area_crs(lon: float, lat: float) -> CRS:

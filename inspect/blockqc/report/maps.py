@@ -232,7 +232,7 @@ def residual_map(results: BlockResults, f: Formatter) -> str | None:
     scale = 0.04 * span / biggest
     tail, vec = v[:, :2], v[:, 2:] * scale
     plot = svgplot.Plot(4.4, 5.6, title=f.t("fig_residual_map", px=f"{biggest:.2f}"))
-    plot.xlabel, plot.ylabel, plot.grid = f.t("ax_lon"), f.t("ax_lat"), "xy"
+    plot.xlabel, plot.ylabel, plot.grid, plot.lon_x = f.t("ax_lon"), f.t("ax_lat"), "xy", True
     plot.aspect = 1 / max(math.cos(math.radians(float(v[:, 1].mean()))), 0.05)
     ends = np.concatenate([tail, tail + vec])
     plot.xlim, plot.ylim = svgplot.data_range(ends[:, 0]), svgplot.data_range(ends[:, 1])

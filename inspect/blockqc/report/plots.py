@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from blockqc.lonlat import unwrapped
 from blockqc.report.svg import Frame, Rings, arrow_outlines, cut, outlines_d, text, text_width
 from blockqc.report.svgplot import (
     LegendEntry,
@@ -302,11 +303,13 @@ FOOTPRINT_ORDER = {
 
 
 def geometries(wkts: list[Any]) -> np.ndarray:
-    """Footprint WKTs parsed in one call; None where a value is no text or cannot be read."""
+    """Footprint WKTs parsed in one call, their longitudes on one side of ±180° (`lonlat`: a
+    block across it is drawn as one piece, not round the globe); None where a value is no text
+    or cannot be read."""
     import shapely
 
     text = np.array([w if isinstance(w, str) else None for w in wkts], dtype=object)
-    return shapely.from_wkt(text, on_invalid="ignore")
+    return unwrapped(shapely.from_wkt(text, on_invalid="ignore"))
 
 
 def rings_of(geoms: np.ndarray) -> Rings:
@@ -351,7 +354,7 @@ def lonlat_plot(
 ) -> Plot:
     """A lon/lat map framed on the rings, with equal ground scale at their mean latitude."""
     plot = Plot(height_in, width_in, title=title, xlabel=t("ax_lon"), ylabel=t("ax_lat"))
-    plot.grid = "xy"
+    plot.grid, plot.lon_x = "xy", True
     if len(rings.xy):
         (lon_lo, lat_lo), (lon_hi, lat_hi) = rings.xy.min(axis=0), rings.xy.max(axis=0)
         pad = 0.03 * max(lon_hi - lon_lo, lat_hi - lat_lo, 1e-3)

@@ -33,6 +33,7 @@ from blockqc.report.svg import (
     wrap,
     xml_text,
 )
+from blockqc.rfm.model import wrap_lon
 
 AXIS = "#555"
 GRID = "#e3e3e3"
@@ -63,15 +64,17 @@ def _decimal(n: int, e: int) -> float:
     return float(n * 10**e) if e >= 0 else n / 10**-e
 
 
-def tick_labels(ticks: np.ndarray) -> list[str]:
-    """Plain labels with the decimals the step needs (a hyphen for minus: every font has it)."""
+def tick_labels(ticks: np.ndarray, lon: bool = False) -> list[str]:
+    """Plain labels with the decimals the step needs (a hyphen for minus: every font has it);
+    `lon`: longitudes, those beyond ±180° (a map across the antimeridian) written within."""
+    shown = np.where(np.abs(ticks) > 180.0, wrap_lon(ticks), ticks) if lon else ticks
     if len(ticks) < 2:
-        return [f"{v:g}" for v in ticks]
+        return [f"{v:g}" for v in shown]
     step = float(np.min(np.diff(ticks)))
     decimals = max(0, -math.floor(math.log10(step) + 1e-9))
     if not np.allclose(np.round(ticks, decimals), ticks, rtol=0, atol=step * 1e-6):
         decimals += 1
-    return [f"{v:.{decimals}f}" for v in ticks]
+    return [f"{v:.{decimals}f}" for v in shown]
 
 
 Mark = Callable[[Frame], str]
@@ -108,6 +111,7 @@ class Plot:
     xtick_rotation: float = 0.0
     yticks: bool = True
     tick_size: float = TICK_LABEL_PT
+    lon_x: bool = False  # x is longitude: ticks beyond ±180° labelled within (`tick_labels`)
     column_labels: tuple[np.ndarray, list[str], float] | None = None
     legend: list[LegendEntry] = field(default_factory=list)
     marks: list[tuple[int, Mark]] = field(default_factory=list)
@@ -120,7 +124,7 @@ class Plot:
     def _ticks(self) -> tuple[np.ndarray, list[str], np.ndarray, list[str]]:
         xt = nice_ticks(*self.xlim) if self.xticks and not self.column_labels else np.array([])
         yt = nice_ticks(*self.ylim) if self.yticks else np.array([])
-        return xt, tick_labels(xt), yt, tick_labels(yt)
+        return xt, tick_labels(xt, self.lon_x), yt, tick_labels(yt)
 
     def _legend_width(self) -> float:
         if not self.legend:
