@@ -201,7 +201,7 @@ def _rows_without_rpc(
 def scenes_without_rpc(folder: Path, scene_ids: list[str], files: dict[str, Path]) -> list[Problem]:
     """The scenes of scenes.csv without an RPC file in rpc/ and without tie-point observations
     (those with observations are refused by _read_models): the inspection does without them,
-    and says so; `blockqc adjust` refuses them (it needs every scene's RPC)."""
+    and says so; `blockqc adjust` leaves them out too (no observation ties them to the block)."""
     missing = [s for s in scene_ids if s not in files]
     if not missing:
         return []
@@ -211,7 +211,7 @@ def scenes_without_rpc(folder: Path, scene_ids: list[str], files: dict[str, Path
             str(folder),
             f"no RPC file for scene(s) {shown} of the scenes table, which have no tie-point "
             f"observations (expected {RPC_DIR}/<scene_id>.<ext> for every scene): inspected "
-            "without them; blockqc adjust refuses the delivery until they are given",
+            "without them; blockqc adjust leaves them out, not adjusted",
         )
     ]
 

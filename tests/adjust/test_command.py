@@ -364,17 +364,21 @@ def test_rows_of_one_point_giving_two_ground_points_are_refused(small_block, tmp
 def test_a_scene_an_infinite_prior_leaves_free_without_observations_is_named(
     small_block, tmp_path, blockqc
 ):
-    """--sigma-shift inf --sigma-linear inf --fix S0001 on a block where S0004 has no tie point:
-    its affine is free, the block singular, refused as '<block>: … or some scene has too few tie
-    observations' without saying which; the refusal names tie_points.csv and S0004."""
+    """--sigma-shift inf --sigma-linear inf --fix S0001 on a block where S0004 keeps 2 tie
+    observations: its affine is free, the block singular, refused as '<block>: … or some scene
+    has too few tie observations' without saying which; the refusal names tie_points.csv and
+    S0004. (A scene without any observation is left out of the adjustment.)"""
     blk = _copy(small_block, tmp_path)
     ties = pd.read_csv(blk / "tie_points.csv", dtype={"point_id": str})
-    ties[ties["scene_id"] != "S0004"].to_csv(blk / "tie_points.csv", index=False)
+    multi = ties["point_id"].map(ties["point_id"].value_counts()) >= 2
+    on_s4 = ties["scene_id"] == "S0004"
+    kept = ties.index[on_s4 & multi][:2]
+    ties[~on_s4 | ties.index.isin(kept)].to_csv(blk / "tie_points.csv", index=False)
     free = ["--sigma-shift", "inf", "--sigma-linear", "inf", "--fix", "S0001"]
     out = tmp_path / "out"
     r = blockqc("adjust", blk, "--out", out, *free)
     assert r.returncode == 2, r.stdout + r.stderr
-    assert f"error: {blk / 'tie_points.csv'}: scene(s) S0004 (0) have too few" in r.stderr
+    assert f"error: {blk / 'tie_points.csv'}: scene(s) S0004 (2) have too few" in r.stderr
     assert "--sigma-linear inf leaves free: expected at least 3 per scene" in r.stderr
     assert "internal error" not in r.stderr and not out.exists()
     r = blockqc("adjust", blk, "--out", out, *free, "--fix", "S0004")

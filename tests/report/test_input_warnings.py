@@ -81,5 +81,5 @@ def test_scenes_without_rpc_in_chinese(results_doc):
     (shown,) = _shown(render_block(results_doc, lang="zh"))
     assert shown == (
         "rpc：影像表中的影像 'M1', 'M2' 没有 RPC 文件，也没有连接点观测（每景影像应有 "
-        "rpc/<scene_id>.<ext>）：检查时不计这些影像；补齐之前 blockqc adjust 拒绝该成果"
+        "rpc/<scene_id>.<ext>）：检查时不计这些影像；blockqc adjust 亦不计这些影像，不对其作平差"
     )

@@ -80,7 +80,7 @@ def test_adjustment_row_for_a_scene_without_rpc_is_refused_by_both_commands(
 
 def test_a_scene_without_rpc_nor_observations_is_said_by_inspect(tmp_path, tie_points) -> None:
     """Scene M in scenes.csv, without RPC file, tie points or adjustment row: inspected without
-    it, as the contract allows, but no longer unsaid (adjust refuses it: it needs every RPC)."""
+    it, as the contract allows, but no longer unsaid (adjust leaves it out, said)."""
     from blockqc.engine import input_warnings
 
     folder = _with_scene_m(write_v11(tmp_path / "d", tie_points))
@@ -88,7 +88,7 @@ def test_a_scene_without_rpc_nor_observations_is_said_by_inspect(tmp_path, tie_p
     assert input_warnings(d) == [
         f"{folder / 'rpc'}: no RPC file for scene(s) 'M' of the scenes table, which have no "
         "tie-point observations (expected rpc/<scene_id>.<ext> for every scene): inspected "
-        "without them; blockqc adjust refuses the delivery until they are given"
+        "without them; blockqc adjust leaves them out, not adjusted"
     ]
     assert input_warnings(load_delivery(write_v11(tmp_path / "full", tie_points))) == []
 

@@ -3,12 +3,13 @@
 The delivery is read and validated as `inspect` reads it: the tables (tie_points may lack
 `v_line`/`v_sample` when the geometry is given, and may carry the producer's `lon`, `lat`, `h`),
 `rpc/<scene_id>.<ext>` and the producer's adjustment (`adjustment.csv` or `rpc_adjusted/`),
-every problem at once. The adjustment also needs the RPC of every scene of scenes.csv.
+every problem at once. The adjustment needs the RPC of every scene with tie-point observations;
+a scene of scenes.csv without any takes no part in it, whatever its RPC, and is left out (said).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -40,10 +41,13 @@ class AdjustInput:
     producer_models: list[RPCModel] | None
     producer_source: str
     tie_points_file: Path | None = None
+    #: the scenes of scenes.csv without tie-point observations, left out of the adjustment
+    left_out: list[str] = field(default_factory=list)
 
 
 def _originals(path: Path, geometry: BlockGeometry | None, scene_ids: list[str]) -> list:
-    """Every scene's original RPC; InputError naming the scenes that have none."""
+    """The original RPC of every scene given (those with observations); InputError naming the
+    scenes that have none."""
     have = geometry.original if geometry is not None else {}
     missing = [s for s in scene_ids if s not in have]
     if missing:
@@ -51,8 +55,8 @@ def _originals(path: Path, geometry: BlockGeometry | None, scene_ids: list[str])
         raise InputError(
             Problem(
                 str(path / RPC_DIR),
-                f"no RPC for scene(s) {shown}: the adjustment needs every scene's RPC "
-                f"(expected {RPC_DIR}/<scene_id>.<ext>)",
+                f"no RPC for scene(s) {shown}: the adjustment needs the RPC of every scene "
+                f"with tie-point observations (expected {RPC_DIR}/<scene_id>.<ext>)",
             )
         )
     return [have[s] for s in scene_ids]
@@ -113,7 +117,9 @@ def load_adjust_input(path: str | Path) -> AdjustInput:
     d = load_delivery(path, residuals=False)  # the observations alone are adjusted
     _check_multi_ray(d.files["tie_points"], d.tie_points)
     _check_ground(d.files["tie_points"], d.tie_points)
-    scene_ids = [str(s) for s in d.scenes["scene_id"]]
+    observed = d.scenes["scene_id"].isin(d.tie_points["scene_id"].unique()).to_numpy()
+    scenes = d.scenes[observed].reset_index(drop=True)
+    scene_ids = [str(s) for s in scenes["scene_id"]]
     models = _originals(path, d.geometry, scene_ids)
     producer_models, affine = (None, None)
     source = "none"
@@ -123,11 +129,12 @@ def load_adjust_input(path: str | Path) -> AdjustInput:
     return AdjustInput(
         path,
         d.manifest,
-        d.scenes,
+        scenes,
         d.tie_points,
         models,
         affine,
         producer_models,
         source,
         d.files["tie_points"],
+        [str(s) for s in d.scenes["scene_id"][~observed]],
     )

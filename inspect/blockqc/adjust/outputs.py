@@ -30,12 +30,20 @@ def write_csv_atomic(path: Path, table: pa.Table | pd.DataFrame) -> None:
 
 
 def adjustment_table(block: Block, sol: Solution) -> pa.Table:
-    """adjustment.csv: the contract's columns and the σ of each."""
-    cols: dict[str, object] = {"scene_id": block.data.scenes["scene_id"].astype(str).tolist()}
+    """adjustment.csv: the contract's columns and the σ of each; the scenes left out of the
+    adjustment (no tie-point observation) follow, their cells empty and `adjusted` false."""
+    left_out = block.data.left_out
+    ids = block.data.scenes["scene_id"].astype(str).tolist() + left_out
+    adjusted = np.arange(len(ids)) < len(sol.affine)
+    empty = np.zeros((len(left_out), len(AFFINE_KEYS)))
+    affine = np.vstack([sol.affine, empty])
+    sigma = np.vstack([sol.affine_sigma, empty])
+    cols: dict[str, object] = {"scene_id": ids}
     for i, k in enumerate(AFFINE_KEYS):
-        cols[k] = sol.affine[:, i]
+        cols[k] = pa.array(affine[:, i], mask=~adjusted)
     for i, k in enumerate(AFFINE_KEYS):
-        cols[f"sigma_{k}"] = sol.affine_sigma[:, i]
+        cols[f"sigma_{k}"] = pa.array(sigma[:, i], mask=~adjusted)
+    cols["adjusted"] = adjusted
     return pa.table(cols)
 
 

@@ -188,11 +188,7 @@ def _no_height(n_points: int, box: tuple[float, ...] | None) -> str:
 def datum(block: Block, cfg: AdjustConfig) -> tuple[Priors, dict]:
     """The priors that fix the datum without GCPs, and their description for adjust.json."""
     scene_ids = [str(s) for s in block.data.scenes["scene_id"]]
-    unknown = [s for s in cfg.fix if s not in scene_ids]
-    if unknown:
-        raise InputError(
-            Problem(str(block.data.path / "scenes.csv"), f"--fix: unknown scene(s) {unknown}")
-        )
+    _check_fixed(block, cfg.fix, scene_ids)
     for name, value in (("shift", cfg.sigma_shift_px), ("linear", cfg.sigma_linear_px)):
         if not value > 0:
             raise InputError(Problem("<options>", f"--sigma-{name} must be > 0, got {value}"))
@@ -212,6 +208,25 @@ def datum(block: Block, cfg: AdjustConfig) -> tuple[Priors, dict]:
         "ground_control_points": 0,
     }
     return priors, desc
+
+
+def _check_fixed(block: Block, fix: tuple[str, ...], scene_ids: list[str]) -> None:
+    """Refuse --fix naming a scene the block does not have, or one left out of it (no
+    tie-point observation: it takes no part in the adjustment)."""
+    unknown = [s for s in fix if s not in scene_ids and s not in block.data.left_out]
+    out = [s for s in fix if s in block.data.left_out]
+    problems = [Problem(str(block.data.path / "scenes.csv"), f"--fix: unknown scene(s) {unknown}")]
+    problems = problems if unknown else []
+    if out:
+        problems.append(
+            Problem(
+                str(block.data.tie_points_file or block.data.path),
+                f"--fix: scene(s) {', '.join(out)} have no tie-point observation: they take no "
+                "part in the adjustment (left out), so there is nothing to hold",
+            )
+        )
+    if problems:
+        raise InputError(problems)
 
 
 def _check_free_scenes(
@@ -608,6 +623,15 @@ MIN_SCENE_OBSERVATIONS = 3
 """Kept observations a scene needs for its affine (6 parameters, 2 equations each)."""
 
 
+def left_out_warnings(left_out: list[str]) -> list[str]:
+    """The scenes of scenes.csv left out of the adjustment: without a tie-point observation
+    nothing ties them to the block, whatever their RPC (`inputs.load_adjust_input`)."""
+    if not left_out:
+        return []
+    shown = ", ".join(left_out[:10]) + (" …" if len(left_out) > 10 else "")
+    return [EN("ad_warn_left_out", scenes=shown, n=len(left_out))]
+
+
 def scene_warnings(scenes: list[dict]) -> list[str]:
     """Scenes whose affine the data do not determine: too few observations kept."""
     out = []
@@ -683,7 +707,10 @@ def summarize(
         "producer_adjustment": block.data.producer_source,
         "history": sol.history,
         "scenes": scenes,
-        "warnings": scene_warnings(scenes),
+        "scenes_not_adjusted": [
+            {"scene_id": sid, "reason": EN("ad_warn_scene_empty")} for sid in block.data.left_out
+        ],
+        "warnings": left_out_warnings(block.data.left_out) + scene_warnings(scenes),
         "residual_convention": "v = computed − measured, image pixels (contract v1.1)",
     }
     out["warnings"] += fit_warnings(out)

@@ -204,6 +204,7 @@ SENTENCES = (
     "ad_warn_narrow_rays",
     "ad_warn_scene",
     "ad_warn_scene_empty",
+    "ad_warn_left_out",
     "ad_warn_scene_few",
     "ad_warn_sigma0",
     "ad_warn_datum",

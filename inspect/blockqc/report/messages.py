@@ -82,9 +82,9 @@ MESSAGES: dict[str, tuple[str, str]] = {
     "iw_scenes_without_rpc": (
         "{where}: no RPC file for scene(s) {scenes} of the scenes table, which have no tie-point "
         "observations (expected rpc/<scene_id>.<ext> for every scene): inspected without them; "
-        "blockqc adjust refuses the delivery until they are given",
+        "blockqc adjust leaves them out, not adjusted",
         "{where}：影像表中的影像 {scenes} 没有 RPC 文件，也没有连接点观测（每景影像应有 "
-        "rpc/<scene_id>.<ext>）：检查时不计这些影像；补齐之前 blockqc adjust 拒绝该成果",
+        "rpc/<scene_id>.<ext>）：检查时不计这些影像；blockqc adjust 亦不计这些影像，不对其作平差",
     ),
     "iw_document_kind": (
         "{where}: not a document kind of the contract; did you mean '{kind}'?",
@@ -1335,6 +1335,14 @@ MESSAGES.update(
             "及其连接点",
         ),
         "ad_warn_scene_empty": ("has no tie-point observation", "没有连接点观测"),
+        "ad_warn_left_out": (
+            "{n} scene(s) of scenes.csv left out of the adjustment, not adjusted: {scenes}: "
+            "without a tie-point observation nothing ties a scene to the block, whatever its "
+            "RPC; adjustment.csv gives them no affine (adjusted false)",
+            "scenes.csv 中有 {n} 景影像未参与平差，未作平差：{scenes}：没有连接点观测的影像与区域网"
+            "之间无任何联系，无论其 RPC 如何；adjustment.csv 中没有其仿射参数（adjusted 为 false）",
+        ),
+        "ad_not_adjusted": ("not adjusted: {why}", "未作平差：{why}"),
         "ad_warn_scene_few": (
             "keeps {kept} of its {total} observations after outlier rejection (fewer than {min}; "
             "{outliers} outliers, {single} left without a second ray)",
