@@ -24,6 +24,7 @@ from blockqc.delivery import (
     read_table,
 )
 from blockqc.errors import InputError, Problem
+from blockqc.precision import stored_resolution
 from blockqc.schema import CHECKPOINTS, Column, TableSchema, near_column
 from blockqc.textio import located
 
@@ -182,7 +183,8 @@ def _duplicates(rows: pd.DataFrame, extra: list[str]) -> list[Problem]:
 
 
 def merge_checkpoints(d: Delivery, extra: pd.DataFrame) -> Delivery:
-    """The delivery with the inspector's rows added to its checkpoints (§CP-2, contract v1.1)."""
+    """The delivery with the inspector's rows added to its checkpoints (§CP-2, contract v1.1),
+    and the ground columns their files store coarser than float64 said as the delivery's are."""
     if extra.empty:
         return d
     cols = [c.name for c in CHECKPOINTS.columns]
@@ -201,6 +203,11 @@ def merge_checkpoints(d: Delivery, extra: pd.DataFrame) -> Delivery:
     d.checkpoints = mine if d.checkpoints is None else pd.concat([d.checkpoints, mine])
     d.checkpoints = d.checkpoints.reset_index(drop=True)
     counts = extra.groupby("_file").size()
+    d.read_warnings = d.read_warnings + [
+        w
+        for f in counts.index  # a few files
+        for w in stored_resolution(Path(f), CHECKPOINTS, extra[extra["_file"] == f])
+    ]
     d.process_data.setdefault("notes", {})["inspector_checkpoints"] = {
         str(f): int(n) for f, n in counts.items()
     }

@@ -41,6 +41,7 @@ from blockqc.geometry_inputs import (
     residual_column_problems,
 )
 from blockqc.outputs import block_id_problem
+from blockqc.precision import stored_resolution
 from blockqc.schema import (
     MAX_INT,
     TABLES,
@@ -249,6 +250,9 @@ class Delivery:
     )
     # columns the files give that were not read (a pack with `columns: used`), by table
     not_read: dict[str, list[str]] = field(default_factory=dict)
+    # what the tables give that is read as given but said: ground columns stored coarser than
+    # float64 (`precision.stored_resolution`)
+    read_warnings: list[Problem] = field(default_factory=list)
 
     @property
     def block_id(self) -> str:
@@ -1122,6 +1126,7 @@ def load_delivery(
         files=read.files,
         geometry=geometry,
         not_read=_not_read(read),
+        read_warnings=read.warnings,
         **read.tables,
     )
 
@@ -1136,6 +1141,7 @@ class _Tables:
     headers: dict[str, list[str]] = field(default_factory=dict)
     clean: set[str] = field(default_factory=set)
     problems: list[Problem] = field(default_factory=list)
+    warnings: list[Problem] = field(default_factory=list)
 
 
 def _read_tables(path: Path, tie_point_columns: Collection[str] | None) -> _Tables:
@@ -1162,6 +1168,7 @@ def _read_tables(path: Path, tie_point_columns: Collection[str] | None) -> _Tabl
             out.problems.extend(exc.problems)
             continue
         out.problems.extend(found)
+        out.warnings.extend(stored_resolution(f, schema, df))
         out.tables[name] = df
         if not found:
             out.clean.add(name)

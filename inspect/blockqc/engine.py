@@ -577,12 +577,13 @@ GROUND_POINTS_DIFFER = (
 
 
 def input_warnings(d: Delivery) -> list[str]:
-    """What the delivery gives that is judged as given but said: scenes whose footprints lie
+    """What the delivery gives that is judged as given but said: ground columns a table stores
+    coarser than float64 (`precision.stored_resolution`), scenes whose footprints lie
     apart from the block's (`layout.apart_scenes`), the tie points whose rows give their point
     different ground points (`blockqc adjust` refuses them, by the same check), the scenes
     without an RPC file nor observations (`geometry_inputs.scenes_without_rpc`), the document
     kinds that look like a kind of the contract misspelt (`misspelt_document_kinds`)."""
-    found = apart_scenes(d.scenes, d.files.get("scenes", SCENES_FILE))
+    found = d.read_warnings + apart_scenes(d.scenes, d.files.get("scenes", SCENES_FILE))
     if d.geometry is not None:
         found += d.geometry.warnings
     file = d.files.get("tie_points")

@@ -37,6 +37,11 @@ class Column:
     category: bool = False
     """Text held as a pandas Categorical: the keys of tables of millions of rows (tie points),
     so that grouping, counting and joining work on integer codes."""
+    ground: Literal["", "deg", "m"] = ""
+    """A ground coordinate or discrepancy, in degrees or metres: the resolution its stored type
+    gives it is said when coarser than float64 (`blockqc.precision`)."""
+    figures: str = ""
+    """The stock rules whose figures the column's values enter (said with its resolution)."""
 
 
 @dataclass(frozen=True)
@@ -61,6 +66,11 @@ class TableSchema:
 
 
 METHODS = ("high_precision", "same_accuracy", "recalculation")
+#: the ground columns of the tie points (the producer's point: RC-1 with `ground: delivered`, the
+#: checkpoints of `blockqc adjust`) and of the checkpoints, with the rules they enter
+TIE_XY: dict = {"ground": "deg", "figures": "RC-1, CP-2"}
+CP_PLANE: dict = {"ground": "m", "figures": "CP-2, CP-4"}
+CP_HEIGHT: dict = {"ground": "m", "figures": "CP-3, CP-4"}
 
 SCENES = TableSchema(
     "scenes",
@@ -88,9 +98,9 @@ TIE_POINTS = TableSchema(
         # (blockqc.geometry_inputs checks that); lon/lat/h is the producer's ground point
         Column("v_line", "float", required=False),
         Column("v_sample", "float", required=False),
-        Column("lon", "float", required=False, nullable=True, min=-180.0, max=180.0),
-        Column("lat", "float", required=False, nullable=True, min=-90.0, max=90.0),
-        Column("h", "float", required=False, nullable=True),
+        Column("lon", "float", required=False, nullable=True, min=-180.0, max=180.0, **TIE_XY),
+        Column("lat", "float", required=False, nullable=True, min=-90.0, max=90.0, **TIE_XY),
+        Column("h", "float", required=False, nullable=True, ground="m", figures="RC-1, CP-3"),
     ),
     unique=("point_id", "scene_id"),
     references=(Reference("scene_id", "scenes", "scene_id"),),
@@ -103,8 +113,8 @@ PAN_MS = TableSchema(
         Column("pan_scene_id", "str"),
         Column("ms_scene_id", "str"),
         Column("point_id", "str"),
-        Column("dx_m", "float"),
-        Column("dy_m", "float"),
+        Column("dx_m", "float", ground="m", figures="RO-1"),
+        Column("dy_m", "float", ground="m", figures="RO-1"),
     ),
     unique=("pan_scene_id", "ms_scene_id", "point_id"),
     references=(
@@ -119,9 +129,9 @@ OVERLAPS = TableSchema(
         Column("scene_a", "str"),
         Column("scene_b", "str"),
         Column("point_id", "str"),
-        Column("dx_m", "float"),
-        Column("dy_m", "float"),
-        Column("dz_m", "float", required=False, nullable=True),
+        Column("dx_m", "float", ground="m", figures="RO-3, RO-4"),
+        Column("dy_m", "float", ground="m", figures="RO-3, RO-4"),
+        Column("dz_m", "float", required=False, nullable=True, ground="m", figures="RO-3, RO-4"),
     ),
     unique=("scene_a", "scene_b", "point_id"),
     references=(
@@ -135,9 +145,9 @@ EDGES = TableSchema(
     (
         Column("neighbour_block", "str"),
         Column("point_id", "str"),
-        Column("dx_m", "float"),
-        Column("dy_m", "float"),
-        Column("dz_m", "float", required=False, nullable=True),
+        Column("dx_m", "float", ground="m", figures="RO-2"),
+        Column("dy_m", "float", ground="m", figures="RO-2"),
+        Column("dz_m", "float", required=False, nullable=True, ground="m", figures="RO-2"),
     ),
     unique=("neighbour_block", "point_id"),
 )
@@ -148,14 +158,14 @@ CHECKPOINTS = TableSchema(
         Column("point_id", "str"),
         Column("method", "enum", choices=METHODS),
         Column("reference_id", "str"),
-        Column("x_m", "float"),
-        Column("y_m", "float"),
-        Column("z_m", "float", nullable=True),
+        Column("x_m", "float", **CP_PLANE),
+        Column("y_m", "float", **CP_PLANE),
+        Column("z_m", "float", nullable=True, **CP_HEIGHT),
         # Extension of contract v1: ref_x_m/ref_y_m may be empty for height-only references
         # (e.g. laser altimetry); such a row checks the height component only.
-        Column("ref_x_m", "float", nullable=True),
-        Column("ref_y_m", "float", nullable=True),
-        Column("ref_z_m", "float", nullable=True),
+        Column("ref_x_m", "float", nullable=True, **CP_PLANE),
+        Column("ref_y_m", "float", nullable=True, **CP_PLANE),
+        Column("ref_z_m", "float", nullable=True, **CP_HEIGHT),
     ),
     unique=("point_id", "method"),
 )

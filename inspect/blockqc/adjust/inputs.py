@@ -43,6 +43,8 @@ class AdjustInput:
     tie_points_file: Path | None = None
     #: the scenes of scenes.csv without tie-point observations, left out of the adjustment
     left_out: list[str] = field(default_factory=list)
+    #: what the tables give that is read as given but said (`Delivery.read_warnings`)
+    read_warnings: list[str] = field(default_factory=list)
 
 
 def _originals(path: Path, geometry: BlockGeometry | None, scene_ids: list[str]) -> list:
@@ -137,4 +139,5 @@ def load_adjust_input(path: str | Path) -> AdjustInput:
         source,
         d.files["tie_points"],
         [str(s) for s in d.scenes["scene_id"][~observed]],
+        [str(p) for p in d.read_warnings],
     )

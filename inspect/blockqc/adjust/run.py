@@ -710,7 +710,11 @@ def summarize(
         "scenes_not_adjusted": [
             {"scene_id": sid, "reason": EN("ad_warn_scene_empty")} for sid in block.data.left_out
         ],
-        "warnings": left_out_warnings(block.data.left_out) + scene_warnings(scenes),
+        "warnings": [
+            *block.data.read_warnings,
+            *left_out_warnings(block.data.left_out),
+            *scene_warnings(scenes),
+        ],
         "residual_convention": "v = computed − measured, image pixels (contract v1.1)",
     }
     out["warnings"] += fit_warnings(out)

@@ -417,6 +417,8 @@ INPUT_WARNINGS = (
     "iw_ground_differs",
     "iw_ground_more",
     "iw_scenes_without_rpc",
+    "iw_stored_type_coarse",
+    "iw_stored_type",
     "iw_document_kind",
 )
 

@@ -205,6 +205,8 @@ SENTENCES = (
     "ad_warn_scene",
     "ad_warn_scene_empty",
     "ad_warn_left_out",
+    "iw_stored_type_coarse",  # a table's ground columns stored coarser than float64
+    "iw_stored_type",
     "ad_warn_scene_few",
     "ad_warn_sigma0",
     "ad_warn_datum",

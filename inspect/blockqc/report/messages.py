@@ -86,6 +86,21 @@ MESSAGES: dict[str, tuple[str, str]] = {
         "{where}：影像表中的影像 {scenes} 没有 RPC 文件，也没有连接点观测（每景影像应有 "
         "rpc/<scene_id>.<ext>）：检查时不计这些影像；blockqc adjust 亦不计这些影像，不对其作平差",
     ),
+    # … and ground columns a Parquet table stores coarser than float64 (blockqc.precision)
+    "iw_stored_type": (
+        "{where}: {columns} (the resolution of each at its largest value) stored as {type}, not "
+        "float64: the figures of {figures} are no finer than that",
+        "{where}：{columns}（各列在其最大值处的分辨率）以 {type} 而非 float64 存储：{figures} 的"
+        "数值精度不会优于此分辨率",
+    ),
+    "iw_stored_type_coarse": (
+        "{where}: {columns} (the resolution of each at its largest value) stored as {type}, not "
+        "float64: coarser than {share} of the plane norm ({limit} m), the figures of {figures} "
+        "may be off by that much; write these columns as float64 (double)",
+        "{where}：{columns}（各列在其最大值处的分辨率）以 {type} 而非 float64 存储：粗于平面"
+        "限值的 {share}（{limit} m），{figures} 的数值可能因此偏差同样大小；请以 float64"
+        "（双精度）写出这些列",
+    ),
     "iw_document_kind": (
         "{where}: not a document kind of the contract; did you mean '{kind}'?",
         "{where}：不是合同规定的文档类型；是否应为 '{kind}'？",
