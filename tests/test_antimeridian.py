@@ -186,3 +186,47 @@ def test_the_adjustment_figures_draw_the_moved_block_as_one_piece() -> None:
     )
     assert np.ptp(rings[:, 0]) == pytest.approx(40.488122 - 40.033269, abs=1e-6)
     assert abs(rings[:, 0].mean() - drawn.lon.mean()) < 0.5  # the outlines round the points
+
+
+@pytest.mark.parametrize(
+    ("xlim", "expected"),
+    [
+        # a block across ±180° drawn unwrapped west of -180: read within ±180
+        ((-180.25, -179.75), ["179.8", "179.9", "-180.0", "-179.9", "-179.8"]),
+        # east of 180 alike
+        ((179.75, 180.25), ["179.8", "179.9", "180.0", "-179.9", "-179.8"]),
+    ],
+)
+def test_adjust_maps_read_longitudes_within_180(xlim, expected) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from blockqc.adjust.report import EN, _lon_axis
+
+    fig, ax = plt.subplots()
+    ax.set_xlim(*xlim)
+    _lon_axis(ax, EN)
+    fig.canvas.draw()
+    shown = [t.get_text() for t in ax.get_xticklabels()]
+    plt.close(fig)
+    assert shown == expected
+    assert ax.get_xlim() == xlim  # the map's extent kept
+
+
+def test_adjust_maps_of_a_block_elsewhere_keep_their_ticks() -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from blockqc.adjust.report import EN, _lon_axis
+
+    fig, ax = plt.subplots()
+    ax.set_xlim(5.1, 5.5)
+    before = list(ax.get_xticks())
+    _lon_axis(ax, EN)
+    assert list(ax.get_xticks()) == before
+    assert ax.get_xlabel() == "longitude (°)"
+    plt.close(fig)

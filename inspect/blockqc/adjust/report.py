@@ -99,10 +99,10 @@ def plot_vectors(
         width=0.0015,
     )
     _vector_key(ax, arrows, np.hypot(sol.v_line[kept], sol.v_sample[kept]), t)
-    ax.set_xlabel(t("ax_lon"))
     ax.set_ylabel(t("ax_lat"))
     ax.set_aspect(1.0 / max(math.cos(math.radians(float(np.nanmean(sol.lat)))), 0.1))
     ax.autoscale_view()
+    _lon_axis(ax, t)
     ax.set_title(t("ad_fig_vectors"))
     return _png(fig)
 
@@ -192,10 +192,23 @@ def plot_scene_precision(
     sig = np.array([s["sigma_shift_centre_px"] for s in summary["scenes"]])
     art = ax.scatter(lon, lat, c=sig, cmap="viridis", s=30)
     fig.colorbar(art, ax=ax, label=t("ad_ax_sigma_shift"))
-    ax.set_xlabel(t("ax_lon"))
+    _lon_axis(ax, t)
     ax.set_ylabel(t("ax_lat"))
     ax.set_title(t("ad_fig_precision"))
     return _png(fig)
+
+
+def _lon_axis(ax: Any, t: Callable[..., str]) -> None:
+    """The longitude axis of a map, its ticks labelled within ±180° (a block across the
+    antimeridian is drawn unwrapped, 179.9 … 180.1, and read -179.9 east of 180)."""
+    from blockqc.report.svgplot import tick_labels
+
+    ax.set_xlabel(t("ax_lon"))
+    lo, hi = ax.get_xlim()
+    ticks = np.array([v for v in ax.get_xticks() if lo <= v <= hi])
+    if ticks.size and np.abs(ticks).max() > 180.0:
+        ax.set_xticks(ticks, tick_labels(ticks, lon=True))
+        ax.set_xlim(lo, hi)
 
 
 def _footprints(block: Block, centre: float) -> list:
