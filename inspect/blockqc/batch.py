@@ -15,7 +15,7 @@ import shutil
 import signal
 import sys
 from collections.abc import Callable, Iterable
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import Future, ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import suppress
 from dataclasses import dataclass, field
@@ -660,20 +660,30 @@ def _pooled(
 ) -> list[tuple[Path, Manifest | None]]:
     """done(outcome) of each job run in a pool of `workers` processes; the jobs lost to a
     process that died."""
-    lost = []
+    lost, said = [], set()
     start = {"initializer": _worker_start, "initargs": (os.getpid(),)}
     with ProcessPoolExecutor(workers, **start) as pool:
         futures = {pool.submit(job, p, m): (p, m) for p, m in todo}
         try:
             for future in as_completed(futures):
+                said.add(future)  # before its line: a signal may stop the run as it is out
                 try:
                     done(future.result())
                 except BrokenProcessPool:
                     lost.append(futures[future])
         except BaseException:  # the run stops (outputs that cannot be written, interrupted,
             pool.shutdown(wait=True, cancel_futures=True)  # terminated): the jobs not begun
-            raise  # are dropped, those running end
+            _finished_meanwhile([f for f in futures if f not in said], done)  # are dropped,
+            raise  # those running end, and are said
     return lost
+
+
+def _finished_meanwhile(futures: list[Future], done: Callable) -> None:
+    """done(outcome) of the jobs that ended while a stopped run waited for its workers: their
+    outputs are written whole, and are said as those of the blocks before them were."""
+    for future in futures:
+        if future.done() and not future.cancelled() and future.exception() is None:
+            done(future.result())
 
 
 def run(

@@ -427,24 +427,40 @@ def _inspect_all(
             outdated = batch.drop_outdated_summary(writer, got)
             if outdated:
                 _warn(outdated)
-            with _said_if_stopped(out):
+            kept: list = []  # the blocks whose outputs are written (or reused), as they end
+            with _said_if_stopped(out, kept, len(got.deliveries)):
                 outcomes, summary = batch.run(
-                    got, pack, writer, inspector, progress=tick, **run_options
+                    got, pack, writer, inspector, progress=_counted(tick, kept), **run_options
                 )
     _closing_lines(outcomes, summary, out)
     return outcomes
 
 
+def _counted(tick, kept: list):
+    """The console's line of each outcome (`tick`), the blocks whose outputs are written or
+    reused gathered in `kept`."""
+
+    def said(o) -> None:
+        if o.entry is not None:  # counted first: a signal may stop the run as its line is out
+            kept.append(o.entry.block_id)
+        tick(o)
+
+    return said
+
+
 @contextlib.contextmanager
-def _said_if_stopped(out: Path):
+def _said_if_stopped(out: Path, kept: list, total: int):
     """A batch run that stops (an output it cannot write, interrupted) says where the earlier
     run's summary is: set aside, since the blocks rewritten so far are no longer those it
-    describes (`batch.run`)."""
+    describes (`batch.run`); interrupted or terminated, how many blocks it finished (`kept`,
+    of `total`), which main() says."""
     from blockqc.outputs import PREVIOUS_SUMMARY_DIR
 
     try:
         yield
-    except BaseException:
+    except BaseException as exc:
+        if isinstance(exc, KeyboardInterrupt):
+            exc.kept = (len(kept), total, out)
         if (out / PREVIOUS_SUMMARY_DIR).is_dir():
             echo(
                 f"note: the earlier run's batch summary is kept in {out / PREVIOUS_SUMMARY_DIR}:"
@@ -846,6 +862,24 @@ def _terminated(signum, frame) -> None:
     raise Terminated
 
 
+def _stopped(exc: KeyboardInterrupt) -> None:
+    """Say that the run was interrupted (Ctrl-C: exit 130) or terminated (SIGTERM: 143), and
+    for an inspection how many of its blocks were finished, their outputs kept."""
+    terminated = isinstance(exc, Terminated)
+    line = "terminated" if terminated else "interrupted"
+    if (kept := getattr(exc, "kept", None)) is not None:
+        n, total, out = kept
+        blocks = f"{total} block{'' if total == 1 else 's'}"
+        line += (
+            f": {n} of {blocks} finished, their outputs kept in {out} (each whole; an "
+            "--incremental run reuses them)"
+            if n
+            else f": none of {blocks} finished"
+        )
+    echo(line, err=True)
+    sys.exit(143 if terminated else 130)
+
+
 def main(argv: list[str] | None = None) -> None:
     """Entry point: run the command group, turning blockqc's errors into messages and exit 2."""
     memory.tune()  # before any command imports numpy
@@ -858,18 +892,15 @@ def main(argv: list[str] | None = None) -> None:
             echo(f"error: {problem}", err=True)
         sys.exit(exc.exit_code)
     except click.exceptions.Abort as exc:
-        if isinstance(exc.__cause__, Terminated):
-            echo("terminated", err=True)
-            sys.exit(143)
+        if isinstance(exc.__cause__, KeyboardInterrupt):  # Ctrl-C or SIGTERM during a command
+            _stopped(exc.__cause__)
         echo("aborted", err=True)
         sys.exit(130)
     except click.ClickException as exc:
         exc.show()
         sys.exit(2)
     except KeyboardInterrupt as exc:
-        terminated = isinstance(exc, Terminated)
-        echo("terminated" if terminated else "interrupted", err=True)
-        sys.exit(143 if terminated else 130)
+        _stopped(exc)
     except OSError as exc:  # the system refused a path: too long, a link loop, no space …
         where = f"{exc.filename}: " if exc.filename else ""  # a raster library's names the file
         echo(f"error: {where}{exc.strerror or exc}", err=True)
