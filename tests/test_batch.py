@@ -1280,25 +1280,40 @@ def test_blocks_finished_while_a_stopped_run_waits_are_said(tmp_path):
     assert sorted(got) == finished
 
 
-def test_a_terminated_batch_says_every_block_it_kept(tmp_path):
-    """Terminated after its first block, a `--jobs 2` run said that block alone, and then
-    'terminated', while more blocks were written whole on disk. Each block written now has its
-    line, and the last line says how many were finished and kept."""
+def _terminated_after_one_block(out: Path, *options: str, again: float | None = None):
+    """A run of the sample batch sent SIGTERM once it has said its first block (and `again`
+    seconds later once more); its console (stdout, stderr)."""
     import signal
+    import time
 
-    out = tmp_path / "out"
     proc = subprocess.Popen(
         [sys.executable, "-m", "blockqc", "inspect", SAMPLES / "batch", "--out", out,
-         "--pdf", "none", "--jobs", "2", "--no-progress"],
+         "--pdf", "none", "--no-progress", *options],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
     first = proc.stdout.readline()
     proc.send_signal(signal.SIGTERM)
+    if again is not None:
+        time.sleep(again)
+        proc.send_signal(signal.SIGTERM)
     rest, err = proc.communicate(timeout=120)
     if proc.returncode in (0, 1):
         pytest.skip("the run ended before the signal reached it")
     assert proc.returncode == 143, err
-    said = sorted(line.split()[0] for line in (first + rest).splitlines())
+    return first + rest, err
+
+
+@pytest.mark.parametrize("options", [("--jobs", "2"), ("--scheduler", "local")])
+def test_a_terminated_batch_says_every_block_it_kept(tmp_path, options):
+    """Terminated after its first block, a `--jobs 2` run said that block alone, and then
+    'terminated', while more blocks were written whole on disk; on a local Dask cluster the
+    blocks being written were cut off or finished unsaid. Each block written now has its line,
+    and the last line says how many were finished and kept."""
+    if options[0] == "--scheduler":
+        pytest.importorskip("dask.distributed")
+    out = tmp_path / "out"
+    lines, err = _terminated_after_one_block(out, *options)
+    said = sorted(line.split()[0] for line in lines.splitlines())
     on_disk = sorted(p.parent.name for p in out.glob("*/results.json"))
     assert said == on_disk
     last = err.strip().splitlines()[-1]

@@ -180,16 +180,36 @@ def run_on_dask(
             ): (path, manifest)
             for i, (path, manifest) in enumerate(todo)
         }
-        for future in as_completed(futures):
-            try:
-                outcome = future.result()
-            except KilledWorker:
-                if died is None:
-                    raise
-                died(*futures[future], "every worker that ran it died")
-                continue
-            if isinstance(outcome, _Stopped):
-                raise OutputError(outcome.problems)
+        said = set()
+        try:
+            for future in as_completed(futures):
+                said.add(future)  # before its line: a signal may stop the run as it is out
+                try:
+                    outcome = future.result()
+                except KilledWorker:
+                    if died is None:
+                        raise
+                    died(*futures[future], "every worker that ran it died")
+                    continue
+                if isinstance(outcome, _Stopped):
+                    raise OutputError(outcome.problems)
+                done(outcome)
+        except BaseException:  # the run stops: the tasks not begun are dropped, those running
+            _finish_running(client, [f for f in futures if f not in said], done)  # end, said
+            raise
+
+
+def _finish_running(client: Any, left: list[Any], done: Callable[[Any], None]) -> None:
+    """A run that stops: of the tasks `left`, those not yet running cancelled, those running
+    waited for (as a pool's workers finish the blocks they write), and done(outcome) of each
+    that finished, its outputs written whole."""
+    from dask.distributed import wait
+
+    running = {key for keys in client.processing().values() for key in keys}
+    client.cancel([f for f in left if f.key not in running])
+    wait([f for f in left if f.key in running])
+    for future in left:
+        if future.status == "finished" and not isinstance(outcome := future.result(), _Stopped):
             done(outcome)
 
 
