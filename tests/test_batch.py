@@ -1323,6 +1323,35 @@ def test_a_terminated_batch_says_every_block_it_kept(tmp_path, options):
     )
 
 
+def test_a_stopped_dask_run_leaves_dasks_log_lines_off_the_console(tmp_path):
+    """SIGTERM twice (the second stops the wait for the blocks being written) during a
+    `--scheduler local` run: dask's workers and nannies printed their log over the console
+    ('distributed.worker.state_machine - WARNING - Async instruction … ended with
+    CancelledError', 'distributed.nanny - WARNING - Worker process still alive after 4.0
+    seconds, killing'). The console now holds blockqc's lines alone."""
+    pytest.importorskip("dask.distributed")
+    _, err = _terminated_after_one_block(tmp_path / "out", "--scheduler", "local", again=0.2)
+    assert "distributed." not in err, err
+    assert err.strip().splitlines()[-1].startswith("terminated: ")
+
+
+def test_a_dask_run_that_ends_leaves_dasks_logging_as_it_was(tmp_path):
+    """Dask's warnings are quieted only when a run stops: a run that ends leaves the levels of
+    dask's loggers as they were, so that its warnings and errors are still said."""
+    import logging
+
+    pytest.importorskip("dask.distributed")
+    from blockqc.distributed import run_on_dask
+
+    names = ("distributed", "distributed.nanny", "distributed.worker")
+    before = [logging.getLogger(n).getEffectiveLevel() for n in names]
+    got: list[str] = []
+    run_on_dask("local", _ctrl_c_here, [(tmp_path / "A", None)], got.append)
+    assert got == ["ignored"]
+    assert [logging.getLogger(n).getEffectiveLevel() for n in names] == before
+    assert logging.getLogger("distributed").getEffectiveLevel() < logging.ERROR
+
+
 class _CtrlC:
     """A job whose worker gets the Ctrl-C a terminal sends to every process of the run, then
     finishes its block (picklable, for a pool)."""

@@ -9,6 +9,7 @@ run stops). `blockqc[dask]` installs what it needs.
 
 from __future__ import annotations
 
+import logging
 import signal
 import socket
 import struct
@@ -130,7 +131,7 @@ def client_for(scheduler: str):
             preload=[__name__],
         )
         try:
-            with Client(cluster) as c:
+            with Client(cluster) as c, _quiet_if_stopped(c, workers=True):
                 yield c
         finally:
             # a worker its nanny is starting again (one died on the last block) as the cluster
@@ -138,14 +139,61 @@ def client_for(scheduler: str):
             # outcome is in by then, and the workers are ended all the same
             with suppress(AssertionError):
                 cluster.close()
+            _restore_logs()
         return
     _probe(scheduler)
     try:
         client = Client(scheduler, timeout="20s")
     except (OSError, ValueError) as exc:
         raise UsageError(f"--scheduler {scheduler}: no scheduler answers there ({exc})") from None
-    with client:
-        yield client
+    try:
+        with client, _quiet_if_stopped(client, workers=False):
+            yield client
+    finally:
+        _restore_logs()
+
+
+#: the levels of dask's loggers in this process before a stopped run quieted them
+_LEVELS: dict[str, int] = {}
+
+
+def quiet_logs() -> dict[str, int]:
+    """dask's loggers (`distributed`, `distributed.nanny` …) quieted to errors: a run that
+    stops (Ctrl-C, SIGTERM, an output it cannot write) cancels its tasks and closes its
+    cluster, of which dask's workers and nannies tell in warnings and notes ('distributed.nanny
+    - WARNING - …') over blockqc's console; their earlier levels."""
+    manager = logging.root.manager
+    names = ["distributed", *(n for n in manager.loggerDict if n.startswith("distributed."))]
+    levels = {}
+    for name in names:
+        logger = logging.getLogger(name)
+        levels[name] = logger.level
+        logger.setLevel(max(logger.level, logging.ERROR))
+    return levels
+
+
+def _restore_logs() -> None:
+    """dask's loggers in this process as they were before the run stopped (`quiet_logs`)."""
+    for name, level in _LEVELS.items():
+        logging.getLogger(name).setLevel(level)
+    _LEVELS.clear()
+
+
+@contextmanager
+def _quiet_if_stopped(client: Any, workers: bool):
+    """The run's client, dask's loggers quieted (`quiet_logs`) if the run stops: in this
+    process (the local cluster's nannies and scheduler, the client), and with `workers` in the
+    local cluster's worker processes, whose console is blockqc's (a remote cluster's workers
+    log where their own logs go: left as they are). A normal run's logs are left whole."""
+    try:
+        yield
+    except BaseException:
+        for name, level in quiet_logs().items():
+            _LEVELS.setdefault(name, level)
+        if workers:
+            with suppress(Exception):  # a worker already gone has nothing more to say
+                client.run(quiet_logs)
+        raise
 
 
 def dask_setup(worker: Any) -> None:
