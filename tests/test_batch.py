@@ -168,6 +168,40 @@ def test_an_unreadable_delivery_says_nothing_was_written(tmp_path: Path):
     assert "nothing was written" in proc.stderr and "scenes" in proc.stderr
 
 
+class _Backwards(batch.Runner):
+    """Runs the jobs last first: blocks finishing in another order than the batch's, as those
+    of a `--jobs` or Dask run do."""
+
+    def run(self, job, todo, done) -> None:
+        for p, m in reversed(todo):
+            done(job(p, m))
+
+
+def test_the_summary_lists_blocks_in_the_batchs_order_whatever_order_they_finish(
+    small_batch, tmp_path
+):
+    """The console says each block as it finishes (progress); summary.json, .csv and .parquet
+    list the blocks in the batch's order (its sub-folders sorted) however they finished."""
+    import pyarrow.parquet as pq
+
+    pack = load_pack("global-project")
+    files = {}
+    for name, runner in (("forwards", batch.Runner()), ("backwards", _Backwards())):
+        said: list[str] = []
+        out = tmp_path / name
+        batch.run(
+            batch.collect([small_batch]), pack, batch.Writer(out, pdf="none"), runner=runner,
+            progress=lambda o, said=said: said.append(o.entry.block_id),
+        )  # fmt: skip
+        blocks = json.loads((out / "summary.json").read_text(encoding="utf-8"))["blocks"]
+        assert [b["block_id"] for b in blocks] == ["F1-B02", "F3-B02", "F4-B02"]
+        rows = pq.read_table(out / "summary.parquet").column("block_id").to_pylist()
+        assert rows == ["F1-B02", "F3-B02", "F4-B02"]
+        files[name] = (said, (out / "summary.csv").read_bytes())
+    assert files["backwards"][0] == ["F4-B02", "F3-B02", "F1-B02"]
+    assert files["backwards"][1] == files["forwards"][1]
+
+
 @pytest.mark.slow
 def test_dask_local_cluster_gives_the_same_results(tmp_path: Path):
     pytest.importorskip("dask.distributed")
