@@ -271,6 +271,35 @@ def test_a_link_to_nothing_in_a_batch_is_an_unreadable_delivery(tmp_path):
     assert summary["counts"]["unreadable"] == 1 and not summary["complete"]
 
 
+@pytest.mark.parametrize(
+    "given",
+    [
+        ("inspect", "{link}", "--out", "{out}"),
+        ("inspect", "{batch}", "--rules", "{link}", "--out", "{out}"),
+        ("inspect", "{batch}", "--checkpoints", "{link}", "--out", "{out}"),
+        ("inspect", "{batch}", "--templates", "{link}", "--out", "{out}"),
+        ("sample", "{batch}", "--seed", "1", "--rules", "{link}", "--out", "{out}/plan.yaml"),
+        ("adjust", "{link}", "--out", "{out}"),
+        ("factors", "--table", "{link}", "--out", "{out}"),
+    ],
+    ids=["delivery", "rules", "checkpoints", "templates", "sample-rules", "adjust", "table"],
+)
+def test_an_input_linking_to_nothing_is_said_to_be_such_a_link(tmp_path, given):
+    """An input given as a symbolic link whose file or folder was moved was said not to be
+    there ('no such file or folder', 'no such rule pack', "Directory 'tpl' does not exist"),
+    as if the name were wrong. It is now said to be a link to nothing, naming where it leads,
+    as --plan, --verdicts and --meta said it."""
+    link = tmp_path / "linked"
+    link.symlink_to(tmp_path / "moved")
+    batch = SAMPLES / "batch"
+    args = [a.format(link=link, batch=batch, out=tmp_path / "o") for a in given]
+    p = run_blockqc(*args)
+    assert p.returncode == 2, p.stderr
+    assert f"{link}: a symbolic link to {tmp_path / 'moved'}, which does not exist" in p.stderr
+    assert "Traceback" not in p.stderr
+    assert not (tmp_path / "o").exists()
+
+
 def test_a_rule_pack_from_a_pipe_is_read_and_a_device_without_end_is_refused(tmp_path):
     """--rules <(…) names a pipe, not a regular file: read as the file it stands for; a
     device that never ends (/dev/zero) is read up to the limit of YAML files, then refused."""

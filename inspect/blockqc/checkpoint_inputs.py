@@ -26,7 +26,7 @@ from blockqc.delivery import (
 from blockqc.errors import InputError, Problem
 from blockqc.precision import stored_resolution
 from blockqc.schema import CHECKPOINTS, Column, TableSchema, near_column
-from blockqc.textio import located
+from blockqc.textio import located, not_there
 
 BLOCK = "block_id"
 
@@ -82,7 +82,11 @@ def load_checkpoint_files(paths: list[Path]) -> InspectorCheckpoints:
     for path in map(Path, paths):
         if not path.is_file():
             what = (
-                "a folder" if path.is_dir() else "not a file" if path.exists() else "no such file"
+                "a folder"
+                if path.is_dir()
+                else "not a file"
+                if path.exists()
+                else not_there(path, "no such file")
             )
             problems.append(Problem(str(path), f"{what} (expected a checkpoints table)"))
             continue

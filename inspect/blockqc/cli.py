@@ -21,7 +21,8 @@ STATUS_STYLE = {"pass": "green", "fail": "red", "error": "red", "warn": "yellow"
 
 class GivenPath(click.Path):
     """A path never empty (`--out ''` would write into the current folder, a delivery '' read
-    it), of outputs or inputs: a Path; `what` it names, in the message."""
+    it), of outputs or inputs: a Path; `what` it names, in the message. One that must exist
+    and is a symbolic link to nothing is said to be one, naming where it leads."""
 
     def __init__(self, what: str = "an output folder", **how) -> None:
         super().__init__(path_type=Path, **how)
@@ -30,16 +31,21 @@ class GivenPath(click.Path):
     def convert(self, value, param, ctx):
         if isinstance(value, str) and not value.strip():
             self.fail(f"an empty path: give {self.what}", param, ctx)
+        if self.exists and isinstance(value, str | Path):
+            from blockqc.textio import dangling_link  # numpy: not before memory.tune()
+
+            if link := dangling_link(Path(value)):
+                self.fail(f"{value}: {link}", param, ctx)
         return super().convert(value, param, ctx)
 
 
-class TemplatesPath(click.Path):
+class TemplatesPath(GivenPath):
     """A folder of the user's templates, each compiled up front in the environment of the
     reports (`page="factors"`: of the factors page), so that a broken one is named with its
     line before anything runs."""
 
     def __init__(self, page: str = "report") -> None:
-        super().__init__(path_type=Path, file_okay=False, exists=True)
+        super().__init__("a folder of templates", file_okay=False, exists=True)
         self.page = page
 
     def convert(self, value, param, ctx):

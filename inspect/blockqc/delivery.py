@@ -61,6 +61,7 @@ from blockqc.textio import (
     listed,
     located,
     not_a_file,
+    not_there,
     read_bytes,
     unreadable_folder,
     wide_separated,
@@ -305,7 +306,7 @@ def find_deliveries(path: Path) -> list[Path]:
     folders (a name starting with '.') are not part of a batch."""
     path = Path(path)
     if not path.exists():
-        raise InputError(Problem(str(path), "no such file or folder"))
+        raise InputError(Problem(str(path), not_there(path, "no such file or folder")))
     if not path.is_dir():
         raise InputError(
             Problem(

@@ -119,6 +119,13 @@ def dangling_link(path: Path) -> str | None:
     return None
 
 
+def not_there(path: Path, missing: str) -> str:
+    """What to say of an input that is not there: a symbolic link to nothing (or a loop) named
+    with where it leads (`dangling_link`), else `missing` ('no such file' …); a link whose
+    target was moved is not said to be missing itself."""
+    return dangling_link(path) or missing
+
+
 def real_path(path: Path) -> Path:
     """Where a path leads, its links followed; a loop of links left where it loops, not raised
     as Path.resolve raises it (RuntimeError), so that it is refused by name (`dangling_link`)."""

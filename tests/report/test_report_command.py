@@ -134,6 +134,34 @@ def test_missing_input_is_exit_2(tmp_path, capsys):
     assert "does not exist" in capsys.readouterr().err
 
 
+def test_a_results_file_linking_to_nothing_is_said_to_be_such_a_link(tmp_path, capsys, results_doc):
+    """A results.json given as a symbolic link whose file was moved was said not to exist,
+    and one inside a folder given (its results.json, a block's */results.json) was not named
+    at all: the folder 'holds no results.json', or its other blocks rendered alone (exit 0).
+    Each is now said to be a link to nothing, naming where it leads."""
+    linked = tmp_path / "results.json"
+    linked.symlink_to(tmp_path / "moved.json")
+    folder = tmp_path / "results"
+    folder.mkdir()
+    (folder / "results.json").symlink_to(tmp_path / "gone.json")
+    batch = tmp_path / "batch"
+    (batch / "T-B01").mkdir(parents=True)
+    (batch / "T-B01" / "results.json").write_text(json.dumps(results_doc), encoding="utf-8")
+    (batch / "T-B00").mkdir()
+    (batch / "T-B00" / "results.json").symlink_to(tmp_path / "lost.json")
+    for given, link, target in (
+        (linked, linked, "moved.json"),
+        (folder, folder / "results.json", "gone.json"),
+        (batch, batch / "T-B00" / "results.json", "lost.json"),
+    ):
+        assert run("report", str(given), "--out", str(tmp_path / "o"), "--no-pdf") == 2
+        err = capsys.readouterr().err
+        why = f"error: {link}: a symbolic link to {tmp_path / target}, which does not exist"
+        assert why in err.splitlines(), err
+        assert "holds no results.json" not in err
+        assert not (tmp_path / "o").exists()
+
+
 @pytest.mark.slow
 def test_inspection_run_and_rerender_give_the_same_report(tmp_path):
     """A simulated block through the engine, then `blockqc report` on its results.json."""

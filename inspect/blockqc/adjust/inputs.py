@@ -25,7 +25,7 @@ from blockqc.geometry_inputs import (
     ground_disagreements,
 )
 from blockqc.rfm.model import RPCModel
-from blockqc.textio import located
+from blockqc.textio import located, not_there
 
 
 @dataclass
@@ -105,7 +105,8 @@ def _producer(geometry: BlockGeometry, models: list[RPCModel], scene_ids: list[s
 def _not_a_delivery(path: Path) -> str:
     """Why DELIVERY is none: nothing there, a file (block.yaml itself, say), or no block.yaml."""
     if not path.exists():
-        return "no such file or folder: expected a delivery folder (with block.yaml)"
+        what = not_there(path, "no such file or folder")
+        return f"{what}: expected a delivery folder (with block.yaml)"
     if not path.is_dir():
         return f"a file, not a delivery folder (the folder holding {MANIFEST})"
     return f"not a delivery folder (no {MANIFEST})"

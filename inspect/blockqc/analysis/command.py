@@ -218,18 +218,18 @@ _BATCH_ONLY = ("dems", "images_band", "period_gap_days", "overlap", "stereo_iou"
 
 
 @click.command("factors")
-@click.argument("batch", required=False, type=click.Path(exists=True, path_type=Path))
+@click.argument("batch", required=False, type=GivenPath("a batch folder", exists=True))
 @click.option(
     "--dem",
     "dems",
     multiple=True,
-    type=click.Path(exists=True, path_type=Path),
+    type=GivenPath("a DEM", exists=True),
     help="DEM GeoTIFF (or other raster) or a folder of tiles; may be repeated.",
 )
 @click.option(
     "--table",
     "table_path",
-    type=click.Path(exists=True, dir_okay=False, path_type=Path),
+    type=GivenPath("a table of indicators", exists=True, dir_okay=False),
     help="Analyse this experiments table (CSV, columns as the appendix table).",
 )
 @click.option(

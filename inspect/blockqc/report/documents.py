@@ -26,6 +26,7 @@ from blockqc.results import (
     tally,
 )
 from blockqc.rules.model import within
+from blockqc.textio import dangling_link, not_there
 
 
 class _NotJSON(ValueError):
@@ -307,7 +308,9 @@ def _named_files(paths: list[Path]) -> tuple[list[Path], list[Path]]:
     beside: list[Path] = []
     for p in paths:
         if p.is_dir():
-            if (p / "results.json").is_file():
+            if links := _links_to_nothing(p):
+                problems += links
+            elif (p / "results.json").is_file():
                 files.append(p / "results.json")
             else:
                 found = sorted(p.glob("*/results.json"))
@@ -325,10 +328,19 @@ def _named_files(paths: list[Path]) -> tuple[list[Path], list[Path]]:
         elif p.is_file():
             files.append(p)
         else:
-            problems.append(Problem(str(p), "does not exist"))
+            problems.append(Problem(str(p), not_there(p, "does not exist")))
     if problems:
         raise InputError(problems)
     return files, beside
+
+
+def _links_to_nothing(folder: Path) -> list[Problem]:
+    """The results.json, summary.json or */results.json of a folder given to `report` that are
+    symbolic links to nothing, named with where they lead: they would be left out unsaid (a
+    folder's results are found by name, and a link to nothing is no file)."""
+    names = [folder / "results.json", folder / "summary.json"]
+    names += [d / "results.json" for d in sorted(folder.iterdir()) if d.is_dir()]
+    return [Problem(str(f), link) for f in names if (link := dangling_link(f))]
 
 
 def _read_documents(

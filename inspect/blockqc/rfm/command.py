@@ -141,7 +141,7 @@ def _geoid(value: str | None, offset: float | None) -> str | Path | None:
     return path
 
 
-_path = click.Path(exists=True, dir_okay=False, path_type=Path)
+_path = GivenPath("a file", exists=True, dir_okay=False)
 
 
 def _finite(ctx: click.Context, param: click.Parameter, value: float | None) -> float | None:

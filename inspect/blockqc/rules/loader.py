@@ -35,6 +35,7 @@ from blockqc.rules.lint import (
 )
 from blockqc.rules.model import ElementDef, Pack, PackFile, Rule, merge_elements
 from blockqc.rules.text import render_rule
+from blockqc.textio import dangling_link
 from blockqc.yamlio import LineDict, line_of, load_yaml, pydantic_problems
 
 #: values the delivery supplies to expressions; pack checks evaluate them with these stand-ins
@@ -88,6 +89,8 @@ def resolve_pack_path(
         )
     if Path(ref_s).is_dir():
         raise RuleError(Problem(ref_s, f"is a folder, not a rule pack file: {message}"))
+    if link := dangling_link(Path(ref_s)):
+        raise RuleError(Problem(ref_s, f"{link}: expected a rule pack file; {message}"))
     raise RuleError(Problem(ref_s, f"no such rule pack: {message}"))
 
 
