@@ -238,12 +238,14 @@ def inspect_one(
 
 
 def _meta(meta: ReportMeta | None, pack: Pack) -> ReportMeta | None:
-    """The report's particulars with the pack's inspection basis where the file gives none."""
+    """The report's particulars with the pack's inspection basis where the file gives none;
+    a file giving its own basis in English alone has it on the pages in Chinese too, not the
+    pack's documents."""
     if pack.acceptance is None and meta is None:
         return None
     meta = (meta or ReportMeta()).model_copy()
-    if pack.acceptance is not None:
-        meta.basis = meta.basis or list(pack.acceptance.basis)
+    if pack.acceptance is not None and not meta.basis:
+        meta.basis = list(pack.acceptance.basis)
         meta.basis_zh = meta.basis_zh or list(pack.acceptance.basis_zh)
     return meta
 

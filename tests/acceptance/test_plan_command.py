@@ -520,3 +520,43 @@ def test_a_number_in_quotes_beside_the_same_number_is_refused_naming_both(tmp_pa
         "write them alike (both numbers, or the same text in quotes)"
     ) in r.stderr
     assert "'2'" not in r.stderr and not plan.exists()
+
+
+def test_an_empty_basis_in_a_meta_file_is_refused_at_its_line(tmp_path: Path) -> None:
+    """`basis: []` says the report rests on no document, yet the filed report showed the
+    pack's three (GB/T 24356-2023 …) as the file's basis. An empty basis (or basis_zh) is now
+    refused at its line, saying what to give."""
+    from blockqc.acceptance.plan import load_meta
+    from blockqc.errors import InputError
+
+    meta = tmp_path / "meta.yaml"
+    meta.write_text("report_number: QC-7\nbasis: []\nbasis_zh: []\n", encoding="utf-8")
+    with pytest.raises(InputError) as got:
+        load_meta(meta)
+    assert [(p.line, p.message.split(":")[0]) for p in got.value.problems] == [
+        (2, "basis"),
+        (3, "basis_zh"),
+    ]
+    assert got.value.problems[0].message == (
+        "basis: give at least one document, or leave the key out to use the rule pack's basis"
+    )
+    meta.write_text("report_number: QC-7\nbasis: [Design of the project]\n", encoding="utf-8")
+    assert load_meta(meta).basis == ["Design of the project"]
+
+
+def test_a_basis_given_in_english_alone_is_not_shown_as_the_packs_in_chinese() -> None:
+    """A meta file's own basis without basis_zh: the pages in Chinese showed the pack's three
+    documents instead (its basis_zh). They now show the file's basis; the pack's basis, in
+    both languages, is shown where the file gives none."""
+    from blockqc.acceptance.model import ReportMeta
+    from blockqc.batch import _meta
+    from blockqc.resources import rules_dir
+    from blockqc.rules import load_pack
+
+    pack = load_pack("global-project")
+    stock = yaml.safe_load((rules_dir() / "global-project.yaml").read_text(encoding="utf-8"))
+    own = _meta(ReportMeta(basis=["Design of the project"]), pack)
+    assert (own.basis, own.basis_zh) == (["Design of the project"], [])
+    none = _meta(ReportMeta(report_number="QC-7"), pack)
+    expected = (stock["acceptance"]["basis"], stock["acceptance"]["basis_zh"])
+    assert (none.basis, none.basis_zh) == expected and len(expected[1]) == 3

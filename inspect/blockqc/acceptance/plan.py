@@ -300,12 +300,33 @@ def load_meta(path: Path) -> ReportMeta:
         raise InputError(
             Problem(str(path), "expected a mapping (report_number, project, …)", line=1)
         )
+    problems = _empty_basis(path, data)
     try:
-        return ReportMeta.model_validate(data)
+        meta = ReportMeta.model_validate(data)
     except ValidationError as exc:
-        raise InputError(
-            pydantic_problems(exc, path, data, say=_expected_text, model=ReportMeta)
-        ) from None
+        problems += pydantic_problems(exc, path, data, say=_expected_text, model=ReportMeta)
+    if problems:
+        raise InputError(problems)
+    return meta
+
+
+#: a basis given as an empty list: the pack's would be shown as if it were the file's
+EMPTY_BASIS = {
+    "basis": "give at least one document, or leave the key out to use the rule pack's basis",
+    "basis_zh": "give at least one document, or leave the key out to show basis (without it, "
+    "the rule pack's basis_zh) on the pages in Chinese",
+}
+
+
+def _empty_basis(path: Path, data: dict[str, Any]) -> list[Problem]:
+    """`basis: []` (or basis_zh): a report states the documents its acceptance rests on
+    (§QE-6), so an empty list says nothing a report can show; where the key is left out the
+    pack's basis is shown, which an empty list would have let pass as the file's own."""
+    return [
+        Problem(str(path), f"{key}: {why}", line=line_of(data, [key]))
+        for key, why in EMPTY_BASIS.items()
+        if isinstance(data.get(key), list) and not data[key]
+    ]
 
 
 def _expected_text(err: dict[str, Any]) -> str | None:
