@@ -345,14 +345,10 @@ def inspect_cmd(
     from blockqc import batch
     from blockqc.inspector import load_inspector_input
     from blockqc.outputs import refuse_delivered, refuse_inside
-    from blockqc.rules import load_pack
-    from blockqc.rules.lint import untranslated_titles
 
     _refuse_conflicts(no_pdf, pdf, scheduler)
     runner = batch.Runner(jobs or os.cpu_count() or 1, scheduler)  # its scheduler checked first
-    if scheduler not in (None, "local"):  # workers of other machines, each in a folder its own
-        paths = tuple(p.absolute() for p in paths)  # the same paths for all (docs: NFS)
-        templates = templates.absolute() if templates is not None else None
+    paths, templates = _as_workers_see(scheduler, paths, templates)
     pdf = "none" if no_pdf else pdf
     check_pdf_engine(pdf_engine, pdf != "none")
     refuse_inside(out, paths)
@@ -360,10 +356,7 @@ def inspect_cmd(
         [("--verdicts", verdicts), ("--plan", plan_file), ("--meta", meta_file)]
         + [("--checkpoints", f) for f in checkpoint_files]
     )
-    pack = load_pack(rules_ref)
-    if lang == "zh":
-        for w in untranslated_titles(pack):
-            _warn(w)
+    pack = _pack(rules_ref, lang)
     inspector = load_inspector_input(verdicts) if verdicts else None
     got = _collected(paths, out, pack, inspector)
     checkpoints = _inspector_checkpoints(checkpoint_files, got)
@@ -376,6 +369,29 @@ def inspect_cmd(
         incremental=incremental, checkpoints=checkpoints, plan=plan, meta=meta, plan_notes=notes,
     )  # fmt: skip
     return batch.exit_status(outcomes)
+
+
+def _as_workers_see(
+    scheduler: str | None, paths: tuple[Path, ...], templates: Path | None
+) -> tuple[tuple[Path, ...], Path | None]:
+    """The paths given, absolute for the workers of a cluster on other machines (each runs in a
+    folder of its own, the batch shared at the same path: README, "Beyond one machine"); as
+    given otherwise."""
+    if scheduler in (None, "local"):
+        return paths, templates
+    return tuple(p.absolute() for p in paths), None if templates is None else templates.absolute()
+
+
+def _pack(rules_ref: str, lang: str):
+    """The rule pack named, its rules without a Chinese title said when pages are in Chinese."""
+    from blockqc.rules import load_pack
+    from blockqc.rules.lint import untranslated_titles
+
+    pack = load_pack(rules_ref)
+    if lang == "zh":
+        for w in untranslated_titles(pack):
+            _warn(w)
+    return pack
 
 
 def _collected(paths: tuple[Path, ...], out: Path, pack, inspector):

@@ -508,7 +508,8 @@ def summary_context(
     summary = Summary.model_validate(summary)
     f = Formatter(lang, summary.acceptance.grades if summary.acceptance else ())
     t = f.t
-    sampled = [_sampled_row(b, s, f) for b in summary.blocks if b.sampled for s in b.checkpoints]
+    stats = [(b, s) for b in summary.blocks if b.sampled for s in b.checkpoints]
+    sampled = [_sampled_row(b, s, f) for b, s in stats]
     c = summary.counts
     return {
         "t": t,
@@ -532,14 +533,7 @@ def summary_context(
         "sampled": sampled,
         "any_mean": any(x["used_mean"] for x in sampled),
         "mean_note": _mean_note(
-            f,
-            [
-                s.get("min_points_for_medium_error")
-                for b in summary.blocks
-                if b.sampled
-                for s in b.checkpoints
-                if s.get("used_mean")
-            ],
+            f, [s.get("min_points_for_medium_error") for _, s in stats if s.get("used_mean")]
         ),
         "rule_statuses": [f.status(s) for s in STATUSES],
         "rules": [
