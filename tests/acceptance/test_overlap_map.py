@@ -65,6 +65,43 @@ def test_a_pair_is_red_as_the_rule_judges_its_largest_discrepancy(
     assert ('fill="#c62828"' in svg) is red and ('fill="#2e7d32"' in svg) is not red
 
 
+def _one_pair(tmp_path, dx: list[float], dy: list[float]):
+    """The case delivery inspected, its pair S1/S2's plane discrepancies set to (dx, dy)."""
+    res = inspect_delivery(
+        load_delivery(write_delivery(tmp_path / "d")), load_pack("global-project")
+    )
+    rows, _ = _overlap_points(res)
+    assert len(rows) == len(dx)
+    for r, x, y in zip(rows, dx, dy, strict=True):
+        r["dx_m"], r["dy_m"] = x, y
+    return res
+
+
+@pytest.mark.parametrize("lang", ["en", "zh"])
+def test_a_failing_pairs_label_is_the_discrepancy_that_fails(tmp_path, lang) -> None:
+    """Four discrepancies of 5 m and one of 30 m (above RO-3's 2√2·10 = 28.28 m): RMS
+    √((4·25 + 900)/5) = √200 = 14.14 m, under the bound. The pair is red, and its label was
+    '14.14', a red number under the limit; it is now the 30 m that fails, and the title says
+    what the label and the red are."""
+    res = _one_pair(tmp_path, [3.0, 3.0, 3.0, 3.0, 18.0], [4.0, 4.0, 4.0, 4.0, 24.0])
+    svg = overlap_map(res, Formatter(lang))
+    labels = _labels(svg)
+    assert [(c, s) for _, _, c, s in labels] == [("#c62828", "30")]
+    assert "14.14" not in svg
+    said = {
+        "en": ("largest discrepancy in m; red: the largest fails RO-3 (&lt; 28.28 m)"),
+        "zh": "旁注最大接边差（m）；红色：最大接边差不满足 RO-3（&lt; 28.28 m）",
+    }
+    assert said[lang] in svg
+
+
+def test_a_passing_pairs_label_is_its_largest_discrepancy(tmp_path) -> None:
+    """Discrepancies of 5, 5, 5, 5 and 25 m: largest 25 m, under 28.28 m: green, '25'."""
+    res = _one_pair(tmp_path, [3.0, 3.0, 3.0, 3.0, 15.0], [4.0, 4.0, 4.0, 4.0, 20.0])
+    labels = _labels(overlap_map(res, Formatter("en")))
+    assert [(c, s) for _, _, c, s in labels] == [("#2e7d32", "25")]
+
+
 def test_residual_vectors_by_hand() -> None:
     from blockqc.report.maps import residual_vectors
 
@@ -175,9 +212,9 @@ def test_residual_cells_as_a_pandas_groupby(rows, categorical) -> None:
 
 
 def test_the_labels_of_a_large_map_are_the_failing_pairs_then_the_largest() -> None:
-    """30 pairs (more than MAX_PAIR_LABELS = 24): pairs 3 and 17 fail (17's RMS the larger),
-    then the 22 others of largest RMS, largest first. RMS of pair i: 1 + i/10, but pair 29's
-    is 0.5 and pair 5's missing (NaN, never taken before a number)."""
+    """30 pairs (more than MAX_PAIR_LABELS = 24): pairs 3 and 17 fail (17's the larger), then
+    the 22 others of largest discrepancy, largest first. Largest discrepancy of pair i:
+    1 + i/10, but pair 29's is 0.5 and pair 5's missing (NaN, never taken before a number)."""
     from blockqc.report.maps import _labelled
 
     rms = 1 + np.arange(30) / 10
@@ -211,8 +248,9 @@ def _labels(svg: str) -> list[tuple[float, float, str, str]]:
 def test_an_8x8_grid_labels_every_failing_pair_and_the_largest_others(tmp_path) -> None:
     """An 8 × 8 grid has 112 overlapping pairs: their RMS labels (the first 60 pairs by
     scene id) crowded one another and the arrows, the eastern half of the map unlabelled. Now
-    the failing pairs are labelled in red, then the others of largest RMS, 24 labels at most,
-    none over another (boxes of 0.6 em a character, 1 em high); the title says so."""
+    the failing pairs are labelled in red, then the others of largest discrepancy, 24 labels
+    at most, none over another (boxes of 0.6 em a character, 1 em high); the title says so.
+    Each label is the pair's largest discrepancy, the figure RO-3 judges."""
     from blockqc.report.format import number
 
     res = _grid_block(tmp_path)
@@ -220,7 +258,7 @@ def test_an_8x8_grid_labels_every_failing_pair_and_the_largest_others(tmp_path) 
     worst: dict[tuple[str, str], list[float]] = {}
     for r in rows:  # per pair: the plane discrepancies (by hand, not the map's groupby)
         worst.setdefault((r["scene_a"], r["scene_b"]), []).append(math.hypot(r["dx_m"], r["dy_m"]))
-    rms = {p: math.sqrt(sum(v * v for v in d) / len(d)) for p, d in worst.items()}
+    rms = {p: max(d) for p, d in worst.items()}  # the largest, as RO-3 judges each point
     failing = {p for p, d in worst.items() if max(d) >= judge.threshold}
     assert judge.comparison == "<" and len(worst) > 100 and 0 < len(failing) < 24
     labels = _labels(overlap_map(res, Formatter("en")))
@@ -234,5 +272,5 @@ def test_an_8x8_grid_labels_every_failing_pair_and_the_largest_others(tmp_path) 
     for i, (a0, a1, ay) in enumerate(boxes):
         for b0, b1, by in boxes[i + 1 :]:
             assert not (a0 < b1 and b0 < a1 and abs(ay - by) < 6.0), labels
-    title = f"RMS in m of the {len(failing)} failing pairs and of the"
+    title = f"largest discrepancy in m of the {len(failing)} failing pairs and of the"
     assert title in overlap_map(res, Formatter("en"))

@@ -1,8 +1,9 @@
 """A map of the overlap discrepancies between adjacent images (§RO-3), from results.json alone.
 
 Each overlapping scene pair is drawn where the two footprints meet, as the mean discrepancy
-vector (dx, dy) of its points, coloured red when any of its plane discrepancies fails the rule
-that judged them, with its RMS written beside it.
+vector (dx, dy) of its points, coloured red when its largest plane discrepancy fails the rule
+that judged them (§RO-3 judges each single discrepancy), with that largest discrepancy written
+beside it: the number a red label shows is the one that fails.
 """
 
 from __future__ import annotations
@@ -96,43 +97,55 @@ def overlap_map(results: BlockResults, f: Formatter) -> str | None:
         dtype=bool,
     )
     colours = np.where(bad, plots.STATUS_COLOURS["fail"], plots.STATUS_COLOURS["pass"])
-    labelled = _labelled(pairs["rms"].to_numpy(), bad)
-    plot = plots.lonlat_plot(rings, f.t, _title(f, longest, len(pairs), bad, labelled))
+    largest = pairs["max"].to_numpy()
+    labelled = _labelled(largest, bad)
+    title = _title(f, longest, len(pairs), bad, labelled, _red(f, judge))
+    plot = plots.lonlat_plot(rings, f.t, title)
     outline = np.full(len(rings.owner), "#9e9e9e", dtype=object)
     plot.add(svgplot.polygons(rings, outline, 0.0, 0.5))
     plot.add(svgplot.arrows(xy, vec * scale, colours.astype(object), 0.8), z=3)
-    rms = pairs["rms"].to_numpy()
     moved = bad[labelled] | (len(labelled) == len(pairs))  # kept: every label of a small map
-    plot.add(_rms_labels(xy[labelled], rms[labelled], colours[labelled], moved), z=4)
+    plot.add(_labels(xy[labelled], largest[labelled], colours[labelled], moved), z=4)
     return plot.svg("overlap-map")
 
 
-def _labelled(rms: np.ndarray, bad: np.ndarray) -> np.ndarray:
-    """The pairs whose RMS is written: all of a small map; else the failing pairs (worst first,
-    MAX_FAILING_LABELS at most), then the others of largest RMS, MAX_PAIR_LABELS in all."""
-    if len(rms) <= MAX_PAIR_LABELS:
-        return np.arange(len(rms))
-    worst = np.lexsort((-np.nan_to_num(rms, nan=-np.inf), ~bad))  # failing first, by RMS
+def _labelled(largest: np.ndarray, bad: np.ndarray) -> np.ndarray:
+    """The pairs whose largest discrepancy is written: all of a small map; else the failing
+    pairs (worst first, MAX_FAILING_LABELS at most), then the others of largest discrepancy,
+    MAX_PAIR_LABELS in all."""
+    if len(largest) <= MAX_PAIR_LABELS:
+        return np.arange(len(largest))
+    worst = np.lexsort((-np.nan_to_num(largest, nan=-np.inf), ~bad))  # failing first, worst
     failing = worst[: min(int(bad.sum()), MAX_FAILING_LABELS)]
     others = worst[int(bad.sum()) :][: max(MAX_PAIR_LABELS - len(failing), 0)]
     return np.concatenate([failing, others])
 
 
-def _title(f: Formatter, longest: float, n: int, bad: np.ndarray, labelled: np.ndarray) -> str:
-    """The map's title: what its labels are when not every pair has one."""
+def _red(f: Formatter, judge: RuleResult | None) -> str:
+    """What a red pair means: its largest discrepancy fails the rule, named with its bound
+    ('; red: the largest fails RO-3 (< 28.28 m)'); nothing when no rule judges the discrepancies."""
+    return "" if judge is None else f.t("overlap_red", rule=judge.rule, bound=f.threshold(judge))
+
+
+def _title(
+    f: Formatter, longest: float, n: int, bad: np.ndarray, labelled: np.ndarray, red: str
+) -> str:
+    """The map's title: what its labels and colours are, and which pairs are labelled when
+    not every pair is."""
     if len(labelled) == n:
-        return f.t("fig_overlap_map", m=f.num(longest))
+        return f.t("fig_overlap_map", m=f.num(longest), red=red)
     others, shown, failing = int((~bad[labelled]).sum()), int(bad[labelled].sum()), int(bad.sum())
     key = "none" if not failing else "failing" if shown == failing else "worst"
     failing = f.t(f"overlap_labels_{key}", n=shown, of=failing)
-    return f.t("fig_overlap_map_some", m=f.num(longest), failing=failing, others=others)
+    return f.t("fig_overlap_map_some", m=f.num(longest), failing=failing, others=others, red=red)
 
 
-def _rms_labels(xy: np.ndarray, rms: np.ndarray, colours: np.ndarray, moved: np.ndarray):
-    """The RMS beside each pair on a white ground: a `moved` label (a failing pair's, or any of a
-    small map) is moved off the labels before it, another left out where it would cover one
-    (the two diagonal pairs of four scenes in a grid share the centre of their overlap)."""
-    texts = [number(v) for v in rms]
+def _labels(xy: np.ndarray, largest: np.ndarray, colours: np.ndarray, moved: np.ndarray):
+    """The largest discrepancy beside each pair on a white ground: a `moved` label (a failing
+    pair's, or any of a small map) is moved off the labels before it, another left out where
+    it would cover one (the two diagonal pairs of four scenes in a grid share the centre of
+    their overlap)."""
+    texts = [number(v) for v in largest]
 
     def draw(fr: svg.Frame) -> str:
         page, kept = _unstacked(fr.xy(xy) + [2.0, 0.0], texts, moved, 6.0)

@@ -435,15 +435,19 @@ MESSAGES.update(
         ),
         "fig_overlap_map": (
             "Adjacent-image discrepancies per scene pair\n"
-            "mean vector (longest {m} m), RMS in m; red: a discrepancy fails",
-            "相邻影像各像对接边差\n平均差值矢量（最长 {m} m），旁注均方根（m）；红色：存在超限",
+            "mean vector (longest {m} m), largest discrepancy in m{red}",
+            "相邻影像各像对接边差\n平均差值矢量（最长 {m} m），旁注最大接边差（m）{red}",
         ),
         "fig_overlap_map_some": (
             "Adjacent-image discrepancies per scene pair\n"
-            "mean vector (longest {m} m); red: a discrepancy fails\n"
-            "RMS in m of {failing} and of the {others} largest others",
-            "相邻影像各像对接边差\n平均差值矢量（最长 {m} m）；红色：存在超限\n"
-            "旁注{failing}及其余均方根最大的 {others} 个像对的均方根（m）",
+            "mean vector (longest {m} m){red}\n"
+            "largest discrepancy in m of {failing} and of the {others} largest others",
+            "相邻影像各像对接边差\n平均差值矢量（最长 {m} m）{red}\n"
+            "旁注{failing}及其余最大接边差最大的 {others} 个像对的最大接边差（m）",
+        ),
+        "overlap_red": (
+            "; red: the largest fails {rule} ({bound})",
+            "；红色：最大接边差不满足 {rule}（{bound}）",
         ),
         "overlap_labels_none": ("no failing pair", "无超限像对"),
         "overlap_labels_failing": ("the {n} failing pairs", "全部 {n} 个超限像对"),
