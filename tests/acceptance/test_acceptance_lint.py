@@ -218,3 +218,52 @@ def test_an_element_or_item_added_without_a_weight_is_refused_where_it_is_added(
         name="weighted",
     )
     assert _messages(weighted) == []
+
+
+BASIS_LEFT_OUT = "give at least one document, or leave the key out"
+
+
+def test_an_empty_basis_of_a_pack_is_refused_at_its_line(tmp_path: Path) -> None:
+    """A pack extending the stock pack with `basis: []` had acceptance.html say its inspection
+    basis was 'not given', the stock pack's three documents dropped, and rules lint said 'ok'.
+    Refused at its line, as a --meta file's `basis: []` is."""
+    pack = _pack(tmp_path, "acceptance:\n  basis: []\n  basis_zh: []\n")
+    assert _messages(pack) == [
+        f"{pack}, line 4: acceptance.basis: {BASIS_LEFT_OUT} to use the basis of the pack it "
+        "extends",
+        f"{pack}, line 5: acceptance.basis_zh: {BASIS_LEFT_OUT} to use the basis_zh of the pack "
+        "it extends",
+    ]
+    with pytest.raises(RuleError):
+        load_pack(pack)
+
+
+def test_an_empty_basis_is_said_in_the_file_of_the_chain_that_writes_it(tmp_path: Path) -> None:
+    parent = _pack(tmp_path, "acceptance:\n  basis_zh: []\n", "parent")
+    child = _pack(tmp_path, "acceptance:\n  deduction: {B: 10}\n", "child", "parent.yaml")
+    assert _messages(child) == [
+        f"{parent}, line 4: acceptance.basis_zh: {BASIS_LEFT_OUT} to use the basis_zh of the "
+        "pack it extends"
+    ]
+
+
+def test_an_empty_basis_of_a_pack_extending_none_is_refused(tmp_path: Path) -> None:
+    """The stock pack's text with its basis emptied: no pack to take one from."""
+    stock = (Path(__file__).parents[2] / "rules" / "global-project.yaml").read_text("utf-8")
+    lines = stock.splitlines()
+    at = lines.index("  basis:")
+    end = next(i for i in range(at + 1, len(lines)) if not lines[i].startswith("    - "))
+    lines[at:end] = ["  basis: []"]
+    pack = tmp_path / "root.yaml"
+    pack.write_text("\n".join(lines).replace("pack: global-project", "pack: root"), "utf-8")
+    said = [m for m in _messages(pack) if "acceptance.basis" in m]
+    assert said == [
+        f"{pack}, line {at + 1}: acceptance.basis: {BASIS_LEFT_OUT} and give the basis in the "
+        "--meta file"
+    ]
+
+
+def test_a_packs_own_basis_is_taken(tmp_path: Path) -> None:
+    pack = _pack(tmp_path, "acceptance:\n  basis: [Design of the project]\n")
+    assert _messages(pack) == []
+    assert load_pack(pack).acceptance.basis == ["Design of the project"]

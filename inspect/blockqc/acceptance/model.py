@@ -376,6 +376,24 @@ class BatchDecision(_M):
     blocks: list[BlockGrade] = Field(default_factory=list)
 
 
+#: the keys naming the documents a report's acceptance rests on (§QE-6)
+BASIS_KEYS = ("basis", "basis_zh")
+
+
+def empty_basis(data: Any) -> list[str]:
+    """The basis keys a mapping (a --meta file, a pack's `acceptance:`) gives as an empty list:
+    a report states the documents its acceptance rests on (§QE-6), so an empty list says none a
+    page can show; where the key is left out, the basis is taken from elsewhere, which an empty
+    list would stand in for. Said as f"{key}: {EMPTY_BASIS} {how to leave it out}"."""
+    if not isinstance(data, dict):
+        return []
+    return [k for k in BASIS_KEYS if isinstance(data.get(k), list) and not data[k]]
+
+
+#: what an empty basis is told, before where the basis comes from with the key left out
+EMPTY_BASIS = "give at least one document, or leave the key out"
+
+
 class ReportMeta(_M):
     """The filed report's particulars (§QE-6) from `--meta FILE`; basis: the pack's by default."""
 

@@ -14,7 +14,7 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError
 
 from blockqc import metrics
-from blockqc.acceptance.model import ReportMeta
+from blockqc.acceptance.model import EMPTY_BASIS, ReportMeta, empty_basis
 from blockqc.acceptance.sampling import Lot, natural_key
 from blockqc.errors import InputError, Problem
 from blockqc.results import BlockResults, tally
@@ -310,22 +310,19 @@ def load_meta(path: Path) -> ReportMeta:
     return meta
 
 
-#: a basis given as an empty list: the pack's would be shown as if it were the file's
-EMPTY_BASIS = {
-    "basis": "give at least one document, or leave the key out to use the rule pack's basis",
-    "basis_zh": "give at least one document, or leave the key out to show basis (without it, "
-    "the rule pack's basis_zh) on the pages in Chinese",
+#: where a --meta file's basis comes from with the key left out: the pack's, which an empty
+#: list would have let pass as the file's own
+BASIS_LEFT_OUT = {
+    "basis": "to use the rule pack's basis",
+    "basis_zh": "to show basis (without it, the rule pack's basis_zh) on the pages in Chinese",
 }
 
 
 def _empty_basis(path: Path, data: dict[str, Any]) -> list[Problem]:
-    """`basis: []` (or basis_zh): a report states the documents its acceptance rests on
-    (§QE-6), so an empty list says nothing a report can show; where the key is left out the
-    pack's basis is shown, which an empty list would have let pass as the file's own."""
+    """`basis: []` (or basis_zh), refused at its line (acceptance.model.empty_basis)."""
     return [
-        Problem(str(path), f"{key}: {why}", line=line_of(data, [key]))
-        for key, why in EMPTY_BASIS.items()
-        if isinstance(data.get(key), list) and not data[key]
+        Problem(str(path), f"{key}: {EMPTY_BASIS} {BASIS_LEFT_OUT[key]}", line=line_of(data, [key]))
+        for key in empty_basis(data)
     ]
 
 

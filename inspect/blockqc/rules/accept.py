@@ -12,6 +12,7 @@ from typing import Any
 
 from pydantic import ValidationError
 
+from blockqc.acceptance import model
 from blockqc.acceptance.model import Acceptance
 from blockqc.errors import Problem
 from blockqc.rules.lint import did_you_mean
@@ -68,6 +69,30 @@ def validate(merged: dict[str, Any], sources: Sources) -> tuple[Acceptance | Non
             file, line = site(sources, err["loc"])
             out.append(Problem(file, p.message, line=line))
         return None, out
+
+
+#: where a pack's basis comes from with the key left out: the pack it extends, or else the
+#: --meta file (its basis, shown in Chinese too where it gives no basis_zh)
+BASIS_LEFT_OUT = {
+    (True, "basis"): "to use the basis of the pack it extends",
+    (True, "basis_zh"): "to use the basis_zh of the pack it extends",
+    (False, "basis"): "and give the basis in the --meta file",
+    (False, "basis_zh"): "to show basis on the pages in Chinese",
+}
+
+
+def empty_basis(sources: Sources) -> list[Problem]:
+    """Each file's `acceptance: basis: []` (or basis_zh), refused at its line as a --meta
+    file's is (acceptance.model.empty_basis): an empty list merged over the basis of the pack
+    it extends, or left as the pack's own, had the acceptance page show no basis."""
+    out = []
+    for file, data, pf in sources:
+        own = data.get("acceptance") if isinstance(data, dict) else None
+        for key in model.empty_basis(own):
+            how = BASIS_LEFT_OUT[(pf.extends is not None, key)]
+            line = line_of(data, ("acceptance", key))
+            out.append(Problem(file, f"acceptance.{key}: {model.EMPTY_BASIS} {how}", line=line))
+    return out
 
 
 def check_weights(acc: Acceptance, elements: list[ElementDef], sources: Sources) -> list[Problem]:

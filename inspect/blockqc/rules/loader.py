@@ -563,9 +563,10 @@ def _acceptance(
     if merged is None:
         return None, []
     acc, problems = accept.validate(merged, sources)
+    problems += accept.empty_basis(sources)
     if acc is None:
         return None, problems
-    return acc, accept.check_weights(acc, elements, sources)
+    return acc, problems + accept.check_weights(acc, elements, sources)
 
 
 def _line(raw: _Raw, *loc: Any) -> int | None:
