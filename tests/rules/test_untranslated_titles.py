@@ -84,3 +84,81 @@ def test_re_rendering_in_chinese_names_them_from_results_json(blockqc, tmp_path)
         again = blockqc("report", results, "--out", tmp_path / lang, "--lang", lang, "--no-pdf")
         assert again.returncode == 0, again.stderr
         assert again.stderr.count(warning) == said, again.stderr
+
+
+_ELEMENTS = """\
+elements:
+  - id: data
+    title: Data quality
+    items:
+      - id: survey
+        title: Field survey
+        contents:
+          - {id: field_check, title: Field check}
+          - {id: field_photos, title: Field photos, title_zh: 外业照片}
+  - id: extra
+    title: Extra quality
+    items:
+      - id: extra_item
+        title: Extra item
+        title_zh: 附加项
+        contents:
+          - {id: extra_content, title: Extra content, title_zh: 附加内容}
+acceptance:
+  weights:
+    elements: {extra: 0}
+    items: {survey: 0, extra_item: 1}
+"""
+
+
+def test_elements_items_and_contents_without_a_chinese_title_are_named(tmp_path) -> None:
+    """An item, a content and an element a project pack adds in English alone were shown so on
+    the Chinese pages (the contents table, the acceptance page's contents and scores) and no
+    warning said it. Named as the rules are, with their lines (pack 1, extends 2, elements 3,
+    data 4, survey 7, field_check 10, extra 12); the data element the stock pack titles in
+    Chinese keeps its 数据质量, so it is not named."""
+    pack = extension_pack(tmp_path, _ELEMENTS)
+    assert [str(w) for w in untranslated_titles(load_pack(pack))] == [
+        f"{pack}: item survey (line 7), content field_check (line 10), element extra (line 12) "
+        "have no title_zh: a Chinese page (--lang zh) shows their English titles; give each a "
+        "title_zh"
+    ]
+
+
+def test_rules_and_contents_of_one_file_are_one_warning(tmp_path) -> None:
+    body = _RULE.format(rid="PR-1", bound=0.5, zh="")
+    one = "\n".join(_ELEMENTS.splitlines()[:9]) + "\n"  # survey and its contents alone
+    one += "acceptance:\n  weights:\n    items: {survey: 0}\n"  # lines 12..14, rules 15
+    pack = extension_pack(tmp_path, one + "rules:\n" + body)
+    assert [str(w) for w in untranslated_titles(load_pack(pack))] == [
+        f"{pack}: rule PR-1 (line 16), item survey (line 7), content field_check (line 10) have "
+        "no title_zh: a Chinese page (--lang zh) shows their English titles; give each a title_zh"
+    ]
+
+
+def test_a_content_is_named_in_the_file_that_writes_it(tmp_path) -> None:
+    parent = extension_pack(tmp_path, _ELEMENTS, "parent")
+    child = extension_pack(tmp_path, "rules: []\n", "child", "parent.yaml")
+    assert [str(w) for w in untranslated_titles(load_pack(child))] == [
+        f"{parent}: item survey (line 7), content field_check (line 10), element extra (line 12) "
+        "have no title_zh: a Chinese page (--lang zh) shows their English titles; give each a "
+        "title_zh"
+    ]
+
+
+def test_re_rendering_in_chinese_names_the_contents_from_results_json(blockqc, tmp_path) -> None:
+    pack = extension_pack(tmp_path, _ELEMENTS)
+    block = SAMPLES / "batch" / "F1-B01"
+    run = blockqc("inspect", block, "--rules", pack, "--out", tmp_path / "o", "--no-pdf")
+    assert run.returncode == 0, run.stderr
+    results = tmp_path / "o" / "F1-B01" / "results.json"
+    again = blockqc("report", results, "--out", tmp_path / "zh", "--lang", "zh", "--no-pdf")
+    assert again.returncode == 0, again.stderr
+    warning = (
+        f"warning: {pack}: item survey, content field_check, element extra have no title_zh "
+        "(pack project 1): a Chinese page (--lang zh) shows their English titles; give each a "
+        "title_zh in the pack"
+    )
+    assert again.stderr.count(warning) == 1, again.stderr
+    page = (tmp_path / "zh" / "F1-B01" / "report.html").read_text("utf-8")
+    assert "Field survey" in page  # shown as written, not translated

@@ -101,26 +101,23 @@ def command(
 
 
 def _untranslated_titles(docs: list[tuple[Path, BlockResults, bytes]]) -> list[str]:
-    """Per pack the results were judged by, once: its rules without a Chinese title, which
-    the Chinese pages show in English (results.json names the pack's files, not their lines)."""
-    by_pack: dict[tuple[str, ...], dict[str, None]] = {}
+    """Per pack the results were judged by, once: its rules, elements, items and contents
+    without a Chinese title, which the Chinese pages show in English (results.json names the
+    pack's files, not their lines), in the words of `rules lint`."""
+    from blockqc.rules.lint import untitled_parts, untranslated
+
+    by_pack: dict[tuple[str, ...], dict[tuple[str, str], None]] = {}
     for _, doc, _ in docs:
         pack = (doc.rule_pack, doc.rule_pack_version, *doc.rule_pack_files)
-        ids = by_pack.setdefault(pack, {})
-        ids.update(dict.fromkeys(r.rule for r in doc.results if not r.title_zh.strip()))
-    return [_untranslated(pack, list(ids)) for pack, ids in by_pack.items() if ids]
-
-
-def _untranslated(pack: tuple[str, ...], ids: list[str]) -> str:
-    name, version, *files = pack
-    where = f"{files[0]}: " if files else ""
-    one = len(ids) == 1
-    return (
-        f"{where}{'rule' if one else 'rules'} {', '.join(ids)} {'has' if one else 'have'} no "
-        f"title_zh (pack {name} {version}): a Chinese page (--lang zh) shows "
-        f"{'its English title' if one else 'their English titles'}; give "
-        f"{'it' if one else 'each'} a title_zh in the pack"
-    )
+        parts = by_pack.setdefault(pack, {})
+        parts.update(dict.fromkeys(("rule", r.rule) for r in doc.results if not r.title_zh.strip()))
+        parts.update(dict.fromkeys(untitled_parts(doc.elements)))
+    return [
+        f"{files[0] + ': ' if files else ''}"
+        + untranslated([(k, pid, None) for k, pid in parts], f"{name} {version}")
+        for (name, version, *files), parts in by_pack.items()
+        if parts
+    ]
 
 
 def _render(

@@ -29,7 +29,7 @@ from blockqc.rules.expr import (
     resolve_params,
     syntax_tree,
 )
-from blockqc.rules.model import Pack, Rule, selected
+from blockqc.rules.model import ElementDef, Pack, Rule, selected
 from blockqc.rules.text import TEXT_FIELDS, placeholders
 from blockqc.yamlio import line_of, worded
 
@@ -878,29 +878,57 @@ def _check_reference(
     _resolve(spec, ref.params, names, bad, (*at, "params"))
 
 
+#: a part of a pack a Chinese page shows by its title_zh (its English title where it has
+#: none): what it is ('rule', 'element', 'item', 'content'), its id and its line (None: unknown)
+Untitled = tuple[str, str, int | None]
+
+
+def untitled_parts(elements: Iterable[ElementDef]) -> list[tuple[str, str]]:
+    """The elements, items and contents of an `elements:` tree without a Chinese title, in the
+    tree's order: a Chinese page shows their English titles."""
+    out = []
+    for e in elements:
+        out += [("element", e.id)] if not e.title_zh.strip() else []
+        for i in e.items:
+            out += [("item", i.id)] if not i.title_zh.strip() else []
+            out += [("content", c.id) for c in i.contents if not c.title_zh.strip()]
+    return out
+
+
 def untranslated_titles(pack: Pack) -> list[Problem]:
-    """The rules of the pack without a Chinese title, one warning per pack file naming them and
-    their lines: a Chinese page shows their English titles (none is made up for them)."""
-    files: dict[str, list[tuple[str, int | None]]] = {}
+    """The rules, elements, items and contents of the pack without a Chinese title, one warning
+    per pack file naming them and their lines: a Chinese page shows their English titles (none
+    is made up for them)."""
+    files: dict[str, list[Untitled]] = {}
     for rule in pack.rules:
         if not rule.title_zh.strip():
             file, line = pack.origin.get(rule.id, (pack.name, None))
-            files.setdefault(str(file), []).append((rule.id, line))
-    return [_untranslated(file, rules) for file, rules in files.items()]
+            files.setdefault(str(file), []).append(("rule", rule.id, line))
+    for kind, pid in untitled_parts(pack.elements):
+        file, line = pack.title_sites.get((kind, pid), (pack.name, None))
+        files.setdefault(str(file), []).append((kind, pid, line))
+    out = []
+    for file, named in files.items():
+        one = len(named) == 1
+        out.append(Problem(file, untranslated(named), line=named[0][2] if one else None))
+    return out
 
 
-def _untranslated(file: str, rules: list[tuple[str, int | None]]) -> Problem:
-    """The warning of one pack file's rules without a Chinese title (at the rule's line when
-    there is one, else each named with its line)."""
-    if len(rules) == 1:
-        ((rid, line),) = rules
-        what = f"rule {rid} has no title_zh: a Chinese page (--lang zh) shows its English title"
-        return Problem(file, f"{what}; give it a title_zh", line=line)
-    named = ", ".join(rid if line is None else f"{rid} (line {line})" for rid, line in rules)
-    return Problem(
-        file,
-        f"rules {named} have no title_zh: a Chinese page (--lang zh) shows their English "
-        "titles; give each a title_zh",
+def untranslated(named: list[Untitled], pack: str = "") -> str:
+    """The warning of parts without a Chinese title ('rules PR-1 (line 4), PR-3 (line 23),
+    item survey (line 30) have no title_zh: …'; one part by itself, its line said where the
+    warning is); `pack` names the pack where the lines are not known (from results.json)."""
+    one = len(named) == 1
+    kinds: dict[str, list[str]] = {}
+    for kind, pid, line in named:
+        kinds.setdefault(kind, []).append(pid if one or line is None else f"{pid} (line {line})")
+    names = ", ".join(
+        f"{k}{'s' if len(ids) > 1 else ''} {', '.join(ids)}" for k, ids in kinds.items()
+    )
+    return (
+        f"{names} {'has' if one else 'have'} no title_zh{f' (pack {pack})' if pack else ''}: a "
+        f"Chinese page (--lang zh) shows {'its English title' if one else 'their English titles'}; "
+        f"give {'it' if one else 'each'} a title_zh{' in the pack' if pack else ''}"
     )
 
 

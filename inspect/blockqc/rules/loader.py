@@ -426,6 +426,7 @@ def read_pack(ref: str | Path) -> tuple[Pack | None, list[Problem]]:
         acceptance=acceptance,
         columns=next((f.columns for _, _, f in reversed(loaded.sources) if f.columns), "all"),
         notes=notes,
+        title_sites=_title_sites(loaded.sources),
     )
     return pack, problems
 
@@ -520,6 +521,21 @@ def _elements(sources: list[tuple[str, Any, PackFile]]) -> list[ElementDef]:
     out: list[ElementDef] = []
     for _, _, pf in sources:
         out = merge_elements(out, pf.elements)
+    return out
+
+
+def _title_sites(sources: list[tuple[str, Any, PackFile]]) -> dict[tuple[str, str], Any]:
+    """Each element, item and content of the `elements:` tree: the file (and line) that last
+    writes it, where a warning of its missing title_zh names it."""
+    out: dict[tuple[str, str], tuple[str, int | None]] = {}
+    for file, data, pf in sources:
+        for i, e in enumerate(pf.elements):
+            out[("element", e.id)] = (file, line_of(data, ("elements", i)))
+            for j, item in enumerate(e.items):
+                at = ("elements", i, "items", j)
+                out[("item", item.id)] = (file, line_of(data, at))
+                for k, c in enumerate(item.contents):
+                    out[("content", c.id)] = (file, line_of(data, (*at, "contents", k)))
     return out
 
 

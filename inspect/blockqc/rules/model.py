@@ -318,6 +318,8 @@ class Pack:
     columns: Literal["all", "used"] = "all"  # the tie points' columns read (PackFile.columns)
     # what lint could not check without a delivery and does not refuse the pack for: warnings
     notes: list[Problem] = field(default_factory=list)
+    # (what, id) -> (file, line) of the file that last writes each element, item and content
+    title_sites: dict[tuple[str, str], tuple[str, int | None]] = field(default_factory=dict)
 
     def rule(self, rule_id: str) -> Rule:
         """The rule of that id, compared case-insensitively (`tp-1` is TP-1)."""
