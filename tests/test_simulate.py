@@ -158,6 +158,41 @@ def test_a_dem_folder_without_a_fields_tile_is_refused_before_writing(tmp_path: 
     assert not out.exists()
 
 
+def test_a_dem_folder_given_as_a_link_to_nothing_is_said_to_be_one(tmp_path: Path) -> None:
+    """--dem-dir a symbolic link to a folder since moved said 'DEM folder … not found', as if
+    the link were not there; every other path option says where such a link leads."""
+    link = tmp_path / "dems"
+    link.symlink_to(tmp_path / "moved")
+    out = tmp_path / "out"
+    r = run_blockqc("simulate", out, "--fields", "1", "--dem-dir", link)
+    assert (r.returncode, r.stderr) == (
+        2,
+        f"error: DEM folder {link}: a symbolic link to {tmp_path / 'moved'}, which does not "
+        "exist\n",
+    )
+    r = run_blockqc("simulate", out, "--fields", "1", "--dem-dir", tmp_path / "moved")
+    assert (r.returncode, r.stderr) == (
+        2,
+        f"error: DEM folder {tmp_path / 'moved'}: not found (give --dem-dir)\n",
+    )
+    assert not out.exists()
+
+
+def test_a_dem_tile_given_as_a_link_to_nothing_is_said_to_be_one(tmp_path: Path) -> None:
+    dems = tmp_path / "dems"
+    dems.mkdir()
+    (dems / "srtm_40E39N_demcompare.tif").symlink_to(tmp_path / "gone.tif")
+    out = tmp_path / "out"
+    r = run_blockqc("simulate", out, "--fields", "1", "--dem-dir", dems)
+    assert r.returncode == 2
+    assert r.stderr == (
+        f"error: DEM folder {dems}: srtm_40E39N_demcompare.tif: a symbolic link to "
+        f"{tmp_path / 'gone.tif'}, which does not exist, the DEM tile of test field 1 (its "
+        "checkpoint heights are sampled from it; the tiles are in samples/dem of the checkout)\n"
+    )
+    assert not out.exists()
+
+
 def test_a_failure_leaves_no_empty_out_it_made(tmp_path: Path) -> None:
     """A DEM tile that is not a raster stops the run (exit 2) before any delivery is written:
     the OUT folder the run made is removed, one that was there before is kept."""

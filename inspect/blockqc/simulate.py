@@ -711,6 +711,25 @@ def _fault_beyond_layout(opts: Options) -> str | None:
     return None
 
 
+def _dem_tiles_missing(dem_dir: Path, fields: Iterable[int]) -> str | None:
+    """What is missing of the DEM folder or of a field's tile in it (a symbolic link to nothing
+    said so, with where it leads: textio.not_there); None when every tile is there."""
+    from blockqc.textio import not_there
+
+    if not dem_dir.is_dir():
+        return f"DEM folder {dem_dir}: {not_there(dem_dir, 'not found (give --dem-dir)')}"
+    for f in fields:
+        tile = dem_dir / FIELDS[f].dem
+        if not tile.is_file():
+            what = not_there(tile, "")
+            return (
+                f"DEM folder {dem_dir}: {f'{tile.name}: {what}' if what else f'no {tile.name}'}, "
+                f"the DEM tile of test field {f} (its checkpoint heights are sampled from it; "
+                "the tiles are in samples/dem of the checkout)"
+            )
+    return None
+
+
 def simulate(out: Path | str, opts: Options, dem_dir: Path | None = None) -> list[str]:
     """Write a batch of deliveries for the chosen fields into OUT (new or empty delivery
     folders only); return the block ids."""
@@ -724,15 +743,8 @@ def simulate(out: Path | str, opts: Options, dem_dir: Path | None = None) -> lis
     if bad:
         raise UsageError(f"unknown test field {bad[0]} (fields: 1, 2, 3, 4)")
     dem_dir = dem_dir or default_dem_dir()
-    if not dem_dir.is_dir():
-        raise UsageError(f"DEM folder {dem_dir} not found (give --dem-dir)")
-    absent = [f for f in opts.fields if not (dem_dir / FIELDS[f].dem).is_file()]
-    if absent:
-        raise UsageError(
-            f"DEM folder {dem_dir}: no {FIELDS[absent[0]].dem}, the DEM tile of test field "
-            f"{absent[0]} (its checkpoint heights are sampled from it; the tiles are in "
-            "samples/dem of the checkout)"
-        )
+    if missing := _dem_tiles_missing(dem_dir, opts.fields):
+        raise UsageError(missing)
     from blockqc.rfm.readers import open_raster
 
     for f in opts.fields:  # each tile opens before any delivery is written, not between fields

@@ -345,3 +345,16 @@ def test_averaged_grid_of_real_heights_is_read(tmp_path, dem_writer):
     path = dem_writer(tmp_path / "dem.tif", z, 10.0, 51.0, 0.01, "EPSG:4326")
     f = DemSet([path], max_pixels=150).factors(shapely.box(10.02, 50.82, 10.18, 50.98))
     assert f.resolution_factor == 2 and math.isfinite(f.mean_elevation_m)
+
+
+def test_a_dem_given_as_a_link_to_nothing_is_said_to_be_one(tmp_path):
+    """A DEM named by a symbolic link to a file since moved was 'DEM file or folder not found'."""
+    link = tmp_path / "dem.tif"
+    link.symlink_to(tmp_path / "moved.tif")
+    with pytest.raises(InputError) as exc:
+        DemSet([link])
+    assert str(exc.value.problems[0]) == (
+        f"{link}: a symbolic link to {tmp_path / 'moved.tif'}, which does not exist"
+    )
+    with pytest.raises(InputError, match="DEM file or folder not found"):
+        DemSet([tmp_path / "moved.tif"])

@@ -22,6 +22,7 @@ from rasterio.enums import Resampling
 from blockqc.adjust.geometry import radii_of_curvature
 from blockqc.errors import InputError, Problem
 from blockqc.rfm.dem import WGS84, check_heights, check_one_band, height_unit, wgs84_lonlat
+from blockqc.textio import not_there
 
 DEM_SUFFIXES = (".tif", ".tiff", ".hgt", ".vrt", ".img", ".dem")
 
@@ -107,7 +108,8 @@ def find_dem_files(paths: Sequence[Path]) -> list[Path]:
         elif p.is_file():
             found.append(p)
         else:
-            raise InputError(Problem(file=str(p), message="DEM file or folder not found"))
+            what = not_there(p, "DEM file or folder not found")
+            raise InputError(Problem(file=str(p), message=what))
     if not found:
         raise InputError(
             Problem(
