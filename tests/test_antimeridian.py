@@ -230,3 +230,73 @@ def test_adjust_maps_of_a_block_elsewhere_keep_their_ticks() -> None:
     assert list(ax.get_xticks()) == before
     assert ax.get_xlabel() == "longitude (°)"
     plt.close(fig)
+
+
+DEM = SAMPLES / "dem" / "srtm_40E39N_demcompare.tif"  # lon 40…40.8333, 1/1200° cells
+
+
+def _split_dem(to: Path, shift: float = SHIFT) -> Path:
+    """The sample DEM moved with the block, as real tiles are: split at 180°, into a tile
+    179.64…180 and one -180…-179.47 (its column 432 lies at 40 + 432/1200 = 40.36, moved to
+    180), in a folder as --dem takes it; `shift` 0: split there, not moved."""
+    import rasterio
+    from rasterio.transform import Affine
+
+    to.mkdir()
+    with rasterio.open(DEM) as src:
+        z, profile, t = src.read(1), src.profile, src.transform
+    cut = round((180.0 - SHIFT - t.c) / t.a)
+    assert cut == 432 and math.isclose(t.c + cut * t.a + SHIFT, 180.0, abs_tol=1e-9)
+    for name, part, west in (
+        ("west.tif", z[:, :cut], t.c + shift),
+        ("east.tif", z[:, cut:], -180.0 if shift else t.c + cut * t.a),
+    ):
+        moved = Affine(t.a, 0.0, west, 0.0, t.e, t.f)
+        h, w = part.shape
+        with rasterio.open(to / name, "w", **{**profile, "width": w, "height": h}) as dst:
+            dst.transform = moved
+            dst.write(part, 1)
+    return to
+
+
+@pytest.mark.parametrize("max_pixels", [16_000_000, 50_000])  # read as is, or averaged k × k
+def test_terrain_factors_of_the_moved_block_over_tiles_split_at_180(tmp_path, max_pixels) -> None:
+    """§AF-1..3 of the moved block over the DEM moved alike, split at 180° as real tiles are:
+    only the tile on the side of the block's centre was read (the block, unwrapped to
+    179.67…180.13, met the tile -180…-179.47 nowhere): dem_coverage 0.72, a mean elevation of
+    1641.5 m where the block's is 1683.1 m. The tile beyond ±180° is now read turned beside
+    the block: the factors are the block's over the same tiles unmoved (over the DEM whole
+    where it is read cell by cell; read averaged k × k, a DEM in two tiles averages the cells
+    either side of their seam apart)."""
+    from blockqc.analysis.footprints import scene_polygons
+    from blockqc.analysis.terrain import DemSet
+
+    scenes = pd.read_csv(SOURCE / "scenes.csv")
+    here = shapely.union_all(scene_polygons(scenes, "scenes.csv"))
+    there = shapely.union_all(scene_polygons(_moved_scenes(scenes), "scenes.csv"))
+    whole = DemSet([DEM], max_pixels).factors(here)
+    a = DemSet([_split_dem(tmp_path / "here", 0.0)], max_pixels).factors(here)
+    b = DemSet([_split_dem(tmp_path / "dem")], max_pixels).factors(there)
+    assert whole.dem_coverage == 1.0 and (a.resolution_factor > 1) is (max_pixels < 1e6)
+    if a.resolution_factor == 1:
+        assert a.mean_elevation_m == pytest.approx(whole.mean_elevation_m, rel=1e-12)
+    assert b.dem_coverage == pytest.approx(1.0, abs=1e-12)
+    assert (b.n_pixels, b.resolution_factor) == (a.n_pixels, a.resolution_factor)
+    for key in ("mean_elevation_m", "mean_slope_deg", "mean_roughness_m"):
+        assert getattr(b, key) == pytest.approx(getattr(a, key), rel=1e-9), key
+    assert sorted(Path(f).name for f in b.dem_files) == ["east.tif", "west.tif"]
+
+
+def test_blockqc_factors_of_the_moved_block_are_the_blocks(tmp_path: Path, blockqc) -> None:
+    rows = []
+    for name, delivery, dem in (
+        ("here", SOURCE, DEM),
+        ("there", _moved_delivery(tmp_path / "F1-B01"), _split_dem(tmp_path / "dem")),
+    ):
+        run = blockqc("factors", delivery, "--dem", dem, "--out", tmp_path / name)
+        assert run.returncode == 0, run.stderr
+        rows.append(pd.read_csv(tmp_path / name / "experiments.csv").iloc[0])
+    here, there = rows
+    for key in ("mean_elevation_m", "mean_slope_deg", "mean_roughness_m", "dem_coverage"):
+        assert there[key] == pytest.approx(here[key], rel=1e-9), key
+    assert there["images_area_km2"] == pytest.approx(here["images_area_km2"], rel=1e-6)

@@ -7,6 +7,7 @@ from collections.abc import Sequence
 from contextlib import ExitStack
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from xml.sax.saxutils import escape as xml_escape
 
 import numpy as np
 import rasterio
@@ -21,6 +22,7 @@ from rasterio.enums import Resampling
 
 from blockqc.adjust.geometry import radii_of_curvature
 from blockqc.errors import InputError, Problem
+from blockqc.lonlat import turns_towards
 from blockqc.rfm.dem import WGS84, check_heights, check_one_band, height_unit, wgs84_lonlat
 from blockqc.textio import not_there
 
@@ -158,25 +160,67 @@ class DemSet:
         self.max_pixels = max_pixels
 
     def factors(self, polygon_lonlat: shapely.Geometry) -> TerrainFactors:
-        """§AF-1..3 over a lon/lat polygon (the block's covered area)."""
-        used = [t for t in self.tiles if t.bounds_lonlat.intersects(polygon_lonlat)]
+        """§AF-1..3 over a lon/lat polygon (the block's covered area; across ±180° unwrapped
+        as one piece, its longitudes beyond ±180 on one side: lonlat.unwrapped). A tile on
+        the other side of ±180° is read turned by a whole turn to lie beside it."""
+        turns = _turns(self.tiles, polygon_lonlat)
+        used = [
+            (t, turn)
+            for t, turn in zip(self.tiles, turns, strict=True)
+            if shapely.intersects(_turned_box(t.bounds_lonlat, turn), polygon_lonlat)
+        ]
         if not used:
             nan = float("nan")
             return TerrainFactors(nan, nan, nan, 0.0, 0, 1, [])
-        crss = {t.crs.to_wkt() for t in used}
+        crss = {t.crs.to_wkt() for t, _ in used}
         if len(crss) > 1:
             raise InputError(
                 Problem(
-                    file=", ".join(str(t.path) for t in used),
+                    file=", ".join(str(t.path) for t, _ in used),
                     message="the DEM tiles covering this block are in different coordinate "
                     "systems; give tiles in one CRS",
                 )
             )
-        return _terrain_over(polygon_lonlat, [t.path for t in used], used[0].crs, self.max_pixels)
+        crs = used[0][0].crs
+        tiles = [(t.path, turn if crs.is_geographic else 0.0) for t, turn in used]
+        return _terrain_over(polygon_lonlat, tiles, crs, self.max_pixels)
+
+
+def _turns(tiles: list[_Tile], polygon_lonlat: shapely.Geometry) -> np.ndarray:
+    """The whole turns (degrees) that bring each tile's middle longitude within 180° of the
+    polygon's: zero for every tile of a block away from ±180°."""
+    west, _, east, _ = shapely.bounds(polygon_lonlat)
+    middles = np.array([(t.bounds_lonlat.bounds[0] + t.bounds_lonlat.bounds[2]) / 2 for t in tiles])
+    return turns_towards(middles, (west + east) / 2.0)
+
+
+def _turned_box(box: shapely.Geometry, turn: float) -> shapely.Geometry:
+    return box if turn == 0 else shapely.transform(box, lambda xy: xy + [turn, 0.0])
+
+
+def _open_turned(stack: ExitStack, path: Path, turn: float) -> rasterio.DatasetReader:
+    """A DEM tile opened, its longitudes turned by `turn` degrees (a lon/lat tile on the other
+    side of ±180° from the block) through a VRT over the same cells: nothing is copied."""
+    src = stack.enter_context(rasterio.open(path))
+    if turn == 0:
+        return src
+    t = src.transform
+    gt = ", ".join(repr(float(v)) for v in (t.c + turn, t.a, t.b, t.f, t.d, t.e))
+    nodata = "" if src.nodata is None else f"<NoDataValue>{src.nodata!r}</NoDataValue>"
+    kind = rasterio.dtypes._gdal_typename(src.dtypes[0])
+    name = xml_escape(str(Path(path).absolute()))
+    vrt = (
+        f'<VRTDataset rasterXSize="{src.width}" rasterYSize="{src.height}">'
+        f"<SRS>{xml_escape(src.crs.to_wkt())}</SRS><GeoTransform>{gt}</GeoTransform>"
+        f'<VRTRasterBand dataType="{kind}" band="1">{nodata}<SimpleSource>'
+        f'<SourceFilename relativeToVRT="0">{name}</SourceFilename><SourceBand>1</SourceBand>'
+        "</SimpleSource></VRTRasterBand></VRTDataset>"
+    )
+    return stack.enter_context(rasterio.open(vrt))
 
 
 def _check_full_resolution(
-    srcs: list[rasterio.DatasetReader],
+    srcs: list[tuple[str, rasterio.DatasetReader]],
     bounds: tuple[float, float, float, float],
     max_pixels: int,
     gain: float = 1.0,
@@ -185,7 +229,7 @@ def _check_full_resolution(
     """`check_heights` on every cell of the tiles within `bounds`, read at their own grid in
     strips of at most `max_pixels` cells: an average over k×k cells would hide a no-data value
     such as −32768 among real heights (3·800 m and −32768 m average to −7592 m)."""
-    for src in srcs:
+    for name, src in srcs:
         win = rasterio.windows.from_bounds(*bounds, transform=src.transform)
         col0, row0 = max(math.floor(win.col_off), 0), max(math.floor(win.row_off), 0)
         col1 = min(math.ceil(win.col_off + win.width), src.width)
@@ -197,17 +241,18 @@ def _check_full_resolution(
             strip = rasterio.windows.Window(col0, top, col1 - col0, min(rows, row1 - top))
             values = src.read(1, window=strip, masked=True).astype(np.float32).filled(np.nan)
             values = values * gain + offset
-            check_heights(src.name, values, src.window_transform(strip), origin=(top, col0))
+            check_heights(name, values, src.window_transform(strip), origin=(top, col0))
 
 
-def _to_metres(srcs: list[rasterio.DatasetReader]) -> tuple[float, float]:
+def _to_metres(paths: list[Path]) -> tuple[float, float]:
     """Gain and offset taking the tiles' stored values to metres: the band's scale and offset
     (heights stored as decimetres) and its unit (feet). Tiles that disagree are refused: one
     mosaic holds one kind of value."""
     got = {}
-    for src in srcs:
-        metres, _ = height_unit(Path(src.name))
-        got[src.name] = (src.scales[0] * metres, src.offsets[0] * metres)
+    for path in paths:  # the files, not the VRTs of turned tiles (which say no scale)
+        with rasterio.open(path) as src:
+            metres, _ = height_unit(Path(path))
+            got[str(path)] = (src.scales[0] * metres, src.offsets[0] * metres)
     if len(set(got.values())) > 1:
         shown = ", ".join(f"{name} (×{g:g} + {o:g} m)" for name, (g, o) in got.items())
         raise InputError(
@@ -221,13 +266,14 @@ def _to_metres(srcs: list[rasterio.DatasetReader]) -> tuple[float, float]:
 
 
 def _terrain_over(
-    polygon_lonlat: shapely.Geometry, paths: list[Path], crs: CRS, max_pixels: int
+    polygon_lonlat: shapely.Geometry, tiles: list[tuple[Path, float]], crs: CRS, max_pixels: int
 ) -> TerrainFactors:
-    """§AF-1..3 over a lon/lat polygon from the DEM tiles `paths`, all in `crs`: the means of
-    the heights, slopes and roughness inside it, weighted by each cell's area, and the share of
-    its area that has a height."""
+    """§AF-1..3 over a lon/lat polygon from the DEM tiles (path, turn of its longitudes), all
+    in `crs`: the means of the heights, slopes and roughness inside it, weighted by each
+    cell's area, and the share of its area that has a height."""
+    paths = [p for p, _ in tiles]
     poly = _in_dem_crs(polygon_lonlat, crs)
-    zf, transform, k = _heights_over(poly, paths, max_pixels)
+    zf, transform, k = _heights_over(poly, tiles, max_pixels)
     check_heights(", ".join(str(p) for p in paths), zf, transform)
     inside = rasterio.features.geometry_mask(
         [poly], out_shape=zf.shape, transform=transform, invert=True
@@ -271,14 +317,14 @@ def _in_dem_crs(polygon_lonlat: shapely.Geometry, crs: CRS) -> shapely.Geometry:
 
 
 def _heights_over(
-    poly: shapely.Geometry, paths: list[Path], max_pixels: int
+    poly: shapely.Geometry, tiles: list[tuple[Path, float]], max_pixels: int
 ) -> tuple[np.ndarray, Affine, int]:
     """The heights (m, NaN for no data) of the tiles over the polygon's bounds, on the first
     tile's grid with two cells of margin, their transform and the resolution factor k: read
     averaged over k×k cells where the extent holds more than `max_pixels` cells, after every
     cell is checked at the tiles' own grid."""
     with ExitStack() as stack:
-        srcs = [stack.enter_context(rasterio.open(p)) for p in paths]
+        srcs = [_open_turned(stack, p, turn) for p, turn in tiles]
         t0 = srcs[0].transform
         res_x, res_y = abs(t0.a), abs(t0.e)
         minx, miny, maxx, maxy = poly.bounds
@@ -289,9 +335,10 @@ def _heights_over(
         bottom = t0.f - (math.ceil((t0.f - miny) / res_y) + 2) * res_y
         npix = (right - left) / res_x * (top - bottom) / res_y
         k = max(1, math.ceil(math.sqrt(npix / max_pixels)))
-        gain, offset = _to_metres(srcs)
+        gain, offset = _to_metres([p for p, _ in tiles])
         if k > 1:
-            _check_full_resolution(srcs, (left, bottom, right, top), max_pixels, gain, offset)
+            named = list(zip([str(p) for p, _ in tiles], srcs, strict=True))
+            _check_full_resolution(named, (left, bottom, right, top), max_pixels, gain, offset)
         z, transform = rasterio.merge.merge(
             srcs,
             bounds=(left, bottom, right, top),
