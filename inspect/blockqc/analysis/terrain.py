@@ -207,7 +207,7 @@ def _open_turned(stack: ExitStack, path: Path, turn: float) -> rasterio.DatasetR
     t = src.transform
     gt = ", ".join(repr(float(v)) for v in (t.c + turn, t.a, t.b, t.f, t.d, t.e))
     nodata = "" if src.nodata is None else f"<NoDataValue>{src.nodata!r}</NoDataValue>"
-    kind = rasterio.dtypes._gdal_typename(src.dtypes[0])
+    kind = rasterio.dtypes.typename_fwd[rasterio.dtypes.dtype_rev[src.dtypes[0]]]  # "Int16" …
     name = xml_escape(str(Path(path).absolute()))
     vrt = (
         f'<VRTDataset rasterXSize="{src.width}" rasterYSize="{src.height}">'
