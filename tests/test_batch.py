@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import shutil
@@ -1253,24 +1254,32 @@ class _Slow:
 def test_an_interrupt_while_waiting_drops_the_jobs_not_begun(tmp_path):
     """Ctrl-C or SIGTERM reaching the main process while it waits for the pool: the `with`
     waited for every job of the batch (hours on a large one) before stopping."""
-    import signal
 
     marks = tmp_path / "marks"
     marks.mkdir()
     todo = [(tmp_path / f"B{i:02d}", None) for i in range(12)]
 
+    with _interrupted_after(1.2), pytest.raises(KeyboardInterrupt):
+        batch._pooled(_Slow(marks), todo, lambda outcome: None, 2)
+    assert len(list(marks.iterdir())) < len(todo)
+
+
+@contextlib.contextmanager
+def _interrupted_after(seconds: float):
+    """Ctrl-C as the main thread meets it, `seconds` after entering (SIGALRM raising
+    KeyboardInterrupt); the alarm and its handler undone on leaving."""
+    import signal
+
     def interrupt(signum, frame):
         raise KeyboardInterrupt
 
     before = signal.signal(signal.SIGALRM, interrupt)
-    signal.setitimer(signal.ITIMER_REAL, 1.2)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
     try:
-        with pytest.raises(KeyboardInterrupt):
-            batch._pooled(_Slow(marks), todo, lambda outcome: None, 2)
+        yield
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, before)
-    assert len(list(marks.iterdir())) < len(todo)
 
 
 class _Finishing:
@@ -1291,24 +1300,14 @@ def test_blocks_finished_while_a_stopped_run_waits_are_said(tmp_path):
     """SIGTERM or Ctrl-C while a pool runs: the blocks its workers were writing were finished,
     outputs whole, but never handed on, so the console gave no line of them. Every job that
     finished is now handed on before the run stops."""
-    import signal
 
     marks = tmp_path / "marks"
     marks.mkdir()
     todo = [(tmp_path / f"B{i:02d}", None) for i in range(12)]
     got: list[str] = []
 
-    def interrupt(signum, frame):
-        raise KeyboardInterrupt
-
-    before = signal.signal(signal.SIGALRM, interrupt)
-    signal.setitimer(signal.ITIMER_REAL, 1.2)
-    try:
-        with pytest.raises(KeyboardInterrupt):
-            batch._pooled(_Finishing(marks), todo, got.append, 2)
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, before)
+    with _interrupted_after(1.2), pytest.raises(KeyboardInterrupt):
+        batch._pooled(_Finishing(marks), todo, got.append, 2)
     finished = sorted(p.name for p in marks.iterdir())
     assert 0 < len(finished) < len(todo)
     assert sorted(got) == finished
