@@ -56,13 +56,19 @@ def _block_edges(xy: np.ndarray, block: np.ndarray) -> tuple[np.ndarray, np.ndar
     return ends[once], gap[once]
 
 
-def _extents(xy: np.ndarray, group: np.ndarray, k: int) -> np.ndarray:
-    """The largest side of each group's box (ground units) from its vertices' groups."""
-    g = ground(xy)
+def group_bounds(xy: np.ndarray, group: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """The lower and upper corners (k × 2) of the box of each of k groups, from its points `xy`
+    and the group of each (±inf for a group without a point)."""
     lo = np.full((k, 2), np.inf)
     hi = np.full((k, 2), -np.inf)
-    np.minimum.at(lo, group, g)
-    np.maximum.at(hi, group, g)
+    np.minimum.at(lo, group, xy)
+    np.maximum.at(hi, group, xy)
+    return lo, hi
+
+
+def _extents(xy: np.ndarray, group: np.ndarray, k: int) -> np.ndarray:
+    """The largest side of each group's box (ground units) from its vertices' groups."""
+    lo, hi = group_bounds(ground(xy), group, k)
     return np.max(hi - lo, axis=1)
 
 
@@ -70,7 +76,7 @@ def clusters(xy: np.ndarray, block: np.ndarray, n_blocks: int) -> np.ndarray:
     """A group number (0, 1, …) for each of `n_blocks` blocks from their outline vertices `xy`
     (lon/lat) and the block of each vertex; -1 for a block without a vertex."""
     from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components, minimum_spanning_tree
+    from scipy.sparse.csgraph import minimum_spanning_tree
 
     labels = np.full(n_blocks, -1)
     block = np.asarray(block, int)
@@ -82,20 +88,21 @@ def clusters(xy: np.ndarray, block: np.ndarray, n_blocks: int) -> np.ndarray:
     links, lengths = np.column_stack([tree.row, tree.col])[order], tree.data[order]
     best, best_ratio = 0, GAP_RATIO
     for cut in range(1, min(MAX_GROUPS, len(lengths) + 1)):  # at most MAX_GROUPS - 1 cuts
-        group = _cut(links[cut:], n_blocks, connected_components)
+        group = _cut(links[cut:], n_blocks)
         widest = float(_extents(xy, group[block], n_blocks).max(initial=0.0))
         ratio = lengths[cut - 1] / max(widest, TOUCHING)
         if ratio >= best_ratio:
             best, best_ratio = cut, ratio
-    group = _cut(links[best:], n_blocks, connected_components)
+    group = _cut(links[best:], n_blocks)
     used = np.unique(group[block])  # renumbered 0..k-1 over the blocks with vertices
     labels[np.unique(block)] = np.searchsorted(used, group[np.unique(block)])
     return labels
 
 
-def _cut(links: np.ndarray, n: int, components) -> np.ndarray:
+def _cut(links: np.ndarray, n: int) -> np.ndarray:
     """The component of each of n blocks joined by the links left."""
     from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
 
     graph = coo_matrix((np.ones(len(links)), links.T.reshape(2, -1)), shape=(n, n))
-    return components(graph, directed=False)[1]
+    return connected_components(graph, directed=False)[1]

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from blockqc.report import plots, svg, svgplot
-from blockqc.report.clusters import clusters
+from blockqc.report.clusters import clusters, group_bounds
 
 #: a block's outline is simplified to about this many degrees (~100 m), enough for a map
 SIMPLIFY_DEG = 0.001
@@ -61,8 +61,7 @@ def overview_map(blocks: list[Any], t: Callable[..., str], name: str) -> list[st
 def _west_to_east(labels: np.ndarray, rings: svg.Rings) -> np.ndarray:
     """The group of each ring, the groups numbered by their westernmost longitude."""
     group = labels[rings.owner]
-    west = np.full(int(group.max()) + 1, np.inf)
-    np.minimum.at(west, group[rings.ring], rings.xy[:, 0])
+    west = group_bounds(rings.xy, group[rings.ring], int(group.max()) + 1)[0][:, 0]
     return np.argsort(np.argsort(west, kind="stable"))[group]
 
 
@@ -112,10 +111,7 @@ def _locator(
     plot = plots.lonlat_plot(rings, t, t("fig_overview_where"), 2.6, 4.2)
     plot.xlim, plot.ylim = _roomy(plot.xlim, plot.ylim, plot.aspect or 1.0)
     plot.add(svgplot.polygons(rings, _colours(mine), 0.45, 0.6))
-    lo = np.full((len(letters), 2), np.inf)
-    hi = np.full((len(letters), 2), -np.inf)
-    np.minimum.at(lo, group[rings.ring], rings.xy)
-    np.maximum.at(hi, group[rings.ring], rings.xy)
+    lo, hi = group_bounds(rings.xy, group[rings.ring], len(letters))
     plot.add(_group_boxes(lo, hi, letters), z=4)
     plot.legend += _legend(mine, t)
     plot.legend.append(svgplot.LegendEntry(t("lg_overview_group"), "#333", "line"))
