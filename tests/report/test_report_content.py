@@ -508,12 +508,17 @@ def test_gross_error_rate_reads_alike_in_the_tables_and_its_rule(results_doc):
     assert [r["gross_rate"] for r in sampled][:2] == ["37.50 %", "0 %"]
 
 
-def _counts_legend(doc: dict) -> list[str]:
+def _figure_texts(doc: dict, figure: str, pattern: str) -> list[str]:
+    """The texts matching `pattern` in the block page's general figure `figure` (its SVG id)."""
     import re
 
     figures = block_context(doc, "en")["figures"]
-    (svg,) = [x for x in figures["general"] if "tp-counts" in x]
-    return re.findall(r"minimum [^<]*", svg)
+    (svg,) = [x for x in figures["general"] if figure in x]
+    return re.findall(pattern, svg)
+
+
+def _counts_legend(doc: dict) -> list[str]:
+    return _figure_texts(doc, "tp-counts", r"minimum [^<]*")
 
 
 @pytest.mark.parametrize(
@@ -536,11 +541,7 @@ def test_the_scene_counts_draw_the_rules_lower_bound_only(
 
 
 def _histogram_marks(doc: dict) -> list[str]:
-    import re
-
-    figures = block_context(doc, "en")["figures"]
-    (svg,) = [x for x in figures["general"] if "tp-hist" in x]
-    return re.findall(r">([0-9.]+) px<", svg)
+    return _figure_texts(doc, "tp-hist", r">([0-9.]+) px<")
 
 
 @pytest.mark.parametrize(
