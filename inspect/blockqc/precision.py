@@ -26,8 +26,6 @@ from blockqc.schema import TableSchema
 #: ground metres per degree along the equator (WGS-84: 2π · 6 378 137 m / 360), the most a
 #: degree of longitude or latitude spans
 METRES_PER_DEGREE = 111_319.49
-#: §CP-N: the plane norm of the checkpoints' medium error (m)
-PLANE_NORM_M = 10.0
 #: a column whose stored resolution exceeds this share of the plane norm is said as coarse
 COARSE_SHARE = 0.1
 
@@ -85,7 +83,9 @@ def stored_resolution(path: Path, schema: TableSchema, table: pd.DataFrame) -> l
     shown = ", ".join(f"{c.name} {step:.3g} m" for c, step in found)
     figures = ", ".join(dict.fromkeys(r for c, _ in found for r in c.figures.split(", ")))
     types = ", ".join(dict.fromkeys(str(coarse[c.name]) for c, _ in found))
-    limit = COARSE_SHARE * PLANE_NORM_M
+    from blockqc.metrics.checkpoints import AccuracyParams  # imports the reader: not above
+
+    limit = COARSE_SHARE * AccuracyParams().plane_norm_m  # the stock plane norm (§CP)
     text = SAID_COARSE if max(step for _, step in found) > limit else SAID
     message = text.format(
         columns=shown, type=types, figures=figures, share=f"{COARSE_SHARE:g}", limit=f"{limit:g}"
